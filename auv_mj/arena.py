@@ -1,0 +1,149 @@
+"""Arenas: MJCF files of walls, obstacles and path sites, composed with the vehicle into one model.
+
+The arena convention (what a task reads; see README "Authoring an arena"):
+- static geoms in `<worldbody>` are walls and obstacles; the sonar sees every geom but the vehicle's;
+  names start with `wall` (tunnel walls, map boundary) or `obstacle` (anything else in the water);
+- sites `start` (its z-euler is the initial heading) and `goal`;
+- sites `path_0`, `path_1`, ... : the global path, in order (the tunnel's central axis);
+- mocap bodies `mover_*` are moving obstacles; `<numeric name="mover_<name>" data="x0 y0 x1 y1 speed"/>`
+  moves the body from (x0, y0) to (x1, y1) at `speed` m/s, then back (ping-pong);
+- `<numeric name="arena_bounds" data="xmin ymin xmax ymax"/>` is the map: leaving it ends an episode.
+Names of the vehicle model (`auv`, `hull`, `x`, `sonar_*`, ...) may not be reused.
+"""
+
+from __future__ import annotations
+
+import copy
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from auv_mj.assets import model_path
+from auv_mj.physics import AUVPhysics
+
+MERGED_SECTIONS = ("asset", "default", "worldbody", "custom", "contact")
+PATH_SITE_PREFIX = "path_"
+MOVER_PREFIX = "mover_"
+
+
+def _read_xml(source: str | Path | ET.Element, what: str) -> tuple[ET.Element, str]:
+    if isinstance(source, ET.Element):
+        return source, f"<{what} element>"
+    path = Path(source)
+    try:
+        return ET.parse(path).getroot(), str(path)
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read {what}: {e}") from None
+    except ET.ParseError as e:
+        raise ValueError(f"{path}: not well-formed XML: {e}") from None
+
+
+def compose_xml(arena: str | Path | ET.Element | None = None,
+                vehicle: str | Path | ET.Element | None = None) -> tuple[str, str]:
+    """MJCF text of the vehicle with the arena's sections merged in, and a name for error messages."""
+    vroot, vname = _read_xml(vehicle if vehicle is not None else model_path("auv.xml"), "vehicle")
+    vroot = copy.deepcopy(vroot)
+    if arena is None:
+        return ET.tostring(vroot, encoding="unicode"), vname
+    aroot, aname = _read_xml(arena, "arena")
+    if aroot.tag != "mujoco":
+        raise ValueError(f"{aname}: an arena's root element must be <mujoco>, got <{aroot.tag}>")
+    taken = {el.get("name") for el in vroot.iter() if el.get("name")}
+    for el in aroot.iter():
+        name = el.get("name")
+        if name and name in taken and el.tag != "mujoco":
+            raise ValueError(f"{aname}: <{el.tag} name=\"{name}\"> clashes with a name of the vehicle model")
+    for section in aroot:
+        if section.tag not in MERGED_SECTIONS:
+            raise ValueError(f"{aname}: arenas may only hold {MERGED_SECTIONS}, found <{section.tag}>")
+        target = vroot.find(section.tag)
+        if target is None:
+            target = ET.SubElement(vroot, section.tag)
+        for child in section:
+            target.append(copy.deepcopy(child))
+    return ET.tostring(vroot, encoding="unicode"), aname
+
+
+def load(arena: str | Path | ET.Element | None = None, vehicle=None) -> AUVPhysics:
+    """AUVPhysics of the vehicle inside `arena` (a path, an ElementTree root, or None for open water)."""
+    xml, source = compose_xml(arena, vehicle)
+    return AUVPhysics.from_xml_string(xml, source=source)
+
+
+@dataclass(frozen=True)
+class Mover:
+    """A moving obstacle: mocap body `body` ping-ponging from `start` to `end` at `speed` m/s."""
+
+    body: str
+    start: np.ndarray
+    end: np.ndarray
+    speed: float
+
+    def position(self, time: float) -> np.ndarray:
+        """(x, y) at simulation time `time`."""
+        delta = self.end - self.start
+        length = float(np.hypot(*delta))
+        if length == 0 or self.speed == 0:
+            return self.start.copy()
+        travelled = (self.speed * time) % (2 * length)
+        s = travelled if travelled <= length else 2 * length - travelled
+        return self.start + delta * (s / length)
+
+
+@dataclass(frozen=True)
+class ArenaInfo:
+    """What a task reads from a composed arena model (all positions in metres, world frame)."""
+
+    start: np.ndarray | None
+    start_heading: float
+    goal: np.ndarray | None
+    path: np.ndarray
+    bounds: np.ndarray | None
+    movers: tuple[Mover, ...]
+
+
+def arena_info(physics: AUVPhysics) -> ArenaInfo:
+    """Reads the arena convention (start, goal, path, bounds, movers) from a composed model."""
+    model = physics.model.ptr
+    sites = {model.site(i).name: i for i in range(model.nsite)}
+
+    def site_xy(name):
+        return model.site_pos[sites[name]][:2].copy() if name in sites else None
+
+    start_heading = 0.0
+    if "start" in sites:
+        quat = model.site_quat[sites["start"]]
+        start_heading = float(2 * np.arctan2(quat[3], quat[0]))
+    path_names = sorted((n for n in sites if n.startswith(PATH_SITE_PREFIX) and n[5:].isdigit()),
+                        key=lambda n: int(n[len(PATH_SITE_PREFIX):]))
+    path = np.array([site_xy(n) for n in path_names]).reshape(-1, 2)
+    numerics = {model.numeric(i).name: i for i in range(model.nnumeric)}
+
+    def numeric(name):
+        i = numerics[name]
+        adr, size = model.numeric_adr[i], model.numeric_size[i]
+        return model.numeric_data[adr:adr + size].copy()
+
+    bounds = numeric("arena_bounds") if "arena_bounds" in numerics else None
+    movers = []
+    for i in range(model.nbody):
+        name = model.body(i).name
+        if name.startswith(MOVER_PREFIX) and model.body_mocapid[i] >= 0:
+            if name in numerics:
+                x0, y0, x1, y1, speed = numeric(name)
+                movers.append(Mover(name, np.array([x0, y0]), np.array([x1, y1]), float(speed)))
+            else:
+                pos = model.body_pos[i][:2].copy()
+                movers.append(Mover(name, pos, pos, 0.0))
+    return ArenaInfo(site_xy("start"), start_heading, site_xy("goal"), path, bounds, tuple(movers))
+
+
+def move_movers(physics: AUVPhysics, movers: tuple[Mover, ...], time: float | None = None) -> None:
+    """Places every moving obstacle where its path puts it at `time` (default: physics time)."""
+    time = physics.time() if time is None else time
+    model, data = physics.model.ptr, physics.data.ptr
+    for mover in movers:
+        mocap = model.body_mocapid[model.body(mover.body).id]
+        data.mocap_pos[mocap][:2] = mover.position(time)
