@@ -1,0 +1,1 @@
+"""auv-mj tasks: dm_control-style planning and control tasks for the AUV (see `tasks.suite`)."""
