@@ -1,0 +1,608 @@
+"""The planning layer of Sec. 3.2 as dm_control tasks: the shared Task, Physics and rewards.
+
+One dm_env step is one planner decision, PLANNER_DT = 0.5 s (the sonar's 2 Hz). The action
+a in [-1, 1]^2 becomes the executor's command (V_cmd, psi_cmd) by Table 3 and Table 1:
+
+    V_cmd      = 2 a0                                         Table 3: V in [-2, 2] m/s
+    psi_target = psi + clip(90 deg * a1, -30 deg, 30 deg)     Table 3: heading in [-90, 90] deg, read as
+                                                              relative to the current heading psi; Table 1:
+                                                              at most pi/6 from the current heading
+    psi_cmd   += clip(wrap(psi_target - psi_cmd), -6, 6 deg)  Table 1: the heading command turns by at most
+                                                              pi/30 per planner step
+    psi_cmd    = psi + clip(wrap(psi_cmd - psi), -30, 30 deg) keeps Table 1's pi/6 after a lagging turn
+
+The executor (`executor(command, state)`, default the S-plane controller of Eq. 32) turns the command into
+(tau_u, tau_r) every EXECUTOR_DT = 0.1 s on the full dynamics. The task's `Physics` calls it between
+physics steps, so `control.Environment` still owns the 50 physics steps of a planner step and the time
+limit; moving obstacles are moved on the same 10 Hz tick.
+
+Goals. Every task is a sequence of goals g_0..g_n (Sec. 3.2.4): `desired_goal` is the current one, and
+reaching it (within the task's goal radius) makes the next one current; reaching a later one kills every
+goal before it. Reaching the last is success. GOAL_RADIUS = 12.5 m is the 25 m target area of Tables 6-8
+(goal, waypoints, obstacles, moving_obstacles); SUBGOAL_RADIUS = 2 m is Table 1's L_target <= 2 m for the
+virtual sub-goals of a global path (tunnel, path_line, path_curve), spaced SUBGOAL_SPACING apart. On a
+global path (routes with `pass_corridor`) a sub-goal other than the last also dies once the vehicle is
+past it (ahead of it along the path, within PASS_CORRIDOR across it), with no +4: a vehicle that went
+around an obstacle on the path goes on rather than turning back.
+
+Rewards. reward="paper" is Eq. (26), r = K1 r_following + K2 r_avoid + K3 r_navigation, with
+- r_following (Eq. 23) against the goal that was current when the step began: +4 if reached, else +0.5
+  if the step ended closer to it, -0.5 if farther, 0 if neither;
+- r_avoid (Eq. 24) from the nearest sonar echo d (what the vehicle perceives, Sec. 3.2.2): -1 if
+  d <= d_s = 5 m (Table 1) or on a collision or leaving the map, -k (1/d - 1/d0) if d < d0, else 0, with
+  k = 0.1, d0 = delta max(L1, L2), L1 = delta B, L2 = delta L (Eq. 21), delta = 3 and the hull's L, B
+  (d0 = 11.97 m). Eq. (24)'s ellipse with semi-axes L1, L2 (4 m at most) lies inside d_s, so its
+  graded term is read on the disc d < d0 that Sec. 3.2.2 calls the protection field's reach;
+- r_navigation = -0.05 (Eq. 25).
+reward="suite" (default) is in [0, 1]: (goals reached + tolerance(distance to the current goal)) / number
+of goals, 1 on success, 0 on a collision or leaving the map.
+
+Events (last_info["event"]): "collision" (a contact between the vehicle and any other geom, checked at
+every executor tick), "left_map" (outside the arena's `arena_bounds`), "goal", "subgoal", or "".
+Collisions, leaving the map and success end the episode (discount 0); the time limit truncates it
+(discount 1). "safety_violation" is Table 1's d_{1-9} >= 5 m broken: a sonar range below d_s.
+"min_clearance" is the exact distance from the hull to the nearest other geom (`mj_geomDistance`,
+capped at SONAR_RANGE), for metrics; so are "cross_track_error" (to the route's reference path, by
+default the straight legs from the start through the goals) and the executor's tracking errors
+"speed_error" (V_cmd - u) and "heading_error" (psi_cmd - psi).
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import mujoco
+import numpy as np
+from dm_control.rl import control
+from dm_control.suite import base
+from dm_control.utils import rewards
+from dm_env import specs
+
+from auv_mj import arena
+from auv_mj.physics import AUVPhysics
+from auv_mj.sonar import SONAR_NAMES, SONAR_RANGE
+from auv_mj.splane import EXECUTOR_DT, SPlaneController
+
+PLANNER_DT = 0.5
+"""Planner period [s]: one dm_env step, the 2 Hz of the sonar (Sec. 2.2)."""
+MAX_SPEED = 2.0
+"""V_cmd = MAX_SPEED * a0 [m/s] (Table 3)."""
+ACTION_HEADING_RANGE = math.pi / 2
+"""Heading offset of a1 = 1 [rad] (Table 3: [-90, 90] deg)."""
+MAX_HEADING_DIFFERENCE = math.pi / 6
+"""Largest difference between the commanded and the current heading [rad] (Table 1)."""
+MAX_HEADING_CHANGE = math.pi / 30
+"""Largest change of the heading command per planner step [rad] (Table 1: 6 deg)."""
+TARGET_SPEED = 1.0
+"""Target velocity of every experiment [m/s] (Tables 6-8, 12); sizes the time limits."""
+
+GOAL_RADIUS = 12.5
+"""Radius of a target area [m]: Tables 6-8's target area diameter of 25 m."""
+SUBGOAL_RADIUS = 2.0
+"""Radius of a virtual sub-goal on a global path [m] (Table 1: L_target <= 2 m)."""
+SUBGOAL_SPACING = 10.0
+"""Largest distance between consecutive virtual sub-goals of a discretised path [m]."""
+PASS_CORRIDOR = 15.0
+"""A path sub-goal (not the last) also dies once the vehicle is past it, within this distance of it
+across the path [m]: it need not turn back to a sub-goal it went around (an obstacle on the path)."""
+PASS_WINDOW = 5
+"""How many sub-goals ahead of the current one the passing rule looks at."""
+
+SAFETY_DISTANCE = 5.0
+"""d_s: the minimum safe distance to obstacles [m] (Table 1, Eq. 24)."""
+AVOID_GAIN = 0.1
+"""k of Eq. (24)."""
+INFLATION = 3.0
+"""delta of Eq. (21)-(24)."""
+FOLLOW_CLOSER, FOLLOW_FARTHER, FOLLOW_REACHED = 0.5, -0.5, 4.0
+"""r_following of Eq. (23): closer to, farther from, or at the goal."""
+COLLISION_REWARD = -1.0
+"""r_avoid inside d_s, on a collision and on leaving the map (Eq. 24)."""
+NAVIGATION_REWARD = -0.05
+"""r_navigation per planner step (Eq. 25)."""
+REWARD_WEIGHTS = (1.0, 1.0, 1.0)
+"""(k1, k2, k3) of Eq. (26); the paper leaves them open, and equal weights keep its term sizes."""
+SUITE_REWARD_MARGIN = 100.0
+"""Distance [m] beyond the goal radius at which the suite reward's tolerance falls to 0.1."""
+
+MAP_BOUNDS = (0.0, 0.0, 600.0, 600.0)
+"""The 600 m x 600 m map of Sec. 4.1 (xmin, ymin, xmax, ymax) [m]."""
+POSITION_SCALE = 600.0
+"""Positions in the observation vector are divided by this [m]."""
+MAP_MARGIN = 25.0
+"""Random starts and goals keep this far inside the map [m]."""
+GOAL_DISTANCE_RANGE = (100.0, 400.0)
+"""A random goal is this far from the random start [m]."""
+
+OBSERVATION_FIELDS = ("x", "y", "cos_psi", "sin_psi", "u", "v", "r", "heading_command", "speed_command",
+                      *SONAR_NAMES)
+"""The "observation" vector: x, y / POSITION_SCALE; cos, sin psi; u, v / MAX_SPEED; r [rad/s];
+wrap(psi_cmd - psi) / MAX_HEADING_DIFFERENCE; V_cmd / MAX_SPEED; the nine sonar ranges / SONAR_RANGE."""
+EVENTS = ("", "subgoal", "goal", "collision", "left_map")
+"""Values of last_info["event"]."""
+HULL = "hull"
+"""The vehicle geom whose length and beam are L and B of Eq. (21)."""
+
+
+# --- rewards ------------------------------------------------------------------------------------------
+
+
+def goal_distance(a, b) -> np.ndarray:
+    """Distance [m] between (x, y) points along the last axis, elementwise over leading axes."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
+
+
+def following_reward(previous_achieved, achieved, desired, radius: float) -> np.ndarray:
+    """r_following of Eq. (23) for a step from `previous_achieved` to `achieved`, vectorised over goals."""
+    before = goal_distance(previous_achieved, desired)
+    after = goal_distance(achieved, desired)
+    return np.where(after <= radius, FOLLOW_REACHED,
+                    np.where(after < before, FOLLOW_CLOSER, np.where(after > before, FOLLOW_FARTHER, 0.0)))
+
+
+def avoid_reward(nearest_echo: float, repulsion_range: float) -> float:
+    """r_avoid of Eq. (24) for the nearest sonar echo [m] and d0 = `repulsion_range` [m]."""
+    if nearest_echo <= SAFETY_DISTANCE:
+        return COLLISION_REWARD
+    if nearest_echo < repulsion_range:
+        return -AVOID_GAIN * (1.0 / nearest_echo - 1.0 / repulsion_range)
+    return 0.0
+
+
+def repulsion_range(physics: AUVPhysics) -> float:
+    """d0 = delta max(L1, L2) with L1 = delta B, L2 = delta L (Eq. 21-22), from the hull capsule [m]."""
+    radius, half_length = physics.named.model.geom_size[HULL][:2]
+    length, beam = 2 * (half_length + radius), 2 * radius
+    return INFLATION * max(INFLATION * beam, INFLATION * length)
+
+
+def info_field(info, key: str) -> np.ndarray:
+    """`info[key]` as an array from a dict of arrays, or stacked from a sequence / array of step dicts."""
+    if isinstance(info, Mapping):
+        return np.asarray(info[key])
+    steps = np.asarray(info, dtype=object)
+    values = np.array([step[key] for step in steps.ravel()])
+    return values.reshape(steps.shape + values.shape[1:])
+
+
+# --- geometry helpers ---------------------------------------------------------------------------------
+
+
+def wrap(angle: float) -> float:
+    """Angle wrapped to [-pi, pi)."""
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def discretise(polyline: np.ndarray, spacing: float = SUBGOAL_SPACING) -> np.ndarray:
+    """Points along `polyline` (its vertices kept) no more than `spacing` apart: the virtual sub-goals."""
+    polyline = np.asarray(polyline, dtype=float).reshape(-1, 2)
+    points = [polyline[:1]]
+    for a, b in zip(polyline[:-1], polyline[1:], strict=True):
+        pieces = max(1, math.ceil(np.hypot(*(b - a)) / spacing - 1e-9))
+        points.append(a + (b - a) * (np.arange(1, pieces + 1)[:, None] / pieces))
+    return np.concatenate(points)
+
+
+def path_length(polyline: np.ndarray) -> float:
+    """Length of a polyline [m]."""
+    return float(np.sum(np.hypot(*np.diff(np.asarray(polyline, dtype=float), axis=0).T)))
+
+
+def distance_to_polyline(point: np.ndarray, polyline: np.ndarray) -> float:
+    """Shortest distance from `point` to the polyline [m] (the cross-track error)."""
+    a, b = polyline[:-1], polyline[1:]
+    d = b - a
+    t = np.clip(np.einsum("ij,ij->i", point - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-12), 0, 1)
+    closest = a + t[:, None] * d
+    return float(np.min(np.hypot(closest[:, 0] - point[0], closest[:, 1] - point[1])))
+
+
+def random_point(random: np.random.RandomState, bounds: Sequence[float], margin: float = MAP_MARGIN,
+                 avoid: np.ndarray | None = None, min_distance: float = 0.0,
+                 max_distance: float = math.inf, tries: int = 1000) -> np.ndarray:
+    """A uniform point `margin` inside `bounds`, `min_distance`..`max_distance` from `avoid` if given."""
+    low = np.array(bounds[:2], dtype=float) + margin
+    high = np.array(bounds[2:], dtype=float) - margin
+    for _ in range(tries):
+        point = random.uniform(low, high)
+        if avoid is None or min_distance <= np.hypot(*(point - avoid)) <= max_distance:
+            return point
+    raise ValueError(f"no point {min_distance}..{max_distance} m from {avoid} inside {bounds} "
+                     f"(margin {margin})")
+
+
+def random_start_and_goal(random: np.random.RandomState,
+                          bounds: Sequence[float]) -> tuple[np.ndarray, float, np.ndarray]:
+    """A random start, heading and goal (GOAL_DISTANCE_RANGE apart) inside `bounds`."""
+    start = random_point(random, bounds)
+    goal = random_point(random, bounds, avoid=start, min_distance=GOAL_DISTANCE_RANGE[0],
+                        max_distance=GOAL_DISTANCE_RANGE[1])
+    return start, random.uniform(-math.pi, math.pi), goal
+
+
+def heading_to(start: np.ndarray, target: np.ndarray) -> float:
+    """The heading [rad] from `start` towards `target`."""
+    return math.atan2(target[1] - start[1], target[0] - start[0])
+
+
+# --- arenas and physics -------------------------------------------------------------------------------
+
+
+def open_water_arena(bounds: Sequence[float] = MAP_BOUNDS) -> ET.Element:
+    """An empty map: `arena_bounds` and a `goal` site (the target area, moved to each episode's goal)."""
+    root = ET.Element("mujoco")
+    ET.SubElement(ET.SubElement(root, "custom"), "numeric", name="arena_bounds",
+                  data=" ".join(f"{b:g}" for b in bounds))
+    worldbody = ET.SubElement(root, "worldbody")
+    ET.SubElement(worldbody, "site", name="goal", type="cylinder", size=f"{GOAL_RADIUS:g} 0.05",
+                  rgba="1 0.9 0 0.3")
+    return root
+
+
+class Physics(AUVPhysics):
+    """AUVPhysics that calls a low-level controller (`set_tick`) every `period` seconds while it steps.
+
+    This is the executor layer's clock: the callback sets the controls and moves the obstacles, and
+    `step(n)` stays one call, so `control.Environment` keeps owning sub-steps and time limits.
+    """
+
+    _tick: Callable[[Physics], None] | None = None
+    _tick_steps = 1
+    _steps_to_tick = 0
+
+    @classmethod
+    def load(cls, arena_source: str | Path | ET.Element | None) -> Physics:
+        """The vehicle in `arena_source` (an arena MJCF path or ElementTree root; see `auv_mj.arena`)."""
+        xml, source = arena.compose_xml(arena_source)
+        return cls.from_xml_string(xml, source=source)
+
+    def set_tick(self, callback: Callable[[Physics], None] | None, period: float = EXECUTOR_DT) -> None:
+        """Calls `callback(physics)` before the first step and then every `period` s of stepping."""
+        self._tick = callback
+        self._tick_steps = control.compute_n_steps(period, self.timestep())
+        self._steps_to_tick = 0
+
+    def step(self, nstep: int = 1) -> None:
+        """Advances `nstep` physics steps, calling the tick callback whenever one is due."""
+        tick = self._tick
+        if tick is None:
+            super().step(nstep)
+            return
+        while nstep > 0:
+            if self._steps_to_tick == 0:
+                tick(self)
+                self._steps_to_tick = self._tick_steps
+            n = min(nstep, self._steps_to_tick)
+            super().step(n)
+            nstep -= n
+            self._steps_to_tick -= n
+
+    def reset(self, keyframe_id=None) -> None:
+        """Resets the simulation; the next step begins with a tick."""
+        super().reset(keyframe_id)
+        self._steps_to_tick = 0
+
+    def copy(self, share_model: bool = False) -> Physics:
+        """A copy with the same tick callback and clock."""
+        new = super().copy(share_model=share_model)
+        new._tick, new._tick_steps, new._steps_to_tick = self._tick, self._tick_steps, self._steps_to_tick
+        return new
+
+
+def environment(physics: Physics, task: PlanningTask, time_limit: float,
+                environment_kwargs: dict | None = None) -> control.Environment:
+    """The `control.Environment` of a planning task: one step per PLANNER_DT, `time_limit` seconds."""
+    return control.Environment(physics, task, time_limit=time_limit, control_timestep=PLANNER_DT,
+                               **(environment_kwargs or {}))
+
+
+def route_time_limit(length: float) -> float:
+    """A time limit [s] for a route of `length` m: twice its time at TARGET_SPEED, plus a minute."""
+    return 2.0 * length / TARGET_SPEED + 60.0
+
+
+# --- the task -----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Route:
+    """One episode's layout: start pose, goal sequence, reference path and moving obstacles."""
+
+    start: np.ndarray
+    """(x, y) [m]; the vehicle starts at rest."""
+    heading: float
+    """Initial heading psi [rad]."""
+    goals: np.ndarray
+    """(n, 2) goals in the order they must be reached [m]; the last is the episode's goal."""
+    path: np.ndarray | None = None
+    """Reference polyline for the cross-track error [m]; None: from the start through the goals."""
+    movers: tuple[arena.Mover, ...] = ()
+    """Moving obstacles (mocap bodies of the arena) and their paths."""
+    pass_corridor: float | None = None
+    """If set, goals but the last also die when passed within this distance across the route [m]."""
+
+
+class PlanningTask(base.Task):
+    """A planner task: action (V, heading offset) -> executor -> dynamics; goals, events, rewards.
+
+    Subclasses implement `route(physics, info) -> Route` (and may move obstacles there); everything else,
+    including `compute_reward` / `compute_terminated` for hindsight relabelling, lives here.
+    """
+
+    def __init__(self, executor: Callable | None = None, reward: str = "suite",
+                 goal_radius: float = GOAL_RADIUS, random=None):
+        """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); "suite"|"paper"."""
+        if reward not in ("suite", "paper"):
+            raise ValueError(f"reward must be 'suite' or 'paper', got {reward!r}")
+        executor = SPlaneController() if executor is None else executor
+        if not callable(executor):
+            raise ValueError(f"executor must be callable as executor(command, state), got {executor!r}")
+        super().__init__(random=random)
+        self.executor = executor
+        self.reward_kind = reward
+        self.goal_radius = float(goal_radius)
+        self.last_info: dict = {}
+        self._model_ptr = None
+
+    # --- subclass API -------------------------------------------------------------------------------
+
+    def route(self, physics: Physics, info: arena.ArenaInfo) -> Route:
+        """The episode's start, goals, path and movers, drawn from `self.random` where random."""
+        raise NotImplementedError
+
+    # --- episode ------------------------------------------------------------------------------------
+
+    def _bind(self, physics: Physics) -> None:
+        """Caches model addresses (once per model)."""
+        model = physics.model.ptr
+        if self._model_ptr is model:
+            return
+        self._model_ptr = model
+        self._qpos = np.array([model.jnt_qposadr[model.joint(n).id] for n in ("x", "y", "yaw")])
+        self._qvel = np.array([model.jnt_dofadr[model.joint(n).id] for n in ("x", "y", "yaw")])
+        self._hull = model.geom(HULL).id
+        self._vehicle_body = int(model.geom_bodyid[self._hull])
+        vehicle_geoms = model.geom_bodyid == self._vehicle_body
+        self._others = np.flatnonzero(~vehicle_geoms & (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE))
+        self._repulsion_range = repulsion_range(physics)
+        self._goal_site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "goal")
+
+    def initialize_episode(self, physics: Physics) -> None:
+        """Draws the route, places the vehicle at rest and the movers at t = 0, resets the executor."""
+        self._bind(physics)
+        info = arena.arena_info(physics)
+        route = self.route(physics, info)
+        goals = np.asarray(route.goals, dtype=float).reshape(-1, 2)
+        if len(goals) == 0:
+            raise ValueError("a route needs at least one goal")
+        self._route, self._goals, self._bounds = route, goals, info.bounds
+        self._path = np.vstack([route.start, goals]) if route.path is None else np.asarray(route.path, float)
+        self._reached = 0
+        if route.pass_corridor is not None and len(goals) > 1:
+            tangents = np.diff(goals, axis=0)
+            self._tangents = tangents / np.hypot(tangents[:, :1], tangents[:, 1:])
+        data = physics.data.ptr
+        data.qpos[self._qpos] = (route.start[0], route.start[1], route.heading)
+        data.qvel[self._qvel] = 0.0
+        data.ctrl[:] = 0.0
+        if self._goal_site >= 0:
+            physics.model.ptr.site_pos[self._goal_site][:2] = goals[-1]
+        arena.move_movers(physics, route.movers, 0.0)
+        reset = getattr(self.executor, "reset", None)
+        if reset is not None:
+            reset()
+        self._command = (0.0, float(route.heading))
+        self._previous = np.array(route.start, dtype=float)
+        self._collided = False
+        self._terminal = False
+        self._reward = 0.0
+        self._sonar = None
+        self.last_info = {}
+        physics.set_tick(self._tick, EXECUTOR_DT)
+
+    def _tick(self, physics: Physics) -> None:
+        """The executor's 10 Hz tick: controls from the command, movers moved, contacts checked."""
+        data = physics.data.ptr
+        psi = data.qpos[self._qpos[2]]
+        u, v, r = physics.hydrodynamics.body_velocity(data)
+        data.ctrl[:] = self.executor(self._command, (u, v, r, psi))
+        if self._route.movers:
+            arena.move_movers(physics, self._route.movers, data.time)
+        if data.ncon and not self._collided:
+            self._collided = self._vehicle_contact(physics)
+
+    def _vehicle_contact(self, physics: Physics) -> bool:
+        data = physics.data.ptr
+        bodies = physics.model.ptr.geom_bodyid[data.contact.geom[:data.ncon]]
+        return bool(np.any(bodies == self._vehicle_body))
+
+    def before_step(self, action, physics: Physics) -> None:
+        """Turns the action into the executor's command (V_cmd, psi_cmd) (Table 3, Table 1)."""
+        action = np.asarray(action, dtype=float)
+        if action.shape != (2,) or not np.all(np.isfinite(action)):
+            raise ValueError(f"action must be 2 finite numbers (speed, heading offset), got {action!r}")
+        a0, a1 = np.clip(action, -1.0, 1.0)
+        data = physics.data.ptr
+        psi = float(data.qpos[self._qpos[2]])
+        offset = min(max(ACTION_HEADING_RANGE * a1, -MAX_HEADING_DIFFERENCE), MAX_HEADING_DIFFERENCE)
+        previous = self._command[1]
+        turn = min(max(wrap(psi + offset - previous), -MAX_HEADING_CHANGE), MAX_HEADING_CHANGE)
+        difference = min(max(wrap(previous + turn - psi), -MAX_HEADING_DIFFERENCE), MAX_HEADING_DIFFERENCE)
+        self._command = (MAX_SPEED * float(a0), psi + float(difference))
+        self._previous = data.qpos[self._qpos[:2]].copy()
+
+    def after_step(self, physics: Physics) -> None:
+        """Senses, detects events, advances the goals and computes the step's reward and `last_info`."""
+        data = physics.data.ptr
+        position = data.qpos[self._qpos[:2]].copy()
+        self._sonar = sonar = physics.sonar()
+        collision = self._collided or (data.ncon > 0 and self._vehicle_contact(physics))
+        self._collided = collision
+        bounds = self._bounds
+        left_map = bounds is not None and not (bounds[0] <= position[0] <= bounds[2]
+                                               and bounds[1] <= position[1] <= bounds[3])
+        n = len(self._goals)
+        reached_before = self._reached
+        desired = self._goals[self._reached]
+        hits = np.flatnonzero(goal_distance(self._goals[self._reached:], position) <= self.goal_radius)
+        if hits.size:
+            self._reached += int(hits[-1]) + 1
+        passed = self._passed(position)
+        if passed > self._reached:
+            self._reached = passed
+        success = self._reached == n and not (collision or left_map)
+        nearest = float(np.min(sonar))
+        r_follow = float(following_reward(self._previous, position, desired, self.goal_radius))
+        r_avoid = COLLISION_REWARD if collision or left_map else avoid_reward(nearest, self._repulsion_range)
+        k1, k2, k3 = REWARD_WEIGHTS
+        independent = k2 * r_avoid + k3 * NAVIGATION_REWARD
+        paper = k1 * r_follow + independent
+        if collision:
+            event = "collision"
+        elif left_map:
+            event = "left_map"
+        elif self._reached > reached_before:
+            event = "goal" if self._reached == n else "subgoal"
+        else:
+            event = ""
+        self._terminal = collision or left_map or self._reached == n
+        if self.reward_kind == "paper":
+            self._reward = paper
+        else:
+            self._reward = self._suite_reward(position, collision or left_map, success)
+        self.last_info = {
+            "previous_achieved_goal": self._previous,
+            "goal_independent_reward": independent,
+            "reward_following": r_follow,
+            "reward_avoid": r_avoid,
+            "reward_navigation": NAVIGATION_REWARD,
+            "paper_reward": paper,
+            "collision": collision,
+            "left_map": left_map,
+            "safety_violation": nearest < SAFETY_DISTANCE,
+            "success": success,
+            "is_success": success,
+            "min_clearance": self._clearance(physics),
+            "min_sonar_range": nearest,
+            "event": event,
+            "goals_reached": self._reached,
+            "num_goals": n,
+            "cross_track_error": distance_to_polyline(position, self._path),
+            "command": self._command,
+            "speed_error": self._command[0] - physics.hydrodynamics.body_velocity(data)[0],
+            "heading_error": wrap(self._command[1] - data.qpos[self._qpos[2]]),
+        }
+
+    def _passed(self, position: np.ndarray) -> int:
+        """How many goals are behind the vehicle by the passing rule (0 when the route has none)."""
+        corridor = self._route.pass_corridor
+        first = self._reached
+        last = min(first + PASS_WINDOW, len(self._goals) - 1)
+        if corridor is None or first >= last:
+            return 0
+        offset = position - self._goals[first:last]
+        tangent = self._tangents[first:last]
+        along = offset[:, 0] * tangent[:, 0] + offset[:, 1] * tangent[:, 1]
+        across = offset[:, 0] * tangent[:, 1] - offset[:, 1] * tangent[:, 0]
+        passed = np.flatnonzero((along > 0) & (np.abs(across) < corridor))
+        return first + int(passed[-1]) + 1 if passed.size else 0
+
+    def _suite_reward(self, position: np.ndarray, failed: bool, success: bool) -> float:
+        if failed:
+            return 0.0
+        if success:
+            return 1.0
+        distance = float(np.hypot(*(self._goals[self._reached] - position)))
+        near = rewards.tolerance(distance, bounds=(0.0, self.goal_radius), margin=SUITE_REWARD_MARGIN,
+                                 sigmoid="long_tail", value_at_margin=0.1)
+        return float((self._reached + near) / len(self._goals))
+
+    def _clearance(self, physics: Physics) -> float:
+        """Exact distance [m] from the hull to the nearest other geom, capped at SONAR_RANGE."""
+        model, data = physics.model.ptr, physics.data.ptr
+        others = self._others
+        if others.size == 0:
+            return SONAR_RANGE
+        gap = (np.linalg.norm(data.geom_xpos[others] - data.geom_xpos[self._hull], axis=1)
+               - model.geom_rbound[others] - model.geom_rbound[self._hull])
+        best = SONAR_RANGE
+        for geom in others[gap < best]:
+            best = min(best, mujoco.mj_geomDistance(model, data, self._hull, int(geom), best, None))
+        return float(best)
+
+    # --- dm_control Task API ------------------------------------------------------------------------
+
+    def action_spec(self, physics: Physics) -> specs.BoundedArray:
+        """(a0, a1) in [-1, 1]^2: speed and heading offset (see the module docstring)."""
+        return specs.BoundedArray((2,), float, -np.ones(2), np.ones(2), name="speed\theading_offset")
+
+    def observation_spec(self, physics: Physics) -> collections.OrderedDict:
+        """"observation" (OBSERVATION_FIELDS), "achieved_goal" and "desired_goal" (x, y) [m]."""
+        return collections.OrderedDict(
+            observation=specs.Array((len(OBSERVATION_FIELDS),), float, name="observation"),
+            achieved_goal=specs.Array((2,), float, name="achieved_goal"),
+            desired_goal=specs.Array((2,), float, name="desired_goal"))
+
+    def get_observation(self, physics: Physics) -> collections.OrderedDict:
+        """Vehicle state, command and sonar, normalised (OBSERVATION_FIELDS); the goals in metres."""
+        data = physics.data.ptr
+        if self._sonar is None:
+            self._sonar = physics.sonar()
+        x, y, psi = data.qpos[self._qpos]
+        u, v, r = physics.hydrodynamics.body_velocity(data)
+        speed_command, heading_command = self._command
+        vector = np.empty(len(OBSERVATION_FIELDS))
+        vector[:9] = (x / POSITION_SCALE, y / POSITION_SCALE, math.cos(psi), math.sin(psi), u / MAX_SPEED,
+                      v / MAX_SPEED, r, wrap(heading_command - psi) / MAX_HEADING_DIFFERENCE,
+                      speed_command / MAX_SPEED)
+        vector[9:] = self._sonar / SONAR_RANGE
+        return collections.OrderedDict(observation=vector, achieved_goal=np.array([x, y]),
+                                       desired_goal=self._goals[self.goal_index].copy())
+
+    def get_reward(self, physics: Physics) -> float:
+        """The reward of the step just taken ("suite" or "paper", see the module docstring)."""
+        return self._reward
+
+    def get_termination(self, physics: Physics) -> float | None:
+        """0.0 after success, a collision or leaving the map; None otherwise."""
+        return 0.0 if self._terminal else None
+
+    # --- goal-conditioned API (hindsight relabelling) -----------------------------------------------
+
+    def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """The paper reward (Eq. 26) of steps that reached `achieved_goal`, had the goal been `desired_goal`.
+
+        `info` holds "previous_achieved_goal" and "goal_independent_reward" per step: a dict of arrays with
+        the goals' leading shape, or a sequence / object array of `last_info` dicts. For the step's own
+        goal this equals the "paper" reward of that step exactly.
+        """
+        previous = info_field(info, "previous_achieved_goal")
+        independent = info_field(info, "goal_independent_reward")
+        return REWARD_WEIGHTS[0] * following_reward(previous, achieved_goal, desired_goal,
+                                                    self.goal_radius) + independent
+
+    def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """Whether a step ends the episode had `desired_goal` been its only goal: reached, collided or left.
+
+        For the last goal of a route this equals the environment's termination; for an earlier sub-goal
+        the environment goes on to the next goal, while the relabelled single-goal episode ends.
+        """
+        reached = goal_distance(achieved_goal, desired_goal) <= self.goal_radius
+        failed = info_field(info, "collision").astype(bool) | info_field(info, "left_map").astype(bool)
+        return reached | failed
+
+    @property
+    def goals(self) -> np.ndarray:
+        """The episode's goal sequence (n, 2) [m]."""
+        return self._goals.copy()
+
+    @property
+    def goal_index(self) -> int:
+        """Index in `goals` of the current goal (the last one once all are reached)."""
+        return min(self._reached, len(self._goals) - 1)

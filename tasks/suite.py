@@ -1,0 +1,90 @@
+"""The auv-mj task suite, dm_control style: `load("auv", "goal")`, `ALL_TASKS`, tags.
+
+Every task lives in the one domain "auv" and is registered in `tasks.registry.SUITE` by its module:
+goal, waypoints, obstacles, moving_obstacles, tunnel, path_line, path_curve (planning, one step per
+0.5 s planner decision) and speed_heading (execution, one step per 0.1 s executor tick).
+
+`python -m tasks.suite [--steps N]` prints each task's environment steps per second under random actions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from dm_control.rl import control
+
+from tasks import goal, obstacles, path_following, speed_heading, tunnel, waypoints  # noqa: F401 (registers)
+from tasks.registry import SUITE
+
+DOMAIN = "auv"
+"""The suite's only domain."""
+
+ALL_TASKS = tuple((DOMAIN, name) for name in SUITE)
+"""Every (domain, task) pair."""
+BENCHMARKING = tuple((DOMAIN, name) for name in SUITE.tagged("benchmarking"))
+"""The (domain, task) pairs tagged "benchmarking"."""
+TASKS_BY_DOMAIN = {DOMAIN: tuple(SUITE)}
+"""Domain -> its task names."""
+TAGS = tuple(sorted(SUITE.tags()))
+"""Every tag in use."""
+
+
+def tasks_by_tag(tag: str) -> tuple[tuple[str, str], ...]:
+    """The (domain, task) pairs carrying `tag`; ValueError for an unknown tag."""
+    if tag not in TAGS:
+        raise ValueError(f"unknown tag {tag!r}; valid tags: {', '.join(TAGS)}")
+    return tuple((DOMAIN, name) for name in SUITE.tagged(tag))
+
+
+def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
+         environment_kwargs: dict | None = None, visualize_reward: bool = False) -> control.Environment:
+    """The environment of `task_name` in `domain_name` ("auv"), as `dm_control.suite.load`.
+
+    `task_kwargs` go to the task's factory (e.g. {"random": 0, "reward": "paper", "scenario": "a"});
+    `environment_kwargs` to `control.Environment`. Raises ValueError naming the valid choices.
+    """
+    if domain_name != DOMAIN:
+        raise ValueError(f"domain {domain_name!r} does not exist; valid domains: {DOMAIN}")
+    if task_name not in SUITE:
+        raise ValueError(f"task {task_name!r} does not exist in domain {domain_name!r}; "
+                         f"valid tasks: {', '.join(SUITE)}")
+    task_kwargs = dict(task_kwargs or {})
+    if environment_kwargs is not None:
+        task_kwargs["environment_kwargs"] = environment_kwargs
+    env = SUITE[task_name](**task_kwargs)
+    env.task.visualize_reward = visualize_reward
+    return env
+
+
+def steps_per_second(task_name: str, steps: int = 2000, seed: int = 0) -> float:
+    """Environment steps per second of `task_name` under uniform random actions (resets included)."""
+    env = load(DOMAIN, task_name, task_kwargs={"random": seed})
+    spec = env.action_spec()
+    actions = np.random.RandomState(seed)
+    step = env.reset()
+    start = time.perf_counter()
+    for _ in range(steps):
+        action = actions.uniform(spec.minimum, spec.maximum, spec.shape)
+        step = env.reset() if step.last() else env.step(action)
+    return steps / (time.perf_counter() - start)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Prints steps/s of every task (`python -m tasks.suite`)."""
+    parser = argparse.ArgumentParser(prog="python -m tasks.suite", description=steps_per_second.__doc__)
+    parser.add_argument("--steps", type=int, default=2000, help="environment steps per task")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("tasks", nargs="*", default=list(SUITE), help="task names (default: all)")
+    args = parser.parse_args(argv)
+    for name in args.tasks:
+        env = load(DOMAIN, name)
+        rate = steps_per_second(name, args.steps, args.seed)
+        print(f"{name:18s} {rate:8.0f} steps/s  ({rate * env.control_timestep():7.0f}x real time, "
+              f"step {env.control_timestep():g} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
