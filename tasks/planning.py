@@ -303,8 +303,8 @@ def environment(physics: Physics, task: PlanningTask, time_limit: float,
 
 
 def route_time_limit(length: float) -> float:
-    """A time limit [s] for a route of `length` m: twice its time at TARGET_SPEED, plus a minute."""
-    return 2.0 * length / TARGET_SPEED + 60.0
+    """A time limit [s] for a route of `length` m: twice its time at TARGET_SPEED plus a minute, in 10 s."""
+    return 10.0 * math.ceil((2.0 * length / TARGET_SPEED + 60.0) / 10.0)
 
 
 # --- the task -----------------------------------------------------------------------------------------
