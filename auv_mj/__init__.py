@@ -1,10 +1,7 @@
 """auv-mj: a MuJoCo simulator of an underactuated planar AUV (Lyu et al. 2023, J. Mar. Sci. Eng. 11, 1796)."""
 
-import os
-
-# Headless by default: dm_control picks its OpenGL backend at import time.
-os.environ.setdefault("MUJOCO_GL", "egl")
-
+# First: sets MUJOCO_GL (headless by default) before mujoco and dm_control read it at import time.
+from auv_mj import glbackend  # noqa: F401
 from auv_mj.assets import model_path, models_dir
 from auv_mj.disturbances import Disturbance
 from auv_mj.hydrodynamics import HydroCoefficients, Hydrodynamics

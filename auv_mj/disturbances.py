@@ -37,19 +37,24 @@ class Disturbance:
         """Whether the window covers `time`."""
         return self.start <= time < self.start + self.duration
 
-    def world_wrench(self, time: float, psi: float) -> np.ndarray:
-        """(Fx, Fy, Mz) in the world frame at `time`, for a vehicle heading `psi`."""
-        wrench = _as_wrench(self.force(time) if callable(self.force) else self.force)
+    def wrench(self, time: float, psi: float) -> tuple[float, float, float]:
+        """(Fx, Fy, Mz) in the world frame at `time`, for a vehicle heading `psi`, as floats (per step)."""
+        fx, fy, mz = _as_wrench(self.force(time) if callable(self.force) else self.force)
         if self.frame == "body":
             c, s = math.cos(psi), math.sin(psi)
-            wrench = np.array([c * wrench[0] - s * wrench[1], s * wrench[0] + c * wrench[1], wrench[2]])
-        return wrench
+            fx, fy = c * fx - s * fy, s * fx + c * fy
+        return fx, fy, mz
+
+    def world_wrench(self, time: float, psi: float) -> np.ndarray:
+        """(Fx, Fy, Mz) in the world frame at `time`, for a vehicle heading `psi`."""
+        return np.array(self.wrench(time, psi))
 
 
-def _as_wrench(value) -> np.ndarray:
-    wrench = np.zeros(3)
-    values = np.asarray(value, dtype=float).ravel()
-    if values.size not in (2, 3) or not np.all(np.isfinite(values)):
+def _as_wrench(value) -> tuple[float, float, float]:
+    try:
+        values = [float(v) for v in value]
+    except (TypeError, ValueError):
+        values = []
+    if len(values) not in (2, 3) or not all(map(math.isfinite, values)):
         raise ValueError(f"a disturbance force is (Fx, Fy) or (Fx, Fy, Mz) of finite numbers, got {value!r}")
-    wrench[:values.size] = values
-    return wrench
+    return values[0], values[1], values[2] if len(values) == 3 else 0.0

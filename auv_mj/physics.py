@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
+import logging
 import math
 from pathlib import Path
 
 import mujoco
 import numpy as np
 from dm_control.mujoco import engine
+from dm_control.rl.control import PhysicsError
 
 from auv_mj.disturbances import Disturbance
 from auv_mj.hydrodynamics import Hydrodynamics, coefficients_from_xml
 from auv_mj.sonar import SONAR_NAMES, clip_ranges
 
 SUPPORTED_INTEGRATORS = (mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
+SENSOR_DISABLE_BIT = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
 
 
 class AUVPhysics(engine.Physics):
@@ -26,6 +29,7 @@ class AUVPhysics(engine.Physics):
     """
 
     _hydro: Hydrodynamics | None = None
+    _step_ready = False
 
     @classmethod
     def from_xml_string(cls, xml_string: str, assets: dict | None = None, source: str = "<string>"):
@@ -68,10 +72,14 @@ class AUVPhysics(engine.Physics):
         self._hydro = Hydrodynamics(model, coefficients, source)
         self.source = source
         self._disturbances: list[Disturbance] = []
-        self._sonar_adr = np.array([model.sensor_adr[model.sensor(n).id] for n in SONAR_NAMES])
+        addresses = [int(model.sensor_adr[model.sensor(n).id]) for n in SONAR_NAMES]
+        contiguous = addresses == list(range(addresses[0], addresses[0] + len(addresses)))
+        self._sonar_index = slice(addresses[0], addresses[-1] + 1) if contiguous else np.array(addresses)
         self._actuator_names = [model.actuator(i).name for i in range(model.nu)]
-        model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
-        self._hydro_applied = False
+        self._pose_adr = np.array([model.jnt_qposadr[model.joint(n).id] for n in ("x", "y", "yaw")])
+        model.opt.disableflags |= SENSOR_DISABLE_BIT
+        self._step_ready = False
+        self._bound_data = None
         self.forward()
 
     @property
@@ -81,42 +89,82 @@ class AUVPhysics(engine.Physics):
 
     # --- stepping -------------------------------------------------------------------------------
 
-    def _apply_hydrodynamics(self) -> None:
-        if self._hydro_applied:
-            return
-        model, data = self.model.ptr, self.data.ptr
-        disturbance = None
+    def _hook(self, model: mujoco.MjModel, data: mujoco.MjData):
+        """The hydrodynamic step hook bound to the current data (re-bound after `copy` or a reload)."""
+        if self._bound_data is not data:
+            self._bound_hook = self._hydro.bind(model, data)
+            self._bound_data = data
+        return self._bound_hook
+
+    def _apply_hydrodynamics(self, hook, data: mujoco.MjData, timestep: float) -> None:
+        """Adds Eq. (3)-(11) and the active disturbances g_0 to the step in progress."""
         if self._disturbances:
-            time, psi = data.time, data.qpos[self._hydro.qpos_yaw]
-            active = [d.world_wrench(time, psi) for d in self._disturbances if d.active(time)]
-            if active:
-                disturbance = np.sum(active, axis=0)
-        self._hydro.apply(model, data, disturbance)
-        self._hydro_applied = True
+            hook(timestep, *self._disturbance_wrench(data))
+        else:
+            hook(timestep)
+
+    def _disturbance_wrench(self, data: mujoco.MjData) -> tuple[float, float, float]:
+        """Sum of the active disturbances, world frame (Fx, Fy, Mz), at the state's time and heading."""
+        time, psi = data.time, data.qpos.item(self._hydro.qpos_yaw)
+        fx = fy = mz = 0.0
+        for disturbance in self._disturbances:
+            if disturbance.active(time):
+                wx, wy, wz = disturbance.wrench(time, psi)
+                fx, fy, mz = fx + wx, fy + wy, mz + wz
+        return fx, fy, mz
 
     def step(self, nstep: int = 1) -> None:
-        """Advances `nstep` physics steps with hydrodynamics (semi-implicit Euler, timestep from the MJCF)."""
+        """Advances `nstep` physics steps with hydrodynamics (semi-implicit Euler, timestep from the MJCF).
+
+        Like dm_control's legacy step, each step is `mj_step2` then `mj_step1`, so that position and
+        velocity dependent quantities are current afterwards; the hydrodynamics go in between. After
+        a direct change of qpos or qvel, call `forward()` first. A new MuJoCo warning (e.g. an
+        unstable state, which MuJoCo resets) raises PhysicsError after the call.
+        """
         model, data = self.model.ptr, self.data.ptr
         self._check_control(data.ctrl)
-        with self.check_invalid_state():
-            for _ in range(nstep):
-                self._apply_hydrodynamics()
-                mujoco.mj_step2(model, data)
-                mujoco.mj_step1(model, data)
-                self._hydro_applied = False
+        hook = self._hook(model, data)
+        timestep = model.opt.timestep
+        warnings_before = self._warnings.tobytes()
+        start_time = data.time
+        step1, step2 = mujoco.mj_step1, mujoco.mj_step2
+        if not self._step_ready:  # after forward(), reset or copy: rebuild M and the passive forces
+            step1(model, data)
+        disturbances = self._disturbances
+        for _ in range(nstep):
+            if disturbances:
+                hook(timestep, *self._disturbance_wrench(data))
+            else:
+                hook(timestep)
+            step2(model, data)
+            step1(model, data)
+        self._step_ready = True
+        # MuJoCo auto-resets an unstable state, which rewinds time and may leave the counts unchanged.
+        if self._warnings.tobytes() != warnings_before or data.time < start_time + (nstep - 0.5) * timestep:
+            self._report_invalid_state(np.frombuffer(warnings_before, dtype=self._warnings.dtype))
+
+    def _report_invalid_state(self, warnings_before: np.ndarray) -> None:
+        """Raises dm_control's PhysicsError (or logs, inside `suppress_physics_errors`) as its step would."""
+        names = list(mujoco.mjtWarning.__members__)
+        new = [names[i] for i in np.flatnonzero(self._warnings != warnings_before)]
+        message = (f"Physics state is invalid. Warning(s) raised: {', '.join(new)}" if new else
+                   "Physics state is invalid: MuJoCo reset it during the step (time went back)")
+        if self._warnings_cause_exception:
+            raise PhysicsError(message)
+        logging.warning(message)
 
     def forward(self) -> None:
-        """Recomputes the derived quantities (accelerations included, with hydrodynamics) of the state."""
+        """Recomputes the derived quantities of the state, accelerations of Eq. (3) included."""
         if self._hydro is None:  # still being constructed by dm_control
             super().forward()
             return
         model, data = self.model.ptr, self.data.ptr
         with self.check_invalid_state():
             mujoco.mj_forward(model, data)
-            self._hydro_applied = False
-            self._apply_hydrodynamics()
+            self._apply_hydrodynamics(self._hook(model, data), data, 0.0)
             mujoco.mj_fwdAcceleration(model, data)
             mujoco.mj_fwdConstraint(model, data)
+        self._step_ready = False
 
     def set_control(self, control) -> None:
         """Sets (tau_u, tau_r); a NaN or infinite value raises ValueError and changes nothing."""
@@ -125,10 +173,11 @@ class AUVPhysics(engine.Physics):
         super().set_control(control)
 
     def _check_control(self, control: np.ndarray) -> None:
+        if all(map(math.isfinite, control.ravel().tolist())):
+            return
         finite = np.isfinite(control)
-        if not np.all(finite):
-            bad = ", ".join(f"{self._actuator_names[i]}={control[i]}" for i in np.flatnonzero(~finite))
-            raise ValueError(f"control must be finite, got {bad}; the physics state was not changed")
+        bad = ", ".join(f"{self._actuator_names[i]}={control[i]}" for i in np.flatnonzero(~finite))
+        raise ValueError(f"control must be finite, got {bad}; the physics state was not changed")
 
     # --- disturbances ---------------------------------------------------------------------------
 
@@ -141,24 +190,21 @@ class AUVPhysics(engine.Physics):
         """
         disturbance = force if isinstance(force, Disturbance) else Disturbance(force, start, duration, frame)
         self._disturbances.append(disturbance)
-        self._hydro_applied = False
         return disturbance
 
     def remove_disturbance(self, disturbance: Disturbance) -> None:
         """Stops applying one disturbance."""
         self._disturbances.remove(disturbance)
-        self._hydro_applied = False
 
     def clear_disturbances(self) -> None:
         """Stops applying all disturbances."""
         self._disturbances.clear()
-        self._hydro_applied = False
 
     # --- read-outs ------------------------------------------------------------------------------
 
     def pose(self) -> np.ndarray:
         """(x, y, psi): position [m] and heading [rad] in the world frame, eta of Eq. (1)."""
-        return self.named.data.qpos[["x", "y", "yaw"]].copy()
+        return self.data.qpos[self._pose_adr]
 
     def body_velocity(self) -> np.ndarray:
         """(u, v, r): surge [m/s], sway [m/s] and yaw rate [rad/s] in the body frame, nu of Eq. (1)."""
@@ -172,12 +218,14 @@ class AUVPhysics(engine.Physics):
     def sonar(self) -> np.ndarray:
         """Ranges S1..S9 [m] at the current state; no echo reads the 120 m maximum (Sec. 2.2)."""
         model, data = self.model.ptr, self.data.ptr
-        model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+        opt = model.opt
+        flags = opt.disableflags
+        opt.disableflags = flags & ~SENSOR_DISABLE_BIT
         try:
             mujoco.mj_sensorPos(model, data)
         finally:
-            model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
-        return clip_ranges(data.sensordata[self._sonar_adr].copy())
+            opt.disableflags = flags
+        return clip_ranges(data.sensordata[self._sonar_index])
 
     def kinetic_energy(self) -> float:
         """1/2 nu^T (M_RB + M_A) nu [J] (Eq. 4), the energy that drag can only take away."""
@@ -190,7 +238,9 @@ class AUVPhysics(engine.Physics):
         new._hydro = self._hydro
         new.source = self.source
         new._disturbances = list(self._disturbances)
-        new._sonar_adr = self._sonar_adr
+        new._sonar_index = self._sonar_index
         new._actuator_names = self._actuator_names
-        new._hydro_applied = False
+        new._pose_adr = self._pose_adr
+        new._step_ready = False
+        new._bound_data = None
         return new

@@ -1,0 +1,104 @@
+"""Names -> policies for evaluation and rendering: checkpoints, the shipped policies and the baselines.
+
+- a checkpoint path: a trained `agents.policy.Policy`;
+- `planner`: the shipped HER-DDPG planner on the task's default S-plane executor;
+- `executor`: the shipped DDPG execution layer (speed_heading);
+- `two-layer`: the shipped planner on the shipped learned executor (Sec. 4.3, the end-to-end system);
+- `splane`: the classical baseline (line of sight + S-plane, or S-plane alone on speed_heading);
+- `random`: uniform actions.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from agents import baselines
+
+CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
+SHIPPED = {"planner": CHECKPOINT_DIR / "planner.pt", "executor": CHECKPOINT_DIR / "executor.pt"}
+BASELINES = ("splane", "random")
+EXECUTOR_TASKS = ("speed_heading",)
+
+
+def _suite():
+    from tasks import suite
+
+    return suite
+
+
+def shipped_checkpoint(name: str) -> Path:
+    """Path of a shipped checkpoint, with a clear error when it is missing."""
+    path = SHIPPED[name]
+    if not path.is_file():
+        raise FileNotFoundError(f"the shipped {name} checkpoint {path} is missing; train one with "
+                                f"`auv-mj train` (see README) or pass a checkpoint path")
+    return path
+
+
+def learned_executor():
+    """The shipped DDPG execution layer as a task executor callable (command, state) -> tau."""
+    from agents.executor import LearnedExecutor
+
+    return LearnedExecutor.load(shipped_checkpoint("executor"))
+
+
+def make_env(policy_name: str, task_name: str, seed: int):
+    """The suite environment for one evaluation episode; `two-layer` plugs in the learned executor."""
+    task_kwargs = {"random": seed}
+    if policy_name == "two-layer" and task_name not in EXECUTOR_TASKS:
+        task_kwargs["executor"] = learned_executor()
+    return _suite().load("auv", task_name, task_kwargs=task_kwargs)
+
+
+def _checkpoint_policy(path: Path):
+    from agents.policy import Policy
+
+    policy = Policy.load(path)
+
+    def act(time_step):
+        observation = time_step.observation
+        if set(observation) == {"observation"}:
+            return policy(np.asarray(observation["observation"]))
+        return policy({k: np.asarray(v) for k, v in observation.items()})
+
+    return act
+
+
+def make_policy(policy_name: str, env, seed: int = 0):
+    """A callable `policy(time_step) -> action` for `env`."""
+    if policy_name == "random":
+        return baselines.uniform_random(env, seed)
+    if policy_name == "splane":
+        return baselines.classical(env)
+    if policy_name in ("planner", "two-layer"):
+        return _checkpoint_policy(shipped_checkpoint("planner"))
+    if policy_name == "executor":
+        return _checkpoint_policy(shipped_checkpoint("executor"))
+    path = Path(policy_name)
+    if not path.is_file():
+        raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of "
+                         f"{sorted(SHIPPED) + ['two-layer'] + list(BASELINES)}")
+    return _checkpoint_policy(path)
+
+
+def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
+    """A task name, a tag or 'all' -> task names the policy can run (planners skip speed_heading)."""
+    suite = _suite()
+    names = [task for domain, task in suite.ALL_TASKS if domain == "auv"]
+    if spec == "all":
+        chosen = names
+    elif spec in names:
+        chosen = [spec]
+    else:
+        chosen = list(suite.tasks_by_tag(spec)) if spec in suite.TAGS else []
+        if not chosen:
+            raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
+    if policy_name in ("planner", "two-layer"):
+        chosen = [t for t in chosen if t not in EXECUTOR_TASKS]
+    elif policy_name == "executor":
+        chosen = [t for t in chosen if t in EXECUTOR_TASKS]
+    if not chosen:
+        raise ValueError(f"policy {policy_name!r} cannot run any task of {spec!r}")
+    return chosen

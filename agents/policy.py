@@ -1,0 +1,68 @@
+"""A trained deterministic policy a = mu(s) (Eq. 28-29) loaded from a checkpoint, for evaluation."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from agents.checkpoint import read_checkpoint
+from agents.her import flatten_goal_obs
+from agents.networks import Actor, Normalizer
+
+
+class Policy:
+    """Maps an observation (goal dict or flat array, single or batched) to an action in the env's bounds.
+
+    Only the normaliser and the actor are loaded; no exploration noise, so equal inputs give equal
+    actions.
+    """
+
+    def __init__(self, actor: Actor, obs_norm: Normalizer, metadata: Mapping[str, Any],
+                 device: str = "cpu"):
+        self.actor, self.obs_norm = actor.eval(), obs_norm.eval()
+        self.metadata = dict(metadata)
+        self.device = torch.device(device)
+        spec = self.metadata["spec"]
+        self.obs_dim = int(self.metadata["obs_dim"])
+        self.obs_shape = tuple(spec["obs_shape"])
+        self.low = np.asarray(spec["action_low"], np.float32)
+        self.high = np.asarray(spec["action_high"], np.float32)
+
+    @classmethod
+    def load(cls, path: str | Path, device: str = "cpu") -> Policy:
+        """The policy saved in checkpoint `path`; ValueError naming the file if it is unusable."""
+        path = Path(path)
+        tensors, meta = read_checkpoint(path)
+        obs_dim, act_dim = int(meta["obs_dim"]), int(meta["act_dim"])
+        actor = Actor(obs_dim, act_dim, tuple(meta["config"]["hidden_sizes"]))
+        obs_norm = Normalizer(obs_dim)
+        for prefix, module in (("actor", actor), ("obs_norm", obs_norm)):
+            state = {k[len(prefix) + 1:]: v for k, v in tensors.items() if k.startswith(prefix + ".")}
+            try:
+                module.load_state_dict(state, strict=True)
+            except RuntimeError as exc:
+                raise ValueError(f"checkpoint {path} does not fit the architecture of {prefix!r}: "
+                                 f"{exc}") from exc
+        return cls(actor.to(device), obs_norm.to(device), meta, device)
+
+    def flat_obs(self, obs: np.ndarray | Mapping[str, np.ndarray]) -> np.ndarray:
+        """The network input: [observation, desired_goal] of a goal dict, or the array itself."""
+        if isinstance(obs, Mapping):
+            flat = flatten_goal_obs(np.asarray(obs["observation"]), np.asarray(obs["desired_goal"]))
+        else:
+            arr = np.asarray(obs, np.float32)
+            flat = arr.reshape(*arr.shape[: arr.ndim - len(self.obs_shape)], -1)
+        if flat.shape[-1] != self.obs_dim:
+            raise ValueError(f"observation of size {flat.shape[-1]}, the policy expects {self.obs_dim}")
+        return flat
+
+    @torch.no_grad()
+    def __call__(self, obs: np.ndarray | Mapping[str, np.ndarray]) -> np.ndarray:
+        """mu(s), rescaled from [-1, 1] to the action bounds the policy was trained with."""
+        x = torch.as_tensor(self.flat_obs(obs), device=self.device)
+        a = self.actor(self.obs_norm(x)).cpu().numpy()
+        return self.low + (a + 1.0) * 0.5 * (self.high - self.low)

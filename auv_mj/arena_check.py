@@ -1,0 +1,499 @@
+"""`auv-mj check-arena`: is an arena MJCF usable, and what does it look like from above?
+
+Loads an arena through `auv_mj.arena.load` and checks the convention of `auv_mj.arena` with MuJoCo's
+own queries: `mj_geomDistance` between the hull, posed along the global path, and every static geom
+(the d_s = 5 m of Table 1), and `mj_ray` along each path segment (does the path leave free space?).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from auv_mj.arena import MOVER_PREFIX, PATH_SITE_PREFIX, ArenaInfo, arena_info, load
+from auv_mj.physics import AUVPhysics
+from auv_mj.tunnels import SAFETY_DISTANCE, segment_crossings
+
+CHECK_STEP = 1.0
+"""Distance between the poses at which the path's clearance is measured [m]."""
+WALL_JOIN_MARGIN = 2.0
+"""Two wall geoms crossing within this many thicknesses of an end of either are joined, not crossing."""
+SEARCH_DISTANCE = 120.0
+"""Distances are measured up to the sonar range [m]; farther reads as this."""
+HIDDEN_Z = 1e4
+"""Where moving obstacles are parked [m] while the static map is checked."""
+MAX_LINES = 20
+"""At most this many lines per kind of problem."""
+STATIC_PREFIXES = ("wall", "obstacle")
+
+
+@dataclass
+class ArenaReport:
+    """What `check_arena` found: problems make an arena unusable, warnings do not."""
+
+    source: str
+    problems: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    summary: str = ""
+    png: Path | None = None
+
+    @property
+    def ok(self) -> bool:
+        """True when the arena is usable."""
+        return not self.problems
+
+    def lines(self) -> list[str]:
+        """The report as printed: a summary, one line per problem or warning, then OK or a count."""
+        out = [f"{self.source}: {self.summary}"] if self.summary else []
+        out += [f"problem: {p}" for p in self.problems] + [f"warning: {w}" for w in self.warnings]
+        out.append("OK" if self.ok else f"{len(self.problems)} problem(s): not a usable arena")
+        return out
+
+
+def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
+                need_path: bool = True) -> ArenaReport:
+    """Checks an arena (a file or an element); writes a top-down preview to `png` if given.
+
+    `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8).
+    """
+    name = str(source) if not isinstance(source, ET.Element) else "<arena element>"
+    report = ArenaReport(name)
+    try:
+        physics = load(source)
+    except ValueError as e:
+        report.problems.append(str(e))
+        return report
+    model = physics.model.ptr
+    info = None
+    if _check_numerics(model, report):
+        info = arena_info(physics)
+        _check_sites(model, info, report, need_path)
+    static = [g for g in range(model.ngeom) if model.geom_bodyid[g] == 0]
+    _check_geoms(model, physics, static, report)
+    _check_walls(model, physics, static, report)
+    if info is not None:
+        _check_route(physics, info, static, report)
+        _check_movers(physics, info, static, report)
+    if png is not None:
+        report.png = plot_arena(physics, info, png, title=Path(name).name)
+    return report
+
+
+def _name(model: mujoco.MjModel, geom: int) -> str:
+    return model.geom(geom).name or f"geom #{geom} (unnamed)"
+
+
+def _add(lines: list[str], new: list[str]) -> None:
+    lines += new[:MAX_LINES]
+    if len(new) > MAX_LINES:
+        lines.append(f"... and {len(new) - MAX_LINES} more like these")
+
+
+def _check_numerics(model: mujoco.MjModel, report: ArenaReport) -> bool:
+    """The `<numeric>`s the convention reads: arena_bounds and one per mover; False if unreadable."""
+    readable = True
+    numerics = {model.numeric(i).name: int(model.numeric_size[i]) for i in range(model.nnumeric)}
+    if "arena_bounds" not in numerics:
+        report.problems.append('no <numeric name="arena_bounds" data="xmin ymin xmax ymax">: '
+                               "the map has no edge")
+    elif numerics["arena_bounds"] != 4:
+        report.problems.append(f'<numeric name="arena_bounds"> has {numerics["arena_bounds"]} values; '
+                               "expected xmin ymin xmax ymax")
+    for i in range(model.nbody):
+        body = model.body(i).name
+        if body.startswith(MOVER_PREFIX) and model.body_mocapid[i] < 0:
+            report.warnings.append(f"body {body} is not a mocap body, so it is not a moving obstacle")
+        elif body.startswith(MOVER_PREFIX) and numerics.get(body, 5) != 5:
+            report.problems.append(f'<numeric name="{body}"> has {numerics[body]} values; '
+                                   "expected x0 y0 x1 y1 speed")
+            readable = False
+    return readable
+
+
+def _check_sites(model: mujoco.MjModel, info: ArenaInfo, report: ArenaReport, need_path: bool) -> None:
+    """start, goal, path_0..path_N present and in order, all inside arena_bounds."""
+    for name, xy in (("start", info.start), ("goal", info.goal)):
+        if xy is None:
+            report.problems.append(f'no <site name="{name}">')
+    numbers = sorted(int(m.group(1)) for i in range(model.nsite)
+                     if (m := re.fullmatch(PATH_SITE_PREFIX + r"(\d+)", model.site(i).name)))
+    if not numbers:
+        if need_path:
+            report.problems.append(f"no global path: no sites {PATH_SITE_PREFIX}0, {PATH_SITE_PREFIX}1, ...")
+    elif len(numbers) < 2:
+        report.problems.append(f"the global path has one site ({PATH_SITE_PREFIX}{numbers[0]}); "
+                               "it needs two or more")
+    missing = sorted(set(range(numbers[-1] + 1)) - set(numbers)) if numbers else []
+    if missing:
+        shown = ", ".join(f"{PATH_SITE_PREFIX}{k}" for k in missing[:10])
+        report.problems.append(f"the global path skips {shown}{' ...' if len(missing) > 10 else ''}: "
+                               f"its sites must be numbered {PATH_SITE_PREFIX}0, {PATH_SITE_PREFIX}1, ... "
+                               "in order")
+    if info.bounds is None or len(info.bounds) != 4:
+        return
+    xmin, ymin, xmax, ymax = info.bounds
+    if not (xmin < xmax and ymin < ymax):
+        report.problems.append(f"arena_bounds {_xy4(info.bounds)} is empty (needs xmin < xmax, ymin < ymax)")
+        return
+    points = [("start", info.start), ("goal", info.goal)]
+    points += [(f"{PATH_SITE_PREFIX}{k}", p) for k, p in zip(numbers, info.path, strict=False)]
+    outside = [f"{name} ({_xy(p)}) is outside arena_bounds {_xy4(info.bounds)}" for name, p in points
+               if p is not None and not (xmin <= p[0] <= xmax and ymin <= p[1] <= ymax)]
+    _add(report.problems, outside)
+
+
+def _check_geoms(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], report: ArenaReport) -> None:
+    """Static geoms named by the convention, reaching the plane z = 0, and visible to the sonar."""
+    data = physics.data.ptr
+    notes = []
+    for g in static:
+        name = model.geom(g).name
+        if not name.startswith(STATIC_PREFIXES):
+            notes.append(f"static {_name(model, g)}: the convention names walls wall* and "
+                         "obstacles obstacle*")
+        if model.geom_rgba[g, 3] == 0:
+            notes.append(f"{_name(model, g)} is fully transparent: the sonar (mj_ray) does not see it")
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE:
+            continue
+        centre, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+        rot = data.geom_xmat[g].reshape(3, 3)
+        z = data.geom_xpos[g, 2] + rot[2] @ centre
+        reach = np.abs(rot[2]) @ half
+        if not z - reach <= 0 <= z + reach:
+            notes.append(f"{_name(model, g)} spans z {z - reach:.2f}..{z + reach:.2f} m, not the vehicle's "
+                         "plane z = 0: neither the vehicle nor the sonar meets it")
+    _add(report.warnings, notes)
+
+
+def _footprint_axis(model: mujoco.MjModel, data: mujoco.MjData,
+                    g: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """The long axis (two xy ends) and half thickness of a box or capsule wall, seen from above."""
+    rot = data.geom_xmat[g].reshape(3, 3)
+    centre, size = data.geom_xpos[g, :2], model.geom_size[g]
+    if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        axis = rot[:2, 2] * size[1]
+        return centre - axis, centre + axis, float(size[0])
+    a, b = rot[:2, 0] * size[0], rot[:2, 1] * size[1]
+    (long, short) = (a, b) if np.hypot(*a) >= np.hypot(*b) else (b, a)
+    return centre - long, centre + long, float(np.hypot(*short))
+
+
+def _check_walls(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], report: ArenaReport) -> None:
+    """Wall geoms crossing each other anywhere but at their ends (a self-intersecting wall)."""
+    data = physics.data.ptr
+    kinds = (int(mujoco.mjtGeom.mjGEOM_BOX), int(mujoco.mjtGeom.mjGEOM_CAPSULE))
+    walls = [g for g in static if model.geom(g).name.startswith("wall") and int(model.geom_type[g]) in kinds]
+    if len(walls) < 2:
+        return
+    axes = [_footprint_axis(model, data, g) for g in walls]
+    a0, a1 = np.array([a[0] for a in axes]), np.array([a[1] for a in axes])
+    half = np.array([a[2] for a in axes])
+    length = np.hypot(*(a1 - a0).T)
+    cross, t, u = segment_crossings(a0, a1, a0, a1)
+    found = []
+    for i, j in np.argwhere(np.triu(cross, 1)):
+        margin = WALL_JOIN_MARGIN * (half[i] + half[j])
+        if min(t[i, j], 1 - t[i, j]) * length[i] > margin and min(u[i, j], 1 - u[i, j]) * length[j] > margin:
+            p = a0[i] + t[i, j] * (a1[i] - a0[i])
+            found.append(f"walls {_name(model, walls[i])} and {_name(model, walls[j])} cross at ({_xy(p)}), "
+                         "not end to end: the wall intersects itself")
+    _add(report.problems, found)
+
+
+def _hide_movers(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    data.mocap_pos[:, 2] = HIDDEN_Z
+    mujoco.mj_kinematics(model, data)
+
+
+def _pose(physics: AUVPhysics, data: mujoco.MjData, x: float, y: float, yaw: float) -> None:
+    model = physics.model.ptr
+    for joint, value in (("x", x), ("y", y), ("yaw", yaw)):
+        data.qpos[model.jnt_qposadr[model.joint(joint).id]] = value
+    mujoco.mj_kinematics(model, data)
+
+
+def _route(info: ArenaInfo) -> list[tuple[str, np.ndarray]]:
+    """start, path_0 .. path_N, goal: the line the vehicle is meant to follow, named (no repeats)."""
+    route = [(f"{PATH_SITE_PREFIX}{k}", p) for k, p in enumerate(info.path)]
+    if info.start is not None and not (route and np.allclose(info.start, route[0][1])):
+        route.insert(0, ("start", info.start))
+    if info.goal is not None and not (route and np.allclose(info.goal, route[-1][1])):
+        route.append(("goal", info.goal))
+    keep = route[:1]
+    for name, p in route[1:]:
+        if np.hypot(*(p - keep[-1][1])) > 1e-6:
+            keep.append((name, p))
+    return keep
+
+
+def _check_route(physics: AUVPhysics, info: ArenaInfo, static: list[int], report: ArenaReport) -> None:
+    """Start, goal and the global path lie in free space and keep d_s from every static geom (Table 1)."""
+    model, data = physics.model.ptr, mujoco.MjData(physics.model.ptr)
+    _hide_movers(model, data)
+    route = _route(info) if len(info.path) else []
+    least = (math.inf, None, None)
+    if static:
+        _add(report.problems, _check_poses(physics, data, info, route, static))
+        if len(route) > 1:
+            through, close, least = _check_segments(physics, data, route, static)
+            _add(report.problems, through)
+            _add(report.problems, _close_runs(model, route, close))
+    report.summary = _summary(model, info, static, least)
+
+
+def _check_poses(physics: AUVPhysics, data: mujoco.MjData, info: ArenaInfo, route: list,
+                 static: list[int]) -> list[str]:
+    """The vehicle at start (d_s clear), at each path site and at the goal (not inside a geom)."""
+    model = physics.model.ptr
+    hull = model.geom("hull").id
+    poses = [(name, p, route[min(k + 1, len(route) - 1)][1] - route[max(k - 1, 0)][1])
+             for k, (name, p) in enumerate(route)]
+    heading = np.array([math.cos(info.start_heading), math.sin(info.start_heading)])
+    if info.start is not None:
+        poses.insert(0, ("start", info.start, heading))
+    if info.goal is not None and not route:
+        poses.append(("goal", info.goal, heading))
+    problems = []
+    for name, p, d in poses:
+        _pose(physics, data, p[0], p[1], math.atan2(d[1], d[0]))
+        for g in static:
+            gap = mujoco.mj_geomDistance(model, data, hull, g, SAFETY_DISTANCE, None)
+            if gap < 0:
+                problems.append(f"{name} ({_xy(p)}) lies inside {_name(model, g)}: "
+                                "the vehicle there would overlap it")
+            elif name == "start" and gap < SAFETY_DISTANCE:
+                heading_deg = math.degrees(info.start_heading)
+                problems.append(f"the vehicle at start ({_xy(p)}, heading {heading_deg:.0f} deg) is "
+                                f"{gap:.2f} m from {_name(model, g)}, closer than "
+                                f"d_s = {SAFETY_DISTANCE:g} m")
+    return list(dict.fromkeys(problems))
+
+
+def _check_segments(physics: AUVPhysics, data: mujoco.MjData, route: list, static: list[int]):
+    """Rays along each route segment (crossings) and the hull's clearance every CHECK_STEP metres.
+
+    Returns the crossings, {(geom, segment): (least gap, where)} for gaps under d_s, and the least
+    clearance overall as (gap, geom, segment name).
+    """
+    model = physics.model.ptr
+    hull, auv = model.geom("hull").id, model.body("auv").id
+    geomid = np.zeros(1, np.int32)
+    through, close, least = [], {}, (math.inf, None, None)
+    for k in range(len(route) - 1):
+        (name_a, a), (name_b, b) = route[k], route[k + 1]
+        segment = f"{name_a}-{name_b}"
+        d = b - a
+        length = float(np.hypot(*d))
+        hit = mujoco.mj_ray(model, data, np.array([a[0], a[1], 0.0]), np.array([d[0], d[1], 0.0]) / length,
+                            None, 1, auv, geomid)
+        crossed = int(geomid[0]) if 0 <= hit < length else -1
+        if crossed >= 0:
+            through.append(f"segment {segment} runs through {_name(model, crossed)} at "
+                           f"({_xy(a + d * hit / length)}): the path leaves free space")
+        for s in np.linspace(0.0, 1.0, max(2, math.ceil(length / CHECK_STEP) + 1)):
+            p = a + s * d
+            _pose(physics, data, p[0], p[1], math.atan2(d[1], d[0]))
+            for g in static:
+                gap = mujoco.mj_geomDistance(model, data, hull, g, SEARCH_DISTANCE, None)
+                if gap < least[0]:
+                    least = (gap, g, segment)
+                if gap < SAFETY_DISTANCE and g != crossed and gap < close.get((g, k), (math.inf,))[0]:
+                    close[(g, k)] = (gap, p)
+    return through, close, least
+
+
+def _close_runs(model: mujoco.MjModel, route: list, close: dict) -> list[str]:
+    """One line per geom and run of consecutive route segments that come closer than d_s to it."""
+    lines = []
+    for g in sorted({g for g, _ in close}):
+        ks = sorted(k for h, k in close if h == g)
+        runs, start = [], ks[0]
+        for prev, k in zip(ks, ks[1:] + [None], strict=True):
+            if k != prev + 1:
+                runs.append((start, prev))
+                start = k
+        for first, last in runs:
+            gap, p = min((close[(g, k)] for k in range(first, last + 1)), key=lambda c: c[0])
+            where = (f"segment {route[first][0]}-{route[first + 1][0]}" if first == last
+                     else f"segments {route[first][0]} to {route[last + 1][0]}")
+            what = ("runs into" if gap < 0 else f"passes {gap:.2f} m from")
+            lines.append(f"{where} {what} {_name(model, g)} at ({_xy(p)}), closer than "
+                         f"d_s = {SAFETY_DISTANCE:g} m")
+    return lines
+
+
+def _check_movers(physics: AUVPhysics, info: ArenaInfo, static: list[int], report: ArenaReport) -> None:
+    """Moving obstacles start and end in free water, and not on top of the vehicle's start."""
+    model, data = physics.model.ptr, mujoco.MjData(physics.model.ptr)
+    hull, auv = model.geom("hull").id, model.body("auv").id
+    geomid = np.zeros(1, np.int32)
+    for mover in info.movers:
+        body = model.body(mover.body).id
+        mocap = model.body_mocapid[body]
+        geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body]
+        for label, xy in (("start", mover.start), ("end", mover.end)):
+            _hide_movers(model, data)
+            data.mocap_pos[mocap] = [xy[0], xy[1], 0.0]
+            if info.start is not None:
+                _pose(physics, data, *info.start, info.start_heading)
+            mujoco.mj_kinematics(model, data)
+            for g in geoms:
+                for s in static:
+                    if mujoco.mj_geomDistance(model, data, g, s, 1.0, None) < 0:
+                        report.problems.append(f"{mover.body} at its {label} ({_xy(xy)}) "
+                                               f"overlaps {_name(model, s)}")
+                gap = mujoco.mj_geomDistance(model, data, g, hull, SAFETY_DISTANCE + 1.0, None)
+                if label == "start" and info.start is not None and gap < SAFETY_DISTANCE:
+                    report.problems.append(f"{mover.body} starts {gap:.2f} m from the vehicle's start, "
+                                           f"closer than d_s = {SAFETY_DISTANCE:g} m")
+        delta = mover.end - mover.start
+        length = float(np.hypot(*delta))
+        if length > 0:
+            _hide_movers(model, data)
+            hit = mujoco.mj_ray(model, data, np.array([*mover.start, 0.0]), np.array([*delta / length, 0.0]),
+                                None, 1, auv, geomid)
+            if 0 <= hit < length:
+                report.warnings.append(f"{mover.body} moves through {_name(model, int(geomid[0]))}")
+
+
+def _summary(model: mujoco.MjModel, info: ArenaInfo, static: list[int], least) -> str:
+    names = [model.geom(g).name for g in static]
+    walls = sum(n.startswith("wall") for n in names)
+    length = float(np.sum(np.hypot(*np.diff(info.path, axis=0).T))) if len(info.path) > 1 else 0.0
+    text = (f"{walls} wall geoms, {len(static) - walls} other static geoms, {len(info.movers)} movers, "
+            f"{len(info.path)} path sites over {length:.0f} m")
+    if least is not None and least[1] is not None:
+        text += f"; least clearance {least[0]:.2f} m (to {_name(model, least[1])}, segment {least[2]})"
+    return text
+
+
+def _xy(p) -> str:
+    return f"{p[0]:.1f}, {p[1]:.1f}"
+
+
+def _xy4(b) -> str:
+    return " ".join(f"{v:g}" for v in b)
+
+
+# --- preview --------------------------------------------------------------------------------------
+
+
+def _outline(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray | None:
+    """The xy outline of a geom seen from above (None for planes)."""
+    kind, size = mujoco.mjtGeom(int(model.geom_type[g])), model.geom_size[g]
+    rot, centre = data.geom_xmat[g].reshape(3, 3), data.geom_xpos[g]
+    circle = np.column_stack([np.cos(np.linspace(0, 2 * np.pi, 33)), np.sin(np.linspace(0, 2 * np.pi, 33))])
+    if kind == mujoco.mjtGeom.mjGEOM_PLANE:
+        return None
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        corners = np.array([[1, 1, 0], [-1, 1, 0], [-1, -1, 0], [1, -1, 0]]) * size
+        return (corners @ rot.T + centre)[:, :2]
+    if kind in (mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_SPHERE):
+        return centre[:2] + size[0] * circle
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        axis = rot[:2, 2] * size[1]
+        half = len(circle) // 2
+        angle = math.atan2(axis[1], axis[0])
+        turn = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+        arc = size[0] * circle[: half + 1] @ np.array([[0, 1], [-1, 0]]).T @ turn.T
+        return np.vstack([centre[:2] + axis + arc, centre[:2] - axis - arc])
+    if kind == mujoco.mjtGeom.mjGEOM_MESH:
+        from scipy.spatial import ConvexHull
+
+        mesh = model.geom_dataid[g]
+        start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        xy = (model.mesh_vert[start:start + count] @ rot.T + centre)[:, :2]
+        return xy[ConvexHull(xy).vertices]
+    return centre[:2] + model.geom_rbound[g] * circle
+
+
+def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, title: str = "") -> Path:
+    """Writes a top-down PNG of walls, obstacles, movers and their paths, the global path, start and goal."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Polygon, Rectangle
+
+    model, data = physics.model.ptr, physics.data.ptr
+    mujoco.mj_kinematics(model, data)
+    fig, ax = plt.subplots(figsize=(10, 7))
+    movers = {model.body(m.body).id: m for m in info.movers} if info is not None else {}
+    for g in range(model.ngeom):
+        body = model.geom_bodyid[g]
+        if body != 0 and body not in movers:
+            continue
+        outline = _outline(model, data, g)
+        if outline is None:
+            continue
+        name = model.geom(g).name
+        colour = "#d9342b" if body in movers else "#73787f" if name.startswith("wall") else "#9a6a3f"
+        ax.add_patch(Polygon(outline, closed=True, facecolor=colour, edgecolor=colour, lw=0.5, zorder=2))
+        if body == 0 and not name.startswith("wall") and name:
+            ax.annotate(name, outline.mean(axis=0), fontsize=7, ha="center", va="bottom",
+                        xytext=(0, 6), textcoords="offset points")
+    for mover in movers.values():
+        ax.annotate("", mover.end, mover.start, zorder=3,
+                    arrowprops={"arrowstyle": "->", "color": "#d9342b", "ls": "--"})
+        ax.annotate(f"{mover.body} ({mover.speed:g} m/s)", mover.start, fontsize=7, color="#d9342b",
+                    xytext=(0, 8), textcoords="offset points", ha="center")
+    if info is not None:
+        if len(info.path):
+            ax.plot(*info.path.T, "-", color="#1f77b4", lw=1.2, label="global path", zorder=3)
+            ax.plot(*info.path.T, ".", color="#1f77b4", ms=3, zorder=3)
+        if info.start is not None:
+            ax.plot(*info.start, "o", color="#2ca02c", ms=8, label="start", zorder=4)
+            ax.annotate("", info.start + 15 * np.array([math.cos(info.start_heading),
+                                                         math.sin(info.start_heading)]),
+                        info.start, arrowprops={"arrowstyle": "->", "color": "#2ca02c", "lw": 1.5}, zorder=4)
+        if info.goal is not None:
+            ax.plot(*info.goal, "*", color="#e6b800", ms=14, mec="k", mew=0.5, label="goal", zorder=4)
+        if info.bounds is not None and len(info.bounds) == 4:
+            xmin, ymin, xmax, ymax = info.bounds
+            ax.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False, ls=":", color="k",
+                                   lw=0.8, label="arena_bounds"))
+    ax.autoscale_view()
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", fontsize=8)
+    png = Path(png)
+    fig.savefig(png, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return png
+
+
+# --- command line ---------------------------------------------------------------------------------
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of `auv-mj check-arena`."""
+    parser.add_argument("arena", help="arena MJCF file")
+    parser.add_argument("--png", help="top-down preview to write (default: next to the arena, .png)")
+    parser.add_argument("--no-png", action="store_true", help="write no preview")
+    parser.add_argument("--no-path", action="store_true",
+                        help="the arena needs no global path (goal-reaching tasks of Tables 7-8)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """`auv-mj check-arena`: prints the report; exit status 0 only for a usable arena."""
+    png = None if args.no_png else Path(args.png) if args.png else Path(args.arena).with_suffix(".png")
+    try:
+        report = check_arena(args.arena, png, need_path=not args.no_path)
+    except OSError as e:
+        print(f"auv-mj check-arena: cannot write the preview: {e}")
+        return 1
+    print("\n".join(report.lines()))
+    if report.png is not None:
+        print(f"wrote preview {report.png}")
+    return 0 if report.ok else 1

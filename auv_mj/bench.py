@@ -1,0 +1,239 @@
+"""`auv-mj bench`: the simulator's speed as ratios against its limits, all measured in one run.
+
+Absolute times depend on the machine and its load; ratios of things timed side by side in the same
+repeats do much less, so each section reports both and the medians over repeats. A section is a
+function `(BenchSettings) -> list[Measurement]` registered in SECTIONS with `@section(name)`; add
+one (e.g. "tasks": environment steps per second of each task) and it runs, prints and goes to --json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+import xml.etree.ElementTree as ET
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from auv_mj.arena import load
+from auv_mj.physics import AUVPhysics
+
+SUB_STEPS = 10
+"""Physics steps per `AUVPhysics.step(n)` call in the batched timing (one 10 Hz executor step)."""
+WALL_COUNTS = (20, 200)
+"""Numbers of wall geoms in the sonar timing, besides open water."""
+WALL_FIELD = 200.0
+"""Side [m] of the square the timing walls are scattered in, around the vehicle."""
+
+
+@dataclass(frozen=True)
+class BenchSettings:
+    """How long to measure."""
+
+    repeats: int = 7
+    """Timed repeats; every figure is the median over them."""
+    scale: float = 1.0
+    """Multiplies the calls per repeat (`--quick` uses 0.1)."""
+    seed: int = 0
+    """Seed of the random controls and wall layouts."""
+
+    def calls(self, full: int) -> int:
+        return max(1, int(full * self.scale))
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One figure of a section."""
+
+    name: str
+    value: float
+    unit: str
+    note: str = ""
+
+
+Section = Callable[[BenchSettings], list[Measurement]]
+SECTIONS: dict[str, Section] = {}
+
+
+def section(name: str) -> Callable[[Section], Section]:
+    """Registers a benchmark section under `name` (run in registration order)."""
+    def register(function: Section) -> Section:
+        SECTIONS[name] = function
+        return function
+    return register
+
+
+def interleaved_times(workloads: Sequence[Callable[[], None]], calls_per_repeat: Sequence[int],
+                      repeats: int) -> np.ndarray:
+    """Seconds per call, shape (repeats, workloads); the workloads alternate inside every repeat."""
+    times = np.empty((repeats, len(workloads)))
+    for workload in workloads:  # warm-up: caches, lazy allocations
+        workload()
+    for i in range(repeats):
+        for j, (workload, calls) in enumerate(zip(workloads, calls_per_repeat, strict=True)):
+            start = time.perf_counter()
+            for _ in range(calls):
+                workload()
+            times[i, j] = (time.perf_counter() - start) / calls
+    return times
+
+
+def median_ratio(times: np.ndarray, numerator: int, denominator: int) -> float:
+    return float(np.median(times[:, numerator] / times[:, denominator]))
+
+
+@section("physics")
+def physics_section(settings: BenchSettings) -> list[Measurement]:
+    """AUVPhysics.step (hydrodynamics in the step) against plain mj_step of the same compiled model."""
+    physics = load()
+    physics.set_control([12.0, 3.0])
+    physics.step(1000)  # a moving, turning vehicle
+    model = physics.model.ptr
+    plain = mujoco.MjData(model)  # same model, no hydrodynamics: MuJoCo's own cost, the limit
+    plain.ctrl[:] = physics.data.ctrl
+
+    def plain_steps() -> None:
+        mujoco.mj_step(model, plain, SUB_STEPS)
+        plain.qvel[:] = 0.0  # without drag the vehicle would only speed up
+
+    def hydro_steps() -> None:
+        physics.step(SUB_STEPS)
+
+    def single_steps() -> None:
+        for _ in range(SUB_STEPS):
+            physics.step()
+
+    disturbed = load()
+    disturbed.set_control([12.0, 3.0])
+    disturbed.add_disturbance(lambda t: (0.0, 25.0 * np.sin(0.01 * np.pi * t)))
+    disturbed.step(1000)
+
+    def disturbed_steps() -> None:
+        disturbed.step(SUB_STEPS)
+
+    calls = settings.calls(400)
+    times = interleaved_times([plain_steps, hydro_steps, single_steps, disturbed_steps], [calls] * 4,
+                              settings.repeats) / SUB_STEPS
+    median = np.median(times, axis=0) * 1e6
+    return [
+        Measurement("mj_step (plain, same model)", median[0], "us/step", "the limit"),
+        Measurement(f"AUVPhysics.step({SUB_STEPS})", median[1], "us/step"),
+        Measurement("AUVPhysics.step() per call", median[2], "us/step", "one step per call"),
+        Measurement(f"AUVPhysics.step({SUB_STEPS}) + disturbance", median[3], "us/step", "periodic g_0"),
+        Measurement("hydrodynamic step / plain mj_step", median_ratio(times, 1, 0), "x"),
+        Measurement("single-step calls / plain mj_step", median_ratio(times, 2, 0), "x"),
+        Measurement("disturbed step / plain mj_step", median_ratio(times, 3, 0), "x"),
+        Measurement("simulated / wall-clock time", physics.timestep() / (median[1] * 1e-6), "x",
+                    f"AUVPhysics.step({SUB_STEPS})"),
+    ]
+
+
+def scattered_walls(count: int, rng: np.random.Generator) -> ET.Element:
+    """Arena of `count` box walls scattered over WALL_FIELD, none within 10 m of the origin."""
+    root = ET.Element("mujoco")
+    worldbody = ET.SubElement(root, "worldbody")
+    placed = 0
+    while placed < count:
+        x, y = rng.uniform(-WALL_FIELD / 2, WALL_FIELD / 2, size=2)
+        if np.hypot(x, y) < 10.0:
+            continue
+        hx, hy = rng.uniform(0.5, 8.0, size=2)
+        ET.SubElement(worldbody, "geom", name=f"wall_{placed}", type="box", pos=f"{x:.3f} {y:.3f} 0",
+                      size=f"{hx:.3f} {hy:.3f} 2", euler=f"0 0 {rng.uniform(0, np.pi):.4f}")
+        placed += 1
+    return root
+
+
+@section("sonar")
+def sonar_section(settings: BenchSettings) -> list[Measurement]:
+    """One read of the nine rangefinders in open water and among 20 or 200 wall geoms."""
+    rng = np.random.default_rng(settings.seed)
+    arenas: list[tuple[str, AUVPhysics]] = [("open water", load())]
+    arenas += [(f"{n} walls", load(scattered_walls(n, rng))) for n in WALL_COUNTS]
+    for _, physics in arenas:
+        with physics.reset_context():
+            physics.data.qpos[2] = 0.3
+    step_physics = arenas[0][1]
+
+    def one_step() -> None:
+        step_physics.step()
+
+    workloads = [physics.sonar for _, physics in arenas] + [one_step]
+    calls = settings.calls(2000)
+    times = interleaved_times(workloads, [calls] * len(workloads), settings.repeats)
+    median = np.median(times, axis=0) * 1e6
+    seen = [int(np.sum(physics.sonar() < 120.0)) for _, physics in arenas]
+    results = [Measurement(f"sonar read, {label}", median[i], "us/read", f"{seen[i]} of 9 beams echo")
+               for i, (label, _) in enumerate(arenas)]
+    results += [Measurement(f"sonar read {label} / open water", median_ratio(times, i, 0), "x")
+                for i, (label, _) in enumerate(arenas) if i]
+    results.append(Measurement(f"sonar read {arenas[-1][0]} / {arenas[1][0]}",
+                               median_ratio(times, len(arenas) - 1, 1), "x"))
+    results.append(Measurement(f"sonar read {arenas[-1][0]} / AUVPhysics.step()",
+                               median_ratio(times, len(arenas) - 1, len(arenas)), "x",
+                               "the tasks read the sonar once per 50 steps (2 Hz)"))
+    return results
+
+
+def environment() -> dict[str, str]:
+    """What the figures were measured on."""
+    return {"python": platform.python_version(), "mujoco": mujoco.__version__,
+            "machine": platform.machine(), "processor": platform.processor() or "unknown",
+            "time": time.strftime("%Y-%m-%dT%H:%M:%S")}
+
+
+def run_sections(names: Sequence[str], settings: BenchSettings,
+                 report: Callable[[str, list[Measurement]], None] | None = None
+                 ) -> dict[str, list[Measurement]]:
+    """Runs the named sections in order; `report(name, measurements)` is called after each."""
+    results = {}
+    for name in names:
+        results[name] = SECTIONS[name](settings)
+        if report is not None:
+            report(name, results[name])
+    return results
+
+
+def print_section(name: str, measurements: list[Measurement]) -> None:
+    print(f"[{name}]")
+    for m in measurements:
+        note = f"  ({m.note})" if m.note else ""
+        print(f"  {m.name:<48} {m.value:10.2f} {m.unit}{note}", flush=True)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of `auv-mj bench`."""
+    parser.add_argument("--quick", action="store_true", help="a tenth of the calls and 3 repeats (seconds)")
+    parser.add_argument("--repeats", type=int, default=None, help="timed repeats (default 7, --quick 3)")
+    parser.add_argument("--sections", default=None,
+                        help=f"comma-separated sections to run (default all: {','.join(SECTIONS)})")
+    parser.add_argument("--json", type=Path, default=None, metavar="PATH",
+                        help="also write the figures as JSON")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the wall layouts")
+
+
+def run(args: argparse.Namespace) -> int:
+    """`auv-mj bench`: runs the sections, prints their figures, optionally writes them as JSON."""
+    names = list(SECTIONS) if args.sections is None else [n.strip() for n in args.sections.split(",") if n]
+    unknown = [n for n in names if n not in SECTIONS]
+    if unknown:
+        raise SystemExit(f"auv-mj bench: unknown section(s) {', '.join(unknown)}; "
+                         f"known: {', '.join(SECTIONS)}")
+    repeats = args.repeats if args.repeats is not None else (3 if args.quick else 7)
+    if repeats < 1:
+        raise SystemExit("auv-mj bench: --repeats must be at least 1")
+    settings = BenchSettings(repeats=repeats, scale=0.1 if args.quick else 1.0, seed=args.seed)
+    print(f"auv-mj bench: medians over {settings.repeats} repeats; ratios of workloads timed side by side")
+    results = run_sections(names, settings, print_section)
+    if args.json is not None:
+        payload = {"settings": asdict(settings), "environment": environment(),
+                   "sections": {name: [asdict(m) for m in ms] for name, ms in results.items()}}
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(payload, indent=2))
+        print(f"wrote {args.json}")
+    return 0

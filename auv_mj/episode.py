@@ -1,0 +1,398 @@
+"""Episode recorder: runs a policy on a suite environment and keeps what videos, plots and evaluation need.
+
+Per recorded instant (the reset and every control step): time, pose (x, y, psi), body velocity (u, v, r),
+sonar ranges, actuator forces, desired goal and moving-obstacle positions; per step: action, command
+(V_cmd, psi_cmd), reward, event, success and every numeric or string entry of the task's `last_info`.
+The arena (bounds, start, goal, global path, obstacle footprints) is recorded once. An `EpisodeRecord`
+saves to and loads from a single .npz file.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from auv_mj import arena as arena_lib
+
+DEFAULT_GOAL_RADIUS = 12.5
+"""Radius of the goal area [m] when the task does not say: the 25 m diameter of Tables 6-7."""
+PLANNER_MAX_SPEED = 2.0
+"""Table 3: the planner's V in [-2, 2] m/s is 2 * a0 (used when a task reports no command)."""
+PLANNER_MAX_TURN = math.pi / 2
+"""Table 3: the planner's heading offset in [-90, 90] deg is a1 * 90 deg."""
+VEHICLE_BODY = "auv"
+CIRCLE_SEGMENTS = 32
+"""Vertices of the polygon standing for a round footprint (sphere, cylinder, capsule end)."""
+
+Policy = Callable[..., np.ndarray]
+
+
+# --- arena geometry -------------------------------------------------------------------------------
+
+
+def geom_footprint(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> np.ndarray | None:
+    """Outline (k, 2) in the world x-y plane of one geom seen from above; None for planes and unknowns."""
+    kind = mujoco.mjtGeom(int(model.geom_type[geom]))  # an enum: `in` with numpy ints would not match
+    size = model.geom_size[geom]
+    centre = data.geom_xpos[geom][:2]
+    rot = data.geom_xmat[geom].reshape(3, 3)[:2, :2]
+    angles = np.linspace(0, 2 * np.pi, CIRCLE_SEGMENTS, endpoint=False)
+    circle = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        local = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * size[:2]
+    elif kind in (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CYLINDER):
+        local = circle * size[0]
+    elif kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        local = circle * size[:2]
+    elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        # A vertical capsule is a circle from above; a horizontal one (axis along local z) a stadium.
+        axis = data.geom_xmat[geom].reshape(3, 3)[:2, 2] * size[1]
+        if np.hypot(*axis) < 1e-9:
+            return centre + circle * size[0]
+        half = circle[: CIRCLE_SEGMENTS // 2 + 1]
+        direction = axis / np.hypot(*axis)
+        normal = np.array([-direction[1], direction[0]])
+        basis = np.stack([normal, -direction])  # half circle around the +axis end, then the -axis end
+        end = half @ basis * size[0]
+        return np.concatenate([centre + axis - end, centre - axis + end])
+    elif kind == mujoco.mjtGeom.mjGEOM_MESH:
+        # The bounding box of the mesh as a stand-in; arenas use boxes and cylinders.
+        local = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * model.geom_aabb[geom][3:5]
+        centre = centre + rot @ model.geom_aabb[geom][:2]
+    else:
+        return None
+    return centre + local @ rot.T
+
+
+@dataclass(frozen=True)
+class ArenaGeometry:
+    """What the trajectory figure draws of an arena (world frame, metres)."""
+
+    bounds: np.ndarray
+    """(xmin, ymin, xmax, ymax) of the map, NaN when the arena has none."""
+    start: np.ndarray
+    goal: np.ndarray
+    """Start and goal sites (NaN when absent)."""
+    path: np.ndarray
+    """(P, 2) global path, possibly empty."""
+    polygons: tuple[np.ndarray, ...]
+    """Footprints of walls and obstacles at t = 0."""
+    kinds: np.ndarray
+    """Per polygon: "wall" or "obstacle"."""
+    owners: np.ndarray
+    """Per polygon: index into `mover_names` of the moving obstacle it belongs to, -1 when static."""
+    mover_names: tuple[str, ...]
+    mover_paths: np.ndarray
+    """(M, 2, 2): from and to of each mover's ping-pong path."""
+    goals: np.ndarray
+    """(K, 2) the task's goal sequence (sub-goals, then the goal); empty when the task does not say."""
+    goal_radius: float
+
+
+def arena_geometry(physics, task=None) -> ArenaGeometry:
+    """The arena of `physics` (composed per `auv_mj.arena`) with the task's goals, path and movers if any.
+
+    Call it after the environment's reset: tasks draw their route (goals, path, movers) there.
+    """
+    info = arena_lib.arena_info(physics)
+    # Planning tasks keep the episode's layout in `_route` (tasks.planning.Route); the arena's own
+    # convention (path_* sites, mover_* numerics) is the fallback.
+    route = getattr(task, "_route", None)
+    movers = tuple(getattr(route, "movers", ()) or ()) or info.movers
+    model, data = physics.model.ptr, physics.data.ptr
+    vehicle = model.body(VEHICLE_BODY).id if VEHICLE_BODY in _body_names(model) else -1
+    mover_bodies = {model.body(m.body).id: i for i, m in enumerate(movers)}
+    polygons, kinds, owners = [], [], []
+    for g in range(model.ngeom):
+        body = model.geom_bodyid[g]
+        if vehicle >= 0 and _descends_from(model, body, vehicle):
+            continue
+        if abs(data.geom_xpos[g][2]) > model.geom_rbound[g] > 0:
+            continue  # parked out of the vehicle's plane (unused obstacles of a random arena)
+        outline = geom_footprint(model, data, g)
+        if outline is None:
+            continue
+        polygons.append(outline)
+        kinds.append("wall" if model.geom(g).name.startswith("wall") else "obstacle")
+        owners.append(mover_bodies.get(_root_body(model, body), -1))
+    nan2 = np.full(2, np.nan)
+    path = info.path
+    task_path = getattr(route, "path", None)
+    if len(path) == 0 and task_path is not None and np.ndim(task_path) == 2:
+        path = np.asarray(task_path, dtype=float)[:, :2]
+    goals = getattr(task, "goals", None)
+    goals = np.asarray(goals, dtype=float).reshape(-1, 2) if goals is not None else np.zeros((0, 2))
+    return ArenaGeometry(
+        bounds=np.asarray(info.bounds, dtype=float) if info.bounds is not None else np.full(4, np.nan),
+        start=info.start if info.start is not None else nan2,
+        goal=info.goal if info.goal is not None else nan2,
+        path=np.asarray(path, dtype=float).reshape(-1, 2),
+        polygons=tuple(polygons), kinds=np.array(kinds, dtype=str), owners=np.array(owners, dtype=int),
+        mover_names=tuple(m.body for m in movers),
+        mover_paths=np.array([[m.start, m.end] for m in movers], dtype=float).reshape(-1, 2, 2),
+        goals=goals, goal_radius=float(getattr(task, "goal_radius", DEFAULT_GOAL_RADIUS)))
+
+
+def _body_names(model) -> set[str]:
+    return {model.body(i).name for i in range(model.nbody)}
+
+
+def _descends_from(model, body: int, ancestor: int) -> bool:
+    while body > 0:
+        if body == ancestor:
+            return True
+        body = model.body_parentid[body]
+    return body == ancestor
+
+
+def _root_body(model, body: int) -> int:
+    while model.body_parentid[body] > 0:
+        body = model.body_parentid[body]
+    return body
+
+
+def mover_positions(physics, names: tuple[str, ...]) -> np.ndarray:
+    """(M, 2) current positions of the named mocap bodies."""
+    model, data = physics.model.ptr, physics.data.ptr
+    out = np.empty((len(names), 2))
+    for i, name in enumerate(names):
+        out[i] = data.mocap_pos[model.body_mocapid[model.body(name).id]][:2]
+    return out
+
+
+# --- the record -------------------------------------------------------------------------------------
+
+
+@dataclass
+class EpisodeRecord:
+    """One episode as arrays: N steps, N + 1 recorded instants (index 0 is the reset)."""
+
+    task: str
+    policy: str
+    seed: int | None
+    control_dt: float
+    time: np.ndarray
+    """(N+1,) simulation time [s]."""
+    pose: np.ndarray
+    """(N+1, 3) x [m], y [m], psi [rad]."""
+    velocity: np.ndarray
+    """(N+1, 3) u [m/s], v [m/s], r [rad/s] in the body frame."""
+    sonar: np.ndarray
+    """(N+1, 9) ranges S1..S9 [m]."""
+    control: np.ndarray
+    """(N+1, nu) actuator forces (tau_u [N], tau_r [N m]) in force after each step."""
+    desired_goal: np.ndarray
+    """(N+1, 2) the task's desired goal, NaN when the task has none."""
+    movers: np.ndarray
+    """(N+1, M, 2) positions of the moving obstacles."""
+    action: np.ndarray
+    """(N, A) the policy's actions."""
+    command: np.ndarray
+    """(N, 2) V_cmd [m/s], psi_cmd [rad] the executor was given during each step (NaN if unknown)."""
+    reward: np.ndarray
+    """(N,) rewards."""
+    event: np.ndarray
+    """(N,) the task's event of each step ("" for none): goal, subgoal, collision, ..."""
+    success: np.ndarray
+    """(N,) the task's success flag after each step."""
+    info: dict[str, np.ndarray]
+    """(N,) per-step numeric and string entries of the task's last_info (speed_error, phase, ...)."""
+    arena: ArenaGeometry
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    """Whatever else a caller wants saved with the record."""
+
+    @property
+    def steps(self) -> int:
+        """Number of control steps."""
+        return len(self.reward)
+
+    @property
+    def episode_return(self) -> float:
+        """Sum of rewards."""
+        return float(np.sum(self.reward))
+
+    @property
+    def succeeded(self) -> bool:
+        """Whether the task reported success at any step."""
+        return bool(np.any(self.success))
+
+    @property
+    def speed(self) -> np.ndarray:
+        """(N+1,) speed over ground [m/s]."""
+        return np.hypot(self.velocity[:, 0], self.velocity[:, 1])
+
+    def subgoals(self) -> np.ndarray:
+        """(K, 2) the distinct desired goals in the order the task gave them."""
+        goals = self.desired_goal[np.all(np.isfinite(self.desired_goal), axis=1)]
+        if len(goals) == 0:
+            return goals.reshape(0, 2)
+        keep = np.concatenate([[True], np.any(np.abs(np.diff(goals, axis=0)) > 1e-9, axis=1)])
+        return goals[keep]
+
+    def save(self, path: str | Path) -> Path:
+        """Writes the record to one .npz file (loadable without the task) and returns its path."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays: dict[str, np.ndarray] = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name in ("info", "extras"):
+                arrays.update({f"{f.name}/{k}": np.asarray(v) for k, v in value.items()})
+            elif f.name == "arena":
+                for g in fields(ArenaGeometry):
+                    item = getattr(value, g.name)
+                    if g.name == "polygons":
+                        arrays["arena/polygon_sizes"] = np.array([len(p) for p in item], dtype=int)
+                        arrays["arena/polygon_points"] = (np.concatenate(item) if item else np.zeros((0, 2)))
+                    else:
+                        arrays[f"arena/{g.name}"] = np.asarray(item)
+            else:
+                arrays[f.name] = np.asarray("" if value is None else value)
+        with open(path, "wb") as f:
+            np.savez_compressed(f, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> EpisodeRecord:
+        """Reads a record written by `save`."""
+        with np.load(path, allow_pickle=False) as npz:
+            data = {k: npz[k] for k in npz.files}
+        sizes = data.pop("arena/polygon_sizes")
+        points = data.pop("arena/polygon_points")
+        polygons = tuple(np.split(points, np.cumsum(sizes)[:-1])) if len(sizes) else ()
+        arena = {g.name: data.pop(f"arena/{g.name}") for g in fields(ArenaGeometry) if g.name != "polygons"}
+        arena["mover_names"] = tuple(str(n) for n in arena["mover_names"])
+        arena["goal_radius"] = float(arena["goal_radius"])
+        groups: dict[str, dict[str, np.ndarray]] = {"info": {}, "extras": {}}
+        for key in [k for k in data if "/" in k]:
+            group, name = key.split("/", 1)
+            groups[group][name] = data.pop(key)
+        seed = str(data.pop("seed"))
+        return cls(task=str(data.pop("task")), policy=str(data.pop("policy")),
+                   seed=int(seed) if seed not in ("", "None") else None,
+                   control_dt=float(data.pop("control_dt")), **data, **groups,
+                   arena=ArenaGeometry(polygons=polygons, **arena))
+
+
+# --- recording ----------------------------------------------------------------------------------------
+
+
+@dataclass
+class Snapshot:
+    """The recorded state at one instant, and the step that led to it (None for the reset)."""
+
+    time: float
+    pose: np.ndarray
+    velocity: np.ndarray
+    sonar: np.ndarray
+    control: np.ndarray
+    desired_goal: np.ndarray
+    movers: np.ndarray
+    step: int = 0
+    action: np.ndarray | None = None
+    command: np.ndarray | None = None
+    reward: float = 0.0
+    episode_return: float = 0.0
+    event: str = ""
+    success: bool = False
+    info: dict = field(default_factory=dict)
+
+
+class EpisodeRecorder:
+    """Runs `policy(time_step) -> action` on a dm_control environment and keeps a `Snapshot` per instant."""
+
+    def __init__(self, env, task: str = "", policy: str = "", seed: int | None = None):
+        self.env = env
+        self.names = (task, policy, seed)
+        self.arena: ArenaGeometry | None = None
+        """The arena of the current episode (set by `run` after the reset)."""
+        self.snapshots: list[Snapshot] = []
+        self._planner = "desired_goal" in env.observation_spec()
+
+    def _snapshot(self, time_step, action=None, previous: Snapshot | None = None) -> Snapshot:
+        physics = self.env.physics
+        goal = time_step.observation.get("desired_goal") if hasattr(time_step.observation, "get") else None
+        goal = np.asarray(goal, dtype=float)[:2] if goal is not None else np.full(2, np.nan)
+        snap = Snapshot(time=float(physics.time()), pose=physics.pose(), velocity=physics.body_velocity(),
+                        sonar=physics.sonar(), control=physics.data.ctrl.copy(), desired_goal=goal,
+                        movers=mover_positions(physics, self.arena.mover_names))
+        if previous is None:
+            return snap
+        info = dict(getattr(self.env.task, "last_info", {}) or {})
+        snap.step = previous.step + 1
+        snap.action = np.asarray(action, dtype=float).copy()
+        snap.reward = float(time_step.reward or 0.0)
+        snap.episode_return = previous.episode_return + snap.reward
+        snap.event = str(info.get("event") or "")
+        snap.success = bool(info.get("success", False))
+        snap.command = self._command(info, snap.action, previous)
+        snap.info = info
+        return snap
+
+    def _command(self, info: dict, action: np.ndarray, previous: Snapshot) -> np.ndarray:
+        if "command" in info and np.size(info["command"]) == 2:
+            return np.asarray(info["command"], dtype=float).ravel()
+        if self._planner and action.shape == (2,):
+            a = np.clip(action, -1.0, 1.0)
+            return np.array([PLANNER_MAX_SPEED * a[0], previous.pose[2] + PLANNER_MAX_TURN * a[1]])
+        return np.full(2, np.nan)
+
+    def run(self, policy: Policy, max_steps: int | None = None) -> Iterator[Snapshot]:
+        """Resets, then steps until the episode ends or `max_steps`; yields each new Snapshot."""
+        time_step = self.env.reset()
+        self.arena = arena_geometry(self.env.physics, self.env.task)
+        reset = getattr(policy, "reset", None)
+        if callable(reset):
+            reset()
+        self.snapshots = [self._snapshot(time_step)]
+        yield self.snapshots[-1]
+        while not time_step.last() and (max_steps is None or len(self.snapshots) <= max_steps):
+            action = policy(time_step)
+            time_step = self.env.step(action)
+            self.snapshots.append(self._snapshot(time_step, action, self.snapshots[-1]))
+            yield self.snapshots[-1]
+
+    def record(self) -> EpisodeRecord:
+        """The snapshots so far as an EpisodeRecord."""
+        snaps, steps = self.snapshots, self.snapshots[1:]
+        action_dim = int(np.prod(self.env.action_spec().shape))
+        info_keys = sorted({k for s in steps for k, v in s.info.items() if _recordable(v)})
+        info = {key: _info_array([s.info.get(key) for s in steps]) for key in info_keys}
+        task, policy, seed = self.names
+        return EpisodeRecord(
+            task=task, policy=policy, seed=seed, control_dt=float(self.env.control_timestep()),
+            time=np.array([s.time for s in snaps]), pose=np.array([s.pose for s in snaps]),
+            velocity=np.array([s.velocity for s in snaps]), sonar=np.array([s.sonar for s in snaps]),
+            control=np.array([s.control for s in snaps]),
+            desired_goal=np.array([s.desired_goal for s in snaps]),
+            movers=np.array([s.movers for s in snaps]).reshape(len(snaps), len(self.arena.mover_names), 2),
+            action=np.array([s.action for s in steps]).reshape(len(steps), action_dim),
+            command=np.array([s.command for s in steps]).reshape(len(steps), 2),
+            reward=np.array([s.reward for s in steps]), event=np.array([s.event for s in steps], dtype=str),
+            success=np.array([s.success for s in steps], dtype=bool), info=info, arena=self.arena)
+
+
+def _recordable(value) -> bool:
+    return isinstance(value, str | bool | int | float | np.bool_ | np.integer | np.floating) or (
+        isinstance(value, np.ndarray) and value.shape == ())
+
+
+def _info_array(values: list) -> np.ndarray:
+    """Per-step values of one last_info key: strings (None -> "") or floats (None -> NaN)."""
+    if any(isinstance(v, str) for v in values):
+        return np.array(["" if v is None else str(v) for v in values], dtype=str)
+    return np.array([np.nan if v is None or not _recordable(v) else float(v) for v in values])
+
+
+def record_episode(env, policy: Policy, max_steps: int | None = None, task: str = "", policy_name: str = "",
+                   seed: int | None = None) -> EpisodeRecord:
+    """Runs one episode of `policy(time_step) -> action` on `env` and returns its record."""
+    recorder = EpisodeRecorder(env, task, policy_name, seed)
+    for _ in recorder.run(policy, max_steps):
+        pass
+    return recorder.record()

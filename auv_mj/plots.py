@@ -1,0 +1,487 @@
+"""Paper-style figures as PNG (matplotlib, Agg): trajectories, tracking errors and learning curves.
+
+- `plot_trajectory`: the map (bounds, walls, obstacles as polygons, moving obstacles and their paths),
+  the global path, start, goal area and the vehicle's trajectory (Figs. 9-11, 13a, 14a, 16).
+- `plot_tracking`: speed and heading against their commands over the steps, and the tracking errors
+  (speed, heading, cross-track to the global path) (Figs. 12-14, 17); disturbance phases shaded.
+- `plot_learning`: episode return and success rate against episodes from training CSV logs, mean over
+  the runs of each group with a min-max or standard-deviation band (Fig. 8).
+
+Inputs are `EpisodeRecord`s (or their .npz files, see `auv_mj.episode`), per-step tracking CSVs
+(TRACKING_COLUMNS, as `tracking_csv` writes them) and training logs (`agents.train`'s progress.csv:
+episode, steps, return, success, wall_time, ...). `auv-mj plot trajectory|tracking|learning` wraps them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import glob
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Polygon, Rectangle
+
+from auv_mj.episode import EpisodeRecord
+
+DPI = 100
+DEFAULT_SIZE = (1000, 800)
+"""Default figure size [px]; `width`, `height` arguments set it exactly (at DPI)."""
+LEARNING_WINDOW = 5
+"""Episodes averaged per point of a learning curve (Sec. 4.1: "recorded every five epochs")."""
+VEHICLE_MARK = 0.02
+"""The vehicle's red rectangle is drawn this fraction of the map's size long (the hull is 1.33 m)."""
+TRACKING_COLUMNS = ("step", "time", "speed", "speed_command", "heading", "heading_command",
+                    "speed_error", "heading_error", "cross_track_error", "phase")
+"""Columns of a per-step tracking CSV (heading in rad; errors = command - measured, heading wrapped)."""
+LEARNING_COLUMNS = ("episode", "return", "success")
+"""Columns a training log must have (agents.train writes episode, steps, length, return, success,
+wall_time)."""
+RUN_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown")
+PHASE_COLOURS = {"instantaneous": "tab:red", "constant": "tab:orange", "periodic": "tab:purple"}
+
+
+def _figure(width: int, height: int, rows: int = 1, cols: int = 1, **kwargs):
+    """A Figure drawn by Agg without pyplot: no display, no global state, whatever backend a caller uses."""
+    fig = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)
+    return fig, fig.subplots(rows, cols, **kwargs)
+
+
+def _save(fig, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI)  # no bbox_inches="tight": the PNG keeps the requested pixel size
+    return path
+
+
+def _as_records(records) -> list[EpisodeRecord]:
+    items = records if isinstance(records, list | tuple) else [records]
+    return [r if isinstance(r, EpisodeRecord) else EpisodeRecord.load(r) for r in items]
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+# --- trajectory (Figs. 9-11, 13a, 14a, 16) ----------------------------------------------------------
+
+
+def draw_trajectory(ax, records: Sequence[EpisodeRecord], labels: Sequence[str] | None = None) -> None:
+    """Draws the map of the first record and the trajectories of all on `ax` (paper's Sec. 4.1 legend:
+    black square map, black obstacles, yellow target area, blue path, red rectangle AUV)."""
+    arena = records[0].arena
+    walls_done = obstacles_done = False
+    for polygon, kind, owner in zip(arena.polygons, arena.kinds, arena.owners, strict=True):
+        if owner >= 0:
+            continue
+        wall = kind == "wall"
+        label = None
+        if wall and not walls_done:
+            label, walls_done = "walls (known)", True
+        elif not wall and not obstacles_done:
+            label, obstacles_done = "obstacles", True
+        ax.add_patch(Polygon(polygon, closed=True, facecolor="0.55" if wall else "black",
+                             edgecolor="0.3" if wall else "black", linewidth=0.5, label=label, zorder=2))
+    bounds = arena.bounds
+    if np.all(np.isfinite(bounds)):
+        ax.add_patch(Rectangle(bounds[:2], bounds[2] - bounds[0], bounds[3] - bounds[1], fill=False,
+                               edgecolor="black", linewidth=1.5, zorder=1))
+    if len(arena.path) > 1:
+        ax.plot(*arena.path.T, "--", color="tab:green", linewidth=1.2, label="global path", zorder=3)
+    size = _map_size(records)
+    for i, record in enumerate(records):
+        colour = RUN_COLOURS[i % len(RUN_COLOURS)]
+        label = labels[i] if labels else ("AUV path" if len(records) == 1 else f"{record.task} {record.seed}")
+        goals = record.arena.goals if len(record.arena.goals) else record.subgoals()
+        radius = record.arena.goal_radius
+        for j, goal in enumerate(goals):
+            last = j == len(goals) - 1
+            ax.add_patch(Circle(goal, radius, facecolor="gold", alpha=0.6 if last else 0.35,
+                                edgecolor="goldenrod", linewidth=0.8, zorder=3,
+                                label="target area" if (i == 0 and last) else None))
+        _draw_movers(ax, record, first=i == 0)
+        xy = record.pose[:, :2]
+        ax.plot(*xy.T, "-", color=colour, linewidth=1.6, label=label, zorder=5)
+        ax.plot(*xy[0], "o", color=colour, markersize=5, zorder=6, label="start" if i == 0 else None)
+        _draw_vehicle(ax, record.pose[-1], size * VEHICLE_MARK, first=i == 0)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    extent = _extent(records)
+    ax.set_xlim(extent[0], extent[2])
+    ax.set_ylim(extent[1], extent[3])
+    ax.legend(loc="best", fontsize="small", framealpha=0.8)
+
+
+def _draw_movers(ax, record: EpisodeRecord, first: bool) -> None:
+    """Moving obstacles: their footprints at the last step and the tracks they moved along (dotted)."""
+    arena = record.arena
+    labelled = not first
+    for m in range(len(arena.mover_names)):
+        track = record.movers[:, m]
+        ax.plot(*track.T, ":", color="tab:orange", linewidth=1.5, zorder=4,
+                label=None if labelled else "obstacle path")
+        shift = track[-1] - track[0]
+        for polygon in (p for p, owner in zip(arena.polygons, arena.owners, strict=True) if owner == m):
+            ax.add_patch(Polygon(polygon + shift, closed=True, facecolor="tab:orange", edgecolor="black",
+                                 linewidth=0.5, zorder=4, label=None if labelled else "moving obstacle"))
+            labelled = True
+        labelled = True
+
+
+def _draw_vehicle(ax, pose: np.ndarray, length: float, first: bool) -> None:
+    """The AUV as a red rectangle (3:1) at `pose`."""
+    x, y, psi = pose
+    c, s = math.cos(psi), math.sin(psi)
+    half = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * (length / 2, length / 6)
+    corners = half @ np.array([[c, s], [-s, c]]) + (x, y)
+    ax.add_patch(Polygon(corners, closed=True, facecolor="red", edgecolor="darkred", zorder=7,
+                         label="AUV" if first else None))
+
+
+def _extent(records: Sequence[EpisodeRecord]) -> np.ndarray:
+    """(xmin, ymin, xmax, ymax) showing the map, or everything drawn when there is no map."""
+    bounds = records[0].arena.bounds
+    if np.all(np.isfinite(bounds)):
+        lo, hi = bounds[:2], bounds[2:]
+    else:
+        points = [r.pose[:, :2] for r in records] + [r.arena.path for r in records]
+        points += [p for r in records for p in r.arena.polygons]
+        points += [r.arena.goals for r in records] + [r.movers.reshape(-1, 2) for r in records]
+        points = np.concatenate([p.reshape(-1, 2) for p in points])
+        points = points[np.all(np.isfinite(points), axis=1)]
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        pad = max(records[0].arena.goal_radius, 5.0)
+        lo, hi = lo - pad, hi + pad
+    margin = 0.03 * max(hi - lo)
+    return np.array([*(lo - margin), *(hi + margin)])
+
+
+def _map_size(records: Sequence[EpisodeRecord]) -> float:
+    e = _extent(records)
+    return float(max(e[2] - e[0], e[3] - e[1]))
+
+
+def plot_trajectory(records, path: str | Path, labels: Sequence[str] | None = None, title: str | None = None,
+                    width: int = DEFAULT_SIZE[0], height: int | None = None) -> Path:
+    """PNG of the map and the trajectories of one or more episodes (records or .npz paths) on it.
+
+    `height` None fits the map's aspect ratio (a tunnel is wide, the 600 m map square).
+    """
+    records = _as_records(records)
+    if height is None:
+        e = _extent(records)
+        height = int(np.clip(width * (e[3] - e[1]) / (e[2] - e[0]) + 120, 300, 1.2 * width))
+    fig, ax = _figure(width, height)
+    draw_trajectory(ax, records, labels)
+    record = records[0]
+    ax.set_title(title if title is not None else
+                 f"{record.task or 'episode'}: {record.policy or 'policy'}, "
+                 f"{'success' if record.succeeded else 'no success'} after {record.time[-1]:.0f} s")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+# --- tracking (Figs. 12-14, 17) ----------------------------------------------------------------------
+
+
+def tracking_table(record: EpisodeRecord) -> dict[str, np.ndarray]:
+    """Per-step tracking columns (TRACKING_COLUMNS) of an episode: values after each step."""
+    n = record.steps
+    speed = record.velocity[1:, 0]  # surge speed u: the executor's controlled speed (tasks.speed_heading)
+    heading = record.pose[1:, 2]
+    table = {"step": np.arange(1, n + 1), "time": record.time[1:], "speed": speed,
+             "speed_command": record.command[:, 0], "heading": heading,
+             "heading_command": record.command[:, 1],
+             "speed_error": record.command[:, 0] - speed,
+             "heading_error": _wrap(record.command[:, 1] - heading),
+             "cross_track_error": record.info.get("cross_track_error", np.full(n, np.nan)),
+             "phase": record.info.get("phase", np.full(n, "", dtype=str))}
+    return table
+
+
+def tracking_csv(record: EpisodeRecord, path: str | Path) -> Path:
+    """Writes `tracking_table(record)` as CSV (the format `plot_tracking` reads)."""
+    table = tracking_table(record)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(TRACKING_COLUMNS)
+        for i in range(len(table["step"])):
+            writer.writerow([table[c][i] for c in TRACKING_COLUMNS])
+    return path
+
+
+def read_tracking_csv(path: str | Path) -> dict[str, np.ndarray]:
+    """A tracking CSV as columns; needs step or time, speed, speed_command, heading, heading_command."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        raise ValueError(f"{path}: no rows")
+    columns = set(rows[0])
+    needed = {"speed", "speed_command", "heading", "heading_command"}
+    if not needed <= columns or not columns & {"step", "time"}:
+        raise ValueError(f"{path}: a tracking CSV needs columns step or time, {', '.join(sorted(needed))}; "
+                         f"found {', '.join(sorted(columns))}")
+    table = {}
+    for c in columns:
+        values = [r[c] for r in rows]
+        try:
+            table[c] = np.array([float(v) if v != "" else np.nan for v in values])
+        except ValueError:
+            table[c] = np.array(values, dtype=str)
+    n = len(rows)
+    if "step" not in table:
+        table["step"] = np.arange(1, n + 1)
+    table.setdefault("time", table["step"].astype(float))
+    table.setdefault("speed_error", table["speed_command"] - table["speed"])
+    table.setdefault("heading_error", _wrap(table["heading_command"] - table["heading"]))
+    table.setdefault("cross_track_error", np.full(n, np.nan))
+    table.setdefault("phase", np.full(n, "", dtype=str))
+    return table
+
+
+def _shade_phases(ax, steps: np.ndarray, phases: np.ndarray) -> None:
+    """Shades the spans of steps under each disturbance phase (speed_heading's last_info["phase"])."""
+    phases = np.asarray(phases).astype(str)
+    if len(phases) == 0:
+        return
+    change = np.flatnonzero(phases[1:] != phases[:-1]) + 1
+    starts = np.concatenate([[0], change])
+    ends = np.concatenate([change, [len(phases)]])
+    for a, b in zip(starts, ends, strict=True):
+        colour = PHASE_COLOURS.get(phases[a])
+        if colour:
+            ax.axvspan(steps[a], steps[b - 1], color=colour, alpha=0.08, linewidth=0)
+
+
+def plot_tracking(source, path: str | Path, title: str | None = None, x: str = "step",
+                  width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1]) -> Path:
+    """PNG of speed and heading against their commands and of the tracking errors over the episode.
+
+    `source`: an EpisodeRecord, an episode .npz or a tracking CSV; `x`: "step" (the paper's axis) or "time".
+    """
+    if isinstance(source, str | Path) and Path(source).suffix.lower() == ".csv":
+        table, name = read_tracking_csv(source), Path(source).stem
+    else:
+        record = _as_records(source)[0]
+        table, name = tracking_table(record), f"{record.task or 'episode'}: {record.policy or 'policy'}"
+    if x not in ("step", "time"):
+        raise ValueError(f"x must be 'step' or 'time', got {x!r}")
+    t = table[x]
+    cross = np.asarray(table["cross_track_error"], dtype=float)
+    has_cross = bool(np.any(np.isfinite(cross)))
+    fig, axes = _figure(width, height, 4 if has_cross else 3, 1, sharex=True)
+    speed_ax, heading_ax, error_ax = axes[:3]
+    speed_ax.plot(t, table["speed_command"], "--", color="tab:red", label="commanded")
+    speed_ax.plot(t, table["speed"], "-", color="tab:blue", label="AUV (surge u)")
+    speed_ax.set_ylabel("speed [m/s]")
+    heading_cmd = np.unwrap(np.asarray(table["heading_command"], dtype=float))
+    heading = np.unwrap(np.asarray(table["heading"], dtype=float))
+    heading -= 2 * np.pi * np.round((heading - heading_cmd) / (2 * np.pi))  # same branch as the command
+    heading_ax.plot(t, heading_cmd, "--", color="tab:red", label="commanded")
+    heading_ax.plot(t, heading, "-", color="tab:blue", label="AUV")
+    heading_ax.set_ylabel("heading [rad]")
+    error_ax.plot(t, table["speed_error"], color="tab:blue", label="speed error [m/s]")
+    error_ax.plot(t, table["heading_error"], color="tab:green", label="heading error [rad]")
+    error_ax.axhline(0.0, color="0.5", linewidth=0.5)
+    error_ax.set_ylabel("error")
+    mae = (np.nanmean(np.abs(table["speed_error"])), np.nanmean(np.abs(table["heading_error"])))
+    error_ax.set_title(f"MAE speed {mae[0]:.4f} m/s, heading {mae[1]:.4f} rad", fontsize="small")
+    if has_cross:
+        axes[3].plot(t, cross, color="tab:purple")
+        axes[3].set_ylabel("cross-track [m]")
+        axes[3].set_title(f"path following error: mean {np.nanmean(cross):.2f} m, "
+                          f"max {np.nanmax(cross):.2f} m", fontsize="small")
+    for ax in axes:
+        _shade_phases(ax, t, table["phase"])
+        ax.grid(alpha=0.3)
+    for ax in axes[:3]:
+        ax.legend(loc="best", fontsize="small")
+    axes[-1].set_xlabel("step" if x == "step" else "time [s]")
+    fig.suptitle(title if title is not None else name)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+# --- learning curves (Fig. 8) ---------------------------------------------------------------------------
+
+
+def read_learning_csv(path: str | Path) -> dict[str, np.ndarray]:
+    """A training log as float columns; needs LEARNING_COLUMNS. A directory means its progress.csv."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "progress.csv"
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        raise ValueError(f"{path}: no rows")
+    missing = [c for c in LEARNING_COLUMNS if c not in rows[0]]
+    if missing:
+        raise ValueError(f"{path}: a training log needs columns {', '.join(LEARNING_COLUMNS)}; "
+                         f"missing {', '.join(missing)}")
+    columns = {}
+    for c in rows[0]:
+        try:
+            columns[c] = np.array([float(r[c]) for r in rows])
+        except ValueError:
+            continue
+    return columns
+
+
+def expand_runs(patterns: Sequence[str | Path]) -> list[Path]:
+    """Files (or run directories) named by paths or glob patterns, sorted; ValueError if none."""
+    found = []
+    for pattern in patterns:
+        matches = sorted(glob.glob(str(pattern))) or ([str(pattern)] if Path(pattern).exists() else [])
+        found.extend(Path(m) for m in matches)
+    if not found:
+        raise ValueError(f"no training logs match {', '.join(map(str, patterns))}")
+    return found
+
+
+def smooth(values: np.ndarray, window: int) -> np.ndarray:
+    """Trailing moving average over `window` points (shorter at the start)."""
+    values = np.asarray(values, dtype=float)
+    if window <= 1:
+        return values
+    csum = np.cumsum(np.insert(values, 0, 0.0))
+    idx = np.arange(1, len(values) + 1)
+    lo = np.maximum(idx - window, 0)
+    return (csum[idx] - csum[lo]) / (idx - lo)
+
+
+def learning_curve(runs: Sequence[dict[str, np.ndarray]], column: str, window: int, x: str = "episode",
+                   band: str = "minmax") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(x, mean, low, high) of a column over runs, each smoothed over `window` episodes.
+
+    Runs are cut to the shortest; `x` is "episode" or "steps" (the mean over runs of the step counts);
+    `band` "minmax" (range of the runs) or "std" (mean +- one standard deviation).
+    """
+    if band not in ("minmax", "std"):
+        raise ValueError(f"band must be 'minmax' or 'std', got {band!r}")
+    n = min(len(r[column]) for r in runs)
+    values = np.stack([smooth(r[column][:n], window) for r in runs])
+    if x == "steps" and all("steps" in r for r in runs):
+        xs = np.mean([r["steps"][:n] for r in runs], axis=0)
+    else:
+        xs = runs[0]["episode"][:n]
+    mean = values.mean(axis=0)
+    if band == "std":
+        std = values.std(axis=0)
+        return xs, mean, mean - std, mean + std
+    return xs, mean, values.min(axis=0), values.max(axis=0)
+
+
+def plot_learning(groups: Sequence[tuple[str, Sequence[str | Path]]], path: str | Path,
+                  window: int = LEARNING_WINDOW, band: str = "minmax", x: str = "episode",
+                  title: str | None = None, width: int = DEFAULT_SIZE[0],
+                  height: int = DEFAULT_SIZE[1]) -> Path:
+    """PNG of episode return and success rate vs episodes: per group (label, CSV files/globs), the mean
+    over its runs with a shaded band (Fig. 8 compares HER-DDPG with DDPG this way)."""
+    fig, (ret_ax, succ_ax) = _figure(width, height, 2, 1, sharex=True)
+    for i, (label, patterns) in enumerate(groups):
+        runs = [read_learning_csv(p) for p in expand_runs(patterns)]
+        colour = RUN_COLOURS[i % len(RUN_COLOURS)]
+        for ax, column in ((ret_ax, "return"), (succ_ax, "success")):
+            xs, mean, low, high = learning_curve(runs, column, window, x, band)
+            ax.plot(xs, mean, color=colour, label=f"{label} ({len(runs)} run{'s' * (len(runs) > 1)})")
+            if len(runs) > 1:
+                ax.fill_between(xs, low, high, color=colour, alpha=0.2, linewidth=0)
+    ret_ax.set_ylabel(f"episode return ({window}-episode mean)")
+    succ_ax.set_ylabel(f"success rate ({window}-episode mean)")
+    succ_ax.set_ylim(-0.05, 1.05)
+    succ_ax.set_xlabel("environment steps" if x == "steps" else "episode")
+    for ax in (ret_ax, succ_ax):
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize="small")
+    band_name = "min-max over runs" if band == "minmax" else "mean +- std over runs"
+    ret_ax.set_title(title if title is not None else f"learning curves (band: {band_name})")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+# --- command line ----------------------------------------------------------------------------------------
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of `auv-mj plot`."""
+    sub = parser.add_subparsers(dest="kind", required=True, metavar="KIND")
+    for kind, help_text in (("trajectory", "map, obstacles, path, goal and trajectories (Figs. 9-11, 16)"),
+                            ("tracking", "speed/heading vs commanded and errors (Figs. 12-14, 17)")):
+        p = sub.add_parser(kind, help=help_text)
+        p.add_argument("inputs", nargs="*", type=Path,
+                       help="episode .npz files (auv-mj render --save-episode)" +
+                            (" or a tracking CSV" if kind == "tracking" else ""))
+        p.add_argument("--task", default=None,
+                       help="run an episode of this suite task instead of reading inputs")
+        p.add_argument("--policy", default="splane", help="policy of that episode (as auv-mj render)")
+        p.add_argument("--seed", type=int, default=0)
+        p.add_argument("--max-steps", type=int, default=None)
+        if kind == "trajectory":
+            p.add_argument("--labels", nargs="*", default=None, help="one legend label per input")
+        else:
+            p.add_argument("--x", choices=("step", "time"), default="step", help="horizontal axis")
+            p.add_argument("--csv", type=Path, default=None, help="also write the per-step tracking CSV")
+        _common(p)
+    p = sub.add_parser("learning", help="return and success rate vs episodes from training CSVs (Fig. 8)")
+    p.add_argument("--runs", action="append", required=True, metavar="CSV_OR_GLOB", nargs="+",
+                   help="training logs (progress.csv, run directories or globs) of one group; "
+                        "repeat per group")
+    p.add_argument("--label", action="append", default=None, help="label of each --runs group, in order")
+    p.add_argument("--window", type=int, default=LEARNING_WINDOW, help="episodes per moving average")
+    p.add_argument("--band", choices=("minmax", "std"), default="minmax", help="shaded band across runs")
+    p.add_argument("--x", choices=("episode", "steps"), default="episode", help="horizontal axis")
+    _common(p)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("-o", "--output", type=Path, required=True, help="PNG file")
+    p.add_argument("--title", default=None)
+    p.add_argument("--width", type=int, default=DEFAULT_SIZE[0], help="image width [px]")
+    p.add_argument("--height", type=int, default=None,
+                   help=f"image height [px] (default {DEFAULT_SIZE[1]}; trajectories: fit the map)")
+
+
+def _episode_inputs(args: argparse.Namespace) -> list:
+    if args.task:
+        from auv_mj.episode import record_episode
+        from auv_mj.render import make_env_and_policy
+
+        env, policy = make_env_and_policy(args.task, args.policy, args.seed)
+        return [record_episode(env, policy, args.max_steps, args.task, args.policy, args.seed)]
+    if not args.inputs:
+        raise SystemExit(f"auv-mj plot {args.kind}: give episode files or --task")
+    return list(args.inputs)
+
+
+def run(args: argparse.Namespace) -> int:
+    """`auv-mj plot KIND ...`: writes one PNG."""
+    size = {"width": args.width, "title": args.title}
+    if args.height is not None or args.kind != "trajectory":
+        size["height"] = args.height or DEFAULT_SIZE[1]
+    try:
+        if args.kind == "trajectory":
+            path = plot_trajectory(_as_records(_episode_inputs(args)), args.output, args.labels, **size)
+        elif args.kind == "tracking":
+            source = _episode_inputs(args)[0]
+            if args.csv:
+                record = _as_records(source)[0] if not str(source).endswith(".csv") else None
+                if record is not None:
+                    print(f"wrote {tracking_csv(record, args.csv)}")
+            path = plot_tracking(source, args.output, x=args.x, **size)
+        else:
+            labels = args.label or [f"group {i + 1}" for i in range(len(args.runs))]
+            if len(labels) != len(args.runs):
+                raise SystemExit(f"auv-mj plot learning: {len(args.runs)} --runs groups but "
+                                 f"{len(labels)} --label")
+            path = plot_learning(list(zip(labels, args.runs, strict=True)), args.output, args.window,
+                                 args.band, args.x, **size)
+    except (ValueError, OSError) as e:
+        raise SystemExit(f"auv-mj plot {args.kind}: {e}") from None
+    print(f"wrote {path}")
+    return 0

@@ -1,0 +1,252 @@
+"""The S-plane controller of Eq. (32): the classical speed/heading executor the paper compares DDPG to.
+
+For each channel i (surge speed V, heading psi)
+
+    u_i = 2 / (1 + exp(-k_i1 e_i - k_i2 edot_i)) - 1 + du_i,      f_i = K_i u_i,
+
+with e_V = V_cmd - u (surge speed), edot_V = -du/dt (derivative on measurement: a change of command
+gives no derivative kick), e_psi = wrap(psi_cmd - psi), edot_psi = -r, and K_i the actuator limits
+(20 N, 10 N m). The sigmoid alone is zero at e = 0, so a plain S-plane leaves a steady error wherever a
+steady force is needed; du_i is the bias term S-plane controllers add for that (Liu et al., ref. [26]):
+
+    du_V   = -X_uu V_cmd |V_cmd| / K_u  +  k_V3 int e_V dt      (drag feed-forward + slow integrator)
+    du_psi =                               k_psi3 int e_psi dt  (slow integrator)
+
+The integrators only run while |e_i| is inside a band (integral separation, so that large steps do not
+wind them up) and are clamped to |k_i3 int e_i| <= `integral_limit`: a constant disturbance (the 30 N
+current of Sec. 4.2) is rejected, and nothing grows without bound. The output is clipped to [-K_i, K_i].
+
+Default gains were tuned on the REMUS-100 model of `models/auv.xml` by Nelder-Mead on a cost summing
+(i) a 0 -> 1 m/s speed step, (ii) a 90 deg heading step at 1 m/s, (iii) a 1 -> 2 m/s step with a 60 deg
+turn, each over 30 s, and (iv) the Sec. 4.2 disturbance episode (`tasks.speed_heading`, 1100 executor
+steps), each scored by the mean absolute speed and heading error, plus penalties on heading overshoot
+and on output chatter (so that the search does not drift to bang-bang gains).
+Reproduce with
+
+    python -m auv_mj.splane --tune
+
+which prints the optimum as a `SPlaneGains(...)` literal and the cost of the current defaults.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+
+EXECUTOR_DT = 0.1
+"""Executor period [s]: the controller is called at 10 Hz (cross-team contract)."""
+SURGE_LIMIT = 20.0
+"""K_V of Eq. (32): |tau_u| limit [N] of the vehicle's thruster (models/auv.xml ctrlrange)."""
+YAW_LIMIT = 10.0
+"""K_psi of Eq. (32): |tau_r| limit [N m] of the vehicle (models/auv.xml ctrlrange)."""
+REMUS_SURGE_DRAG = 1.62
+"""-X_uu of the REMUS-100 [N s^2 / m^2]: steady thrust 1.62 u^2 holds surge speed u."""
+
+
+def wrap_angle(angle: float) -> float:
+    """Angle wrapped to [-pi, pi)."""
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def s_plane(e: float, edot: float, k1: float, k2: float) -> float:
+    """The S-surface of Eq. (32): 2 / (1 + exp(-k1 e - k2 edot)) - 1, in (-1, 1); equal to tanh(x / 2)."""
+    return math.tanh(0.5 * (k1 * e + k2 * edot))
+
+
+@dataclass(frozen=True)
+class SPlaneGains:
+    """Gains of the two S-plane channels of Eq. (32) (defaults tuned on REMUS-100, see module docstring)."""
+
+    k1_speed: float = 53.0
+    """k_V1: weight of the speed error e_V [s/m]."""
+    k2_speed: float = 0.4
+    """k_V2: weight of the speed-error rate -du/dt [s^2/m]."""
+    ki_speed: float = 0.2
+    """k_V3: integral gain of du_V [1/m], the normalised thrust added per metre of accumulated error."""
+    k1_heading: float = 155.0
+    """k_psi1: weight of the heading error e_psi [1/rad]."""
+    k2_heading: float = 32.0
+    """k_psi2: weight of the heading-error rate -r [s/rad]."""
+    ki_heading: float = 0.5
+    """k_psi3: integral gain of du_psi [1/(rad s)]."""
+    band_speed: float = 0.2
+    """The speed integrator runs only while |e_V| is below this [m/s] (integral separation)."""
+    band_heading: float = 0.2
+    """The heading integrator runs only while |e_psi| is below this [rad]."""
+    integral_limit: float = 0.5
+    """Bound on each integral contribution |k_i3 int e_i dt|, as a fraction of the actuator limit K_i."""
+    surge_drag: float = REMUS_SURGE_DRAG
+    """-X_uu used by the drag feed-forward of du_V [N s^2/m^2]; 0 switches the feed-forward off."""
+    surge_limit: float = SURGE_LIMIT
+    """K_V: thrust of u_V = 1 [N]."""
+    yaw_limit: float = YAW_LIMIT
+    """K_psi: yaw moment of u_psi = 1 [N m]."""
+    dt: float = EXECUTOR_DT
+    """Call period [s]: the integrators and the finite-difference speed rate use it."""
+
+
+TUNED_FIELDS = ("k1_speed", "k2_speed", "ki_speed", "k1_heading", "k2_heading", "ki_heading")
+"""The gains `--tune` searches over; bands, bounds and limits stay as set."""
+TUNING_BOUNDS = ((0.1, 500.0), (0.01, 100.0), (0.001, 1.0), (0.1, 500.0), (0.01, 100.0), (0.001, 1.0))
+"""Search box of TUNED_FIELDS; k_i3 <= 1 keeps the integrators slow (the bias term, not a relay)."""
+INITIAL_GAINS = {"k1_speed": 5.5, "k2_speed": 2.0, "ki_speed": 0.12,
+                 "k1_heading": 9.0, "k2_heading": 16.0, "ki_heading": 0.3}
+"""Hand-set start of the `--tune` search (an S-plane that tracks, but sluggishly under disturbances)."""
+
+
+class SPlaneController:
+    """Speed/heading executor of Eq. (32): `controller((V_cmd, psi_cmd), (u, v, r, psi)) -> [tau_u, tau_r]`.
+
+    Call it every `gains.dt` seconds (EXECUTOR_DT); `reset()` at the start of an episode clears the
+    integrators and the stored speed used for the rate estimate.
+    """
+
+    def __init__(self, gains: SPlaneGains | None = None):
+        self.gains = gains if gains is not None else SPlaneGains()
+        self.reset()
+
+    def reset(self) -> None:
+        """Forgets the integrators and the previous surge speed."""
+        self._int_speed = 0.0
+        self._int_heading = 0.0
+        self._last_u: float | None = None
+
+    def __call__(self, command: Sequence[float], state: Sequence[float]) -> np.ndarray:
+        """(tau_u [N], tau_r [N m]) for command (V_cmd, psi_cmd) and state (u, v, r, psi); Eq. (32)."""
+        g = self.gains
+        v_cmd, psi_cmd = float(command[0]), float(command[1])
+        u, _, r, psi = (float(s) for s in state[:4])
+        e_v = v_cmd - u
+        edot_v = 0.0 if self._last_u is None else -(u - self._last_u) / g.dt
+        self._last_u = u
+        e_psi = wrap_angle(psi_cmd - psi)
+        edot_psi = -r
+
+        self._int_speed = _integrate(self._int_speed, e_v, g.ki_speed, g.band_speed, g)
+        self._int_heading = _integrate(self._int_heading, e_psi, g.ki_heading, g.band_heading, g)
+        feed_forward = g.surge_drag * v_cmd * abs(v_cmd) / g.surge_limit
+        du_v = feed_forward + g.ki_speed * self._int_speed
+        du_psi = g.ki_heading * self._int_heading
+
+        u_v = s_plane(e_v, edot_v, g.k1_speed, g.k2_speed) + du_v
+        u_psi = s_plane(e_psi, edot_psi, g.k1_heading, g.k2_heading) + du_psi
+        return np.array([g.surge_limit * np.clip(u_v, -1.0, 1.0), g.yaw_limit * np.clip(u_psi, -1.0, 1.0)])
+
+
+def _integrate(integral: float, error: float, ki: float, band: float, g: SPlaneGains) -> float:
+    """One step of a separated, clamped integrator: int e dt, kept to |ki int| <= integral_limit."""
+    if abs(error) < band:
+        integral += error * g.dt
+    if ki > 0:
+        bound = g.integral_limit / ki
+        integral = min(max(integral, -bound), bound)
+    return integral
+
+
+# --- offline tuning (python -m auv_mj.splane --tune) --------------------------------------------------
+
+STEP_SECONDS = 30.0
+"""Length of each step-response scenario of the tuning cost [s]."""
+OVERSHOOT_WEIGHT = 2.0
+"""Weight of the heading overshoot [rad] in the tuning cost."""
+CHATTER_WEIGHT = 0.1
+"""Weight of the mean step-to-step change of the normalised outputs |du_i| in the tuning cost."""
+
+
+def step_response(gains: SPlaneGains, command: tuple[float, float], initial_speed: float = 0.0,
+                  seconds: float = STEP_SECONDS) -> tuple[np.ndarray, np.ndarray]:
+    """Runs the controller on open water from (u = initial_speed, psi = 0); returns (speed, heading) errors.
+
+    Errors are e_V = V_cmd - u [m/s] and wrapped e_psi [rad], one per executor step.
+    """
+    from auv_mj import arena
+
+    physics = arena.load(None)
+    with physics.reset_context():
+        physics.named.data.qvel["x"] = initial_speed
+    controller = SPlaneController(gains)
+    substeps = int(round(gains.dt / physics.timestep()))
+    errors = []
+    for _ in range(int(round(seconds / gains.dt))):
+        u, v, r = physics.body_velocity()
+        psi = physics.pose()[2]
+        physics.set_control(controller(command, (u, v, r, psi)))
+        physics.step(substeps)
+        u = physics.body_velocity()[0]
+        errors.append((command[0] - u, wrap_angle(command[1] - physics.pose()[2])))
+    errors = np.array(errors)
+    return errors[:, 0], errors[:, 1]
+
+
+def _overshoot(heading_error: np.ndarray) -> float:
+    """How far the heading went past the command [rad] (error of the opposite sign to the initial one)."""
+    sign = np.sign(heading_error[0]) or 1.0
+    return float(max(0.0, -np.min(sign * heading_error)))
+
+
+def tuning_cost(gains: SPlaneGains, verbose: bool = False) -> float:
+    """The cost `--tune` minimises: MAE (speed + heading) of three steps and the Sec. 4.2 episode."""
+    from tasks.speed_heading import phase_mae, rollout
+
+    cost = 0.0
+    scenarios = {"speed 0->1": ((1.0, 0.0), 0.0), "heading 90deg": ((1.0, math.pi / 2), 1.0),
+                 "speed 1->2, 60deg": ((2.0, math.pi / 3), 1.0)}
+    for name, (command, initial_speed) in scenarios.items():
+        e_v, e_psi = step_response(gains, command, initial_speed)
+        part = np.mean(np.abs(e_v)) + np.mean(np.abs(e_psi)) + OVERSHOOT_WEIGHT * _overshoot(e_psi)
+        if verbose:
+            print(f"  {name:18s} MAE v {np.mean(np.abs(e_v)):.4f}  psi {np.mean(np.abs(e_psi)):.4f}  "
+                  f"overshoot {_overshoot(e_psi):.4f}")
+        cost += part
+    trace = rollout(SPlaneController(gains))
+    for phase, (mae_v, mae_psi) in phase_mae(trace).items():
+        if verbose:
+            print(f"  Sec. 4.2 {phase:13s} MAE v {mae_v:.4f}  psi {mae_psi:.4f}")
+        if phase != "none":
+            cost += mae_v + mae_psi
+    chatter = np.mean(np.abs(np.diff(trace["tau"] / [gains.surge_limit, gains.yaw_limit], axis=0)))
+    if verbose:
+        print(f"  Sec. 4.2 chatter mean |du| {chatter:.4f}")
+    return float(cost + CHATTER_WEIGHT * chatter)
+
+
+def tune(start: SPlaneGains | None = None, max_evaluations: int = 400) -> SPlaneGains:
+    """Nelder-Mead over log-gains of TUNED_FIELDS (within TUNING_BOUNDS), minimising `tuning_cost`.
+
+    Starts from `start`, by default INITIAL_GAINS; returns the optimum rounded to 3 decimals.
+    """
+    from scipy.optimize import minimize
+
+    start = start if start is not None else SPlaneGains(**INITIAL_GAINS)
+    x0 = np.log([getattr(start, f) for f in TUNED_FIELDS])
+
+    def cost(x: np.ndarray) -> float:
+        return tuning_cost(replace(start, **dict(zip(TUNED_FIELDS, np.exp(x).tolist(), strict=True))))
+
+    result = minimize(cost, x0, method="Nelder-Mead", bounds=np.log(TUNING_BOUNDS),
+                      options={"maxfev": max_evaluations, "xatol": 0.02, "fatol": 1e-4})
+    tuned = {f: round(float(v), 3) for f, v in zip(TUNED_FIELDS, np.exp(result.x), strict=True)}
+    return replace(start, **tuned)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m auv_mj.splane [--tune]`: prints the cost breakdown of the defaults (and tunes)."""
+    parser = argparse.ArgumentParser(prog="python -m auv_mj.splane", description=__doc__.splitlines()[0])
+    parser.add_argument("--tune", action="store_true", help="run the Nelder-Mead search from INITIAL_GAINS")
+    parser.add_argument("--max-evaluations", type=int, default=400)
+    args = parser.parse_args(argv)
+    print("defaults:", SPlaneGains())
+    print(f"cost {tuning_cost(SPlaneGains(), verbose=True):.4f}")
+    if args.tune:
+        gains = tune(max_evaluations=args.max_evaluations)
+        print("tuned:", ", ".join(f"{k}={v}" for k, v in asdict(gains).items() if k in TUNED_FIELDS))
+        print(f"cost {tuning_cost(gains, verbose=True):.4f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,882 @@
+"""Tunnel arenas from a centreline: two walls of long boxes, end caps and the global path (Sec. 4.3).
+
+`build_tunnel` turns a tunnel axis (the known global route of Sec. 4.3) and a width into an arena
+MJCF element that follows the convention of `auv_mj.arena`. The path logic (reading, smoothing,
+offsetting, simplifying, validating: `layout_tunnel`) is kept apart from geom creation
+(`tunnel_element`), as in dm_control's corridor arenas. `auv-mj tunnel` is the command line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import csv
+import io
+import json
+import math
+import shlex
+import sys
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+SAFETY_DISTANCE = 5.0
+"""d_s [m]: the least distance allowed between the AUV and any obstacle or wall (Table 1)."""
+HULL_RADIUS = 0.0955
+"""Radius of the hull capsule [m] (models/auv.xml)."""
+HULL_HALF_LENGTH = 0.665
+"""Half the 1.33 m hull length [m]: the farthest the vehicle reaches from its centre, whatever its yaw."""
+MIN_WIDTH = 2 * (SAFETY_DISTANCE + HULL_HALF_LENGTH)
+"""Narrowest tunnel [m]: d_s to both walls from a vehicle on the axis, turned any way."""
+PATH_CLEARANCE = SAFETY_DISTANCE + HULL_RADIUS
+"""Least distance [m] from the global path to a wall or known obstacle: d_s from the hull of a
+vehicle on the path heading along it (what `auv-mj check-arena` measures)."""
+WALL_THICKNESS = 1.0
+"""Thickness of a wall box [m]; the wall's inner face is the tunnel's edge."""
+WALL_HALF_HEIGHT = 3.0
+"""Half height of every box [m]: boxes span the vehicle's plane z = 0 with room to spare."""
+PATH_SPACING = 10.0
+"""Default distance between consecutive path sites [m]."""
+END_CLEARANCE = 15.0
+"""How far an open tunnel runs on past its first and last centreline points before the end caps [m]."""
+BOUNDS_MARGIN = 10.0
+"""Margin between the outermost geom and `arena_bounds` [m]."""
+MERGE_TOLERANCE = 0.25
+"""Largest deviation [m] of a merged wall box from the exact offset curve (Douglas-Peucker)."""
+SMOOTH_ITERATIONS = 3
+"""Chaikin corner-cutting rounds of `--smooth`."""
+MAX_TURN_DEG = 120.0
+"""Sharpest turn of the centreline at one point [deg]."""
+MOVER_PREFIX = "mover_"
+OBSTACLE_PREFIX = "obstacle_"
+
+WALL_RGBA = "0.45 0.47 0.5 1"
+OBSTACLE_RGBA = "0.6 0.4 0.25 1"
+MOVER_RGBA = "0.85 0.2 0.2 1"
+PATH_RGBA = "0.1 0.6 1 0.5"
+HEADER = ("Tunnel arena made by auv-mj tunnel (auv_mj/tunnels.py), arena convention of auv_mj/arena.py; "
+          "the command that made it is the text tunnel_command")
+
+
+# --- inputs ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Centreline:
+    """A tunnel axis: points (n, 2) [m], optional widths (n,) [m], a label per point for messages."""
+
+    points: np.ndarray
+    widths: np.ndarray | None = None
+    labels: tuple[str, ...] = ()
+    source: str = "<centreline>"
+    width: float | None = None
+    """A constant width given by the file itself (JSON "width"), used when no width is passed."""
+
+    def label(self, i: int) -> str:
+        """Name of point `i` in messages ("row 4" of a CSV file, "point 3" otherwise)."""
+        return self.labels[i] if self.labels else f"point {i}"
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A known static obstacle: a box `length` x `width` [m] centred at (x, y), turned `angle` deg."""
+
+    x: float
+    y: float
+    length: float
+    width: float
+    angle: float = 0.0
+    name: str = ""
+
+    def __post_init__(self):
+        what = f"obstacle {self.name or ''} at ({self.x}, {self.y})".replace("  ", " ")
+        if not all(math.isfinite(v) for v in (self.x, self.y, self.angle)):
+            raise ValueError(f"{what}: not a finite number")
+        if not (self.length > 0 and self.width > 0):
+            raise ValueError(f"{what}: length {self.length} and width {self.width} must be positive")
+
+    @classmethod
+    def parse(cls, text: str) -> Obstacle:
+        """From "x,y,length,width[,angle[,name]]" (the `--obstacle` option)."""
+        numbers, name = _split_spec(text, "--obstacle", "x,y,length,width[,angle[,name]]", 4, 5)
+        try:
+            return cls(*numbers, name=name)
+        except ValueError as e:
+            raise ValueError(f"--obstacle {text!r}: {e}") from None
+
+    def corners(self) -> np.ndarray:
+        """The four corners (4, 2) [m], counter-clockwise."""
+        c, s = math.cos(math.radians(self.angle)), math.sin(math.radians(self.angle))
+        half = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * [self.length / 2, self.width / 2]
+        return half @ np.array([[c, s], [-s, c]]) + [self.x, self.y]
+
+
+@dataclass(frozen=True)
+class MovingObstacle:
+    """An unknown moving obstacle: a cylinder of `radius` [m] going (x0, y0) -> (x1, y1) at `speed` m/s."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    speed: float
+    radius: float
+    name: str = ""
+
+    def __post_init__(self):
+        what = f"mover {self.name}" if self.name else "mover"
+        if not all(math.isfinite(v) for v in (self.x0, self.y0, self.x1, self.y1)):
+            raise ValueError(f"{what}: its path ends must be finite numbers")
+        if not (self.speed >= 0 and self.radius > 0):
+            raise ValueError(f"{what}: speed {self.speed} must be >= 0 and radius {self.radius} > 0")
+
+    @classmethod
+    def parse(cls, text: str) -> MovingObstacle:
+        """From "x0,y0,x1,y1,speed,radius[,name]" (the `--mover` option)."""
+        numbers, name = _split_spec(text, "--mover", "x0,y0,x1,y1,speed,radius[,name]", 6, 6)
+        try:
+            return cls(*numbers, name=name)
+        except ValueError as e:
+            raise ValueError(f"--mover {text!r}: {e}") from None
+
+
+def _split_spec(text: str, option: str, form: str, least: int, most: int) -> tuple[list[float], str]:
+    cells = [c.strip() for c in text.split(",")]
+    name = ""
+    if len(cells) > least and not _is_number(cells[-1]):
+        name = cells.pop()
+    if not least <= len(cells) <= most:
+        raise ValueError(f"{option} {text!r}: expected {form}")
+    numbers = []
+    for cell in cells:
+        if not _is_number(cell) or not math.isfinite(float(cell)):
+            raise ValueError(f"{option} {text!r}: {cell!r} is not a finite number (expected {form})")
+        numbers.append(float(cell))
+    if name and not name.replace("_", "").isalnum():
+        raise ValueError(f"{option} {text!r}: name {name!r} may hold only letters, digits and _")
+    return numbers, name
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def read_centreline(path: str | Path) -> Centreline:
+    """Reads a centreline from CSV (x,y[,width] rows, header optional) or JSON.
+
+    JSON is a list of [x, y] or [x, y, width], or {"centreline": [...], "width": W}.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read the centreline: {e}") from None
+    if path.suffix.lower() == ".json" or text.lstrip().startswith(("[", "{")):
+        return _parse_json(text, str(path))
+    return _parse_csv(text, str(path))
+
+
+def _parse_csv(text: str, source: str) -> Centreline:
+    rows, labels = [], []
+    columns = ("x", "y", "width")
+    for lineno, cells in enumerate(csv.reader(io.StringIO(text)), start=1):
+        cells = [c.strip() for c in cells]
+        if not any(cells) or cells[0].startswith("#"):
+            continue
+        if not rows and not any(_is_number(c) for c in cells):
+            continue  # the header
+        if len(cells) not in (2, 3):
+            raise ValueError(f"{source}: row {lineno} has {len(cells)} cells; expected x,y or x,y,width")
+        if rows and len(cells) != len(rows[0]):
+            raise ValueError(f"{source}: row {lineno} has {len(cells)} cells but the rows before it "
+                             f"have {len(rows[0])}")
+        values = []
+        for column, cell in zip(columns, cells, strict=False):
+            if not _is_number(cell):
+                raise ValueError(f"{source}: row {lineno}, column {column}: {cell!r} is not a number")
+            values.append(float(cell))
+        rows.append(values)
+        labels.append(f"row {lineno}")
+    return _centreline(rows, labels, source)
+
+
+def _parse_json(text: str, source: str) -> Centreline:
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{source}: not valid JSON: {e}") from None
+    width = None
+    if isinstance(data, dict):
+        points = data.get("centreline", data.get("centerline"))
+        if points is None:
+            raise ValueError(f"{source}: a JSON object needs a \"centreline\" list of [x, y] points")
+        width = data.get("width")
+        if width is not None and (isinstance(width, bool) or not isinstance(width, (int, float))):
+            raise ValueError(f"{source}: \"width\" must be a number, got {width!r}")
+        data = points
+    if not isinstance(data, list):
+        raise ValueError(f"{source}: expected a list of [x, y] or [x, y, width] points")
+    rows, labels = [], []
+    for i, point in enumerate(data):
+        if not isinstance(point, list) or len(point) not in (2, 3):
+            raise ValueError(f"{source}: point {i} is {point!r}; expected [x, y] or [x, y, width]")
+        if rows and len(point) != len(rows[0]):
+            raise ValueError(f"{source}: point {i} has {len(point)} values but the points before it "
+                             f"have {len(rows[0])}")
+        for column, value in zip(("x", "y", "width"), point, strict=False):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"{source}: point {i}, {column}: {value!r} is not a number")
+        rows.append([float(v) for v in point])
+        labels.append(f"point {i}")
+    line = _centreline(rows, labels, source)
+    return Centreline(line.points, line.widths, line.labels, source, width)
+
+
+def _centreline(rows: list[list[float]], labels: list[str], source: str) -> Centreline:
+    array = np.array(rows, dtype=float).reshape(-1, len(rows[0]) if rows else 2)
+    for i, row in enumerate(array):
+        for column, value in zip(("x", "y", "width"), row, strict=False):
+            if not math.isfinite(value):
+                raise ValueError(f"{source}: {labels[i]}, {column} = {value}: not a finite number")
+    widths = array[:, 2].copy() if array.shape[1] == 3 else None
+    return Centreline(array[:, :2].copy(), widths, tuple(labels), source)
+
+
+def as_centreline(centreline: Centreline | Sequence | np.ndarray, source: str = "<centreline>") -> Centreline:
+    """A Centreline from an (n, 2) or (n, 3) array-like of x, y[, width] (or a Centreline itself)."""
+    if isinstance(centreline, Centreline):
+        return centreline
+    try:
+        array = np.array(centreline, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{source}: the centreline must be numbers x, y[, width]: {e}") from None
+    if array.ndim != 2 or array.shape[1] not in (2, 3):
+        raise ValueError(f"{source}: the centreline must have shape (n, 2) or (n, 3), got {array.shape}")
+    return _centreline(array.tolist(), [f"point {i}" for i in range(len(array))], source)
+
+
+# --- path logic -----------------------------------------------------------------------------------
+
+
+def chaikin(points: np.ndarray, iterations: int, closed: bool = False) -> np.ndarray:
+    """Chaikin corner cutting of an (n, k) polyline; an open one keeps its two end points."""
+    points = np.asarray(points, dtype=float)
+    for _ in range(iterations):
+        a = points if closed else points[:-1]
+        b = np.roll(points, -1, axis=0) if closed else points[1:]
+        cut = np.empty((2 * len(a), points.shape[1]))
+        cut[0::2] = 0.75 * a + 0.25 * b
+        cut[1::2] = 0.25 * a + 0.75 * b
+        points = cut if closed else np.vstack([points[:1], cut, points[-1:]])
+    return points
+
+
+def resample(points: np.ndarray, spacing: float, closed: bool = False) -> np.ndarray:
+    """Points every ~`spacing` m of arc length along a polyline, the end points included.
+
+    A closed polyline starts at its first point and stops one spacing short of coming back to it.
+    """
+    return _resample(points, spacing, closed)[0]
+
+
+def _resample(points: np.ndarray, spacing: float, closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """`resample`, and the arc length of each point."""
+    loop = np.vstack([points, points[:1]]) if closed else points
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(loop, axis=0).T))])
+    count = max(3 if closed else 1, math.ceil(s[-1] / spacing - 1e-9))
+    at = np.linspace(0.0, s[-1], count + 1)
+    if closed:
+        at = at[:-1]
+    return np.column_stack([np.interp(at, s, loop[:, 0]), np.interp(at, s, loop[:, 1])]), at
+
+
+def douglas_peucker(points: np.ndarray, tolerance: float) -> np.ndarray:
+    """Indices of the vertices of an open polyline that Douglas-Peucker keeps (both ends always)."""
+    keep = np.zeros(len(points), dtype=bool)
+    keep[[0, -1]] = True
+    stack = [(0, len(points) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j <= i + 1:
+            continue
+        inner = points[i + 1:j]
+        distance = point_segment_distance(inner, points[i], points[j])
+        k = int(np.argmax(distance))
+        if distance[k] > tolerance:
+            keep[i + 1 + k] = True
+            stack += [(i, i + 1 + k), (i + 1 + k, j)]
+    return np.flatnonzero(keep)
+
+
+def point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distances of points p (..., 2) to segments a-b (broadcast)."""
+    ab = b - a
+    length2 = np.maximum(np.sum(ab * ab, axis=-1), 1e-300)
+    t = np.clip(np.sum((p - a) * ab, axis=-1) / length2, 0.0, 1.0)
+    return np.hypot(*np.moveaxis(p - a - t[..., None] * ab, -1, 0))
+
+
+def segment_crossings(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray,
+                      b1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where segments a (n, 2) properly cross segments b (m, 2): boolean (n, m), and the
+    parameters (n, m) of the crossing point along a and along b."""
+    da, db = (a1 - a0)[:, None], (b1 - b0)[None]
+    denom = da[..., 0] * db[..., 1] - da[..., 1] * db[..., 0]
+    w = b0[None] - a0[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (w[..., 0] * db[..., 1] - w[..., 1] * db[..., 0]) / denom
+        u = (w[..., 0] * da[..., 1] - w[..., 1] * da[..., 0]) / denom
+    eps = 1e-9
+    cross = (np.abs(denom) > 1e-12) & (t > eps) & (t < 1 - eps) & (u > eps) & (u < 1 - eps)
+    return cross, t, u
+
+
+def segments_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
+    """Least distances (n, m) between segments a (n, 2) and segments b (m, 2); 0 where they cross."""
+    d = np.minimum.reduce([
+        point_segment_distance(a0[:, None], b0[None], b1[None]),
+        point_segment_distance(a1[:, None], b0[None], b1[None]),
+        point_segment_distance(b0[None], a0[:, None], a1[:, None]),
+        point_segment_distance(b1[None], a0[:, None], a1[:, None]),
+    ])
+    return np.where(segment_crossings(a0, a1, b0, b1)[0], 0.0, d)
+
+
+@dataclass(frozen=True)
+class WallSegment:
+    """The inner face a -> b of one wall box; the tunnel lies to its right, the box to its left.
+
+    `extend_a` / `extend_b` lengthen the box past a / b to close the outside of a corner.
+    """
+
+    name: str
+    a: np.ndarray
+    b: np.ndarray
+    extend_a: float = 0.0
+    extend_b: float = 0.0
+
+
+@dataclass(frozen=True)
+class TunnelLayout:
+    """Everything `tunnel_element` needs: wall faces, the global path, the start heading, bounds."""
+
+    walls: tuple[WallSegment, ...]
+    path: np.ndarray
+    start_heading: float
+    bounds: np.ndarray
+    closed: bool
+    axis: np.ndarray = field(repr=False)
+    """The (smoothed) centreline the path samples, (n, 2)."""
+
+
+class _Working:
+    """The centreline being laid out: points, half widths, and where each point came from."""
+
+    def __init__(self, line: Centreline, half: np.ndarray, closed: bool):
+        self.line, self.closed = line, closed
+        self.points = line.points
+        self.half = half
+        self.src = np.arange(len(line.points), dtype=float)
+
+    def near(self, *src: float) -> str:
+        """Names the input points around working positions `src` (fractions of input indices)."""
+        n = len(self.line.points)
+        if self.closed and max(src) - min(src) > n / 2:
+            src = tuple(v + n if v < n / 2 else v for v in src)
+        lo, hi = math.floor(min(src) + 1e-6), math.ceil(max(src) - 1e-6)
+        names = dict.fromkeys(self.line.label(i % n if self.closed else min(max(i, 0), n - 1))
+                              for i in range(lo, hi + 1))
+        return " and ".join(names) if len(names) <= 2 else f"{next(iter(names))} to {list(names)[-1]}"
+
+
+def layout_tunnel(centreline: Centreline | Sequence | np.ndarray, width: float | None = None, *,
+                  closed: bool = False, smooth: int = 0, path_spacing: float = PATH_SPACING,
+                  obstacles: Sequence[Obstacle] = (), movers: Sequence[MovingObstacle] = (),
+                  wall_thickness: float = WALL_THICKNESS, end_clearance: float = END_CLEARANCE,
+                  margin: float = BOUNDS_MARGIN, merge_tolerance: float = MERGE_TOLERANCE) -> TunnelLayout:
+    """The walls, path and bounds of a tunnel, validated; see `build_tunnel` for the arguments."""
+    line = as_centreline(centreline)
+    source = line.source
+    widths = _widths(line, width)
+    if not (path_spacing > 0 and wall_thickness > 0 and end_clearance >= 0 and margin >= 0
+            and merge_tolerance >= 0 and smooth >= 0):
+        raise ValueError(f"{source}: path spacing and wall thickness must be positive; end clearance, "
+                         "margin, tolerance and smoothing non-negative")
+    points = line.points
+    if closed and len(points) > 2 and np.allclose(points[0], points[-1]):
+        line = Centreline(points[:-1], None if line.widths is None else line.widths[:-1],
+                          line.labels[:-1], source, line.width)
+        widths, points = widths[:-1], points[:-1]
+    least = 3 if closed else 2
+    if len(points) < least:
+        raise ValueError(f"{source}: a{' closed' if closed else 'n open'} tunnel needs at least {least} "
+                         f"centreline points, got {len(points)}")
+    work = _Working(line, widths / 2, closed)
+    _check_polyline(work)
+    if smooth:
+        # a loop's point index goes round like an angle, which survives averaging as (cos, sin)
+        n = len(points)
+        angle = 2 * np.pi * work.src / n
+        src = np.column_stack([np.cos(angle), np.sin(angle)]) if closed else work.src[:, None]
+        smoothed = chaikin(np.column_stack([work.points, work.half, src]), smooth, closed)
+        if closed:
+            smoothed = _start_near(smoothed, points[0])
+        work.points, work.half = smoothed[:, :2], smoothed[:, 2]
+        work.src = ((np.arctan2(smoothed[:, 4], smoothed[:, 3]) * n / (2 * np.pi)) % n if closed
+                    else smoothed[:, 3])
+    _check_turns(work)
+    rings = _wall_rings(work, end_clearance)
+    _check_walls(work, rings)
+    walls = _merge_walls(rings, merge_tolerance, wall_thickness)
+    path = resample(work.points, path_spacing, closed)
+    _check_clearance(work, walls, obstacles)
+    heading = math.atan2(*(work.points[1] - work.points[0])[::-1])
+    bounds = _bounds(walls, wall_thickness, obstacles, movers, margin)
+    return TunnelLayout(tuple(walls), path, heading, bounds, closed, work.points)
+
+
+def _start_near(loop: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """A closed polyline (n, k) (x, y first) turned to start where it passes nearest to `first`."""
+    a, b = loop, np.roll(loop, -1, axis=0)
+    d = b[:, :2] - a[:, :2]
+    t = np.clip(np.sum((first - a[:, :2]) * d, axis=1) / np.sum(d * d, axis=1), 0.0, 1.0)
+    foot = a + t[:, None] * (b - a)
+    k = int(np.argmin(np.hypot(*(foot[:, :2] - first).T)))
+    rest = np.roll(loop, -(k + 1), axis=0)
+    if np.isclose(t[k], 1.0):
+        return rest
+    if np.isclose(t[k], 0.0):
+        return np.roll(rest, 1, axis=0)
+    return np.vstack([foot[k:k + 1], rest])
+
+
+def _widths(line: Centreline, width: float | None) -> np.ndarray:
+    source = line.source
+    if width is not None and line.widths is not None:
+        raise ValueError(f"{source}: the centreline gives a width per point and a constant width "
+                         f"{width} m was passed too; use one or the other")
+    if width is None and line.widths is None:
+        width = line.width
+    if line.widths is None and width is None:
+        raise ValueError(f"{source}: no tunnel width: pass --width W or give a third column")
+    widths = line.widths if line.widths is not None else np.full(len(line.points), float(width))
+    for i, w in enumerate(widths):
+        where = f"{line.label(i)}: " if line.widths is not None else ""
+        if not math.isfinite(w):
+            raise ValueError(f"{source}: {where}width {w} is not a finite number")
+        if w < MIN_WIDTH:
+            raise ValueError(
+                f"{source}: {where}width {w:g} m is too narrow: a vehicle on the axis keeps d_s = "
+                f"{SAFETY_DISTANCE:g} m from both walls with its {HULL_HALF_LENGTH} m half length, so a "
+                f"tunnel must be at least {MIN_WIDTH:.2f} m wide")
+    return np.asarray(widths, dtype=float)
+
+
+def _segments(points: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and ends of the segments of a polyline (a closed one has one more, back to its start)."""
+    return (points, np.roll(points, -1, axis=0)) if closed else (points[:-1], points[1:])
+
+
+def _arc_length(points: np.ndarray, closed: bool) -> np.ndarray:
+    a, b = _segments(points, closed)
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*(b - a).T))])
+
+
+def _check_polyline(work: _Working) -> None:
+    """Repeated points and a centreline crossing itself, named by the input rows."""
+    source, line = work.line.source, work.line
+    a, b = _segments(work.points, work.closed)
+    for i in np.flatnonzero(np.hypot(*(b - a).T) < 1e-9):
+        j = (i + 1) % len(work.points)
+        raise ValueError(f"{source}: {line.label(i)} and {line.label(j)} are the same point "
+                         f"({_xy(a[i])}); remove one")
+    cross, t, _ = segment_crossings(a, b, a, b)
+    cross = np.triu(cross, 2)
+    if work.closed:
+        cross[0, -1] = False
+    if cross.any():
+        i, j = np.argwhere(cross)[0]
+        n = len(work.points)
+        p = a[i] + t[i, j] * (b[i] - a[i])
+        raise ValueError(f"{source}: the centreline crosses itself: the segment {line.label(i)} - "
+                         f"{line.label((i + 1) % n)} crosses {line.label(j)} - {line.label((j + 1) % n)} "
+                         f"at ({_xy(p)})")
+
+
+def _check_turns(work: _Working) -> None:
+    a, b = _segments(work.points, work.closed)
+    d = b - a
+    heading = np.arctan2(d[:, 1], d[:, 0])
+    nxt = np.roll(heading, -1) if work.closed else heading[1:]
+    turn = np.abs((nxt - heading[: len(nxt)] + np.pi) % (2 * np.pi) - np.pi)
+    bad = np.flatnonzero(turn > math.radians(MAX_TURN_DEG))
+    if len(bad):
+        k = (bad[0] + 1) % len(work.points)
+        raise ValueError(f"{work.line.source}: the centreline turns {math.degrees(turn[bad[0]]):.0f} deg at "
+                         f"{work.near(work.src[k])} ({_xy(work.points[k])}); at most {MAX_TURN_DEG:g} deg "
+                         "at one point: add points or smooth it")
+
+
+def _offset(points: np.ndarray, half: np.ndarray, closed: bool) -> np.ndarray:
+    """Miter offset of a polyline, `half` [m] to its left (negative: right), per vertex."""
+    a, b = _segments(points, closed)
+    d = b - a
+    normal = np.column_stack([-d[:, 1], d[:, 0]]) / np.hypot(*d.T)[:, None]
+    if closed:
+        before, after = np.roll(normal, 1, axis=0), normal
+    else:
+        before, after = np.vstack([normal[:1], normal]), np.vstack([normal, normal[-1:]])
+    miter = before + after
+    miter /= np.hypot(*miter.T)[:, None]
+    scale = 1.0 / np.maximum(np.sum(miter * after, axis=1), 1e-6)
+    return points + miter * (half * scale)[:, None]
+
+
+@dataclass
+class _Ring:
+    """A closed chain of wall faces (tunnel on its right), split into named parts."""
+
+    parts: list[tuple[str, np.ndarray, np.ndarray]]  # (name, points (k, 2), src (k,)), end = next's start
+    closed_part: bool = False  # one part that closes on itself (a closed tunnel's wall)
+
+
+def _wall_rings(work: _Working, end_clearance: float) -> list[_Ring]:
+    points, half, src = work.points, work.half, work.src
+    if not work.closed:
+        t0 = (points[0] - points[1]) / np.hypot(*(points[0] - points[1]))
+        t1 = (points[-1] - points[-2]) / np.hypot(*(points[-1] - points[-2]))
+        if end_clearance > 0:
+            points = np.vstack([points[0] + t0 * end_clearance, points, points[-1] + t1 * end_clearance])
+            half = np.concatenate([half[:1], half, half[-1:]])
+            src = np.concatenate([src[:1], src, src[-1:]])
+    left = _offset(points, half, work.closed)
+    right = _offset(points, -half, work.closed)
+    _check_folds(work, points, left, right, src)
+    if work.closed:
+        return [_Ring([("left", left, src)], True), _Ring([("right", right[::-1], src[::-1])], True)]
+    return [_Ring([("left", left, src),
+                   ("cap_goal", np.array([left[-1], right[-1]]), src[[-1, -1]]),
+                   ("right", right[::-1], src[::-1]),
+                   ("cap_start", np.array([right[0], left[0]]), src[[0, 0]])])]
+
+
+def _check_folds(work: _Working, points: np.ndarray, left: np.ndarray, right: np.ndarray,
+                 src: np.ndarray) -> None:
+    """An offset segment pointing against its centreline segment: the bend is tighter than the width."""
+    a, b = _segments(points, work.closed)
+    for side, wall in (("left", left), ("right", right)):
+        wa, wb = _segments(wall, work.closed)
+        bad = np.flatnonzero(np.sum((wb - wa) * (b - a), axis=1) <= 0)
+        if len(bad):
+            i = bad[0]
+            j = (i + 1) % len(points)
+            w = 2 * max(work.half.max(), 0)
+            raise ValueError(
+                f"{work.line.source}: the {side} wall folds over itself near {work.near(src[i], src[j])} "
+                f"({_xy(points[i])}): the bend there is too tight for a {w:g} m wide tunnel (its radius "
+                f"must exceed half the width, {w / 2:g} m): widen the bend, add points, smooth it, or "
+                "narrow the tunnel")
+
+
+def _ring_segments(ring: _Ring) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray]:
+    """All faces of a ring: starts, ends, part names, and (k, 2) src of their end points."""
+    a, b, names, src = [], [], [], []
+    for name, pts, s in ring.parts:
+        if ring.closed_part:
+            pts, s = np.vstack([pts, pts[:1]]), np.concatenate([s, s[:1]])
+        a.append(pts[:-1])
+        b.append(pts[1:])
+        names += [name] * (len(pts) - 1)
+        src.append(np.column_stack([s[:-1], s[1:]]))
+    return np.vstack(a), np.vstack(b), names, np.vstack(src)
+
+
+def _check_walls(work: _Working, rings: list[_Ring]) -> None:
+    """Wall faces crossing each other anywhere but at their own joins (the tunnel overlaps itself)."""
+    chains = [_ring_segments(r) for r in rings]
+    a = np.vstack([c[0] for c in chains])
+    b = np.vstack([c[1] for c in chains])
+    names = sum((c[2] for c in chains), [])
+    src = np.vstack([c[3] for c in chains])
+    ring_id = np.concatenate([np.full(len(c[0]), k) for k, c in enumerate(chains)])
+    cross, t, _ = segment_crossings(a, b, a, b)
+    index = np.arange(len(a))
+    first = np.array([np.flatnonzero(ring_id == k)[0] for k in range(len(chains))])[ring_id]
+    last = np.array([np.flatnonzero(ring_id == k)[-1] for k in range(len(chains))])[ring_id]
+    same_ring = ring_id[:, None] == ring_id[None]
+    adjacent = same_ring & ((np.abs(index[:, None] - index[None]) <= 1)
+                            | ((index[:, None] == first[:, None]) & (index[None] == last[None]))
+                            | ((index[:, None] == last[:, None]) & (index[None] == first[None])))
+    cross &= ~adjacent
+    if cross.any():
+        i, j = np.argwhere(np.triu(cross))[0]
+        p = a[i] + t[i, j] * (b[i] - a[i])
+        what = {"left": "left wall", "right": "right wall", "cap_goal": "end cap at the goal",
+                "cap_start": "end cap at the start"}
+        raise ValueError(
+            f"{work.line.source}: the tunnel walls cross at ({_xy(p)}): the {what[names[i]]} near "
+            f"{work.near(*src[i])} crosses the {what[names[j]]} near {work.near(*src[j])} (the bend is "
+            "too tight for the width, or the tunnel runs into itself)")
+
+
+def _merge_walls(rings: list[_Ring], tolerance: float, thickness: float) -> list[WallSegment]:
+    """Merges near-collinear faces into long boxes and lengthens boxes to close outside corners."""
+    walls = []
+    for ring in rings:
+        faces: list[tuple[str, np.ndarray, np.ndarray]] = []
+        for name, pts, _ in ring.parts:
+            if ring.closed_part:
+                far = int(np.argmax(np.hypot(*(pts - pts[0]).T)))
+                loop = np.vstack([pts, pts[:1]])
+                keep = np.concatenate([douglas_peucker(loop[: far + 1], tolerance)[:-1],
+                                       far + douglas_peucker(loop[far:], tolerance)])
+            else:
+                keep = douglas_peucker(pts, tolerance)
+            kept = (np.vstack([pts, pts[:1]]) if ring.closed_part else pts)[keep]
+            count = len(kept) - 1
+            for k in range(count):
+                # the right wall is walked backwards; number every wall from the start
+                number = count - 1 - k if name == "right" else k
+                faces.append((name if name.startswith("cap") else f"{name}_{number}", kept[k], kept[k + 1]))
+        n = len(faces)
+        extend = np.zeros((n, 2))
+        for k in range(n):
+            d1 = faces[k][2] - faces[k][1]
+            d2 = faces[(k + 1) % n][2] - faces[(k + 1) % n][1]
+            turn = math.atan2(d1[0] * d2[1] - d1[1] * d2[0], float(d1 @ d2))
+            if turn < 0:  # turning into the tunnel: the boxes' outer corners leave a wedge to fill
+                e = thickness * math.tan(min(-turn, math.radians(150)) / 2)
+                extend[k, 1] = extend[(k + 1) % n, 0] = e
+        walls += [WallSegment(f"wall_{name}", a, b, float(ea), float(eb))
+                  for (name, a, b), (ea, eb) in zip(faces, extend, strict=False)]
+    return walls
+
+
+def _check_clearance(work: _Working, walls: list[WallSegment], obstacles: Sequence[Obstacle]) -> None:
+    """The global path keeps PATH_CLEARANCE from every wall and known obstacle."""
+    source = work.line.source
+    samples, at = _resample(work.points, 1.0, work.closed)
+    src = np.concatenate([work.src, work.src[:1] + len(work.line.points)]) if work.closed else work.src
+    s_src = np.interp(at, _arc_length(work.points, work.closed), src)
+    a = np.array([w.a for w in walls])
+    b = np.array([w.b for w in walls])
+    distance = point_segment_distance(samples[:, None], a[None], b[None])
+    i, j = np.unravel_index(np.argmin(distance), distance.shape)
+    if distance[i, j] < PATH_CLEARANCE:
+        raise ValueError(
+            f"{source}: the global path near {work.near(s_src[i])} ({_xy(samples[i])}) passes "
+            f"{distance[i, j]:.2f} m from the wall {walls[j].name}, closer than d_s + hull radius = "
+            f"{PATH_CLEARANCE:.2f} m (another part of the tunnel is too close)")
+    pa, pb = _segments(samples, work.closed)
+    for k, obstacle in enumerate(obstacles):
+        corners = obstacle.corners()
+        edges = segments_distance(pa, pb, corners, np.roll(corners, -1, axis=0)).min(axis=1)
+        inside = _inside_polygon(samples, corners)
+        gap = np.where(inside[: len(edges)], 0.0, edges)
+        i = int(np.argmin(gap))
+        if gap[i] < PATH_CLEARANCE:
+            name = obstacle_name(obstacle, k)
+            raise ValueError(
+                f"{source}: {name} at ({_xy([obstacle.x, obstacle.y])}) is {gap[i]:.2f} m from the global "
+                f"path near {work.near(s_src[i])} ({_xy(samples[i])}), closer than d_s + hull radius = "
+                f"{PATH_CLEARANCE:.2f} m: move it or route the centreline around it")
+
+
+def _inside_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    rel = points[:, None] - polygon[None]
+    side = edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0]
+    return np.all(side >= 0, axis=1) | np.all(side <= 0, axis=1)
+
+
+def _bounds(walls: list[WallSegment], thickness: float, obstacles: Sequence[Obstacle],
+            movers: Sequence[MovingObstacle], margin: float) -> np.ndarray:
+    pts = [w.a for w in walls] + [w.b for w in walls]
+    pad = thickness + max((max(w.extend_a, w.extend_b) for w in walls), default=0.0)
+    lo, hi = np.min(pts, axis=0) - pad, np.max(pts, axis=0) + pad
+    for o in obstacles:
+        lo, hi = np.minimum(lo, o.corners().min(axis=0)), np.maximum(hi, o.corners().max(axis=0))
+    for m in movers:
+        ends = np.array([[m.x0, m.y0], [m.x1, m.y1]])
+        lo, hi = np.minimum(lo, ends.min(axis=0) - m.radius), np.maximum(hi, ends.max(axis=0) + m.radius)
+    return np.concatenate([lo - margin, hi + margin])
+
+
+def obstacle_name(obstacle: Obstacle, index: int) -> str:
+    """Geom name of a known obstacle: `obstacle_<name>` or `obstacle_<index>`."""
+    name = obstacle.name or str(index)
+    return name if name.startswith(OBSTACLE_PREFIX) else OBSTACLE_PREFIX + name
+
+
+def mover_name(mover: MovingObstacle, index: int) -> str:
+    """Body (and geom) name of a moving obstacle: `mover_<name>` or `mover_<index>`."""
+    name = mover.name or str(index)
+    return name if name.startswith(MOVER_PREFIX) else MOVER_PREFIX + name
+
+
+def _xy(p) -> str:
+    return f"{p[0]:.1f}, {p[1]:.1f}"
+
+
+# --- geom creation --------------------------------------------------------------------------------
+
+
+def _fmt(*values: float) -> str:
+    # 1e-7 rad of yaw error moves the far end of a 200 m wall by only 0.02 mm
+    text = (f"{round(float(v), 7):.12g}" for v in values)
+    return " ".join("0" if t == "-0" else t for t in text)
+
+
+def wall_box(wall: WallSegment, thickness: float = WALL_THICKNESS) -> tuple[np.ndarray, np.ndarray, float]:
+    """Centre (x, y), half sizes (length, thickness) and yaw [rad] of the box behind a wall face."""
+    d = wall.b - wall.a
+    length = float(np.hypot(*d))
+    u = d / length
+    outward = np.array([-u[1], u[0]])
+    centre = (wall.a + wall.b) / 2 + outward * thickness / 2 + u * (wall.extend_b - wall.extend_a) / 2
+    half = np.array([(length + wall.extend_a + wall.extend_b) / 2, thickness / 2])
+    return centre, half, math.atan2(u[1], u[0])
+
+
+def tunnel_element(layout: TunnelLayout, obstacles: Sequence[Obstacle] = (),
+                   movers: Sequence[MovingObstacle] = (), wall_thickness: float = WALL_THICKNESS,
+                   name: str = "tunnel", command: str | None = None) -> ET.Element:
+    """The arena MJCF element of a laid-out tunnel (angles in radians, as the vehicle's compiler).
+
+    `command`, the command line that made it, is kept as `<text name="tunnel_command">`.
+    """
+    root = ET.Element("mujoco", model=name)
+    default = ET.SubElement(root, "default")
+    for cls, tag, attrs in (
+        ("tunnel_wall", "geom", {"type": "box", "rgba": WALL_RGBA}),
+        ("tunnel_obstacle", "geom", {"type": "box", "rgba": OBSTACLE_RGBA}),
+        ("tunnel_mover", "geom", {"type": "cylinder", "rgba": MOVER_RGBA}),
+        ("tunnel_path", "site", {"type": "sphere", "size": "0.5", "rgba": PATH_RGBA, "group": "3"}),
+    ):
+        ET.SubElement(ET.SubElement(default, "default", {"class": cls}), tag, attrs)
+    world = ET.SubElement(root, "worldbody")
+    for wall in layout.walls:
+        centre, half, yaw = wall_box(wall, wall_thickness)
+        ET.SubElement(world, "geom", {"name": wall.name, "class": "tunnel_wall", "pos": _fmt(*centre, 0),
+                                      "size": _fmt(*half, WALL_HALF_HEIGHT), "euler": _fmt(0, 0, yaw)})
+    for k, obstacle in enumerate(obstacles):
+        ET.SubElement(world, "geom", {
+            "name": obstacle_name(obstacle, k), "class": "tunnel_obstacle",
+            "pos": _fmt(obstacle.x, obstacle.y, 0),
+            "size": _fmt(obstacle.length / 2, obstacle.width / 2, WALL_HALF_HEIGHT),
+            "euler": _fmt(0, 0, math.radians(obstacle.angle))})
+    path = layout.path
+    ET.SubElement(world, "site", {"name": "start", "type": "box", "size": "1.5 0.4 0.4",
+                                  "rgba": "0.1 0.8 0.2 1", "pos": _fmt(*path[0], 0),
+                                  "euler": _fmt(0, 0, layout.start_heading)})
+    ET.SubElement(world, "site", {"name": "goal", "type": "sphere", "size": "1", "rgba": "0.9 0.8 0.1 1",
+                                  "pos": _fmt(*path[-1], 0)})
+    for k, p in enumerate(path):
+        ET.SubElement(world, "site", {"name": f"path_{k}", "class": "tunnel_path", "pos": _fmt(*p, 0)})
+    custom = ET.SubElement(root, "custom")
+    ET.SubElement(custom, "numeric", {"name": "arena_bounds", "data": _fmt(*layout.bounds)})
+    if command:
+        ET.SubElement(custom, "text", {"name": "tunnel_command", "data": command})
+    for k, mover in enumerate(movers):
+        body_name = mover_name(mover, k)
+        body = ET.SubElement(world, "body", {"name": body_name, "mocap": "true",
+                                             "pos": _fmt(mover.x0, mover.y0, 0)})
+        ET.SubElement(body, "geom", {"name": body_name, "class": "tunnel_mover",
+                                     "size": _fmt(mover.radius, WALL_HALF_HEIGHT)})
+        ET.SubElement(custom, "numeric", {"name": body_name,
+                                          "data": _fmt(mover.x0, mover.y0, mover.x1, mover.y1, mover.speed)})
+    return root
+
+
+def build_tunnel(centreline: Centreline | Sequence | np.ndarray, width: float | None = None, *,
+                 closed: bool = False, smooth: int = 0, path_spacing: float = PATH_SPACING,
+                 obstacles: Sequence[Obstacle] = (), movers: Sequence[MovingObstacle] = (),
+                 wall_thickness: float = WALL_THICKNESS, end_clearance: float = END_CLEARANCE,
+                 margin: float = BOUNDS_MARGIN, merge_tolerance: float = MERGE_TOLERANCE,
+                 name: str = "tunnel", command: str | None = None) -> ET.Element:
+    """Arena MJCF element of a tunnel along `centreline` (points [m], or a `Centreline`).
+
+    `width` [m] is constant unless the centreline gives one per point. `closed` makes a loop (no end
+    caps; the goal is one path spacing short of the start); `smooth` is the number of Chaikin rounds.
+    An open tunnel runs `end_clearance` m past its ends. Raises ValueError naming the input on
+    malformed or unsafe geometry (too narrow, too tight a bend, walls or centreline crossing).
+    """
+    layout = layout_tunnel(centreline, width, closed=closed, smooth=smooth, path_spacing=path_spacing,
+                           obstacles=obstacles, movers=movers, wall_thickness=wall_thickness,
+                           end_clearance=end_clearance, margin=margin, merge_tolerance=merge_tolerance)
+    return tunnel_element(layout, obstacles, movers, wall_thickness, name, command)
+
+
+def save(element: ET.Element, path: str | Path) -> Path:
+    """Writes an arena element as indented MJCF."""
+    path = Path(path)
+    element = copy.deepcopy(element)
+    ET.indent(element)
+    text = ET.tostring(element, encoding="unicode")
+    path.write_text(f"<!-- {HEADER} -->\n{text}\n")
+    return path
+
+
+# --- command line ---------------------------------------------------------------------------------
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of `auv-mj tunnel`."""
+    parser.add_argument("centreline", help="CSV of x,y[,width] rows [m] (header optional) or JSON")
+    parser.add_argument("--width", type=float, help="constant tunnel width [m] (unless per point)")
+    parser.add_argument("-o", "--output", help="arena MJCF to write (default: the centreline's name, .xml)")
+    parser.add_argument("--smooth", action="store_true", help="round the corners (Chaikin corner cutting)")
+    parser.add_argument("--smooth-iterations", type=int, default=SMOOTH_ITERATIONS,
+                        help=f"Chaikin rounds of --smooth (default {SMOOTH_ITERATIONS})")
+    parser.add_argument("--closed", action="store_true", help="the centreline is a loop: no end caps")
+    parser.add_argument("--obstacle", action="append", default=[], metavar="X,Y,LENGTH,WIDTH[,ANGLE[,NAME]]",
+                        help="a known box obstacle (angle in deg); repeatable")
+    parser.add_argument("--mover", action="append", default=[], metavar="X0,Y0,X1,Y1,SPEED,RADIUS[,NAME]",
+                        help="a moving cylinder going back and forth (m, m/s); repeatable")
+    parser.add_argument("--spacing", type=float, default=PATH_SPACING,
+                        help=f"distance between path sites [m] (default {PATH_SPACING:g})")
+    parser.add_argument("--wall-thickness", type=float, default=WALL_THICKNESS)
+    parser.add_argument("--end-clearance", type=float, default=END_CLEARANCE,
+                        help=f"tunnel length past start and goal [m] (default {END_CLEARANCE:g})")
+    parser.add_argument("--margin", type=float, default=BOUNDS_MARGIN, help="arena_bounds margin [m]")
+    parser.add_argument("--tolerance", type=float, default=MERGE_TOLERANCE,
+                        help=f"wall merging tolerance [m] (default {MERGE_TOLERANCE:g})")
+    parser.add_argument("--name", default=None, help="model name (default: the output's stem)")
+
+
+def _command_line() -> str | None:
+    """The `auv-mj tunnel ...` command line this process runs, if it runs one."""
+    argv = sys.argv[1:]
+    return shlex.join(["auv-mj", *argv]) if argv[:1] == ["tunnel"] else None
+
+
+def run(args: argparse.Namespace) -> int:
+    """`auv-mj tunnel`: writes the arena and prints what it holds."""
+    output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
+    try:
+        line = read_centreline(args.centreline)
+        obstacles = [Obstacle.parse(text) for text in args.obstacle]
+        movers = [MovingObstacle.parse(text) for text in args.mover]
+        layout = layout_tunnel(line, args.width, closed=args.closed,
+                               smooth=args.smooth_iterations if args.smooth else 0, path_spacing=args.spacing,
+                               obstacles=obstacles, movers=movers, wall_thickness=args.wall_thickness,
+                               end_clearance=args.end_clearance, margin=args.margin,
+                               merge_tolerance=args.tolerance)
+        element = tunnel_element(layout, obstacles, movers, args.wall_thickness, args.name or output.stem,
+                                 _command_line())
+        save(element, output)
+    except (ValueError, OSError) as e:
+        print(f"auv-mj tunnel: error: {e}", file=sys.stderr)
+        return 1
+    length = float(np.sum(np.hypot(*np.diff(layout.path, axis=0).T)))
+    print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, "
+          f"{len(movers)} movers, {len(layout.path)} path sites over {length:.0f} m; "
+          f"check it with: auv-mj check-arena {output}")
+    return 0

@@ -1,0 +1,204 @@
+"""A Gymnasium view of any auv-mj suite task, and the `auv_mj/*-v0` environment ids.
+
+`AUVGymEnv(task_name)` wraps `tasks.suite.load("auv", task_name, ...)`. Goal-conditioned tasks get the
+Gymnasium-Robotics GoalEnv convention: a Dict observation ("observation", "achieved_goal",
+"desired_goal") and vectorised `compute_reward` / `compute_terminated` / `compute_truncated` that
+delegate to the task, so that `reward == env.compute_reward(obs["achieved_goal"], obs["desired_goal"],
+info)` and Stable-Baselines3's HerReplayBuffer can relabel goals. That invariant needs the
+goal-decomposable reward, so goal tasks default to reward="paper" (Eq. 26) here; the task's
+`compute_reward` reads "previous_achieved_goal" from `info`, so give SB3's HerReplayBuffer
+`copy_info_dict=True`. Other tasks get a flat Box.
+
+Time limits stay with the dm_control Environment: a LAST step with discount 0 is `terminated`, one with
+discount 1 (the time limit) is `truncated`. `reset(seed=s)` reseeds the task's RandomState with s, so
+it gives the same episode as `suite.load(..., task_kwargs={"random": s})`.
+
+The ids are registered when this module is imported (`tasks/__init__.py` imports it), e.g.
+`gymnasium.make("auv_mj/Goal-v0", task_kwargs={"reward": "paper"})`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+DOMAIN = "auv"
+GOAL_KEYS = ("observation", "achieved_goal", "desired_goal")
+"""Observation keys of the goal-conditioned tasks (GoalEnv convention)."""
+GOAL_TASK_REWARD = "paper"
+"""Reward of goal tasks unless task_kwargs say otherwise: the goal-decomposable Eq. (26), which the tasks'
+`compute_reward` reproduces, so that HER's relabelled rewards are the environment's own."""
+RENDER_SIZE = (480, 480)
+"""Default (height, width) of `render()` images [pixels]."""
+RENDER_DISTANCE = 30.0
+"""Default height of the top-down render camera above the vehicle [m]."""
+ENTRY_POINT = "tasks.gym_adapter:AUVGymEnv"
+GYM_IDS = {
+    "auv_mj/Goal-v0": "goal",
+    "auv_mj/Waypoints-v0": "waypoints",
+    "auv_mj/Obstacles-v0": "obstacles",
+    "auv_mj/MovingObstacles-v0": "moving_obstacles",
+    "auv_mj/Tunnel-v0": "tunnel",
+    "auv_mj/PathLine-v0": "path_line",
+    "auv_mj/PathCurve-v0": "path_curve",
+    "auv_mj/SpeedHeading-v0": "speed_heading",
+}
+"""Gymnasium id -> suite task name."""
+
+
+def _box(spec) -> spaces.Box:
+    """An unbounded float64 Box of a dm_env observation spec's shape."""
+    return spaces.Box(-np.inf, np.inf, shape=tuple(spec.shape), dtype=np.float64)
+
+
+class AUVGymEnv(gymnasium.Env):
+    """Gymnasium adapter over the suite task `task_name` (GoalEnv convention for goal tasks)."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(self, task_name: str, task_kwargs: Mapping[str, Any] | None = None,
+                 environment_kwargs: Mapping[str, Any] | None = None, render_mode: str | None = None,
+                 render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE):
+        """`task_kwargs` go to the task factory (not "random": seed through `reset(seed=...)`)."""
+        from tasks import suite  # imported here so that registering the ids stays light
+
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                             f"got {render_mode!r}")
+        task_kwargs = dict(task_kwargs or {})
+        if "random" in task_kwargs:
+            raise ValueError("seed the task through reset(seed=...), not task_kwargs['random']")
+        self.task_name = task_name
+        self.render_mode = render_mode
+        self.render_size = tuple(render_size)
+        self.render_distance = float(render_distance)
+        environment_kwargs = dict(environment_kwargs or {})
+        self._env = suite.load(DOMAIN, task_name, task_kwargs=task_kwargs,
+                               environment_kwargs=environment_kwargs)
+        obs_spec = self._env.observation_spec()
+        self.is_goal_task = all(key in obs_spec for key in GOAL_KEYS)
+        if self.is_goal_task and "reward" not in task_kwargs:
+            task_kwargs["reward"] = GOAL_TASK_REWARD
+            self._env = suite.load(DOMAIN, task_name, task_kwargs=task_kwargs,
+                                   environment_kwargs=environment_kwargs)
+        self.task_kwargs = task_kwargs
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self._env.control_timestep())}
+        if self.is_goal_task:
+            self._obs_keys = GOAL_KEYS
+            self.observation_space = spaces.Dict({key: _box(obs_spec[key]) for key in GOAL_KEYS})
+        else:
+            self._obs_keys = tuple(obs_spec)
+            size = sum(int(np.prod(obs_spec[key].shape)) for key in self._obs_keys)
+            self.observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        action_spec = self._env.action_spec()
+        low, high = (np.broadcast_to(np.asarray(bound, dtype=np.float32), action_spec.shape).copy()
+                     for bound in (action_spec.minimum, action_spec.maximum))
+        self.action_space = spaces.Box(low, high, dtype=np.float32)
+        self._camera = None
+        self._needs_reset = True
+
+    # --- the wrapped dm_control objects ------------------------------------------------------------
+
+    @property
+    def dm_env(self):
+        """The wrapped `dm_control.rl.control.Environment`."""
+        return self._env
+
+    @property
+    def task(self):
+        """The suite task (compute_reward, last_info, ...)."""
+        return self._env.task
+
+    @property
+    def physics(self):
+        """The task's `AUVPhysics`."""
+        return self._env.physics
+
+    # --- Gymnasium API ------------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Starts an episode; a `seed` reseeds the task's RandomState (same episode as random=seed)."""
+        super().reset(seed=seed)
+        if seed is not None:
+            self.task.random.seed(seed)
+        time_step = self._env.reset()
+        self._needs_reset = False
+        return self._observation(time_step.observation), self._info()
+
+    def step(self, action):
+        """One task step; `terminated` on a LAST step with discount 0, `truncated` at the time limit."""
+        if self._needs_reset:
+            raise RuntimeError("call reset() before step() (and after an episode has ended)")
+        time_step = self._env.step(np.asarray(action, dtype=np.float64))
+        terminated = bool(time_step.last() and time_step.discount == 0.0)
+        truncated = bool(time_step.last() and not terminated)
+        self._needs_reset = time_step.last()
+        return (self._observation(time_step.observation), float(time_step.reward), terminated, truncated,
+                self._info())
+
+    def compute_reward(self, achieved_goal, desired_goal, info):
+        """The task's vectorised reward for (batches of) goals; `info` as from `step` (or a batch of them)."""
+        return self._goal_method("compute_reward")(achieved_goal, desired_goal, info)
+
+    def compute_terminated(self, achieved_goal, desired_goal, info):
+        """The task's vectorised termination for (batches of) goals."""
+        return self._goal_method("compute_terminated")(achieved_goal, desired_goal, info)
+
+    def compute_truncated(self, achieved_goal, desired_goal, info):
+        """Truncation (the time limit) does not depend on the goals: all False unless the task decides."""
+        method = getattr(self.task, "compute_truncated", None)
+        if method is not None:
+            return method(achieved_goal, desired_goal, info)
+        achieved_goal = np.asarray(achieved_goal)
+        return np.zeros(achieved_goal.shape[:-1], dtype=bool) if achieved_goal.ndim > 1 else False
+
+    def render(self):
+        """An (H, W, 3) uint8 top-down image centred on the vehicle ("rgb_array"), else None."""
+        if self.render_mode != "rgb_array":
+            return None
+        from dm_control.mujoco import engine
+
+        if self._camera is None:
+            height, width = self.render_size
+            self._camera = engine.MovableCamera(self.physics, height, width)
+        x, y, _ = self.physics.pose()
+        self._camera.set_pose(lookat=np.array([x, y, 0.0]), distance=self.render_distance,
+                              azimuth=90.0, elevation=-90.0)
+        return self._camera.render()
+
+    def close(self):
+        """Frees the camera; safe to call twice."""
+        self._camera = None
+
+    # --- helpers ------------------------------------------------------------------------------------
+
+    def _goal_method(self, name: str):
+        method = getattr(self.task, name, None)
+        if method is None:
+            raise AttributeError(f"task {self.task_name!r} is not goal-conditioned: it has no {name}()")
+        return method
+
+    def _observation(self, observation: Mapping[str, np.ndarray]):
+        if self.is_goal_task:
+            return {key: np.array(observation[key], dtype=np.float64) for key in GOAL_KEYS}
+        return np.concatenate([np.asarray(observation[key], dtype=np.float64).ravel()
+                               for key in self._obs_keys])
+
+    def _info(self) -> dict:
+        info = dict(getattr(self.task, "last_info", None) or {})
+        info["is_success"] = bool(info.get("is_success", info.get("success", False)))
+        return info
+
+
+def register_envs() -> None:
+    """Registers the `auv_mj/*-v0` ids (GYM_IDS) with Gymnasium; idempotent."""
+    for env_id, task_name in GYM_IDS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs={"task_name": task_name})
+
+
+register_envs()

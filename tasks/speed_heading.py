@@ -1,0 +1,381 @@
+"""speed_heading: the execution layer's task of Sec. 3.3 and 4.2 (follow a speed and heading command).
+
+The agent is the executor: each step (EXECUTOR_DT = 0.1 s) it sees the command (V_cmd, psi_cmd) and the
+vehicle's motion (Eq. 27) and outputs the thrust and yaw moment tau = (tau_u, tau_r) (Eq. 28-29), scaled
+from [-1, 1]^2 by the actuator ranges of the model. The speed V is the surge speed u (the executor's
+channel; sway is unactuated), the heading psi the yaw angle. Reward "paper" is Eq. (30),
+r = -|e_V| - |e_psi|; "suite" (default) is in [0, 1], the mean of two `tolerance` terms.
+
+Commands: "paper" (default) holds the Sec. 4.2 command, 1.0 m/s and pi/12, from rest at psi = 0; a pair
+(V, psi) holds that command; "random" (training) starts from a random speed and heading and changes the
+command every COMMAND_HOLD_STEPS, as the 2 Hz planner would.
+
+Disturbances: "paper" (default) is the Sec. 4.2 schedule, in executor steps k: a 180 N body-frame sway
+burst for 10 steps from k = 250, a constant 30 N world +y ("E-eta") force for 350 steps from k = 350,
+and a periodic 25 sin(0.01 pi k) N world +y force for 350 steps from k = 750 (k counts from the episode
+start, continuous within a step), over 1100 steps. "random" draws bursts, currents and periodic forces
+of random size, direction and timing; "none" applies nothing. `last_info["phase"]` names the latest
+disturbance to have started ("none" before the first), so that the per-phase MAE of Table 9 covers each
+disturbance and the recovery from it; `run_executor` computes it.
+"""
+
+from __future__ import annotations
+
+import auv_mj  # noqa: F401  # isort: skip  (first: it picks MuJoCo's OpenGL backend before dm_control loads)
+import collections
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from dm_control.rl import control
+from dm_control.suite import base
+from dm_control.utils import rewards
+from dm_env import specs
+
+from auv_mj import arena
+from auv_mj.splane import EXECUTOR_DT, wrap_angle
+from tasks.registry import SUITE
+
+EPISODE_STEPS = 1100
+"""Length of the Sec. 4.2 experiment, in executor steps."""
+_DEFAULT_TIME_LIMIT = EPISODE_STEPS * EXECUTOR_DT
+PAPER_COMMAND = (1.0, math.pi / 12)
+"""Target speed [m/s] and heading [rad] of Sec. 4.2."""
+
+BURST_FORCE = 180.0
+"""Sec. 4.2 instantaneous disturbance: lateral (body sway) force [N] ..."""
+BURST_START, BURST_STEPS = 250, 10
+"""... from executor step 250, for 10 steps."""
+CONSTANT_FORCE = 30.0
+"""Sec. 4.2 constant disturbance: force [N] in the world "E-eta" (+y) direction ..."""
+CONSTANT_START, CONSTANT_STEPS = 350, 350
+"""... from step 350, for 350 steps."""
+PERIODIC_AMPLITUDE = 25.0
+"""Sec. 4.2 periodic disturbance: 25 sin(PERIODIC_RATE k) N in the world +y direction ..."""
+PERIODIC_RATE = 0.01 * math.pi
+"""... with k in executor steps (a period of 200 steps, 20 s) ..."""
+PERIODIC_START, PERIODIC_STEPS = 750, 350
+"""... from step 750, for 350 steps."""
+
+PHASES = ("none", "instantaneous", "constant", "periodic")
+"""Values of last_info["phase"]: the kind of the latest disturbance to have started."""
+
+RANDOM_SPEED_RANGE = (0.5, 2.0)
+"""Range of random speed commands [m/s]."""
+RANDOM_TURN = math.pi / 2
+"""A random heading command is the previous one plus up to this much either way [rad]."""
+COMMAND_HOLD_STEPS = (20, 200)
+"""A random command holds for this many executor steps (uniform, inclusive), then changes."""
+RANDOM_INITIAL_SPEED = (0.0, 2.0)
+"""Range of the initial surge speed of "random" episodes [m/s]."""
+RANDOM_DISTURBANCE_PROBABILITY = 0.7
+"""Chance that a "random" episode has each kind of disturbance (burst, constant, periodic)."""
+RANDOM_BURST_FORCE = (50.0, 200.0)
+RANDOM_BURST_STEPS = (5, 15)
+RANDOM_CONSTANT_FORCE = (5.0, 40.0)
+RANDOM_PERIODIC_AMPLITUDE = (5.0, 30.0)
+RANDOM_PERIODIC_RATE = (0.005 * math.pi, 0.03 * math.pi)
+RANDOM_WINDOW_STEPS = (100, 400)
+"""Ranges of the "random" disturbances: sizes [N], rates [rad/step] and lengths [steps]."""
+
+SPEED_TOLERANCE = 0.05
+"""|e_V| [m/s] within which the suite reward's speed term is 1 and the command counts as met."""
+HEADING_TOLERANCE = 0.05
+"""|e_psi| [rad] within which the suite reward's heading term is 1 and the command counts as met."""
+SPEED_MARGIN = 0.5
+"""|e_V| beyond the tolerance [m/s] at which the suite speed term has fallen to 0.1."""
+HEADING_MARGIN = 0.5
+"""|e_psi| beyond the tolerance [rad] at which the suite heading term has fallen to 0.1."""
+SETTLE_STEPS = 100
+"""`run_executor` leaves the first 100 steps (the start from rest) out of the "none" phase's MAE."""
+
+OBSERVATION_NAMES = ("V_cmd", "u", "v", "r", "e_V", "cos_e_psi", "sin_e_psi")
+"""Entries of the flat "observation" vector."""
+REWARDS = ("suite", "paper")
+COMMANDS = ("paper", "random")
+DISTURBANCES = ("paper", "random", "none")
+
+Executor = Callable[[Sequence[float], Sequence[float]], np.ndarray]
+
+
+def executor_observation(command: Sequence[float], state: Sequence[float]) -> np.ndarray:
+    """The task's observation (Eq. 27) from command (V_cmd, psi_cmd) and state (u, v, r, psi).
+
+    (V_cmd, u, v, r, e_V, cos e_psi, sin e_psi): a learned executor wrapped as the contract's callable
+    `executor(command, state)` builds its input with this function.
+    """
+    v_cmd, psi_cmd = float(command[0]), float(command[1])
+    u, v, r, psi = (float(s) for s in state[:4])
+    e_psi = wrap_angle(psi_cmd - psi)
+    return np.array([v_cmd, u, v, r, v_cmd - u, math.cos(e_psi), math.sin(e_psi)])
+
+
+@dataclass(frozen=True)
+class DisturbanceWindow:
+    """One disturbance of an episode: `kind` (a PHASES entry) over executor steps [start, start + steps)."""
+
+    kind: str
+    start: int
+    steps: int
+    force: tuple[float, float] | Callable[[float], tuple[float, float]]
+    frame: str
+
+
+def _periodic(amplitude: float, rate: float, direction: float) -> Callable[[float], tuple[float, float]]:
+    """amplitude sin(rate k) along world `direction`, with k = t / EXECUTOR_DT in executor steps."""
+    c, s = math.cos(direction), math.sin(direction)
+
+    def force(time: float) -> tuple[float, float]:
+        magnitude = amplitude * math.sin(rate * time / EXECUTOR_DT)
+        return (magnitude * c, magnitude * s)
+
+    return force
+
+
+def paper_disturbances() -> tuple[DisturbanceWindow, ...]:
+    """The Sec. 4.2 schedule: sway burst, constant +y force, periodic +y force."""
+    return (DisturbanceWindow("instantaneous", BURST_START, BURST_STEPS, (0.0, BURST_FORCE), "body"),
+            DisturbanceWindow("constant", CONSTANT_START, CONSTANT_STEPS, (0.0, CONSTANT_FORCE), "world"),
+            DisturbanceWindow("periodic", PERIODIC_START, PERIODIC_STEPS,
+                              _periodic(PERIODIC_AMPLITUDE, PERIODIC_RATE, math.pi / 2), "world"))
+
+
+def random_disturbances(random: np.random.RandomState,
+                        horizon: int = EPISODE_STEPS) -> tuple[DisturbanceWindow, ...]:
+    """Each kind with RANDOM_DISTURBANCE_PROBABILITY, random in size, direction and timing."""
+
+    def steps(bounds: tuple[int, int]) -> int:
+        return int(random.randint(bounds[0], bounds[1] + 1))
+
+    windows = []
+    if random.uniform() < RANDOM_DISTURBANCE_PROBABILITY:
+        force = random.uniform(*RANDOM_BURST_FORCE) * random.choice([-1.0, 1.0])
+        windows.append(DisturbanceWindow("instantaneous", steps((0, horizon - 1)), steps(RANDOM_BURST_STEPS),
+                                         (0.0, force), "body"))
+    if random.uniform() < RANDOM_DISTURBANCE_PROBABILITY:
+        magnitude, direction = random.uniform(*RANDOM_CONSTANT_FORCE), random.uniform(-math.pi, math.pi)
+        windows.append(DisturbanceWindow("constant", steps((0, horizon - 1)), steps(RANDOM_WINDOW_STEPS),
+                                         (magnitude * math.cos(direction), magnitude * math.sin(direction)),
+                                         "world"))
+    if random.uniform() < RANDOM_DISTURBANCE_PROBABILITY:
+        amplitude, rate = random.uniform(*RANDOM_PERIODIC_AMPLITUDE), random.uniform(*RANDOM_PERIODIC_RATE)
+        force = _periodic(amplitude, rate, random.uniform(-math.pi, math.pi))
+        windows.append(DisturbanceWindow("periodic", steps((0, horizon - 1)), steps(RANDOM_WINDOW_STEPS),
+                                         force, "world"))
+    return tuple(sorted(windows, key=lambda w: w.start))
+
+
+class SpeedHeading(base.Task):
+    """Follow (V_cmd, psi_cmd) with (tau_u, tau_r) under disturbances (Sec. 3.3, 4.2)."""
+
+    def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper",
+                 reward: str = "suite", random=None):
+        """`command`: "paper", "random" or (V, psi); `disturbances`: "paper", "random", "none";
+        `reward`: "suite" ([0, 1]) or "paper" (Eq. 30); `random`: seed, RandomState or None."""
+        if isinstance(command, str):
+            if command not in COMMANDS:
+                raise ValueError(f"command must be one of {COMMANDS} or a pair (V, psi), got {command!r}")
+        else:
+            command = tuple(float(c) for c in command)
+            if len(command) != 2 or not all(math.isfinite(c) for c in command):
+                raise ValueError(f"a fixed command is a finite pair (V [m/s], psi [rad]), got {command!r}")
+        if disturbances not in DISTURBANCES:
+            raise ValueError(f"disturbances must be one of {DISTURBANCES}, got {disturbances!r}")
+        if reward not in REWARDS:
+            raise ValueError(f"reward must be one of {REWARDS}, got {reward!r}")
+        self._command_mode = command
+        self._disturbance_mode = disturbances
+        self._reward_mode = reward
+        self._windows: tuple[DisturbanceWindow, ...] = ()
+        self._schedule: list[tuple[int, float, float]] = [(0, *PAPER_COMMAND)]  # until the first reset
+        self._next_change: float = math.inf
+        self._step, self._step_command = 0, PAPER_COMMAND
+        self._errors = (0.0, 0.0)
+        self.last_info: dict = {}
+        super().__init__(random=random)
+
+    # --- episode set-up --------------------------------------------------------------------------
+
+    def initialize_episode(self, physics) -> None:
+        """Draws the commands and disturbances, places the vehicle, and attaches the disturbances."""
+        if self._command_mode == "random":
+            speed = self.random.uniform(*RANDOM_INITIAL_SPEED)
+            heading = self.random.uniform(-math.pi, math.pi)
+            self._schedule = [(0, self.random.uniform(*RANDOM_SPEED_RANGE),
+                               wrap_angle(heading + self.random.uniform(-RANDOM_TURN, RANDOM_TURN)))]
+            self._next_change = self._hold()
+        else:
+            speed, heading = 0.0, 0.0
+            fixed = PAPER_COMMAND if self._command_mode == "paper" else self._command_mode
+            self._schedule = [(0, *fixed)]
+            self._next_change = math.inf
+        physics.named.data.qpos["x"] = 0.0
+        physics.named.data.qpos["y"] = 0.0
+        physics.named.data.qpos["yaw"] = heading
+        physics.named.data.qvel["x"] = speed * math.cos(heading)
+        physics.named.data.qvel["y"] = speed * math.sin(heading)
+        physics.named.data.qvel["yaw"] = 0.0
+
+        if self._disturbance_mode == "paper":
+            self._windows = paper_disturbances()
+        elif self._disturbance_mode == "random":
+            self._windows = random_disturbances(self.random)
+        else:
+            self._windows = ()
+        physics.clear_disturbances()
+        half_step = 0.5 * physics.timestep()  # so a window covers whole physics steps despite rounding
+        for w in self._windows:
+            physics.add_disturbance(w.force, start=w.start * EXECUTOR_DT - half_step,
+                                    duration=w.steps * EXECUTOR_DT, frame=w.frame)
+        physics.set_control(np.zeros(physics.model.nu))
+        self._step, self._step_command = 0, self.command(physics)
+        super().initialize_episode(physics)  # calls after_step: errors and last_info of the start
+
+    def _hold(self) -> int:
+        return int(self.random.randint(COMMAND_HOLD_STEPS[0], COMMAND_HOLD_STEPS[1] + 1))
+
+    # --- read-outs --------------------------------------------------------------------------------
+
+    @staticmethod
+    def step_index(physics) -> int:
+        """Executor steps since the episode start."""
+        return int(round(physics.time() / EXECUTOR_DT))
+
+    def command(self, physics) -> tuple[float, float]:
+        """The command (V_cmd [m/s], psi_cmd [rad]) in force at the current step."""
+        step = self.step_index(physics)
+        while step >= self._next_change:
+            _, _, psi = self._schedule[-1]
+            turn = self.random.uniform(-RANDOM_TURN, RANDOM_TURN)
+            self._schedule.append((self._next_change, self.random.uniform(*RANDOM_SPEED_RANGE),
+                                   wrap_angle(psi + turn)))
+            self._next_change += self._hold()
+        for start, v_cmd, psi_cmd in reversed(self._schedule):
+            if start <= step:
+                return v_cmd, psi_cmd
+        raise AssertionError("the command schedule starts at step 0")
+
+    @staticmethod
+    def state(physics) -> tuple[float, float, float, float]:
+        """(u, v, r, psi): the executor's state of the cross-team contract."""
+        u, v, r = physics.body_velocity()
+        return float(u), float(v), float(r), float(physics.pose()[2])
+
+    def phase(self, step: int) -> str:
+        """Kind of the latest disturbance started at or before `step` ("none" before the first)."""
+        started = [w.kind for w in self._windows if w.start <= step]
+        return started[-1] if started else "none"
+
+    def disturbance_active(self, step: int) -> bool:
+        """Whether a disturbance acts during executor step `step`."""
+        return any(w.start <= step < w.start + w.steps for w in self._windows)
+
+    def _tracking_errors(self, physics, command: tuple[float, float]) -> tuple[float, float]:
+        u, _, _, psi = self.state(physics)
+        return command[0] - u, wrap_angle(command[1] - psi)
+
+    def _info(self, step: int, command: tuple[float, float]) -> dict:
+        """last_info of executor step `step`, which followed `command`."""
+        e_v, e_psi = self._errors
+        met = abs(e_v) < SPEED_TOLERANCE and abs(e_psi) < HEADING_TOLERANCE
+        return {"phase": self.phase(step), "speed_error": e_v, "heading_error": e_psi,
+                "command": np.array(command), "disturbance_active": self.disturbance_active(step),
+                "success": met, "is_success": met}
+
+    # --- dm_control Task ---------------------------------------------------------------------------
+
+    def action_spec(self, physics) -> specs.BoundedArray:
+        """Normalised (tau_u, tau_r) in [-1, 1]^2."""
+        return specs.BoundedArray((physics.model.nu,), float, -1.0, 1.0, name="tau_u,tau_r")
+
+    def before_step(self, action, physics) -> None:
+        """Scales the action from [-1, 1] to the actuator ranges (ctrlrange) and applies it."""
+        self._step = self.step_index(physics)
+        self._step_command = self.command(physics)
+        action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        low, high = physics.model.actuator_ctrlrange.T
+        physics.set_control(low + 0.5 * (action + 1.0) * (high - low))
+
+    def after_step(self, physics) -> None:
+        """Errors against the command that was in force during the step; the step's info."""
+        self._errors = self._tracking_errors(physics, self._step_command)
+        self.last_info = self._info(self._step, self._step_command)
+
+    def get_observation(self, physics) -> collections.OrderedDict:
+        """"observation": (V_cmd, u, v, r, e_V, cos e_psi, sin e_psi) for the current command (Eq. 27)."""
+        obs = collections.OrderedDict()
+        obs["observation"] = executor_observation(self.command(physics), self.state(physics))
+        return obs
+
+    def get_reward(self, physics) -> float:
+        """Eq. (30) -|e_V| - |e_psi| ("paper"), or the mean of two tolerances in [0, 1] ("suite")."""
+        e_v, e_psi = self._errors
+        if self._reward_mode == "paper":
+            return -abs(e_v) - abs(e_psi)
+        speed = rewards.tolerance(e_v, bounds=(-SPEED_TOLERANCE, SPEED_TOLERANCE), margin=SPEED_MARGIN)
+        heading = rewards.tolerance(e_psi, bounds=(-HEADING_TOLERANCE, HEADING_TOLERANCE),
+                                    margin=HEADING_MARGIN)
+        return float(0.5 * (speed + heading))
+
+    def get_termination(self, physics) -> None:
+        """Never terminates: episodes end at the time limit (truncation)."""
+        return None
+
+
+@SUITE.add("benchmarking", "tracking", "executor")
+def speed_heading(time_limit: float = _DEFAULT_TIME_LIMIT, random=None, environment_kwargs=None,
+                  **task_kwargs) -> control.Environment:
+    """The execution layer's speed/heading tracking task (Sec. 3.3, 4.2) in open water."""
+    physics = arena.load(None)
+    task = SpeedHeading(random=random, **task_kwargs)
+    return control.Environment(physics, task, time_limit=time_limit, control_timestep=EXECUTOR_DT,
+                               **(environment_kwargs or {}))
+
+
+# --- evaluation (Table 9) ---------------------------------------------------------------------------------
+
+
+def rollout(executor: Executor, random=0, time_limit: float = _DEFAULT_TIME_LIMIT,
+            **task_kwargs) -> dict[str, np.ndarray]:
+    """Runs `executor(command, state)` through one speed_heading episode.
+
+    Returns per-step arrays "speed_error", "heading_error", "phase" (from last_info) and "tau" (the
+    executor's output, clipped to the actuator ranges).
+    """
+    env = speed_heading(time_limit=time_limit, random=random, **task_kwargs)
+    task, physics = env.task, env.physics
+    if hasattr(executor, "reset"):
+        executor.reset()
+    time_step = env.reset()
+    low, high = physics.model.actuator_ctrlrange.T
+    trace: dict[str, list] = {"speed_error": [], "heading_error": [], "phase": [], "tau": []}
+    while not time_step.last():
+        tau = np.asarray(executor(task.command(physics), task.state(physics)), dtype=float)
+        tau = np.clip(tau, low, high)
+        time_step = env.step(2 * (tau - low) / (high - low) - 1)
+        info = task.last_info
+        trace["speed_error"].append(info["speed_error"])
+        trace["heading_error"].append(info["heading_error"])
+        trace["phase"].append(info["phase"])
+        trace["tau"].append(tau)
+    return {key: np.array(values) for key, values in trace.items()}
+
+
+def phase_mae(trace: dict[str, np.ndarray],
+              settle_steps: int = SETTLE_STEPS) -> dict[str, tuple[float, float]]:
+    """Table 9's MAE per phase: {phase: (MAE speed [m/s], MAE heading [rad])}, skipping the first steps."""
+    keep = np.arange(len(trace["phase"])) >= settle_steps
+    result = {}
+    for phase in PHASES:
+        mask = keep & (trace["phase"] == phase)
+        if np.any(mask):
+            result[phase] = (float(np.mean(np.abs(trace["speed_error"][mask]))),
+                             float(np.mean(np.abs(trace["heading_error"][mask]))))
+    return result
+
+
+def run_executor(executor: Executor, random=0, settle_steps: int = SETTLE_STEPS,
+                 **task_kwargs) -> dict[str, tuple[float, float]]:
+    """Per-phase MAE (speed, heading) of `executor` on speed_heading (Sec. 4.2 schedule by default)."""
+    return phase_mae(rollout(executor, random=random, **task_kwargs), settle_steps)

@@ -1,0 +1,152 @@
+"""Headless episode videos: MP4/GIF files that decode, show the vehicle moving, and clear GL errors."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import imageio.v2 as imageio
+import numpy as np
+import pytest
+
+from auv_mj import render
+from auv_mj.episode import EpisodeRecord, EpisodeRecorder, Snapshot
+from tasks import suite
+
+SIZE = (160, 120)
+CLI = [sys.executable, "-m", "auv_mj.cli", "render"]
+
+
+def _cruise(time_step) -> np.ndarray:
+    """Straight on at 1 m/s."""
+    return np.array([0.5, 0.0])
+
+
+def _marker_centroid(frame: np.ndarray) -> np.ndarray:
+    """(column, row) of the red vehicle marker's pixels."""
+    r, g, b = (frame[..., i].astype(int) for i in range(3))
+    rows, cols = np.nonzero((r > 150) & (g < 110) & (b < 110))
+    assert rows.size, "no marker pixels"
+    return np.array([cols.mean(), rows.mean()])
+
+
+def _decode(path: Path) -> np.ndarray:
+    with imageio.get_reader(path) as reader:
+        return np.stack([frame for frame in reader.iter_data()])
+
+
+@pytest.fixture(scope="module")
+def overview_video(tmp_path_factory):
+    """An MP4 of 120 goal-task steps seen in the overview, one frame every 6 steps (21 frames)."""
+    env = suite.load("auv", "goal", task_kwargs={"random": 0})
+    recorder = EpisodeRecorder(env, "goal", "cruise", 0)
+    speedup = render.DEFAULT_FPS * env.control_timestep() * 6
+    frames = render.iter_frames(env, _cruise, max_steps=120, width=SIZE[0], height=SIZE[1], camera="overview",
+                                speedup=speedup, hold_end=0.0, recorder=recorder)
+    path = render.write_video(frames, tmp_path_factory.mktemp("video") / "goal.mp4")
+    return path, recorder.record()
+
+
+def test_mp4_decodes_with_the_expected_frames(overview_video):
+    path, record = overview_video
+    assert path.suffix == ".mp4"
+    video = _decode(path)
+    assert video.shape == (21, SIZE[1], SIZE[0], 3)
+    assert record.steps == 120
+    assert all(frame.std() > 5 for frame in video), "blank frame"
+
+
+def test_vehicle_marker_moves_as_the_vehicle(overview_video):
+    path, record = overview_video
+    video = _decode(path)
+    _, _, width, height = render.arena_extent(record.arena)
+    view_h = max(height, width * SIZE[1] / SIZE[0])
+    metres = record.pose[-1, :2] - record.pose[0, :2]
+    expected = np.array([metres[0], -metres[1]]) * SIZE[1] / view_h  # image rows grow downwards
+    moved = _marker_centroid(video[-1]) - _marker_centroid(video[0])
+    assert np.hypot(*expected) > 6, "test episode too short to see motion"
+    assert np.hypot(*(moved - expected)) < 3, (moved, expected)
+
+
+def test_follow_and_both_cameras_show_decorations():
+    env = suite.load("auv", "moving_obstacles", task_kwargs={"random": 0})
+    for camera in ("follow", "both"):
+        frames = render.render_episode(env, _cruise, max_steps=2, width=SIZE[0], height=SIZE[1],
+                                       camera=camera, hold_end=0.0)
+        assert frames.shape == (3, SIZE[1], SIZE[0], 3)
+        assert frames.dtype == np.uint8 and frames[-1].std() > 5
+        centre = _marker_centroid(frames[-1])
+        if camera == "follow":  # the follow camera keeps the vehicle in the middle
+            assert np.hypot(*(centre - np.array(SIZE) / 2)) < 4
+
+
+def test_gif(tmp_path):
+    frames = [np.full((SIZE[1], SIZE[0], 3), 40 * i, dtype=np.uint8) for i in range(4)]
+    path = render.write_video(iter(frames), tmp_path / "clip.mp4", fps=10, gif=True)
+    assert path == tmp_path / "clip.gif"
+    video = np.stack(imageio.mimread(path))
+    assert video.shape[:3] == (4, SIZE[1], SIZE[0])
+    assert video[3, ..., :3].mean() > video[1, ..., :3].mean()
+
+
+def test_render_frame_of_a_physics_state():
+    env = suite.load("auv", "obstacles", task_kwargs={"random": 0})
+    env.reset()
+    frame = render.render_frame(env.physics, width=SIZE[0], height=SIZE[1], camera="overview")
+    assert frame.shape == (SIZE[1], SIZE[0], 3) and frame.std() > 5
+
+
+def test_interpolation_wraps_heading_and_holds_sonar():
+    def snap(t, psi, sonar):
+        return Snapshot(time=t, pose=np.array([0.0, 0.0, psi]), velocity=np.zeros(3), sonar=np.full(9, sonar),
+                        control=np.zeros(2), desired_goal=np.zeros(2), movers=np.zeros((1, 2)), step=int(t))
+    a, b = snap(0.0, math.pi - 0.1, 50.0), snap(1.0, -math.pi + 0.1, 10.0)
+    mid = render.interpolate(a, b, 0.5)
+    assert abs(abs(mid.pose[2]) - math.pi) < 1e-9  # through +-pi, not through 0
+    assert np.all(mid.sonar == 50.0)  # the 2 Hz sonar holds its last sample
+    assert render.interpolate(a, b, 1.0 - 1e-9) is b  # physics time drifts by ulps
+
+
+def _env_without_display(**extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "MUJOCO_GL",
+                                                            "PYOPENGL_PLATFORM")}
+    env.update(extra)
+    return env
+
+
+def test_cli_renders_without_a_display(tmp_path):
+    out, episode = tmp_path / "random.mp4", tmp_path / "random.npz"
+    result = subprocess.run(CLI + ["--task", "goal", "--policy", "random", "--seed", "3", "-o", str(out),
+                                   "--width", "161", "--height", "121", "--max-steps", "5", "--hold-end", "0",
+                                   "--no-progress", "--save-episode", str(episode)],
+                            env=_env_without_display(), capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    video = _decode(out)
+    assert video.shape == (6, 120, 160, 3)  # odd sizes are made even for yuv420p
+    assert EpisodeRecord.load(episode).steps == 5
+
+
+def test_broken_mujoco_gl_is_a_clear_error(tmp_path):
+    result = subprocess.run(CLI + ["--task", "goal", "-o", str(tmp_path / "x.mp4"), "--max-steps", "1"],
+                            env=_env_without_display(MUJOCO_GL="nonsense"), capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 2
+    assert "MUJOCO_GL='nonsense'" in result.stderr
+    assert all(v in result.stderr for v in ("egl", "osmesa", "glfw"))
+    assert "Traceback" not in result.stderr
+    assert not (tmp_path / "x.mp4").exists()
+
+
+def test_missing_gl_libraries_name_the_packages(tmp_path):
+    # Unloadable stand-ins for libEGL/libOSMesa, found first through LD_LIBRARY_PATH.
+    for name in ("libEGL.so.1", "libEGL.so", "libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so"):
+        (tmp_path / name).write_bytes(b"not a library")
+    result = subprocess.run(CLI + ["--task", "goal", "-o", str(tmp_path / "x.mp4"), "--max-steps", "1"],
+                            env=_env_without_display(LD_LIBRARY_PATH=str(tmp_path)), capture_output=True,
+                            text=True, timeout=120)
+    assert result.returncode == 2
+    assert "libegl1" in result.stderr and "libosmesa6" in result.stderr
+    assert "Traceback" not in result.stderr

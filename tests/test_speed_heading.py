@@ -1,0 +1,189 @@
+"""The speed_heading task (Sec. 3.3, 4.2): dm_env contract, seeding, Eq. (30), the disturbance schedule."""
+
+import math
+
+import dm_env
+import numpy as np
+import pytest
+
+from auv_mj.splane import SPlaneController, wrap_angle
+from tasks import speed_heading as sh
+from tasks.registry import SUITE
+
+
+@pytest.fixture(scope="module")
+def splane_paper_trace():
+    return sh.rollout(SPlaneController())
+
+
+def test_registered_with_tags():
+    assert "speed_heading" in SUITE
+    for tag in ("benchmarking", "tracking", "executor"):
+        assert "speed_heading" in SUITE.tagged(tag)
+
+
+def test_dm_env_contract():
+    env = sh.speed_heading(time_limit=2.0, command="random", disturbances="random", random=3)
+    spec = env.action_spec()
+    assert spec.shape == (2,) and np.all(spec.minimum == -1) and np.all(spec.maximum == 1)
+    obs_spec = env.observation_spec()
+    assert list(obs_spec) == ["observation"]
+    assert obs_spec["observation"].shape == (len(sh.OBSERVATION_NAMES),)
+    assert env.control_timestep() == pytest.approx(sh.EXECUTOR_DT)
+    time_step = env.reset()
+    assert time_step.step_type == dm_env.StepType.FIRST and time_step.reward is None
+    steps = 0
+    while not time_step.last():
+        time_step = env.step(np.array([0.3, -0.2]))
+        steps += 1
+        obs_spec["observation"].validate(time_step.observation["observation"])
+        assert 0.0 <= time_step.reward <= 1.0
+        assert np.all(np.isfinite(time_step.observation["observation"]))
+    assert steps == 20
+    assert time_step.discount == 1.0  # the time limit truncates; the task never terminates
+    assert env.step(np.zeros(2)).first()
+
+
+def test_action_scales_to_ctrlrange():
+    env = sh.speed_heading(time_limit=1.0)
+    env.reset()
+    env.step(np.array([1.0, -0.5]))
+    np.testing.assert_allclose(env.physics.data.ctrl, [20.0, -5.0])
+    env.step(np.array([3.0, -3.0]))  # out-of-range actions are clipped
+    np.testing.assert_allclose(env.physics.data.ctrl, [20.0, -10.0])
+
+
+def _episode(seed, steps=60):
+    env = sh.speed_heading(command="random", disturbances="random", random=seed)
+    time_step = env.reset()
+    observations = [time_step.observation["observation"]]
+    for k in range(steps):
+        time_step = env.step(np.array([np.sin(0.1 * k), np.cos(0.07 * k)]))
+        observations.append(time_step.observation["observation"])
+    return np.array(observations), env.task
+
+
+def test_seeds_are_reproducible():
+    a, task_a = _episode(7)
+    b, task_b = _episode(7)
+    c, _ = _episode(8)
+    np.testing.assert_array_equal(a, b)
+    assert task_a._windows == task_b._windows or len(task_a._windows) == len(task_b._windows)
+    assert not np.allclose(a, c)
+
+
+def test_random_commands_change_and_stay_in_range():
+    env = sh.speed_heading(command="random", disturbances="none", random=1)
+    env.reset()
+    commands = set()
+    for _ in range(600):
+        env.step(np.zeros(2))
+        commands.add(tuple(env.task.last_info["command"]))
+    assert len(commands) >= 3
+    for v_cmd, psi_cmd in commands:
+        assert sh.RANDOM_SPEED_RANGE[0] <= v_cmd <= sh.RANDOM_SPEED_RANGE[1]
+        assert -math.pi <= psi_cmd < math.pi
+
+
+def test_reward_is_eq_30_on_hand_computed_cases():
+    env = sh.speed_heading(reward="paper")
+    env.reset()
+    # Sec. 4.2 command (1 m/s, pi/12) from rest at psi = 0: r = -1 - pi/12.
+    assert env.task.get_reward(env.physics) == pytest.approx(-1.0 - math.pi / 12)
+    env = sh.speed_heading(reward="paper", command=(0.5, 3.0), disturbances="none")
+    env.reset()
+    physics = env.physics
+    physics.named.data.qpos["yaw"] = -3.0
+    physics.named.data.qvel["x"] = 0.2 * math.cos(-3.0)
+    physics.named.data.qvel["y"] = 0.2 * math.sin(-3.0)
+    physics.forward()
+    env.task.after_step(physics)
+    # e_V = 0.5 - 0.2; e_psi = wrap(3 - (-3)) = 6 - 2 pi (the short way round).
+    assert env.task.get_reward(physics) == pytest.approx(-0.3 - (2 * math.pi - 6.0))
+    assert env.task.last_info["heading_error"] == pytest.approx(6.0 - 2 * math.pi)
+
+
+def test_suite_reward_is_one_on_command():
+    env = sh.speed_heading(command=(0.0, 0.0), disturbances="none")
+    time_step = env.reset()
+    time_step = env.step(np.zeros(2))
+    assert time_step.reward == pytest.approx(1.0)
+    assert env.task.last_info["is_success"]
+
+
+def test_executor_observation():
+    obs = sh.executor_observation((1.0, 0.5), (0.8, 0.1, -0.2, 0.3))
+    np.testing.assert_allclose(obs, [1.0, 0.8, 0.1, -0.2, 0.2, math.cos(0.2), math.sin(0.2)])
+
+
+def test_paper_disturbance_windows():
+    env = sh.speed_heading()
+    env.reset()
+    task = env.task
+    expected = {0: "none", 249: "none", 250: "instantaneous", 349: "instantaneous", 350: "constant",
+                749: "constant", 750: "periodic", 1099: "periodic"}
+    for step, phase in expected.items():
+        assert task.phase(step) == phase
+    active = [task.disturbance_active(k) for k in range(sh.EPISODE_STEPS)]
+    assert np.flatnonzero(np.diff(active)).tolist() == [249, 259, 349, 699, 749]
+    assert active[250] and not active[260] and active[350] and not active[700] and active[750]
+
+
+def test_disturbances_act_in_their_windows(splane_paper_trace):
+    quiet = sh.rollout(SPlaneController(), disturbances="none")
+    loud = splane_paper_trace
+    differs = np.flatnonzero(np.abs(quiet["speed_error"] - loud["speed_error"])
+                             + np.abs(quiet["heading_error"] - loud["heading_error"]) > 0)
+    assert differs[0] == 250  # untouched until the burst: trace index k is the state after step k
+    # The 180 N sway burst makes the vehicle slip sideways; the 30 N +y current makes it drift.
+    env = sh.speed_heading()
+    controller = SPlaneController()
+    env.reset()
+    sway = []
+    for _ in range(700):
+        env.step(np.clip(controller(env.task.command(env.physics), env.task.state(env.physics))
+                         / [20.0, 10.0], -1, 1))
+        sway.append(env.physics.body_velocity()[1])
+    sway = np.array(sway)
+    assert np.max(np.abs(sway[200:249])) < 0.01
+    assert np.max(np.abs(sway[250:260])) > 0.1
+    assert np.mean(sway[450:700]) > 0.05  # the +y force has a +sway component at psi = pi/12
+
+
+def test_periodic_force_matches_the_paper():
+    window = sh.paper_disturbances()[2]
+    for k in (750.0, 800.0, 812.5, 1099.0):
+        fx, fy = window.force(k * sh.EXECUTOR_DT)
+        assert fx == pytest.approx(0.0, abs=1e-9)
+        assert fy == pytest.approx(25.0 * math.sin(0.01 * math.pi * k))
+
+
+def test_splane_tracks_the_paper_command_before_the_disturbances(splane_paper_trace):
+    phases = splane_paper_trace["phase"]
+    assert np.all(phases[:250] == "none") and phases[250] == "instantaneous"
+    settled = slice(sh.SETTLE_STEPS, 250)
+    assert np.mean(np.abs(splane_paper_trace["speed_error"][settled])) < 0.1
+    assert np.mean(np.abs(splane_paper_trace["heading_error"][settled])) < 0.1
+    mae = sh.phase_mae(splane_paper_trace)
+    assert set(mae) == set(sh.PHASES)
+    for mae_v, mae_psi in mae.values():
+        assert mae_v < 0.2 and mae_psi < 0.2
+
+
+def test_info_errors_match_the_physics():
+    env = sh.speed_heading(command=(1.2, -0.4), disturbances="none")
+    env.reset()
+    for _ in range(5):
+        env.step(np.array([0.5, -0.3]))
+    info = env.task.last_info
+    u = env.physics.body_velocity()[0]
+    assert info["speed_error"] == pytest.approx(1.2 - u)
+    assert info["heading_error"] == pytest.approx(wrap_angle(-0.4 - env.physics.pose()[2]))
+    assert info["phase"] == "none" and not info["disturbance_active"]
+
+
+@pytest.mark.parametrize("kwargs", [{"command": "fast"}, {"disturbances": "storm"}, {"reward": "dense"},
+                                    {"command": (1.0,)}, {"command": (1.0, math.nan)}])
+def test_bad_settings_are_rejected(kwargs):
+    with pytest.raises(ValueError):
+        sh.SpeedHeading(**kwargs)
