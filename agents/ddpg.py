@@ -11,7 +11,10 @@ addition (DDPG needs some exploration after epsilon has decayed); it is not in t
 
 from __future__ import annotations
 
+import ast
 import copy
+import inspect
+import textwrap
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +23,9 @@ from torch import nn
 
 from agents.networks import Actor, Critic, Normalizer
 from agents.replay import Batch
+
+EPSILON_UNITS = ("steps", "episodes")
+"""What epsilon_decay counts."""
 
 
 @dataclass(frozen=True)
@@ -68,6 +74,24 @@ class DDPGConfig:
     """Seed of network initialisation, exploration, replay sampling and environment resets (ours)."""
     torch_threads: int = 1
     """torch.set_num_threads for training; small MLPs are fastest on one thread (ours)."""
+
+    def __post_init__(self):
+        if self.epsilon_unit not in EPSILON_UNITS:
+            raise ValueError(f"epsilon_unit must be one of {EPSILON_UNITS}, got {self.epsilon_unit!r}")
+        if not self.hidden_sizes or self.her_k < 0 or self.train_every < 1 or self.batch_size < 1:
+            raise ValueError(f"invalid DDPGConfig: {self}")
+
+
+def field_docs(cls: type) -> dict[str, str]:
+    """The docstring under each field of a dataclass (for --help)."""
+    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+    body = tree.body[0].body
+    docs = {}
+    for node, after in zip(body, body[1:], strict=False):
+        if isinstance(node, ast.AnnAssign) and isinstance(after, ast.Expr) \
+                and isinstance(after.value, ast.Constant) and isinstance(after.value.value, str):
+            docs[node.target.id] = after.value.value
+    return docs
 
 
 def epsilon_at(config: DDPGConfig, steps: int, episodes: int) -> float:

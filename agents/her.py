@@ -8,6 +8,11 @@ strictly later than s_t. `desired_goal` is replaced in both obs and next_obs, an
 and the termination are recomputed with ONE vectorised `compute_reward` and ONE `compute_terminated`
 call over the relabelled part of the batch, passing the stored per-step `info` as a dict of stacked
 arrays. Time-limit truncation is never stored as termination.
+
+HER is only sound if `observation` does not depend on the desired goal. A task whose observation holds
+goal-relative features (distance or bearing to the goal) must supply a vectorised
+`relabel_observation(observation, achieved_goal, desired_goal) -> observation` that recomputes them;
+the buffer then applies it to obs and next_obs of every relabelled transition.
 """
 
 from __future__ import annotations
@@ -22,6 +27,8 @@ from agents.replay import Batch, rng_from_array, rng_state_to_array
 
 GoalFn = Callable[[np.ndarray, np.ndarray, dict[str, np.ndarray]], np.ndarray]
 """Signature of the env's vectorised compute_reward / compute_terminated(achieved, desired, info)."""
+ObsFn = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+"""Signature of an optional vectorised relabel_observation(observation, achieved_goal, desired_goal)."""
 
 GOAL_KEYS = ("observation", "achieved_goal", "desired_goal")
 """The keys of a goal-conditioned (Gymnasium-Robotics style) dict observation."""
@@ -61,9 +68,10 @@ class HerReplayBuffer:
 
     def __init__(self, obs_dim: int, goal_dim: int, act_dim: int, capacity: int,
                  compute_reward: GoalFn, compute_terminated: GoalFn, n_sampled_goal: int = 4,
-                 seed: int | None = None):
+                 seed: int | None = None, relabel_observation: ObsFn | None = None):
         self.capacity = int(capacity)
         self.compute_reward, self.compute_terminated = compute_reward, compute_terminated
+        self.relabel_observation = relabel_observation
         self.n_sampled_goal = n_sampled_goal
         self.her_ratio = her_ratio(n_sampled_goal)
         c = self.capacity
@@ -154,6 +162,7 @@ class HerReplayBuffer:
         next_desired = self.next_desired_goal[idx]
         rewards = self.rewards[idx]
         terminated = self.terminated[idx]
+        observation, next_observation = self.observation[idx], self.next_observation[idx]
         if relabel.any():
             r_idx = idx[relabel]
             new_goal = self.next_achieved_goal[future[relabel]]
@@ -163,8 +172,13 @@ class HerReplayBuffer:
             next_desired[relabel] = new_goal
             rewards[relabel] = self.compute_reward(achieved, new_goal, info)
             terminated[relabel] = self.compute_terminated(achieved, new_goal, info)
-        batch = Batch(obs=flatten_goal_obs(self.observation[idx], desired), actions=self.actions[idx],
-                      rewards=rewards, next_obs=flatten_goal_obs(self.next_observation[idx], next_desired),
+            if self.relabel_observation is not None:
+                observation[relabel] = self.relabel_observation(observation[relabel],
+                                                                self.achieved_goal[r_idx], new_goal)
+                next_observation[relabel] = self.relabel_observation(next_observation[relabel], achieved,
+                                                                     new_goal)
+        batch = Batch(obs=flatten_goal_obs(observation, desired), actions=self.actions[idx], rewards=rewards,
+                      next_obs=flatten_goal_obs(next_observation, next_desired),
                       terminated=terminated.astype(np.float32))
         return HerSample(batch, idx, relabel, future, desired)
 

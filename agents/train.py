@@ -43,7 +43,7 @@ from agents.checkpoint import (
     save_checkpoint,
     save_replay,
 )
-from agents.ddpg import DDPG, DDPGConfig, epsilon_at
+from agents.ddpg import DDPG, EPSILON_UNITS, DDPGConfig, epsilon_at, field_docs
 from agents.her import GOAL_KEYS, HerReplayBuffer, flatten_goal_obs
 from agents.replay import ReplayBuffer
 
@@ -127,7 +127,8 @@ def _make_buffer(agent_name: str, spec: dict[str, Any], env: gym.Env,
                 raise ValueError(f"her-ddpg needs env.unwrapped.{fn}(achieved_goal, desired_goal, info)")
         return HerReplayBuffer(spec["observation_dim"], spec["goal_dim"], spec["act_dim"],
                                config.buffer_size, base.compute_reward, base.compute_terminated,
-                               config.her_k, seed=config.seed + 1)
+                               config.her_k, seed=config.seed + 1,
+                               relabel_observation=getattr(base, "relabel_observation", None))
     return ReplayBuffer(spec["obs_dim"], spec["act_dim"], config.buffer_size, seed=config.seed + 1)
 
 
@@ -362,14 +363,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard scalars")
     group = parser.add_argument_group("hyper-parameters (DDPGConfig; default Table 4 or the checkpoint's)")
+    docs = field_docs(DDPGConfig)
     for field in dataclasses.fields(DDPGConfig):
         if field.name in _CLI_SKIP:
             continue
-        flag = "--" + field.name.replace("_", "-")
+        flag, help_text = "--" + field.name.replace("_", "-"), f"{docs.get(field.name, '')} [{field.default}]"
         if field.name == "hidden_sizes":
-            group.add_argument(flag, type=int, nargs="+")
+            group.add_argument(flag, type=int, nargs="+", help=help_text)
+        elif field.name == "epsilon_unit":
+            group.add_argument(flag, choices=EPSILON_UNITS, help=help_text)
         else:
-            group.add_argument(flag, type=type(field.default))
+            group.add_argument(flag, type=type(field.default), help=help_text)
 
 
 def run(args: argparse.Namespace) -> int:

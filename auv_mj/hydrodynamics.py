@@ -10,7 +10,8 @@ q = (x, y, psi) and body velocity nu = R(psi)^T qdot (Eq. 1-2), the added-mass k
 
 with a11 = -X_udot, a22 = -Y_vdot, a23 = -Y_rdot, a33 = -N_rdot (Eq. 6). Damping is Eq. (11), with
 |v| v (not v^2) so that drag always opposes motion; the optional lift terms Y_uv, Y_ur, N_uv, N_ur
-are the speed-dependent lift of Prestero (2001), zero unless the MJCF gives them.
+are the speed-dependent lift of Prestero (2001), zero unless the MJCF gives them. The per-step hook
+(`Hydrodynamics.bind`) also makes the stiff surge and yaw drag linearly implicit (see there).
 """
 
 from __future__ import annotations
@@ -205,13 +206,6 @@ class Hydrodynamics:
             return X, Y, N
 
         return body_force
-
-    def joint_added_mass(self, psi: float) -> np.ndarray:
-        """Lower triangle of R M_A R^T in joint coordinates, in the order of `_M_index`."""
-        c, s = math.cos(psi), math.sin(psi)
-        a11, a22, a23 = self._a11, self._a22, self._a23
-        return np.array([a11 * c * c + a22 * s * s, (a11 - a22) * s * c, a11 * s * s + a22 * c * c,
-                         -a23 * s, a23 * c, self._a33])
 
     def apply(self, model: mujoco.MjModel, data: mujoco.MjData, disturbance=None) -> None:
         """Adds M_A to `data.M` (re-factored) and the hydrodynamic (+ disturbance) force to qfrc_passive.

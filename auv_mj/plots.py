@@ -466,13 +466,15 @@ def run(args: argparse.Namespace) -> int:
         size["height"] = args.height or DEFAULT_SIZE[1]
     try:
         if args.kind == "trajectory":
+            if args.labels and len(args.labels) != max(len(args.inputs), 1):
+                raise SystemExit(f"auv-mj plot trajectory: {len(args.labels)} labels for "
+                                 f"{max(len(args.inputs), 1)} episodes")
             path = plot_trajectory(_as_records(_episode_inputs(args)), args.output, args.labels, **size)
         elif args.kind == "tracking":
             source = _episode_inputs(args)[0]
-            if args.csv:
-                record = _as_records(source)[0] if not str(source).endswith(".csv") else None
-                if record is not None:
-                    print(f"wrote {tracking_csv(record, args.csv)}")
+            is_csv = isinstance(source, Path) and source.suffix.lower() == ".csv"
+            if args.csv and not is_csv:
+                print(f"wrote {tracking_csv(_as_records(source)[0], args.csv)}")
             path = plot_tracking(source, args.output, x=args.x, **size)
         else:
             labels = args.label or [f"group {i + 1}" for i in range(len(args.runs))]

@@ -792,7 +792,7 @@ def run(args: argparse.Namespace) -> int:
     record = recorder.record()
     print(f"wrote {path}: {record.steps} steps, {record.time[-1]:.1f} s simulated, return "
           f"{record.episode_return:.2f}, success {record.succeeded}, events "
-          f"{sorted(set(record.event) - {''})}, {elapsed:.1f} s to render")
+          f"{sorted(str(e) for e in set(record.event) if e)}, {elapsed:.1f} s to render")
     if args.save_episode:
         print(f"wrote {record.save(args.save_episode)}")
     return 0

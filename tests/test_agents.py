@@ -83,6 +83,22 @@ class PointGoalEnv(gym.Env):
         return (np.linalg.norm(achieved_goal - desired_goal, axis=-1) <= GOAL_RADIUS) | info["collision"]
 
 
+class RelativePointGoalEnv(PointGoalEnv):
+    """Observation [position, goal - position] depends on the goal: the env gives relabel_observation."""
+
+    def __init__(self):
+        super().__init__(2)
+        self.observation_space["observation"] = spaces.Box(-2.0, 2.0, (4,), np.float64)
+
+    def _obs(self):
+        obs = super()._obs()
+        obs["observation"] = np.concatenate([self.pos, self.goal - self.pos])
+        return obs
+
+    def relabel_observation(self, observation, achieved_goal, desired_goal):
+        return np.concatenate([observation[..., :2], desired_goal - achieved_goal], axis=-1)
+
+
 def make_env(dim: int = 2):
     return TimeLimit(PointGoalEnv(dim), TIME_LIMIT)
 
@@ -112,8 +128,8 @@ FAST = DDPGConfig(hidden_sizes=(64, 64), learning_starts=64, buffer_size=5000, e
 """A small, quick configuration for the loop tests (not for learning)."""
 
 
-def fill_her_buffer(n_episodes: int, capacity: int = 10_000, seed: int = 0):
-    env = make_env()
+def fill_her_buffer(n_episodes: int, capacity: int = 10_000, seed: int = 0, env: gym.Env | None = None):
+    env = env or make_env()
     base = env.unwrapped
     calls = {"reward": 0, "terminated": 0}
 
@@ -125,7 +141,9 @@ def fill_her_buffer(n_episodes: int, capacity: int = 10_000, seed: int = 0):
         calls["terminated"] += 1
         return base.compute_terminated(a, d, info)
 
-    buf = HerReplayBuffer(2, 2, 2, capacity, reward_fn, terminated_fn, n_sampled_goal=4, seed=seed)
+    obs_dim = env.observation_space["observation"].shape[0]
+    buf = HerReplayBuffer(obs_dim, 2, 2, capacity, reward_fn, terminated_fn, n_sampled_goal=4, seed=seed,
+                          relabel_observation=getattr(base, "relabel_observation", None))
     rng = np.random.default_rng(seed)
     for episode in range(n_episodes):
         obs, _ = env.reset(seed=episode)
@@ -189,6 +207,17 @@ def test_her_relabelling_future_goals_rewards_and_terminations():
     # Time-limit truncation is never a termination.
     truncated_real = ~rel & buf.truncated[idx]
     assert truncated_real.any() and np.all(batch.terminated[truncated_real] == 0.0)
+
+
+def test_her_recomputes_goal_dependent_observations():
+    _, buf, _ = fill_her_buffer(6, env=TimeLimit(RelativePointGoalEnv(), TIME_LIMIT))
+    sample = buf.sample_relabelled(1024)
+    idx, rel, goals, batch = sample.indices, sample.relabelled, sample.desired_goals, sample.batch
+    assert rel.any() and (~rel).any()
+    np.testing.assert_allclose(batch.obs[:, 2:4], goals - buf.achieved_goal[idx], atol=1e-6)
+    np.testing.assert_allclose(batch.next_obs[rel, 2:4], goals[rel] - buf.next_achieved_goal[idx[rel]],
+                               atol=1e-6)
+    np.testing.assert_array_equal(batch.obs[:, :2], buf.observation[idx, :2])
 
 
 def test_her_buffer_skips_open_episodes_and_overwritten_ones():

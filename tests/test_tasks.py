@@ -248,6 +248,8 @@ def test_paper_reward_terms_on_hand_computed_cases():
     assert follow([0, 0], [1, 0], goal, 12.5) == 0.5  # closer
     assert follow([1, 0], [0, 0], goal, 12.5) == -0.5  # farther
     assert follow([0, 10], [0, -10], goal, 12.5) == 0.0  # neither
+    assert follow([0, 0], [0.2, 0], goal, 12.5) == 0.0  # creeping closer by less than the dead-band
+    assert follow([0.2, 0], [0, 0], goal, 12.5) == 0.0
     assert follow([80, 0], [88, 0], goal, 12.5) == 4.0  # reached: 12 m <= 12.5 m
     assert follow([80, 0], [87, 0], goal, 12.5) == 0.5
     np.testing.assert_array_equal(follow(np.zeros((3, 2)), [[1, 0], [-1, 0], [98.5, 0]], goal, 2.0),
@@ -259,11 +261,12 @@ def test_paper_reward_terms_on_hand_computed_cases():
     assert avoid(12.0, d0) == 0.0 and avoid(120.0, d0) == 0.0
     # One real step, open water: r = r_following - 0.05 (Eq. 26 with k1 = k2 = k3 = 1).
     env = suite.load("auv", "goal", task_kwargs={"scenario": "a2", "reward": "paper"})
-    first = env.reset()
-    step = env.step(np.array([0.5, 0.0]))
-    before = np.hypot(*(first.observation["achieved_goal"] - first.observation["desired_goal"]))
+    first = step = env.reset()
+    for _ in range(20):  # from rest the first steps move less than the dead-band: r = 0 - 0.05
+        previous, step = step, env.step(np.array([0.5, 0.0]))
+    before = np.hypot(*(previous.observation["achieved_goal"] - first.observation["desired_goal"]))
     after = np.hypot(*(step.observation["achieved_goal"] - first.observation["desired_goal"]))
-    assert after < before and step.reward == pytest.approx(0.5 - 0.05)
+    assert after < before - planning.PROGRESS_DEADBAND and step.reward == pytest.approx(0.5 - 0.05)
 
 
 def test_avoid_reward_and_safety_violation_from_the_sonar():
