@@ -3,7 +3,7 @@
 Metrics per task (mean over N episodes seeded `seed`, `seed + 1`, ...): success rate, collision rate, safety
 violations (entering d_s = 5 m), minimum clearance, path length, time to goal, return; for tracking tasks the
 mean absolute and maximum error of speed and heading (per disturbance phase on speed_heading, Table 9).
-Deterministic for a given seed: every episode's randomness comes from its task seed and the policy is deterministic.
+Deterministic for a given seed: each episode's randomness comes from its task seed.
 """
 
 from __future__ import annotations
@@ -96,7 +96,8 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
     results = {}
     for task_name in task_names:
         runs = []
-        bar = tqdm(range(episodes), desc=f"eval {task_name}", unit="ep", disable=not progress, file=sys.stderr)
+        bar = tqdm(range(episodes), desc=f"eval {task_name}", unit="ep", disable=not progress,
+                   file=sys.stderr)
         for i in bar:
             env = policies.make_env(policy_name, task_name, seed + i)
             policy = policies.make_policy(policy_name, env, seed + i)
@@ -137,8 +138,8 @@ def write_outputs(results: dict, json_path: Path | None, csv_path: Path | None) 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj eval`."""
     parser.add_argument("--policy", required=True,
-                        help="checkpoint path, a shipped policy (planner, executor, two-layer) or a baseline "
-                             "(splane, random)")
+                        help="checkpoint path, shipped policy (planner, executor, two-layer) "
+                             "or baseline (splane, random)")
     parser.add_argument("--task", default="all", help="task name, tag (e.g. benchmarking, planning) or 'all'")
     parser.add_argument("--episodes", type=int, default=10, help="episodes per task")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")

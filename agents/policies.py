@@ -4,6 +4,7 @@
 - `planner`: the shipped HER-DDPG planner on the task's default S-plane executor;
 - `executor`: the shipped DDPG execution layer (speed_heading);
 - `two-layer`: the shipped planner on the shipped learned executor (Sec. 4.3, the end-to-end system);
+- `los-executor`: line-of-sight guidance on the shipped learned executor (the execution layer alone);
 - `splane`: the classical baseline (line of sight + S-plane, or S-plane alone on speed_heading);
 - `random`: uniform actions.
 """
@@ -20,6 +21,7 @@ CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
 SHIPPED = {"planner": CHECKPOINT_DIR / "planner.pt", "executor": CHECKPOINT_DIR / "executor.pt"}
 BASELINES = ("splane", "random")
 EXECUTOR_TASKS = ("speed_heading",)
+LEARNED_EXECUTOR_POLICIES = ("two-layer", "los-executor")
 
 
 def _suite():
@@ -37,17 +39,37 @@ def shipped_checkpoint(name: str) -> Path:
     return path
 
 
-def learned_executor():
-    """The shipped DDPG execution layer as a task executor callable (command, state) -> tau."""
-    from agents.executor import LearnedExecutor
+class LearnedExecutor:
+    """A trained speed_heading policy as a planning task's executor: (command, state) -> (tau_u, tau_r).
 
-    return LearnedExecutor.load(shipped_checkpoint("executor"))
+    Its input is the speed_heading observation (Eq. 27) and its [-1, 1] output is scaled to the actuator
+    ranges exactly as the speed_heading task does (Eq. 28-29).
+    """
+
+    def __init__(self, policy, low: np.ndarray, high: np.ndarray):
+        from tasks.speed_heading import executor_observation
+
+        self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
+        self._observe = executor_observation
+
+    def __call__(self, command, state) -> np.ndarray:
+        action = np.clip(self.policy(self._observe(command, state)), -1.0, 1.0)
+        return self.low + 0.5 * (action + 1.0) * (self.high - self.low)
 
 
-def make_env(policy_name: str, task_name: str, seed: int):
+def learned_executor(path: Path | None = None) -> LearnedExecutor:
+    """The shipped (or given) DDPG execution layer as a task executor."""
+    from agents.policy import Policy
+    from auv_mj import arena
+
+    low, high = arena.load().model.actuator_ctrlrange.T
+    return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
+
+
+def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     """The suite environment for one evaluation episode; `two-layer` plugs in the learned executor."""
-    task_kwargs = {"random": seed}
-    if policy_name == "two-layer" and task_name not in EXECUTOR_TASKS:
+    task_kwargs["random"] = seed
+    if policy_name in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
         task_kwargs["executor"] = learned_executor()
     return _suite().load("auv", task_name, task_kwargs=task_kwargs)
 
@@ -72,6 +94,8 @@ def make_policy(policy_name: str, env, seed: int = 0):
         return baselines.uniform_random(env, seed)
     if policy_name == "splane":
         return baselines.classical(env)
+    if policy_name == "los-executor":
+        return baselines.line_of_sight(env)
     if policy_name in ("planner", "two-layer"):
         return _checkpoint_policy(shipped_checkpoint("planner"))
     if policy_name == "executor":
@@ -79,7 +103,7 @@ def make_policy(policy_name: str, env, seed: int = 0):
     path = Path(policy_name)
     if not path.is_file():
         raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of "
-                         f"{sorted(SHIPPED) + ['two-layer'] + list(BASELINES)}")
+                         f"{sorted(SHIPPED) + list(LEARNED_EXECUTOR_POLICIES) + list(BASELINES)}")
     return _checkpoint_policy(path)
 
 
@@ -95,7 +119,7 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
         chosen = list(suite.tasks_by_tag(spec)) if spec in suite.TAGS else []
         if not chosen:
             raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
-    if policy_name in ("planner", "two-layer"):
+    if policy_name in ("planner", "two-layer", "los-executor"):
         chosen = [t for t in chosen if t not in EXECUTOR_TASKS]
     elif policy_name == "executor":
         chosen = [t for t in chosen if t in EXECUTOR_TASKS]

@@ -346,6 +346,8 @@ def make_env_fn(env_id: str, **kwargs: Any) -> Callable[[], gym.Env]:
 
 
 _CLI_SKIP = ("seed", "device")
+TASK_KWARGS_NAME = "task_kwargs.json"
+"""File in the run directory holding the --task-kwargs of the run."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -353,6 +355,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("agent", choices=AGENTS,
                         help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading)")
     parser.add_argument("--task", required=True, help="suite task name or Gymnasium id (auv_mj/...-v0)")
+    parser.add_argument("--task-kwargs", type=json.loads, default=None, metavar="JSON",
+                        help='task options, e.g. \'{"command": "random", "disturbances": "random"}\'; '
+                             "kept in the run directory and reused by --resume")
     parser.add_argument("--steps", type=int, help="total env steps (default: --episodes)")
     parser.add_argument("--episodes", type=int, help="total episodes (default: max_episodes, Table 4)")
     parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
@@ -379,9 +384,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Runs `auv-mj train`; returns the exit status."""
     try:
-        env_fn = make_env_fn(task_env_id(args.task))
         run_dir = args.run_dir or (Path("runs") / args.task.replace("/", "_")
                                    / f"{args.agent}-seed{args.seed or 0}")
+        kwargs_file = run_dir / TASK_KWARGS_NAME
+        task_kwargs = args.task_kwargs
+        if task_kwargs is None and args.resume and kwargs_file.is_file():
+            task_kwargs = json.loads(kwargs_file.read_text())
+        if task_kwargs is not None and not isinstance(task_kwargs, dict):
+            raise ValueError(f"--task-kwargs must be a JSON object, got {task_kwargs!r}")
+        env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": task_kwargs} if task_kwargs else {}))
+        if task_kwargs:
+            run_dir.mkdir(parents=True, exist_ok=True)
+            kwargs_file.write_text(json.dumps(task_kwargs))
         base = DDPGConfig()
         if args.resume:
             base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"])

@@ -12,8 +12,8 @@ import sys
 
 # (subcommand, module, one-line help)
 COMMANDS: tuple[tuple[str, str, str], ...] = (
-    ("demo", "auv_mj.demo", "run the two-layer planner+executor through the tunnel, print a table, write a video"),
-    ("manoeuvre", "auv_mj.manoeuvre", "a scripted zig-zag manoeuvre of the vehicle: prints the track and the sonar"),
+    ("demo", "agents.demo", "the two-layer planner+executor through the tunnel: table, video, plot"),
+    ("manoeuvre", "auv_mj.manoeuvre", "a scripted zig-zag manoeuvre: prints the track and the sonar"),
     ("bench", "auv_mj.bench", "measure physics, sonar and task speed as ratios against their limits"),
     ("tunnel", "auv_mj.tunnels", "build a tunnel arena MJCF from a centreline CSV/JSON"),
     ("check-arena", "auv_mj.arena_check", "check an arena MJCF and write a top-down PNG preview"),
