@@ -187,6 +187,81 @@ def environment() -> dict[str, str]:
             "time": time.strftime("%Y-%m-%dT%H:%M:%S")}
 
 
+TASK_STEPS = 2000
+"""Environment steps per task in the "tasks" section (uniform random actions, resets included)."""
+
+
+@section("tasks")
+def tasks_section(settings: BenchSettings) -> list[Measurement]:
+    """Environment steps per second of every suite task, and how many times faster than real time."""
+    from tasks import suite
+
+    measurements = []
+    for domain, name in suite.ALL_TASKS:
+        env = suite.load(domain, name)
+        rates = [suite.steps_per_second(name, settings.calls(TASK_STEPS), settings.seed)
+                 for _ in range(max(1, settings.repeats // 3))]
+        rate = float(np.median(rates))
+        measurements.append(Measurement(f"{name} env steps/s", rate, "steps/s",
+                                        f"{rate * env.control_timestep():.0f}x real time, "
+                                        f"step {env.control_timestep():g} s"))
+    return measurements
+
+
+@section("render")
+def render_section(settings: BenchSettings) -> list[Measurement]:
+    """Frames per second of the episode renderer against a bare mujoco.Renderer of the same scene."""
+    from auv_mj import glbackend, render
+
+    try:
+        glbackend.require()
+    except glbackend.RenderingUnavailable as e:
+        return [Measurement("rendering unavailable", float("nan"), "", str(e))]
+    measurements = []
+    for size, r in render.benchmark(frames=max(10, settings.calls(60))).items():
+        measurements.append(Measurement(f"render {size} ours", r["ours_fps"], "frames/s"))
+        measurements.append(Measurement(f"render {size} bare mujoco.Renderer (limit)", r["bare_fps"], "frames/s"))
+        measurements.append(Measurement(f"render {size} ours / bare", r["ratio"], "x"))
+    return measurements
+
+
+TRAINING_UPDATES = 200
+"""Gradient steps timed per repeat in the "training" section."""
+
+
+@section("training")
+def training_section(settings: BenchSettings) -> list[Measurement]:
+    """DDPG gradient steps per second (Table 4 sizes: 2 x 256 tanh, batch 64, one torch thread) and the
+    planner task's env steps per second, timed apart, as the issue asks for training speed."""
+    import torch
+
+    from agents.ddpg import DDPG, DDPGConfig
+    from agents.replay import Batch
+
+    torch.set_num_threads(1)
+    rng = np.random.default_rng(settings.seed)
+    config = DDPGConfig()
+    obs_dim, act_dim = 20, 2  # the goal task: 18 observation values + the 2-d desired goal
+    agent = DDPG(obs_dim, act_dim, config)
+    n = settings.calls(TRAINING_UPDATES)
+
+    def batch(size: int) -> Batch:
+        return Batch(rng.standard_normal((size, obs_dim), dtype=np.float32),
+                     rng.uniform(-1, 1, (size, act_dim)).astype(np.float32),
+                     rng.standard_normal(size, dtype=np.float32),
+                     rng.standard_normal((size, obs_dim), dtype=np.float32),
+                     np.zeros(size, dtype=np.float32))
+
+    data = batch(n * config.batch_size)
+    times = []
+    for _ in range(settings.repeats):
+        start = time.perf_counter()
+        agent.update_many(data, n)
+        times.append((time.perf_counter() - start) / n)
+    updates = 1.0 / float(np.median(times))
+    return [Measurement("DDPG gradient steps/s (batch 64, 2x256)", updates, "updates/s", "one torch thread")]
+
+
 def run_sections(names: Sequence[str], settings: BenchSettings,
                  report: Callable[[str, list[Measurement]], None] | None = None
                  ) -> dict[str, list[Measurement]]:
