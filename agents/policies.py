@@ -116,7 +116,7 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
     elif spec in names:
         chosen = [spec]
     else:
-        chosen = list(suite.tasks_by_tag(spec)) if spec in suite.TAGS else []
+        chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
         if not chosen:
             raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
     if policy_name in ("planner", "two-layer", "los-executor"):

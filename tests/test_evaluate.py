@@ -1,0 +1,84 @@
+"""Suite-style evaluation, the policy names, the demo and the report helpers."""
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents import evaluate, policies
+from agents.reproduce import episodes_to
+
+AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
+
+
+def test_evaluation_is_deterministic_for_a_seed():
+    first = evaluate.evaluate("splane", ["path_line"], episodes=2, seed=3, max_steps=40, progress=False)
+    again = evaluate.evaluate("splane", ["path_line"], episodes=2, seed=3, max_steps=40, progress=False)
+    assert first == again
+    other = evaluate.evaluate("random", ["goal"], episodes=2, seed=3, max_steps=40, progress=False)
+    again = evaluate.evaluate("random", ["goal"], episodes=2, seed=3, max_steps=40, progress=False)
+    assert other == again
+
+
+def test_metrics_of_a_collision_and_of_a_success():
+    collided = evaluate.evaluate("random", ["obstacles"], episodes=1, seed=0, progress=False)
+    summary = evaluate.evaluate("splane", ["goal"], episodes=2, seed=0, progress=False)["tasks"]["goal"]
+    assert summary["success_rate"] == 1.0 and summary["collision_rate"] == 0.0
+    assert 0 < summary["time_to_goal"] < 600 and summary["path_length"] > 50
+    assert math.isinf(summary["min_clearance"]) or summary["min_clearance"] > 5
+    assert set(collided["tasks"]) == {"obstacles"}
+
+
+def test_tracking_metrics_per_disturbance_phase():
+    summary = evaluate.evaluate("splane", ["speed_heading"], 1, 0, progress=False)["tasks"]["speed_heading"]
+    for phase in ("instantaneous", "constant", "periodic"):
+        assert 0 <= summary[f"mae_speed_{phase}"] < 0.1
+        assert 0 <= summary[f"mae_heading_{phase}"] < 0.1
+    assert summary["max_speed"] >= summary["mae_speed"]
+
+
+def test_task_resolution_and_bad_names():
+    assert policies.resolve_tasks("goal") == ["goal"]
+    assert "speed_heading" not in policies.resolve_tasks("all", "planner")
+    assert policies.resolve_tasks("all", "executor") == ["speed_heading"]
+    assert set(policies.resolve_tasks("benchmarking")) <= set(policies.resolve_tasks("all"))
+    with pytest.raises(ValueError, match="unknown task or tag 'nope'"):
+        policies.resolve_tasks("nope")
+    env = policies.make_env("splane", "goal", 0)
+    with pytest.raises(ValueError, match="unknown policy 'no-such-policy'"):
+        policies.make_policy("no-such-policy", env)
+
+
+def test_eval_cli_writes_json_and_csv(tmp_path):
+    out = tmp_path / "out.json"
+    done = subprocess.run([*AUV_MJ, "eval", "--policy", "splane", "--task", "path_curve", "--episodes", "1",
+                           "--max-steps", "30", "--json", str(out), "--csv", str(tmp_path / "out.csv")],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "path_curve" in done.stdout and "success_rate" in done.stdout
+    results = json.loads(out.read_text())
+    assert set(results["tasks"]["path_curve"]) >= {"success_rate", "collision_rate", "min_clearance",
+                                                   "path_length", "time_to_goal", "return", "mae_speed"}
+    assert (tmp_path / "out.csv").read_text().startswith("task,")
+
+
+def test_demo_runs_end_to_end_with_the_baseline(tmp_path):
+    env = dict(os.environ)
+    env.pop("DISPLAY", None)
+    done = subprocess.run([*AUV_MJ, "demo", "--policy", "splane", "--out", str(tmp_path), "--width", "160",
+                           "--height", "96", "--fps", "10"], capture_output=True, text=True, timeout=600, env=env)
+    assert done.returncode in (0, 1), done.stderr  # 1: the baseline (line of sight) hits the moving obstacle
+    assert "Tunnel inspection" in done.stdout and "min_clearance_m" in done.stdout
+    for name in ("tunnel.mp4", "tunnel_trajectory.png", "tunnel_episode.npz"):
+        assert (Path(tmp_path) / name).stat().st_size > 1000
+
+
+def test_episodes_to_target_success():
+    success = np.r_[np.zeros(30), np.ones(30)]
+    assert episodes_to(success, 0.9, window=20) == 30 + 18
+    assert math.isnan(episodes_to(np.zeros(50), 0.9, window=20))
