@@ -9,7 +9,7 @@ from collections.abc import Callable
 import dm_env
 import numpy as np
 
-from auv_mj.splane import SPlaneController
+from auv_mj.splane import SPlaneController, wrap_angle
 
 CRUISE_SPEED = 1.0
 """Target velocity of Tables 6-8 and 12 [m/s]."""
@@ -19,11 +19,6 @@ MAX_HEADING_OFFSET = math.pi / 2
 """Table 3: psi offset in [-90, 90] deg, the planner action a1 = offset / 90 deg."""
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
-
-
-def wrap_angle(angle: float) -> float:
-    """Angle wrapped to [-pi, pi)."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def line_of_sight(env) -> Policy:

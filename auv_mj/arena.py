@@ -23,6 +23,8 @@ import numpy as np
 from auv_mj.assets import model_path
 from auv_mj.physics import AUVPhysics
 
+SAFETY_DISTANCE = 5.0
+"""d_s: the minimum distance between the vehicle and any obstacle or wall [m] (Table 1, Eq. 24)."""
 MERGED_SECTIONS = ("asset", "default", "worldbody", "custom", "contact")
 PATH_SITE_PREFIX = "path_"
 MOVER_PREFIX = "mover_"

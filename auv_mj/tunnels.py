@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-SAFETY_DISTANCE = 5.0
-"""d_s [m]: the least distance allowed between the AUV and any obstacle or wall (Table 1)."""
+from auv_mj.arena import SAFETY_DISTANCE
+
 HULL_RADIUS = 0.0955
 """Radius of the hull capsule [m] (models/auv.xml)."""
 HULL_HALF_LENGTH = 0.665

@@ -64,6 +64,7 @@ from dm_control.utils import rewards
 from dm_env import specs
 
 from auv_mj import arena
+from auv_mj.arena import SAFETY_DISTANCE
 from auv_mj.physics import AUVPhysics
 from auv_mj.sonar import SONAR_NAMES, SONAR_RANGE
 from auv_mj.splane import EXECUTOR_DT, SPlaneController
@@ -93,8 +94,6 @@ across the path [m]: it need not turn back to a sub-goal it went around (an obst
 PASS_WINDOW = 5
 """How many sub-goals ahead of the current one the passing rule looks at."""
 
-SAFETY_DISTANCE = 5.0
-"""d_s: the minimum safe distance to obstacles [m] (Table 1, Eq. 24)."""
 AVOID_GAIN = 0.1
 """k of Eq. (24)."""
 INFLATION = 3.0
