@@ -1,9 +1,10 @@
 """Names -> policies for evaluation and rendering: checkpoints, the shipped policies and the baselines.
 
 - a checkpoint path: a trained `agents.policy.Policy`;
-- `planner`: the shipped HER-DDPG planner on the task's default S-plane executor;
+- `planner`: the shipped HER-DDPG planner, with the protection domain of Sec. 3.2.2 active
+  (`agents.avoidance`), on the task's default S-plane executor; `planner-raw`: the same without it;
 - `executor`: the shipped DDPG execution layer (speed_heading);
-- `two-layer`: the shipped planner on the shipped learned executor (Sec. 4.3, the end-to-end system);
+- `two-layer`: the shipped planner (protection domain active) on the shipped learned executor (Sec. 4.3);
 - `los-executor`: line-of-sight guidance on the shipped learned executor (the execution layer alone);
 - `splane`: the classical baseline (line of sight + S-plane, or S-plane alone on speed_heading);
 - `random`: uniform actions.
@@ -16,12 +17,14 @@ from pathlib import Path
 import numpy as np
 
 from agents import baselines
+from agents.avoidance import with_repulsion
 
 CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
 SHIPPED = {"planner": CHECKPOINT_DIR / "planner.pt", "executor": CHECKPOINT_DIR / "executor.pt"}
 BASELINES = ("splane", "random")
 EXECUTOR_TASKS = ("speed_heading",)
 LEARNED_EXECUTOR_POLICIES = ("two-layer", "los-executor")
+PLANNERS = ("planner", "planner-raw", "two-layer", "los-executor")
 
 
 def _suite():
@@ -97,13 +100,15 @@ def make_policy(policy_name: str, env, seed: int = 0):
     if policy_name == "los-executor":
         return baselines.line_of_sight(env)
     if policy_name in ("planner", "two-layer"):
+        return with_repulsion(_checkpoint_policy(shipped_checkpoint("planner")))
+    if policy_name == "planner-raw":
         return _checkpoint_policy(shipped_checkpoint("planner"))
     if policy_name == "executor":
         return _checkpoint_policy(shipped_checkpoint("executor"))
     path = Path(policy_name)
     if not path.is_file():
         raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of "
-                         f"{sorted(SHIPPED) + list(LEARNED_EXECUTOR_POLICIES) + list(BASELINES)}")
+                         f"{sorted(set(SHIPPED) | set(PLANNERS)) + list(BASELINES)}")
     return _checkpoint_policy(path)
 
 
@@ -119,7 +124,7 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
         chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
         if not chosen:
             raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
-    if policy_name in ("planner", "two-layer", "los-executor"):
+    if policy_name in PLANNERS:
         chosen = [t for t in chosen if t not in EXECUTOR_TASKS]
     elif policy_name == "executor":
         chosen = [t for t in chosen if t in EXECUTOR_TASKS]
