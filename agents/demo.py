@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     try:
         env = policies.make_env(args.policy, TASK, args.seed)
-        policy = policies.make_policy(args.policy, env, args.seed)
+        policy = policies.make_policy(args.policy, env, args.seed, TASK)
     except (FileNotFoundError, ValueError) as e:
         print(f"auv-mj demo: {e}", file=sys.stderr)
         return 2
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         if name not in records:
             try:
                 env = policies.make_env(name, TASK, args.seed)
-                records[name] = record_episode(env, policies.make_policy(name, env, args.seed), task=TASK,
+                records[name] = record_episode(env, policies.make_policy(name, env, args.seed, TASK), task=TASK,
                                                policy_name=name, seed=args.seed)
             except FileNotFoundError as e:
                 print(f"auv-mj demo: skipping {name}: {e}", file=sys.stderr)

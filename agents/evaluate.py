@@ -100,7 +100,7 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
                    file=sys.stderr)
         for i in bar:
             env = policies.make_env(policy_name, task_name, seed + i)
-            policy = policies.make_policy(policy_name, env, seed + i)
+            policy = policies.make_policy(policy_name, env, seed + i, task_name)
             runs.append(run_episode(env, policy, max_steps))
             bar.set_postfix(success=f"{np.mean([r['success'] for r in runs]):.2f}")
         results[task_name] = summarise(runs)

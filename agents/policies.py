@@ -1,8 +1,9 @@
 """Names -> policies for evaluation and rendering: checkpoints, the shipped policies and the baselines.
 
 - a checkpoint path: a trained `agents.policy.Policy`;
-- `planner`: the shipped HER-DDPG planner, with the protection domain of Sec. 3.2.2 active
-  (`agents.avoidance`), on the task's default S-plane executor; `planner-raw`: the same without it;
+- `planner`: the shipped HER-DDPG planner (`planner.pt`; `planner_tunnel.pt` on the tunnel task), with
+  the protection domain of Sec. 3.2.2 active (`agents.avoidance`), on the task's default S-plane executor;
+  `planner-raw`: the same without the protection domain;
 - `executor`: the shipped DDPG execution layer (speed_heading);
 - `two-layer`: the shipped planner (protection domain active) on the shipped learned executor (Sec. 4.3);
 - `los-executor`: line-of-sight guidance on the shipped learned executor (the execution layer alone);
@@ -20,7 +21,10 @@ from agents import baselines
 from agents.avoidance import with_repulsion
 
 CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
-SHIPPED = {"planner": CHECKPOINT_DIR / "planner.pt", "executor": CHECKPOINT_DIR / "executor.pt"}
+SHIPPED = {"planner": CHECKPOINT_DIR / "planner.pt", "planner-tunnel": CHECKPOINT_DIR / "planner_tunnel.pt",
+           "executor": CHECKPOINT_DIR / "executor.pt"}
+PLANNER_FOR_TASK = {"tunnel": "planner-tunnel"}
+"""Tasks with a planner of their own (trained on that task, as the paper trains per environment)."""
 BASELINES = ("splane", "random")
 EXECUTOR_TASKS = ("speed_heading",)
 LEARNED_EXECUTOR_POLICIES = ("two-layer", "los-executor")
@@ -91,8 +95,9 @@ def _checkpoint_policy(path: Path):
     return act
 
 
-def make_policy(policy_name: str, env, seed: int = 0):
-    """A callable `policy(time_step) -> action` for `env`."""
+def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
+    """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the planner)."""
+    planner = PLANNER_FOR_TASK.get(task, "planner")
     if policy_name == "random":
         return baselines.uniform_random(env, seed)
     if policy_name == "splane":
@@ -100,9 +105,9 @@ def make_policy(policy_name: str, env, seed: int = 0):
     if policy_name == "los-executor":
         return baselines.line_of_sight(env)
     if policy_name in ("planner", "two-layer"):
-        return with_repulsion(_checkpoint_policy(shipped_checkpoint("planner")))
+        return with_repulsion(_checkpoint_policy(shipped_checkpoint(planner)))
     if policy_name == "planner-raw":
-        return _checkpoint_policy(shipped_checkpoint("planner"))
+        return _checkpoint_policy(shipped_checkpoint(planner))
     if policy_name == "executor":
         return _checkpoint_policy(shipped_checkpoint("executor"))
     path = Path(policy_name)

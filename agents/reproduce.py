@@ -85,7 +85,7 @@ def tracking(lines: list[str]) -> None:
         lines.append(f"| {task} | paper (DDPG) | {paper[0]} | {paper[1]} | {paper[2]} | {paper[3]} | n/a |")
         for name in TRACKING_POLICIES:
             env = policies.make_env(name, task, 0)
-            record = record_episode(env, policies.make_policy(name, env, 0), task=task, policy_name=name)
+            record = record_episode(env, policies.make_policy(name, env, 0, task), task=task, policy_name=name)
             keep = record.time[1:] > SETTLE_TIME
             speed = np.abs(record.info["speed_error"][keep])
             heading = np.abs(record.info["heading_error"][keep])
@@ -153,7 +153,7 @@ def scenarios(lines: list[str], figures: Path) -> None:
         records = []
         for name in SCENARIO_POLICIES:
             env = policies.make_env(name, task, 0, **kwargs)
-            record = record_episode(env, policies.make_policy(name, env, 0), task=task, policy_name=name)
+            record = record_episode(env, policies.make_policy(name, env, 0, task), task=task, policy_name=name)
             records.append(record)
             steps = np.diff(record.pose[:, :2], axis=0)
             length = float(np.sum(np.hypot(steps[:, 0], steps[:, 1])))

@@ -760,7 +760,7 @@ def make_env_and_policy(task: str, policy: str, seed: int):
                          "policies (splane, random, checkpoints)") from None
     try:
         env = policies.make_env(policy, task, seed)
-        return env, policies.make_policy(policy, env, seed)
+        return env, policies.make_policy(policy, env, seed, task)
     except (FileNotFoundError, ValueError, KeyError) as e:
         raise SystemExit(f"auv-mj render: {e}") from None
 
