@@ -69,7 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Runs the demo; returns 0 when the tunnel was traversed without collision."""
+    """Runs the demo; returns 0 once the table and files are written, whatever the episode's outcome."""
     from auv_mj import plots, render
 
     args.out.mkdir(parents=True, exist_ok=True)
@@ -116,5 +116,4 @@ def run(args: argparse.Namespace) -> int:
     print(f"trajectory: {Path(figure).resolve()}")
     print(f"episode:    {(args.out / 'tunnel_episode.npz').resolve()}")
     print(f"done in {time.perf_counter() - start:.0f} s")
-    metrics = rows[args.policy]
-    return 0 if metrics["success"] and not metrics["collision"] else 1
+    return 0
