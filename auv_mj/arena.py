@@ -142,10 +142,20 @@ def arena_info(physics: AUVPhysics) -> ArenaInfo:
     return ArenaInfo(site_xy("start"), start_heading, site_xy("goal"), path, bounds, tuple(movers))
 
 
-def move_movers(physics: AUVPhysics, movers: tuple[Mover, ...], time: float | None = None) -> None:
-    """Places every moving obstacle where its path puts it at `time` (default: physics time)."""
+def mover_slots(physics: AUVPhysics, movers: tuple[Mover, ...]) -> np.ndarray:
+    """Mocap indices of the movers' bodies: resolve them once per episode, not on every tick."""
+    model = physics.model.ptr
+    return np.array([model.body_mocapid[model.body(m.body).id] for m in movers], dtype=int)
+
+
+def move_movers(physics: AUVPhysics, movers: tuple[Mover, ...], time: float | None = None,
+                slots: np.ndarray | None = None) -> None:
+    """Places every moving obstacle where its path puts it at `time` (default: physics time).
+
+    `slots` are the movers' mocap indices from `mover_slots` (looked up here when not given).
+    """
     time = physics.time() if time is None else time
-    model, data = physics.model.ptr, physics.data.ptr
-    for mover in movers:
-        mocap = model.body_mocapid[model.body(mover.body).id]
-        data.mocap_pos[mocap][:2] = mover.position(time)
+    slots = mover_slots(physics, movers) if slots is None else slots
+    mocap_pos = physics.data.ptr.mocap_pos
+    for mover, slot in zip(movers, slots, strict=True):
+        mocap_pos[slot][:2] = mover.position(time)

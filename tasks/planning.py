@@ -397,7 +397,8 @@ class PlanningTask(base.Task):
         data.ctrl[:] = 0.0
         if self._goal_site >= 0:
             physics.model.ptr.site_pos[self._goal_site][:2] = goals[-1]
-        arena.move_movers(physics, route.movers, 0.0)
+        self._mover_slots = arena.mover_slots(physics, route.movers)
+        arena.move_movers(physics, route.movers, 0.0, self._mover_slots)
         reset = getattr(self.executor, "reset", None)
         if reset is not None:
             reset()
@@ -417,7 +418,7 @@ class PlanningTask(base.Task):
         u, v, r = physics.hydrodynamics.body_velocity(data)
         data.ctrl[:] = self.executor(self._command, (u, v, r, psi))
         if self._route.movers:
-            arena.move_movers(physics, self._route.movers, data.time)
+            arena.move_movers(physics, self._route.movers, data.time, self._mover_slots)
         if data.ncon and not self._collided:
             self._collided = self._vehicle_contact(physics)
 
