@@ -13,10 +13,13 @@ from auv_mj.splane import SPlaneController, wrap_angle
 
 CRUISE_SPEED = 1.0
 """Target velocity of Tables 6-8 and 12 [m/s]."""
-MAX_PLANNER_SPEED = 2.0
-"""Table 3: V in [-2, 2] m/s, the planner action a0 = V / 2."""
+MIN_PLANNER_SPEED, MAX_PLANNER_SPEED = 0.0, 2.0
+"""The planning tasks' V in [0, 2] m/s: a0 = 2 (V - min) / (max - min) - 1 (Table 3, forward only)."""
 MAX_HEADING_OFFSET = math.pi / 2
 """Table 3: psi offset in [-90, 90] deg, the planner action a1 = offset / 90 deg."""
+
+CRUISE_ACTION = 2.0 * (CRUISE_SPEED - MIN_PLANNER_SPEED) / (MAX_PLANNER_SPEED - MIN_PLANNER_SPEED) - 1.0
+"""The speed action a0 commanding CRUISE_SPEED."""
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
 
@@ -28,7 +31,7 @@ def line_of_sight(env) -> Policy:
         goal = np.asarray(time_step.observation["desired_goal"], dtype=float)
         x, y, psi = env.physics.pose()
         offset = wrap_angle(math.atan2(goal[1] - y, goal[0] - x) - psi)
-        return np.array([CRUISE_SPEED / MAX_PLANNER_SPEED, np.clip(offset / MAX_HEADING_OFFSET, -1.0, 1.0)])
+        return np.array([CRUISE_ACTION, np.clip(offset / MAX_HEADING_OFFSET, -1.0, 1.0)])
 
     return policy
 

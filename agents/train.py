@@ -132,6 +132,22 @@ def _make_buffer(agent_name: str, spec: dict[str, Any], env: gym.Env,
     return ReplayBuffer(spec["obs_dim"], spec["act_dim"], config.buffer_size, seed=config.seed + 1)
 
 
+def _initialise_from(agent: DDPG, path: Path, spec: dict[str, Any]) -> None:
+    """Copies the networks and the observation normaliser of checkpoint `path` into `agent`."""
+    source, meta = load_agent(path, device=agent.config.device)
+    saved_spec = {k: v for k, v in meta["spec"].items() if k != "env_id"}
+    ours = {k: v for k, v in spec.items() if k != "env_id"}
+    if (saved_spec["obs_dim"], saved_spec["act_dim"]) != (ours["obs_dim"], ours["act_dim"]):
+        raise ValueError(f"--init checkpoint {path} has observation/action sizes "
+                         f"{saved_spec['obs_dim']}/{saved_spec['act_dim']}, this task needs "
+                         f"{ours['obs_dim']}/{ours['act_dim']}")
+    if source.config.hidden_sizes != agent.config.hidden_sizes:
+        raise ValueError(f"--init checkpoint {path} has hidden sizes {source.config.hidden_sizes}, "
+                         f"the run asks for {agent.config.hidden_sizes}")
+    for name, module in agent.modules().items():
+        module.load_state_dict(source.modules()[name].state_dict())
+
+
 def _restore_log(path: Path, episodes: int) -> list[dict[str, str]]:
     """Drops log rows of episodes after the checkpoint (a crash may have left some); returns the kept ones."""
     if not path.exists():
@@ -154,12 +170,14 @@ def _tensorboard(run_dir: Path, purge_step: int | None) -> Any:
 
 def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | None = None, *,
           total_steps: int | None = None, episodes: int | None = None, run_dir: str | Path | None = None,
-          resume: bool = False, checkpoint_every: int = 100, progress: bool = True,
-          tensorboard: bool = True) -> TrainResult:
+          resume: bool = False, init: str | Path | None = None, checkpoint_every: int = 100,
+          progress: bool = True, tensorboard: bool = True) -> TrainResult:
     """Trains `agent_name` on env_fn() until `total_steps` env steps or `episodes` episodes (totals).
 
     With neither given, trains for config.max_episodes (Table 4). `resume=True` continues the run in
     `run_dir` (its config unless `config` is given; the network sizes and replay size must match).
+    `init` starts a new run from another checkpoint's networks and normaliser (fine-tuning, e.g. the
+    `goal` planner on `obstacles`), with fresh counters, replay buffer and random streams.
     Checkpoints every `checkpoint_every` episodes and at the end (also on Ctrl-C).
     """
     env = env_fn()
@@ -183,6 +201,8 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
         if ckpt_path.exists():
             raise FileExistsError(f"{ckpt_path} exists: resume it or choose another run directory")
         agent = DDPG(spec["obs_dim"], spec["act_dim"], config or DDPGConfig())
+        if init is not None:
+            _initialise_from(agent, Path(init), spec)
         counters = {"env_steps": 0, "episodes": 0, "gradient_steps": 0, "wall_time": 0.0}
     config = agent.config
     torch.set_num_threads(config.torch_threads)
@@ -362,6 +382,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=int, help="total episodes (default: max_episodes, Table 4)")
     parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
+    parser.add_argument("--init", type=Path, metavar="CHECKPOINT",
+                        help="start a new run from this checkpoint's networks (fine-tuning)")
     parser.add_argument("--seed", type=int, help="run seed (default 0, or the checkpoint's)")
     parser.add_argument("--device", help="torch device, cpu or cuda (default cpu, or the checkpoint's)")
     parser.add_argument("--checkpoint-every", type=int, default=100, help="episodes between checkpoints")
@@ -390,6 +412,8 @@ def run(args: argparse.Namespace) -> int:
         task_kwargs = args.task_kwargs
         if task_kwargs is None and args.resume and kwargs_file.is_file():
             task_kwargs = json.loads(kwargs_file.read_text())
+        if args.resume and args.init:
+            raise ValueError("--init starts a new run; it cannot be combined with --resume")
         if task_kwargs is not None and not isinstance(task_kwargs, dict):
             raise ValueError(f"--task-kwargs must be a JSON object, got {task_kwargs!r}")
         env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": task_kwargs} if task_kwargs else {}))
@@ -404,7 +428,7 @@ def run(args: argparse.Namespace) -> int:
         if "hidden_sizes" in overrides:
             overrides["hidden_sizes"] = tuple(overrides["hidden_sizes"])
         result = train(env_fn, args.agent, dataclasses.replace(base, **overrides), total_steps=args.steps,
-                       episodes=args.episodes, run_dir=run_dir, resume=args.resume,
+                       episodes=args.episodes, run_dir=run_dir, resume=args.resume, init=args.init,
                        checkpoint_every=args.checkpoint_every, progress=not args.no_progress,
                        tensorboard=not args.no_tensorboard)
     except (ValueError, FileNotFoundError, FileExistsError) as exc:

@@ -21,8 +21,8 @@ from auv_mj import arena as arena_lib
 
 DEFAULT_GOAL_RADIUS = 12.5
 """Radius of the goal area [m] when the task does not say: the 25 m diameter of Tables 6-7."""
-PLANNER_MAX_SPEED = 2.0
-"""Table 3: the planner's V in [-2, 2] m/s is 2 * a0 (used when a task reports no command)."""
+PLANNER_MIN_SPEED, PLANNER_MAX_SPEED = 0.0, 2.0
+"""The planning tasks' V in [0, 2] m/s is a0 + 1 (Table 3, forward only; used when a task reports no command)."""
 PLANNER_MAX_TURN = math.pi / 2
 """Table 3: the planner's heading offset in [-90, 90] deg is a1 * 90 deg."""
 VEHICLE_BODY = "auv"
@@ -339,7 +339,8 @@ class EpisodeRecorder:
             return np.asarray(info["command"], dtype=float).ravel()
         if self._planner and action.shape == (2,):
             a = np.clip(action, -1.0, 1.0)
-            return np.array([PLANNER_MAX_SPEED * a[0], previous.pose[2] + PLANNER_MAX_TURN * a[1]])
+            speed = PLANNER_MIN_SPEED + 0.5 * (a[0] + 1.0) * (PLANNER_MAX_SPEED - PLANNER_MIN_SPEED)
+            return np.array([speed, previous.pose[2] + PLANNER_MAX_TURN * a[1]])
         return np.full(2, np.nan)
 
     def run(self, policy: Policy, max_steps: int | None = None) -> Iterator[Snapshot]:

@@ -365,6 +365,26 @@ def test_resume_continues_the_same_run(tmp_path):
     assert [int(r["steps"]) for r in rows][-1] == resumed.env_steps
 
 
+def test_init_fine_tunes_from_another_run(tmp_path):
+    kwargs = dict(progress=False, tensorboard=False)
+    source = train(make_env, "her-ddpg", FAST, episodes=4, run_dir=tmp_path / "source", **kwargs)
+    trained, _ = load_agent(source.checkpoint)
+    # Zero episodes: the new run is the source's networks and normaliser, with its own fresh counters.
+    tuned = train(make_env, "her-ddpg", FAST, total_steps=0, run_dir=tmp_path / "tuned", init=source.checkpoint,
+                  **kwargs)
+    start, meta = load_agent(tuned.checkpoint)
+    assert meta["counters"]["env_steps"] == 0 and meta["counters"]["episodes"] == 0
+    for name, module in trained.modules().items():
+        for key, value in module.state_dict().items():
+            torch.testing.assert_close(start.modules()[name].state_dict()[key], value, rtol=0, atol=0)
+    fresh = train(make_env, "her-ddpg", FAST, total_steps=0, run_dir=tmp_path / "fresh", **kwargs)
+    assert not torch.equal(next(load_agent(fresh.checkpoint)[0].actor.parameters()),
+                           next(trained.actor.parameters()))
+    with pytest.raises(ValueError, match="observation/action sizes"):
+        train(lambda: make_env(dim=1), "her-ddpg", FAST, total_steps=0, run_dir=tmp_path / "other",
+              init=source.checkpoint, **kwargs)
+
+
 def test_box_task_ddpg_and_action_rescaling(tmp_path):
     def make_track():
         return TimeLimit(PointTrackEnv(), 20)

@@ -26,6 +26,8 @@ SONAR_OFFSET = 0.665
 """The sonar sites sit this far ahead of the vehicle's centre [m] (models/auv.xml)."""
 AVOID_RANGE = 12.0
 """The scripted policy turns away when a forward beam sees something nearer than this [m]."""
+HOLD = np.array([-1.0, 0.0])
+"""Planner action commanding V = 0 and the current heading."""
 
 
 def line_of_sight(observation, speed: float = 0.5) -> np.ndarray:
@@ -224,7 +226,7 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
     psi0 = env.physics.pose()[2]
     commands = []
     for _ in range(8):
-        step = env.step(np.array([0.5, 1.0]))
+        step = env.step(np.array([0.0, 1.0]))  # V = a0 + 1 = 1 m/s
         commands.append(env.task.last_info["command"])
     assert len(calls) == 8 * round(planning.PLANNER_DT / planning.EXECUTOR_DT)
     assert all(len(state) == 4 for _, state in calls)
@@ -235,6 +237,9 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
     psi = env.physics.pose()[2]
     assert abs(commands[-1][1] - psi) <= planning.MAX_HEADING_DIFFERENCE + 1e-9
     assert step.observation["observation"][7] == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
+    for a0, speed in ((-1.0, 0.0), (1.0, 2.0), (-5.0, 0.0)):  # forward only: never astern, blind
+        env.step(np.array([a0, 0.0]))
+        assert env.task.last_info["command"][0] == pytest.approx(speed)
     with pytest.raises(ValueError, match="finite"):
         env.step(np.array([np.nan, 0.0]))
 
@@ -277,7 +282,7 @@ def test_avoid_reward_and_safety_violation_from_the_sonar():
     for gap in (20.0, 9.0, 5.5):
         env.reset()
         place(env, 130.0 - gap - SONAR_OFFSET, 0.0, 0.0)
-        env.step(np.zeros(2))
+        env.step(HOLD)
         info = env.task.last_info
         assert info["min_sonar_range"] == pytest.approx(gap, abs=0.05)
         assert info["reward_avoid"] == pytest.approx(planning.avoid_reward(info["min_sonar_range"], d0))
@@ -285,7 +290,7 @@ def test_avoid_reward_and_safety_violation_from_the_sonar():
         assert info["safety_violation"] == (gap < planning.SAFETY_DISTANCE + 0.05)
     env.reset()
     place(env, 130.0 - 4.0 - SONAR_OFFSET, 0.0, 0.0)
-    env.step(np.zeros(2))
+    env.step(HOLD)
     info = env.task.last_info
     assert info["safety_violation"] and info["reward_avoid"] == -1.0 and not info["collision"]
     assert info["min_clearance"] == pytest.approx(4.0, abs=0.05)
@@ -397,7 +402,7 @@ def test_sonar_sees_moving_obstacles_where_they_are():
     env = tunnel.tunnel(arena=small_tunnel(mover=mover))
     env.reset()
     for _ in range(40):  # 20 s: the mover has gone 2 m north
-        env.step(np.zeros(2))
+        env.step(HOLD)
     (moving,) = env.task._route.movers
     centre = moving.position(env.physics.time())
     assert centre[1] == pytest.approx(-6.0 + 0.1 * env.physics.time(), abs=0.02)
