@@ -75,7 +75,7 @@ PLANNER_DT = 0.5
 MIN_SPEED, MAX_SPEED = 0.0, 2.0
 """V_cmd = MIN_SPEED + (a0 + 1) / 2 (MAX_SPEED - MIN_SPEED) [m/s]. Table 3 allows V down to -2 m/s, but the
 nine sonars look forward (Fig. 3): a planner trained on `goal` with reverse allowed learned to run astern
-at 2 m/s, blind, and rammed 53 % of the random obstacle layouts. Forward-only keeps it looking ahead."""
+at 2 m/s, blind, and rammed obstacles in 59 % of 100 random layouts. Forward-only keeps it looking ahead."""
 ACTION_HEADING_RANGE = math.pi / 2
 """Heading offset of a1 = 1 [rad] (Table 3: [-90, 90] deg)."""
 MAX_HEADING_DIFFERENCE = math.pi / 6
