@@ -148,6 +148,47 @@ def fig8(lines: list[str], runs: Path, figures: Path) -> None:
               f"--seed S --steps N`; the logs are `progress.csv` of each run, copied to `{runs}`.", ""]
 
 
+def training_speed(lines: list[str], runs: Path) -> None:
+    """Wall-clock to 90 % success on `goal`, ours vs the SB3 DDPG+HER peer, from logs of side-by-side runs."""
+    from agents.sb3_peer import TARGET, WINDOW, time_to_success
+    from auv_mj import plots
+
+    lines += ["## Training speed: auv-mj vs the Stable-Baselines3 peer", "",
+              f"Each run on one core of the 2-core CPU while the other ran the peer (the same load on both); "
+              f"time to {TARGET:.0%} success over a {WINDOW}-episode window.", "",
+              "| trainer | run | wall s to target | env steps to target | env steps | wall s | env steps/s |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
+    groups = {"auv-mj HER-DDPG": sorted(runs.glob("auv-mj-*.csv")), "SB3 DDPG+HER": sorted(runs.glob("sb3-*.csv"))}
+    if not all(groups.values()):
+        lines += [f"No peer logs in `{runs}` (expected `auv-mj-*.csv` and `sb3-*.csv`).", ""]
+        return
+    best: dict[str, tuple[float, bool]] = {}
+    for label, files in groups.items():
+        times = []
+        for f in files:
+            data = plots.read_learning_csv(f)
+            wall, steps = time_to_success(f)
+            total_steps, total_wall = int(data["steps"][-1]), float(data["wall_time"][-1])
+            times.append((wall, total_wall))
+            lines.append(f"| {label} | {f.stem} | {_fmt(wall, 0)} | {steps if steps >= 0 else 'never'} | "
+                         f"{total_steps} | {total_wall:.0f} | {total_steps / total_wall:.0f} |")
+        reached = [w for w, _ in times if not math.isnan(w)]
+        best[label] = ((float(np.median(reached)), True) if len(reached) == len(times)
+                       else (max(t for _, t in times), False))
+    (ours, ours_reached), (peer, peer_reached) = best["auv-mj HER-DDPG"], best["SB3 DDPG+HER"]
+    if ours_reached and peer_reached:
+        ratio = f"SB3 / auv-mj wall-clock to the target = **{peer / ours:.2f}**"
+    elif ours_reached:
+        ratio = (f"SB3 never reached the target in {peer:.0f} s, so SB3 / auv-mj wall-clock > "
+                 f"**{peer / ours:.2f}** (a lower bound)")
+    else:
+        ratio = "auv-mj did not reach the target in every run: no ratio"
+    lines += ["", ratio + ".", "",
+              "Command: `python -m agents.sb3_peer --steps 100000 --seed S --csv sb3-ddpg-her-seedS.csv` beside "
+              "`auv-mj train her-ddpg --task goal --seed S --steps 100000` (its `progress.csv`), copied to "
+              f"`{runs}`.", ""]
+
+
 def scenarios(lines: list[str], figures: Path) -> None:
     """The named scenarios of Tables 6-8 and 12 with each policy (one deterministic episode each)."""
     from auv_mj import plots
@@ -206,6 +247,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("docs/reproduction.md"), help="report file")
     parser.add_argument("--runs", type=Path, default=Path("docs/runs/fig8"),
                         help="folder of the Fig. 8 training logs (her-ddpg-seed*.csv, ddpg-seed*.csv)")
+    parser.add_argument("--peer-runs", type=Path, default=Path("docs/runs/peer"),
+                        help="folder of the training-speed logs (auv-mj-*.csv, sb3-*.csv)")
     parser.add_argument("--episodes", type=int, default=100, help="held-out episodes for the random targets")
     parser.add_argument("--quick", action="store_true", help="10 episodes for the random targets")
 
@@ -229,6 +272,7 @@ def run(args: argparse.Namespace) -> int:
         section(lines)
     print("reproduce: fig8 ...", file=sys.stderr)
     fig8(lines, args.runs, figures)
+    training_speed(lines, args.peer_runs)
     print("reproduce: scenarios ...", file=sys.stderr)
     scenarios(lines, figures)
     print("reproduce: random targets ...", file=sys.stderr)

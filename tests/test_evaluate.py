@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from agents import evaluate, policies
-from agents.reproduce import episodes_to
+from agents.reproduce import episodes_to, training_speed
 
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 
@@ -82,3 +82,27 @@ def test_episodes_to_target_success():
     success = np.r_[np.zeros(30), np.ones(30)]
     assert episodes_to(success, 0.9, window=20) == 30 + 18
     assert math.isnan(episodes_to(np.zeros(50), 0.9, window=20))
+
+
+def _write_log(path: Path, success: np.ndarray, seconds_per_episode: float) -> None:
+    rows = ["episode,steps,length,return,success,wall_time"]
+    for i, s in enumerate(success, start=1):
+        rows.append(f"{i},{100 * i},100,0.0,{s},{seconds_per_episode * i}")
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_training_speed_ratio_from_peer_logs(tmp_path):
+    _write_log(tmp_path / "auv-mj-her-ddpg-seed0.csv", np.r_[np.zeros(10), np.ones(30)], 2.0)
+    _write_log(tmp_path / "sb3-ddpg-her-seed0.csv", np.r_[np.zeros(10), np.ones(30)], 6.0)
+    lines: list[str] = []
+    training_speed(lines, tmp_path)
+    report = "\n".join(lines)
+    # both reach 90 % over 20 episodes at episode 10 + 18 = 28: 56 s vs 168 s
+    assert "| auv-mj HER-DDPG | auv-mj-her-ddpg-seed0 | 56 | 2800 |" in report
+    assert "= **3.00**" in report
+
+    _write_log(tmp_path / "sb3-ddpg-her-seed0.csv", np.zeros(40), 6.0)
+    lines = []
+    training_speed(lines, tmp_path)
+    assert "never reached the target in 240 s" in "\n".join(lines)
+    assert "> **4.29**" in "\n".join(lines)
