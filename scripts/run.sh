@@ -16,6 +16,21 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   "$venv/bin/python" -m pip install --quiet -e ".[test]"
   touch "$stamp"
 fi
+# Put `auv-mj` on PATH: a link in the first writable folder of ~/.local/bin, /usr/local/bin that PATH lists,
+# unless PATH already finds this checkout's command or another auv-mj that is not a link of ours.
+target="$(cd "$venv/bin" && pwd)/auv-mj"
+found="$(command -v auv-mj || true)"
+if [ -z "$found" ] || { [ -L "$found" ] && [ "$(readlink -f "$found")" != "$(readlink -f "$target")" ]; }; then
+  linked=""
+  for dir in "$HOME/.local/bin" /usr/local/bin; do
+    case ":$PATH:" in *":$dir:"*) ;; *) continue ;; esac
+    if [ -d "$dir" ] && [ -w "$dir" ]; then
+      ln -sf "$target" "$dir/auv-mj" && linked="$dir" && echo "auv-mj: linked into $dir (on your PATH)" >&2
+      break
+    fi
+  done
+  [ -n "$linked" ] || echo "auv-mj: run '. $venv/bin/activate' to put auv-mj on your PATH" >&2
+fi
 export MUJOCO_GL="${MUJOCO_GL:-egl}" PYTHONUNBUFFERED=1
 job="${1:-}"
 shift || true
