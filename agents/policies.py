@@ -49,18 +49,29 @@ def shipped_checkpoint(name: str) -> Path:
 class LearnedExecutor:
     """A trained speed_heading policy as a planning task's executor: (command, state) -> (tau_u, tau_r).
 
-    Its input is the speed_heading observation (Eq. 27) and its [-1, 1] output is scaled to the actuator
-    ranges exactly as the speed_heading task does (Eq. 28-29).
+    Its input is the speed_heading observation it was trained on (Eq. 27, or Eq. 27 and the error
+    integrals of the "integral" observation, which it then keeps itself; `reset` zeroes them) and its
+    [-1, 1] output is scaled to the actuator ranges exactly as the speed_heading task does (Eq. 28-29).
+    Call it once per executor step, as the tasks do.
     """
 
     def __init__(self, policy, low: np.ndarray, high: np.ndarray):
-        from tasks.speed_heading import executor_observation
+        from tasks.speed_heading import ErrorIntegral, executor_observation, observation_kind
 
         self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
         self._observe = executor_observation
+        self._integral = ErrorIntegral() if observation_kind(policy.obs_dim) == "integral" else None
+
+    def reset(self) -> None:
+        """Zeroes the error integrals (the start of an episode)."""
+        if self._integral is not None:
+            self._integral.reset()
 
     def __call__(self, command, state) -> np.ndarray:
-        action = np.clip(self.policy(self._observe(command, state)), -1.0, 1.0)
+        obs = self._observe(command, state)
+        if self._integral is not None:
+            obs = np.concatenate([obs, self._integral.update(command, state)])
+        action = np.clip(self.policy(obs), -1.0, 1.0)
         return self.low + 0.5 * (action + 1.0) * (self.high - self.low)
 
 
@@ -78,7 +89,22 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     task_kwargs["random"] = seed
     if policy_name in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
         task_kwargs["executor"] = learned_executor()
+    if task_name in EXECUTOR_TASKS and "observation" not in task_kwargs:
+        checkpoint = _checkpoint_path(policy_name)
+        if checkpoint is not None:  # the observation the executor was trained on, by its input size
+            from agents.checkpoint import read_checkpoint
+            from tasks.speed_heading import observation_kind
+
+            task_kwargs["observation"] = observation_kind(int(read_checkpoint(checkpoint)[1]["obs_dim"]))
     return _suite().load("auv", task_name, task_kwargs=task_kwargs)
+
+
+def _checkpoint_path(policy_name: str) -> Path | None:
+    """The checkpoint behind `policy_name` on an executor task, or None for a baseline."""
+    if policy_name == "executor":
+        return shipped_checkpoint("executor")
+    path = Path(policy_name)
+    return path if path.is_file() else None
 
 
 def _checkpoint_policy(path: Path):

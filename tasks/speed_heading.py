@@ -6,6 +6,11 @@ from [-1, 1]^2 by the actuator ranges of the model. The speed V is the surge spe
 channel; sway is unactuated), the heading psi the yaw angle. Reward "paper" is Eq. (30),
 r = -|e_V| - |e_psi|; "suite" (default) is in [0, 1], the mean of two `tolerance` terms.
 
+Observation "paper" (default) is Eq. 27; "integral" appends the clamped integrals of e_V and e_psi
+(`ErrorIntegral`), a memory Eq. 27 lacks: without it a learned executor is a static map and keeps a steady
+error under a steady force, which the S-plane's integrating bias du removes. A learned executor carries
+its own integrals outside the task (`agents.policies.LearnedExecutor`).
+
 Commands: "paper" (default) holds the Sec. 4.2 command, 1.0 m/s and pi/12, from rest at psi = 0; a pair
 (V, psi) holds that command; "random" (training) starts from a random speed and heading and changes the
 command every COMMAND_HOLD_STEPS, as the 2 Hz planner would.
@@ -91,7 +96,15 @@ SETTLE_STEPS = 100
 """`run_executor` leaves the first 100 steps (the start from rest) out of the "none" phase's MAE."""
 
 OBSERVATION_NAMES = ("V_cmd", "u", "v", "r", "e_V", "cos_e_psi", "sin_e_psi")
-"""Entries of the flat "observation" vector."""
+"""Entries of the flat "observation" vector of Eq. 27 ("paper" observation)."""
+INTEGRAL_NAMES = ("int_e_V", "int_e_psi")
+"""Entries the "integral" observation appends: the clamped error integrals over their limits."""
+INTEGRAL_BAND = (0.2, 0.2)
+"""The error integrals accumulate only while |e_V| [m/s], |e_psi| [rad] are below these (integral
+separation, as in the S-plane's du of Eq. 32, so that large command steps do not wind them up)."""
+INTEGRAL_LIMIT = (1.0, 1.0)
+"""Clamp of the integrals of e_V [m] and e_psi [rad s]; the observation holds integral / limit."""
+OBSERVATIONS = ("paper", "integral")
 REWARDS = ("suite", "paper")
 COMMANDS = ("paper", "random")
 DISTURBANCES = ("paper", "random", "none")
@@ -109,6 +122,40 @@ def executor_observation(command: Sequence[float], state: Sequence[float]) -> np
     u, v, r, psi = (float(s) for s in state[:4])
     e_psi = wrap_angle(psi_cmd - psi)
     return np.array([v_cmd, u, v, r, v_cmd - u, math.cos(e_psi), math.sin(e_psi)])
+
+
+class ErrorIntegral:
+    """The memory of the "integral" observation: clamped integrals of e_V and e_psi (integral separation).
+
+    A static map from Eq. 27's observation to tau leaves a steady error under a steady force; with these
+    two entries a learned executor can act like the integrator of the S-plane's bias du (Eq. 32).
+    `update` is called once per executor step, with the command and state the executor acts on.
+    """
+
+    def __init__(self):
+        self.value = np.zeros(2)
+
+    def reset(self) -> None:
+        """Zero integrals (the start of an episode)."""
+        self.value = np.zeros(2)
+
+    def update(self, command: Sequence[float], state: Sequence[float]) -> np.ndarray:
+        """Adds this step's errors (those inside INTEGRAL_BAND) and returns integral / INTEGRAL_LIMIT."""
+        error = np.array([float(command[0]) - float(state[0]), wrap_angle(float(command[1]) - float(state[3]))])
+        inside = np.abs(error) < INTEGRAL_BAND
+        limit = np.asarray(INTEGRAL_LIMIT)
+        self.value = np.clip(self.value + inside * error * EXECUTOR_DT, -limit, limit)
+        return self.value / limit
+
+
+def observation_kind(size: int) -> str:
+    """The observation ("paper" or "integral") of a learned executor whose input has `size` entries."""
+    sizes = {"paper": len(OBSERVATION_NAMES), "integral": len(OBSERVATION_NAMES) + len(INTEGRAL_NAMES)}
+    for kind, n in sizes.items():
+        if size == n:
+            return kind
+    raise ValueError(f"an executor's input has {sizes['paper']} (Eq. 27) or {sizes['integral']} "
+                     f"(Eq. 27 and the error integrals) entries, not {size}")
 
 
 @dataclass(frozen=True)
@@ -170,9 +217,10 @@ class SpeedHeading(base.Task):
     """Follow (V_cmd, psi_cmd) with (tau_u, tau_r) under disturbances (Sec. 3.3, 4.2)."""
 
     def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper",
-                 reward: str = "suite", random=None):
+                 reward: str = "suite", observation: str = "paper", random=None):
         """`command`: "paper", "random" or (V, psi); `disturbances`: "paper", "random", "none";
-        `reward`: "suite" ([0, 1]) or "paper" (Eq. 30); `random`: seed, RandomState or None."""
+        `reward`: "suite" ([0, 1]) or "paper" (Eq. 30); `observation`: "paper" (Eq. 27) or "integral"
+        (Eq. 27 and the error integrals of `ErrorIntegral`); `random`: seed, RandomState or None."""
         if isinstance(command, str):
             if command not in COMMANDS:
                 raise ValueError(f"command must be one of {COMMANDS} or a pair (V, psi), got {command!r}")
@@ -184,6 +232,10 @@ class SpeedHeading(base.Task):
             raise ValueError(f"disturbances must be one of {DISTURBANCES}, got {disturbances!r}")
         if reward not in REWARDS:
             raise ValueError(f"reward must be one of {REWARDS}, got {reward!r}")
+        if observation not in OBSERVATIONS:
+            raise ValueError(f"observation must be one of {OBSERVATIONS}, got {observation!r}")
+        self._integral = ErrorIntegral() if observation == "integral" else None
+        self._integral_obs = np.zeros(0 if self._integral is None else len(INTEGRAL_NAMES))
         self._command_mode = command
         self._disturbance_mode = disturbances
         self._reward_mode = reward
@@ -230,6 +282,8 @@ class SpeedHeading(base.Task):
                                     duration=w.steps * EXECUTOR_DT, frame=w.frame)
         physics.set_control(np.zeros(physics.model.nu))
         self._step, self._step_command = 0, self.command(physics)
+        if self._integral is not None:
+            self._integral.reset()
         super().initialize_episode(physics)  # calls after_step: errors and last_info of the start
 
     def _hold(self) -> int:
@@ -301,11 +355,15 @@ class SpeedHeading(base.Task):
         """Errors against the command that was in force during the step; the step's info."""
         self._errors = self._tracking_errors(physics, self._step_command)
         self.last_info = self._info(self._step, self._step_command)
+        if self._integral is not None:  # integrates the errors the next action will act on
+            self._integral_obs = self._integral.update(self.command(physics), self.state(physics))
 
     def get_observation(self, physics) -> collections.OrderedDict:
-        """"observation": (V_cmd, u, v, r, e_V, cos e_psi, sin e_psi) for the current command (Eq. 27)."""
+        """"observation": (V_cmd, u, v, r, e_V, cos e_psi, sin e_psi) for the current command (Eq. 27),
+        then the two error integrals for the "integral" observation."""
         obs = collections.OrderedDict()
-        obs["observation"] = executor_observation(self.command(physics), self.state(physics))
+        obs["observation"] = np.concatenate([executor_observation(self.command(physics), self.state(physics)),
+                                             self._integral_obs])
         return obs
 
     def get_reward(self, physics) -> float:

@@ -453,3 +453,34 @@ def test_cli_hooks(tmp_path, capsys):
     assert meta["counters"]["env_steps"] == 240 and meta["config"]["hidden_sizes"] == [32, 32]
     assert meta["spec"]["env_id"] == TEST_ID
     assert episode_seed(0, 1) != episode_seed(0, 2)
+
+
+def test_learned_executor_feeds_the_integral_observation_it_was_trained_on():
+    from agents.policies import LearnedExecutor
+    from tasks import speed_heading as sh
+
+    class RecordingPolicy:
+        obs_dim = 9
+
+        def __init__(self):
+            self.inputs = []
+
+        def __call__(self, obs):
+            self.inputs.append(np.array(obs))
+            return np.array([0.5 * np.sin(0.3 * len(self.inputs)), 0.1 * np.cos(0.2 * len(self.inputs))])
+
+    kwargs = dict(command="random", disturbances="random", random=5, time_limit=6.0)
+    policy = RecordingPolicy()
+    executor = LearnedExecutor(policy, np.array([-20.0, -10.0]), np.array([20.0, 10.0]))
+    sh.rollout(executor, **kwargs)
+    first = policy.inputs
+    env = sh.speed_heading(observation="integral", **kwargs)
+    time_step = env.reset()
+    replay = RecordingPolicy()
+    for seen in first:  # the env's own observations, under the same actions, are what the executor saw
+        np.testing.assert_allclose(time_step.observation["observation"], seen, atol=1e-9)
+        time_step = env.step(replay(seen))
+    assert np.any(np.stack(first)[:, 7:] != 0.0)
+    policy.inputs = []
+    sh.rollout(executor, **kwargs)  # rollout resets the executor: the integrals start from zero again
+    np.testing.assert_allclose(np.stack(policy.inputs), np.stack(first))

@@ -106,3 +106,22 @@ def test_training_speed_ratio_from_peer_logs(tmp_path):
     training_speed(lines, tmp_path)
     assert "never reached the target in 240 s" in "\n".join(lines)
     assert "> **4.29**" in "\n".join(lines)
+
+
+def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp_path):
+    from agents.ddpg import DDPGConfig
+    from agents.policy import Policy
+    from agents.train import make_env_fn, task_env_id, train
+    from tasks.speed_heading import run_executor
+
+    kwargs = {"command": "random", "disturbances": "random", "observation": "integral"}
+    env_fn = make_env_fn(task_env_id("speed_heading"), task_kwargs=kwargs, max_episode_steps=50)
+    config = DDPGConfig(learning_starts=20, train_every=10, batch_size=16, hidden_sizes=(16, 16))
+    ckpt = train(env_fn, "executor", config, total_steps=100, run_dir=tmp_path / "run", progress=False,
+                 tensorboard=False).checkpoint
+    assert Policy.load(ckpt).obs_dim == 9
+    summary = evaluate.evaluate(str(ckpt), ["speed_heading"], 1, 0, max_steps=60,
+                                progress=False)["tasks"]["speed_heading"]
+    executor_mae = run_executor(policies.learned_executor(ckpt), settle_steps=0, time_limit=6.0)["none"]
+    assert summary["mae_speed"] == pytest.approx(executor_mae[0])  # same episode through either path
+    assert summary["mae_heading"] == pytest.approx(executor_mae[1])

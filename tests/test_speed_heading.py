@@ -185,7 +185,42 @@ def test_info_errors_match_the_physics():
     assert info["phase"] == "none" and not info["disturbance_active"]
 
 
+def test_error_integral_accumulates_inside_its_band_and_clamps():
+    integral = sh.ErrorIntegral()
+    state = (0.9, 0.0, 0.0, 0.0)
+    for k in range(1, 6):  # e_V = 0.1 (inside the band), e_psi = 0
+        value = integral.update((1.0, 0.0), state)
+        assert value[0] * sh.INTEGRAL_LIMIT[0] == pytest.approx(0.1 * k * sh.EXECUTOR_DT)
+        assert value[1] == 0.0
+    before = value.copy()
+    np.testing.assert_array_equal(integral.update((2.0, 1.0), state), before)  # both errors beyond the band
+    for _ in range(2000):
+        value = integral.update((1.0, -0.15), state)
+    np.testing.assert_allclose(value, [1.0, -1.0])  # clamped at the limits
+    integral.reset()
+    np.testing.assert_array_equal(integral.value, [0.0, 0.0])
+
+
+def test_integral_observation_extends_eq_27_with_the_integrals():
+    env = sh.speed_heading(command="random", disturbances="random", observation="integral", random=3)
+    time_step = env.reset()
+    assert time_step.observation["observation"].shape == (9,)
+    integral = sh.ErrorIntegral()
+    task, physics = env.task, env.physics
+    for k in range(40):
+        expected = integral.update(task.command(physics), task.state(physics))
+        obs = time_step.observation["observation"]
+        np.testing.assert_allclose(obs[:7], sh.executor_observation(task.command(physics), task.state(physics)))
+        np.testing.assert_allclose(obs[7:], expected)
+        time_step = env.step(np.array([0.3 * math.sin(0.2 * k), 0.2]))
+    assert np.any(integral.value != 0.0)
+    assert sh.observation_kind(7) == "paper" and sh.observation_kind(9) == "integral"
+    with pytest.raises(ValueError, match="not 8"):
+        sh.observation_kind(8)
+
+
 @pytest.mark.parametrize("kwargs", [{"command": "fast"}, {"disturbances": "storm"}, {"reward": "dense"},
+                                    {"observation": "full"},
                                     {"command": (1.0,)}, {"command": (1.0, math.nan)}])
 def test_bad_settings_are_rejected(kwargs):
     with pytest.raises(ValueError):
