@@ -95,7 +95,8 @@ def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch raises many types for corrupt or truncated files
-        raise ValueError(f"checkpoint {path} is corrupt or truncated: {type(exc).__name__}: {exc}") from exc
+        raise ValueError(f"checkpoint {path} is corrupt or truncated, or holds more than plain tensors "
+                         f"(torch.load with weights_only=True raised {type(exc).__name__})") from exc
     ok = (isinstance(payload, dict) and isinstance(payload.get("tensors"), dict)
           and isinstance(payload.get("metadata"), dict) and payload["metadata"].get("format") == FORMAT)
     if not ok:

@@ -91,20 +91,30 @@ def summarise(episodes: list[dict]) -> dict:
 
 
 def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
-             max_steps: int | None = None, progress: bool = True) -> dict:
-    """Evaluates `policy_name` on each task; returns {"policy", "seed", "tasks": {task: summary}}."""
+             max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None) -> dict:
+    """Evaluates `policy_name` on each task; returns {"policy", "seed", "tasks": {task: summary}}.
+
+    `task_kwargs` go to every task (e.g. random commands on speed_heading); the seed is the episode's.
+    """
+    task_kwargs = dict(task_kwargs or {})
+    if "random" in task_kwargs:
+        raise ValueError("task_kwargs: 'random' is set by --seed (episode i gets seed + i), leave it out")
     results = {}
     for task_name in task_names:
         runs = []
         bar = tqdm(range(episodes), desc=f"eval {task_name}", unit="ep", disable=not progress,
                    file=sys.stderr)
         for i in bar:
-            env = policies.make_env(policy_name, task_name, seed + i)
+            try:
+                env = policies.make_env(policy_name, task_name, seed + i, **task_kwargs)
+            except TypeError as e:  # an option the task does not take
+                raise ValueError(f"task_kwargs {task_kwargs} do not fit task {task_name!r}: {e}") from None
             policy = policies.make_policy(policy_name, env, seed + i, task_name)
             runs.append(run_episode(env, policy, max_steps))
             bar.set_postfix(success=f"{np.mean([r['success'] for r in runs]):.2f}")
         results[task_name] = summarise(runs)
-    return {"policy": policy_name, "seed": seed, "episodes": episodes, "tasks": results}
+    return {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
+            "tasks": results}
 
 
 def format_table(results: dict) -> str:
@@ -143,6 +153,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--task", default="all", help="task name, tag (e.g. benchmarking, planning) or 'all'")
     parser.add_argument("--episodes", type=int, default=10, help="episodes per task")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    parser.add_argument("--task-kwargs", type=json.loads, default=None, metavar="JSON",
+                        help="task options for every task, e.g. '{\"command\": \"random\", "
+                             "\"disturbances\": \"random\", \"reward\": \"paper\"}'")
     parser.add_argument("--max-steps", type=int, default=None, help="cut episodes after this many steps")
     parser.add_argument("--json", type=Path, default=None, help="write results as JSON here")
     parser.add_argument("--csv", type=Path, default=None, help="write results as CSV here")
@@ -152,8 +165,14 @@ def run(args: argparse.Namespace) -> int:
     """Runs the evaluation, prints the table, writes JSON/CSV."""
     if args.episodes < 1:
         raise SystemExit(f"--episodes must be >= 1, got {args.episodes}")
-    task_names = policies.resolve_tasks(args.task, args.policy)
-    results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps)
+    if args.task_kwargs is not None and not isinstance(args.task_kwargs, dict):
+        raise SystemExit(f"--task-kwargs must be a JSON object, got {args.task_kwargs!r}")
+    try:
+        task_names = policies.resolve_tasks(args.task, args.policy)
+        results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps,
+                           task_kwargs=args.task_kwargs)
+    except (ValueError, FileNotFoundError) as e:
+        raise SystemExit(f"auv-mj eval: {e}") from None
     print(format_table(results))
     write_outputs(results, args.json, args.csv)
     for path in (args.json, args.csv):

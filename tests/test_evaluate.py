@@ -125,3 +125,28 @@ def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp
     executor_mae = run_executor(policies.learned_executor(ckpt), settle_steps=0, time_limit=6.0)["none"]
     assert summary["mae_speed"] == pytest.approx(executor_mae[0])  # same episode through either path
     assert summary["mae_heading"] == pytest.approx(executor_mae[1])
+
+
+def test_eval_task_kwargs_reach_every_episode_and_bad_ones_are_named():
+    from auv_mj.splane import SPlaneController
+    from tasks.speed_heading import rollout
+
+    kwargs = {"command": "random", "disturbances": "random", "reward": "paper"}
+    results = evaluate.evaluate("splane", ["speed_heading"], 2, seed=5, max_steps=40, progress=False,
+                                task_kwargs=kwargs)
+    assert results["task_kwargs"] == kwargs
+    returns = []
+    for seed in (5, 6):  # Eq. 30 from the same seeded episodes, run outside evaluate
+        trace = rollout(SPlaneController(), random=seed, time_limit=4.0, **kwargs)
+        returns.append(-np.sum(np.abs(trace["speed_error"]) + np.abs(trace["heading_error"])))
+    assert results["tasks"]["speed_heading"]["return"] == pytest.approx(np.mean(returns))
+    default = evaluate.evaluate("splane", ["speed_heading"], 2, seed=5, max_steps=40, progress=False)
+    assert default["tasks"]["speed_heading"]["return"] > 0  # the suite reward is in [0, 1]
+    with pytest.raises(ValueError, match="do not fit task 'speed_heading'.*bogus"):
+        evaluate.evaluate("splane", ["speed_heading"], 1, max_steps=5, progress=False, task_kwargs={"bogus": 1})
+    with pytest.raises(ValueError, match="'random' is set by --seed"):
+        evaluate.evaluate("splane", ["speed_heading"], 1, progress=False, task_kwargs={"random": 1})
+    done = subprocess.run([*AUV_MJ, "eval", "--policy", "splane", "--task", "speed_heading", "--episodes", "1",
+                           "--task-kwargs", '{"bogus": 1}'], capture_output=True, text=True, timeout=300)
+    assert done.returncode != 0 and "Traceback" not in done.stderr
+    assert "auv-mj eval: task_kwargs {'bogus': 1} do not fit task 'speed_heading'" in done.stderr
