@@ -52,7 +52,8 @@ def format_rows(rows: dict[str, dict[str, float]]) -> str:
     header = f"{'policy':<12}" + "".join(f"{c:>13}" for c in columns)
     lines = [header, "-" * len(header)]
     for name, metrics in rows.items():
-        lines.append(f"{name:<12}" + "".join(f"{metrics[c]:>13.2f}" for c in columns))
+        # round(x, 2) + 0.0 turns a rounded -0.0 (a clearance of -0.001 m at contact) into 0.00
+        lines.append(f"{name:<12}" + "".join(f"{round(metrics[c], 2) + 0.0:>13.2f}" for c in columns))
     return "\n".join(lines)
 
 

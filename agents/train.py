@@ -263,7 +263,8 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
 
     bar = tqdm(total=total_steps if total_steps is not None else episodes,
                initial=steps if total_steps is not None else n_eps,
-               unit="step" if total_steps is not None else "ep", disable=not progress, dynamic_ncols=True)
+               unit="step" if total_steps is not None else "ep", disable=not progress, dynamic_ncols=True,
+               mininterval=0.1 if sys.stderr.isatty() else 10.0)  # off a terminal each redraw is a new write
     interrupted = False
     try:
         while not finished():

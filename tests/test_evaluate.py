@@ -150,3 +150,11 @@ def test_eval_task_kwargs_reach_every_episode_and_bad_ones_are_named():
                            "--task-kwargs", '{"bogus": 1}'], capture_output=True, text=True, timeout=300)
     assert done.returncode != 0 and "Traceback" not in done.stderr
     assert "auv-mj eval: task_kwargs {'bogus': 1} do not fit task 'speed_heading'" in done.stderr
+
+
+def test_demo_table_prints_a_contact_clearance_as_zero():
+    from agents.demo import format_rows
+
+    table = format_rows({"splane": {"min_clear_m": -0.001, "track_mae_m": 1.234, "time_s": math.nan}})
+    row = table.splitlines()[-1].split()
+    assert row == ["splane", "0.00", "1.23", "nan"]
