@@ -12,14 +12,13 @@ import argparse
 import csv
 import json
 import math
-import sys
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from agents import policies
+from auv_mj.cli import json_object, progress_bar
 
 TRACKING_KEYS = ("speed_error", "heading_error", "cross_track_error")
 
@@ -102,16 +101,17 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
     results = {}
     for task_name in task_names:
         runs = []
-        bar = tqdm(range(episodes), desc=f"eval {task_name}", unit="ep", disable=not progress,
-                   file=sys.stderr)
-        for i in bar:
+        bar = progress_bar(total=episodes, desc=f"eval {task_name}", unit="ep", disable=not progress)
+        for i in range(episodes):
             try:
                 env = policies.make_env(policy_name, task_name, seed + i, **task_kwargs)
             except TypeError as e:  # an option the task does not take
                 raise ValueError(f"task_kwargs {task_kwargs} do not fit task {task_name!r}: {e}") from None
             policy = policies.make_policy(policy_name, env, seed + i, task_name)
             runs.append(run_episode(env, policy, max_steps))
+            bar.update(1)
             bar.set_postfix(success=f"{np.mean([r['success'] for r in runs]):.2f}")
+        bar.close()
         results[task_name] = summarise(runs)
     return {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
             "tasks": results}
@@ -153,7 +153,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--task", default="all", help="task name, tag (e.g. benchmarking, planning) or 'all'")
     parser.add_argument("--episodes", type=int, default=10, help="episodes per task")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")
-    parser.add_argument("--task-kwargs", type=json.loads, default=None, metavar="JSON",
+    parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
                         help="task options for every task, e.g. '{\"command\": \"random\", "
                              "\"disturbances\": \"random\", \"reward\": \"paper\"}'")
     parser.add_argument("--max-steps", type=int, default=None, help="cut episodes after this many steps")
@@ -165,8 +165,6 @@ def run(args: argparse.Namespace) -> int:
     """Runs the evaluation, prints the table, writes JSON/CSV."""
     if args.episodes < 1:
         raise SystemExit(f"--episodes must be >= 1, got {args.episodes}")
-    if args.task_kwargs is not None and not isinstance(args.task_kwargs, dict):
-        raise SystemExit(f"--task-kwargs must be a JSON object, got {args.task_kwargs!r}")
     try:
         task_names = policies.resolve_tasks(args.task, args.policy)
         results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps,

@@ -32,7 +32,6 @@ import gymnasium as gym
 import numpy as np
 import torch
 from gymnasium import spaces
-from tqdm import tqdm
 
 from agents.checkpoint import (
     config_from_dict,
@@ -46,6 +45,7 @@ from agents.checkpoint import (
 from agents.ddpg import DDPG, EPSILON_UNITS, DDPGConfig, epsilon_at, field_docs
 from agents.her import GOAL_KEYS, HerReplayBuffer, flatten_goal_obs
 from agents.replay import ReplayBuffer
+from auv_mj.cli import json_object, progress_bar
 
 AGENTS = ("ddpg", "her-ddpg", "executor")
 """Agent names of `auv-mj train AGENT`: her-ddpg needs a goal task, executor a Box task."""
@@ -261,10 +261,10 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
             if old.name != replay_name:
                 old.unlink()
 
-    bar = tqdm(total=total_steps if total_steps is not None else episodes,
-               initial=steps if total_steps is not None else n_eps,
-               unit="step" if total_steps is not None else "ep", disable=not progress, dynamic_ncols=True,
-               mininterval=0.1 if sys.stderr.isatty() else 10.0)  # off a terminal each redraw is a new write
+    bar = progress_bar(total=total_steps if total_steps is not None else episodes,
+                       initial=steps if total_steps is not None else n_eps,
+                       unit="step" if total_steps is not None else "ep", disable=not progress,
+                       dynamic_ncols=True)
     interrupted = False
     try:
         while not finished():
@@ -376,7 +376,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("agent", choices=AGENTS,
                         help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading)")
     parser.add_argument("--task", required=True, help="suite task name or Gymnasium id (auv_mj/...-v0)")
-    parser.add_argument("--task-kwargs", type=json.loads, default=None, metavar="JSON",
+    parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
                         help='task options, e.g. \'{"command": "random", "disturbances": "random"}\'; '
                              "kept in the run directory and reused by --resume")
     parser.add_argument("--steps", type=int, help="total env steps (default: --episodes)")
@@ -415,8 +415,6 @@ def run(args: argparse.Namespace) -> int:
             task_kwargs = json.loads(kwargs_file.read_text())
         if args.resume and args.init:
             raise ValueError("--init starts a new run; it cannot be combined with --resume")
-        if task_kwargs is not None and not isinstance(task_kwargs, dict):
-            raise ValueError(f"--task-kwargs must be a JSON object, got {task_kwargs!r}")
         env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": task_kwargs} if task_kwargs else {}))
         if task_kwargs:
             run_dir.mkdir(parents=True, exist_ok=True)

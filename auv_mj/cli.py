@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import sys
 
 # (subcommand, module, one-line help)
@@ -23,6 +24,25 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("plot", "auv_mj.plots", "trajectory, tracking-error and learning-curve plots (PNG)"),
     ("reproduce", "agents.reproduce", "regenerate the reproduction report against the paper's numbers"),
 )
+
+
+def json_object(text: str) -> dict:
+    """argparse type of the `--task-kwargs JSON` options: a JSON object, or a usage error naming the text."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise argparse.ArgumentTypeError(f"not valid JSON ({e}): {text!r}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"must be a JSON object like '{{\"key\": 1}}', got {text!r}")
+    return value
+
+
+def progress_bar(**kwargs):
+    """A tqdm bar on stderr; off a terminal (CI logs, pipes) it redraws every 10 s, not every 0.1 s,
+    since there each redraw is a new write."""
+    from tqdm import tqdm
+
+    return tqdm(file=sys.stderr, mininterval=0.1 if sys.stderr.isatty() else 10.0, **kwargs)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -560,13 +560,10 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
 
 
 def _progress(total: float | None, enabled: bool):
-    from tqdm import tqdm
+    from auv_mj.cli import progress_bar
 
-    steps = None if total is None else math.ceil(total)
-    # Off a terminal (CI logs, pipes) every redraw is a new write: redraw every 10 s instead of 0.1 s.
-    interval = 0.1 if sys.stderr.isatty() else 10.0
-    return tqdm(total=steps, unit="step", desc="render", disable=not enabled, file=sys.stderr,
-                mininterval=interval)
+    return progress_bar(total=None if total is None else math.ceil(total), unit="step", desc="render",
+                        disable=not enabled)
 
 
 def render_episode(env, policy, **kwargs) -> np.ndarray:

@@ -158,3 +158,29 @@ def test_demo_table_prints_a_contact_clearance_as_zero():
     table = format_rows({"splane": {"min_clear_m": -0.001, "track_mae_m": 1.234, "time_s": math.nan}})
     row = table.splitlines()[-1].split()
     assert row == ["splane", "0.00", "1.23", "nan"]
+
+
+@pytest.mark.parametrize("command", ["train", "eval"])
+@pytest.mark.parametrize(("text", "message"), [("x", "not valid JSON"), ("[1]", "must be a JSON object")])
+def test_task_kwargs_that_are_not_a_json_object_are_usage_errors(command, text, message):
+    args = ["executor", "--task", "speed_heading"] if command == "train" else ["--policy", "splane"]
+    done = subprocess.run([*AUV_MJ, command, *args, "--task-kwargs", text], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert f"argument --task-kwargs: {message}" in done.stderr and repr(text) in done.stderr
+
+
+def test_progress_bars_redraw_rarely_off_a_terminal(monkeypatch):
+    import io
+
+    from auv_mj.cli import progress_bar
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    for stream, interval in ((io.StringIO(), 10.0), (Terminal(), 0.1)):
+        monkeypatch.setattr(sys, "stderr", stream)
+        with progress_bar(total=3, desc="bar") as bar:
+            assert bar.mininterval == interval
+        assert "bar:   0%" in stream.getvalue()  # drawn on stderr
