@@ -30,9 +30,6 @@ GoalFn = Callable[[np.ndarray, np.ndarray, dict[str, np.ndarray]], np.ndarray]
 ObsFn = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 """Signature of an optional vectorised relabel_observation(observation, achieved_goal, desired_goal)."""
 
-GOAL_KEYS = ("observation", "achieved_goal", "desired_goal")
-"""The keys of a goal-conditioned (Gymnasium-Robotics style) dict observation."""
-
 
 def flatten_goal_obs(observation: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
     """The network input of a goal task: [observation, desired_goal] along the last axis."""

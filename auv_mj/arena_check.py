@@ -7,7 +7,6 @@ own queries: `mj_geomDistance` between the hull, posed along the global path, an
 
 from __future__ import annotations
 
-import argparse
 import math
 import re
 import xml.etree.ElementTree as ET
@@ -471,29 +470,3 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
     fig.savefig(png, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return png
-
-
-# --- command line ---------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of `auv-mj check-arena`."""
-    parser.add_argument("arena", help="arena MJCF file")
-    parser.add_argument("--png", help="top-down preview to write (default: next to the arena, .png)")
-    parser.add_argument("--no-png", action="store_true", help="write no preview")
-    parser.add_argument("--no-path", action="store_true",
-                        help="the arena needs no global path (goal-reaching tasks of Tables 7-8)")
-
-
-def run(args: argparse.Namespace) -> int:
-    """`auv-mj check-arena`: prints the report; exit status 0 only for a usable arena."""
-    png = None if args.no_png else Path(args.png) if args.png else Path(args.arena).with_suffix(".png")
-    try:
-        report = check_arena(args.arena, png, need_path=not args.no_path)
-    except OSError as e:
-        print(f"auv-mj check-arena: cannot write the preview: {e}")
-        return 1
-    print("\n".join(report.lines()))
-    if report.png is not None:
-        print(f"wrote preview {report.png}")
-    return 0 if report.ok else 1

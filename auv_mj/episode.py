@@ -1,4 +1,8 @@
-"""Episode recorder: runs a policy on a suite environment and keeps what videos, plots and evaluation need.
+"""The one episode loop, its record, and the one definition of each episode metric.
+
+`EpisodeRecorder.run` is the only loop that steps an environment for evaluation, videos, plots, the
+reproduction report and the S-plane tuning. It sees the environment through dm_env alone (plus the
+task's `last_info` dict, the suite's convention), so it lives in the simulator core.
 
 Per recorded instant (the reset and every control step): time, pose (x, y, psi), body velocity (u, v, r),
 sonar ranges, actuator forces, desired goal and moving-obstacle positions; per step: action, command
@@ -9,7 +13,6 @@ saves to and loads from a single .npz file.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -19,12 +22,6 @@ import numpy as np
 
 from auv_mj import arena as arena_lib
 
-DEFAULT_GOAL_RADIUS = 12.5
-"""Radius of the goal area [m] when the task does not say: the 25 m diameter of Tables 6-7."""
-PLANNER_MIN_SPEED, PLANNER_MAX_SPEED = 0.0, 2.0
-"""The planning tasks' V in [0, 2] m/s is a0 + 1 (Table 3, forward only; used when a task reports no command)."""
-PLANNER_MAX_TURN = math.pi / 2
-"""Table 3: the planner's heading offset in [-90, 90] deg is a1 * 90 deg."""
 VEHICLE_BODY = "auv"
 CIRCLE_SEGMENTS = 32
 """Vertices of the polygon standing for a round footprint (sphere, cylinder, capsule end)."""
@@ -135,7 +132,7 @@ def arena_geometry(physics, task=None) -> ArenaGeometry:
         polygons=tuple(polygons), kinds=np.array(kinds, dtype=str), owners=np.array(owners, dtype=int),
         mover_names=tuple(m.body for m in movers),
         mover_paths=np.array([[m.start, m.end] for m in movers], dtype=float).reshape(-1, 2, 2),
-        goals=goals, goal_radius=float(getattr(task, "goal_radius", DEFAULT_GOAL_RADIUS)))
+        goals=goals, goal_radius=float(getattr(task, "goal_radius", np.nan)))
 
 
 def _body_names(model) -> set[str]:
@@ -312,7 +309,6 @@ class EpisodeRecorder:
         self.arena: ArenaGeometry | None = None
         """The arena of the current episode (set by `run` after the reset)."""
         self.snapshots: list[Snapshot] = []
-        self._planner = "desired_goal" in env.observation_spec()
 
     def _snapshot(self, time_step, action=None, previous: Snapshot | None = None) -> Snapshot:
         physics = self.env.physics
@@ -330,17 +326,15 @@ class EpisodeRecorder:
         snap.episode_return = previous.episode_return + snap.reward
         snap.event = str(info.get("event") or "")
         snap.success = bool(info.get("success", False))
-        snap.command = self._command(info, snap.action, previous)
+        snap.command = self._command(info)
         snap.info = info
         return snap
 
-    def _command(self, info: dict, action: np.ndarray, previous: Snapshot) -> np.ndarray:
+    @staticmethod
+    def _command(info: dict) -> np.ndarray:
+        """The (V_cmd, psi_cmd) the task reports it gave the executor, NaN when it reports none."""
         if "command" in info and np.size(info["command"]) == 2:
             return np.asarray(info["command"], dtype=float).ravel()
-        if self._planner and action.shape == (2,):
-            a = np.clip(action, -1.0, 1.0)
-            speed = PLANNER_MIN_SPEED + 0.5 * (a[0] + 1.0) * (PLANNER_MAX_SPEED - PLANNER_MIN_SPEED)
-            return np.array([speed, previous.pose[2] + PLANNER_MAX_TURN * a[1]])
         return np.full(2, np.nan)
 
     def run(self, policy: Policy, max_steps: int | None = None) -> Iterator[Snapshot]:
@@ -397,3 +391,84 @@ def record_episode(env, policy: Policy, max_steps: int | None = None, task: str 
     for _ in recorder.run(policy, max_steps):
         pass
     return recorder.record()
+
+
+# --- metrics: the one definition of each --------------------------------------------------------------
+
+OUTCOMES = ("goal", "collision", "left_map", "timeout")
+"""How an episode ends, exactly one of these: the task's terminal event, or the time (step) limit."""
+TRACKING_KEYS = ("speed_error", "heading_error", "cross_track_error")
+"""Per-step tracking errors a task may report in last_info: e_V [m/s], e_psi [rad], cross-track [m]."""
+
+
+def outcome(events: np.ndarray | list[str]) -> str:
+    """The episode's outcome from its per-step events: the last terminal event, else "timeout".
+
+    A planner that stalls until the time limit (or a run cut by max_steps) is a "timeout".
+    """
+    for event in reversed([str(e) for e in events]):
+        if event in OUTCOMES:
+            return event
+    return "timeout"
+
+
+def phase_mae(speed_error: np.ndarray, heading_error: np.ndarray, phases: np.ndarray,
+              tracked: np.ndarray | None = None) -> dict[str, tuple[float, float]]:
+    """Table 9's MAE per disturbance phase: {phase: (MAE speed [m/s], MAE heading [rad])}.
+
+    Only steps with `tracked` true count (the task's settling time is left out); phases in order of
+    first appearance.
+    """
+    phases = np.asarray(phases).astype(str)
+    keep = np.ones(len(phases), bool) if tracked is None else np.asarray(tracked, bool)
+    result = {}
+    for phase in dict.fromkeys(phases[keep].tolist()):
+        mask = keep & (phases == phase)
+        result[phase] = (float(np.mean(np.abs(np.asarray(speed_error)[mask]))),
+                         float(np.mean(np.abs(np.asarray(heading_error)[mask]))))
+    return result
+
+
+def _tracked(record: EpisodeRecord) -> np.ndarray:
+    """Steps whose tracking errors count: those the task marks `tracked` (all steps when it does not)."""
+    if "tracked" in record.info:
+        return np.asarray(record.info["tracked"], dtype=float) > 0.5
+    return np.ones(record.steps, bool)
+
+
+def episode_metrics(record: EpisodeRecord) -> dict:
+    """The metrics of one episode, as `auv-mj eval` reports them (units in the README).
+
+    None stands for a figure that is undefined for this episode: time to goal without success, a
+    clearance on a task that measures none, a tracking error where the task reports none or before
+    the vehicle reached its path.
+    """
+    info = record.info
+    steps = record.steps
+    clearance = np.asarray(info.get("min_clearance", []), dtype=float)
+    clearance = clearance[np.isfinite(clearance)]
+    success_steps = np.flatnonzero(record.success)
+    result = {
+        "return": record.episode_return, "steps": steps, "success": record.succeeded,
+        "outcome": outcome(record.event),
+        "collision": bool(np.any(np.asarray(info.get("collision", np.zeros(steps)), dtype=float) > 0.5)),
+        "safety_violation": bool(np.any(np.asarray(info.get("safety_violation", np.zeros(steps)),
+                                                   dtype=float) > 0.5)),
+        "min_clearance": float(clearance.min()) if clearance.size else None,
+        "path_length": float(np.sum(np.hypot(*np.diff(record.pose[:, :2], axis=0).T))),
+        "time_to_goal": float(record.time[success_steps[0] + 1]) if success_steps.size else None,
+    }
+    tracked = _tracked(record)
+    for key in TRACKING_KEYS:
+        if key not in info:
+            continue
+        name = key.replace("_error", "")
+        values = np.abs(np.asarray(info[key], dtype=float))[tracked]
+        result[f"mae_{name}"] = float(values.mean()) if values.size else None
+        result[f"max_{name}"] = float(values.max()) if values.size else None
+    if "phase" in info and "speed_error" in info and "heading_error" in info:
+        for phase, (speed, heading) in phase_mae(info["speed_error"], info["heading_error"], info["phase"],
+                                                 tracked).items():
+            result[f"mae_speed_{phase}"] = speed
+            result[f"mae_heading_{phase}"] = heading
+    return result

@@ -25,10 +25,8 @@ Python API: `render_episode(env, policy) -> (T, H, W, 3) uint8`, `iter_frames(..
 
 from __future__ import annotations
 
-import argparse
 import copy
 import math
-import sys
 import time
 import warnings
 from collections.abc import Iterable, Iterator
@@ -39,7 +37,9 @@ import mujoco
 import numpy as np
 
 from auv_mj import glbackend
+from auv_mj.console import progress_bar
 from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions
+from auv_mj.geometry import wrap_angle
 from auv_mj.sonar import SONAR_RANGE
 
 DEFAULT_FPS = 30
@@ -481,7 +481,7 @@ def interpolate(a: Snapshot, b: Snapshot, t: float) -> Snapshot:
         return b
     alpha = float(np.clip((t - a.time) / span, 0.0, 1.0))
     pose = a.pose + alpha * (b.pose - a.pose)
-    pose[2] = a.pose[2] + alpha * ((b.pose[2] - a.pose[2] + math.pi) % (2 * math.pi) - math.pi)
+    pose[2] = a.pose[2] + alpha * wrap_angle(b.pose[2] - a.pose[2])
     return replace(a, time=t, pose=pose, velocity=a.velocity + alpha * (b.velocity - a.velocity),
                    movers=a.movers + alpha * (b.movers - a.movers))
 
@@ -560,8 +560,6 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
 
 
 def _progress(total: float | None, enabled: bool):
-    from auv_mj.cli import progress_bar
-
     return progress_bar(total=None if total is None else math.ceil(total), unit="step", desc="render",
                         disable=not enabled)
 
@@ -644,17 +642,15 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEF
 # --- benchmark ---------------------------------------------------------------------------------------
 
 
-def benchmark(sizes: tuple[tuple[int, int], ...] = ((1280, 720), (640, 360)), frames: int = 60,
-              repeats: int = 3, env=None, policy=None) -> dict[str, dict[str, float]]:
+def benchmark(env, policy, sizes: tuple[tuple[int, int], ...] = ((1280, 720), (640, 360)), frames: int = 60,
+              repeats: int = 3) -> dict[str, dict[str, float]]:
     """Frames/s of FrameRenderer (camera "both") vs a bare `mujoco.Renderer` of the same scene and size.
 
-    Both draw the same recorded states of `env` (default: the obstacles task with the line-of-sight
-    baseline) from the same orthographic top-down camera with the same multisampling; the bare renderer
+    Both draw the same recorded states of `env` run by `policy` (`auv-mj bench` uses the obstacles task
+    with line of sight) from the same orthographic top-down camera with the same multisampling; the bare renderer
     draws the model's geoms only, one view, no decorations or text (the limit). The best of `repeats`
     passes counts (the machine may be shared). Returns {"WxH": {"ours_fps", "bare_fps", "ratio"}}.
     """
-    if env is None:
-        env, policy = _benchmark_env()
     recorder = EpisodeRecorder(env)
     states = list(recorder.run(policy, frames))
     trail = np.array([s.pose[:2] for s in states])
@@ -710,90 +706,3 @@ def _bare_fps(physics, states: list[Snapshot], width: int, height: int, repeats:
         return len(states) / _best_time(bare, repeats)
     finally:
         renderer.close()
-
-
-def _benchmark_env():
-    """The suite's obstacles task with the line-of-sight baseline, the scene the videos show."""
-    from agents import policies
-    from tasks import suite
-
-    env = suite.load("auv", "obstacles", task_kwargs={"random": 0})
-    return env, policies.make_policy("splane", env, 0)
-
-
-# --- command line ------------------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of `auv-mj render`."""
-    parser.add_argument("--task", default="goal", help="suite task name (goal, obstacles, tunnel, ...)")
-    parser.add_argument("--policy", default="splane",
-                        help="checkpoint path, a shipped policy (planner, executor, two-layer), "
-                             "splane or random")
-    parser.add_argument("--seed", type=int, default=0, help="task and policy seed")
-    parser.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif)")
-    parser.add_argument("--fps", type=float, default=DEFAULT_FPS, help="video frame rate")
-    parser.add_argument("--width", type=int, default=DEFAULT_SIZE[0], help="frame width [px] (made even)")
-    parser.add_argument("--height", type=int, default=DEFAULT_SIZE[1], help="frame height [px] (made even)")
-    parser.add_argument("--camera", choices=CAMERAS, default="both",
-                        help="follow (top-down, vehicle centred), overview (whole arena), "
-                             "both (follow + overview inset)")
-    parser.add_argument("--follow-view", type=float, default=FOLLOW_VIEW, help="follow view height [m]")
-    parser.add_argument("--speedup", type=float, default=None,
-                        help="simulation seconds per video second (default: one frame per control step)")
-    parser.add_argument("--max-steps", type=int, default=None, help="cut the episode after this many steps")
-    parser.add_argument("--hold-end", type=float, default=DEFAULT_HOLD_END,
-                        help="seconds to hold the last frame")
-    parser.add_argument("--gif", action="store_true", help="write an animated GIF instead of an MP4")
-    parser.add_argument("--save-episode", type=Path, default=None, help="also save the episode record (.npz)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument("--bench", action="store_true",
-                        help="measure frames/s at 1280x720 and 640x360 against a bare mujoco.Renderer; "
-                             "no video")
-
-
-def make_env_and_policy(task: str, policy: str, seed: int):
-    """The suite environment of `task` and the callable policy named `policy` (agents imported lazily)."""
-    try:
-        from agents import policies
-    except ImportError as e:
-        raise SystemExit(f"auv-mj render: the agents package is not importable ({e}); it provides the "
-                         "policies (splane, random, checkpoints)") from None
-    try:
-        env = policies.make_env(policy, task, seed)
-        return env, policies.make_policy(policy, env, seed, task)
-    except (FileNotFoundError, ValueError, KeyError) as e:
-        raise SystemExit(f"auv-mj render: {e}") from None
-
-
-def run(args: argparse.Namespace) -> int:
-    """`auv-mj render`: renders one episode to a video file, or runs the benchmark."""
-    try:
-        glbackend.require()
-        if args.bench:
-            for size, r in benchmark().items():
-                print(f"{size}: ours {r['ours_fps']:.1f} frames/s, bare mujoco.Renderer {r['bare_fps']:.1f} "
-                      f"frames/s, ratio {r['ratio']:.2f}")
-            return 0
-        if args.output is None:
-            raise SystemExit("auv-mj render: give the video file with -o/--output")
-        env, policy = make_env_and_policy(args.task, args.policy, args.seed)
-        recorder = EpisodeRecorder(env, args.task, args.policy, args.seed)
-        frames = iter_frames(env, policy, max_steps=args.max_steps, width=args.width, height=args.height,
-                             camera=args.camera, fps=args.fps, speedup=args.speedup,
-                             follow_view=args.follow_view, hold_end=args.hold_end,
-                             title=f"{args.task} / {args.policy}", recorder=recorder,
-                             progress=not args.no_progress)
-        start = time.perf_counter()
-        path = write_video(frames, args.output, args.fps, gif=True if args.gif else None)
-        elapsed = time.perf_counter() - start
-    except glbackend.RenderingUnavailable as e:
-        print(f"auv-mj render: {e}", file=sys.stderr)
-        return 2
-    record = recorder.record()
-    print(f"wrote {path}: {record.steps} steps, {record.time[-1]:.1f} s simulated, return "
-          f"{record.episode_return:.2f}, success {record.succeeded}, events "
-          f"{sorted(str(e) for e in set(record.event) if e)}, {elapsed:.1f} s to render")
-    if args.save_episode:
-        print(f"wrote {record.save(args.save_episode)}")
-    return 0

@@ -8,14 +8,11 @@ offsetting, simplifying, validating: `layout_tunnel`) is kept apart from geom cr
 
 from __future__ import annotations
 
-import argparse
 import copy
 import csv
 import io
 import json
 import math
-import shlex
-import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -24,16 +21,21 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj.arena import SAFETY_DISTANCE
+from auv_mj.geometry import wrap_angle
+from auv_mj.vehicle import vehicle_facts
 
-HULL_RADIUS = 0.0955
-"""Radius of the hull capsule [m] (models/auv.xml)."""
-HULL_HALF_LENGTH = 0.665
-"""Half the 1.33 m hull length [m]: the farthest the vehicle reaches from its centre, whatever its yaw."""
-MIN_WIDTH = 2 * (SAFETY_DISTANCE + HULL_HALF_LENGTH)
-"""Narrowest tunnel [m]: d_s to both walls from a vehicle on the axis, turned any way."""
-PATH_CLEARANCE = SAFETY_DISTANCE + HULL_RADIUS
-"""Least distance [m] from the global path to a wall or known obstacle: d_s from the hull of a
-vehicle on the path heading along it (what `auv-mj check-arena` measures)."""
+
+def min_width() -> float:
+    """Narrowest tunnel [m]: d_s to both walls from a vehicle on the axis, turned any way (hull from the MJCF)."""
+    return 2 * (SAFETY_DISTANCE + vehicle_facts().hull_half_length)
+
+
+def path_clearance() -> float:
+    """Least distance [m] from the global path to a wall or known obstacle: d_s from the hull of a
+    vehicle on the path heading along it (what `auv-mj check-arena` measures)."""
+    return SAFETY_DISTANCE + vehicle_facts().hull_radius
+
+
 WALL_THICKNESS = 1.0
 """Thickness of a wall box [m]; the wall's inner face is the tunnel's edge."""
 WALL_HALF_HEIGHT = 3.0
@@ -471,11 +473,12 @@ def _widths(line: Centreline, width: float | None) -> np.ndarray:
         where = f"{line.label(i)}: " if line.widths is not None else ""
         if not math.isfinite(w):
             raise ValueError(f"{source}: {where}width {w} is not a finite number")
-        if w < MIN_WIDTH:
+        if w < min_width():
             raise ValueError(
                 f"{source}: {where}width {w:g} m is too narrow: a vehicle on the axis keeps d_s = "
-                f"{SAFETY_DISTANCE:g} m from both walls with its {HULL_HALF_LENGTH} m half length, so a "
-                f"tunnel must be at least {MIN_WIDTH:.2f} m wide")
+                f"{SAFETY_DISTANCE:g} m from both walls with its {vehicle_facts().hull_half_length:.3f} m half "
+                f"length, so a "
+                f"tunnel must be at least {min_width():.2f} m wide")
     return np.asarray(widths, dtype=float)
 
 
@@ -515,7 +518,7 @@ def _check_turns(work: _Working) -> None:
     d = b - a
     heading = np.arctan2(d[:, 1], d[:, 0])
     nxt = np.roll(heading, -1) if work.closed else heading[1:]
-    turn = np.abs((nxt - heading[: len(nxt)] + np.pi) % (2 * np.pi) - np.pi)
+    turn = np.abs(wrap_angle(nxt - heading[: len(nxt)]))
     bad = np.flatnonzero(turn > math.radians(MAX_TURN_DEG))
     if len(bad):
         k = (bad[0] + 1) % len(work.points)
@@ -660,7 +663,7 @@ def _merge_walls(rings: list[_Ring], tolerance: float, thickness: float) -> list
 
 
 def _check_clearance(work: _Working, walls: list[WallSegment], obstacles: Sequence[Obstacle]) -> None:
-    """The global path keeps PATH_CLEARANCE from every wall and known obstacle."""
+    """The global path keeps path_clearance() from every wall and known obstacle."""
     source = work.line.source
     samples, at = _resample(work.points, 1.0, work.closed)
     src = np.concatenate([work.src, work.src[:1] + len(work.line.points)]) if work.closed else work.src
@@ -669,11 +672,11 @@ def _check_clearance(work: _Working, walls: list[WallSegment], obstacles: Sequen
     b = np.array([w.b for w in walls])
     distance = point_segment_distance(samples[:, None], a[None], b[None])
     i, j = np.unravel_index(np.argmin(distance), distance.shape)
-    if distance[i, j] < PATH_CLEARANCE:
+    if distance[i, j] < path_clearance():
         raise ValueError(
             f"{source}: the global path near {work.near(s_src[i])} ({_xy(samples[i])}) passes "
             f"{distance[i, j]:.2f} m from the wall {walls[j].name}, closer than d_s + hull radius = "
-            f"{PATH_CLEARANCE:.2f} m (another part of the tunnel is too close)")
+            f"{path_clearance():.2f} m (another part of the tunnel is too close)")
     pa, pb = _segments(samples, work.closed)
     for k, obstacle in enumerate(obstacles):
         corners = obstacle.corners()
@@ -681,12 +684,12 @@ def _check_clearance(work: _Working, walls: list[WallSegment], obstacles: Sequen
         inside = _inside_polygon(samples, corners)
         gap = np.where(inside[: len(edges)], 0.0, edges)
         i = int(np.argmin(gap))
-        if gap[i] < PATH_CLEARANCE:
+        if gap[i] < path_clearance():
             name = obstacle_name(obstacle, k)
             raise ValueError(
                 f"{source}: {name} at ({_xy([obstacle.x, obstacle.y])}) is {gap[i]:.2f} m from the global "
                 f"path near {work.near(s_src[i])} ({_xy(samples[i])}), closer than d_s + hull radius = "
-                f"{PATH_CLEARANCE:.2f} m: move it or route the centreline around it")
+                f"{path_clearance():.2f} m: move it or route the centreline around it")
 
 
 def _inside_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
@@ -822,61 +825,3 @@ def save(element: ET.Element, path: str | Path) -> Path:
     text = ET.tostring(element, encoding="unicode")
     path.write_text(f"<!-- {HEADER} -->\n{text}\n")
     return path
-
-
-# --- command line ---------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of `auv-mj tunnel`."""
-    parser.add_argument("centreline", help="CSV of x,y[,width] rows [m] (header optional) or JSON")
-    parser.add_argument("--width", type=float, help="constant tunnel width [m] (unless per point)")
-    parser.add_argument("-o", "--output", help="arena MJCF to write (default: the centreline's name, .xml)")
-    parser.add_argument("--smooth", action="store_true", help="round the corners (Chaikin corner cutting)")
-    parser.add_argument("--smooth-iterations", type=int, default=SMOOTH_ITERATIONS,
-                        help=f"Chaikin rounds of --smooth (default {SMOOTH_ITERATIONS})")
-    parser.add_argument("--closed", action="store_true", help="the centreline is a loop: no end caps")
-    parser.add_argument("--obstacle", action="append", default=[], metavar="X,Y,LENGTH,WIDTH[,ANGLE[,NAME]]",
-                        help="a known box obstacle (angle in deg); repeatable")
-    parser.add_argument("--mover", action="append", default=[], metavar="X0,Y0,X1,Y1,SPEED,RADIUS[,NAME]",
-                        help="a moving cylinder going back and forth (m, m/s); repeatable")
-    parser.add_argument("--spacing", type=float, default=PATH_SPACING,
-                        help=f"distance between path sites [m] (default {PATH_SPACING:g})")
-    parser.add_argument("--wall-thickness", type=float, default=WALL_THICKNESS)
-    parser.add_argument("--end-clearance", type=float, default=END_CLEARANCE,
-                        help=f"tunnel length past start and goal [m] (default {END_CLEARANCE:g})")
-    parser.add_argument("--margin", type=float, default=BOUNDS_MARGIN, help="arena_bounds margin [m]")
-    parser.add_argument("--tolerance", type=float, default=MERGE_TOLERANCE,
-                        help=f"wall merging tolerance [m] (default {MERGE_TOLERANCE:g})")
-    parser.add_argument("--name", default=None, help="model name (default: the output's stem)")
-
-
-def _command_line() -> str | None:
-    """The `auv-mj tunnel ...` command line this process runs, if it runs one."""
-    argv = sys.argv[1:]
-    return shlex.join(["auv-mj", *argv]) if argv[:1] == ["tunnel"] else None
-
-
-def run(args: argparse.Namespace) -> int:
-    """`auv-mj tunnel`: writes the arena and prints what it holds."""
-    output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
-    try:
-        line = read_centreline(args.centreline)
-        obstacles = [Obstacle.parse(text) for text in args.obstacle]
-        movers = [MovingObstacle.parse(text) for text in args.mover]
-        layout = layout_tunnel(line, args.width, closed=args.closed,
-                               smooth=args.smooth_iterations if args.smooth else 0, path_spacing=args.spacing,
-                               obstacles=obstacles, movers=movers, wall_thickness=args.wall_thickness,
-                               end_clearance=args.end_clearance, margin=args.margin,
-                               merge_tolerance=args.tolerance)
-        element = tunnel_element(layout, obstacles, movers, args.wall_thickness, args.name or output.stem,
-                                 _command_line())
-        save(element, output)
-    except (ValueError, OSError) as e:
-        print(f"auv-mj tunnel: error: {e}", file=sys.stderr)
-        return 1
-    length = float(np.sum(np.hypot(*np.diff(layout.path, axis=0).T)))
-    print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, "
-          f"{len(movers)} movers, {len(layout.path)} path sites over {length:.0f} m; "
-          f"check it with: auv-mj check-arena {output}")
-    return 0

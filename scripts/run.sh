@@ -38,6 +38,7 @@ case "$job" in
   demo) exec "$venv/bin/auv-mj" demo "$@" ;;
   test)
     "$venv/bin/ruff" check .
+    "$venv/bin/lint-imports" --no-cache
     exec "$venv/bin/python" -m pytest -q -n 2 "$@" ;;
   *) echo "usage: bash scripts/run.sh demo|test [args...]" >&2; exit 2 ;;
 esac

@@ -26,9 +26,10 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
+from auv_mj.goals import GOAL_KEYS
+
 DOMAIN = "auv"
-GOAL_KEYS = ("observation", "achieved_goal", "desired_goal")
-"""Observation keys of the goal-conditioned tasks (GoalEnv convention)."""
+"""The suite domain of every task."""
 GOAL_TASK_REWARD = "paper"
 """Reward of goal tasks unless task_kwargs say otherwise: the goal-decomposable Eq. (26), which the tasks'
 `compute_reward` reproduces, so that HER's relabelled rewards are the environment's own."""

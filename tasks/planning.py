@@ -8,9 +8,9 @@ a in [-1, 1]^2 becomes the executor's command (V_cmd, psi_cmd) by Table 3 and Ta
     psi_target = psi + clip(90 deg * a1, -30 deg, 30 deg)     Table 3: heading in [-90, 90] deg, read as
                                                               relative to the current heading psi; Table 1:
                                                               at most pi/6 from the current heading
-    psi_cmd   += clip(wrap(psi_target - psi_cmd), -6, 6 deg)  Table 1: the heading command turns by at most
+    psi_cmd   += clip(wrap_angle(psi_target - psi_cmd), -6, 6 deg)  Table 1: the heading command turns by at most
                                                               pi/30 per planner step
-    psi_cmd    = psi + clip(wrap(psi_cmd - psi), -30, 30 deg) keeps Table 1's pi/6 after a lagging turn
+    psi_cmd    = psi + clip(wrap_angle(psi_cmd - psi), -30, 30 deg) keeps Table 1's pi/6 after a lagging turn
 
 The executor (`executor(command, state)`, default the S-plane controller of Eq. 32) turns the command into
 (tau_u, tau_r) every EXECUTOR_DT = 0.1 s on the full dynamics. The task's `Physics` calls it between
@@ -45,7 +45,9 @@ Collisions, leaving the map and success end the episode (discount 0); the time l
 "min_clearance" is the exact distance from the hull to the nearest other geom (`mj_geomDistance`,
 capped at SONAR_RANGE), for metrics; so are "cross_track_error" (to the route's reference path, by
 default the straight legs from the start through the goals) and the executor's tracking errors
-"speed_error" (V_cmd - u) and "heading_error" (psi_cmd - psi).
+"speed_error" (V_cmd - u) and "heading_error" (psi_cmd - psi). "tracked" marks the steps whose tracking
+errors count in the metrics: on routes of several goals (paths, tunnels) only once the vehicle has reached
+the first one, so that the drive to the path is left out, as the paper does for Tables 10-11.
 """
 
 from __future__ import annotations
@@ -66,9 +68,11 @@ from dm_env import specs
 
 from auv_mj import arena
 from auv_mj.arena import SAFETY_DISTANCE
+from auv_mj.geometry import wrap_angle
 from auv_mj.physics import AUVPhysics
 from auv_mj.sonar import SONAR_NAMES, SONAR_RANGE
-from auv_mj.splane import EXECUTOR_DT, SPlaneController
+from tasks.actions import checked_action
+from tasks.splane import EXECUTOR_DT, SPlaneController
 
 PLANNER_DT = 0.5
 """Planner period [s]: one dm_env step, the 2 Hz of the sonar (Sec. 2.2)."""
@@ -128,7 +132,7 @@ GOAL_DISTANCE_RANGE = (100.0, 400.0)
 OBSERVATION_FIELDS = ("x", "y", "cos_psi", "sin_psi", "u", "v", "r", "heading_command", "speed_command",
                       *SONAR_NAMES)
 """The "observation" vector: x, y / POSITION_SCALE; cos, sin psi; u, v / MAX_SPEED; r [rad/s];
-wrap(psi_cmd - psi) / MAX_HEADING_DIFFERENCE; V_cmd / MAX_SPEED; the nine sonar ranges / SONAR_RANGE."""
+wrap_angle(psi_cmd - psi) / MAX_HEADING_DIFFERENCE; V_cmd / MAX_SPEED; the nine sonar ranges / SONAR_RANGE."""
 EVENTS = ("", "subgoal", "goal", "collision", "left_map")
 """Values of last_info["event"]."""
 HULL = "hull"
@@ -184,11 +188,6 @@ def info_field(info, key: str) -> np.ndarray:
 def speed_command(a0: float) -> float:
     """V_cmd [m/s] of the speed action a0 in [-1, 1] (Table 3, forward only)."""
     return MIN_SPEED + 0.5 * (a0 + 1.0) * (MAX_SPEED - MIN_SPEED)
-
-
-def wrap(angle: float) -> float:
-    """Angle wrapped to [-pi, pi)."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def discretise(polyline: np.ndarray, spacing: float = SUBGOAL_SPACING) -> np.ndarray:
@@ -437,16 +436,13 @@ class PlanningTask(base.Task):
 
     def before_step(self, action, physics: Physics) -> None:
         """Turns the action into the executor's command (V_cmd, psi_cmd) (Table 3, Table 1)."""
-        action = np.asarray(action, dtype=float)
-        if action.shape != (2,) or not np.all(np.isfinite(action)):
-            raise ValueError(f"action must be 2 finite numbers (speed, heading offset), got {action!r}")
-        a0, a1 = np.clip(action, -1.0, 1.0)
+        a0, a1 = checked_action(action, self.action_spec(physics), self)
         data = physics.data.ptr
         psi = float(data.qpos[self._qpos[2]])
         offset = min(max(ACTION_HEADING_RANGE * a1, -MAX_HEADING_DIFFERENCE), MAX_HEADING_DIFFERENCE)
         previous = self._command[1]
-        turn = min(max(wrap(psi + offset - previous), -MAX_HEADING_CHANGE), MAX_HEADING_CHANGE)
-        difference = min(max(wrap(previous + turn - psi), -MAX_HEADING_DIFFERENCE), MAX_HEADING_DIFFERENCE)
+        turn = min(max(wrap_angle(psi + offset - previous), -MAX_HEADING_CHANGE), MAX_HEADING_CHANGE)
+        difference = min(max(wrap_angle(previous + turn - psi), -MAX_HEADING_DIFFERENCE), MAX_HEADING_DIFFERENCE)
         self._command = (speed_command(float(a0)), psi + float(difference))
         self._previous = data.qpos[self._qpos[:2]].copy()
 
@@ -508,8 +504,9 @@ class PlanningTask(base.Task):
             "num_goals": n,
             "cross_track_error": distance_to_polyline(position, self._path),
             "command": self._command,
+            "tracked": n == 1 or self._reached >= 1,
             "speed_error": self._command[0] - physics.hydrodynamics.body_velocity(data)[0],
-            "heading_error": wrap(self._command[1] - data.qpos[self._qpos[2]]),
+            "heading_error": wrap_angle(self._command[1] - data.qpos[self._qpos[2]]),
         }
 
     def _passed(self, position: np.ndarray) -> int:
@@ -572,7 +569,7 @@ class PlanningTask(base.Task):
         speed_command, heading_command = self._command
         vector = np.empty(len(OBSERVATION_FIELDS))
         vector[:9] = (x / POSITION_SCALE, y / POSITION_SCALE, math.cos(psi), math.sin(psi), u / MAX_SPEED,
-                      v / MAX_SPEED, r, wrap(heading_command - psi) / MAX_HEADING_DIFFERENCE,
+                      v / MAX_SPEED, r, wrap_angle(heading_command - psi) / MAX_HEADING_DIFFERENCE,
                       speed_command / MAX_SPEED)
         vector[9:] = self._sonar / SONAR_RANGE
         return collections.OrderedDict(observation=vector, achieved_goal=np.array([x, y]),

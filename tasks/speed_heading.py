@@ -9,7 +9,7 @@ r = -|e_V| - |e_psi|; "suite" (default) is in [0, 1], the mean of two `tolerance
 Observation "paper" (default) is Eq. 27; "integral" appends the clamped integrals of e_V and e_psi
 (`ErrorIntegral`), a memory Eq. 27 lacks: without it a learned executor is a static map and keeps a steady
 error under a steady force, which the S-plane's integrating bias du removes. A learned executor carries
-its own integrals outside the task (`agents.policies.LearnedExecutor`).
+its own integrals outside the task (`auv_mj.cli.policies.LearnedExecutor`).
 
 Commands: "paper" (default) holds the Sec. 4.2 command, 1.0 m/s and pi/12, from rest at psi = 0; a pair
 (V, psi) holds that command; "random" (training) starts from a random speed and heading and changes the
@@ -39,8 +39,12 @@ from dm_control.utils import rewards
 from dm_env import specs
 
 from auv_mj import arena
-from auv_mj.splane import EXECUTOR_DT, wrap_angle
+from auv_mj.episode import phase_mae as _phase_mae
+from auv_mj.episode import record_episode
+from auv_mj.geometry import wrap_angle
+from tasks.actions import checked_action
 from tasks.registry import SUITE
+from tasks.splane import EXECUTOR_DT
 
 EPISODE_STEPS = 1100
 """Length of the Sec. 4.2 experiment, in executor steps."""
@@ -335,6 +339,7 @@ class SpeedHeading(base.Task):
         met = abs(e_v) < SPEED_TOLERANCE and abs(e_psi) < HEADING_TOLERANCE
         return {"phase": self.phase(step), "speed_error": e_v, "heading_error": e_psi,
                 "command": np.array(command), "disturbance_active": self.disturbance_active(step),
+                "tracked": step >= SETTLE_STEPS,
                 "success": met, "is_success": met}
 
     # --- dm_control Task ---------------------------------------------------------------------------
@@ -347,7 +352,7 @@ class SpeedHeading(base.Task):
         """Scales the action from [-1, 1] to the actuator ranges (ctrlrange) and applies it."""
         self._step = self.step_index(physics)
         self._step_command = self.command(physics)
-        action = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        action = checked_action(action, self.action_spec(physics), self)
         low, high = physics.model.actuator_ctrlrange.T
         physics.set_control(low + 0.5 * (action + 1.0) * (high - low))
 
@@ -394,46 +399,42 @@ def speed_heading(time_limit: float = _DEFAULT_TIME_LIMIT, random=None, environm
 # --- evaluation (Table 9) ---------------------------------------------------------------------------------
 
 
+def executor_policy(env, executor: Executor) -> Callable:
+    """`executor(command, state) -> (tau_u, tau_r)` as a policy(time_step) of the speed_heading env: its
+    output is clipped to the actuator ranges and scaled to the task's [-1, 1] action (Eq. 28-29)."""
+    task, physics = env.task, env.physics
+    low, high = physics.model.actuator_ctrlrange.T
+
+    def policy(time_step) -> np.ndarray:
+        if time_step.first() and hasattr(executor, "reset"):
+            executor.reset()
+        tau = np.clip(np.asarray(executor(task.command(physics), task.state(physics)), dtype=float), low, high)
+        return np.clip(2 * (tau - low) / (high - low) - 1, -1.0, 1.0)
+
+    return policy
+
+
 def rollout(executor: Executor, random=0, time_limit: float = _DEFAULT_TIME_LIMIT,
             **task_kwargs) -> dict[str, np.ndarray]:
-    """Runs `executor(command, state)` through one speed_heading episode.
+    """Runs `executor(command, state)` through one speed_heading episode (the core episode loop).
 
-    Returns per-step arrays "speed_error", "heading_error", "phase" (from last_info) and "tau" (the
-    executor's output, clipped to the actuator ranges).
+    Returns per-step arrays "speed_error", "heading_error", "phase", "tracked" (from last_info) and
+    "tau" (the actuator forces the executor applied, within the actuator ranges).
     """
     env = speed_heading(time_limit=time_limit, random=random, **task_kwargs)
-    task, physics = env.task, env.physics
-    if hasattr(executor, "reset"):
-        executor.reset()
-    time_step = env.reset()
-    low, high = physics.model.actuator_ctrlrange.T
-    trace: dict[str, list] = {"speed_error": [], "heading_error": [], "phase": [], "tau": []}
-    while not time_step.last():
-        tau = np.asarray(executor(task.command(physics), task.state(physics)), dtype=float)
-        tau = np.clip(tau, low, high)
-        time_step = env.step(2 * (tau - low) / (high - low) - 1)
-        info = task.last_info
-        trace["speed_error"].append(info["speed_error"])
-        trace["heading_error"].append(info["heading_error"])
-        trace["phase"].append(info["phase"])
-        trace["tau"].append(tau)
-    return {key: np.array(values) for key, values in trace.items()}
+    record = record_episode(env, executor_policy(env, executor))
+    trace = {key: record.info[key] for key in ("speed_error", "heading_error", "phase")}
+    trace["tracked"] = record.info["tracked"] > 0.5
+    trace["tau"] = record.control[1:]
+    return trace
 
 
-def phase_mae(trace: dict[str, np.ndarray],
-              settle_steps: int = SETTLE_STEPS) -> dict[str, tuple[float, float]]:
-    """Table 9's MAE per phase: {phase: (MAE speed [m/s], MAE heading [rad])}, skipping the first steps."""
-    keep = np.arange(len(trace["phase"])) >= settle_steps
-    result = {}
-    for phase in PHASES:
-        mask = keep & (trace["phase"] == phase)
-        if np.any(mask):
-            result[phase] = (float(np.mean(np.abs(trace["speed_error"][mask]))),
-                             float(np.mean(np.abs(trace["heading_error"][mask]))))
-    return result
+def phase_mae(trace: dict[str, np.ndarray]) -> dict[str, tuple[float, float]]:
+    """Table 9's MAE per phase of a `rollout` trace, after the SETTLE_STEPS settling steps
+    (`auv_mj.episode.phase_mae`, the definition `auv-mj eval` uses too)."""
+    return _phase_mae(trace["speed_error"], trace["heading_error"], trace["phase"], trace["tracked"])
 
 
-def run_executor(executor: Executor, random=0, settle_steps: int = SETTLE_STEPS,
-                 **task_kwargs) -> dict[str, tuple[float, float]]:
+def run_executor(executor: Executor, random=0, **task_kwargs) -> dict[str, tuple[float, float]]:
     """Per-phase MAE (speed, heading) of `executor` on speed_heading (Sec. 4.2 schedule by default)."""
-    return phase_mae(rollout(executor, random=random, **task_kwargs), settle_steps)
+    return phase_mae(rollout(executor, random=random, **task_kwargs))

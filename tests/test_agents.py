@@ -23,7 +23,8 @@ from agents.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, epsilon_at, s
 from agents.her import HerReplayBuffer, flatten_goal_obs
 from agents.policy import Policy
 from agents.replay import Batch, ReplayBuffer
-from agents.train import env_spec, episode_seed, task_env_id, train
+from agents.train import env_spec, episode_seed, train
+from auv_mj.cli.train import task_env_id
 
 torch.set_num_threads(1)
 
@@ -441,7 +442,9 @@ def test_cli_hooks(tmp_path, capsys):
 
     assert task_env_id("speed_heading") == "auv_mj/SpeedHeading-v0"
     assert task_env_id("goal") == "auv_mj/Goal-v0"
-    assert main(["train", "her-ddpg", "--task", "no-such-task", "--run-dir", str(tmp_path / "n")]) == 2
+    with pytest.raises(SystemExit) as exit_info:
+        main(["train", "her-ddpg", "--task", "no-such-task", "--run-dir", str(tmp_path / "n")])
+    assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "'auv_mj/NoSuchTask-v0' is not registered" in err
     args = ["train", "her-ddpg", "--task", TEST_ID, "--steps", "120", "--run-dir", str(tmp_path / "cli"),
@@ -456,7 +459,7 @@ def test_cli_hooks(tmp_path, capsys):
 
 
 def test_learned_executor_feeds_the_integral_observation_it_was_trained_on():
-    from agents.policies import LearnedExecutor
+    from auv_mj.cli.policies import LearnedExecutor
     from tasks import speed_heading as sh
 
     class RecordingPolicy:

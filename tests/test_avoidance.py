@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from agents.avoidance import RepulsiveField, with_repulsion
-from agents.baselines import line_of_sight
-from agents.evaluate import run_episode
+from auv_mj.episode import episode_metrics, record_episode
 from auv_mj.sonar import SONAR_RANGE
 from tasks import suite
+from tasks.avoidance import RepulsiveField, with_repulsion
+from tasks.guidance import line_of_sight
 
 FIELD = RepulsiveField()
 
@@ -43,8 +43,8 @@ def test_an_echo_dead_ahead_turns_towards_the_freer_side():
 
 def test_line_of_sight_with_the_domain_clears_the_table_7_obstacles():
     env = suite.load("auv", "obstacles", task_kwargs={"random": 0, "scenario": "a"})
-    bare = run_episode(env, line_of_sight(env))
+    bare = episode_metrics(record_episode(env, line_of_sight(env)))
     env = suite.load("auv", "obstacles", task_kwargs={"random": 0, "scenario": "a"})
-    guarded = run_episode(env, with_repulsion(line_of_sight(env)))
+    guarded = episode_metrics(record_episode(env, with_repulsion(line_of_sight(env))))
     assert bare["collision"] and not bare["success"]
     assert guarded["success"] and not guarded["collision"] and guarded["min_clearance"] > 5.0

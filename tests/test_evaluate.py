@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import evaluate, policies
-from agents.reproduce import episodes_to, training_speed
+from auv_mj.cli import evaluate, policies
+from auv_mj.cli.reproduce import episodes_to, training_speed
 
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 
@@ -111,7 +111,8 @@ def test_training_speed_ratio_from_peer_logs(tmp_path):
 def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp_path):
     from agents.ddpg import DDPGConfig
     from agents.policy import Policy
-    from agents.train import make_env_fn, task_env_id, train
+    from agents.train import train
+    from auv_mj.cli.train import make_env_fn, task_env_id
     from tasks.speed_heading import run_executor
 
     kwargs = {"command": "random", "disturbances": "random", "observation": "integral"}
@@ -120,16 +121,16 @@ def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp
     ckpt = train(env_fn, "executor", config, total_steps=100, run_dir=tmp_path / "run", progress=False,
                  tensorboard=False).checkpoint
     assert Policy.load(ckpt).obs_dim == 9
-    summary = evaluate.evaluate(str(ckpt), ["speed_heading"], 1, 0, max_steps=60,
+    summary = evaluate.evaluate(str(ckpt), ["speed_heading"], 1, 0, max_steps=150,
                                 progress=False)["tasks"]["speed_heading"]
-    executor_mae = run_executor(policies.learned_executor(ckpt), settle_steps=0, time_limit=6.0)["none"]
-    assert summary["mae_speed"] == pytest.approx(executor_mae[0])  # same episode through either path
-    assert summary["mae_heading"] == pytest.approx(executor_mae[1])
+    executor_mae = run_executor(policies.learned_executor(ckpt), time_limit=15.0)["none"]
+    assert summary["mae_speed_none"] == pytest.approx(executor_mae[0])  # same episode through either path
+    assert summary["mae_heading_none"] == pytest.approx(executor_mae[1])
 
 
 def test_eval_task_kwargs_reach_every_episode_and_bad_ones_are_named():
-    from auv_mj.splane import SPlaneController
     from tasks.speed_heading import rollout
+    from tasks.splane import SPlaneController
 
     kwargs = {"command": "random", "disturbances": "random", "reward": "paper"}
     results = evaluate.evaluate("splane", ["speed_heading"], 2, seed=5, max_steps=40, progress=False,
@@ -149,11 +150,11 @@ def test_eval_task_kwargs_reach_every_episode_and_bad_ones_are_named():
     done = subprocess.run([*AUV_MJ, "eval", "--policy", "splane", "--task", "speed_heading", "--episodes", "1",
                            "--task-kwargs", '{"bogus": 1}'], capture_output=True, text=True, timeout=300)
     assert done.returncode != 0 and "Traceback" not in done.stderr
-    assert "auv-mj eval: task_kwargs {'bogus': 1} do not fit task 'speed_heading'" in done.stderr
+    assert "auv-mj eval: error: task_kwargs {'bogus': 1} do not fit task 'speed_heading'" in done.stderr
 
 
 def test_demo_table_prints_a_contact_clearance_as_zero():
-    from agents.demo import format_rows
+    from auv_mj.cli.demo import format_rows
 
     table = format_rows({"splane": {"min_clear_m": -0.001, "track_mae_m": 1.234, "time_s": math.nan}})
     row = table.splitlines()[-1].split()
@@ -173,7 +174,7 @@ def test_task_kwargs_that_are_not_a_json_object_are_usage_errors(command, text, 
 def test_progress_bars_redraw_rarely_off_a_terminal(monkeypatch):
     import io
 
-    from auv_mj.cli import progress_bar
+    from auv_mj.console import progress_bar
 
     class Terminal(io.StringIO):
         def isatty(self):

@@ -10,8 +10,9 @@ import sys
 import numpy as np
 import pytest
 
-from auv_mj import SONAR_RANGE, bench, cli
+from auv_mj import SONAR_RANGE, cli
 from auv_mj.arena import load
+from auv_mj.cli import bench
 from auv_mj.manoeuvre import channel_arena, zigzag
 
 BOW = 0.665

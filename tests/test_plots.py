@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from auv_mj import plots
+from auv_mj.cli import plots
 from auv_mj.episode import EpisodeRecord, record_episode
 from tasks import suite
 

@@ -6,9 +6,10 @@ import dm_env
 import numpy as np
 import pytest
 
-from auv_mj.splane import SPlaneController, wrap_angle
+from auv_mj.geometry import wrap_angle
 from tasks import speed_heading as sh
 from tasks.registry import SUITE
+from tasks.splane import SPlaneController
 
 
 @pytest.fixture(scope="module")

@@ -5,16 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from auv_mj.splane import (
-    EXECUTOR_DT,
-    SURGE_LIMIT,
-    YAW_LIMIT,
-    SPlaneController,
-    SPlaneGains,
-    s_plane,
-    step_response,
-    wrap_angle,
-)
+from auv_mj.geometry import wrap_angle
+from auv_mj.vehicle import vehicle_facts
+from tasks.splane import EXECUTOR_DT, SPlaneController, SPlaneGains, s_plane
+from tasks.splane_tuning import step_response
+
+SURGE_LIMIT = vehicle_facts().surge_limit
+YAW_LIMIT = vehicle_facts().yaw_limit
 
 
 @pytest.mark.parametrize("x", [-7.0, -0.3, 0.0, 0.4, 12.0])

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from auv_mj.arena import arena_info
+from auv_mj.geometry import wrap_angle
 from auv_mj.sonar import SONAR_RANGE
 from tasks import obstacles, planning, suite, tunnel
 from tasks.registry import SUITE
@@ -36,7 +37,7 @@ def line_of_sight(observation, speed: float = 0.5) -> np.ndarray:
     gx, gy = observation["desired_goal"]
     vector = observation["observation"]
     psi = math.atan2(vector[3], vector[2])
-    error = planning.wrap(math.atan2(gy - y, gx - x) - psi)
+    error = wrap_angle(math.atan2(gy - y, gx - x) - psi)
     return np.array([speed, np.clip(error / planning.ACTION_HEADING_RANGE, -1.0, 1.0)])
 
 

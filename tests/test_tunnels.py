@@ -15,6 +15,9 @@ import pytest
 
 from auv_mj import arena, arena_check, cli, tunnels
 from auv_mj.assets import model_path
+from auv_mj.vehicle import vehicle_facts
+
+HULL_HALF_LENGTH = vehicle_facts().hull_half_length
 
 AUV_MJ = Path(sys.executable).with_name("auv-mj")
 STRAIGHT_WIDTH = 40.0
@@ -103,7 +106,7 @@ def test_sonar_across_straight_tunnel_reads_half_width_minus_offset(offset):
     half = STRAIGHT_WIDTH / 2
     assert ranges[0] == pytest.approx(half + offset, abs=1e-4)  # S1, starboard (-y)
     assert ranges[8] == pytest.approx(half - offset, abs=1e-4)  # S9, port (+y)
-    nose = 100.0 + tunnels.HULL_HALF_LENGTH
+    nose = 100.0 + HULL_HALF_LENGTH
     assert ranges[4] == pytest.approx(200.0 + tunnels.END_CLEARANCE - nose, abs=1e-4)  # S5 ahead: the end cap
 
 
@@ -125,8 +128,8 @@ def test_vehicle_pushed_into_a_wall_stays_inside():
         physics.step()
         highest = max(highest, physics.pose()[1])
     wall = STRAIGHT_WIDTH / 2
-    assert highest > wall - tunnels.HULL_HALF_LENGTH - 0.2  # it reached the wall ...
-    assert highest < wall - tunnels.HULL_HALF_LENGTH + 0.1  # ... and did not go through it
+    assert highest > wall - HULL_HALF_LENGTH - 0.2  # it reached the wall ...
+    assert highest < wall - HULL_HALF_LENGTH + 0.1  # ... and did not go through it
     assert physics.pose()[1] < wall
 
 

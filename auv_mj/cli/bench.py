@@ -17,11 +17,20 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+import gymnasium
 import mujoco
 import numpy as np
+import torch
 
+import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
+from agents.ddpg import DDPG, DDPGConfig
+from agents.replay import Batch
+from agents.train import env_spec
+from auv_mj import glbackend, render
 from auv_mj.arena import load
 from auv_mj.physics import AUVPhysics
+from tasks import suite
+from tasks.guidance import line_of_sight
 
 SUB_STEPS = 10
 """Physics steps per `AUVPhysics.step(n)` call in the batched timing (one 10 Hz executor step)."""
@@ -194,8 +203,6 @@ TASK_STEPS = 2000
 @section("tasks")
 def tasks_section(settings: BenchSettings) -> list[Measurement]:
     """Environment steps per second of every suite task, and how many times faster than real time."""
-    from tasks import suite
-
     measurements = []
     for domain, name in suite.ALL_TASKS:
         env = suite.load(domain, name)
@@ -211,14 +218,13 @@ def tasks_section(settings: BenchSettings) -> list[Measurement]:
 @section("render")
 def render_section(settings: BenchSettings) -> list[Measurement]:
     """Frames per second of the episode renderer against a bare mujoco.Renderer of the same scene."""
-    from auv_mj import glbackend, render
-
     try:
         glbackend.require()
     except glbackend.RenderingUnavailable as e:
         return [Measurement("rendering unavailable", float("nan"), "", str(e))]
+    env = suite.load("auv", "obstacles", task_kwargs={"random": settings.seed})
     measurements = []
-    for size, r in render.benchmark(frames=max(10, settings.calls(60))).items():
+    for size, r in render.benchmark(env, line_of_sight(env), frames=max(10, settings.calls(60))).items():
         measurements.append(Measurement(f"render {size} ours", r["ours_fps"], "frames/s"))
         measurements.append(Measurement(f"render {size} bare mujoco.Renderer (limit)", r["bare_fps"], "frames/s"))
         measurements.append(Measurement(f"render {size} ours / bare", r["ratio"], "x"))
@@ -233,15 +239,11 @@ TRAINING_UPDATES = 200
 def training_section(settings: BenchSettings) -> list[Measurement]:
     """DDPG gradient steps per second (Table 4 sizes: 2 x 256 tanh, batch 64, one torch thread) and the
     planner task's env steps per second, timed apart, as the issue asks for training speed."""
-    import torch
-
-    from agents.ddpg import DDPG, DDPGConfig
-    from agents.replay import Batch
-
     torch.set_num_threads(1)
     rng = np.random.default_rng(settings.seed)
     config = DDPGConfig()
-    obs_dim, act_dim = 20, 2  # the goal task: 18 observation values + the 2-d desired goal
+    spec = env_spec(gymnasium.make("auv_mj/Goal-v0"))  # the planner's sizes, read from the task
+    obs_dim, act_dim = spec["obs_dim"], spec["act_dim"]
     agent = DDPG(obs_dim, act_dim, config)
     n = settings.calls(TRAINING_UPDATES)
 

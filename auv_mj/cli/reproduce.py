@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents import evaluate, policies
+from auv_mj.cli import evaluate, policies
 from auv_mj.episode import record_episode
 
 PAPER_TABLE9 = {  # Table 9: MAE of speed [m/s] and heading [rad] per disturbance phase
@@ -107,7 +107,7 @@ def episodes_to(success: np.ndarray, target: float, window: int = 20) -> float:
 
 def fig8(lines: list[str], runs: Path, figures: Path) -> None:
     """Fig. 8: HER-DDPG vs DDPG on `goal`, learning curves over seeds from the training logs in `runs`."""
-    from auv_mj import plots
+    from auv_mj.cli import plots
 
     lines += ["## Fig. 8: HER-DDPG vs plain DDPG on `goal`", ""]
     groups = [(label, sorted(runs.glob(f"{agent}-seed*.csv"))) for label, agent in
@@ -150,8 +150,8 @@ def fig8(lines: list[str], runs: Path, figures: Path) -> None:
 
 def training_speed(lines: list[str], runs: Path) -> None:
     """Wall-clock to 90 % success on `goal`, ours vs the SB3 DDPG+HER peer, from logs of side-by-side runs."""
-    from agents.sb3_peer import TARGET, WINDOW, time_to_success
-    from auv_mj import plots
+    from auv_mj.cli import plots
+    from auv_mj.cli.sb3_peer import TARGET, WINDOW, time_to_success
 
     lines += ["## Training speed: auv-mj vs the Stable-Baselines3 peer", "",
               f"Each run on one core of the 2-core CPU while the other ran the peer (the same load on both); "
@@ -184,14 +184,14 @@ def training_speed(lines: list[str], runs: Path) -> None:
     else:
         ratio = "auv-mj did not reach the target in every run: no ratio"
     lines += ["", ratio + ".", "",
-              "Command: `python -m agents.sb3_peer --steps 100000 --seed S --csv sb3-ddpg-her-seedS.csv` beside "
+              "Command: `python -m auv_mj.cli.sb3_peer --steps 100000 --seed S --csv sb3-ddpg-her-seedS.csv` beside "
               "`auv-mj train her-ddpg --task goal --seed S --steps 100000` (its `progress.csv`), copied to "
               f"`{runs}`.", ""]
 
 
 def scenarios(lines: list[str], figures: Path) -> None:
     """The named scenarios of Tables 6-8 and 12 with each policy (one deterministic episode each)."""
-    from auv_mj import plots
+    from auv_mj.cli import plots
 
     lines += ["## Scenarios of Tables 6-8 and 12", "",
               "One episode per scenario (start, goal and obstacles from the table; obstacle shapes ours). "

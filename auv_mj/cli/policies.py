@@ -1,13 +1,16 @@
-"""Names -> policies for evaluation and rendering: checkpoints, the shipped policies and the baselines.
+"""Names -> policies for every command that runs episodes: checkpoints, the shipped policies, baselines.
 
+The one place where tasks and agents meet (the app layer):
 - a checkpoint path: a trained `agents.policy.Policy`;
 - `planner`: the shipped HER-DDPG planner (`planner.pt`; `planner_tunnel.pt` on the tunnel task), with
-  the protection domain of Sec. 3.2.2 active (`agents.avoidance`), on the task's default S-plane executor;
+  the protection domain of Sec. 3.2.2 active (`tasks.avoidance`), on the task's default S-plane executor;
   `planner-raw`: the same without the protection domain;
 - `executor`: the shipped DDPG execution layer (speed_heading);
 - `two-layer`: the shipped planner (protection domain active) on the shipped learned executor (Sec. 4.3);
 - `los-executor`: line-of-sight guidance on the shipped learned executor (the execution layer alone);
 - `splane`: the classical baseline (line of sight + S-plane, or S-plane alone on speed_heading);
+- `los-avoid`: line of sight along the route with the protection domain, on the S-plane executor: the
+  classical local planner;
 - `random`: uniform actions.
 """
 
@@ -17,29 +20,37 @@ from pathlib import Path
 
 import numpy as np
 
-from agents import baselines
-from agents.avoidance import with_repulsion
+from agents.baselines import uniform_random
+from agents.checkpoint import read_checkpoint
+from agents.policy import Policy
+from auv_mj import arena
+from tasks import suite
+from tasks.avoidance import with_repulsion
+from tasks.guidance import classical, line_of_sight, los_avoid
+from tasks.speed_heading import ErrorIntegral, executor_observation, observation_kind
 
-CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
-SHIPPED = {"planner": CHECKPOINT_DIR / "planner.pt", "planner-tunnel": CHECKPOINT_DIR / "planner_tunnel.pt",
-           "executor": CHECKPOINT_DIR / "executor.pt"}
+SHIPPED = {"planner": "planner.pt", "planner-tunnel": "planner_tunnel.pt", "executor": "executor.pt"}
+"""Shipped checkpoints: name -> file in `agents/checkpoints/`."""
 PLANNER_FOR_TASK = {"tunnel": "planner-tunnel"}
 """Tasks with a planner of their own (trained on that task, as the paper trains per environment)."""
-BASELINES = ("splane", "random")
+BASELINES = ("splane", "los-avoid", "random")
 EXECUTOR_TASKS = ("speed_heading",)
 LEARNED_EXECUTOR_POLICIES = ("two-layer", "los-executor")
-PLANNERS = ("planner", "planner-raw", "two-layer", "los-executor")
+PLANNERS = ("planner", "planner-raw", "two-layer", "los-executor", "los-avoid")
+NAMES = ("planner", "planner-raw", "executor", "two-layer", "los-executor", *BASELINES)
+"""Every policy name `--policy` takes besides a checkpoint path."""
 
 
-def _suite():
-    from tasks import suite
+def _checkpoint_dir() -> Path:
+    """`agents/checkpoints`, in a checkout or an installed wheel (the `agents` package's folder)."""
+    import agents
 
-    return suite
+    return Path(agents.__file__).resolve().parent / "checkpoints"
 
 
 def shipped_checkpoint(name: str) -> Path:
     """Path of a shipped checkpoint, with a clear error when it is missing."""
-    path = SHIPPED[name]
+    path = _checkpoint_dir() / SHIPPED[name]
     if not path.is_file():
         raise FileNotFoundError(f"the shipped {name} checkpoint {path} is missing; train one with "
                                 f"`auv-mj train` (see README) or pass a checkpoint path")
@@ -56,10 +67,7 @@ class LearnedExecutor:
     """
 
     def __init__(self, policy, low: np.ndarray, high: np.ndarray):
-        from tasks.speed_heading import ErrorIntegral, executor_observation, observation_kind
-
         self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
-        self._observe = executor_observation
         self._integral = ErrorIntegral() if observation_kind(policy.obs_dim) == "integral" else None
 
     def reset(self) -> None:
@@ -68,7 +76,7 @@ class LearnedExecutor:
             self._integral.reset()
 
     def __call__(self, command, state) -> np.ndarray:
-        obs = self._observe(command, state)
+        obs = executor_observation(command, state)
         if self._integral is not None:
             obs = np.concatenate([obs, self._integral.update(command, state)])
         action = np.clip(self.policy(obs), -1.0, 1.0)
@@ -77,26 +85,20 @@ class LearnedExecutor:
 
 def learned_executor(path: Path | None = None) -> LearnedExecutor:
     """The shipped (or given) DDPG execution layer as a task executor."""
-    from agents.policy import Policy
-    from auv_mj import arena
-
     low, high = arena.load().model.actuator_ctrlrange.T
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
-    """The suite environment for one evaluation episode; `two-layer` plugs in the learned executor."""
+    """The suite environment for one episode; `two-layer` plugs in the learned executor."""
     task_kwargs["random"] = seed
     if policy_name in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
         task_kwargs["executor"] = learned_executor()
     if task_name in EXECUTOR_TASKS and "observation" not in task_kwargs:
         checkpoint = _checkpoint_path(policy_name)
         if checkpoint is not None:  # the observation the executor was trained on, by its input size
-            from agents.checkpoint import read_checkpoint
-            from tasks.speed_heading import observation_kind
-
             task_kwargs["observation"] = observation_kind(int(read_checkpoint(checkpoint)[1]["obs_dim"]))
-    return _suite().load("auv", task_name, task_kwargs=task_kwargs)
+    return suite.load("auv", task_name, task_kwargs=task_kwargs)
 
 
 def _checkpoint_path(policy_name: str) -> Path | None:
@@ -108,8 +110,6 @@ def _checkpoint_path(policy_name: str) -> Path | None:
 
 
 def _checkpoint_policy(path: Path):
-    from agents.policy import Policy
-
     policy = Policy.load(path)
 
     def act(time_step):
@@ -125,11 +125,13 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the planner)."""
     planner = PLANNER_FOR_TASK.get(task, "planner")
     if policy_name == "random":
-        return baselines.uniform_random(env, seed)
+        return uniform_random(env, seed)
     if policy_name == "splane":
-        return baselines.classical(env)
+        return classical(env)
     if policy_name == "los-executor":
-        return baselines.line_of_sight(env)
+        return line_of_sight(env)
+    if policy_name == "los-avoid":
+        return los_avoid(env)
     if policy_name in ("planner", "two-layer"):
         return with_repulsion(_checkpoint_policy(shipped_checkpoint(planner)))
     if policy_name == "planner-raw":
@@ -138,14 +140,12 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
         return _checkpoint_policy(shipped_checkpoint("executor"))
     path = Path(policy_name)
     if not path.is_file():
-        raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of "
-                         f"{sorted(set(SHIPPED) | set(PLANNERS)) + list(BASELINES)}")
+        raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of {list(NAMES)}")
     return _checkpoint_policy(path)
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
     """A task name, a tag or 'all' -> task names the policy can run (planners skip speed_heading)."""
-    suite = _suite()
     names = [task for domain, task in suite.ALL_TASKS if domain == "auv"]
     if spec == "all":
         chosen = names
@@ -162,3 +162,18 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
     if not chosen:
         raise ValueError(f"policy {policy_name!r} cannot run any task of {spec!r}")
     return chosen
+
+
+def env_and_policy(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None):
+    """The environment of one episode of `task_name` (seeded `seed`) and the named policy acting in it.
+
+    Raises ValueError naming the option when the task does not take one of `task_kwargs`.
+    """
+    task_kwargs = dict(task_kwargs or {})
+    if "random" in task_kwargs:
+        raise ValueError("task_kwargs: 'random' is set by --seed (episode i gets seed + i), leave it out")
+    try:
+        env = make_env(policy_name, task_name, seed, **task_kwargs)
+    except TypeError as e:  # an option the task does not take
+        raise ValueError(f"task_kwargs {task_kwargs} do not fit task {task_name!r}: {e}") from None
+    return env, make_policy(policy_name, env, seed, task_name)

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agents import policies
 from auv_mj import glbackend
+from auv_mj.cli import policies
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, record_episode
 
 TASK = "tunnel"
@@ -71,7 +71,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Runs the demo; returns 0 once the table and files are written, whatever the episode's outcome."""
-    from auv_mj import plots, render
+    from auv_mj import render
+    from auv_mj.cli import plots
 
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()

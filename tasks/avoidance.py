@@ -9,16 +9,19 @@ wraps any planning policy: `with_repulsion(policy)`.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import dm_env
 import numpy as np
 
-from agents.baselines import MAX_HEADING_OFFSET, Policy
-from auv_mj.sonar import BEAM_ANGLES, SONAR_RANGE
+from auv_mj.sonar import BEAM_ANGLES, SONAR_NAMES, SONAR_RANGE
+from tasks.planning import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
+from tasks.planning import OBSERVATION_FIELDS
 
-SONAR_SLICE = slice(-9, None)
-"""The nine sonar ranges / SONAR_RANGE sit at the end of the planning tasks' observation vector."""
+Policy = Callable[[dm_env.TimeStep], np.ndarray]
+SONAR_SLICE = slice(OBSERVATION_FIELDS.index(SONAR_NAMES[0]), OBSERVATION_FIELDS.index(SONAR_NAMES[-1]) + 1)
+"""Where the nine sonar ranges / SONAR_RANGE sit in the planning tasks' observation vector."""
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,6 @@ episode, steps, return, success, wall_time, ...). `auv-mj plot trajectory|tracki
 
 from __future__ import annotations
 
-import argparse
 import csv
 import glob
 import math
@@ -57,7 +56,7 @@ def _save(fig, path: str | Path) -> Path:
     return path
 
 
-def _as_records(records) -> list[EpisodeRecord]:
+def as_records(records) -> list[EpisodeRecord]:
     items = records if isinstance(records, list | tuple) else [records]
     return [r if isinstance(r, EpisodeRecord) else EpisodeRecord.load(r) for r in items]
 
@@ -171,7 +170,7 @@ def plot_trajectory(records, path: str | Path, labels: Sequence[str] | None = No
 
     `height` None fits the map's aspect ratio (a tunnel is wide, the 600 m map square).
     """
-    records = _as_records(records)
+    records = as_records(records)
     if height is None:
         e = _extent(records)
         height = int(np.clip(width * (e[3] - e[1]) / (e[2] - e[0]) + 120, 300, 1.2 * width))
@@ -268,7 +267,7 @@ def plot_tracking(source, path: str | Path, title: str | None = None, x: str = "
     if isinstance(source, str | Path) and Path(source).suffix.lower() == ".csv":
         table, name = read_tracking_csv(source), Path(source).stem
     else:
-        record = _as_records(source)[0]
+        record = as_records(source)[0]
         table, name = tracking_table(record), f"{record.task or 'episode'}: {record.policy or 'policy'}"
     if x not in ("step", "time"):
         raise ValueError(f"x must be 'step' or 'time', got {x!r}")
@@ -403,87 +402,3 @@ def plot_learning(groups: Sequence[tuple[str, Sequence[str | Path]]], path: str 
     ret_ax.set_title(title if title is not None else f"learning curves (band: {band_name})")
     fig.tight_layout()
     return _save(fig, path)
-
-
-# --- command line ----------------------------------------------------------------------------------------
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of `auv-mj plot`."""
-    sub = parser.add_subparsers(dest="kind", required=True, metavar="KIND")
-    for kind, help_text in (("trajectory", "map, obstacles, path, goal and trajectories (Figs. 9-11, 16)"),
-                            ("tracking", "speed/heading vs commanded and errors (Figs. 12-14, 17)")):
-        p = sub.add_parser(kind, help=help_text)
-        p.add_argument("inputs", nargs="*", type=Path,
-                       help="episode .npz files (auv-mj render --save-episode)" +
-                            (" or a tracking CSV" if kind == "tracking" else ""))
-        p.add_argument("--task", default=None,
-                       help="run an episode of this suite task instead of reading inputs")
-        p.add_argument("--policy", default="splane", help="policy of that episode (as auv-mj render)")
-        p.add_argument("--seed", type=int, default=0)
-        p.add_argument("--max-steps", type=int, default=None)
-        if kind == "trajectory":
-            p.add_argument("--labels", nargs="*", default=None, help="one legend label per input")
-        else:
-            p.add_argument("--x", choices=("step", "time"), default="step", help="horizontal axis")
-            p.add_argument("--csv", type=Path, default=None, help="also write the per-step tracking CSV")
-        _common(p)
-    p = sub.add_parser("learning", help="return and success rate vs episodes from training CSVs (Fig. 8)")
-    p.add_argument("--runs", action="append", required=True, metavar="CSV_OR_GLOB", nargs="+",
-                   help="training logs (progress.csv, run directories or globs) of one group; "
-                        "repeat per group")
-    p.add_argument("--label", action="append", default=None, help="label of each --runs group, in order")
-    p.add_argument("--window", type=int, default=LEARNING_WINDOW, help="episodes per moving average")
-    p.add_argument("--band", choices=("minmax", "std"), default="minmax", help="shaded band across runs")
-    p.add_argument("--x", choices=("episode", "steps"), default="episode", help="horizontal axis")
-    _common(p)
-
-
-def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("-o", "--output", type=Path, required=True, help="PNG file")
-    p.add_argument("--title", default=None)
-    p.add_argument("--width", type=int, default=DEFAULT_SIZE[0], help="image width [px]")
-    p.add_argument("--height", type=int, default=None,
-                   help=f"image height [px] (default {DEFAULT_SIZE[1]}; trajectories: fit the map)")
-
-
-def _episode_inputs(args: argparse.Namespace) -> list:
-    if args.task:
-        from auv_mj.episode import record_episode
-        from auv_mj.render import make_env_and_policy
-
-        env, policy = make_env_and_policy(args.task, args.policy, args.seed)
-        return [record_episode(env, policy, args.max_steps, args.task, args.policy, args.seed)]
-    if not args.inputs:
-        raise SystemExit(f"auv-mj plot {args.kind}: give episode files or --task")
-    return list(args.inputs)
-
-
-def run(args: argparse.Namespace) -> int:
-    """`auv-mj plot KIND ...`: writes one PNG."""
-    size = {"width": args.width, "title": args.title}
-    if args.height is not None or args.kind != "trajectory":
-        size["height"] = args.height or DEFAULT_SIZE[1]
-    try:
-        if args.kind == "trajectory":
-            if args.labels and len(args.labels) != max(len(args.inputs), 1):
-                raise SystemExit(f"auv-mj plot trajectory: {len(args.labels)} labels for "
-                                 f"{max(len(args.inputs), 1)} episodes")
-            path = plot_trajectory(_as_records(_episode_inputs(args)), args.output, args.labels, **size)
-        elif args.kind == "tracking":
-            source = _episode_inputs(args)[0]
-            is_csv = isinstance(source, Path) and source.suffix.lower() == ".csv"
-            if args.csv and not is_csv:
-                print(f"wrote {tracking_csv(_as_records(source)[0], args.csv)}")
-            path = plot_tracking(source, args.output, x=args.x, **size)
-        else:
-            labels = args.label or [f"group {i + 1}" for i in range(len(args.runs))]
-            if len(labels) != len(args.runs):
-                raise SystemExit(f"auv-mj plot learning: {len(args.runs)} --runs groups but "
-                                 f"{len(labels)} --label")
-            path = plot_learning(list(zip(labels, args.runs, strict=True)), args.output, args.window,
-                                 args.band, args.x, **size)
-    except (ValueError, OSError) as e:
-        raise SystemExit(f"auv-mj plot {args.kind}: {e}") from None
-    print(f"wrote {path}")
-    return 0

@@ -1,0 +1,63 @@
+"""The `auv-mj` app: one subcommand per job, one module per subcommand in this package.
+
+This package is the top layer (simulator core `auv_mj` < `tasks` < `agents` < `auv_mj.cli`) and the only
+place that wires tasks and agents together: the policy-name registry (`policies`), evaluation and the
+reproduction report live here. Every subcommand module exposes `add_arguments(parser)` and
+`run(args) -> int`; they are imported only when their subcommand runs, so `auv-mj --help` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+# (subcommand, module, one-line help)
+COMMANDS: tuple[tuple[str, str, str], ...] = (
+    ("demo", "auv_mj.cli.demo", "the two-layer planner+executor through the tunnel: table, video, plot"),
+    ("manoeuvre", "auv_mj.cli.manoeuvre", "a scripted zig-zag manoeuvre: prints the track and the sonar"),
+    ("bench", "auv_mj.cli.bench", "measure physics, sonar and task speed as ratios against their limits"),
+    ("tunnel", "auv_mj.cli.tunnel", "build a tunnel arena MJCF from a centreline CSV/JSON"),
+    ("check-arena", "auv_mj.cli.check_arena", "check an arena MJCF and write a top-down PNG preview"),
+    ("train", "auv_mj.cli.train", "train an agent (ddpg, her-ddpg, executor) on a task"),
+    ("eval", "auv_mj.cli.evaluate", "suite-style evaluation of a policy on tasks"),
+    ("render", "auv_mj.cli.render", "render an episode to MP4/GIF off-screen"),
+    ("plot", "auv_mj.cli.plot", "trajectory, tracking-error and learning-curve plots (PNG)"),
+    ("reproduce", "auv_mj.cli.reproduce", "regenerate the reproduction report against the paper's numbers"),
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser; subcommand arguments are added lazily in `main`."""
+    parser = argparse.ArgumentParser(
+        prog="auv-mj",
+        description="MuJoCo simulator of an underactuated planar AUV with learned planning and control.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, _, help_text in COMMANDS:
+        sub.add_parser(name, help=help_text, add_help=False)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the `auv-mj` console script."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    if not argv or argv[0].startswith("-"):
+        parser.parse_args(argv)
+        parser.print_help()
+        return 0 if argv else 2
+    modules = {name: (module, help_text) for name, module, help_text in COMMANDS}
+    if argv[0] not in modules:
+        parser.parse_args(argv)  # prints argparse's "invalid choice" error and exits 2
+    module_name, help_text = modules[argv[0]]
+    module = importlib.import_module(module_name)
+    sub = argparse.ArgumentParser(prog=f"auv-mj {argv[0]}", description=help_text)
+    module.add_arguments(sub)
+    args = sub.parse_args(argv[1:])
+    args.prog = sub.prog
+    return int(module.run(args) or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,161 @@
+"""`auv-mj eval`: dm_control suite-style evaluation of a policy over seeded episodes of one or more tasks.
+
+Episode i of a task runs with task seed `seed + i` and the policy seeded the same, through the one
+episode loop (`auv_mj.episode.EpisodeRecorder`); its metrics are `auv_mj.episode.episode_metrics`.
+Per task the summary holds (units in brackets):
+- `episodes`; `outcomes`: {goal, collision, left_map, timeout} counts, summing to `episodes`;
+- `success_rate`, `collision_rate`, `safety_violation_rate` (entering d_s = 5 m) [fraction of episodes];
+- `min_clearance` (least over episodes) and `median_min_clearance` [m], hull to the nearest geom;
+- `path_length` [m], `time_to_goal` [s] (mean over successful episodes), `return` and `return_std`;
+- tracking tasks: `mae_speed`, `max_speed` [m/s], `mae_heading`, `max_heading` [rad], `mae_cross_track`,
+  `max_cross_track` [m], and on speed_heading `mae_speed_<phase>`, `mae_heading_<phase>` (Table 9).
+A figure that is undefined is null in the JSON (never NaN): `time_to_goal` when no episode succeeded,
+clearances on a task without obstacles to measure (speed_heading), tracking errors where the task
+reports none. The JSON is strict (any parser reads it); the CSV leaves such cells empty.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from auv_mj.cli import policies
+from auv_mj.cli.options import add_episode_options, check_output, positive_int, task_kwargs, usage_error
+from auv_mj.console import progress_bar
+from auv_mj.episode import OUTCOMES, episode_metrics, record_episode
+
+
+def run_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
+                max_steps: int | None = None) -> dict:
+    """The metrics of one episode of `task_name` seeded `seed` under the named policy."""
+    env, policy = policies.env_and_policy(policy_name, task_name, seed, task_kwargs)
+    return episode_metrics(record_episode(env, policy, max_steps, task_name, policy_name, seed))
+
+
+def _mean(values: list) -> float | None:
+    values = [v for v in values if v is not None]
+    return float(np.mean(values)) if values else None
+
+
+def summarise(episodes: list[dict]) -> dict:
+    """Per-task summary of episode metrics (rates, means; time to goal over successful episodes)."""
+    clearances = [e["min_clearance"] for e in episodes if e["min_clearance"] is not None]
+    summary = {"episodes": len(episodes),
+               "outcomes": {name: sum(e["outcome"] == name for e in episodes) for name in OUTCOMES},
+               "success_rate": _mean([e["success"] for e in episodes]),
+               "collision_rate": _mean([e["collision"] for e in episodes]),
+               "safety_violation_rate": _mean([e["safety_violation"] for e in episodes]),
+               "min_clearance": float(np.min(clearances)) if clearances else None,
+               "median_min_clearance": float(np.median(clearances)) if clearances else None,
+               "path_length": _mean([e["path_length"] for e in episodes]),
+               "time_to_goal": _mean([e["time_to_goal"] for e in episodes if e["success"]]),
+               "return": _mean([e["return"] for e in episodes]),
+               "return_std": float(np.std([e["return"] for e in episodes]))}
+    extra = sorted({k for e in episodes for k in e if k.startswith(("mae_", "max_"))})
+    for key in extra:
+        values = [e[key] for e in episodes if e.get(key) is not None]
+        summary[key] = (float(np.max(values)) if key.startswith("max_") else float(np.mean(values))) \
+            if values else None
+    return summary
+
+
+def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
+             max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None) -> dict:
+    """Evaluates `policy_name` on each task; returns {"policy", "seed", "tasks": {task: summary}}.
+
+    `task_kwargs` go to every task (e.g. random commands on speed_heading); the seed is the episode's.
+    """
+    task_kwargs = dict(task_kwargs or {})
+    results = {}
+    for task_name in task_names:
+        runs = []
+        bar = progress_bar(total=episodes, desc=f"eval {task_name}", unit="ep", disable=not progress)
+        for i in range(episodes):
+            runs.append(run_episode(policy_name, task_name, seed + i, task_kwargs, max_steps))
+            bar.update(1)
+            bar.set_postfix(success=f"{np.mean([r['success'] for r in runs]):.2f}")
+        bar.close()
+        results[task_name] = summarise(runs)
+    return {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
+            "tasks": results}
+
+
+TABLE_COLUMNS = ("success_rate", "collision_rate", "min_clearance", "path_length", "time_to_goal", "return",
+                 "mae_speed", "mae_heading")
+
+
+def _cell(value) -> str:
+    return f"{'n/a':>15}" if value is None else f"{value:>15.3f}"
+
+
+def format_table(results: dict) -> str:
+    """A plain-text table of the headline metrics and the outcomes, one row per task."""
+    header = f"{'task':<18}" + "".join(f"{c:>15}" for c in TABLE_COLUMNS) + "   outcomes"
+    lines = [f"policy: {results['policy']}   episodes: {results['episodes']}   seed: {results['seed']}",
+             header, "-" * len(header)]
+    for task, summary in results["tasks"].items():
+        cells = "".join(_cell(summary.get(c)) for c in TABLE_COLUMNS)
+        outcomes = ", ".join(f"{name} {n}" for name, n in summary["outcomes"].items() if n)
+        lines.append(f"{task:<18}{cells}   {outcomes}")
+    return "\n".join(lines)
+
+
+def write_outputs(results: dict, json_path: Path | None, csv_path: Path | None) -> None:
+    """Writes the results as strict JSON ({"tasks": {...}}) and as a CSV of one row per task."""
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps(results, indent=2, allow_nan=False))
+    if csv_path:
+        csv_path.parent.mkdir(parents=True, exist_ok=True)
+        rows = {task: {**{k: v for k, v in s.items() if k != "outcomes"},
+                       **{f"outcome_{k}": v for k, v in s["outcomes"].items()}}
+                for task, s in results["tasks"].items()}
+        keys = sorted({k for row in rows.values() for k in row})
+        with open(csv_path, "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(["task", *keys])
+            for task, row in rows.items():
+                writer.writerow([task, *("" if row.get(k) is None else row[k] for k in keys)])
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of `auv-mj eval`."""
+    add_episode_options(parser, task="all", task_help="task name, tag (e.g. benchmarking, planning) or 'all'",
+                        policy=None, policy_required=True, seed_help="seed of the first episode")
+    parser.add_argument("--episodes", type=positive_int, default=10, help="episodes per task")
+    parser.add_argument("--max-steps", type=positive_int, default=None, help="cut episodes after this many steps")
+    parser.add_argument("--json", type=Path, default=None, help="write results as JSON here")
+    parser.add_argument("--csv", type=Path, default=None, help="write results as CSV here")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Runs the evaluation, prints the table, writes JSON/CSV (their paths checked first)."""
+    check_output(args, args.json, "--json")
+    check_output(args, args.csv, "--csv")
+    kwargs = task_kwargs(args)
+    try:
+        task_names = policies.resolve_tasks(args.task, args.policy)
+        if "random" in kwargs:
+            raise ValueError("task_kwargs: 'random' is set by --seed (episode i gets seed + i), leave it out")
+        for task_name in task_names:  # refuse bad options before the first episode
+            policies.env_and_policy(args.policy, task_name, args.seed, kwargs)
+    except (ValueError, FileNotFoundError) as e:
+        usage_error(args, str(e))
+    try:
+        results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps,
+                           progress=not args.no_progress, task_kwargs=kwargs)
+    except (ValueError, FileNotFoundError) as e:
+        print(f"{args.prog}: error: {e}", file=sys.stderr)
+        return 1
+    print(format_table(results))
+    write_outputs(results, args.json, args.csv)
+    for path in (args.json, args.csv):
+        if path:
+            print(f"wrote {path}")
+    return 0

@@ -1,0 +1,91 @@
+"""`auv-mj render`: one episode of a policy on a task to an MP4/GIF, off-screen (`auv_mj.render`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from auv_mj import glbackend
+from auv_mj.cli import policies
+from auv_mj.cli.options import add_episode_options, check_output, positive_int, task_kwargs, usage_error
+from auv_mj.episode import EpisodeRecorder, outcome
+from auv_mj.render import (
+    CAMERAS,
+    DEFAULT_FPS,
+    DEFAULT_HOLD_END,
+    DEFAULT_SIZE,
+    FOLLOW_VIEW,
+    benchmark,
+    iter_frames,
+    write_video,
+)
+from tasks.guidance import line_of_sight
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of `auv-mj render`."""
+    add_episode_options(parser)
+    parser.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif)")
+    parser.add_argument("--fps", type=float, default=DEFAULT_FPS, help="video frame rate")
+    parser.add_argument("--width", type=int, default=DEFAULT_SIZE[0], help="frame width [px] (made even)")
+    parser.add_argument("--height", type=int, default=DEFAULT_SIZE[1], help="frame height [px] (made even)")
+    parser.add_argument("--camera", choices=CAMERAS, default="both",
+                        help="follow (top-down, vehicle centred), overview (whole arena), "
+                             "both (follow + overview inset)")
+    parser.add_argument("--follow-view", type=float, default=FOLLOW_VIEW, help="follow view height [m]")
+    parser.add_argument("--speedup", type=float, default=None,
+                        help="simulation seconds per video second (default: one frame per control step)")
+    parser.add_argument("--max-steps", type=positive_int, default=None, help="cut the episode after this many steps")
+    parser.add_argument("--hold-end", type=float, default=DEFAULT_HOLD_END,
+                        help="seconds to hold the last frame")
+    parser.add_argument("--gif", action="store_true", help="write an animated GIF instead of an MP4")
+    parser.add_argument("--save-episode", type=Path, default=None, help="also save the episode record (.npz)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--bench", action="store_true",
+                        help="measure frames/s at 1280x720 and 640x360 against a bare mujoco.Renderer; "
+                             "no video")
+
+
+def make_env_and_policy(args: argparse.Namespace):
+    """The environment and policy of the command's episode; bad options are a usage error (exit 2)."""
+    try:
+        return policies.env_and_policy(args.policy, args.task, args.seed, task_kwargs(args))
+    except (FileNotFoundError, ValueError, KeyError) as e:
+        usage_error(args, str(e))
+
+
+def run(args: argparse.Namespace) -> int:
+    """`auv-mj render`: renders one episode to a video file, or runs the benchmark."""
+    try:
+        glbackend.require()
+        if args.bench:
+            env, _ = policies.env_and_policy("splane", "obstacles", args.seed)
+            for size, r in benchmark(env, line_of_sight(env)).items():
+                print(f"{size}: ours {r['ours_fps']:.1f} frames/s, bare mujoco.Renderer {r['bare_fps']:.1f} "
+                      f"frames/s, ratio {r['ratio']:.2f}")
+            return 0
+        if args.output is None:
+            usage_error(args, "give the video file with -o/--output")
+        check_output(args, args.output, "--output")
+        check_output(args, args.save_episode, "--save-episode")
+        env, policy = make_env_and_policy(args)
+        recorder = EpisodeRecorder(env, args.task, args.policy, args.seed)
+        frames = iter_frames(env, policy, max_steps=args.max_steps, width=args.width, height=args.height,
+                             camera=args.camera, fps=args.fps, speedup=args.speedup,
+                             follow_view=args.follow_view, hold_end=args.hold_end,
+                             title=f"{args.task} / {args.policy}", recorder=recorder,
+                             progress=not args.no_progress)
+        start = time.perf_counter()
+        path = write_video(frames, args.output, args.fps, gif=True if args.gif else None)
+        elapsed = time.perf_counter() - start
+    except glbackend.RenderingUnavailable as e:
+        print(f"{args.prog}: {e}", file=sys.stderr)
+        return 2
+    record = recorder.record()
+    print(f"wrote {path}: {record.steps} steps, {record.time[-1]:.1f} s simulated, outcome "
+          f"{outcome(record.event)}, return {record.episode_return:.2f}, {elapsed:.1f} s to render")
+    if args.save_episode:
+        print(f"wrote {record.save(args.save_episode)}")
+    return 0

@@ -1,0 +1,121 @@
+"""`auv-mj train AGENT --task TASK`: a thin command over `agents.train.train` (the training library).
+
+It parses the options (every `DDPGConfig` field is one), builds the Gymnasium factory of the task with
+its `--task-kwargs` / `--arena`, and hands both to the library.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
+from agents.checkpoint import config_from_dict, read_checkpoint
+from agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
+from agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
+from auv_mj.cli.options import json_object, positive_int, task_kwargs, usage_error
+
+TASK_IDS: dict[str, str] = {}
+"""Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
+
+
+def task_env_id(task: str) -> str:
+    """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, or `auv_mj/<CamelCase>-v0`."""
+    if task in TASK_IDS:
+        return TASK_IDS[task]
+    if "/" in task:
+        return task
+    camel = "".join(part[:1].upper() + part[1:] for part in re.split(r"[-_\s]+", task) if part)
+    return f"auv_mj/{camel}-v0"
+
+
+def make_env_fn(env_id: str, **kwargs: Any) -> Callable[[], gym.Env]:
+    """A factory of `gymnasium.make(env_id)`; ValueError listing the auv_mj ids if it is not registered."""
+    if env_id not in gym.registry:
+        known = sorted(k for k in gym.registry if k.startswith("auv_mj/"))
+        raise ValueError(f"Gymnasium id {env_id!r} is not registered; "
+                         f"registered auv_mj ids: {known or 'none'}")
+    return lambda: gym.make(env_id, **kwargs)
+
+
+_CLI_SKIP = ("seed", "device")
+TASK_KWARGS_NAME = "task_kwargs.json"
+"""File in the run directory holding the --task-kwargs of the run."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of `auv-mj train AGENT --task TASK ...`; every DDPGConfig field is an option."""
+    parser.add_argument("agent", choices=AGENTS,
+                        help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading)")
+    parser.add_argument("--task", required=True, help="suite task name or Gymnasium id (auv_mj/...-v0)")
+    parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
+                        help='task options, e.g. \'{"command": "random", "disturbances": "random"}\'; '
+                             "kept in the run directory and reused by --resume")
+    parser.add_argument("--arena", default=None, metavar="PATH",
+                        help="arena MJCF for the task (shortcut for --task-kwargs '{\"arena\": PATH}')")
+    parser.add_argument("--steps", type=positive_int, help="total env steps (default: --episodes)")
+    parser.add_argument("--episodes", type=positive_int, help="total episodes (default: max_episodes, Table 4)")
+    parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
+    parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
+    parser.add_argument("--init", type=Path, metavar="CHECKPOINT",
+                        help="start a new run from this checkpoint's networks (fine-tuning)")
+    parser.add_argument("--seed", type=int, help="run seed (default 0, or the checkpoint's)")
+    parser.add_argument("--device", help="torch device, cpu or cuda (default cpu, or the checkpoint's)")
+    parser.add_argument("--checkpoint-every", type=positive_int, default=100, help="episodes between checkpoints")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard scalars")
+    group = parser.add_argument_group("hyper-parameters (DDPGConfig; default Table 4 or the checkpoint's)")
+    docs = field_docs(DDPGConfig)
+    for field in dataclasses.fields(DDPGConfig):
+        if field.name in _CLI_SKIP:
+            continue
+        flag, help_text = "--" + field.name.replace("_", "-"), f"{docs.get(field.name, '')} [{field.default}]"
+        if field.name == "hidden_sizes":
+            group.add_argument(flag, type=int, nargs="+", help=help_text)
+        elif field.name == "epsilon_unit":
+            group.add_argument(flag, choices=EPSILON_UNITS, help=help_text)
+        else:
+            group.add_argument(flag, type=type(field.default), help=help_text)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Runs `auv-mj train`; returns the exit status."""
+    try:
+        run_dir = args.run_dir or (Path("runs") / args.task.replace("/", "_")
+                                   / f"{args.agent}-seed{args.seed or 0}")
+        kwargs_file = run_dir / TASK_KWARGS_NAME
+        kwargs = task_kwargs(args) or None
+        if kwargs is None and args.resume and kwargs_file.is_file():
+            kwargs = json.loads(kwargs_file.read_text())
+        if args.resume and args.init:
+            raise ValueError("--init starts a new run; it cannot be combined with --resume")
+        env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": kwargs} if kwargs else {}))
+        env_fn().close()  # a bad task option is refused here, before the run directory is touched
+        if kwargs:
+            run_dir.mkdir(parents=True, exist_ok=True)
+            kwargs_file.write_text(json.dumps(kwargs))
+        base = DDPGConfig()
+        if args.resume:
+            base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"])
+        overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(DDPGConfig)
+                     if getattr(args, f.name, None) is not None}
+        if "hidden_sizes" in overrides:
+            overrides["hidden_sizes"] = tuple(overrides["hidden_sizes"])
+        result = train(env_fn, args.agent, dataclasses.replace(base, **overrides), total_steps=args.steps,
+                       episodes=args.episodes, run_dir=run_dir, resume=args.resume, init=args.init,
+                       checkpoint_every=args.checkpoint_every, progress=not args.no_progress,
+                       tensorboard=not args.no_tensorboard)
+    except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
+        usage_error(args, str(exc))
+    print(f"{result.episodes} episodes, {result.env_steps} steps, {result.gradient_steps} gradient steps; "
+          f"success {result.success_rate:.2f}, return {result.mean_return:.2f} (last {WINDOW} episodes); "
+          f"{result.env_steps_per_s:.0f} steps/s, {result.updates_per_s:.0f} updates/s")
+    print(f"checkpoint: {result.checkpoint}")
+    return 130 if result.interrupted else 0

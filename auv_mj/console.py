@@ -1,0 +1,14 @@
+"""Console helpers shared by every layer: one progress bar for long work (training, evaluation, rendering)."""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+
+def progress_bar(**kwargs: Any):
+    """A tqdm bar on stderr; off a terminal (CI logs, pipes) it redraws every 10 s, not every 0.1 s,
+    since there each redraw is a new write."""
+    from tqdm import tqdm
+
+    return tqdm(file=sys.stderr, mininterval=0.1 if sys.stderr.isatty() else 10.0, **kwargs)

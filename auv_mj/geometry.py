@@ -1,0 +1,14 @@
+"""Small planar geometry shared by every layer: the one angle wrap."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def wrap_angle(angle):
+    """Angle(s) [rad] wrapped to [-pi, pi); a float for a scalar, an array for an array."""
+    if np.ndim(angle) == 0:
+        return (float(angle) + math.pi) % (2 * math.pi) - math.pi
+    return (np.asarray(angle, dtype=float) + np.pi) % (2 * np.pi) - np.pi

@@ -1,0 +1,126 @@
+"""Offline tuning of the S-plane gains (Eq. 32) on the nominal vehicle: `python -m tasks.splane_tuning --tune`.
+
+The cost and the search behind the defaults of `tasks.splane.SPlaneGains` (see that module's docstring).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from dataclasses import asdict, replace
+
+import numpy as np
+
+from auv_mj import arena
+from auv_mj.geometry import wrap_angle
+from tasks.speed_heading import phase_mae, rollout
+from tasks.splane import SPlaneController, SPlaneGains
+
+TUNED_FIELDS = ("k1_speed", "k2_speed", "ki_speed", "k1_heading", "k2_heading", "ki_heading")
+"""The gains `--tune` searches over; bands, bounds and limits stay as set."""
+TUNING_BOUNDS = ((0.1, 500.0), (0.01, 100.0), (0.001, 1.0), (0.1, 500.0), (0.01, 100.0), (0.001, 1.0))
+"""Search box of TUNED_FIELDS; k_i3 <= 1 keeps the integrators slow (the bias term, not a relay)."""
+INITIAL_GAINS = {"k1_speed": 5.5, "k2_speed": 2.0, "ki_speed": 0.12,
+                 "k1_heading": 9.0, "k2_heading": 16.0, "ki_heading": 0.3}
+"""Hand-set start of the `--tune` search (an S-plane that tracks, but sluggishly under disturbances)."""
+
+
+# --- offline tuning (python -m tasks.splane_tuning --tune) --------------------------------------------------
+
+STEP_SECONDS = 30.0
+"""Length of each step-response scenario of the tuning cost [s]."""
+OVERSHOOT_WEIGHT = 2.0
+"""Weight of the heading overshoot [rad] in the tuning cost."""
+CHATTER_WEIGHT = 0.1
+"""Weight of the mean step-to-step change of the normalised outputs |du_i| in the tuning cost."""
+
+
+def step_response(gains: SPlaneGains, command: tuple[float, float], initial_speed: float = 0.0,
+                  seconds: float = STEP_SECONDS) -> tuple[np.ndarray, np.ndarray]:
+    """Runs the controller on open water from (u = initial_speed, psi = 0); returns (speed, heading) errors.
+
+    Errors are e_V = V_cmd - u [m/s] and wrapped e_psi [rad], one per executor step.
+    """
+    physics = arena.load(None)
+    with physics.reset_context():
+        physics.named.data.qvel["x"] = initial_speed
+    controller = SPlaneController(gains)
+    substeps = int(round(gains.dt / physics.timestep()))
+    errors = []
+    for _ in range(int(round(seconds / gains.dt))):
+        u, v, r = physics.body_velocity()
+        psi = physics.pose()[2]
+        physics.set_control(controller(command, (u, v, r, psi)))
+        physics.step(substeps)
+        u = physics.body_velocity()[0]
+        errors.append((command[0] - u, wrap_angle(command[1] - physics.pose()[2])))
+    errors = np.array(errors)
+    return errors[:, 0], errors[:, 1]
+
+
+def _overshoot(heading_error: np.ndarray) -> float:
+    """How far the heading went past the command [rad] (error of the opposite sign to the initial one)."""
+    sign = np.sign(heading_error[0]) or 1.0
+    return float(max(0.0, -np.min(sign * heading_error)))
+
+
+def tuning_cost(gains: SPlaneGains, verbose: bool = False) -> float:
+    """The cost `--tune` minimises: MAE (speed + heading) of three steps and the Sec. 4.2 episode."""
+    cost = 0.0
+    scenarios = {"speed 0->1": ((1.0, 0.0), 0.0), "heading 90deg": ((1.0, math.pi / 2), 1.0),
+                 "speed 1->2, 60deg": ((2.0, math.pi / 3), 1.0)}
+    for name, (command, initial_speed) in scenarios.items():
+        e_v, e_psi = step_response(gains, command, initial_speed)
+        part = np.mean(np.abs(e_v)) + np.mean(np.abs(e_psi)) + OVERSHOOT_WEIGHT * _overshoot(e_psi)
+        if verbose:
+            print(f"  {name:18s} MAE v {np.mean(np.abs(e_v)):.4f}  psi {np.mean(np.abs(e_psi)):.4f}  "
+                  f"overshoot {_overshoot(e_psi):.4f}")
+        cost += part
+    trace = rollout(SPlaneController(gains))
+    for phase, (mae_v, mae_psi) in phase_mae(trace).items():
+        if verbose:
+            print(f"  Sec. 4.2 {phase:13s} MAE v {mae_v:.4f}  psi {mae_psi:.4f}")
+        if phase != "none":
+            cost += mae_v + mae_psi
+    chatter = np.mean(np.abs(np.diff(trace["tau"] / [gains.surge_limit, gains.yaw_limit], axis=0)))
+    if verbose:
+        print(f"  Sec. 4.2 chatter mean |du| {chatter:.4f}")
+    return float(cost + CHATTER_WEIGHT * chatter)
+
+
+def tune(start: SPlaneGains | None = None, max_evaluations: int = 400) -> SPlaneGains:
+    """Nelder-Mead over log-gains of TUNED_FIELDS (within TUNING_BOUNDS), minimising `tuning_cost`.
+
+    Starts from `start`, by default INITIAL_GAINS; returns the optimum rounded to 3 decimals.
+    """
+    from scipy.optimize import minimize
+
+    start = start if start is not None else SPlaneGains(**INITIAL_GAINS)
+    x0 = np.log([getattr(start, f) for f in TUNED_FIELDS])
+
+    def cost(x: np.ndarray) -> float:
+        return tuning_cost(replace(start, **dict(zip(TUNED_FIELDS, np.exp(x).tolist(), strict=True))))
+
+    result = minimize(cost, x0, method="Nelder-Mead", bounds=np.log(TUNING_BOUNDS),
+                      options={"maxfev": max_evaluations, "xatol": 0.02, "fatol": 1e-4})
+    tuned = {f: round(float(v), 3) for f, v in zip(TUNED_FIELDS, np.exp(result.x), strict=True)}
+    return replace(start, **tuned)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m tasks.splane_tuning [--tune]`: prints the cost breakdown of the defaults (and tunes)."""
+    parser = argparse.ArgumentParser(prog="python -m tasks.splane_tuning", description=__doc__.splitlines()[0])
+    parser.add_argument("--tune", action="store_true", help="run the Nelder-Mead search from INITIAL_GAINS")
+    parser.add_argument("--max-evaluations", type=int, default=400)
+    args = parser.parse_args(argv)
+    print("defaults:", SPlaneGains())
+    print(f"cost {tuning_cost(SPlaneGains(), verbose=True):.4f}")
+    if args.tune:
+        gains = tune(max_evaluations=args.max_evaluations)
+        print("tuned:", ", ".join(f"{k}={v}" for k, v in asdict(gains).items() if k in TUNED_FIELDS))
+        print(f"cost {tuning_cost(gains, verbose=True):.4f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
