@@ -174,11 +174,21 @@ def repulsion_range(physics: AUVPhysics) -> float:
 
 
 def info_field(info, key: str) -> np.ndarray:
-    """`info[key]` as an array from a dict of arrays, or stacked from a sequence / array of step dicts."""
-    if isinstance(info, Mapping):
-        return np.asarray(info[key])
-    steps = np.asarray(info, dtype=object)
-    values = np.array([step[key] for step in steps.ravel()])
+    """`info[key]` as an array from a dict of arrays, or stacked from a sequence / array of step dicts.
+
+    A missing key is a ValueError that says where the info came from: Stable-Baselines3's HerReplayBuffer
+    passes empty info dicts unless it is built with `copy_info_dict=True`, and Eq. (23)'s reward needs the
+    previous position the step's info carries.
+    """
+    try:
+        if isinstance(info, Mapping):
+            return np.asarray(info[key])
+        steps = np.asarray(info, dtype=object)
+        values = np.array([step[key] for step in steps.ravel()])
+    except KeyError:
+        raise ValueError(f"compute_reward/compute_terminated need info[{key!r}], which the step's info holds; "
+                         "with Stable-Baselines3's HerReplayBuffer pass replay_buffer_kwargs="
+                         "{'copy_info_dict': True} so that infos are stored") from None
     return values.reshape(steps.shape + values.shape[1:])
 
 

@@ -148,3 +148,14 @@ def test_render_rgb_array():
     env.close()
     env.close()
     assert AUVGymEnv("speed_heading").render() is None
+
+
+def test_her_without_copied_infos_names_copy_info_dict(one_torch_thread):
+    from stable_baselines3 import DDPG, HerReplayBuffer
+
+    env = gymnasium.make("auv_mj/Goal-v0", task_kwargs={"time_limit": 10.0})
+    model = DDPG("MultiInputPolicy", env, replay_buffer_class=HerReplayBuffer,
+                 replay_buffer_kwargs={"n_sampled_goal": 4, "goal_selection_strategy": "future"},
+                 learning_starts=40, batch_size=32, policy_kwargs={"net_arch": [32, 32]}, seed=0, verbose=0)
+    with pytest.raises(ValueError, match="copy_info_dict"):
+        model.learn(total_timesteps=100)

@@ -20,6 +20,7 @@ from auv_mj.arena import arena_info
 from auv_mj.geometry import wrap_angle
 from auv_mj.sonar import SONAR_RANGE
 from tasks import obstacles, planning, suite, tunnel
+from tasks.actions import ActionClipped
 from tasks.registry import SUITE
 
 PLANNING_TASKS = sorted(SUITE.tagged("planning"))
@@ -238,11 +239,16 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
     psi = env.physics.pose()[2]
     assert abs(commands[-1][1] - psi) <= planning.MAX_HEADING_DIFFERENCE + 1e-9
     assert step.observation["observation"][7] == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
-    for a0, speed in ((-1.0, 0.0), (1.0, 2.0), (-5.0, 0.0)):  # forward only: never astern, blind
+    for a0, speed in ((-1.0, 0.0), (1.0, 2.0)):  # forward only: never astern, blind
         env.step(np.array([a0, 0.0]))
         assert env.task.last_info["command"][0] == pytest.approx(speed)
+    with pytest.warns(ActionClipped, match="clipped"):  # the one action convention (tasks.actions)
+        env.step(np.array([-5.0, 0.0]))
+    assert env.task.last_info["command"][0] == pytest.approx(0.0)
     with pytest.raises(ValueError, match="finite"):
         env.step(np.array([np.nan, 0.0]))
+    with pytest.raises(ValueError, match="must be numbers"):
+        env.step(np.array(["1", "0"]))
 
 
 def test_paper_reward_terms_on_hand_computed_cases():

@@ -112,7 +112,8 @@ def draw_trajectory(ax, records: Sequence[EpisodeRecord], labels: Sequence[str] 
     extent = _extent(records)
     ax.set_xlim(extent[0], extent[2])
     ax.set_ylim(extent[1], extent[3])
-    ax.legend(loc="best", fontsize="small", framealpha=0.8)
+    # Outside the map, on the right, so that it never hides the track.
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize="small", framealpha=0.8)
 
 
 def _draw_movers(ax, record: EpisodeRecord, first: bool) -> None:
