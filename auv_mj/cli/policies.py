@@ -90,26 +90,34 @@ def learned_executor(path: Path | None = None) -> LearnedExecutor:
 
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
-    """The suite environment for one episode; `two-layer` plugs in the learned executor."""
+    """The suite environment for one episode; `two-layer` plugs in the learned executor, and a checkpoint
+    gets the observation it was trained on (read from its metadata)."""
     task_kwargs["random"] = seed
     if policy_name in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
         task_kwargs["executor"] = learned_executor()
-    if task_name in EXECUTOR_TASKS and "observation" not in task_kwargs:
-        checkpoint = _checkpoint_path(policy_name)
-        if checkpoint is not None:  # the observation the executor was trained on, by its input size
-            task_kwargs["observation"] = observation_kind(int(read_checkpoint(checkpoint)[1]["obs_dim"]))
+    checkpoint = _checkpoint_path(policy_name, task_name)
+    if checkpoint is not None and "observation" not in task_kwargs:
+        meta = read_checkpoint(checkpoint)[1]
+        if task_name in EXECUTOR_TASKS:  # the executor's observation, by its input size
+            task_kwargs["observation"] = observation_kind(int(meta["obs_dim"]))
+        elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
+            task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
     return suite.load("auv", task_name, task_kwargs=task_kwargs)
 
 
-def _checkpoint_path(policy_name: str) -> Path | None:
-    """The checkpoint behind `policy_name` on an executor task, or None for a baseline."""
+def _checkpoint_path(policy_name: str, task_name: str | None = None) -> Path | None:
+    """The checkpoint behind `policy_name` (on `task_name`), or None for a baseline."""
     if policy_name == "executor":
         return shipped_checkpoint("executor")
+    if policy_name in ("planner", "planner-raw", "two-layer") and task_name not in EXECUTOR_TASKS:
+        return shipped_checkpoint(PLANNER_FOR_TASK.get(task_name, "planner"))
     path = Path(policy_name)
     return path if path.is_file() else None
 
 
-def _checkpoint_policy(path: Path):
+def _checkpoint_policy(path: Path, protection: bool | None = None):
+    """The checkpoint's policy on time steps; a planner trained with the protection domain in the loop
+    (`--env-kwargs '{"protection": true}'`) runs with it, as it was trained (unless `protection` says)."""
     policy = Policy.load(path)
 
     def act(time_step):
@@ -118,7 +126,9 @@ def _checkpoint_policy(path: Path):
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
 
-    return act
+    if protection is None:
+        protection = bool(policy.metadata.get("run_info", {}).get("env_kwargs", {}).get("protection", False))
+    return with_repulsion(act) if protection else act
 
 
 def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
@@ -133,9 +143,9 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     if policy_name == "los-avoid":
         return los_avoid(env)
     if policy_name in ("planner", "two-layer"):
-        return with_repulsion(_checkpoint_policy(shipped_checkpoint(planner)))
+        return _checkpoint_policy(shipped_checkpoint(planner), protection=True)
     if policy_name == "planner-raw":
-        return _checkpoint_policy(shipped_checkpoint(planner))
+        return _checkpoint_policy(shipped_checkpoint(planner), protection=False)
     if policy_name == "executor":
         return _checkpoint_policy(shipped_checkpoint("executor"))
     path = Path(policy_name)

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli import evaluate, policies
+from auv_mj import seeds
+from auv_mj.cli import evaluate, plots, policies
 from auv_mj.cli.options import check_output, positive_int
 from auv_mj.episode import episode_metrics, record_episode
 
@@ -224,6 +225,57 @@ def random_targets(lines: list[str], episodes: int) -> None:
                      f"{_fmt(summary['min_clearance'], 1)} |")
     lines += ["", f"Command: `auv-mj eval --policy planner --task goal --episodes {episodes} --seed 10000` "
               "(seeds from 10000 are never used in training).", ""]
+
+
+GENERALISATION_POLICIES = ("two-layer", "planner", "los-avoid", "splane")
+"""The learned planner (with the protection domain, on the learned and on the S-plane executor) against the
+classical local planner and plain line of sight."""
+GENERALISATION_SETS = (  # (label, task, task kwargs)
+    ("random tunnels", "tunnel", {"arena": "random"}),
+    ("random obstacles", "obstacles", {}),
+    ("random moving obstacles", "moving_obstacles", {}),
+)
+TRAINING_RUN_SEED = 0
+"""Run seed of the shipped planner's training: its episodes' arenas are the "training arenas" rows."""
+
+
+def _policy_set(name: str, task: str, kwargs: dict, seeds: list[int]) -> dict:
+    return evaluate.summarise([evaluate.run_episode(name, task, s, kwargs) for s in seeds])
+
+
+def generalisation(lines: list[str], episodes: int, figures: Path) -> None:
+    """Success, collisions and time on arenas the planner trained on versus held-out ones, every policy."""
+    held_out = [seeds.TEST.start + i for i in range(episodes)]
+    trained = [seeds.train_seed(TRAINING_RUN_SEED, i) for i in range(max(1, episodes // 4))]
+    lines += ["## Generalisation: held-out arenas", "",
+              f"Held-out arenas are drawn from test seeds {held_out[0]}..{held_out[-1]} (never used to train or to "
+              f"choose a model; validation seeds {seeds.VALIDATION.start}+ chose the planner); training arenas "
+              f"from the seeds of the planner's own training episodes (`auv_mj.seeds.train_seed(0, i)`, "
+              f"{len(trained)} of them). Time to goal is over successful episodes.", "",
+              "| set | arenas | policy | episodes | success | collisions | outcomes | time to goal [s] | "
+              "min clearance [m] |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    gallery = []
+    for label, task, kwargs in GENERALISATION_SETS:
+        for split, chosen in (("held-out", held_out), ("training", trained)):
+            for name in GENERALISATION_POLICIES:
+                s = _policy_set(name, task, kwargs, chosen)
+                outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
+                lines.append(f"| {label} | {split} | {name} | {s['episodes']} | {s['success_rate']:.2f} | "
+                             f"{s['collision_rate']:.2f} | {outcomes} | {_fmt(s['time_to_goal'], 0)} | "
+                             f"{_fmt(s['min_clearance'], 1)} |")
+        if task == "tunnel":
+            for seed in held_out[:6]:
+                records = []
+                for name in ("two-layer", "los-avoid"):
+                    env, policy = policies.env_and_policy(name, task, seed, kwargs)
+                    records.append(record_episode(env, policy, task=task, policy_name=name, seed=seed))
+                gallery.append((f"seed {seed}: " + ", ".join(f"{r.policy} {episode_metrics(r)['outcome']}"
+                                                             for r in records), records, ["two-layer", "los-avoid"]))
+    plots.plot_gallery(gallery, figures / "heldout_tunnels.png", title="Held-out random tunnels")
+    lines += ["", "![held-out tunnels](figures/heldout_tunnels.png)", "",
+              f"Commands: `auv-mj eval --policy two-layer --task tunnel --arena random --episodes {episodes} "
+              f"--seed {seeds.TEST.start}` (and `--task obstacles`, `--task moving_obstacles`; `--policy planner`, "
+              "`los-avoid`, `splane`).", ""]
 
 
 def _commit() -> str:
