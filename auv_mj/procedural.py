@@ -15,9 +15,10 @@ How a tunnel is kept feasible, by construction:
   the inner wall included, curves no tighter than the vehicle's least turn radius (`TunnelSpec`);
 - parts of the centreline more than half a turn of the sharpest bend apart stay a width, two walls and
   `SEPARATION` apart, so the tunnel never runs into or alongside itself;
-- an unknown obstacle stands on a straight (or a gentle bend), spans the tunnel from one wall or floats
-  clear of both, and leaves at least one gap of `passing_gap()` (d_s to both sides of a hull turned any
-  way, plus `LANE` each side) while reaching at most `obstacle_reach` past the axis;
+- an unknown obstacle stands on a straight (or a gentle bend), juts out from one wall or floats clear
+  of both, comes within d_s of the path (where the width leaves room for that), and leaves at least one
+  gap of `passing_gap()` (d_s to both sides of a hull turned any way, plus `LANE` each side) while
+  reaching at most `obstacle_reach` past the axis;
 - a mover moving along the axis keeps `passing_gap()` free beside its whole track; a crossing mover is
   slower than the vehicle; obstacles and movers are `SPACING` apart along the axis and `END_CLEARANCE`
   from the start and the goal;
@@ -49,6 +50,7 @@ from auv_mj.tunnels import (
     TunnelLayout,
     check_unknown,
     layout_tunnel,
+    path_clearance,
     route_clearance,
     tunnel_element,
 )
@@ -308,44 +310,50 @@ class _Axis:
         return np.column_stack([np.interp(at, self.s, self.points[:, 0]), np.interp(at, self.s, self.points[:, 1])])
 
 
+def _bend(length: float, radius: float) -> float:
+    """How far [m] the axis, a bend of `radius` drawn in chords of ARC_STEP, strays from the ends of a box
+    `length` long set along the chord at its middle: the bend's sagitta and the chord's tilt."""
+    return (length / 2) ** 2 / (2 * radius) + (length / 2) * ARC_STEP[1] / (2 * radius)
+
+
 def _place(random: np.random.RandomState, spec: TunnelSpec, axis: _Axis, stretches: list, width: float):
     """Unknown obstacles and movers on straight-enough stretches, SPACING apart; raises _Redraw when one
     does not fit. Returns the obstacles, the movers and the boxes swept by the along-axis movers."""
     taken: list[tuple[float, float]] = []
     gap = passing_gap()
 
-    def spot(span: float, straight_only: bool = False) -> float:
-        usable = [(a + OBSTACLE_SPAN_MARGIN + span / 2, b - OBSTACLE_SPAN_MARGIN - span / 2)
+    def spot(span: float, straight_only: bool = False) -> tuple[float, float]:
+        """A free place s [m] along the axis for something `span` long, and the radius of the axis there."""
+        usable = [(max(a + OBSTACLE_SPAN_MARGIN, END_CLEARANCE) + span / 2,
+                   min(b - OBSTACLE_SPAN_MARGIN, axis.length - END_CLEARANCE) - span / 2, radius)
                   for a, b, radius in stretches if not straight_only or math.isinf(radius)]
-        usable = [(a, b) for a, b in usable if b > a]
-        usable = [(max(a, END_CLEARANCE + span / 2), min(b, axis.length - END_CLEARANCE - span / 2))
-                  for a, b in usable]
-        usable = [(a, b) for a, b in usable if b > a]
+        usable = [(a, b, radius) for a, b, radius in usable if b > a]
         if not usable:
             raise _Redraw("no straight long enough for an obstacle or a mover")
-        sizes = np.array([b - a for a, b in usable])
+        sizes = np.array([b - a for a, b, _ in usable])
         for _ in range(20):
-            a, b = usable[random.choice(len(usable), p=sizes / sizes.sum())]
+            a, b, radius = usable[random.choice(len(usable), p=sizes / sizes.sum())]
             s = random.uniform(a, b)
             if all(s + span / 2 + SPACING <= lo or s - span / 2 - SPACING >= hi for lo, hi in taken):
                 taken.append((s - span / 2, s + span / 2))
-                return s
+                return s, radius
         raise _Redraw("no room for every obstacle and mover")
 
     unknown = []
     for k in range(random.randint(spec.obstacles[0], spec.obstacles[1] + 1)):
         along = random.uniform(*spec.obstacle_length)
-        s = spot(along)
+        s, radius = spot(along)
         point, _, normal, angle = axis.frame(s)
-        reach = min(spec.obstacle_reach, width / 2 - gap)
-        island_room = min(spec.obstacle_reach, width / 2 - gap)  # how far each side of the axis it may go
-        if width - 2 * gap >= 3.0 and random.rand() < ISLAND_CHANCE:
+        bend = _bend(along, radius)
+        reach = min(spec.obstacle_reach, width / 2 - gap) - bend  # how far past the axis it may go
+        island_room = reach  # how far either side of the axis a free-standing one may go
+        if island_room >= 1.0 and random.rand() < ISLAND_CHANCE:
             half = random.uniform(1.0, island_room)
             centre = random.uniform(-min(half, island_room - half), min(half, island_room - half))
             lateral = 2 * half
         else:
             side = 1.0 if random.rand() < 0.5 else -1.0
-            tip = random.uniform(max(reach - 10.0, 2.0 - width / 2), reach)
+            tip = random.uniform(min(reach, -path_clearance()), reach)  # within d_s of the path if it can
             lateral = width / 2 + WALL_THICKNESS / 2 + tip  # from inside the wall to the tip
             centre = side * (width / 2 + WALL_THICKNESS / 2 - lateral / 2)
         x, y = point + centre * normal
@@ -357,7 +365,7 @@ def _place(random: np.random.RandomState, spec: TunnelSpec, axis: _Axis, stretch
         along_room = (width - gap - MOVER_WALL_GAP) / 2 - radius  # spare lateral room of an along mover
         if random.rand() < 0.5 and along_room > 0:
             track = random.uniform(*spec.along_length)
-            s = spot(track + 2 * radius, straight_only=True)
+            s, _ = spot(track + 2 * radius, straight_only=True)
             point, tangent, normal, angle = axis.frame(s)
             side = 1.0 if random.rand() < 0.5 else -1.0
             offset = side * (width / 2 - MOVER_WALL_GAP - radius - random.uniform(0.0, along_room))
@@ -369,7 +377,7 @@ def _place(random: np.random.RandomState, spec: TunnelSpec, axis: _Axis, stretch
         else:
             skew = random.uniform(-MOVER_SKEW, MOVER_SKEW)
             half = (width / 2 - MOVER_WALL_GAP - radius) / math.cos(skew)
-            s = spot(2 * (half * abs(math.sin(skew)) + radius))
+            s, _ = spot(2 * (half * abs(math.sin(skew)) + radius))
             point, tangent, normal, _ = axis.frame(s)
             direction = normal * math.cos(skew) + tangent * math.sin(skew)
             ends = [point - half * direction, point + half * direction]

@@ -22,6 +22,7 @@ from auv_mj.tunnels import (
     WALL_THICKNESS,
     MovingObstacle,
     Obstacle,
+    check_unknown,
     layout_tunnel,
     read_centreline,
     save,
@@ -45,6 +46,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--closed", action="store_true", help="the centreline is a loop: no end caps")
     parser.add_argument("--obstacle", action="append", default=[], metavar="X,Y,LENGTH,WIDTH[,ANGLE[,NAME]]",
                         help="a known box obstacle (angle in deg); repeatable")
+    parser.add_argument("--unknown", action="append", default=[], metavar="X,Y,LENGTH,WIDTH[,ANGLE[,NAME]]",
+                        help="an unknown box obstacle (unknown_NAME): the path may run through it, but it must "
+                             "leave a way past; repeatable")
     parser.add_argument("--mover", action="append", default=[], metavar="X0,Y0,X1,Y1,SPEED,RADIUS[,NAME]",
                         help="a moving cylinder going back and forth (m, m/s); repeatable")
     parser.add_argument("--spacing", type=float, default=PATH_SPACING,
@@ -90,22 +94,33 @@ def run(args: argparse.Namespace) -> int:
         line = read_centreline(args.centreline)
         obstacles = [Obstacle.parse(text) for text in args.obstacle]
         movers = [MovingObstacle.parse(text) for text in args.mover]
+        unknown = [_unknown(text) for text in args.unknown]
         layout = layout_tunnel(line, args.width, closed=args.closed,
                                smooth=args.smooth_iterations if args.smooth else 0, path_spacing=args.spacing,
                                obstacles=obstacles, movers=movers, wall_thickness=args.wall_thickness,
                                end_clearance=args.end_clearance, margin=args.margin,
                                merge_tolerance=args.tolerance)
+        check_unknown(layout, unknown, obstacles, args.wall_thickness, source=line.source)
         element = tunnel_element(layout, obstacles, movers, args.wall_thickness, args.name or output.stem,
-                                 _command_line())
+                                 _command_line(), unknown)
         save(element, output)
     except (ValueError, OSError) as e:
         print(f"auv-mj tunnel: error: {e}", file=sys.stderr)
         return 1
     length = float(np.sum(np.hypot(*np.diff(layout.path, axis=0).T)))
-    print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, "
+    unknown_text = f"{len(unknown)} unknown obstacles, " if unknown else ""
+    print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, {unknown_text}"
           f"{len(movers)} movers, {len(layout.path)} path sites over {length:.0f} m; "
           f"check it with: auv-mj check-arena {output}")
     return 0
+
+
+def _unknown(text: str) -> Obstacle:
+    """An `--unknown` obstacle (the `--obstacle` form)."""
+    try:
+        return Obstacle.parse(text)
+    except ValueError as e:
+        raise ValueError(str(e).replace("--obstacle", "--unknown", 1)) from None
 
 
 def _spec(args: argparse.Namespace) -> procedural.TunnelSpec:
@@ -128,8 +143,8 @@ def _spec(args: argparse.Namespace) -> procedural.TunnelSpec:
 def _run_random(args: argparse.Namespace) -> int:
     """`auv-mj tunnel --random SEED`: the procedural arena of that seed."""
     given = [option for option, value in (("CENTRELINE", args.centreline), ("--obstacle", args.obstacle),
-                                          ("--mover", args.mover), ("--closed", args.closed),
-                                          ("--smooth", args.smooth)) if value]
+                                          ("--unknown", args.unknown), ("--mover", args.mover),
+                                          ("--closed", args.closed), ("--smooth", args.smooth)) if value]
     if given:
         usage_error(args, f"--random draws the whole arena: {', '.join(given)} cannot go with it")
     if args.task != "tunnel":
