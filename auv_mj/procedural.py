@@ -7,8 +7,9 @@ and circular bends, `TunnelSpec.width` wide and `TunnelSpec.length` long, is lai
 in its absolute coordinates. Inside it stand unknown obstacles (`unknown_*`, boxes the global path
 runs through or past) and movers crossing the axis or moving along it (`mover_*`).
 
-Open water (`random_clutter`, the `obstacles` and `moving_obstacles` tasks, Tables 7-8 at random):
-boxes from `ClutterSpec.sizes` near the straight route from start to goal, and movers crossing it.
+Open water (`random_boxes`, `random_crossers`: the `obstacles` and `moving_obstacles` tasks' random
+layouts, Tables 7-8 at random): boxes from `ClutterSpec.sizes` near the straight route from start to
+goal, and movers crossing it; `Clutter.element()` writes one as an arena file.
 
 How a tunnel is kept feasible, by construction:
 - every bend has a radius of at least `turn_radius` + width / 2, so that every lane across the tunnel,
@@ -50,6 +51,7 @@ from auv_mj.tunnels import (
     TunnelLayout,
     check_unknown,
     layout_tunnel,
+    min_width,
     path_clearance,
     route_clearance,
     tunnel_element,
@@ -59,7 +61,6 @@ SEEDS = {"train": range(0, 10_000), "test": range(10_000, 20_000), "validation":
 """Seed ranges of procedural arenas (episode seeds: a task's `random`, `--seed`, `reset(seed=...)`).
 Train on "train" only, pick checkpoints and settings on "validation" only, report on "test" only; the
 project's held-out seeds (10000+ test, 20000-20049 validation) fall in the same ranges."""
-
 
 
 def seed_split(seed: int) -> str:
@@ -139,6 +140,22 @@ class TunnelSpec:
     """The tunnel's centre lies anywhere in [-placement, placement]^2 [m]."""
     tries: int = 50
     """Draws before giving up (each failed draw is redrawn from the same random stream)."""
+
+    def __post_init__(self):
+        ranges = {name: getattr(self, name) for name in ("width", "length", "obstacles", "movers", "obstacle_length",
+                                                          "mover_radius", "crossing_speed", "along_speed",
+                                                          "along_length")}
+        for name, (low, high) in ranges.items():
+            if not (math.isfinite(low) and math.isfinite(high) and 0 <= low <= high):
+                raise ValueError(f"TunnelSpec.{name} = {(low, high)}: expected 0 <= low <= high, finite")
+        if self.width[0] < min_width():
+            raise ValueError(f"TunnelSpec.width = {self.width}: below the narrowest tunnel, {min_width():.2f} m")
+        if self.length[0] < 2 * END_CLEARANCE:
+            raise ValueError(f"TunnelSpec.length = {self.length}: shorter than the {2 * END_CLEARANCE:g} m kept "
+                             "clear at the start and the goal")
+        if not (self.turn_radius > 0 and self.placement >= 0 and self.tries >= 1 and self.obstacle_reach >= 0):
+            raise ValueError("TunnelSpec: turn_radius must be positive, placement and obstacle_reach >= 0, "
+                             "tries >= 1")
 
 
 @dataclass(frozen=True)

@@ -704,16 +704,18 @@ def route_blocker(fixed: Sequence[shapely.Geometry], added: Sequence[shapely.Geo
     everything = [*fixed, *added]
     if free_route(everything, start, goal, bounds, margin):
         return None
-    for k in range(-1, len(added)):
+    for k in range(-1, len(added) - 1):
         if not free_route(everything[:len(fixed) + k + 1], start, goal, bounds, margin):
             return k
-    return len(added) - 1
+    return len(added) - 1  # every shorter prefix leaves a way: the last one closes it
 
 
 def check_unknown(layout: TunnelLayout, unknown: Sequence[Obstacle], obstacles: Sequence[Obstacle] = (),
                   wall_thickness: float = WALL_THICKNESS, margin: float = ROUTE_MARGIN,
                   source: str = "<tunnel>") -> None:
-    """Raises ValueError naming the first unknown obstacle that leaves no way past it (`free_route`)."""
+    """Raises ValueError naming the first unknown obstacle that leaves no way past it (`free_route` from
+    the path's first point to its last; on a closed tunnel, whose goal is next to its start, that says
+    little)."""
     if not unknown:
         return
     fixed = [box_polygon(*centre, *half, yaw) for centre, half, yaw in

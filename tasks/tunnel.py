@@ -52,17 +52,27 @@ def random_arena(random, spec: procedural.TunnelSpec = RANDOM_TUNNELS) -> proced
 
 
 def tunnel_spec(options: procedural.TunnelSpec | Mapping | None) -> procedural.TunnelSpec:
-    """RANDOM_TUNNELS with `options` (field: value, e.g. {"width": [30, 30], "movers": [0, 0]}) set."""
+    """RANDOM_TUNNELS with `options` set: field -> value, a range as [low, high] or one number, e.g.
+    {"width": 30, "length": [300, 500], "movers": 0}."""
     if options is None:
         return RANDOM_TUNNELS
     if isinstance(options, procedural.TunnelSpec):
         return options
-    fields = {f.name for f in dataclasses.fields(procedural.TunnelSpec)}
-    unknown = sorted(set(options) - fields)
+    fields = {f.name: getattr(RANDOM_TUNNELS, f.name) for f in dataclasses.fields(procedural.TunnelSpec)}
+    unknown = sorted(set(options) - set(fields))
     if unknown:
         raise ValueError(f"arena_spec: unknown field(s) {', '.join(unknown)}; valid: {', '.join(sorted(fields))}")
-    return dataclasses.replace(RANDOM_TUNNELS, **{k: tuple(v) if isinstance(v, list) else v
-                                                   for k, v in options.items()})
+    changes = {}
+    for name, value in options.items():
+        if isinstance(fields[name], tuple):
+            value = tuple(value) if isinstance(value, list | tuple) else (value, value)
+            if len(value) != 2:
+                raise ValueError(f"arena_spec: {name} must be [low, high] or one number, got {options[name]!r}")
+        changes[name] = value
+    try:
+        return dataclasses.replace(RANDOM_TUNNELS, **changes)
+    except TypeError as e:
+        raise ValueError(f"arena_spec {dict(options)}: {e}") from None
 
 
 def tunnel_route(info) -> tuple[np.ndarray, np.ndarray]:

@@ -251,3 +251,15 @@ def test_cli_tunnel_random_refuses_a_centreline_too(tmp_path):
     refused = subprocess.run([str(AUV_MJ), "tunnel", "--random", "1", "--mover", "0,0,1,1,0.1,1",
                               "-o", str(tmp_path / "a.xml")], capture_output=True, text=True, timeout=120)
     assert refused.returncode == 2 and "--mover cannot go with it" in refused.stderr
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"width": 8}, r"TunnelSpec.width = \(8, 8\): below the narrowest tunnel, 11.33 m"),
+    ({"movers": [2, 1]}, r"TunnelSpec.movers = \(2, 1\): expected 0 <= low <= high"),
+    ({"length": 100}, r"shorter than the 120 m kept clear"),
+    ({"wdth": 30}, r"unknown field\(s\) wdth; valid: along_length"),
+    ({"width": [20, 30, 40]}, r"width must be \[low, high\] or one number"),
+])
+def test_arena_spec_refuses_bad_options_naming_them(options, message):
+    with pytest.raises(ValueError, match=message):
+        suite.load("auv", "tunnel", task_kwargs={"arena": "random", "arena_spec": options})

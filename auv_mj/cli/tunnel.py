@@ -4,7 +4,6 @@ the procedural arena of a random episode (`--random SEED`, `auv_mj.procedural`).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import shlex
 import sys
 from pathlib import Path
@@ -125,17 +124,10 @@ def _unknown(text: str) -> Obstacle:
 
 def _spec(args: argparse.Namespace) -> procedural.TunnelSpec:
     """The tunnel task's distribution with the options that fix a width, length or count."""
-    changes = {}
-    for name, value in (("width", args.width), ("length", args.length), ("obstacles", args.obstacles),
-                        ("movers", args.movers)):
-        if value is None:
-            continue
-        if name in ("obstacles", "movers") and value < 0:
-            usage_error(args, f"--{name} must be >= 0, got {value}")
-        changes[name] = (value, value)
-    spec = tunnel.RANDOM_TUNNELS
+    changes = {name: getattr(args, name) for name in ("width", "length", "obstacles", "movers")
+               if getattr(args, name) is not None}
     try:
-        return dataclasses.replace(spec, **changes)
+        return tunnel.tunnel_spec(changes)
     except ValueError as e:
         usage_error(args, str(e))
 
