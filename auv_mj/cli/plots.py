@@ -1,7 +1,8 @@
 """Paper-style figures as PNG (matplotlib, Agg): trajectories, tracking errors and learning curves.
 
 - `plot_trajectory`: the map (bounds, walls, obstacles as polygons, moving obstacles and their paths),
-  the global path, start, goal area and the vehicle's trajectory (Figs. 9-11, 13a, 14a, 16).
+  the global path, start, goal area and the vehicle's trajectory (Figs. 9-11, 13a, 14a, 16);
+  `plot_gallery`: several such maps side by side (e.g. held-out procedural tunnels with their tracks).
 - `plot_tracking`: speed and heading against their commands over the steps, and the tracking errors
   (speed, heading, cross-track to the global path) (Figs. 12-14, 17); disturbance phases shaded.
 - `plot_learning`: episode return and success rate against episodes from training CSV logs, mean over
@@ -180,6 +181,30 @@ def plot_trajectory(records, path: str | Path, labels: Sequence[str] | None = No
     ax.set_title(title if title is not None else
                  f"{record.task or 'episode'}: {record.policy or 'policy'}, "
                  f"{'success' if record.succeeded else 'no success'} after {record.time[-1]:.0f} s")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_gallery(panels: Sequence, path: str | Path, titles: Sequence[str] | None = None, cols: int = 3,
+                 panel_size: tuple[int, int] = (500, 420)) -> Path:
+    """PNG of several maps side by side, each with its episodes' trajectories (`draw_trajectory`): e.g.
+    a handful of held-out procedural tunnels with a policy's tracks. `panels` holds one record (or .npz
+    path), or a list of records on the same map, per panel."""
+    panels = [as_records(panel) for panel in panels]
+    if not panels:
+        raise ValueError("plot_gallery needs at least one panel")
+    cols = max(1, min(cols, len(panels)))
+    rows = math.ceil(len(panels) / cols)
+    fig, axes = _figure(panel_size[0] * cols, panel_size[1] * rows, rows, cols, squeeze=False)
+    for k, ax in enumerate(axes.ravel()):
+        if k >= len(panels):
+            ax.set_axis_off()
+            continue
+        draw_trajectory(ax, panels[k])
+        record = panels[k][0]
+        ax.set_title(titles[k] if titles else f"{record.task} seed {record.seed}: "
+                     f"{'success' if record.succeeded else 'no success'}", fontsize="small")
+        ax.legend().set_visible(k == 0)
     fig.tight_layout()
     return _save(fig, path)
 
