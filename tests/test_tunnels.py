@@ -391,3 +391,30 @@ def test_cli_unknown_option(tmp_path):
     bad = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(xml_path),
                           "--unknown", "100,-10,10"], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 1 and "--unknown '100,-10,10': expected x,y,length,width" in bad.stderr
+
+
+# --- the validation tunnels -----------------------------------------------------------------------
+
+VALIDATION = sorted((Path(__file__).parents[1] / "models" / "arenas" / "validation").glob("*.xml"))
+
+
+def test_the_six_validation_tunnels_are_shipped():
+    assert [p.stem for p in VALIDATION] == ["diagonal_crossing", "l_bend", "long_wave", "straight_drifter",
+                                            "u_turn", "zigzag"]
+
+
+@pytest.mark.parametrize("path", VALIDATION, ids=lambda p: p.stem)
+def test_validation_tunnel_passes_the_check_and_is_reproduced_by_its_command(path, tmp_path):
+    report = arena_check.check_arena(path)
+    assert report.ok, report.lines()
+    root = ET.parse(path).getroot()
+    argv = shlex.split(root.find("custom/text[@name='tunnel_command']").get("data"))[1:]
+    argv[argv.index("-o") + 1] = str(tmp_path / path.name)
+    argv[1] = str(path.with_suffix(".csv"))
+    assert cli.main(argv) == 0
+    rebuilt = ET.parse(tmp_path / path.name).getroot()
+    for tree in (root, rebuilt):
+        for text in tree.findall("custom/text"):
+            tree.find("custom").remove(text)
+        ET.indent(tree)
+    assert ET.tostring(rebuilt) == ET.tostring(root)
