@@ -476,10 +476,10 @@ def test_random_obstacles_keep_off_the_start_and_the_goal():
         for g in active:
             centre, radius = data.geom_xpos[g][:2], model.geom_rbound[g]
             for point in (start, goal):
-                assert np.hypot(*(centre - point)) >= radius + obstacles.OBSTACLE_CLEARANCE - 1e-9
+                assert np.hypot(*(centre - point)) >= radius + obstacles.CLUTTER.clearance - 1e-9
             exact = mujoco.mj_geomDistance(model, data, model.geom("hull").id, g, 1e3, None)
-            assert exact > obstacles.OBSTACLE_CLEARANCE - 1.0
-    assert len(counts) > 1 and min(counts) >= obstacles.MIN_OBSTACLES
+            assert exact > obstacles.CLUTTER.clearance - 1.0
+    assert len(counts) > 1 and min(counts) >= obstacles.CLUTTER.obstacles[0]
 
 
 def test_named_layouts_fit_their_time_limits():
