@@ -45,7 +45,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from auv_mj.seeds import SEEDS, seed_split  # noqa: F401  (re-exported: the arenas' seed ranges)
-
 from auv_mj.tunnels import (
     WALL_THICKNESS,
     MovingObstacle,
