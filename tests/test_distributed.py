@@ -118,3 +118,60 @@ def test_bad_options_are_refused():
     done = subprocess.run([*AUV_MJ, "eval", "--policy", "splane", "--task", "goal", "--ray", "auto",
                            "--workers", "2"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and "--workers sets the CPUs of --ray local only" in done.stderr
+
+
+POINT_GOAL = "test_agents:auv_mj_test/PointGoal-v0"
+"""The tiny goal task of tests/test_agents.py, registered by importing that module (also in Ray workers)."""
+TINY = {"hidden_sizes": [16, 16], "learning_starts": 64, "buffer_size": 2000, "epsilon_decay": 100,
+        "batch_size": 16}
+
+
+def _log(run_dir: Path) -> list[list[str]]:
+    """progress.csv without the wall-time column."""
+    rows = (run_dir / "progress.csv").read_text().splitlines()
+    return [row.split(",")[:-1] for row in rows]
+
+
+def test_a_two_trial_sweep_trains_like_train_and_resumes(tmp_path, ray_session):
+    from agents.ddpg import DDPGConfig
+    from agents.train import train
+    from auv_mj.cli import sweep
+    from auv_mj.cli.train import make_env_fn
+
+    out = tmp_path / "sweep"
+    rows = sweep.run_sweep(out, ["her-ddpg"], [0], {"noise_std": [0.1, 0.3]}, task=POINT_GOAL, base=TINY,
+                           steps=200, progress=False)
+    names = ["her-ddpg-noise_std=0.1-seed0", "her-ddpg-noise_std=0.3-seed0"]
+    assert [row["trial"] for row in rows] == names
+    assert all(row["env_steps"] == 200 and row["episodes"] == 6 for row in rows)  # 6 whole, a 7th cut
+    with open(out / "results.csv") as f:
+        assert [line.split(",")[0] for line in f.read().splitlines()] == ["trial", *names]
+    # each trial is the run `train` makes of the same configuration, in its own directory
+    config = DDPGConfig(**{**TINY, "hidden_sizes": (16, 16)}, noise_std=0.3, seed=0)
+    alone = train(make_env_fn(POINT_GOAL), "her-ddpg", config, total_steps=200, run_dir=tmp_path / "alone",
+                  progress=False, tensorboard=False)
+    assert _log(out / names[1]) == _log(alone.run_dir)
+    assert _log(out / names[0]) != _log(alone.run_dir)
+
+    with pytest.raises(FileExistsError, match="add --resume"):
+        sweep.run_sweep(out, ["her-ddpg"], [0], {"noise_std": [0.1, 0.3]}, task=POINT_GOAL, base=TINY, steps=200)
+    with pytest.raises(ValueError, match="other seeds"):
+        sweep.run_sweep(out, ["her-ddpg"], [1], {"noise_std": [0.1, 0.3]}, task=POINT_GOAL, base=TINY, steps=200,
+                        resume=True)
+    longer = sweep.run_sweep(out, ["her-ddpg"], [0], {"noise_std": [0.1, 0.3]}, task=POINT_GOAL, base=TINY,
+                             steps=300, resume=True, progress=False)
+    assert [row["env_steps"] for row in longer] == [300, 300]
+    assert _log(out / names[1])[:7] == _log(alone.run_dir)  # the first 200 steps' episodes are kept
+
+
+def test_sweep_cli_refuses_bad_grids_and_seeds(tmp_path, capsys):
+    for argv, message in (
+            (["--grid", '{"no_such": [1]}'], "--grid field 'no_such' is not a DDPGConfig field"),
+            (["--grid", '{"seed": [1, 2]}'], "give the seeds with --seeds"),
+            (["--grid", '{"batch_size": [0]}'], "--grid batch_size=0"),
+            (["--seeds", "3-1"], "empty seed range"),
+            (["--workers", "2", "--ray", "auto"], "--workers sets the CPUs of --ray local only")):
+        with pytest.raises(SystemExit) as exit_:
+            main(["sweep", "ddpg", "--task", POINT_GOAL, "--out", str(tmp_path / "s"), *argv])
+        assert exit_.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
