@@ -12,7 +12,7 @@ and steps to TARGET success over a WINDOW-episode window (Fig. 8's measure), the
 wall time and the env steps per second.
 
 `--ray local` (the default) starts Ray on this machine with `--workers` CPUs, one trial per CPU (per
-`--envs` CPUs with collector processes); `--ray auto` or `--ray HOST:PORT` joins a cluster started with
+N + 1 CPUs with `--collectors N`); `--ray auto` or `--ray HOST:PORT` joins a cluster started with
 `ray start --head`, where OUT must be a folder every node sees at the same path (a shared file system,
 as Ray Tune itself asks of its storage on a cluster).
 """
@@ -87,7 +87,7 @@ def check_grid(grid: dict[str, Any]) -> dict[str, list]:
 
 
 def run_trial(config: dict[str, Any], *, env_id: str, env_kwargs: dict, base: dict[str, Any], root: str,
-              steps: int | None, episodes: int | None, envs: int, checkpoint_every: int) -> dict[str, Any]:
+              steps: int | None, episodes: int | None, collectors: int, checkpoint_every: int) -> dict[str, Any]:
     """One trial (in a Ray worker): train in ROOT/<trial name>, resuming its checkpoint if there is one."""
     from agents.train import train
 
@@ -97,8 +97,7 @@ def run_trial(config: dict[str, Any], *, env_id: str, env_kwargs: dict, base: di
     resume = (run_dir / CHECKPOINT_NAME).is_file()
     result = train(make_env_fn(env_id, **env_kwargs), agent, DDPGConfig(**overrides, seed=seed),
                    total_steps=steps, episodes=episodes, run_dir=run_dir, resume=resume,
-                   checkpoint_every=checkpoint_every, progress=False, tensorboard=False,
-                   **({"envs": envs} if envs > 1 else {}))
+                   checkpoint_every=checkpoint_every, progress=False, tensorboard=False, collectors=collectors)
     metrics = {"env_steps": result.env_steps, "episodes": result.episodes, "success_rate": result.success_rate,
                "run_dir": str(run_dir)}
     return metrics
@@ -149,7 +148,7 @@ def write_results(rows: list[dict[str, Any]], path: Path) -> None:
 
 def run_sweep(out: str | Path, agents: list[str], seeds: list[int], grid: dict[str, list], *, task: str = "goal",
               env_kwargs: dict | None = None, base: dict[str, Any] | None = None, steps: int | None = None,
-              episodes: int | None = None, envs: int = 1, ray_address: str = "local", workers: int | None = None,
+              episodes: int | None = None, collectors: int = 0, ray_address: str = "local", workers: int | None = None,
               resume: bool = False, checkpoint_every: int = 20, retries: int = 2,
               progress: bool = True) -> list[dict[str, Any]]:
     """Runs every (agent, grid point, seed) trial on Ray Tune; returns the results table rows (trial order).
@@ -170,7 +169,7 @@ def run_sweep(out: str | Path, agents: list[str], seeds: list[int], grid: dict[s
     make_env_fn(env_id, **env_kwargs)().close()  # a bad task or option is refused before any trial starts
     trials = [(agent, params, seed) for agent in agents for params in grid_points(grid) for seed in seeds]
     spec = {"task": task, "env_kwargs": env_kwargs, "agents": agents, "seeds": seeds, "grid": grid, "base": base,
-            "steps": steps, "episodes": episodes, "envs": envs}
+            "steps": steps, "episodes": episodes, "collectors": collectors}
     spec_path = out / SPEC_NAME
     if resume:
         if not spec_path.is_file():
@@ -203,8 +202,9 @@ def run_sweep(out: str | Path, agents: list[str], seeds: list[int], grid: dict[s
     try:
         trainable = tune.with_resources(
             tune.with_parameters(_tune_trial, env_id=env_id, env_kwargs=env_kwargs, base=base, root=str(out),
-                                 steps=steps, episodes=episodes, envs=envs, checkpoint_every=checkpoint_every),
-            {"cpu": envs})
+                                 steps=steps, episodes=episodes, collectors=collectors,
+                                 checkpoint_every=checkpoint_every),
+            {"cpu": collectors + 1})
         space = {"agent": tune.grid_search(agents), "params": tune.grid_search(grid_points(grid)),
                  "seed": tune.grid_search(seeds)}
         tuner = tune.Tuner(trainable, param_space=space, run_config=tune.RunConfig(
@@ -248,14 +248,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='DDPGConfig fields and their values, e.g. \'{"noise_std": [0.1, 0.3]}\'')
     parser.add_argument("--steps", type=positive_int, help="env steps per trial (default: --episodes)")
     parser.add_argument("--episodes", type=positive_int, help="episodes per trial (default: max_episodes)")
-    parser.add_argument("--envs", type=positive_int, default=1,
-                        help="environments per trial, each in a collector process (see `auv-mj train --envs`)")
+    parser.add_argument("--collectors", type=int, default=0, metavar="N",
+                        help="collector processes per trial (`auv-mj train --collectors`); a trial then "
+                             "takes N + 1 CPUs [0: serial, one CPU]")
     parser.add_argument("--out", type=Path, required=True, help="sweep folder: one run directory per trial")
     parser.add_argument("--resume", action="store_true", help="continue the sweep in --out from its checkpoints")
     parser.add_argument("--ray", default="local", metavar="ADDRESS",
                         help="'local' (default) starts Ray here; 'auto' or HOST:PORT joins a cluster")
     parser.add_argument("--workers", type=positive_int, default=None,
-                        help="CPUs of the local Ray (default: all); trials run on one CPU each (--envs each)")
+                        help="CPUs of the local Ray (default: all); a trial takes one (N + 1 with --collectors N)")
     parser.add_argument("--checkpoint-every", type=positive_int, default=20, help="episodes between checkpoints")
     parser.add_argument("--retries", type=int, default=2, help="reruns of a trial whose worker died")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -272,14 +273,17 @@ def run(args: argparse.Namespace) -> int:
         usage_error(args, "--workers sets the CPUs of --ray local only; a cluster's CPUs are its own")
     if args.retries < 0:
         usage_error(args, f"--retries must be >= 0, got {args.retries}")
+    if args.collectors < 0:
+        usage_error(args, f"--collectors must be >= 0, got {args.collectors}")
     seeds = sorted({s for group in args.seeds for s in group})
     agents = list(dict.fromkeys(args.agents))
     try:
-        rows = run_sweep(args.out, agents, seeds, args.grid, task=args.task, env_kwargs=(
-            {"task_kwargs": task_kwargs(args)} if task_kwargs(args) else {}), base=config_overrides(args),
-            steps=args.steps, episodes=args.episodes, envs=args.envs, ray_address=args.ray, workers=args.workers,
-            resume=args.resume, checkpoint_every=args.checkpoint_every, retries=args.retries,
-            progress=not args.no_progress)
+        kwargs = task_kwargs(args)
+        rows = run_sweep(args.out, agents, seeds, args.grid, task=args.task,
+                         env_kwargs={"task_kwargs": kwargs} if kwargs else {}, base=config_overrides(args),
+                         steps=args.steps, episodes=args.episodes, collectors=args.collectors, ray_address=args.ray,
+                         workers=args.workers, resume=args.resume, checkpoint_every=args.checkpoint_every,
+                         retries=args.retries, progress=not args.no_progress)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     except RuntimeError as exc:

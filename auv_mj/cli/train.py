@@ -99,6 +99,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint-every", type=positive_int, default=100, help="episodes between checkpoints")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard scalars")
+    parser.add_argument("--collectors", type=int, default=0, metavar="N",
+                        help="step N environments in collector processes while this one learns (1 uses a "
+                             "second core; deterministic given --seed and N, not the serial run) [0: serial]")
     add_config_options(parser)
 
 
@@ -129,6 +132,8 @@ def config_overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Runs `auv-mj train`; returns the exit status."""
+    if args.collectors < 0:
+        usage_error(args, f"--collectors must be >= 0, got {args.collectors}")
     try:
         run_dir = args.run_dir or (Path("runs") / args.task.replace("/", "_")
                                    / f"{args.agent}-seed{args.seed or 0}")
@@ -150,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
         result = train(env_fn, args.agent, config, total_steps=args.steps, episodes=args.episodes,
                        run_dir=run_dir, resume=args.resume, init=args.init,
                        checkpoint_every=args.checkpoint_every, progress=not args.no_progress,
-                       tensorboard=not args.no_tensorboard)
+                       tensorboard=not args.no_tensorboard, collectors=args.collectors)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(f"{result.episodes} episodes, {result.env_steps} steps, {result.gradient_steps} gradient steps; "
