@@ -10,11 +10,17 @@ Goal tasks (dict observations with observation / achieved_goal / desired_goal) t
 round(train_every * updates_per_step) gradient steps on one batched sample. Episodes end on
 `terminated` (goal, collision: no bootstrap) or `truncated` (time limit: bootstrap).
 
+`collectors=N` (N >= 1) uses more cores: the environments are stepped, and the actor learnt, in N collector
+processes while this process learns the critic, in lock-step rounds (`agents.collector`); a run is then
+deterministic given its seed and N, and the update-to-data ratio is the serial one.
+
 A run directory holds `checkpoint.pt` (atomic, see agents.checkpoint), `replay-<steps>.npz`,
 `progress.csv` (one row per episode), `config.json` and TensorBoard scalars in `tb/`. `resume=True`
 continues the same run from its last checkpoint, replay buffer and RNG states included; each episode
 resets the env with a seed derived from (seed, episode index), so a resumed run repeats the
-uninterrupted one exactly when checkpoints fall on episode boundaries.
+uninterrupted one exactly when checkpoints fall on episode boundaries. With collectors a resumed run
+continues from its checkpoint but does not repeat the uninterrupted run: the episodes the collectors had
+in progress are dropped and begun afresh.
 """
 
 from __future__ import annotations

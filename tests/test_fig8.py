@@ -58,3 +58,19 @@ def test_confidence_interval_of_the_mean():
     np.testing.assert_allclose(high - mean_curve, stats.t.ppf(0.975, 2) * np.std([0, 0, 1], ddof=1) / np.sqrt(3)
                                * np.array([1, 1, 0]))
     np.testing.assert_allclose(mean_curve - low, high - mean_curve)
+
+
+def test_peer_report_gives_throughput_and_time_to_target_side_by_side(tmp_path):
+    from auv_mj.cli.reproduce import training_speed
+
+    for name, seconds in (("auv-mj-her-ddpg-seed11", 2.0), ("sb3-ddpg-her-seed11", 8.0)):
+        _run_dir(tmp_path, name, 10, episodes=40)
+        rows = (tmp_path / name / "progress.csv").read_text().splitlines()
+        scaled = [rows[0]] + [",".join([*r.split(",")[:5], str(seconds * (i + 1))]) for i, r in enumerate(rows[1:])]
+        (tmp_path / f"{name}.csv").write_text("\n".join(scaled) + "\n")
+    lines: list[str] = []
+    training_speed(lines, tmp_path)
+    report = "\n".join(lines)
+    # 100 steps per episode: 50 vs 12.5 env steps/s; both reach 90 % at episode 28: 56 s vs 224 s
+    assert "auv-mj 50, SB3 12 env steps/s, auv-mj / SB3 = **4.00**" in report
+    assert "SB3 / auv-mj wall-clock to the target = **4.00**" in report
