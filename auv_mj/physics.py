@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
+from collections.abc import Mapping
 from pathlib import Path
 
 import mujoco
@@ -26,6 +28,8 @@ class AUVPhysics(engine.Physics):
     MuJoCo's own passive forces are applied, without a process-global callback: other MuJoCo
     models in the same process are unaffected, and each physics carries its own coefficients.
     Sensors are not evaluated on physics sub-steps; `sonar()` evaluates the rangefinders on demand.
+    The ocean current is `model.opt.wind[:2]` (see `auv_mj.hydrodynamics`); `scale_vehicle` departs from
+    the MJCF's vehicle for model uncertainty (`auv_mj.ocean`).
     """
 
     _hydro: Hydrodynamics | None = None
@@ -70,6 +74,10 @@ class AUVPhysics(engine.Physics):
             raise ValueError(f"{source}: integrator must be Euler or implicitfast for the hydrodynamic "
                              f"step hook, got {mujoco.mjtIntegrator(model.opt.integrator).name}")
         self._hydro = Hydrodynamics(model, coefficients, source)
+        self._nominal = coefficients
+        body = int(model.jnt_bodyid[model.joint("x").id])
+        self._vehicle_body = body
+        self._nominal_mass = (float(model.body_mass[body]), model.body_inertia[body].copy())
         self.source = source
         self._disturbances: list[Disturbance] = []
         addresses = [int(model.sensor_adr[model.sensor(n).id]) for n in SONAR_NAMES]
@@ -86,6 +94,32 @@ class AUVPhysics(engine.Physics):
     def hydrodynamics(self) -> Hydrodynamics:
         """The hydrodynamic model of this physics (coefficients, body-frame force)."""
         return self._hydro
+
+    def scale_vehicle(self, coefficients: Mapping[str, float] | None = None, mass: float = 1.0) -> None:
+        """Scales the vehicle from its MJCF values: each named hydrodynamic coefficient (e.g. "X_uu") by its
+        factor, the body's mass and inertia by `mass`; `scale_vehicle()` restores the MJCF vehicle.
+
+        MuJoCo's constants that depend on the mass are recomputed (`mj_setConst`); the next step rebuilds
+        the joint-space inertia. A ValueError names an unknown coefficient or a vehicle that is no longer
+        physical (M_RB + M_A not positive definite).
+        """
+        coefficients = dict(coefficients or {})
+        nominal = self._nominal
+        unknown = [k for k in coefficients if not hasattr(nominal, k)]
+        if unknown:
+            raise ValueError(f"scale_vehicle: unknown hydrodynamic coefficient(s) {unknown}")
+        if not (math.isfinite(mass) and mass > 0):
+            raise ValueError(f"scale_vehicle: the mass factor must be positive, got {mass}")
+        scaled = dataclasses.replace(nominal, **{k: getattr(nominal, k) * float(f) for k, f in coefficients.items()})
+        model = self.model.ptr
+        body = self._vehicle_body
+        body_mass, body_inertia = self._nominal_mass
+        model.body_mass[body] = body_mass * mass
+        model.body_inertia[body] = body_inertia * mass
+        mujoco.mj_setConst(model, mujoco.MjData(model))
+        self._hydro = Hydrodynamics(model, scaled, self.source)
+        self._bound_data = None
+        self._step_ready = False
 
     # --- stepping -------------------------------------------------------------------------------
 
@@ -125,23 +159,28 @@ class AUVPhysics(engine.Physics):
         self._check_control(data.ctrl)
         hook = self._hook(model, data)
         timestep = model.opt.timestep
-        warnings_before = self._warnings.tobytes()
+        warnings = self._warnings
+        warnings_before = warnings.tobytes()
         start_time = data.time
         step1, step2 = mujoco.mj_step1, mujoco.mj_step2
         if not self._step_ready:  # after forward(), reset or copy: rebuild M and the passive forces
             step1(model, data)
         disturbances = self._disturbances
-        for _ in range(nstep):
-            if disturbances:
-                hook(timestep, *self._disturbance_wrench(data))
-            else:
+        if disturbances:
+            wrench = self._disturbance_wrench
+            for _ in range(nstep):
+                hook(timestep, *wrench(data))
+                step2(model, data)
+                step1(model, data)
+        else:
+            for _ in range(nstep):
                 hook(timestep)
-            step2(model, data)
-            step1(model, data)
+                step2(model, data)
+                step1(model, data)
         self._step_ready = True
         # MuJoCo auto-resets an unstable state, which rewinds time and may leave the counts unchanged.
-        if self._warnings.tobytes() != warnings_before or data.time < start_time + (nstep - 0.5) * timestep:
-            self._report_invalid_state(np.frombuffer(warnings_before, dtype=self._warnings.dtype))
+        if warnings.tobytes() != warnings_before or data.time < start_time + (nstep - 0.5) * timestep:
+            self._report_invalid_state(np.frombuffer(warnings_before, dtype=warnings.dtype))
 
     def _report_invalid_state(self, warnings_before: np.ndarray) -> None:
         """Raises dm_control's PhysicsError (or logs, inside `suppress_physics_errors`) as its step would."""
@@ -236,6 +275,7 @@ class AUVPhysics(engine.Physics):
         """A copy of this physics with the same hydrodynamics and disturbances."""
         new = super().copy(share_model=share_model)
         new._hydro = self._hydro
+        new._nominal, new._vehicle_body, new._nominal_mass = self._nominal, self._vehicle_body, self._nominal_mass
         new.source = self.source
         new._disturbances = list(self._disturbances)
         new._sonar_index = self._sonar_index

@@ -197,7 +197,7 @@ def obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kwargs=No
     """Reach a target past static unknown obstacles (Table 7; scenario="random"|"a"|"b")."""
     task = Obstacles(scenario=scenario, random=random, **task_kwargs)
     physics = planning.Physics.load(random_obstacle_arena() if scenario == "random"
-                                    else model_path(SCENARIOS[scenario]))
+                                    else model_path(SCENARIOS[scenario]), task_kwargs.get("conditions"))
     return planning.environment(physics, task, time_limit, environment_kwargs)
 
 
@@ -207,5 +207,5 @@ def moving_obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kw
     """Reach a target past moving unknown obstacles (Table 8; scenario="random"|"a"|"b")."""
     task = MovingObstacles(scenario=scenario, random=random, **task_kwargs)
     physics = planning.Physics.load(random_mover_arena() if scenario == "random"
-                                    else model_path(MOVING_SCENARIOS[scenario]))
+                                    else model_path(MOVING_SCENARIOS[scenario]), task_kwargs.get("conditions"))
     return planning.environment(physics, task, time_limit, environment_kwargs)

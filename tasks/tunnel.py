@@ -56,7 +56,8 @@ def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, **
 
     time_limit defaults to `route_time_limit` of the start-to-goal path length.
     """
-    physics = planning.Physics.load(model_path(DEFAULT_ARENA) if arena is None else arena)
+    physics = planning.Physics.load(model_path(DEFAULT_ARENA) if arena is None else arena,
+                                    task_kwargs.get("conditions"))
     task = Tunnel(random=random, **task_kwargs)
     if time_limit is None:
         info = arena_info(physics)
