@@ -225,17 +225,18 @@ class Hydrodynamics:
 
         `disturbance` is a world-frame (Fx, Fy, Mz), the g_0 of Eq. (3). For repeated use, `bind` once.
         """
-        wrench = (0.0, 0.0, 0.0) if disturbance is None else tuple(float(f) for f in disturbance)
-        self.bind(model, data)(model.opt.timestep, *wrench)
+        wrench = None if disturbance is None else tuple(float(f) for f in disturbance)
+        self.bind(model, data)(0, model.opt.timestep, None if wrench is None else lambda: wrench)
 
     def bind(self, model: mujoco.MjModel, data: mujoco.MjData) -> Callable[..., None]:
-        """The step hook of this vehicle in (`model`, `data`): `hook(dt, fx, fy, mz)` applies Eq. (3)-(11).
+        """The stepper of this vehicle in (`model`, `data`): `advance(nstep, dt, wrench=None)`.
 
-        The hook adds the body force at the velocity relative to the water, nu_r (rotated to the world;
-        the current is `model.opt.wind[:2]`, read at every call) and the world-frame disturbance g_0 =
-        (fx, fy, mz) to `qfrc_passive`, and R (M_A + dt K) R^T to the joint-space inertia `data.M`,
-        which it re-factors. It must run after `mj_step1` (or `mj_forward`) and before `mj_step2`;
-        dt is the coming step's timestep, or 0 for the plain dynamics (true accelerations).
+        Each of `nstep` steps applies Eq. (3)-(11) and then runs `mj_step2` and `mj_step1`; `nstep = 0` only
+        applies them (for `mj_forward`'s accelerations). Applying adds the body force at the velocity
+        relative to the water, nu_r (rotated to the world; the current is `model.opt.wind[:2]`, read at
+        every step), and the world-frame disturbance g_0 = `wrench()` -> (fx, fy, mz) to `qfrc_passive`,
+        and R (M_A + dt K) R^T to the joint-space inertia `data.M`, which it re-factors. Call it after
+        `mj_step1` (or `mj_forward`); dt is the timestep, or 0 for the plain dynamics (true accelerations).
 
         K makes MuJoCo's Euler step treat the quadratic drag of Eq. (11) linearly implicitly:
         K_uu = -2 X_uu |u_r| and K_rr = -2 N_rr |r| (backward Euler; this halves the position error
@@ -244,10 +245,10 @@ class Hydrodynamics:
         K_vv = max(0, |Y_vv| |v_r| - m_v / dt) stops one step of sway drag from reversing v_r: large
         timesteps stay stable at any sway speed.
 
-        This runs every physics step, so it is written for CPython's speed: the arrays are read and
-        written through memoryviews (plain floats, no NumPy scalars), the coefficients are locals, and
-        the force of `body_force` is inlined with the very same arithmetic (the same floating-point
-        result, bit for bit).
+        This is the simulator's hot loop, written for CPython: the arrays are read and written through
+        memoryviews (plain floats, no NumPy scalars), the coefficients are locals, MuJoCo's functions are
+        called directly and the force of `body_force` is inlined with the very same arithmetic (the same
+        floating-point result, bit for bit; tests/test_hydrodynamics.py checks the two agree).
         """
         qpos, qvel, qfrc, M = (memoryview(a) for a in (data.qpos, data.qvel, data.qfrc_passive, data.M))
         wind = memoryview(model.opt.wind)
@@ -259,43 +260,54 @@ class Hydrodynamics:
         k_u, k_v, k_r = (max(0.0, -k) for k in (c.X_uu, c.Y_vv, c.N_rr))
         sway_mass = float(self.total_mass[1, 1])
         munk = a11 - a22
+        neg_munk = -munk
         X_uu, Y_uv, Y_ur, N_uv, N_ur = c.X_uu, c.Y_uv, c.Y_ur, c.N_uv, c.N_ur
         Y_vv, Y_vr, Y_rv, Y_rr = c.Y_vv, c.Y_vr, c.Y_rv, c.Y_rr
         N_vv, N_vr, N_rv, N_rr = c.N_vv, c.N_vr, c.N_rv, c.N_rr
-        factor = mujoco.mj_factorM
+        factor, step1, step2 = mujoco.mj_factorM, mujoco.mj_step1, mujoco.mj_step2
         cos, sin = math.cos, math.sin
 
-        def hook(dt: float, fx: float = 0.0, fy: float = 0.0, mz: float = 0.0) -> None:
-            psi = qpos[i_psi]
-            xd = qvel[ix] - wind[0]
-            yd = qvel[iy] - wind[1]
-            r = qvel[ir]
-            cp = cos(psi)
-            sp = sin(psi)
-            u = cp * xd + sp * yd
-            v = cp * yd - sp * xd
-            au = abs(u)
-            av = abs(v)
-            ar = abs(r)
-            X = -munk * r * v + a23 * r * r + X_uu * au * u
-            Y = (-munk * u * r + (Y_vv * av + Y_vr * ar) * v + (Y_rv * av + Y_rr * ar) * r
-                 + Y_uv * u * v + Y_ur * u * r)
-            N = (munk * u * v + (N_vv * av + N_vr * ar) * v + (N_rv * av + N_rr * ar) * r
-                 + N_uv * u * v + N_ur * u * r)
-            qfrc[ix] += cp * X - sp * Y + fx
-            qfrc[iy] += sp * X + cp * Y + fy
-            qfrc[ir] += N + mz
-            b11 = a11 + 2.0 * dt * k_u * au
-            b22 = a22 + max(0.0, dt * k_v * av - sway_mass)
-            cc = cp * cp
-            ss = sp * sp
-            cs = cp * sp
-            M[m_xx] += b11 * cc + b22 * ss
-            M[m_yx] += (b11 - b22) * cs
-            M[m_yy] += b11 * ss + b22 * cc
-            M[m_rx] -= a23 * sp
-            M[m_ry] += a23 * cp
-            M[m_rr] += a33 + 2.0 * dt * k_r * ar
-            factor(model, data)
+        def advance(nstep: int, dt: float, wrench: Callable[[], tuple[float, float, float]] | None = None) -> None:
+            fx = fy = mz = 0.0
+            wx, wy = wind[0], wind[1]  # the current changes between calls, not within one
+            implicit_u, implicit_v, implicit_r = 2.0 * dt * k_u, dt * k_v, 2.0 * dt * k_r
+            for _ in range(nstep if nstep > 0 else 1):
+                if wrench is not None:
+                    fx, fy, mz = wrench()
+                psi = qpos[i_psi]
+                xd = qvel[ix] - wx
+                yd = qvel[iy] - wy
+                r = qvel[ir]
+                cp = cos(psi)
+                sp = sin(psi)
+                u = cp * xd + sp * yd
+                v = cp * yd - sp * xd
+                au = abs(u)
+                av = abs(v)
+                ar = abs(r)
+                X = neg_munk * r * v + a23 * r * r + X_uu * au * u
+                Y = (neg_munk * u * r + (Y_vv * av + Y_vr * ar) * v + (Y_rv * av + Y_rr * ar) * r
+                     + Y_uv * u * v + Y_ur * u * r)
+                N = (munk * u * v + (N_vv * av + N_vr * ar) * v + (N_rv * av + N_rr * ar) * r
+                     + N_uv * u * v + N_ur * u * r)
+                qfrc[ix] += cp * X - sp * Y + fx
+                qfrc[iy] += sp * X + cp * Y + fy
+                qfrc[ir] += N + mz
+                b11 = a11 + implicit_u * au
+                excess = implicit_v * av - sway_mass
+                b22 = a22 + excess if excess > 0.0 else a22
+                cc = cp * cp
+                ss = sp * sp
+                cs = cp * sp
+                M[m_xx] += b11 * cc + b22 * ss
+                M[m_yx] += (b11 - b22) * cs
+                M[m_yy] += b11 * ss + b22 * cc
+                M[m_rx] -= a23 * sp
+                M[m_ry] += a23 * cp
+                M[m_rr] += a33 + implicit_r * ar
+                factor(model, data)
+                if nstep:
+                    step2(model, data)
+                    step1(model, data)
 
-        return hook
+        return advance

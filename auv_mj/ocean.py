@@ -326,6 +326,19 @@ def has_thruster_lag(model: mujoco.MjModel) -> bool:
 # --- the random processes ----------------------------------------------------------------------------------
 
 
+class Normals:
+    """Standard normal draws of `rng`, one NumPy call per `block` of them (a scalar call costs a microsecond)."""
+
+    def __init__(self, rng: np.random.Generator, block: int = 256):
+        self._rng, self._block = rng, block
+        self._draws: list[float] = []
+
+    def __call__(self) -> float:
+        if not self._draws:
+            self._draws = self._rng.standard_normal(self._block).tolist()[::-1]
+        return self._draws.pop()
+
+
 class GaussMarkov:
     """A first-order Gauss-Markov process x about `mean`, stepped exactly and saturated to `bounds`.
 
@@ -335,19 +348,19 @@ class GaussMarkov:
     """
 
     def __init__(self, mean: float, sigma: float, time_constant: float, bounds: tuple[float, float],
-                 rng: np.random.Generator):
+                 normal: Normals):
         self.mean, self.sigma, self.time_constant = float(mean), float(sigma), float(time_constant)
         self.low, self.high = (float(b) for b in bounds)
-        self._rng = rng
+        self._normal = normal
         self._dt, self._a, self._b = 0.0, 1.0, 0.0
-        self.value = min(max(self.mean + self.sigma * float(rng.standard_normal()), self.low), self.high)
+        self.value = min(max(self.mean + self.sigma * normal(), self.low), self.high)
 
     def advance(self, dt: float) -> float:
         """Moves the process on by `dt` [s] and returns its new value."""
         if dt != self._dt:  # the executor's tick keeps dt fixed: the transition is computed once
             self._dt, self._a = dt, math.exp(-dt / self.time_constant)
             self._b = self.sigma * math.sqrt(1.0 - self._a * self._a)
-        x = self.mean + self._a * (self.value - self.mean) + self._b * float(self._rng.standard_normal())
+        x = self.mean + self._a * (self.value - self.mean) + self._b * self._normal()
         self.value = min(max(x, self.low), self.high)
         return self.value
 
@@ -359,10 +372,11 @@ class Current:
         self.model = model
         direction = (float(rng.uniform(-math.pi, math.pi)) if model.mean_direction is None
                      else model.mean_direction)
+        normal = Normals(rng)
         self.speed = GaussMarkov(model.mean_speed, model.speed_sigma, model.speed_time_constant,
-                                 model.speed_bounds, rng)
+                                 model.speed_bounds, normal)
         self.direction = GaussMarkov(direction, model.direction_sigma, model.direction_time_constant,
-                                     (direction - model.direction_bound, direction + model.direction_bound), rng)
+                                     (direction - model.direction_bound, direction + model.direction_bound), normal)
 
     def advance(self, dt: float) -> None:
         """Moves both processes on by `dt` [s]."""
@@ -414,6 +428,7 @@ class Ocean:
         self.scales: dict[str, float] = {}
         """This episode's factors: "mass" and each hydrodynamic coefficient's name (empty: nominal)."""
         self._time = 0.0
+        self._clock: tuple | None = None  # (MjData, memoryview of opt.wind) of the episode's physics
 
     @property
     def ideal(self) -> bool:
@@ -446,10 +461,12 @@ class Ocean:
             self.scales = dict(zip(COEFFICIENT_NAMES, factors.tolist(), strict=True))
             self.scales["mass"] = float(rng.uniform(1.0 - m, 1.0 + m))
             physics.scale_vehicle({k: v for k, v in self.scales.items() if k != "mass"}, self.scales["mass"])
-        self._time = physics.data.time
+        data = physics.data.ptr
+        self._time = data.time
         if c.current is not None:
             self.current = Current(c.current, np.random.default_rng(current_seed))
-            physics.model.opt.wind[:2] = self.current.velocity()
+            self._clock = (data, memoryview(physics.model.ptr.opt.wind))
+            self._clock[1][0], self._clock[1][1] = self.current.velocity()
         self.sonar = None if c.sonar is None else NoisySonar(c.sonar, np.random.default_rng(sonar_seed), beams)
 
     def tick(self, physics) -> None:
@@ -457,11 +474,11 @@ class Ocean:
         current = self.current
         if current is None:
             return
-        time = physics.data.time
+        data, wind = self._clock
+        time = data.time
         if time > self._time:
             current.advance(time - self._time)
             self._time = time
-            wind = physics.model.ptr.opt.wind
             wind[0], wind[1] = current.velocity()
 
     def sense(self, ranges: np.ndarray) -> np.ndarray:

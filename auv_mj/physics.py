@@ -34,6 +34,7 @@ class AUVPhysics(engine.Physics):
 
     _hydro: Hydrodynamics | None = None
     _step_ready = False
+    _bound: tuple | None = None
 
     @classmethod
     def from_xml_string(cls, xml_string: str, assets: dict | None = None, source: str = "<string>"):
@@ -87,7 +88,7 @@ class AUVPhysics(engine.Physics):
         self._pose_adr = np.array([model.jnt_qposadr[model.joint(n).id] for n in ("x", "y", "yaw")])
         model.opt.disableflags |= SENSOR_DISABLE_BIT
         self._step_ready = False
-        self._bound_data = None
+        self._bound = None
         self.forward()
 
     @property
@@ -118,24 +119,25 @@ class AUVPhysics(engine.Physics):
         model.body_inertia[body] = body_inertia * mass
         mujoco.mj_setConst(model, mujoco.MjData(model))
         self._hydro = Hydrodynamics(model, scaled, self.source)
-        self._bound_data = None
+        self._bound = None
         self._step_ready = False
 
     # --- stepping -------------------------------------------------------------------------------
 
-    def _hook(self, model: mujoco.MjModel, data: mujoco.MjData):
-        """The hydrodynamic step hook bound to the current data (re-bound after `copy` or a reload)."""
-        if self._bound_data is not data:
-            self._bound_hook = self._hydro.bind(model, data)
-            self._bound_data = data
-        return self._bound_hook
+    def _reload_from_data(self, data) -> None:
+        """dm_control's (re)binding to new MuJoCo data (construction, copy, reload): drops the step binding."""
+        self._bound = None
+        super()._reload_from_data(data)
+        self._bound = None
 
-    def _apply_hydrodynamics(self, hook, data: mujoco.MjData, timestep: float) -> None:
-        """Adds Eq. (3)-(11) and the active disturbances g_0 to the step in progress."""
-        if self._disturbances:
-            hook(timestep, *self._disturbance_wrench(data))
-        else:
-            hook(timestep)
+    def _bind(self) -> tuple:
+        """What `step` reads on every call, bound once per (model, data): MuJoCo's structs, the hydrodynamic
+        stepper, the disturbance wrench and memoryviews of ctrl and the warning counts."""
+        model, data = self.model.ptr, self.data.ptr
+        self._bound = (model, data, model.opt, self._hydro.bind(model, data),
+                       lambda: self._disturbance_wrench(data), memoryview(data.ctrl),
+                       memoryview(self._warnings))
+        return self._bound
 
     def _disturbance_wrench(self, data: mujoco.MjData) -> tuple[float, float, float]:
         """Sum of the active disturbances, world frame (Fx, Fy, Mz), at the state's time and heading."""
@@ -155,32 +157,19 @@ class AUVPhysics(engine.Physics):
         a direct change of qpos or qvel, call `forward()` first. A new MuJoCo warning (e.g. an
         unstable state, which MuJoCo resets) raises PhysicsError after the call.
         """
-        model, data = self.model.ptr, self.data.ptr
-        self._check_control(data.ctrl)
-        hook = self._hook(model, data)
-        timestep = model.opt.timestep
-        warnings = self._warnings
+        model, data, opt, advance, wrench, ctrl, warnings = self._bound or self._bind()
+        if not math.isfinite(sum(ctrl)):  # one sum per call; a NaN or inf anywhere makes it non-finite
+            self._check_control(data.ctrl)
+        timestep = opt.timestep
         warnings_before = warnings.tobytes()
         start_time = data.time
-        step1, step2 = mujoco.mj_step1, mujoco.mj_step2
         if not self._step_ready:  # after forward(), reset or copy: rebuild M and the passive forces
-            step1(model, data)
-        disturbances = self._disturbances
-        if disturbances:
-            wrench = self._disturbance_wrench
-            for _ in range(nstep):
-                hook(timestep, *wrench(data))
-                step2(model, data)
-                step1(model, data)
-        else:
-            for _ in range(nstep):
-                hook(timestep)
-                step2(model, data)
-                step1(model, data)
+            mujoco.mj_step1(model, data)
+        advance(nstep, timestep, wrench if self._disturbances else None)
         self._step_ready = True
         # MuJoCo auto-resets an unstable state, which rewinds time and may leave the counts unchanged.
         if warnings.tobytes() != warnings_before or data.time < start_time + (nstep - 0.5) * timestep:
-            self._report_invalid_state(np.frombuffer(warnings_before, dtype=warnings.dtype))
+            self._report_invalid_state(np.frombuffer(warnings_before, dtype=self._warnings.dtype))
 
     def _report_invalid_state(self, warnings_before: np.ndarray) -> None:
         """Raises dm_control's PhysicsError (or logs, inside `suppress_physics_errors`) as its step would."""
@@ -197,10 +186,10 @@ class AUVPhysics(engine.Physics):
         if self._hydro is None:  # still being constructed by dm_control
             super().forward()
             return
-        model, data = self.model.ptr, self.data.ptr
+        model, data, _, advance, wrench, *_ = self._bound or self._bind()
         with self.check_invalid_state():
             mujoco.mj_forward(model, data)
-            self._apply_hydrodynamics(self._hook(model, data), data, 0.0)
+            advance(0, 0.0, wrench if self._disturbances else None)
             mujoco.mj_fwdAcceleration(model, data)
             mujoco.mj_fwdConstraint(model, data)
         self._step_ready = False
@@ -282,5 +271,5 @@ class AUVPhysics(engine.Physics):
         new._actuator_names = self._actuator_names
         new._pose_adr = self._pose_adr
         new._step_ready = False
-        new._bound_data = None
+        new._bound = None
         return new

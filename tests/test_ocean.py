@@ -561,3 +561,11 @@ def test_ideal_conditions_reproduce_the_trajectories_recorded_before_the_option(
     states = np.hstack([record.pose, record.velocity])
     index = np.linspace(0, len(states) - 1, len(expected)).round().astype(int)
     np.testing.assert_allclose(states[index], expected, rtol=0, atol=1e-12)
+
+
+def test_reproduce_refuses_unknown_sections(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["reproduce", "--sections", "ocean,weather", "--out", str(tmp_path / "r.md")])
+    assert exit_info.value.code == 2
+    assert "weather" in capsys.readouterr().err
+    assert not (tmp_path / "r.md").exists()
