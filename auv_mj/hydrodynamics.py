@@ -246,9 +246,10 @@ class Hydrodynamics:
         timesteps stay stable at any sway speed.
 
         This is the simulator's hot loop, written for CPython: the arrays are read and written through
-        memoryviews (plain floats, no NumPy scalars), the coefficients are locals, MuJoCo's functions are
-        called directly and the force of `body_force` is inlined with the very same arithmetic (the same
-        floating-point result, bit for bit; tests/test_hydrodynamics.py checks the two agree).
+        memoryviews (plain floats, no NumPy scalars), the coefficients are closure locals, MuJoCo's functions
+        are called directly, and the force of `body_force` is inlined in the same order of operations (so
+        the same floating-point values; terms whose coefficient is zero are skipped, as they add exactly
+        nothing). tests/test_hydrodynamics.py checks the two agree, with and without cross-flow terms.
         """
         qpos, qvel, qfrc, M = (memoryview(a) for a in (data.qpos, data.qvel, data.qfrc_passive, data.M))
         wind = memoryview(model.opt.wind)
@@ -264,16 +265,14 @@ class Hydrodynamics:
         X_uu, Y_uv, Y_ur, N_uv, N_ur = c.X_uu, c.Y_uv, c.Y_ur, c.N_uv, c.N_ur
         Y_vv, Y_vr, Y_rv, Y_rr = c.Y_vv, c.Y_vr, c.Y_rv, c.Y_rr
         N_vv, N_vr, N_rv, N_rr = c.N_vv, c.N_vr, c.N_rv, c.N_rr
+        cross_flow = any((Y_vr, Y_rv, N_vr, N_rv))  # REMUS has none: their zero terms are skipped
         factor, step1, step2 = mujoco.mj_factorM, mujoco.mj_step1, mujoco.mj_step2
         cos, sin = math.cos, math.sin
 
         def advance(nstep: int, dt: float, wrench: Callable[[], tuple[float, float, float]] | None = None) -> None:
-            fx = fy = mz = 0.0
             wx, wy = wind[0], wind[1]  # the current changes between calls, not within one
             implicit_u, implicit_v, implicit_r = 2.0 * dt * k_u, dt * k_v, 2.0 * dt * k_r
             for _ in range(nstep if nstep > 0 else 1):
-                if wrench is not None:
-                    fx, fy, mz = wrench()
                 psi = qpos[i_psi]
                 xd = qvel[ix] - wx
                 yd = qvel[iy] - wy
@@ -282,17 +281,27 @@ class Hydrodynamics:
                 sp = sin(psi)
                 u = cp * xd + sp * yd
                 v = cp * yd - sp * xd
-                au = abs(u)
-                av = abs(v)
-                ar = abs(r)
+                au = u if u >= 0.0 else -u  # abs() without the call; a -0.0 here changes no sum
+                av = v if v >= 0.0 else -v
+                ar = r if r >= 0.0 else -r
                 X = neg_munk * r * v + a23 * r * r + X_uu * au * u
-                Y = (neg_munk * u * r + (Y_vv * av + Y_vr * ar) * v + (Y_rv * av + Y_rr * ar) * r
-                     + Y_uv * u * v + Y_ur * u * r)
-                N = (munk * u * v + (N_vv * av + N_vr * ar) * v + (N_rv * av + N_rr * ar) * r
-                     + N_uv * u * v + N_ur * u * r)
-                qfrc[ix] += cp * X - sp * Y + fx
-                qfrc[iy] += sp * X + cp * Y + fy
-                qfrc[ir] += N + mz
+                if cross_flow:
+                    Y = (neg_munk * u * r + (Y_vv * av + Y_vr * ar) * v + (Y_rv * av + Y_rr * ar) * r
+                         + Y_uv * u * v + Y_ur * u * r)
+                    N = (munk * u * v + (N_vv * av + N_vr * ar) * v + (N_rv * av + N_rr * ar) * r
+                         + N_uv * u * v + N_ur * u * r)
+                else:  # the same sums without their zero terms, which add exactly nothing
+                    Y = neg_munk * u * r + Y_vv * av * v + Y_rr * ar * r + Y_uv * u * v + Y_ur * u * r
+                    N = munk * u * v + N_vv * av * v + N_rr * ar * r + N_uv * u * v + N_ur * u * r
+                if wrench is None:
+                    qfrc[ix] += cp * X - sp * Y
+                    qfrc[iy] += sp * X + cp * Y
+                    qfrc[ir] += N
+                else:
+                    fx, fy, mz = wrench()
+                    qfrc[ix] += cp * X - sp * Y + fx
+                    qfrc[iy] += sp * X + cp * Y + fy
+                    qfrc[ir] += N + mz
                 b11 = a11 + implicit_u * au
                 excess = implicit_v * av - sway_mass
                 b22 = a22 + excess if excess > 0.0 else a22

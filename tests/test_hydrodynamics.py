@@ -108,9 +108,12 @@ def test_the_reference_is_nontrivial():
 
 # --- the current: relative velocity, drift, Galilean invariance -------------------------------------------
 
-def test_force_is_the_still_water_force_at_the_relative_velocity():
-    """After forward(), qfrc_passive is R(psi) body_force(u_r, v_r, r), with nu_r = nu - R^T V_c."""
-    physics = new_physics()
+@pytest.mark.parametrize("cross_flow", [{}, {"Y_vr": -40.0, "Y_rv": -6.0, "N_vr": 3.0, "N_rv": -20.0}],
+                         ids=["REMUS", "with cross-flow terms"])
+def test_force_is_the_still_water_force_at_the_relative_velocity(cross_flow):
+    """After forward(), qfrc_passive is R(psi) body_force(u_r, v_r, r), with nu_r = nu - R^T V_c: the step's
+    inlined force is `body_force`, for REMUS (no cross-flow terms) and for a hull with them."""
+    physics = new_physics(xml=vehicle_xml_with(**cross_flow))
     rng = np.random.default_rng(3)
     for psi, u, v, r, vcx, vcy in rng.uniform([-3, -2, -1, -1, -0.5, -0.5], [3, 2, 1, 1, 0.5, 0.5], size=(50, 6)):
         physics.model.opt.wind[:2] = vcx, vcy
