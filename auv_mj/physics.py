@@ -118,9 +118,15 @@ class AUVPhysics(engine.Physics):
         model.body_mass[body] = body_mass * mass
         model.body_inertia[body] = body_inertia * mass
         mujoco.mj_setConst(model, mujoco.MjData(model))
-        self._hydro = Hydrodynamics(model, scaled, self.source)
-        self._bound = None
-        self._step_ready = False
+        try:
+            self._hydro = Hydrodynamics(model, scaled, self.source)
+        except ValueError:
+            if coefficients or mass != 1.0:  # leave the MJCF's vehicle, not a half-scaled one
+                self.scale_vehicle()
+            raise
+        finally:
+            self._bound = None
+            self._step_ready = False
 
     # --- stepping -------------------------------------------------------------------------------
 

@@ -569,3 +569,11 @@ def test_reproduce_refuses_unknown_sections(tmp_path, capsys):
     assert exit_info.value.code == 2
     assert "weather" in capsys.readouterr().err
     assert not (tmp_path / "r.md").exists()
+
+
+def test_an_unphysical_scaling_is_refused_and_leaves_the_mjcf_vehicle():
+    physics = arena.load()
+    with pytest.raises(ValueError, match="not positive definite"):
+        physics.scale_vehicle({"Y_vdot": -2.0}, mass=0.1)  # added mass turned into negative mass
+    assert physics.hydrodynamics.coefficients == NOMINAL
+    assert physics.model.body_mass[1] == 30.48
