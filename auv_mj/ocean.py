@@ -190,7 +190,10 @@ class Conditions:
     current: CurrentModel | None = None
     """The time-varying current, or None for still water (or the MJCF's constant `wind`)."""
     thruster_lag: bool = False
-    """First-order lag on tau_u and tau_r with the vehicle MJCF's time constants (actuator `dynprm`)."""
+    """First-order lag on tau_u and tau_r with the vehicle MJCF's time constants (actuator `dynprm`): in
+    `models/auv.xml` 0.4 s for the thrust (propeller spin-up and inflow) and 0.2 s for the yaw moment
+    (rudder servos), a few tenths of a second as thruster-dynamics studies find for small vehicles
+    (Yoerger, Cooke & Slotine 1990, IEEE J. Oceanic Eng. 15(3); Fossen 2011, Ch. 9)."""
     sonar: SonarNoise | None = None
     """Range noise, dropouts and latency of the sonar, or None for exact ranges."""
     model_uncertainty: ModelUncertainty | None = None
