@@ -154,7 +154,7 @@ def obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kwargs=No
     scenario = _scenario(scenario, arena)
     task = Obstacles(scenario=scenario, random=random, **task_kwargs)
     physics = planning.Physics.load(random_obstacle_arena() if scenario == "random"
-                                    else model_path(SCENARIOS[scenario]))
+                                    else model_path(SCENARIOS[scenario]), task_kwargs.get("conditions"))
     return planning.environment(physics, task, time_limit, environment_kwargs)
 
 
@@ -166,5 +166,5 @@ def moving_obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kw
     scenario = _scenario(scenario, arena)
     task = MovingObstacles(scenario=scenario, random=random, **task_kwargs)
     physics = planning.Physics.load(random_mover_arena() if scenario == "random"
-                                    else model_path(MOVING_SCENARIOS[scenario]))
+                                    else model_path(MOVING_SCENARIOS[scenario]), task_kwargs.get("conditions"))
     return planning.environment(physics, task, time_limit, environment_kwargs)

@@ -41,13 +41,20 @@ of goals, 1 on success, 0 on a collision or leaving the map.
 Events (last_info["event"]): "collision" (a contact between the vehicle and any other geom, checked at
 every executor tick), "left_map" (outside the arena's `arena_bounds`), "goal", "subgoal", or "".
 Collisions, leaving the map and success end the episode (discount 0); the time limit truncates it
-(discount 1). "safety_violation" is Table 1's d_{1-9} >= 5 m broken: a sonar range below d_s.
+(discount 1). "safety_violation" is Table 1's d_{1-9} >= 5 m broken: a true sonar range below d_s.
 "min_clearance" is the exact distance from the hull to the nearest other geom (`mj_geomDistance`,
 capped at SONAR_RANGE), for metrics; so are "cross_track_error" (to the route's reference path, by
 default the straight legs from the start through the goals) and the executor's tracking errors
 "speed_error" (V_cmd - u) and "heading_error" (psi_cmd - psi). "tracked" marks the steps whose tracking
 errors count in the metrics: on routes of several goals (paths, tunnels) only once the vehicle has reached
 the first one, so that the drive to the path is left out, as the paper does for Tables 10-11.
+
+Conditions. `conditions="ideal"` (default) is the paper's world; "ocean" or a mapping of effects
+(`auv_mj.ocean`) adds a current (moved on at every executor tick), lagged actuators (`Physics.load` compiles
+them), a noisy, delayed sonar with dropouts (what the observation and r_avoid see; the metrics
+"safety_violation" and "min_sonar_range" keep the true ranges) and a vehicle scaled per episode that the
+executor does not know about. The ocean's seed is drawn from the task's RandomState after the route, so a
+seed gives the same layout in both.
 """
 
 from __future__ import annotations
@@ -66,7 +73,7 @@ from dm_control.suite import base
 from dm_control.utils import rewards
 from dm_env import specs
 
-from auv_mj import arena
+from auv_mj import arena, ocean
 from auv_mj.arena import SAFETY_DISTANCE
 from auv_mj.geometry import wrap_angle
 from auv_mj.physics import AUVPhysics
@@ -319,9 +326,10 @@ class Physics(AUVPhysics):
     _steps_to_tick = 0
 
     @classmethod
-    def load(cls, arena_source: str | Path | ET.Element | None) -> Physics:
-        """The vehicle in `arena_source` (an arena MJCF path or ElementTree root; see `auv_mj.arena`)."""
-        xml, source = arena.compose_xml(arena_source)
+    def load(cls, arena_source: str | Path | ET.Element | None, conditions=None) -> Physics:
+        """The vehicle in `arena_source` (an arena MJCF path or ElementTree root; see `auv_mj.arena`), compiled
+        for the task option `conditions` (`auv_mj.ocean.conditions`: lagged actuators where they ask for it)."""
+        xml, source = arena.compose_xml(arena_source, thruster_lag=ocean.conditions(conditions).thruster_lag)
         return cls.from_xml_string(xml, source=source)
 
     def set_tick(self, callback: Callable[[Physics], None] | None, period: float = EXECUTOR_DT) -> None:
@@ -398,9 +406,11 @@ class PlanningTask(base.Task):
     """
 
     def __init__(self, executor: Callable | None = None, reward: str = "suite",
-                 goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None):
+                 goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
+                 conditions="ideal"):
         """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); `reward` one of
-        REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS)."""
+        REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
+        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`)."""
         if reward not in REWARDS:
             raise ValueError(f"reward must be one of {REWARDS}, got {reward!r}")
         if observation not in OBSERVATIONS:
@@ -413,6 +423,7 @@ class PlanningTask(base.Task):
         self.reward_kind = reward
         self.observation_kind = observation
         self.goal_radius = float(goal_radius)
+        self.ocean = ocean.Ocean(conditions)
         self.last_info: dict = {}
         self._model_ptr = None
 
@@ -474,10 +485,12 @@ class PlanningTask(base.Task):
         self._sonar = None
         self.last_info = {}
         physics.set_tick(self._tick, EXECUTOR_DT)
+        self.ocean.start(physics, self.random, len(SONAR_NAMES))
 
     def _tick(self, physics: Physics) -> None:
         """The executor's 10 Hz tick: controls from the command, movers moved, contacts checked."""
         data = physics.data.ptr
+        self.ocean.tick(physics)
         psi = data.qpos[self._qpos[2]]
         u, v, r = physics.hydrodynamics.body_velocity(data)
         data.ctrl[:] = self.executor(self._command, (u, v, r, psi))
@@ -507,7 +520,8 @@ class PlanningTask(base.Task):
         """Senses, detects events, advances the goals and computes the step's reward and `last_info`."""
         data = physics.data.ptr
         position = data.qpos[self._qpos[:2]].copy()
-        self._sonar = sonar = physics.sonar()
+        true_ranges = physics.sonar()
+        self._sonar = sonar = self.ocean.sense(true_ranges)
         collision = self._collided or (data.ncon > 0 and self._vehicle_contact(physics))
         self._collided = collision
         bounds = self._bounds
@@ -523,7 +537,7 @@ class PlanningTask(base.Task):
         if passed > self._reached:
             self._reached = passed
         success = self._reached == n and not (collision or left_map)
-        nearest = float(np.min(sonar))
+        nearest, true_nearest = float(np.min(sonar)), float(np.min(true_ranges))
         r_follow = float(following_reward(self._previous, position, desired, self.goal_radius))
         r_avoid = COLLISION_REWARD if collision or left_map else avoid_reward(nearest, self._repulsion_range)
         k1, k2, k3 = REWARD_WEIGHTS
@@ -554,11 +568,11 @@ class PlanningTask(base.Task):
             "paper_reward": paper,
             "collision": collision,
             "left_map": left_map,
-            "safety_violation": nearest < SAFETY_DISTANCE,
+            "safety_violation": true_nearest < SAFETY_DISTANCE,
             "success": success,
             "is_success": success,
             "min_clearance": self._clearance(physics),
-            "min_sonar_range": nearest,
+            "min_sonar_range": true_nearest,
             "event": event,
             "goals_reached": self._reached,
             "num_goals": n,
@@ -637,7 +651,7 @@ class PlanningTask(base.Task):
         """Vehicle state, command and sonar, normalised (OBSERVATION_FIELDS); the goals in metres."""
         data = physics.data.ptr
         if self._sonar is None:
-            self._sonar = physics.sonar()
+            self._sonar = self.ocean.sense(physics.sonar())
         x, y, psi = data.qpos[self._qpos]
         u, v, r = physics.hydrodynamics.body_velocity(data)
         speed_command, heading_command = self._command
