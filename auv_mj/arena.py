@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from auv_mj import inputs
 from auv_mj.assets import model_path
 from auv_mj.physics import AUVPhysics
 
@@ -28,18 +29,21 @@ SAFETY_DISTANCE = 5.0
 MERGED_SECTIONS = ("asset", "default", "worldbody", "custom", "contact")
 PATH_SITE_PREFIX = "path_"
 MOVER_PREFIX = "mover_"
+MAX_EXTENT = 100_000.0
+"""Largest |coordinate| and size [m] anything in an arena may have (100 km; the paper's maps are 600 m)."""
+MAX_MOVER_SPEED = 10.0
+"""Fastest moving obstacle [m/s]: five times the vehicle's top commanded speed (Table 3)."""
 
 
 def _read_xml(source: str | Path | ET.Element, what: str) -> tuple[ET.Element, str]:
+    """The root of an MJCF file or element and its name for messages, within the bounds of `auv_mj.inputs`."""
     if isinstance(source, ET.Element):
-        return source, f"<{what} element>"
-    path = Path(source)
-    try:
-        return ET.parse(path).getroot(), str(path)
-    except OSError as e:
-        raise ValueError(f"{path}: cannot read {what}: {e}") from None
-    except ET.ParseError as e:
-        raise ValueError(f"{path}: not well-formed XML: {e}") from None
+        name = f"<{what} element>"
+        inputs.check_element(source, name, what)
+        return source, name
+    if not isinstance(source, (str, Path)):
+        raise ValueError(f"{what} must be a file path or an ElementTree element, got {type(source).__name__}")
+    return inputs.read_xml(source, what), str(source)
 
 
 def compose_xml(arena: str | Path | ET.Element | None = None,
@@ -65,7 +69,7 @@ def compose_xml(arena: str | Path | ET.Element | None = None,
             target = ET.SubElement(vroot, section.tag)
         for child in section:
             target.append(copy.deepcopy(child))
-    return ET.tostring(vroot, encoding="unicode"), aname
+    return ET.tostring(vroot, encoding="unicode"), aname if vehicle is None else f"{aname} with vehicle {vname}"
 
 
 def load(arena: str | Path | ET.Element | None = None, vehicle=None) -> AUVPhysics:

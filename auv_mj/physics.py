@@ -13,10 +13,19 @@ from dm_control.rl.control import PhysicsError
 
 from auv_mj.disturbances import Disturbance
 from auv_mj.hydrodynamics import Hydrodynamics, coefficients_from_xml
+from auv_mj.inputs import MAX_XML_BYTES, read_text
 from auv_mj.sonar import SONAR_NAMES, clip_ranges
+from auv_mj.vehicle import check_vehicle
 
 SUPPORTED_INTEGRATORS = (mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
 SENSOR_DISABLE_BIT = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+CONSTRAINT_DISABLE_BIT = int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+SETTLE_STATES = ((2.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (2.0, 0.5, 0.5), (-1.0, -0.5, -0.5))
+"""Body velocities (u, v, r) [m/s, m/s, rad/s] from which the load-time settle check coasts the vehicle."""
+SETTLE_STEPS = 20
+"""Physics steps of each settle run: an unstable step grows within a few steps."""
+SETTLE_GROWTH = 2.0
+"""Coasting without thrust, the kinetic energy may not grow by more than this factor (drag takes it out)."""
 
 
 class AUVPhysics(engine.Physics):
@@ -41,7 +50,7 @@ class AUVPhysics(engine.Physics):
         try:
             physics = super().from_xml_string(xml_string, assets=assets)
         except Exception as e:  # dm_control raises its own wrapper Error for compile failures
-            raise ValueError(f"{source}: MuJoCo cannot compile this model: {e}") from None
+            raise ValueError(f"{source}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
         physics._setup(coefficients, source)
         return physics
 
@@ -49,10 +58,7 @@ class AUVPhysics(engine.Physics):
     def from_xml_path(cls, file_path: str | Path):
         """Physics from an MJCF file (includes resolved relative to the file)."""
         path = Path(file_path)
-        try:
-            text = path.read_text()
-        except OSError as e:
-            raise ValueError(f"{path}: cannot read: {e}") from None
+        text = read_text(path, "vehicle MJCF", MAX_XML_BYTES)
         coefficients = coefficients_from_xml(text, str(path))
         if coefficients is None:
             raise ValueError(f"{path}: no hydrodynamic coefficients (<numeric name=\"hydro_*\">): "
@@ -60,17 +66,19 @@ class AUVPhysics(engine.Physics):
         try:
             physics = super().from_xml_path(str(path))
         except Exception as e:  # dm_control raises its own wrapper Error for compile failures
-            raise ValueError(f"{path}: MuJoCo cannot compile this model: {e}") from None
+            raise ValueError(f"{path}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
         physics._setup(coefficients, str(path))
         return physics
 
     def _setup(self, coefficients, source: str) -> None:
         model = self.model.ptr
+        check_vehicle(model, source)
         if model.opt.integrator not in SUPPORTED_INTEGRATORS:
             raise ValueError(f"{source}: integrator must be Euler or implicitfast for the hydrodynamic "
                              f"step hook, got {mujoco.mjtIntegrator(model.opt.integrator).name}")
         self._hydro = Hydrodynamics(model, coefficients, source)
         self.source = source
+        self._settle_check()
         self._disturbances: list[Disturbance] = []
         addresses = [int(model.sensor_adr[model.sensor(n).id]) for n in SONAR_NAMES]
         contiguous = addresses == list(range(addresses[0], addresses[0] + len(addresses)))
@@ -81,6 +89,62 @@ class AUVPhysics(engine.Physics):
         self._step_ready = False
         self._bound_data = None
         self.forward()
+
+    def _settle_check(self) -> None:
+        """Coasts the vehicle briefly from SETTLE_STATES (no thrust, no contacts): a model whose numerics
+        make the step diverge right after load is refused here, naming the suspicious coefficients."""
+        model = self.model.ptr
+        data = mujoco.MjData(model)
+        hook = self._hydro.bind(model, data)
+        dofs = self._hydro.dofs
+        flags = model.opt.disableflags
+        model.opt.disableflags = flags | CONSTRAINT_DISABLE_BIT
+        try:
+            for start in SETTLE_STATES:
+                mujoco.mj_resetData(model, data)
+                data.qvel[dofs] = start  # psi = 0: body and world velocities coincide
+                energy = 0.5 * float(np.dot(start, self._hydro.total_mass @ start))
+                mujoco.mj_step1(model, data)
+                nu = np.array(start)
+                for _ in range(SETTLE_STEPS):
+                    hook(model.opt.timestep)
+                    mujoco.mj_step2(model, data)
+                    mujoco.mj_step1(model, data)
+                    after = np.array(self._hydro.body_velocity(data))
+                    blown = (not np.all(np.isfinite(after))
+                             or any(data.warning[i].number for i in range(len(data.warning))))
+                    grown = 0.5 * float(after @ self._hydro.total_mass @ after) > SETTLE_GROWTH * energy
+                    if blown or grown:
+                        raise ValueError(
+                            f"{self.source}: the vehicle's dynamics diverge right after load: coasting from "
+                            f"(u, v, r) = {start} with steps of {model.opt.timestep:g} s "
+                            f"{'blows up' if blown else 'gains energy'} near (u, v, r) = "
+                            f"{tuple(np.round(nu, 3).tolist())}; suspicious numerics: {self._suspects(nu)}")
+                    nu = after
+        finally:
+            model.opt.disableflags = flags
+
+    def _suspects(self, nu) -> str:
+        """The three hydrodynamic coefficients whose terms change the velocity most in one step at `nu`.
+
+        A term F of a coefficient changes its velocity by |F| dt / m per explicit step (m: rigid-body plus
+        added mass of that degree of freedom); near or above the velocity itself the step is unstable.
+        """
+        c = self._hydro.coefficients
+        u, v, r = (float(x) for x in nu)
+        au, av, ar = abs(u), abs(v), abs(r)
+        terms = {"X_uu": (0, c.X_uu * au * u), "Y_vv": (1, c.Y_vv * av * v), "Y_vr": (1, c.Y_vr * ar * v),
+                 "Y_rv": (1, c.Y_rv * av * r), "Y_rr": (1, c.Y_rr * ar * r), "Y_uv": (1, c.Y_uv * u * v),
+                 "Y_ur": (1, c.Y_ur * u * r), "N_vv": (2, c.N_vv * av * v), "N_vr": (2, c.N_vr * ar * v),
+                 "N_rv": (2, c.N_rv * av * r), "N_rr": (2, c.N_rr * ar * r), "N_uv": (2, c.N_uv * u * v),
+                 "N_ur": (2, c.N_ur * u * r)}
+        mass = self._hydro.total_mass.diagonal()
+        dt = float(self.model.opt.timestep)
+        change = {k: abs(force) * dt / mass[dof] for k, (dof, force) in terms.items()}
+        units = ("m/s", "m/s", "rad/s")
+        ranked = sorted(change, key=lambda k: -change[k])[:3]
+        return ", ".join(f"hydro_{k} = {getattr(c, k):g} (changes {'uvr'[terms[k][0]]} by {change[k]:.3g} "
+                         f"{units[terms[k][0]]} per step)" for k in ranked)
 
     @property
     def hydrodynamics(self) -> Hydrodynamics:
@@ -147,8 +211,8 @@ class AUVPhysics(engine.Physics):
         """Raises dm_control's PhysicsError (or logs, inside `suppress_physics_errors`) as its step would."""
         names = list(mujoco.mjtWarning.__members__)
         new = [names[i] for i in np.flatnonzero(self._warnings != warnings_before)]
-        message = (f"Physics state is invalid. Warning(s) raised: {', '.join(new)}" if new else
-                   "Physics state is invalid: MuJoCo reset it during the step (time went back)")
+        message = (f"Physics state is invalid ({self.source}). Warning(s) raised: {', '.join(new)}" if new else
+                   f"Physics state is invalid ({self.source}): MuJoCo reset it during the step (time went back)")
         if self._warnings_cause_exception:
             raise PhysicsError(message)
         logging.warning(message)

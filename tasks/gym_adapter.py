@@ -27,6 +27,7 @@ import numpy as np
 from gymnasium import spaces
 
 from auv_mj.goals import GOAL_KEYS
+from tasks import options
 
 DOMAIN = "auv"
 """The suite domain of every task."""
@@ -37,6 +38,10 @@ RENDER_SIZE = (480, 480)
 """Default (height, width) of `render()` images [pixels]."""
 RENDER_DISTANCE = 30.0
 """Default height of the top-down render camera above the vehicle [m]."""
+MAX_RENDER_SIZE = 4096
+"""Largest `render()` image side [pixels]."""
+MAX_RENDER_DISTANCE = 10_000.0
+"""Highest render camera [m]."""
 ENTRY_POINT = "tasks.gym_adapter:AUVGymEnv"
 GYM_IDS = {
     "auv_mj/Goal-v0": "goal",
@@ -70,13 +75,17 @@ class AUVGymEnv(gymnasium.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
                              f"got {render_mode!r}")
+        if task_kwargs is not None and not isinstance(task_kwargs, Mapping):
+            raise ValueError(f"task_kwargs must be a dict of task options, got {options.shown(task_kwargs)}")
         task_kwargs = dict(task_kwargs or {})
         if "random" in task_kwargs:
             raise ValueError("seed the task through reset(seed=...), not task_kwargs['random']")
         self.task_name = task_name
         self.render_mode = render_mode
-        self.render_size = tuple(render_size)
-        self.render_distance = float(render_distance)
+        self.render_size = options.pair("render_size", render_size, ((1, MAX_RENDER_SIZE, "px"),) * 2)
+        self.render_size = tuple(int(v) for v in self.render_size)
+        self.render_distance = options.number("render_distance", render_distance, 0.0, MAX_RENDER_DISTANCE, "m",
+                                              low_open=True)
         environment_kwargs = dict(environment_kwargs or {})
         self._env = suite.load(DOMAIN, task_name, task_kwargs=task_kwargs,
                                environment_kwargs=environment_kwargs)
@@ -131,10 +140,15 @@ class AUVGymEnv(gymnasium.Env):
         return self._observation(time_step.observation), self._info()
 
     def step(self, action):
-        """One task step; `terminated` on a LAST step with discount 0, `truncated` at the time limit."""
+        """One task step; `terminated` on a LAST step with discount 0, `truncated` at the time limit.
+
+        The action follows the suite's one convention (`tasks.actions`): not numbers (strings included),
+        the wrong shape or NaN/inf raise ValueError; a finite action outside the space is clipped to it with
+        an `ActionClipped` warning, once per task.
+        """
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
-        time_step = self._env.step(np.asarray(action, dtype=np.float64))
+        time_step = self._env.step(action)  # checked by the task, as on the dm_env face (tasks.actions)
         terminated = bool(time_step.last() and time_step.discount == 0.0)
         truncated = bool(time_step.last() and not terminated)
         self._needs_reset = time_step.last()

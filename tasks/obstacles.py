@@ -26,7 +26,7 @@ import numpy as np
 
 from auv_mj import arena
 from auv_mj.assets import model_path
-from tasks import planning
+from tasks import options, planning
 from tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 900.0
@@ -105,9 +105,7 @@ class Obstacles(planning.PlanningTask):
 
     def __init__(self, scenario: str = "random", **kwargs):
         """`scenario` is "random" or a key of SCENARIOS; other kwargs go to `PlanningTask`."""
-        if scenario != "random" and scenario not in SCENARIOS:
-            raise ValueError(f"unknown obstacles scenario {scenario!r}; "
-                             f"valid: random, {', '.join(SCENARIOS)}")
+        options.choice("scenario", scenario, ("random", *SCENARIOS))
         super().__init__(**kwargs)
         self.scenario = scenario
 
@@ -152,9 +150,7 @@ class MovingObstacles(planning.PlanningTask):
 
     def __init__(self, scenario: str = "random", **kwargs):
         """`scenario` is "random" or a key of MOVING_SCENARIOS; other kwargs go to `PlanningTask`."""
-        if scenario != "random" and scenario not in MOVING_SCENARIOS:
-            raise ValueError(f"unknown moving_obstacles scenario {scenario!r}; "
-                             f"valid: random, {', '.join(MOVING_SCENARIOS)}")
+        options.choice("scenario", scenario, ("random", *MOVING_SCENARIOS))
         super().__init__(**kwargs)
         self.scenario = scenario
 
@@ -196,8 +192,8 @@ def obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kwargs=No
               **task_kwargs):
     """Reach a target past static unknown obstacles (Table 7; scenario="random"|"a"|"b")."""
     task = Obstacles(scenario=scenario, random=random, **task_kwargs)
-    physics = planning.Physics.load(random_obstacle_arena() if scenario == "random"
-                                    else model_path(SCENARIOS[scenario]))
+    physics = (planning.Physics.load(random_obstacle_arena()) if scenario == "random"
+               else planning.load_arena(model_path(SCENARIOS[scenario]), need_path=False))
     return planning.environment(physics, task, time_limit, environment_kwargs)
 
 
@@ -206,6 +202,6 @@ def moving_obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kw
                      **task_kwargs):
     """Reach a target past moving unknown obstacles (Table 8; scenario="random"|"a"|"b")."""
     task = MovingObstacles(scenario=scenario, random=random, **task_kwargs)
-    physics = planning.Physics.load(random_mover_arena() if scenario == "random"
-                                    else model_path(MOVING_SCENARIOS[scenario]))
+    physics = (planning.Physics.load(random_mover_arena()) if scenario == "random"
+               else planning.load_arena(model_path(MOVING_SCENARIOS[scenario]), need_path=False))
     return planning.environment(physics, task, time_limit, environment_kwargs)

@@ -54,9 +54,10 @@ class Tunnel(planning.PlanningTask):
 def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, **task_kwargs):
     """Tunnel inspection (Sec. 4.3); `arena` is an arena path or element (default the Table 12 tunnel).
 
-    time_limit defaults to `route_time_limit` of the start-to-goal path length.
+    The arena is refused (ValueError naming it and its problems) unless `auv-mj check-arena` finds it
+    usable. time_limit defaults to `route_time_limit` of the start-to-goal path length.
     """
-    physics = planning.Physics.load(model_path(DEFAULT_ARENA) if arena is None else arena)
+    physics = planning.load_arena(model_path(DEFAULT_ARENA) if arena is None else arena, need_path=True)
     task = Tunnel(random=random, **task_kwargs)
     if time_limit is None:
         info = arena_info(physics)

@@ -111,7 +111,7 @@ def test_suite_lists_every_task_and_rejects_unknown_names():
         suite.load("auv", "flying")
     with pytest.raises(ValueError, match="valid tags"):
         suite.tasks_by_tag("nope")
-    with pytest.raises(ValueError, match="valid: random, a1"):
+    with pytest.raises(ValueError, match="scenario must be one of 'random', 'a1'"):
         suite.load("auv", "goal", task_kwargs={"scenario": "z"})
     with pytest.raises(ValueError, match="reward must be"):
         suite.load("auv", "goal", task_kwargs={"reward": "dense"})

@@ -327,8 +327,9 @@ def test_cli_errors_exit_nonzero_naming_the_problem(tmp_path):
     bad = _csv(tmp_path, "x,y\n0,0\n100,zero\n")
     built = subprocess.run([str(AUV_MJ), "tunnel", str(bad), "--width", "30"], capture_output=True, text=True,
                            timeout=120)
-    assert built.returncode == 1
-    assert "row 3, column y: 'zero' is not a number" in built.stderr
+    assert built.returncode == 2  # a usage error: one line, no file written
+    assert "row 3, column y: 'zero' is not a number" in built.stderr and built.stderr.count("\n") == 1
+    assert not bad.with_suffix(".xml").exists()
     no_goal = _straight(tmp_path, lambda e: e.find("worldbody").remove(_site(e, "goal")))
     checked = subprocess.run([str(AUV_MJ), "check-arena", str(no_goal), "--no-png"], capture_output=True,
                              text=True, timeout=120)

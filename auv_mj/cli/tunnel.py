@@ -1,4 +1,9 @@
-"""`auv-mj tunnel`: build a tunnel arena MJCF from a centreline CSV/JSON (`auv_mj.tunnels`)."""
+"""`auv-mj tunnel`: build a tunnel arena MJCF from a centreline CSV/JSON (`auv_mj.tunnels`).
+
+Every option is checked by type and range as it is parsed, the output path before any work, and the built
+arena by `auv-mj check-arena`'s own checks before it is written (atomically): a refused spec is a usage
+error (exit 2, one line naming the file or option) and leaves no file behind.
+"""
 
 from __future__ import annotations
 
@@ -9,10 +14,20 @@ from pathlib import Path
 
 import numpy as np
 
+from auv_mj.arena_check import check_arena
+from auv_mj.cli.options import bounded_float, bounded_int, check_output, usage_error
 from auv_mj.tunnels import (
     BOUNDS_MARGIN,
     END_CLEARANCE,
+    MAX_END_CLEARANCE,
+    MAX_MARGIN,
+    MAX_MERGE_TOLERANCE,
+    MAX_PATH_SPACING,
+    MAX_SMOOTH_ITERATIONS,
+    MAX_WALL_THICKNESS,
+    MAX_WIDTH,
     MERGE_TOLERANCE,
+    MIN_PATH_SPACING,
     PATH_SPACING,
     SMOOTH_ITERATIONS,
     WALL_THICKNESS,
@@ -24,29 +39,44 @@ from auv_mj.tunnels import (
     tunnel_element,
 )
 
+MAX_MODEL_NAME = 100
+"""Longest --name."""
+
+
+def model_name(text: str) -> str:
+    """argparse type of --name: printable text without quotes or angle brackets, at most MAX_MODEL_NAME long."""
+    if not (text and len(text) <= MAX_MODEL_NAME and text.isprintable() and not set(text) & set("<>&\"'")):
+        raise argparse.ArgumentTypeError(f"must be 1 to {MAX_MODEL_NAME} printable characters without <>&\"', "
+                                         f"got {text[:60]!r}")
+    return text
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj tunnel`."""
     parser.add_argument("centreline", help="CSV of x,y[,width] rows [m] (header optional) or JSON")
-    parser.add_argument("--width", type=float, help="constant tunnel width [m] (unless per point)")
+    parser.add_argument("--width", type=bounded_float(0.0, MAX_WIDTH, "m", low_open=True),
+                        help="constant tunnel width [m] (unless per point)")
     parser.add_argument("-o", "--output", help="arena MJCF to write (default: the centreline's name, .xml)")
     parser.add_argument("--smooth", action="store_true", help="round the corners (Chaikin corner cutting)")
-    parser.add_argument("--smooth-iterations", type=int, default=SMOOTH_ITERATIONS,
-                        help=f"Chaikin rounds of --smooth (default {SMOOTH_ITERATIONS})")
+    parser.add_argument("--smooth-iterations", type=bounded_int(0, MAX_SMOOTH_ITERATIONS), default=SMOOTH_ITERATIONS,
+                        help=f"Chaikin rounds of --smooth (default {SMOOTH_ITERATIONS}, at most "
+                             f"{MAX_SMOOTH_ITERATIONS})")
     parser.add_argument("--closed", action="store_true", help="the centreline is a loop: no end caps")
     parser.add_argument("--obstacle", action="append", default=[], metavar="X,Y,LENGTH,WIDTH[,ANGLE[,NAME]]",
                         help="a known box obstacle (angle in deg); repeatable")
     parser.add_argument("--mover", action="append", default=[], metavar="X0,Y0,X1,Y1,SPEED,RADIUS[,NAME]",
                         help="a moving cylinder going back and forth (m, m/s); repeatable")
-    parser.add_argument("--spacing", type=float, default=PATH_SPACING,
-                        help=f"distance between path sites [m] (default {PATH_SPACING:g})")
-    parser.add_argument("--wall-thickness", type=float, default=WALL_THICKNESS)
-    parser.add_argument("--end-clearance", type=float, default=END_CLEARANCE,
+    parser.add_argument("--spacing", type=bounded_float(MIN_PATH_SPACING, MAX_PATH_SPACING, "m"),
+                        default=PATH_SPACING, help=f"distance between path sites [m] (default {PATH_SPACING:g})")
+    parser.add_argument("--wall-thickness", type=bounded_float(0.0, MAX_WALL_THICKNESS, "m", low_open=True),
+                        default=WALL_THICKNESS)
+    parser.add_argument("--end-clearance", type=bounded_float(0.0, MAX_END_CLEARANCE, "m"), default=END_CLEARANCE,
                         help=f"tunnel length past start and goal [m] (default {END_CLEARANCE:g})")
-    parser.add_argument("--margin", type=float, default=BOUNDS_MARGIN, help="arena_bounds margin [m]")
-    parser.add_argument("--tolerance", type=float, default=MERGE_TOLERANCE,
+    parser.add_argument("--margin", type=bounded_float(0.0, MAX_MARGIN, "m"), default=BOUNDS_MARGIN,
+                        help="arena_bounds margin [m]")
+    parser.add_argument("--tolerance", type=bounded_float(0.0, MAX_MERGE_TOLERANCE, "m"), default=MERGE_TOLERANCE,
                         help=f"wall merging tolerance [m] (default {MERGE_TOLERANCE:g})")
-    parser.add_argument("--name", default=None, help="model name (default: the output's stem)")
+    parser.add_argument("--name", type=model_name, default=None, help="model name (default: the output's stem)")
 
 
 def _command_line() -> str | None:
@@ -57,7 +87,13 @@ def _command_line() -> str | None:
 
 def run(args: argparse.Namespace) -> int:
     """`auv-mj tunnel`: writes the arena and prints what it holds."""
-    output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
+    try:
+        output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
+    except ValueError:
+        usage_error(args, f"give the output file with -o: {args.centreline[:60]!r} has no name to derive one from")
+    check_output(args, output, "--output")
+    if output.resolve() == Path(args.centreline).resolve():
+        usage_error(args, f"--output {output} would overwrite the centreline")
     try:
         line = read_centreline(args.centreline)
         obstacles = [Obstacle.parse(text) for text in args.obstacle]
@@ -69,9 +105,17 @@ def run(args: argparse.Namespace) -> int:
                                merge_tolerance=args.tolerance)
         element = tunnel_element(layout, obstacles, movers, args.wall_thickness, args.name or output.stem,
                                  _command_line())
+        report = check_arena(element)
+        if not report.ok:
+            raise ValueError(f"{args.centreline}: the tunnel would not be a usable arena: {report.problems[0]}"
+                             + (f" (and {len(report.problems) - 1} more problems)" if len(report.problems) > 1
+                                else ""))
+    except ValueError as e:
+        usage_error(args, " ".join(str(e).split()))
+    try:
         save(element, output)
-    except (ValueError, OSError) as e:
-        print(f"auv-mj tunnel: error: {e}", file=sys.stderr)
+    except OSError as e:
+        print(f"{args.prog}: error: cannot write {output}: {e.strerror or e}", file=sys.stderr)
         return 1
     length = float(np.sum(np.hypot(*np.diff(layout.path, axis=0).T)))
     print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, "
