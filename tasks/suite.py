@@ -10,6 +10,7 @@ goal, waypoints, obstacles, moving_obstacles, tunnel, path_line, path_curve (pla
 from __future__ import annotations
 
 import argparse
+import re
 import time
 
 import numpy as np
@@ -43,7 +44,8 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     """The environment of `task_name` in `domain_name` ("auv"), as `dm_control.suite.load`.
 
     `task_kwargs` go to the task's factory (e.g. {"random": 0, "reward": "paper", "scenario": "a"});
-    `environment_kwargs` to `control.Environment`. Raises ValueError naming the valid choices.
+    `environment_kwargs` to `control.Environment`. Raises ValueError naming the valid choices, or the option
+    the task refuses (`tasks.options`).
     """
     if domain_name != DOMAIN:
         raise ValueError(f"domain {domain_name!r} does not exist; valid domains: {DOMAIN}")
@@ -53,7 +55,13 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     task_kwargs = dict(task_kwargs or {})
     if environment_kwargs is not None:
         task_kwargs["environment_kwargs"] = environment_kwargs
-    env = SUITE[task_name](**task_kwargs)
+    try:
+        env = SUITE[task_name](**task_kwargs)
+    except TypeError as e:  # an option the task does not take: a bad option, as any other
+        unknown = re.search(r"keyword argument '([^']*)'", str(e))
+        if unknown is None:
+            raise
+        raise ValueError(f"task {task_name!r} has no option {unknown.group(1)!r} (or it is given twice)") from None
     env.task.visualize_reward = visualize_reward
     return env
 

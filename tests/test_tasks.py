@@ -76,6 +76,7 @@ def small_tunnel(length: float = 120.0, half_width: float = 10.0, heading: float
     ET.SubElement(world, "site", name="start", pos="0 0 0", euler=f"0 0 {heading}")
     for i, x in enumerate(np.arange(0.0, length + 1e-9, 10.0)):
         ET.SubElement(world, "site", name=f"path_{i}", pos=f"{x} 0 0")
+    ET.SubElement(world, "site", name="goal", pos=f"{length} 0 0")
     if mover is not None:
         x0, y0, x1, y1, speed, radius = mover
         body = ET.SubElement(world, "body", name="mover_test", mocap="true", pos=f"{x0} {y0} 0")

@@ -17,6 +17,7 @@ import numpy as np
 
 from auv_mj import glbackend
 from auv_mj.cli import policies
+from auv_mj.cli.options import check_output, fps, pixels, seed_int, usage_error
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, record_episode
 
 TASK = "tunnel"
@@ -60,10 +61,10 @@ def format_rows(rows: dict[str, dict[str, float]]) -> str:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj demo`."""
     parser.add_argument("--out", type=Path, default=Path("demo"), help="output folder (default: demo/)")
-    parser.add_argument("--seed", type=int, default=SEED, help="task seed")
-    parser.add_argument("--width", type=int, default=1280)
-    parser.add_argument("--height", type=int, default=720)
-    parser.add_argument("--fps", type=float, default=30.0)
+    parser.add_argument("--seed", type=seed_int, default=SEED, help="task seed")
+    parser.add_argument("--width", type=pixels, default=1280)
+    parser.add_argument("--height", type=pixels, default=720)
+    parser.add_argument("--fps", type=fps, default=30.0)
     parser.add_argument("--policy", default=SYSTEM,
                         help="policy to demonstrate (default: two-layer = shipped planner + executor)")
     parser.add_argument("--no-video", action="store_true", help="skip the video (table and plot only)")
@@ -74,6 +75,9 @@ def run(args: argparse.Namespace) -> int:
     from auv_mj import render
     from auv_mj.cli import plots
 
+    if args.out.exists() and not args.out.is_dir():
+        usage_error(args, f"--out {args.out} is a file, not a folder")
+    check_output(args, args.out / "tunnel_episode.npz", "--out")
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     try:

@@ -92,6 +92,14 @@ def bounded_float(low: float, high: float, unit: str = "", *, low_open: bool = F
 
 seed_int = bounded_int(*SEED_RANGE)
 """argparse type of `--seed`."""
+MAX_PIXELS = 4096
+"""Largest image or video side [pixels] a command draws."""
+pixels = bounded_int(16, MAX_PIXELS)
+"""argparse type of --width / --height of images and videos."""
+MAX_FPS = 240.0
+"""Highest video frame rate [frames/s]."""
+fps = bounded_float(0.0, MAX_FPS, "frames/s", low_open=True)
+"""argparse type of --fps."""
 
 
 def add_episode_options(parser: argparse.ArgumentParser, *, task: str | None = "goal",

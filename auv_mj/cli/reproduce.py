@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj.cli import evaluate, policies
+from auv_mj.cli.options import positive_int
 from auv_mj.episode import record_episode
 
 PAPER_TABLE9 = {  # Table 9: MAE of speed [m/s] and heading [rad] per disturbance phase
@@ -249,7 +250,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder of the Fig. 8 training logs (her-ddpg-seed*.csv, ddpg-seed*.csv)")
     parser.add_argument("--peer-runs", type=Path, default=Path("docs/runs/peer"),
                         help="folder of the training-speed logs (auv-mj-*.csv, sb3-*.csv)")
-    parser.add_argument("--episodes", type=int, default=100, help="held-out episodes for the random targets")
+    parser.add_argument("--episodes", type=positive_int, default=100, help="held-out episodes for the random targets")
     parser.add_argument("--quick", action="store_true", help="10 episodes for the random targets")
 
 

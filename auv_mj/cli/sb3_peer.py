@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from auv_mj.cli.options import positive_int, seed_int
+
 TARGET = 0.9
 WINDOW = 20
 
@@ -83,8 +85,8 @@ def train_sb3(steps: int, csv_path: Path, seed: int = 0) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Trains the SB3 peer and prints its time to TARGET success beside ours (if --ours is given)."""
     parser = argparse.ArgumentParser(prog="python -m auv_mj.cli.sb3_peer", description=__doc__)
-    parser.add_argument("--steps", type=int, default=60_000)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--steps", type=positive_int, default=60_000)
+    parser.add_argument("--seed", type=seed_int, default=0)
     parser.add_argument("--csv", type=Path, default=Path("runs/sb3-peer/progress.csv"))
     parser.add_argument("--ours", type=Path, default=None, help="progress.csv of an `auv-mj train her-ddpg` run")
     args = parser.parse_args(argv)

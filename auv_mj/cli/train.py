@@ -20,7 +20,7 @@ import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from agents.checkpoint import config_from_dict, read_checkpoint
 from agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
 from agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
-from auv_mj.cli.options import json_object, positive_int, task_kwargs, usage_error
+from auv_mj.cli.options import json_object, positive_int, seed_int, task_kwargs, usage_error
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
@@ -66,7 +66,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
     parser.add_argument("--init", type=Path, metavar="CHECKPOINT",
                         help="start a new run from this checkpoint's networks (fine-tuning)")
-    parser.add_argument("--seed", type=int, help="run seed (default 0, or the checkpoint's)")
+    parser.add_argument("--seed", type=seed_int, help="run seed (default 0, or the checkpoint's)")
     parser.add_argument("--device", help="torch device, cpu or cuda (default cpu, or the checkpoint's)")
     parser.add_argument("--checkpoint-every", type=positive_int, default=100, help="episodes between checkpoints")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
