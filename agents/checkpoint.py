@@ -214,6 +214,8 @@ def check_checkpoint(tensors: Mapping[str, Any], meta: Mapping[str, Any], path: 
                              f"{list(config.hidden_sizes)} need {want}")
     pending = {f"obs_norm_pending.{k}": shape for k, shape in (("count", ()), ("sum", (obs_dim,)),
                                                                  ("sumsq", (obs_dim,)))}
+    if 0 < sum(name in tensors for name in pending) < len(pending):
+        raise ValueError(f"{where}: it holds some but not all of the tensors {sorted(pending)}")
     for name, want in pending.items():
         if name in tensors and tuple(tensors[name].shape) != want:
             raise ValueError(f"{where}: tensor {name} has shape {tuple(tensors[name].shape)}, obs_dim {obs_dim} "
@@ -229,7 +231,8 @@ def _load_module(module: nn.Module, tensors: Mapping[str, torch.Tensor], prefix:
     try:
         module.load_state_dict(state, strict=True)
     except RuntimeError as exc:
-        raise ValueError(f"checkpoint {path} does not fit the architecture of {prefix!r}: {exc}") from exc
+        raise ValueError(f"checkpoint {path} does not fit the architecture of {prefix!r}: "
+                         f"{' '.join(str(exc).split())}") from None
 
 
 def _load_optimizer(opt: torch.optim.Optimizer, tensors: Mapping[str, torch.Tensor], prefix: str,
@@ -246,7 +249,8 @@ def _load_optimizer(opt: torch.optim.Optimizer, tensors: Mapping[str, torch.Tens
     try:
         opt.load_state_dict(full)
     except (RuntimeError, ValueError, KeyError) as exc:
-        raise ValueError(f"checkpoint {path}: optimiser state {prefix!r} does not fit: {exc}") from exc
+        raise ValueError(f"checkpoint {path}: optimiser state {prefix!r} does not fit: "
+                         f"{' '.join(str(exc).split())}") from None
 
 
 def load_agent(path: str | Path, device: str | None = None, config: DDPGConfig | None = None,

@@ -43,7 +43,7 @@ def _read_xml(source: str | Path | ET.Element, what: str) -> tuple[ET.Element, s
         return source, name
     if not isinstance(source, (str, Path)):
         raise ValueError(f"{what} must be a file path or an ElementTree element, got {type(source).__name__}")
-    return inputs.read_xml(source, what), str(source)
+    return inputs.read_xml(source, what), inputs.source_name(source)
 
 
 def compose_xml(arena: str | Path | ET.Element | None = None,

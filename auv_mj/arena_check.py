@@ -65,7 +65,7 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
 
     `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8).
     """
-    name = str(source) if not isinstance(source, ET.Element) else "<arena element>"
+    name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
     report = ArenaReport(name)
     try:
         physics = load(source)
@@ -107,7 +107,7 @@ def require_usable(source: str | Path | ET.Element, need_path: bool = True) -> N
         inputs.check_element(source, name, "arena")
         content = ET.tostring(source, encoding="unicode").encode()
     elif isinstance(source, (str, Path)):
-        name = str(source)
+        name = inputs.source_name(source)
         content = inputs.read_bytes(source, "arena", inputs.MAX_XML_BYTES)
     else:
         raise ValueError(f"an arena is a file path or an ElementTree element, got {type(source).__name__}")

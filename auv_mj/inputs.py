@@ -9,6 +9,8 @@ level, MuJoCo's compiler once per body). The checks themselves are scans and can
 
 from __future__ import annotations
 
+import os
+import stat
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -27,16 +29,28 @@ MAX_JSON_DEPTH = 32
 _READ_CHUNK = 1 << 16
 
 
+def source_name(path: str | Path) -> str:
+    """How messages name a file: its path, quoted and escaped if it holds control characters (one line)."""
+    text = str(path)
+    return text if text.isprintable() else repr(text)
+
+
 def read_bytes(path: str | Path, what: str, limit: int) -> bytes:
     """The bytes of file `path` (at most `limit`); ValueError naming the file and `what` it should be."""
-    path = Path(path)
+    name = source_name(path)
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO or a device could block or never end
+            raise ValueError(f"{name}: cannot read {what}: not a regular file")
         with open(path, "rb") as f:
             data = f.read(limit + 1)
     except OSError as e:
-        raise ValueError(f"{path}: cannot read {what}: {e.strerror or e}") from None
+        raise ValueError(f"{name}: cannot read {what}: {e.strerror or e}") from None
+    except (TypeError, ValueError) as e:  # an embedded NUL, or not a path at all
+        if str(e).startswith(name):
+            raise
+        raise ValueError(f"{name}: cannot read {what}: {e}") from None
     if len(data) > limit:
-        raise ValueError(f"{path}: {what} larger than {limit // 2**20} MiB is refused")
+        raise ValueError(f"{name}: {what} larger than {limit // 2**20} MiB is refused")
     return data
 
 
@@ -54,7 +68,7 @@ def decode_text(data: bytes, source: str, what: str) -> str:
 
 def read_text(path: str | Path, what: str, limit: int = MAX_TEXT_BYTES) -> str:
     """The UTF-8 text of file `path`, bounded by `limit` bytes; ValueError naming the file."""
-    return decode_text(read_bytes(path, what, limit), str(path), what)
+    return decode_text(read_bytes(path, what, limit), source_name(path), what)
 
 
 def json_depth(text: str) -> int:
@@ -124,7 +138,7 @@ def parse_xml(data: str | bytes, source: str, what: str = "MJCF") -> ET.Element:
 
 def read_xml(path: str | Path, what: str = "MJCF") -> ET.Element:
     """The root element of the XML file `path`, bounded as `parse_xml`; ValueError naming the file."""
-    return parse_xml(read_bytes(path, what, MAX_XML_BYTES), str(path), what)
+    return parse_xml(read_bytes(path, what, MAX_XML_BYTES), source_name(path), what)
 
 
 def check_element(root: ET.Element, source: str, what: str = "MJCF") -> None:

@@ -13,7 +13,7 @@ from dm_control.rl.control import PhysicsError
 
 from auv_mj.disturbances import Disturbance
 from auv_mj.hydrodynamics import Hydrodynamics, coefficients_from_xml
-from auv_mj.inputs import MAX_XML_BYTES, read_text
+from auv_mj.inputs import MAX_XML_BYTES, read_text, source_name
 from auv_mj.sonar import SONAR_NAMES, clip_ranges
 from auv_mj.vehicle import check_vehicle
 
@@ -58,16 +58,17 @@ class AUVPhysics(engine.Physics):
     def from_xml_path(cls, file_path: str | Path):
         """Physics from an MJCF file (includes resolved relative to the file)."""
         path = Path(file_path)
+        name = source_name(path)
         text = read_text(path, "vehicle MJCF", MAX_XML_BYTES)
-        coefficients = coefficients_from_xml(text, str(path))
+        coefficients = coefficients_from_xml(text, name)
         if coefficients is None:
-            raise ValueError(f"{path}: no hydrodynamic coefficients (<numeric name=\"hydro_*\">): "
+            raise ValueError(f"{name}: no hydrodynamic coefficients (<numeric name=\"hydro_*\">): "
                              "not an auv-mj vehicle model")
         try:
             physics = super().from_xml_path(str(path))
         except Exception as e:  # dm_control raises its own wrapper Error for compile failures
-            raise ValueError(f"{path}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
-        physics._setup(coefficients, str(path))
+            raise ValueError(f"{name}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
+        physics._setup(coefficients, name)
         return physics
 
     def _setup(self, coefficients, source: str) -> None:

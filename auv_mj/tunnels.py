@@ -239,8 +239,8 @@ def read_centreline(path: str | Path) -> Centreline:
     path = Path(path)
     text = inputs.read_text(path, "the centreline")
     if path.suffix.lower() == ".json" or text.lstrip().startswith(("[", "{")):
-        return _parse_json(text, str(path))
-    return _parse_csv(text, str(path))
+        return _parse_json(text, inputs.source_name(path))
+    return _parse_csv(text, inputs.source_name(path))
 
 
 def _parse_csv(text: str, source: str) -> Centreline:
