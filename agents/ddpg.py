@@ -185,6 +185,8 @@ class DDPG:
         config = config or DDPGConfig()
         self.config, self.obs_dim, self.act_dim = config, obs_dim, act_dim
         self.device = torch.device(config.device)
+        if self.device.type == "cuda" and not torch.cuda.is_available():
+            raise ValueError(f"DDPGConfig.device {config.device!r}: no CUDA device is available here (use 'cpu')")
         torch.manual_seed(config.seed)
         self.obs_norm = Normalizer(obs_dim).to(self.device)
         self.actor = Actor(obs_dim, act_dim, config.hidden_sizes).to(self.device)

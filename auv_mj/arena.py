@@ -33,6 +33,19 @@ MAX_EXTENT = 100_000.0
 """Largest |coordinate| and size [m] anything in an arena may have (100 km; the paper's maps are 600 m)."""
 MAX_MOVER_SPEED = 10.0
 """Fastest moving obstacle [m/s]: five times the vehicle's top commanded speed (Table 3)."""
+ARENA_ELEMENTS = {
+    "asset": {"texture", "material", "mesh", "hfield"},
+    "default": {"default", "geom", "site", "mesh", "material", "camera", "light"},
+    "worldbody": {"body", "geom", "site", "camera", "light", "frame", "inertial"},
+    "custom": {"numeric", "text", "tuple"},
+    "contact": {"pair", "exclude"},
+}
+"""The elements each arena section may hold: static and mocap geometry, sites and looks. No joints (moving
+obstacles are mocap bodies), no file references, no generators (replicate, composite, flexcomp)."""
+MAX_GRID = 4096
+"""Largest texture or height field side [cells]."""
+MAX_MESH_VALUES = 30_000
+"""Most numbers in an inline mesh's vertex or face list (10 000 vertices)."""
 
 
 def _read_xml(source: str | Path | ET.Element, what: str) -> tuple[ET.Element, str]:
@@ -61,6 +74,7 @@ def compose_xml(arena: str | Path | ET.Element | None = None,
         name = el.get("name")
         if name and name in taken and el.tag != "mujoco":
             raise ValueError(f"{aname}: <{el.tag} name=\"{name}\"> clashes with a name of the vehicle model")
+    check_arena_elements(aroot, aname)
     for section in aroot:
         if section.tag not in MERGED_SECTIONS:
             raise ValueError(f"{aname}: arenas may only hold {MERGED_SECTIONS}, found <{section.tag}>")
@@ -70,6 +84,41 @@ def compose_xml(arena: str | Path | ET.Element | None = None,
         for child in section:
             target.append(copy.deepcopy(child))
     return ET.tostring(vroot, encoding="unicode"), aname if vehicle is None else f"{aname} with vehicle {vname}"
+
+
+def check_arena_elements(root: ET.Element, name: str) -> None:
+    """Refuses (ValueError naming the arena and the element) what an arena may not hold: elements outside
+    ARENA_ELEMENTS, joints, references to other files, and grids or meshes beyond MAX_GRID / MAX_MESH_VALUES,
+    which MuJoCo would read or allocate before any other check could run."""
+    for section in root:
+        allowed = ARENA_ELEMENTS.get(section.tag)
+        if allowed is None:
+            continue  # refused by section in `compose_xml`
+        stack = list(section)
+        while stack:
+            element = stack.pop()
+            if element.tag not in allowed:
+                hint = (": moving obstacles are mocap bodies" if element.tag in ("joint", "freejoint") else "")
+                raise ValueError(f"{name}: <{element.tag}> may not appear in an arena's <{section.tag}>{hint}")
+            files = [a for a in element.attrib if a.startswith("file")]
+            if files:
+                raise ValueError(f"{name}: <{element.tag} {files[0]}=...>: an arena may not read other files")
+            for attribute in ("width", "height", "nrow", "ncol"):
+                value = element.get(attribute)
+                if element.tag in ("texture", "hfield") and value is not None and not _count_within(value, MAX_GRID):
+                    raise ValueError(f"{name}: <{element.tag} {attribute}=\"{value[:20]}\"> must be a whole number "
+                                     f"up to {MAX_GRID}")
+            for attribute in ("vertex", "face", "normal", "texcoord"):
+                if len(element.get(attribute, "").split()) > MAX_MESH_VALUES:
+                    raise ValueError(f"{name}: <{element.tag} {attribute}> holds more than {MAX_MESH_VALUES} numbers")
+            stack.extend(element)
+
+
+def _count_within(text: str, limit: int) -> bool:
+    try:
+        return 0 <= int(text) <= limit
+    except ValueError:
+        return False
 
 
 def load(arena: str | Path | ET.Element | None = None, vehicle=None) -> AUVPhysics:

@@ -33,6 +33,10 @@ HIDDEN_Z = 1e4
 """Where moving obstacles are parked [m] while the static map is checked."""
 MAX_LINES = 20
 """At most this many lines per kind of problem."""
+WALL_BLOCK = 256
+"""Walls compared with all others at once by the crossing check (bounds its memory)."""
+MAX_STATIC_GEOMS = 10_000
+"""Most static geoms an arena may have: the checks pose the hull against the nearby ones along the path."""
 STATIC_PREFIXES = ("wall", "obstacle")
 
 
@@ -252,6 +256,9 @@ def _check_extent(model: mujoco.MjModel, physics: AUVPhysics, report: ArenaRepor
                          f"{_xy(centre)}) is beyond the largest arena extent, {MAX_EXTENT:g} m")
     _add(report.problems, lines)
     static = [g for g in range(model.ngeom) if model.geom_bodyid[g] == 0 and g not in absurd]
+    if len(static) > MAX_STATIC_GEOMS:
+        report.problems.append(f"{len(static)} static geoms; at most {MAX_STATIC_GEOMS}")
+        return [], absurd
     return static, absurd
 
 
@@ -302,14 +309,18 @@ def _check_walls(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], 
     a0, a1 = np.array([a[0] for a in axes]), np.array([a[1] for a in axes])
     half = np.array([a[2] for a in axes])
     length = np.hypot(*(a1 - a0).T)
-    cross, t, u = segment_crossings(a0, a1, a0, a1)
     found = []
-    for i, j in np.argwhere(np.triu(cross, 1)):
-        margin = WALL_JOIN_MARGIN * (half[i] + half[j])
-        if min(t[i, j], 1 - t[i, j]) * length[i] > margin and min(u[i, j], 1 - u[i, j]) * length[j] > margin:
-            p = a0[i] + t[i, j] * (a1[i] - a0[i])
-            found.append(f"walls {_name(model, walls[i])} and {_name(model, walls[j])} cross at ({_xy(p)}), "
-                         "not end to end: the wall intersects itself")
+    for first in range(0, len(walls), WALL_BLOCK):  # blocks of rows keep the pair matrices small
+        cross, t, u = segment_crossings(a0[first:first + WALL_BLOCK], a1[first:first + WALL_BLOCK], a0, a1)
+        for k, j in np.argwhere(cross):
+            i = first + k
+            if j <= i:
+                continue
+            margin = WALL_JOIN_MARGIN * (half[i] + half[j])
+            if min(t[k, j], 1 - t[k, j]) * length[i] > margin and min(u[k, j], 1 - u[k, j]) * length[j] > margin:
+                p = a0[i] + t[k, j] * (a1[i] - a0[i])
+                found.append(f"walls {_name(model, walls[i])} and {_name(model, walls[j])} cross at ({_xy(p)}), "
+                             "not end to end: the wall intersects itself")
     _add(report.problems, found)
 
 

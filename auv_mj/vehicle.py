@@ -86,7 +86,8 @@ def _fail(source: str, message: str) -> ValueError:
 
 def check_vehicle(model: mujoco.MjModel, source: str) -> None:
     """Refuses a compiled model that breaks the vehicle contract (module docstring), naming `source`."""
-    _check_joints(model, source)
+    data = mujoco.MjData(model)
+    _check_joints(model, data, source)
     body = int(model.jnt_bodyid[model.joint("x").id])
     timestep = float(model.opt.timestep)
     if not TIMESTEP_RANGE[0] <= timestep <= TIMESTEP_RANGE[1]:
@@ -96,7 +97,7 @@ def check_vehicle(model: mujoco.MjModel, source: str) -> None:
     if not (0 < mass < math.inf and 0 < izz < math.inf):
         raise _fail(source, f"body '{model.body(body).name}' needs a positive finite mass and yaw inertia, "
                             f"got {mass:g} kg and {izz:g} kg m^2")
-    _check_actuators(model, source)
+    _check_actuators(model, data, source)
     for name in SONARS:
         try:
             sensor = model.sensor(name)
@@ -112,12 +113,15 @@ def check_vehicle(model: mujoco.MjModel, source: str) -> None:
         raise _fail(source, f'no hull geom <geom name="{HULL_GEOM}">') from None
     if hull.type[0] != mujoco.mjtGeom.mjGEOM_CAPSULE or model.geom_bodyid[hull.id] != body:
         raise _fail(source, f"geom {HULL_GEOM} must be a capsule of the vehicle body")
+    if not (model.geom_contype[hull.id] or model.geom_conaffinity[hull.id]):
+        raise _fail(source, f"geom {HULL_GEOM} must collide (contype or conaffinity non-zero): collisions are "
+                            "detected by its contacts")
     if not np.all((hull.size[:2] > 0) & (hull.size[:2] <= MAX_HULL_SIZE)):
         raise _fail(source, f"hull radius and half length {hull.size[:2].tolist()} must be in (0, "
                             f"{MAX_HULL_SIZE:g}] m")
 
 
-def _check_joints(model: mujoco.MjModel, source: str) -> None:
+def _check_joints(model: mujoco.MjModel, data: mujoco.MjData, source: str) -> None:
     """x, y, yaw of the right types and world axes, in that order on one body, and no other joint."""
     ids = []
     for name, kind, _ in JOINTS:
@@ -136,7 +140,6 @@ def _check_joints(model: mujoco.MjModel, source: str) -> None:
     bodies = {int(model.jnt_bodyid[j]) for j in ids}
     if len(bodies) != 1 or ids != sorted(ids):
         raise _fail(source, "joints x, y, yaw must belong to one body, in that order")
-    data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     for (name, _, axis), j in zip(JOINTS, ids, strict=True):
         if not np.allclose(data.xaxis[j], axis, atol=AXIS_TOLERANCE):
@@ -144,7 +147,7 @@ def _check_joints(model: mujoco.MjModel, source: str) -> None:
                                 f"{np.round(data.xaxis[j], 6).tolist()}")
 
 
-def _check_actuators(model: mujoco.MjModel, source: str) -> None:
+def _check_actuators(model: mujoco.MjModel, data: mujoco.MjData, source: str) -> None:
     """tau_u and tau_r, in that order, a body-frame surge force and a yaw moment of one unit per unit control."""
     names = [model.actuator(i).name for i in range(model.nu)]
     if names != list(ACTUATORS):
@@ -154,7 +157,6 @@ def _check_actuators(model: mujoco.MjModel, source: str) -> None:
         if not (model.actuator_ctrllimited[i] and -MAX_CONTROL <= low < 0 < high <= MAX_CONTROL):
             raise _fail(source, f'actuator {name} needs ctrllimited="true" and a finite ctrlrange low < 0 < high '
                                 f"within +-{MAX_CONTROL:g}, got ctrlrange=\"{low:g} {high:g}\"")
-    data = mujoco.MjData(model)
     yaw = 0.5  # a turned vehicle tells a body-frame force from a world-frame one
     data.qpos[model.jnt_qposadr[model.joint("yaw").id]] = yaw
     mujoco.mj_forward(model, data)

@@ -399,3 +399,51 @@ def test_bounded_xml_refuses_deep_and_huge_input():
     with pytest.raises(ValueError, match="src: not well-formed XML"):
         inputs.parse_xml("<a>", "src")
     assert re.fullmatch(r"mujoco", inputs.parse_xml(CORRIDOR, "corridor").tag)
+
+
+@pytest.mark.parametrize(("insert", "message"), [
+    ('<body name="door" pos="50 0 0"><joint name="hinge" type="hinge"/><geom size="1"/></body>',
+     "<joint> may not appear in an arena's <worldbody>: moving obstacles are mocap bodies"),
+    ('<replicate count="1000000"><geom size="1"/></replicate>', "<replicate> may not appear"),
+])
+def test_arenas_hold_only_what_the_convention_reads(insert, message, tmp_path):
+    path = tmp_path / "arena.xml"
+    path.write_text(CORRIDOR.replace("<worldbody>", "<worldbody>" + insert))
+    with pytest.raises(ValueError) as error:
+        suite.load("auv", "tunnel", task_kwargs={"arena": str(path)})
+    assert str(path) in one_line(error.value) and message in str(error.value)
+
+
+@pytest.mark.parametrize(("asset", "message"), [
+    ('<mesh name="m" file="/etc/passwd"/>', "an arena may not read other files"),
+    ('<texture name="t" type="2d" builtin="checker" width="100000" height="100000"/>',
+     '<texture width="100000"> must be a whole number up to 4096'),
+    ('<hfield name="h" nrow="100000" ncol="100000" size="1 1 1 1"/>', "<hfield nrow="),
+])
+def test_arena_assets_cannot_read_files_or_allocate_without_bound(asset, message, tmp_path):
+    path = tmp_path / "arena.xml"
+    path.write_text(CORRIDOR.replace("<worldbody>", f"<asset>{asset}</asset><worldbody>"))
+    report = arena_check.check_arena(path)
+    assert not report.ok and message in report.problems[0]
+
+
+def test_a_checkpoint_of_another_task_is_refused_before_the_episode(capsys):
+    from auv_mj.cli import policies
+
+    executor = policies.shipped_checkpoint("executor")
+    with pytest.raises(ValueError, match="takes observations of size 9 and gives 2 actions; this task has "
+                                         "observations of size 20"):
+        policies.env_and_policy(str(executor), "goal", 0)
+
+
+def test_a_file_that_is_not_an_episode_record_is_named(tmp_path):
+    from auv_mj.episode import EpisodeRecord
+
+    for name, content in (("garbage.npz", b"not a zip"), ("empty.npz", b"")):
+        path = tmp_path / name
+        path.write_bytes(content)
+        with pytest.raises(ValueError, match=f"{name}: not an episode record"):
+            EpisodeRecord.load(path)
+    np.savez(tmp_path / "other.npz", x=np.zeros(3))
+    with pytest.raises(ValueError, match="other.npz: not an episode record .*KeyError"):
+        EpisodeRecord.load(tmp_path / "other.npz")

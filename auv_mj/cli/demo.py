@@ -84,8 +84,7 @@ def run(args: argparse.Namespace) -> int:
         env = policies.make_env(args.policy, TASK, args.seed)
         policy = policies.make_policy(args.policy, env, args.seed, TASK)
     except (FileNotFoundError, ValueError) as e:
-        print(f"auv-mj demo: {e}", file=sys.stderr)
-        return 2
+        usage_error(args, " ".join(str(e).split()))
     recorder = EpisodeRecorder(env, TASK, args.policy, args.seed)
     video = args.out / "tunnel.mp4"
     if args.no_video:

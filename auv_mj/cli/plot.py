@@ -93,7 +93,9 @@ def run(args: argparse.Namespace) -> int:
                 usage_error(args, f"{len(args.runs)} --runs groups but {len(labels)} --label")
             path = plot_learning(list(zip(labels, args.runs, strict=True)), args.output, args.window,
                                  args.band, args.x, **size)
-    except (ValueError, OSError) as e:
-        raise SystemExit(f"{args.prog}: {e}") from None
+    except ValueError as e:
+        usage_error(args, " ".join(str(e).split()))
+    except OSError as e:
+        raise SystemExit(f"{args.prog}: error: {' '.join(str(e).split())}") from None
     print(f"wrote {path}")
     return 0

@@ -109,8 +109,17 @@ def _checkpoint_path(policy_name: str) -> Path | None:
     return path if path.is_file() else None
 
 
-def _checkpoint_policy(path: Path):
+def _checkpoint_policy(path: Path, env):
+    """A checkpoint's policy acting in `env`; ValueError naming the file if its sizes do not fit the task."""
     policy = Policy.load(path)
+    spec = env.observation_spec()
+    size = sum(int(np.prod(spec[k].shape)) for k in (("observation", "desired_goal") if "desired_goal" in spec
+                                                     else ("observation",)))
+    actions = tuple(env.action_spec().shape)
+    if size != policy.obs_dim or actions != (len(policy.low),):
+        raise ValueError(f"checkpoint {path} takes observations of size {policy.obs_dim} and gives "
+                         f"{len(policy.low)} actions; this task has observations of size {size} and actions "
+                         f"of shape {actions}")
 
     def act(time_step):
         observation = time_step.observation
@@ -133,15 +142,15 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     if policy_name == "los-avoid":
         return los_avoid(env)
     if policy_name in ("planner", "two-layer"):
-        return with_repulsion(_checkpoint_policy(shipped_checkpoint(planner)))
+        return with_repulsion(_checkpoint_policy(shipped_checkpoint(planner), env))
     if policy_name == "planner-raw":
-        return _checkpoint_policy(shipped_checkpoint(planner))
+        return _checkpoint_policy(shipped_checkpoint(planner), env)
     if policy_name == "executor":
-        return _checkpoint_policy(shipped_checkpoint("executor"))
+        return _checkpoint_policy(shipped_checkpoint("executor"), env)
     path = Path(policy_name)
     if not path.is_file():
         raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of {list(NAMES)}")
-    return _checkpoint_policy(path)
+    return _checkpoint_policy(path, env)
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:

@@ -21,6 +21,7 @@ from agents.checkpoint import config_from_dict, read_checkpoint
 from agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
 from agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
 from auv_mj.cli.options import json_object, positive_int, seed_int, task_kwargs, usage_error
+from auv_mj.inputs import check_json_depth, read_text
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
@@ -93,7 +94,11 @@ def run(args: argparse.Namespace) -> int:
         kwargs_file = run_dir / TASK_KWARGS_NAME
         kwargs = task_kwargs(args) or None
         if kwargs is None and args.resume and kwargs_file.is_file():
-            kwargs = json.loads(kwargs_file.read_text())
+            text = read_text(kwargs_file, "the run's task options")
+            check_json_depth(text, str(kwargs_file))
+            kwargs = json.loads(text)
+            if not isinstance(kwargs, dict):
+                raise ValueError(f"{kwargs_file}: must hold a JSON object of task options")
         if args.resume and args.init:
             raise ValueError("--init starts a new run; it cannot be combined with --resume")
         env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": kwargs} if kwargs else {}))
