@@ -583,7 +583,7 @@ def check_inside(source: str, walls: Sequence[WallSegment], obstacles: Sequence[
     x, y = xy[:, :1], xy[:, 1:]
     ya, yb = a[None, :, 1], b[None, :, 1]
     straddles = (ya > y) != (yb > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         cross_x = a[None, :, 0] + (y - ya) * (b[None, :, 0] - a[None, :, 0]) / (yb - ya)
     inside = np.count_nonzero(straddles & (cross_x > x), axis=1) % 2 == 1
     outside = [name for (name, _), ok in zip(points, inside, strict=True) if not ok]

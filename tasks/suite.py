@@ -49,10 +49,14 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     """
     if domain_name != DOMAIN:
         raise ValueError(f"domain {domain_name!r} does not exist; valid domains: {DOMAIN}")
-    if task_name not in SUITE:
+    if not isinstance(task_name, str) or task_name not in SUITE:
         raise ValueError(f"task {task_name!r} does not exist in domain {domain_name!r}; "
                          f"valid tasks: {', '.join(SUITE)}")
+    if task_kwargs is not None and not isinstance(task_kwargs, dict):
+        raise ValueError(f"task_kwargs must be a dict of task options, got {type(task_kwargs).__name__}")
     task_kwargs = dict(task_kwargs or {})
+    if not all(isinstance(key, str) for key in task_kwargs):
+        raise ValueError(f"task option names must be strings, got {sorted(map(repr, task_kwargs))[:5]}")
     if environment_kwargs is not None:
         task_kwargs["environment_kwargs"] = environment_kwargs
     try:
