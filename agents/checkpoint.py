@@ -187,14 +187,22 @@ def check_checkpoint(tensors: Mapping[str, Any], meta: Mapping[str, Any], path: 
                         f"{low!r:.40} / {high!r:.40}")
     if spec.get("kind") == "goal":
         parts = (spec.get("observation_dim"), spec.get("goal_dim"))
-        if not (all(_whole(n, 1, MAX_OBS_DIM) for n in parts) and sum(parts) == obs_dim):
-            problems.append(f"spec observation_dim + goal_dim must equal obs_dim {obs_dim}, got {parts!r:.40}")
+        goal_input = spec.get("goal_input", True)
+        if not isinstance(goal_input, bool):
+            problems.append(f"spec goal_input must be true or false, got {goal_input!r:.40}")
+        elif not (all(_whole(n, 1, MAX_OBS_DIM) for n in parts) and parts[0] + parts[1] * goal_input == obs_dim):
+            problems.append(f"spec observation_dim (+ goal_dim when goal_input) must equal obs_dim {obs_dim}, got "
+                            f"{parts!r:.40}")
     if not _whole(meta.get("num_updates", 0), 0, 2**62):
         problems.append(f"num_updates must be a whole number >= 0, got {meta.get('num_updates')!r:.40}")
     replay = meta.get("replay_file")
     if replay is not None and not (isinstance(replay, str) and replay not in ("", ".", "..")
                                    and replay == Path(replay).name):
         problems.append(f"replay_file must be a file name beside the checkpoint, got {replay!r:.60}")
+    run_info = meta.get("run_info", {})
+    if not (isinstance(run_info, Mapping) and all(isinstance(run_info.get(k, {}), Mapping)
+                                                  for k in ("task_kwargs", "env_kwargs"))):
+        problems.append(f"run_info must be a dict whose task_kwargs and env_kwargs are dicts, got {run_info!r:.60}")
     counters = meta.get("counters", {})
     if not (isinstance(counters, Mapping) and all(
             isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v < math.inf

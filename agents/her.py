@@ -36,6 +36,14 @@ def flatten_goal_obs(observation: np.ndarray, desired_goal: np.ndarray) -> np.nd
     return np.concatenate([observation, desired_goal], axis=-1).astype(np.float32, copy=False)
 
 
+def policy_input(observation: np.ndarray, desired_goal: np.ndarray, goal_input: bool = True) -> np.ndarray:
+    """The network input of a goal task: [observation, desired_goal], or the observation alone when it
+    already holds the goal (an env with `goal_in_observation`, e.g. the goal in the body frame)."""
+    if goal_input:
+        return flatten_goal_obs(observation, desired_goal)
+    return np.asarray(observation, dtype=np.float32)
+
+
 def her_ratio(n_sampled_goal: int) -> float:
     """Fraction of relabelled transitions for k hindsight goals per real one: k / (k + 1)."""
     return n_sampled_goal / (n_sampled_goal + 1.0)
@@ -65,10 +73,12 @@ class HerReplayBuffer:
 
     def __init__(self, obs_dim: int, goal_dim: int, act_dim: int, capacity: int,
                  compute_reward: GoalFn, compute_terminated: GoalFn, n_sampled_goal: int = 4,
-                 seed: int | None = None, relabel_observation: ObsFn | None = None):
+                 seed: int | None = None, relabel_observation: ObsFn | None = None, goal_input: bool = True):
         self.capacity = int(capacity)
         self.compute_reward, self.compute_terminated = compute_reward, compute_terminated
         self.relabel_observation = relabel_observation
+        self.goal_input = goal_input
+        """Whether the network input holds desired_goal beside the observation (see `policy_input`)."""
         self.n_sampled_goal = n_sampled_goal
         self.her_ratio = her_ratio(n_sampled_goal)
         c = self.capacity
@@ -174,8 +184,8 @@ class HerReplayBuffer:
                                                                 self.achieved_goal[r_idx], new_goal)
                 next_observation[relabel] = self.relabel_observation(next_observation[relabel], achieved,
                                                                      new_goal)
-        batch = Batch(obs=flatten_goal_obs(observation, desired), actions=self.actions[idx], rewards=rewards,
-                      next_obs=flatten_goal_obs(next_observation, next_desired),
+        batch = Batch(obs=policy_input(observation, desired, self.goal_input), actions=self.actions[idx],
+                      rewards=rewards, next_obs=policy_input(next_observation, next_desired, self.goal_input),
                       terminated=terminated.astype(np.float32))
         return HerSample(batch, idx, relabel, future, desired)
 

@@ -10,7 +10,7 @@ import numpy as np
 import torch
 
 from agents.checkpoint import read_checkpoint
-from agents.her import flatten_goal_obs
+from agents.her import policy_input
 from agents.networks import Actor, Normalizer
 
 
@@ -50,9 +50,11 @@ class Policy:
         return cls(actor.to(device), obs_norm.to(device), meta, device)
 
     def flat_obs(self, obs: np.ndarray | Mapping[str, np.ndarray]) -> np.ndarray:
-        """The network input: [observation, desired_goal] of a goal dict, or the array itself."""
+        """The network input: [observation, desired_goal] of a goal dict (the observation alone where it
+        holds the goal), or the array itself."""
         if isinstance(obs, Mapping):
-            flat = flatten_goal_obs(np.asarray(obs["observation"]), np.asarray(obs["desired_goal"]))
+            flat = policy_input(np.asarray(obs["observation"]), np.asarray(obs["desired_goal"]),
+                                self.metadata["spec"].get("goal_input", True))
         else:
             arr = np.asarray(obs, np.float32)
             flat = arr.reshape(*arr.shape[: arr.ndim - len(self.obs_shape)], -1)

@@ -24,7 +24,7 @@ import dataclasses
 import json
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -41,10 +41,11 @@ from agents.checkpoint import (
     save_replay,
 )
 from agents.ddpg import DDPG, DDPGConfig, epsilon_at
-from agents.her import HerReplayBuffer, flatten_goal_obs
+from agents.her import HerReplayBuffer, policy_input
 from agents.replay import ReplayBuffer
 from auv_mj.console import progress_bar
 from auv_mj.goals import GOAL_KEYS
+from auv_mj.seeds import train_seed
 
 AGENTS = ("ddpg", "her-ddpg", "executor")
 """Agent names of `auv-mj train AGENT`: her-ddpg needs a goal task, executor a Box task."""
@@ -90,8 +91,12 @@ def env_spec(env: gym.Env) -> dict[str, Any]:
     if isinstance(space, spaces.Dict) and set(GOAL_KEYS) <= set(space.spaces):
         obs_dim = int(np.prod(space["observation"].shape))
         goal_dim = int(np.prod(space["desired_goal"].shape))
-        spec.update(kind="goal", observation_dim=obs_dim, goal_dim=goal_dim, obs_dim=obs_dim + goal_dim,
-                    obs_shape=[obs_dim + goal_dim])
+        # A goal env whose observation already holds the goal relative to the agent says so with
+        # `goal_in_observation`: its policy reads the observation alone, not the (absolute) desired goal.
+        goal_input = not bool(getattr(env.unwrapped, "goal_in_observation", False))
+        input_dim = obs_dim + goal_dim * goal_input
+        spec.update(kind="goal", observation_dim=obs_dim, goal_dim=goal_dim, goal_input=goal_input,
+                    obs_dim=input_dim, obs_shape=[input_dim])
     elif isinstance(space, spaces.Box):
         spec.update(kind="box", obs_dim=int(np.prod(space.shape)), obs_shape=list(space.shape))
     else:
@@ -100,8 +105,9 @@ def env_spec(env: gym.Env) -> dict[str, Any]:
 
 
 def episode_seed(seed: int, episode: int) -> int:
-    """The env reset seed of episode `episode` of a run seeded with `seed`."""
-    return int(np.random.SeedSequence([seed, episode]).generate_state(1)[0])
+    """The env reset seed of episode `episode` of a run seeded with `seed`: in the TRAIN range of
+    `auv_mj.seeds`, never a validation or test seed."""
+    return train_seed(seed, episode)
 
 
 def _check_agent_env(agent_name: str, kind: str) -> None:
@@ -123,7 +129,8 @@ def _make_buffer(agent_name: str, spec: dict[str, Any], env: gym.Env,
         return HerReplayBuffer(spec["observation_dim"], spec["goal_dim"], spec["act_dim"],
                                config.buffer_size, base.compute_reward, base.compute_terminated,
                                config.her_k, seed=config.seed + 1,
-                               relabel_observation=getattr(base, "relabel_observation", None))
+                               relabel_observation=getattr(base, "relabel_observation", None),
+                               goal_input=spec["goal_input"])
     return ReplayBuffer(spec["obs_dim"], spec["act_dim"], config.buffer_size, seed=config.seed + 1)
 
 
@@ -181,6 +188,8 @@ class _Run:
     started: float = dataclasses.field(default_factory=time.perf_counter)
     start_counts: tuple[int, int] = (0, 0)
     update_time: float = 0.0
+    run_info: dict = dataclasses.field(default_factory=dict)
+    """What the caller says made the environment (task, options), kept in every checkpoint."""
 
     @property
     def her(self) -> bool:
@@ -191,7 +200,7 @@ class _Run:
 
 
 def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir: Path, resume: bool,
-              init: str | Path | None, tensorboard: bool) -> _Run:
+              init: str | Path | None, tensorboard: bool, run_info: Mapping[str, Any] | None) -> _Run:
     """Builds the agent and buffer of a new run, or restores them (and the counters) from `run_dir`."""
     spec = env_spec(env)
     spec["env_id"] = getattr(env.spec, "id", None)
@@ -237,13 +246,14 @@ def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir:
     return _Run(agent_name, agent, buffer, spec, run_dir, counters, log_file, writer,
                 returns=deque((float(r["return"]) for r in kept[-WINDOW:]), maxlen=WINDOW),
                 successes=deque((float(r["success"]) for r in kept[-WINDOW:]), maxlen=WINDOW),
-                start_counts=(counters["env_steps"], counters["gradient_steps"]))
+                start_counts=(counters["env_steps"], counters["gradient_steps"]),
+                run_info=dict(run_info if run_info is not None else meta.get("run_info", {})))
 
 
 def _flat(run: _Run, obs: Any) -> np.ndarray:
     """The actor's input: [observation, desired_goal] on goal tasks, the flat observation otherwise."""
     if run.spec["kind"] == "goal":
-        return flatten_goal_obs(obs["observation"], obs["desired_goal"])
+        return policy_input(obs["observation"], obs["desired_goal"], run.spec.get("goal_input", True))
     return np.asarray(obs, np.float32).ravel()
 
 
@@ -322,7 +332,8 @@ def _save(run: _Run) -> None:
     save_replay(run.run_dir / replay_name, run.buffer.state_dict())
     counts = {**run.counters, "wall_time": run.wall_time()}
     save_checkpoint(run.run_dir / CHECKPOINT_NAME, run.agent, {"agent": run.agent_name, "spec": run.spec,
-                                                              "replay_file": replay_name, "counters": counts})
+                                                              "replay_file": replay_name, "counters": counts,
+                                                              "run_info": run.run_info})
     for old in run.run_dir.glob("replay-*.npz"):
         if old.name != replay_name:
             old.unlink()
@@ -344,14 +355,15 @@ def _result(run: _Run, interrupted: bool) -> TrainResult:
 def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | None = None, *,
           total_steps: int | None = None, episodes: int | None = None, run_dir: str | Path | None = None,
           resume: bool = False, init: str | Path | None = None, checkpoint_every: int = 100,
-          progress: bool = True, tensorboard: bool = True) -> TrainResult:
+          progress: bool = True, tensorboard: bool = True, run_info: Mapping[str, Any] | None = None) -> TrainResult:
     """Trains `agent_name` on env_fn() until `total_steps` env steps or `episodes` episodes (totals).
 
     With neither given, trains for config.max_episodes (Table 4). `resume=True` continues the run in
     `run_dir` (its config unless `config` is given; the network sizes and replay size must match).
     `init` starts a new run from another checkpoint's networks and normaliser (fine-tuning, e.g. the
     `goal` planner on `obstacles`), with fresh counters, replay buffer and random streams.
-    Checkpoints every `checkpoint_every` episodes and at the end (also on Ctrl-C).
+    Checkpoints every `checkpoint_every` episodes and at the end (also on Ctrl-C). `run_info` (JSON-able:
+    the task and its options, say) is kept in every checkpoint's metadata; a resumed run keeps its own.
     """
     for name, value, least in (("total_steps", total_steps, 0), ("episodes", episodes, 0),
                                ("checkpoint_every", checkpoint_every, 1)):
@@ -359,7 +371,7 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
             raise ValueError(f"{name} must be >= {least}, got {value}")
     env = env_fn()
     run_dir = Path(run_dir) if run_dir is not None else Path("runs") / f"{agent_name}-{time.strftime('%Y%m%d-%H%M%S')}"
-    run = _open_run(env, agent_name, config, run_dir, resume, init, tensorboard)
+    run = _open_run(env, agent_name, config, run_dir, resume, init, tensorboard, run_info)
     if total_steps is None and episodes is None:
         episodes = run.agent.config.max_episodes
     counters = run.counters

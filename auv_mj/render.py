@@ -90,6 +90,9 @@ EVENT_COLOURS = {"goal": (0.3, 1.0, 0.4), "collision": (1.0, 0.3, 0.3), "left_ma
 QUIET_EVENTS = ("subgoal",)
 """Events counted in the overlay but given no banner (a path's virtual sub-goals come every 10 m)."""
 CAMERAS = ("follow", "overview", "both")
+SCALE_RGBA = (1.0, 1.0, 1.0, 1.0)
+SCALE_FRACTION = 0.2
+"""The scale bar is the 1-2-5 length nearest below this fraction of the view's width."""
 
 # Heights of the decorations above the water (all drawn from straight above, so only the order matters).
 Z_WATER, Z_PATH, Z_GOAL, Z_TRAIL, Z_BEAM, Z_MARKER = -2.0, 0.3, 0.2, 0.6, 0.9, 1.5
@@ -137,6 +140,13 @@ def arena_extent(arena) -> np.ndarray:
         lo, hi = points.min(axis=0), points.max(axis=0)
     centre, size = (lo + hi) / 2, np.maximum(hi - lo, 1.0)
     return np.array([*centre, *(size * (1 + 2 * OVERVIEW_MARGIN))])
+
+
+def scale_bar_length(view_width: float) -> float:
+    """The scale bar's length [m]: 1, 2 or 5 times a power of ten, at most SCALE_FRACTION of the view."""
+    target = max(SCALE_FRACTION * view_width, 1e-9)
+    power = 10.0 ** math.floor(math.log10(target))
+    return max(m * power for m in (1.0, 2.0, 5.0) if m * power <= target)
 
 
 def _gl_context_class():
@@ -325,15 +335,17 @@ class FrameRenderer:
         view_w = view_h * w / h
         px = view_h / h  # metres per pixel
         a = self.arena
-        # Water: one box over the part of the map in view (filling pixels is what costs on a CPU
-        # rasteriser); outside the map stays the clear colour.
-        lo, hi = np.array([cx - view_w / 2, cy - view_h / 2]), np.array([cx + view_w / 2, cy + view_h / 2])
+        # Water: one box over the whole view (the sea goes on past the map's bounds, drawn as lines).
+        self._box((cx, cy), (view_w / 2, view_h / 2), WATER_RGBA, Z_WATER)
         if np.all(np.isfinite(a.bounds)):
             corners = np.array([a.bounds[:2], a.bounds[[2, 1]], a.bounds[2:], a.bounds[[0, 3]]])
             self._polyline(corners, BOUNDS_RGBA, 2.0, Z_PATH, closed=True)
-            lo, hi = np.maximum(lo, a.bounds[:2]), np.minimum(hi, a.bounds[2:])
-        if np.all(hi > lo):
-            self._box((lo + hi) / 2, (hi - lo) / 2, WATER_RGBA, Z_WATER)
+        # Scale bar in the bottom-left corner, above its label (drawn by `render`).
+        bar, line_h = scale_bar_length(view_w), self._context.charHeight * px
+        start = np.array([cx - view_w / 2 + 0.6 * line_h, cy - view_h / 2 + 1.8 * line_h])
+        self._line(start, start + (bar, 0.0), SCALE_RGBA, 3.0, Z_MARKER)
+        for end in (start, start + (bar, 0.0)):
+            self._line(end - (0.0, 0.3 * line_h), end + (0.0, 0.3 * line_h), SCALE_RGBA, 2.0, Z_MARKER)
         # Global path, moving obstacles' paths, goals: only what the view shows.
         if len(a.path) > 1:
             self._segments(_in_view(a.path, window, w / h), PATH_RGBA, 2.0, Z_PATH)
@@ -405,9 +417,13 @@ class FrameRenderer:
                                         w + 2 * INSET_BORDER, h + 2 * INSET_BORDER)
                 mujoco.mjr_rectangle(border, 0.9, 0.9, 0.9, 1.0)
             mujoco.mjr_render(rect, self.scene, ctx)
-            if (view.inset or len(self.views) == 1) and self.height >= OVERLAY_MIN_HEIGHT:
+            if self.height >= OVERLAY_MIN_HEIGHT:
+                bar = scale_bar_length(window[2] * view.rect[2] / view.rect[3])
                 mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT, rect,
-                                   f"{window[2]:.0f} m", "", ctx)
+                                   f"{bar:g} m", "", ctx)
+                if view.inset or (view.kind == "overview" and len(self.views) == 1):
+                    mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_BOTTOMRIGHT, rect,
+                                       f"overview, {window[2]:.0f} m tall", "", ctx)
         if self.height >= OVERLAY_MIN_HEIGHT:
             self._overlay(state, event, reached, len(subgoals))
         mujoco.mjr_readPixels(self._pixels, None, self._full, ctx)

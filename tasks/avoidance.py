@@ -15,13 +15,11 @@ from dataclasses import dataclass
 import dm_env
 import numpy as np
 
-from auv_mj.sonar import BEAM_ANGLES, SONAR_NAMES, SONAR_RANGE
+from auv_mj.sonar import BEAM_ANGLES, SONAR_RANGE
 from tasks.planning import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
-from tasks.planning import OBSERVATION_FIELDS
+from tasks.planning import SONAR_SLICE
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
-SONAR_SLICE = slice(OBSERVATION_FIELDS.index(SONAR_NAMES[0]), OBSERVATION_FIELDS.index(SONAR_NAMES[-1]) + 1)
-"""Where the nine sonar ranges / SONAR_RANGE sit in the planning tasks' observation vector."""
 
 
 @dataclass(frozen=True)
@@ -55,16 +53,22 @@ class RepulsiveField:
         return float(np.clip(math.atan2(y, x), -MAX_HEADING_OFFSET, MAX_HEADING_OFFSET))
 
 
+def protect(action, observation: np.ndarray, field: RepulsiveField | None = None) -> np.ndarray:
+    """A planning action (speed, heading offset) with its heading bent by the echoes in `observation`
+    (a planning task's "observation" vector, either layout: the sonar ends both)."""
+    field = field or RepulsiveField()
+    action = np.array(action, dtype=float)
+    ranges = np.asarray(observation)[SONAR_SLICE] * SONAR_RANGE
+    action[1] = field.heading_offset(ranges, float(action[1]) * MAX_HEADING_OFFSET) / MAX_HEADING_OFFSET
+    return action
+
+
 def with_repulsion(policy: Policy, field: RepulsiveField | None = None) -> Policy:
     """`policy` with the protection domain active: its heading action is bent away from near echoes."""
     field = field or RepulsiveField()
 
     def act(time_step: dm_env.TimeStep) -> np.ndarray:
-        action = np.array(policy(time_step), dtype=float)
-        ranges = np.asarray(time_step.observation["observation"])[SONAR_SLICE] * SONAR_RANGE
-        offset = field.heading_offset(ranges, float(action[1]) * MAX_HEADING_OFFSET)
-        action[1] = offset / MAX_HEADING_OFFSET
-        return action
+        return protect(policy(time_step), time_step.observation["observation"], field)
 
     for name in ("reset",):
         if hasattr(policy, name):

@@ -28,6 +28,7 @@ from gymnasium import spaces
 
 from auv_mj.goals import GOAL_KEYS
 from tasks import options
+from tasks.actions import checked_action
 
 DOMAIN = "auv"
 """The suite domain of every task."""
@@ -68,8 +69,14 @@ class AUVGymEnv(gymnasium.Env):
 
     def __init__(self, task_name: str, task_kwargs: Mapping[str, Any] | None = None,
                  environment_kwargs: Mapping[str, Any] | None = None, render_mode: str | None = None,
-                 render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE):
-        """`task_kwargs` go to the task factory (not "random": seed through `reset(seed=...)`)."""
+                 render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE,
+                 protection: bool = False):
+        """`task_kwargs` go to the task factory (not "random": seed through `reset(seed=...)`).
+
+        `protection=True` (planning tasks) puts the protection domain of Sec. 3.2.2 (`tasks.avoidance`) in
+        the environment: every action's heading is bent away from near echoes before the task sees it,
+        as the `planner` policies are run, so that a planner can be trained with it in the loop.
+        """
         from tasks import suite  # imported here so that registering the ids stays light
 
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -77,13 +84,15 @@ class AUVGymEnv(gymnasium.Env):
                              f"got {render_mode!r}")
         if task_kwargs is not None and not isinstance(task_kwargs, Mapping):
             raise ValueError(f"task_kwargs must be a dict of task options, got {options.shown(task_kwargs)}")
+        if not isinstance(protection, bool):
+            raise ValueError(f"protection must be True or False, got {options.shown(protection)}")
         task_kwargs = dict(task_kwargs or {})
         if "random" in task_kwargs:
             raise ValueError("seed the task through reset(seed=...), not task_kwargs['random']")
         self.task_name = task_name
         self.render_mode = render_mode
-        self.render_size = options.pair("render_size", render_size, ((1, MAX_RENDER_SIZE, "px"),) * 2)
-        self.render_size = tuple(int(v) for v in self.render_size)
+        self.render_size = tuple(int(v) for v in options.pair("render_size", render_size,
+                                                              ((1, MAX_RENDER_SIZE, "px"),) * 2))
         self.render_distance = options.number("render_distance", render_distance, 0.0, MAX_RENDER_DISTANCE, "m",
                                               low_open=True)
         environment_kwargs = dict(environment_kwargs or {})
@@ -110,6 +119,10 @@ class AUVGymEnv(gymnasium.Env):
         self.action_space = spaces.Box(low, high, dtype=np.float32)
         self._camera = None
         self._needs_reset = True
+        self.protection = bool(protection)
+        if self.protection and not self.is_goal_task:
+            raise ValueError(f"protection is for the planning tasks, not {task_name!r}")
+        self._last_observation = None
 
     # --- the wrapped dm_control objects ------------------------------------------------------------
 
@@ -132,11 +145,14 @@ class AUVGymEnv(gymnasium.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Starts an episode; a `seed` reseeds the task's RandomState (same episode as random=seed)."""
+        if seed is not None:
+            options.seed(seed, "seed")
         super().reset(seed=seed)
         if seed is not None:
             self.task.random.seed(seed)
         time_step = self._env.reset()
         self._needs_reset = False
+        self._last_observation = time_step.observation
         return self._observation(time_step.observation), self._info()
 
     def step(self, action):
@@ -148,7 +164,13 @@ class AUVGymEnv(gymnasium.Env):
         """
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
-        time_step = self._env.step(action)  # checked by the task, as on the dm_env face (tasks.actions)
+        if self.protection:
+            from tasks.avoidance import protect
+
+            action = protect(checked_action(action, self._env.action_spec(), self.task),
+                             self._last_observation["observation"])
+        time_step = self._env.step(action)
+        self._last_observation = time_step.observation
         terminated = bool(time_step.last() and time_step.discount == 0.0)
         truncated = bool(time_step.last() and not terminated)
         self._needs_reset = time_step.last()
@@ -162,6 +184,15 @@ class AUVGymEnv(gymnasium.Env):
     def compute_terminated(self, achieved_goal, desired_goal, info):
         """The task's vectorised termination for (batches of) goals."""
         return self._goal_method("compute_terminated")(achieved_goal, desired_goal, info)
+
+    def relabel_observation(self, observation, achieved_goal, desired_goal):
+        """The task's observation had `desired_goal` been the goal (hindsight relabelling), vectorised."""
+        return self._goal_method("relabel_observation")(observation, achieved_goal, desired_goal)
+
+    @property
+    def goal_in_observation(self) -> bool:
+        """Whether the observation holds the goal (relative to the vehicle): a policy then reads it alone."""
+        return bool(getattr(self.task, "goal_in_observation", False))
 
     def compute_truncated(self, achieved_goal, desired_goal, info):
         """Truncation (the time limit) does not depend on the goals: all False unless the task decides."""
@@ -209,11 +240,95 @@ class AUVGymEnv(gymnasium.Env):
         return info
 
 
+MIX_ID = "auv_mj/Planning-v0"
+"""Gymnasium id of the mixture of planning tasks (`PlanningMix`)."""
+MIX_TASKS = ("goal", "obstacles", "moving_obstacles", "tunnel")
+"""The default mixture: open water, static and moving obstacles, tunnels."""
+
+
+class PlanningMix(gymnasium.Env):
+    """A distribution of planning tasks as one goal env: each `reset(seed=...)` draws the task from the seed
+    (weights `weights`), then runs that task's episode with the same seed.
+
+    Planning tasks share observation and action spaces, and their rewards are recomputed per step from
+    the step's info (its goal radius included), so that hindsight relabelling is exact across the mix.
+    `task_kwargs` go to every task, `per_task_kwargs[task]` to one (e.g. {"tunnel": {"arena": "random"}}).
+    """
+
+    metadata = {"render_modes": [], "render_fps": 2}
+
+    def __init__(self, tasks: tuple[str, ...] = MIX_TASKS, weights: tuple[float, ...] | None = None,
+                 task_kwargs: Mapping[str, Any] | None = None,
+                 per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool = False):
+        if isinstance(tasks, str) or not isinstance(tasks, (list, tuple)) or not all(isinstance(t, str) for t in tasks):
+            raise ValueError(f"tasks: a list of planning task names, got {options.shown(tasks)}")
+        tasks = tuple(tasks)
+        if not tasks:
+            raise ValueError("tasks: give at least one planning task")
+        try:
+            weights = np.ones(len(tasks)) if weights is None else np.asarray(weights, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"weights: {len(tasks)} non-negative numbers, got {options.shown(weights)}") from None
+        if per_task_kwargs is not None and not (isinstance(per_task_kwargs, Mapping) and all(
+                isinstance(v, Mapping) for v in per_task_kwargs.values())):
+            raise ValueError(f"per_task_kwargs: a dict of task name -> dict of options, got "
+                             f"{options.shown(per_task_kwargs)}")
+        if weights.shape != (len(tasks),) or not np.all(np.isfinite(weights)) or np.any(weights < 0) \
+                or weights.sum() <= 0:
+            raise ValueError(f"weights: {len(tasks)} non-negative numbers with a positive sum, got {weights}")
+        unknown = set(per_task_kwargs or {}) - set(tasks)
+        if unknown:
+            raise ValueError(f"per_task_kwargs: {sorted(unknown)} not among the tasks {tasks}")
+        self.tasks, self.weights = tasks, weights / weights.sum()
+        self.envs = [AUVGymEnv(name, {**dict(task_kwargs or {}), **dict((per_task_kwargs or {}).get(name, {}))},
+                               protection=protection) for name in tasks]
+        first = self.envs[0]
+        for name, env in zip(tasks, self.envs, strict=True):
+            if not env.is_goal_task:
+                raise ValueError(f"{name!r} is not a planning (goal) task")
+            if env.observation_space != first.observation_space or env.action_space != first.action_space:
+                raise ValueError(f"{name!r} has other spaces than {tasks[0]!r}: give the tasks one observation")
+        self.observation_space, self.action_space = first.observation_space, first.action_space
+        self.active = first
+
+    @property
+    def goal_in_observation(self) -> bool:
+        return self.active.goal_in_observation
+
+    @property
+    def task_name(self) -> str:
+        """The task of the current episode."""
+        return self.active.task_name
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Draws the episode's task from `seed`, then resets that task with the same seed."""
+        super().reset(seed=seed)
+        self.active = self.envs[int(self.np_random.choice(len(self.envs), p=self.weights))]
+        return self.active.reset(seed=seed, options=options)
+
+    def step(self, action):
+        return self.active.step(action)
+
+    def compute_reward(self, achieved_goal, desired_goal, info):
+        return self.active.compute_reward(achieved_goal, desired_goal, info)
+
+    def compute_terminated(self, achieved_goal, desired_goal, info):
+        return self.active.compute_terminated(achieved_goal, desired_goal, info)
+
+    def compute_truncated(self, achieved_goal, desired_goal, info):
+        return self.active.compute_truncated(achieved_goal, desired_goal, info)
+
+    def relabel_observation(self, observation, achieved_goal, desired_goal):
+        return self.active.relabel_observation(observation, achieved_goal, desired_goal)
+
+
 def register_envs() -> None:
-    """Registers the `auv_mj/*-v0` ids (GYM_IDS) with Gymnasium; idempotent."""
+    """Registers the `auv_mj/*-v0` ids (GYM_IDS, and MIX_ID) with Gymnasium; idempotent."""
     for env_id, task_name in GYM_IDS.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs={"task_name": task_name})
+    if MIX_ID not in gymnasium.registry:
+        gymnasium.register(id=MIX_ID, entry_point="tasks.gym_adapter:PlanningMix")
 
 
 register_envs()

@@ -134,8 +134,28 @@ GOAL_DISTANCE_RANGE = (100.0, 400.0)
 
 OBSERVATION_FIELDS = ("x", "y", "cos_psi", "sin_psi", "u", "v", "r", "heading_command", "speed_command",
                       *SONAR_NAMES)
-"""The "observation" vector: x, y / POSITION_SCALE; cos, sin psi; u, v / MAX_SPEED; r [rad/s];
-wrap_angle(psi_cmd - psi) / MAX_HEADING_DIFFERENCE; V_cmd / MAX_SPEED; the nine sonar ranges / SONAR_RANGE."""
+"""The paper's "observation" vector (observation="paper", Table 2): x, y / POSITION_SCALE; cos, sin psi;
+u, v / MAX_SPEED; r [rad/s]; wrap_angle(psi_cmd - psi) / MAX_HEADING_DIFFERENCE; V_cmd / MAX_SPEED; the nine
+sonar ranges / SONAR_RANGE. A policy reads it with the absolute `desired_goal` beside it."""
+RELATIVE_FIELDS = ("goal_distance", "cos_goal_bearing", "sin_goal_bearing", "u", "v", "r", "heading_command",
+                   "speed_command", *SONAR_NAMES)
+"""The "relative" observation (the default): what the vehicle could know of itself and its goal, nothing tied
+to map coordinates -- the distance to the current goal / GOAL_DISTANCE_SCALE (at most GOAL_DISTANCE_CLIP),
+the goal's bearing in the body frame (cos, sin), then u, v, r, the command and the sonar as in the paper's
+vector. The goal is inside the observation, so a policy reads this vector alone (`goal_in_observation`)."""
+OBSERVATIONS = ("relative", "paper")
+GOAL_DISTANCE_SCALE = 100.0
+"""Distances to the goal in the relative observation are divided by this [m]..."""
+GOAL_DISTANCE_CLIP = 5.0
+"""... and capped here (500 m): far goals differ only in bearing."""
+SONAR_SLICE = slice(-len(SONAR_NAMES), None)
+"""The nine sonar ranges / SONAR_RANGE end both observation vectors."""
+REWARDS = ("suite", "paper", "progress")
+PROGRESS_GAIN = 0.5
+"""reward="progress": reward per metre of distance gained on the current goal (a 1 m/s step earns Eq. 23's
++0.5). Its sum over an episode depends only on where the vehicle started and ended, not on how slowly it
+went, so that Eq. (25)'s per-step cost makes reaching the goal sooner worth more; Eq. (23)'s +0.5 per
+step closer instead pays for dawdling."""
 EVENTS = ("", "subgoal", "goal", "collision", "left_map")
 """Values of last_info["event"]."""
 HULL = "hull"
@@ -160,6 +180,27 @@ def following_reward(previous_achieved, achieved, desired, radius: float) -> np.
                              np.where(after > before + PROGRESS_DEADBAND, FOLLOW_FARTHER, 0.0)))
 
 
+def progress_reward(previous_achieved, achieved, desired, radius) -> np.ndarray:
+    """reward="progress": PROGRESS_GAIN per metre gained on `desired`, +4 (Eq. 23) on reaching it; vectorised."""
+    before = goal_distance(previous_achieved, desired)
+    after = goal_distance(achieved, desired)
+    return PROGRESS_GAIN * (before - after) + np.where(after <= radius, FOLLOW_REACHED, 0.0)
+
+
+def relative_goal(achieved_goal, desired_goal) -> np.ndarray:
+    """The goal features of the relative observation from the pose (x, y, cos psi, sin psi) and the goal:
+    (distance / GOAL_DISTANCE_SCALE capped at GOAL_DISTANCE_CLIP, cos and sin of the body-frame bearing)."""
+    achieved, desired = np.asarray(achieved_goal, dtype=float), np.asarray(desired_goal, dtype=float)
+    dx, dy = desired[..., 0] - achieved[..., 0], desired[..., 1] - achieved[..., 1]
+    c, s = achieved[..., 2], achieved[..., 3]
+    forward, left = c * dx + s * dy, -s * dx + c * dy
+    distance = np.hypot(forward, left)
+    safe = np.where(distance > 1e-9, distance, 1.0)
+    return np.stack([np.minimum(distance / GOAL_DISTANCE_SCALE, GOAL_DISTANCE_CLIP),
+                     np.where(distance > 1e-9, forward / safe, 1.0), np.where(distance > 1e-9, left / safe, 0.0)],
+                    axis=-1)
+
+
 def avoid_reward(nearest_echo: float, repulsion_range: float) -> float:
     """r_avoid of Eq. (24) for the nearest sonar echo [m] and d0 = `repulsion_range` [m]."""
     if nearest_echo <= SAFETY_DISTANCE:
@@ -177,11 +218,21 @@ def repulsion_range(physics: AUVPhysics) -> float:
 
 
 def info_field(info, key: str) -> np.ndarray:
-    """`info[key]` as an array from a dict of arrays, or stacked from a sequence / array of step dicts."""
-    if isinstance(info, Mapping):
-        return np.asarray(info[key])
-    steps = np.asarray(info, dtype=object)
-    values = np.array([step[key] for step in steps.ravel()])
+    """`info[key]` as an array from a dict of arrays, or stacked from a sequence / array of step dicts.
+
+    A missing key is a ValueError that says where the info came from: Stable-Baselines3's HerReplayBuffer
+    passes empty info dicts unless it is built with `copy_info_dict=True`, and Eq. (23)'s reward needs the
+    previous position the step's info carries.
+    """
+    try:
+        if isinstance(info, Mapping):
+            return np.asarray(info[key])
+        steps = np.asarray(info, dtype=object)
+        values = np.array([step[key] for step in steps.ravel()])
+    except KeyError:
+        raise ValueError(f"compute_reward/compute_terminated need info[{key!r}], which the step's info holds; "
+                         "with Stable-Baselines3's HerReplayBuffer pass replay_buffer_kwargs="
+                         "{'copy_info_dict': True} so that infos are stored") from None
     return values.reshape(steps.shape + values.shape[1:])
 
 
@@ -375,9 +426,11 @@ class PlanningTask(base.Task):
     """
 
     def __init__(self, executor: Callable | None = None, reward: str = "suite",
-                 goal_radius: float = GOAL_RADIUS, random=None):
-        """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); "suite"|"paper"."""
-        self.reward_kind = options.choice("reward", reward, ("suite", "paper"))
+                 goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None):
+        """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); `reward` one of
+        REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS)."""
+        self.reward_kind = options.choice("reward", reward, REWARDS)
+        self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
         executor = options.function("executor", executor, "executor(command, state) -> (tau_u, tau_r)")
         self.goal_radius = options.number("goal_radius", goal_radius, 0.0, MAX_GOAL_RADIUS, "m", low_open=True)
         super().__init__(random=options.seed(random))
@@ -417,6 +470,8 @@ class PlanningTask(base.Task):
         if len(goals) == 0:
             raise ValueError("a route needs at least one goal")
         self._route, self._goals, self._bounds = route, goals, info.bounds
+        legs = np.diff(np.vstack([route.start, goals]), axis=0)
+        self._goal_headings = np.arctan2(legs[:, 1], legs[:, 0])  # the route's direction at each goal
         self._path = np.vstack([route.start, goals]) if route.path is None else np.asarray(route.path, float)
         self._reached = 0
         if route.pass_corridor is not None and len(goals) > 1:
@@ -507,6 +562,9 @@ class PlanningTask(base.Task):
         self._terminal = collision or left_map or self._reached == n
         if self.reward_kind == "paper":
             self._reward = paper
+        elif self.reward_kind == "progress":
+            self._reward = float(k1 * progress_reward(self._previous, position, desired, self.goal_radius)
+                                 + independent)
         else:
             self._reward = self._suite_reward(position, collision or left_map, success)
         self.last_info = {
@@ -526,6 +584,7 @@ class PlanningTask(base.Task):
             "event": event,
             "goals_reached": self._reached,
             "num_goals": n,
+            "goal_radius": self.goal_radius,
             "cross_track_error": distance_to_polyline(position, self._path),
             "command": self._command,
             "tracked": n == 1 or self._reached >= 1,
@@ -576,12 +635,25 @@ class PlanningTask(base.Task):
         """(a0, a1) in [-1, 1]^2: speed and heading offset (see the module docstring)."""
         return specs.BoundedArray((2,), float, -np.ones(2), np.ones(2), name="speed\theading_offset")
 
+    @property
+    def goal_in_observation(self) -> bool:
+        """Whether "observation" holds the goal itself (relative) so that a policy needs no desired_goal."""
+        return self.observation_kind == "relative"
+
+    @property
+    def observation_fields(self) -> tuple[str, ...]:
+        """Names of the "observation" vector's entries."""
+        return RELATIVE_FIELDS if self.goal_in_observation else OBSERVATION_FIELDS
+
     def observation_spec(self, physics: Physics) -> collections.OrderedDict:
-        """"observation" (OBSERVATION_FIELDS), "achieved_goal" and "desired_goal" (x, y) [m]."""
+        """"observation" (observation_fields); "achieved_goal" and "desired_goal": (x, y) [m], and with the
+        relative observation also the heading as (cos, sin) -- the vehicle's, and the route's at the goal
+        (which no reward reads) -- so that hindsight relabelling can recompute the body-frame goal."""
+        goal = 4 if self.goal_in_observation else 2
         return collections.OrderedDict(
-            observation=specs.Array((len(OBSERVATION_FIELDS),), float, name="observation"),
-            achieved_goal=specs.Array((2,), float, name="achieved_goal"),
-            desired_goal=specs.Array((2,), float, name="desired_goal"))
+            observation=specs.Array((len(self.observation_fields),), float, name="observation"),
+            achieved_goal=specs.Array((goal,), float, name="achieved_goal"),
+            desired_goal=specs.Array((goal,), float, name="desired_goal"))
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
         """Vehicle state, command and sonar, normalised (OBSERVATION_FIELDS); the goals in metres."""
@@ -591,13 +663,30 @@ class PlanningTask(base.Task):
         x, y, psi = data.qpos[self._qpos]
         u, v, r = physics.hydrodynamics.body_velocity(data)
         speed_command, heading_command = self._command
-        vector = np.empty(len(OBSERVATION_FIELDS))
-        vector[:9] = (x / POSITION_SCALE, y / POSITION_SCALE, math.cos(psi), math.sin(psi), u / MAX_SPEED,
-                      v / MAX_SPEED, r, wrap_angle(heading_command - psi) / MAX_HEADING_DIFFERENCE,
-                      speed_command / MAX_SPEED)
-        vector[9:] = self._sonar / SONAR_RANGE
-        return collections.OrderedDict(observation=vector, achieved_goal=np.array([x, y]),
-                                       desired_goal=self._goals[self.goal_index].copy())
+        motion = (u / MAX_SPEED, v / MAX_SPEED, r, wrap_angle(heading_command - psi) / MAX_HEADING_DIFFERENCE,
+                  speed_command / MAX_SPEED)
+        goal = self._goals[self.goal_index]
+        if not self.goal_in_observation:
+            vector = np.concatenate([(x / POSITION_SCALE, y / POSITION_SCALE, math.cos(psi), math.sin(psi)),
+                                     motion, self._sonar / SONAR_RANGE])
+            return collections.OrderedDict(observation=vector, achieved_goal=np.array([x, y]),
+                                           desired_goal=goal.copy())
+        heading = self._goal_headings[self.goal_index]
+        achieved = np.array([x, y, math.cos(psi), math.sin(psi)])
+        desired = np.array([goal[0], goal[1], math.cos(heading), math.sin(heading)])
+        vector = np.concatenate([relative_goal(achieved, desired), motion, self._sonar / SONAR_RANGE])
+        return collections.OrderedDict(observation=vector, achieved_goal=achieved, desired_goal=desired)
+
+    def relabel_observation(self, observation, achieved_goal, desired_goal) -> np.ndarray:
+        """The observation had `desired_goal` been the goal (hindsight relabelling; vectorised over rows).
+
+        Only the relative observation depends on the goal: its first three entries are recomputed from
+        the vehicle's pose in `achieved_goal`; the paper's vector is returned unchanged.
+        """
+        observation = np.array(observation, dtype=float, copy=True)
+        if self.goal_in_observation:
+            observation[..., :3] = relative_goal(achieved_goal, desired_goal)
+        return observation
 
     def get_reward(self, physics: Physics) -> float:
         """The reward of the step just taken ("suite" or "paper", see the module docstring)."""
@@ -618,8 +707,8 @@ class PlanningTask(base.Task):
         """
         previous = info_field(info, "previous_achieved_goal")
         independent = info_field(info, "goal_independent_reward")
-        return REWARD_WEIGHTS[0] * following_reward(previous, achieved_goal, desired_goal,
-                                                    self.goal_radius) + independent
+        follow = progress_reward if self.reward_kind == "progress" else following_reward
+        return REWARD_WEIGHTS[0] * follow(previous, achieved_goal, desired_goal, self._radius(info)) + independent
 
     def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray:
         """Whether a step ends the episode had `desired_goal` been its only goal: reached, collided or left.
@@ -627,9 +716,16 @@ class PlanningTask(base.Task):
         For the last goal of a route this equals the environment's termination; for an earlier sub-goal
         the environment goes on to the next goal, while the relabelled single-goal episode ends.
         """
-        reached = goal_distance(achieved_goal, desired_goal) <= self.goal_radius
+        reached = goal_distance(achieved_goal, desired_goal) <= self._radius(info)
         failed = info_field(info, "collision").astype(bool) | info_field(info, "left_map").astype(bool)
         return reached | failed
+
+    def _radius(self, info) -> np.ndarray | float:
+        """The goal radius of each step: from its info when recorded there (a mix of tasks), else ours."""
+        try:
+            return info_field(info, "goal_radius")
+        except ValueError:
+            return self.goal_radius
 
     @property
     def goals(self) -> np.ndarray:

@@ -51,7 +51,11 @@ def test_spaces():
     goal = AUVGymEnv("goal")
     assert isinstance(goal.observation_space, gymnasium.spaces.Dict)
     assert set(goal.observation_space.spaces) == {"observation", "achieved_goal", "desired_goal"}
-    assert goal.observation_space["achieved_goal"].shape == (2,)
+    assert goal.observation_space["achieved_goal"].shape == (4,)  # (x, y, cos psi, sin psi): relative obs
+    assert goal.observation_space["observation"].shape == (17,) and goal.goal_in_observation
+    paper = AUVGymEnv("goal", task_kwargs={"observation": "paper"})
+    assert paper.observation_space["achieved_goal"].shape == (2,) and not paper.goal_in_observation
+    assert paper.observation_space["observation"].shape == (18,)
 
 
 def test_seed_gives_the_dm_control_episode():
@@ -148,3 +152,82 @@ def test_render_rgb_array():
     env.close()
     env.close()
     assert AUVGymEnv("speed_heading").render() is None
+
+
+def test_her_without_copied_infos_names_copy_info_dict(one_torch_thread):
+    from stable_baselines3 import DDPG, HerReplayBuffer
+
+    env = gymnasium.make("auv_mj/Goal-v0", task_kwargs={"time_limit": 10.0})
+    model = DDPG("MultiInputPolicy", env, replay_buffer_class=HerReplayBuffer,
+                 replay_buffer_kwargs={"n_sampled_goal": 4, "goal_selection_strategy": "future"},
+                 learning_starts=40, batch_size=32, policy_kwargs={"net_arch": [32, 32]}, seed=0, verbose=0)
+    with pytest.raises(ValueError, match="copy_info_dict"):
+        model.learn(total_timesteps=100)
+
+
+def test_relative_observation_is_invariant_to_moving_and_turning_the_world():
+    """The body-frame goal: shifting and rotating the pose and the goal together changes nothing."""
+    from tasks.planning import relative_goal
+
+    rng = np.random.default_rng(0)
+    pose, goal = rng.uniform(-300, 300, (50, 2)), rng.uniform(-300, 300, (50, 2))
+    psi = rng.uniform(-np.pi, np.pi, 50)
+    angle, shift = 1.1, np.array([150.0, -300.0])
+    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+
+    def features(p, g, heading):
+        return relative_goal(np.column_stack([p, np.cos(heading), np.sin(heading)]), g)
+
+    np.testing.assert_allclose(features(pose, goal, psi), features(pose @ rot.T + shift, goal @ rot.T + shift,
+                                                                   psi + angle), atol=1e-9)
+    ahead = features(np.zeros((1, 2)), np.array([[30.0, 40.0]]), np.array([np.arctan2(40, 30)]))
+    np.testing.assert_allclose(ahead, [[0.5, 1.0, 0.0]], atol=1e-12)  # 50 m dead ahead
+    left = features(np.zeros((1, 2)), np.array([[0.0, 20.0]]), np.array([0.0]))
+    np.testing.assert_allclose(left, [[0.2, 0.0, 1.0]], atol=1e-12)  # 20 m to port
+
+
+def test_relabelled_observation_is_the_one_the_env_gives_for_that_goal():
+    env = AUVGymEnv("goal")
+    obs, _ = env.reset(seed=3)
+    for _ in range(5):
+        obs, *_ = env.step(np.array([0.5, 0.3], dtype=np.float32))
+    relabelled = env.relabel_observation(obs["observation"][None], obs["achieved_goal"][None],
+                                         obs["desired_goal"][None])[0]
+    np.testing.assert_allclose(relabelled, obs["observation"], atol=1e-12)
+    other = obs["achieved_goal"][:2] + [0.0, 100.0]
+    moved = env.relabel_observation(obs["observation"], obs["achieved_goal"], np.r_[other, 1.0, 0.0])
+    assert moved[0] == pytest.approx(1.0) and np.array_equal(moved[3:], obs["observation"][3:])
+
+
+def test_planning_mix_draws_the_task_from_the_seed_and_relabels_with_each_steps_radius():
+    env = gymnasium.make("auv_mj/Planning-v0", tasks=("goal", "path_line"), weights=(1.0, 1.0))
+    drawn = {}
+    for seed in range(12):
+        env.reset(seed=seed)
+        drawn[seed] = env.unwrapped.task_name
+    assert set(drawn.values()) == {"goal", "path_line"}
+    for seed in (0, 5):
+        env.reset(seed=seed)
+        assert env.unwrapped.task_name == drawn[seed]  # the same seed, the same task
+    # one relabelled batch over both tasks' steps: each step's own goal radius decides "reached"
+    achieved = np.array([[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
+    desired = np.array([[5.0, 0.0, 1.0, 0.0], [5.0, 0.0, 1.0, 0.0]])
+    info = {"previous_achieved_goal": np.zeros((2, 4)), "goal_independent_reward": np.zeros(2),
+            "collision": np.zeros(2), "left_map": np.zeros(2), "goal_radius": np.array([12.5, 2.0])}
+    np.testing.assert_array_equal(env.unwrapped.compute_terminated(achieved, desired, info), [True, False])
+
+
+def test_protection_in_the_loop_bends_the_heading_as_the_planner_policy_does():
+    from tasks.avoidance import protect
+
+    env = AUVGymEnv("obstacles", task_kwargs={"scenario": "a"}, protection=True)
+    bare = AUVGymEnv("obstacles", task_kwargs={"scenario": "a"})
+    obs, _ = env.reset(seed=0)
+    bare_obs, _ = bare.reset(seed=0)
+    for _ in range(200):
+        action = np.array([0.0, 0.0], dtype=np.float32)
+        obs, _, terminated, truncated, _ = env.step(action)
+        bare_obs, *_ = bare.step(protect(action, bare_obs["observation"]))
+        np.testing.assert_allclose(obs["observation"], bare_obs["observation"], atol=1e-12)
+        if terminated or truncated:
+            break

@@ -226,3 +226,10 @@ def test_integral_observation_extends_eq_27_with_the_integrals():
 def test_bad_settings_are_rejected(kwargs):
     with pytest.raises(ValueError):
         sh.SpeedHeading(**kwargs)
+
+
+def test_speed_heading_refuses_an_infinite_action_as_the_planning_tasks_do():
+    env = SUITE["speed_heading"](random=0)
+    env.reset()
+    with pytest.raises(ValueError, match="finite"):
+        env.step(np.array([np.inf, 0.0]))

@@ -20,6 +20,7 @@ from auv_mj.arena import arena_info
 from auv_mj.geometry import wrap_angle
 from auv_mj.sonar import SONAR_RANGE
 from tasks import obstacles, planning, suite, tunnel
+from tasks.actions import ActionClipped
 from tasks.registry import SUITE
 
 PLANNING_TASKS = sorted(SUITE.tagged("planning"))
@@ -33,17 +34,16 @@ HOLD = np.array([-1.0, 0.0])
 
 def line_of_sight(observation, speed: float = 0.5) -> np.ndarray:
     """Scripted planner: head for the current (sub-)goal at V = 2 * speed m/s."""
-    x, y = observation["achieved_goal"]
-    gx, gy = observation["desired_goal"]
-    vector = observation["observation"]
-    psi = math.atan2(vector[3], vector[2])
+    x, y, cos_psi, sin_psi = observation["achieved_goal"]  # the relative observation's pose
+    gx, gy = observation["desired_goal"][:2]
+    psi = math.atan2(sin_psi, cos_psi)
     error = wrap_angle(math.atan2(gy - y, gx - x) - psi)
     return np.array([speed, np.clip(error / planning.ACTION_HEADING_RANGE, -1.0, 1.0)])
 
 
 def line_of_sight_avoiding(observation, speed: float = 0.5) -> np.ndarray:
     """`line_of_sight`, but turning hard to the clearer side when the forward beams S4..S6 see something."""
-    sonar = observation["observation"][9:] * SONAR_RANGE
+    sonar = observation["observation"][planning.SONAR_SLICE] * SONAR_RANGE
     if sonar[3:6].min() < AVOID_RANGE:
         return np.array([speed, 1.0 if sonar[5:].sum() > sonar[:4].sum() else -1.0])
     return line_of_sight(observation, speed)
@@ -182,9 +182,9 @@ def test_compute_reward_equals_the_paper_reward(name):
     step = env.reset()
     achieved, desired, rewards, infos = [], [], [], []
     while not step.last():
-        desired.append(step.observation["desired_goal"])
+        desired.append(step.observation["desired_goal"][:2])
         step = env.step(actions.uniform(-1, 1, 2))
-        achieved.append(step.observation["achieved_goal"])
+        achieved.append(step.observation["achieved_goal"][:2])
         rewards.append(step.reward)
         infos.append(task.last_info)
         assert task.last_info["paper_reward"] == step.reward
@@ -238,12 +238,17 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
     np.testing.assert_allclose(offsets[:4], np.arange(1, 5) * planning.MAX_HEADING_CHANGE, atol=1e-3)
     psi = env.physics.pose()[2]
     assert abs(commands[-1][1] - psi) <= planning.MAX_HEADING_DIFFERENCE + 1e-9
-    assert step.observation["observation"][7] == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
-    for a0, speed in ((-1.0, 0.0), (1.0, 2.0), (-5.0, 0.0)):  # forward only: never astern, blind
+    assert step.observation["observation"][env.task.observation_fields.index("heading_command")] == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
+    for a0, speed in ((-1.0, 0.0), (1.0, 2.0)):  # forward only: never astern, blind
         env.step(np.array([a0, 0.0]))
         assert env.task.last_info["command"][0] == pytest.approx(speed)
+    with pytest.warns(ActionClipped, match="clipped"):  # the one action convention (tasks.actions)
+        env.step(np.array([-5.0, 0.0]))
+    assert env.task.last_info["command"][0] == pytest.approx(0.0)
     with pytest.raises(ValueError, match="finite"):
         env.step(np.array([np.nan, 0.0]))
+    with pytest.raises(ValueError, match="must be numbers"):
+        env.step(np.array(["1", "0"]))
 
 
 def test_paper_reward_terms_on_hand_computed_cases():
@@ -271,8 +276,8 @@ def test_paper_reward_terms_on_hand_computed_cases():
     first = step = env.reset()
     for _ in range(20):  # from rest the first steps move less than the dead-band: r = 0 - 0.05
         previous, step = step, env.step(np.array([0.5, 0.0]))
-    before = np.hypot(*(previous.observation["achieved_goal"] - first.observation["desired_goal"]))
-    after = np.hypot(*(step.observation["achieved_goal"] - first.observation["desired_goal"]))
+    before = np.hypot(*(previous.observation["achieved_goal"][:2] - first.observation["desired_goal"][:2]))
+    after = np.hypot(*(step.observation["achieved_goal"][:2] - first.observation["desired_goal"][:2]))
     assert after < before - planning.PROGRESS_DEADBAND and step.reward == pytest.approx(0.5 - 0.05)
 
 
@@ -305,7 +310,7 @@ def test_line_of_sight_reaches_the_goal():
     env = suite.load("auv", "goal", task_kwargs={"scenario": "a2", "reward": "paper"})
     steps, infos = run(env, line_of_sight)
     assert infos[-1]["event"] == "goal" and infos[-1]["success"] and steps[-1].discount == 0.0
-    assert np.hypot(*(steps[-1].observation["achieved_goal"] - [200, 200])) <= planning.GOAL_RADIUS
+    assert np.hypot(*(steps[-1].observation["achieved_goal"][:2] - [200, 200])) <= planning.GOAL_RADIUS
     assert len(steps) < 0.8 * env._step_limit and not any(i["collision"] for i in infos)
 
 
@@ -314,11 +319,11 @@ def test_waypoints_advance_in_turn_with_the_reached_bonus():
     steps, infos = run(env, lambda obs: line_of_sight(obs, speed=1.0))
     events = [(i, info) for i, info in enumerate(infos) if info["event"]]
     assert [info["event"] for _, info in events] == ["subgoal", "subgoal", "goal"]
-    targets = [steps[i].observation["desired_goal"] for i, _ in events]  # the goal each step aimed at
+    targets = [steps[i].observation["desired_goal"][:2] for i, _ in events]  # the goal each step aimed at
     np.testing.assert_array_equal(targets, env.task.goals)
     for i, info in events:  # steps[i + 1] is the step after which the event was reported
         assert info["reward_following"] == planning.FOLLOW_REACHED
-        before, after = steps[i].observation["desired_goal"], steps[i + 1].observation["desired_goal"]
+        before, after = steps[i].observation["desired_goal"][:2], steps[i + 1].observation["desired_goal"][:2]
         assert (info["event"] == "goal") == np.array_equal(before, after)
     assert steps[-1].discount == 0.0 and infos[-1]["success"]
 
@@ -330,7 +335,7 @@ def test_scripted_traversal_of_the_tunnel_inspection_arena():
     np.testing.assert_allclose(info.start, [670, 125])
     steps, infos = run(env, line_of_sight_avoiding)
     assert infos[-1]["event"] == "goal" and infos[-1]["success"], infos[-1]
-    np.testing.assert_allclose(steps[-1].observation["achieved_goal"], [0, 150], atol=planning.SUBGOAL_RADIUS)
+    np.testing.assert_allclose(steps[-1].observation["achieved_goal"][:2], [0, 150], atol=planning.SUBGOAL_RADIUS)
     assert not any(i["collision"] for i in infos)
     assert infos[-1]["goals_reached"] == infos[-1]["num_goals"] == len(env.task.goals)
     cross_track = np.array([i["cross_track_error"] for i in infos])
@@ -396,7 +401,7 @@ def test_sonar_sees_the_walls_of_a_tunnel_exactly():
     assert sonar[4] == pytest.approx(130.0 - 40.0 - SONAR_OFFSET, abs=1e-6)  # S5 ahead: end cap
     assert sonar[2] == pytest.approx(12.0 * math.sqrt(2), abs=1e-6)  # S3, -45 deg
     observation = env.task.get_observation(env.physics)  # sampled once per planner step (2 Hz) ...
-    assert observation["observation"][9] * SONAR_RANGE == pytest.approx(10.0)  # ... so still the reset's
+    assert observation["observation"][planning.SONAR_SLICE][0] * SONAR_RANGE == pytest.approx(10.0)  # ... so still the reset's
 
 
 def test_sonar_sees_moving_obstacles_where_they_are():
@@ -463,7 +468,7 @@ def test_random_obstacles_keep_off_the_start_and_the_goal():
     counts = set()
     for _ in range(10):
         step = env.reset()
-        start, goal = step.observation["achieved_goal"], step.observation["desired_goal"]
+        start, goal = step.observation["achieved_goal"][:2], step.observation["desired_goal"][:2]
         active = [g for g in range(model.ngeom) if model.geom(g).name.startswith("obstacle_")
                   and abs(data.geom_xpos[g][2]) < 1]
         counts.add(len(active))
@@ -481,6 +486,6 @@ def test_named_layouts_fit_their_time_limits():
                          ("path_curve", {}), ("goal", {"scenario": "a1"})]:
         env = suite.load("auv", name, task_kwargs=kwargs)
         step = env.reset()
-        route = np.vstack([step.observation["achieved_goal"], env.task.goals])
+        route = np.vstack([step.observation["achieved_goal"][:2], env.task.goals])
         limit = env._step_limit * planning.PLANNER_DT
         assert planning.path_length(route) / planning.TARGET_SPEED < 0.75 * limit, (name, kwargs)

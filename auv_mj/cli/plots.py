@@ -112,7 +112,8 @@ def draw_trajectory(ax, records: Sequence[EpisodeRecord], labels: Sequence[str] 
     extent = _extent(records)
     ax.set_xlim(extent[0], extent[2])
     ax.set_ylim(extent[1], extent[3])
-    ax.legend(loc="best", fontsize="small", framealpha=0.8)
+    # Outside the map, on the right, so that it never hides the track.
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize="small", framealpha=0.8)
 
 
 def _draw_movers(ax, record: EpisodeRecord, first: bool) -> None:
@@ -181,6 +182,27 @@ def plot_trajectory(records, path: str | Path, labels: Sequence[str] | None = No
                  f"{record.task or 'episode'}: {record.policy or 'policy'}, "
                  f"{'success' if record.succeeded else 'no success'} after {record.time[-1]:.0f} s")
     fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_gallery(groups: Sequence[tuple[str, Sequence[EpisodeRecord], Sequence[str]]], path: str | Path,
+                 columns: int = 3, panel: int = 420, title: str | None = None) -> Path:
+    """PNG of several arenas side by side: per panel (title, records on one arena, their labels)."""
+    rows = max(1, math.ceil(len(groups) / columns))
+    fig, axes = _figure(columns * panel, rows * panel, rows, columns, squeeze=False)
+    for ax in axes.ravel()[len(groups):]:
+        ax.set_visible(False)
+    for ax, (name, records, labels) in zip(axes.ravel(), groups, strict=False):
+        draw_trajectory(ax, list(records), list(labels))
+        ax.set_title(name, fontsize="small")
+        legend = ax.get_legend()
+        if legend is not None:
+            legend.remove()
+    handles, labels = axes.ravel()[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(6, len(labels)), fontsize="small")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout(rect=(0, 0.06, 1, 0.97 if title else 1))
     return _save(fig, path)
 
 

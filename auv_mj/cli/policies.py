@@ -90,36 +90,44 @@ def learned_executor(path: Path | None = None) -> LearnedExecutor:
 
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
-    """The suite environment for one episode; `two-layer` plugs in the learned executor."""
+    """The suite environment for one episode; `two-layer` plugs in the learned executor, and a checkpoint
+    gets the observation it was trained on (read from its metadata)."""
     task_kwargs["random"] = seed
     if policy_name in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
         task_kwargs["executor"] = learned_executor()
-    if task_name in EXECUTOR_TASKS and "observation" not in task_kwargs:
-        checkpoint = _checkpoint_path(policy_name)
-        if checkpoint is not None:  # the observation the executor was trained on, by its input size
-            task_kwargs["observation"] = observation_kind(int(read_checkpoint(checkpoint)[1]["obs_dim"]))
+    checkpoint = _checkpoint_path(policy_name, task_name)
+    if checkpoint is not None and "observation" not in task_kwargs:
+        meta = read_checkpoint(checkpoint)[1]
+        if task_name in EXECUTOR_TASKS:  # the executor's observation, by its input size
+            task_kwargs["observation"] = observation_kind(int(meta["obs_dim"]))
+        elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
+            task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
     return suite.load("auv", task_name, task_kwargs=task_kwargs)
 
 
-def _checkpoint_path(policy_name: str) -> Path | None:
-    """The checkpoint behind `policy_name` on an executor task, or None for a baseline."""
+def _checkpoint_path(policy_name: str, task_name: str | None = None) -> Path | None:
+    """The checkpoint behind `policy_name` (on `task_name`), or None for a baseline."""
     if policy_name == "executor":
         return shipped_checkpoint("executor")
+    if policy_name in ("planner", "planner-raw", "two-layer") and task_name not in EXECUTOR_TASKS:
+        return shipped_checkpoint(PLANNER_FOR_TASK.get(task_name, "planner"))
     path = Path(policy_name)
     return path if path.is_file() else None
 
 
-def _checkpoint_policy(path: Path, env):
-    """A checkpoint's policy acting in `env`; ValueError naming the file if its sizes do not fit the task."""
+def _checkpoint_policy(path: Path, env, protection: bool | None = None):
+    """The checkpoint's policy on time steps of `env`; a planner trained with the protection domain in the loop
+    (`--env-kwargs '{"protection": true}'`) runs with it, as it was trained (unless `protection` says).
+    ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = Policy.load(path)
-    spec = env.observation_spec()
-    size = sum(int(np.prod(spec[k].shape)) for k in (("observation", "desired_goal") if "desired_goal" in spec
-                                                     else ("observation",)))
+    sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
     actions = tuple(env.action_spec().shape)
-    if size != policy.obs_dim or actions != (len(policy.low),):
-        raise ValueError(f"checkpoint {path} takes observations of size {policy.obs_dim} and gives "
-                         f"{len(policy.low)} actions; this task has observations of size {size} and actions "
-                         f"of shape {actions}")
+    try:
+        policy.flat_obs(sample["observation"] if set(sample) == {"observation"} else sample)
+        if actions != (len(policy.low),):
+            raise ValueError(f"it gives {len(policy.low)} actions, the task takes shape {actions}")
+    except (KeyError, ValueError) as e:
+        raise ValueError(f"checkpoint {path} does not fit this task: {' '.join(str(e).split())}") from None
 
     def act(time_step):
         observation = time_step.observation
@@ -127,7 +135,9 @@ def _checkpoint_policy(path: Path, env):
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
 
-    return act
+    if protection is None:
+        protection = bool(policy.metadata.get("run_info", {}).get("env_kwargs", {}).get("protection", False))
+    return with_repulsion(act) if protection else act
 
 
 def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
@@ -142,9 +152,9 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     if policy_name == "los-avoid":
         return los_avoid(env)
     if policy_name in ("planner", "two-layer"):
-        return with_repulsion(_checkpoint_policy(shipped_checkpoint(planner), env))
+        return _checkpoint_policy(shipped_checkpoint(planner), env, protection=True)
     if policy_name == "planner-raw":
-        return _checkpoint_policy(shipped_checkpoint(planner), env)
+        return _checkpoint_policy(shipped_checkpoint(planner), env, protection=False)
     if policy_name == "executor":
         return _checkpoint_policy(shipped_checkpoint("executor"), env)
     path = Path(policy_name)

@@ -19,9 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli import evaluate, policies
-from auv_mj.cli.options import positive_int
-from auv_mj.episode import record_episode
+from auv_mj import seeds
+from auv_mj.cli import evaluate, plots, policies
+from auv_mj.cli.options import check_output, positive_int
+from auv_mj.episode import episode_metrics, record_episode
 
 PAPER_TABLE9 = {  # Table 9: MAE of speed [m/s] and heading [rad] per disturbance phase
     "splane": {"instantaneous": (0.0089, 0.0080), "constant": (0.0460, 0.0028), "periodic": (0.0421, 0.0448)},
@@ -47,8 +48,6 @@ SCENARIOS = (  # (label, paper table, task, task kwargs)
 )
 SCENARIO_POLICIES = ("two-layer", "planner", "splane")
 TRACKING_POLICIES = ("los-executor", "splane")
-SETTLE_TIME = 60.0
-"""Tracking errors of Tables 10-11 leave out the first seconds of driving to the path, as the paper does."""
 RANDOM_TARGETS = (("goal", 0.95, None), ("obstacles", 0.90, 0.02))
 """(task, success target, collision ceiling) of the planner on random layouts (the issue's targets)."""
 FIG8_TARGET = 0.9
@@ -75,26 +74,22 @@ def table9(lines: list[str]) -> None:
 
 
 def tracking(lines: list[str]) -> None:
-    """Tables 10-11: speed and heading tracking along the line and the curve, after SETTLE_TIME."""
+    """Tables 10-11: speed and heading tracking along the line and the curve, once on the path."""
     lines += ["## Tables 10-11: line and curve following", "",
-              f"Errors of speed and heading against the executor's command, leaving out the first {SETTLE_TIME:.0f} s "
-              "(the drive to the path), as the paper does. `los-executor` = line-of-sight guidance on the "
+              "Errors of speed and heading against the executor's command and the cross-track error, from the "
+              "moment the vehicle reaches the path's first point (the drive to the path is left out, as the paper "
+              "does; the tasks mark these steps `tracked`). `los-executor` = line-of-sight guidance on the "
               "learned DDPG executor; `splane` = the same guidance on the S-plane controller.", "",
               "| path | controller | MAE speed | MAE heading | MAX speed | MAX heading | cross-track MAE [m] |",
               "| --- | --- | --- | --- | --- | --- | --- |"]
     for task, paper in PAPER_TRACKING.items():
         lines.append(f"| {task} | paper (DDPG) | {paper[0]} | {paper[1]} | {paper[2]} | {paper[3]} | n/a |")
         for name in TRACKING_POLICIES:
-            env = policies.make_env(name, task, 0)
-            record = record_episode(env, policies.make_policy(name, env, 0, task), task=task, policy_name=name)
-            keep = record.time[1:] > SETTLE_TIME
-            speed = np.abs(record.info["speed_error"][keep])
-            heading = np.abs(record.info["heading_error"][keep])
-            cross = np.abs(record.info["cross_track_error"][keep])
-            lines.append(f"| {task} | {name} | {_fmt(speed.mean())} | {_fmt(heading.mean())} | "
-                         f"{_fmt(speed.max())} | {_fmt(heading.max())} | {_fmt(cross.mean(), 2)} |")
-    lines += ["", "Command: `auv-mj eval --policy los-executor --task path_line --episodes 1` (whole episode; "
-              "this report drops the first 60 s).", ""]
+            m = evaluate.run_episode(name, task, 0)
+            lines.append(f"| {task} | {name} | {_fmt(m['mae_speed'])} | {_fmt(m['mae_heading'])} | "
+                         f"{_fmt(m['max_speed'])} | {_fmt(m['max_heading'])} | {_fmt(m['mae_cross_track'], 2)} |")
+    lines += ["", "Command: `auv-mj eval --policy los-executor --task path_line --episodes 1` (the same figures).",
+              ""]
 
 
 def episodes_to(success: np.ndarray, target: float, window: int = 20) -> float:
@@ -198,20 +193,17 @@ def scenarios(lines: list[str], figures: Path) -> None:
               "One episode per scenario (start, goal and obstacles from the table; obstacle shapes ours). "
               "`two-layer` = HER-DDPG planner on the DDPG executor (Sec. 4.3); `planner` = HER-DDPG on the "
               "S-plane executor; `splane` = line-of-sight guidance on S-plane (no avoidance).", "",
-              "| scenario | paper | policy | success | collision | min clearance [m] | path length [m] | time [s] |",
-              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+              "| scenario | paper | policy | outcome | min clearance [m] | path length [m] | time [s] |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
     for label, table, task, kwargs in SCENARIOS:
         records = []
         for name in SCENARIO_POLICIES:
-            env = policies.make_env(name, task, 0, **kwargs)
-            record = record_episode(env, policies.make_policy(name, env, 0, task), task=task, policy_name=name)
+            env, policy = policies.env_and_policy(name, task, 0, kwargs)
+            record = record_episode(env, policy, task=task, policy_name=name)
             records.append(record)
-            steps = np.diff(record.pose[:, :2], axis=0)
-            length = float(np.sum(np.hypot(steps[:, 0], steps[:, 1])))
-            lines.append(f"| {label} | {table} | {name} | {record.succeeded} | "
-                         f"{bool(np.any(record.event == 'collision'))} | "
-                         f"{_fmt(float(np.nanmin(record.info['min_clearance'])), 1)} | {length:.0f} | "
-                         f"{record.time[-1]:.0f} |")
+            m = episode_metrics(record)
+            lines.append(f"| {label} | {table} | {name} | {m['outcome']} | {_fmt(m['min_clearance'], 1)} | "
+                         f"{m['path_length']:.0f} | {record.time[-1]:.0f} |")
         name = label.replace(" ", "_")
         plots.plot_trajectory(records, figures / f"{name}.png", labels=list(SCENARIO_POLICIES),
                               title=f"{label} ({table})")
@@ -230,9 +222,60 @@ def random_targets(lines: list[str], episodes: int) -> None:
         summary = evaluate.evaluate("planner", [task], episodes, 10_000, progress=False)["tasks"][task]
         lines.append(f"| {task} | planner | {episodes} | {summary['success_rate']:.2f} | >= {target} | "
                      f"{summary['collision_rate']:.2f} | {'<= ' + str(ceiling) if ceiling else '-'} | "
-                     f"{summary['min_clearance']:.1f} |")
+                     f"{_fmt(summary['min_clearance'], 1)} |")
     lines += ["", f"Command: `auv-mj eval --policy planner --task goal --episodes {episodes} --seed 10000` "
               "(seeds from 10000 are never used in training).", ""]
+
+
+GENERALISATION_POLICIES = ("two-layer", "planner", "los-avoid", "splane")
+"""The learned planner (with the protection domain, on the learned and on the S-plane executor) against the
+classical local planner and plain line of sight."""
+GENERALISATION_SETS = (  # (label, task, task kwargs)
+    ("random tunnels", "tunnel", {"arena": "random"}),
+    ("random obstacles", "obstacles", {}),
+    ("random moving obstacles", "moving_obstacles", {}),
+)
+TRAINING_RUN_SEED = 0
+"""Run seed of the shipped planner's training: its episodes' arenas are the "training arenas" rows."""
+
+
+def _policy_set(name: str, task: str, kwargs: dict, seeds: list[int]) -> dict:
+    return evaluate.summarise([evaluate.run_episode(name, task, s, kwargs) for s in seeds])
+
+
+def generalisation(lines: list[str], episodes: int, figures: Path) -> None:
+    """Success, collisions and time on arenas the planner trained on versus held-out ones, every policy."""
+    held_out = [seeds.TEST.start + i for i in range(episodes)]
+    trained = [seeds.train_seed(TRAINING_RUN_SEED, i) for i in range(max(1, episodes // 4))]
+    lines += ["## Generalisation: held-out arenas", "",
+              f"Held-out arenas are drawn from test seeds {held_out[0]}..{held_out[-1]} (never used to train or to "
+              f"choose a model; validation seeds {seeds.VALIDATION.start}+ chose the planner); training arenas "
+              f"from the seeds of the planner's own training episodes (`auv_mj.seeds.train_seed(0, i)`, "
+              f"{len(trained)} of them). Time to goal is over successful episodes.", "",
+              "| set | arenas | policy | episodes | success | collisions | outcomes | time to goal [s] | "
+              "min clearance [m] |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    gallery = []
+    for label, task, kwargs in GENERALISATION_SETS:
+        for split, chosen in (("held-out", held_out), ("training", trained)):
+            for name in GENERALISATION_POLICIES:
+                s = _policy_set(name, task, kwargs, chosen)
+                outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
+                lines.append(f"| {label} | {split} | {name} | {s['episodes']} | {s['success_rate']:.2f} | "
+                             f"{s['collision_rate']:.2f} | {outcomes} | {_fmt(s['time_to_goal'], 0)} | "
+                             f"{_fmt(s['min_clearance'], 1)} |")
+        if task == "tunnel":
+            for seed in held_out[:6]:
+                records = []
+                for name in ("two-layer", "los-avoid"):
+                    env, policy = policies.env_and_policy(name, task, seed, kwargs)
+                    records.append(record_episode(env, policy, task=task, policy_name=name, seed=seed))
+                gallery.append((f"seed {seed}: " + ", ".join(f"{r.policy} {episode_metrics(r)['outcome']}"
+                                                             for r in records), records, ["two-layer", "los-avoid"]))
+    plots.plot_gallery(gallery, figures / "heldout_tunnels.png", title="Held-out random tunnels")
+    lines += ["", "![held-out tunnels](figures/heldout_tunnels.png)", "",
+              f"Commands: `auv-mj eval --policy two-layer --task tunnel --arena random --episodes {episodes} "
+              f"--seed {seeds.TEST.start}` (and `--task obstacles`, `--task moving_obstacles`; `--policy planner`, "
+              "`los-avoid`, `splane`).", ""]
 
 
 def _commit() -> str:
@@ -256,6 +299,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Measures everything and writes the Markdown report with its figures."""
+    check_output(args, args.out, "--out")
     start = time.perf_counter()
     figures = args.out.parent / "figures"
     figures.mkdir(parents=True, exist_ok=True)

@@ -47,6 +47,8 @@ def make_env_fn(env_id: str, **kwargs: Any) -> Callable[[], gym.Env]:
 
 
 _CLI_SKIP = ("seed", "device")
+ENV_KWARGS_NAME = "env_kwargs.json"
+"""File in the run directory holding the --env-kwargs of the run."""
 TASK_KWARGS_NAME = "task_kwargs.json"
 """File in the run directory holding the --task-kwargs of the run."""
 
@@ -61,6 +63,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "kept in the run directory and reused by --resume")
     parser.add_argument("--arena", default=None, metavar="PATH",
                         help="arena MJCF for the task (shortcut for --task-kwargs '{\"arena\": PATH}')")
+    parser.add_argument("--env-kwargs", type=json_object, default=None, metavar="JSON",
+                        help="keyword arguments of the Gymnasium environment, e.g. '{\"protection\": true}' "
+                             "(the protection domain in the loop) or, for --task planning, '{\"tasks\": "
+                             "[\"goal\", \"tunnel\"], \"per_task_kwargs\": {\"tunnel\": {\"arena\": "
+                             "\"random\"}}}'; kept in the run directory and reused by --resume")
     parser.add_argument("--steps", type=positive_int, help="total env steps (default: --episodes)")
     parser.add_argument("--episodes", type=positive_int, help="total episodes (default: max_episodes, Table 4)")
     parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
@@ -86,26 +93,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             group.add_argument(flag, type=type(field.default), help=help_text)
 
 
+def _read_options(path: Path) -> dict:
+    """The JSON object of options a run directory keeps (task_kwargs.json, env_kwargs.json), read within bounds."""
+    text = read_text(path, "the run's options")
+    check_json_depth(text, str(path))
+    value = json.loads(text)
+    if not isinstance(value, dict):
+        raise ValueError(f"{path}: must hold a JSON object of options")
+    return value
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs `auv-mj train`; returns the exit status."""
     try:
         run_dir = args.run_dir or (Path("runs") / args.task.replace("/", "_")
                                    / f"{args.agent}-seed{args.seed or 0}")
-        kwargs_file = run_dir / TASK_KWARGS_NAME
+        kwargs_file, env_file = run_dir / TASK_KWARGS_NAME, run_dir / ENV_KWARGS_NAME
         kwargs = task_kwargs(args) or None
         if kwargs is None and args.resume and kwargs_file.is_file():
-            text = read_text(kwargs_file, "the run's task options")
-            check_json_depth(text, str(kwargs_file))
-            kwargs = json.loads(text)
-            if not isinstance(kwargs, dict):
-                raise ValueError(f"{kwargs_file}: must hold a JSON object of task options")
+            kwargs = _read_options(kwargs_file)
+        env_kwargs = args.env_kwargs
+        if env_kwargs is None and args.resume and env_file.is_file():
+            env_kwargs = _read_options(env_file)
         if args.resume and args.init:
             raise ValueError("--init starts a new run; it cannot be combined with --resume")
-        env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": kwargs} if kwargs else {}))
+        env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": kwargs} if kwargs else {}),
+                             **(env_kwargs or {}))
         env_fn().close()  # a bad task option is refused here, before the run directory is touched
-        if kwargs:
-            run_dir.mkdir(parents=True, exist_ok=True)
-            kwargs_file.write_text(json.dumps(kwargs))
+        for data, path in ((kwargs, kwargs_file), (env_kwargs, env_file)):
+            if data:
+                run_dir.mkdir(parents=True, exist_ok=True)
+                path.write_text(json.dumps(data))
         base = DDPGConfig()
         if args.resume:
             base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"])
@@ -116,7 +134,8 @@ def run(args: argparse.Namespace) -> int:
         result = train(env_fn, args.agent, dataclasses.replace(base, **overrides), total_steps=args.steps,
                        episodes=args.episodes, run_dir=run_dir, resume=args.resume, init=args.init,
                        checkpoint_every=args.checkpoint_every, progress=not args.no_progress,
-                       tensorboard=not args.no_tensorboard)
+                       tensorboard=not args.no_tensorboard,
+                       run_info={"task": args.task, "task_kwargs": kwargs or {}, "env_kwargs": env_kwargs or {}})
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(f"{result.episodes} episodes, {result.env_steps} steps, {result.gradient_steps} gradient steps; "
