@@ -238,7 +238,8 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
     np.testing.assert_allclose(offsets[:4], np.arange(1, 5) * planning.MAX_HEADING_CHANGE, atol=1e-3)
     psi = env.physics.pose()[2]
     assert abs(commands[-1][1] - psi) <= planning.MAX_HEADING_DIFFERENCE + 1e-9
-    assert step.observation["observation"][env.task.observation_fields.index("heading_command")] == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
+    assert step.observation["observation"][env.task.observation_fields.index("heading_command")] \
+        == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
     for a0, speed in ((-1.0, 0.0), (1.0, 2.0)):  # forward only: never astern, blind
         env.step(np.array([a0, 0.0]))
         assert env.task.last_info["command"][0] == pytest.approx(speed)
@@ -401,7 +402,8 @@ def test_sonar_sees_the_walls_of_a_tunnel_exactly():
     assert sonar[4] == pytest.approx(130.0 - 40.0 - SONAR_OFFSET, abs=1e-6)  # S5 ahead: end cap
     assert sonar[2] == pytest.approx(12.0 * math.sqrt(2), abs=1e-6)  # S3, -45 deg
     observation = env.task.get_observation(env.physics)  # sampled once per planner step (2 Hz) ...
-    assert observation["observation"][planning.SONAR_SLICE][0] * SONAR_RANGE == pytest.approx(10.0)  # ... so still the reset's
+    # ... so still the reset's
+    assert observation["observation"][planning.SONAR_SLICE][0] * SONAR_RANGE == pytest.approx(10.0)
 
 
 def test_sonar_sees_moving_obstacles_where_they_are():
