@@ -21,6 +21,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import gymnasium
 import numpy as np
 import pytest
 import torch
@@ -33,7 +34,7 @@ from agents.policy import Policy
 from auv_mj import AUVPhysics, arena_check, model_path
 from auv_mj import cli as auv_mj_cli
 from tasks import suite
-from tasks.gym_adapter import AUVGymEnv
+from tasks.gym_adapter import GYM_IDS, MIX_ID, AUVGymEnv
 
 ROOT = Path(__file__).resolve().parents[1]
 CORRIDOR = (ROOT / "docs" / "arenas.md").read_text().split("```xml\n", 1)[1].split("```", 1)[0]
@@ -180,7 +181,7 @@ def test_fuzz_arenas_are_refused_by_the_tunnel_task_or_run(text, preview):
 
 OPTIONS = ("goal_radius", "time_limit", "reward", "scenario", "layout", "command", "disturbances", "observation",
            "random", "executor", "environment_kwargs", "arena", "colour")
-PLANNING_OPTIONS = ("goal_radius", "time_limit", "reward", "random", "executor", "environment_kwargs")
+PLANNING_OPTIONS = ("goal_radius", "time_limit", "reward", "random", "executor", "environment_kwargs", "observation")
 TASK_OPTIONS = {"goal": PLANNING_OPTIONS + ("scenario",), "waypoints": PLANNING_OPTIONS + ("layout",),
                 "obstacles": PLANNING_OPTIONS + ("scenario",), "moving_obstacles": PLANNING_OPTIONS + ("scenario",),
                 "tunnel": PLANNING_OPTIONS + ("arena",), "path_line": PLANNING_OPTIONS, "path_curve": PLANNING_OPTIONS,
@@ -189,14 +190,14 @@ TASK_OPTIONS = {"goal": PLANNING_OPTIONS + ("scenario",), "waypoints": PLANNING_
 """The options each task takes (the others are refused by name)."""
 PLAUSIBLE_OPTIONS = {
     "goal_radius": st.floats(0.1, 60.0), "time_limit": st.floats(0.5, 30.0),
-    "reward": st.sampled_from(["suite", "paper"]), "random": st.integers(0, 2**32), "executor": st.none(),
+    "reward": st.sampled_from(["suite", "paper", "progress"]), "random": st.integers(0, 2**32), "executor": st.none(),
     "environment_kwargs": st.just({"legacy_step": True}), "scenario": st.sampled_from(["random", "a", "b", "a1"]),
     "layout": st.sampled_from(["random", "b1", "c", "z"]),
     "arena": st.sampled_from(["arenas/tunnel_inspection.xml", str(model_path("arenas/tunnel_inspection.xml"))]),
     "command": st.one_of(st.sampled_from(["paper", "random"]),
                          st.tuples(st.floats(0.0, 4.0), st.floats(-4.0, 4.0)).map(list)),
     "disturbances": st.sampled_from(["paper", "random", "none"]),
-    "observation": st.sampled_from(["paper", "integral"])}
+    "observation": st.sampled_from(["paper", "integral", "relative"])}
 """Values near or inside each option's range."""
 
 
@@ -227,6 +228,50 @@ def test_fuzz_task_options_are_refused_by_name_or_run(spec):
             assert all(np.all(np.isfinite(v)) for v in step.observation.values())
             if step.last():
                 break
+
+
+GYM_KWARGS = {"task_kwargs": st.one_of(st.none(), task_options().map(lambda spec: {
+                   k: v for k, v in spec[1].items() if k != "random"}), ANY_VALUE),
+              "environment_kwargs": st.one_of(st.none(), st.just({"legacy_step": True}), ANY_VALUE),
+              "render_size": st.one_of(st.tuples(st.integers(-5, 5000), st.integers(-5, 5000)), ANY_VALUE),
+              "render_distance": st.one_of(st.floats(-1.0, 2e4), ANY_VALUE),
+              "protection": st.one_of(st.booleans(), ANY_VALUE),
+              "render_mode": st.one_of(st.none(), st.sampled_from(["rgb_array", "human", "rgb_array_list", ""]))}
+"""Keyword arguments of `gymnasium.make` for the task ids (render_mode a string or None: `gymnasium.make`
+itself reads it before the environment sees it)."""
+MIX_KWARGS = {"tasks": st.one_of(st.lists(st.sampled_from(["goal", "obstacles", "tunnel", "speed_heading", "x"]),
+                                          max_size=3), ANY_VALUE),
+              "weights": st.one_of(st.none(), st.lists(st.floats(-1.0, 3.0), max_size=3), ANY_VALUE),
+              "per_task_kwargs": st.one_of(st.none(), st.just({"goal": {"goal_radius": 20.0}}), ANY_VALUE),
+              "protection": st.one_of(st.booleans(), ANY_VALUE)}
+"""Keyword arguments of `gymnasium.make("auv_mj/Planning-v0")`."""
+
+
+@st.composite
+def gym_specs(draw) -> tuple[str, dict]:
+    """A Gymnasium id and keyword arguments for it."""
+    env_id = draw(st.sampled_from(sorted(GYM_IDS) + [MIX_ID]))
+    pool = MIX_KWARGS if env_id == MIX_ID else GYM_KWARGS
+    names = draw(st.lists(st.sampled_from(sorted(pool)), max_size=3, unique=True))
+    return env_id, {name: draw(pool[name]) for name in names}
+
+
+@given(spec=gym_specs())
+@settings(max_examples=EXAMPLES)
+def test_fuzz_gymnasium_kwargs_are_refused_by_name_or_run(spec):
+    env_id, kwargs = spec
+    with deadline(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # Gymnasium's own checker warnings
+        try:
+            env = gymnasium.make(env_id, disable_env_checker=True, **kwargs).unwrapped
+        except ValueError as error:
+            refusal(error, *kwargs, "task option", "task ")
+            return
+        event("accepted")
+        observation, _ = env.reset(seed=1)
+        observation, reward, *_ = env.step(env.action_space.sample())
+        values = observation.values() if isinstance(observation, dict) else [observation]
+        assert all(np.all(np.isfinite(v)) for v in values) and np.isfinite(reward)
 
 
 # --- the vehicle MJCF ---------------------------------------------------------------------------------------------
@@ -565,6 +610,8 @@ JSON_VALUES = st.recursive(st.none() | st.booleans() | st.floats(allow_nan=False
                            lambda children: st.lists(children, max_size=3)
                            | st.dictionaries(st.text(max_size=5), children, max_size=3), max_leaves=8)
 TASK_KWARGS = st.one_of(
+    task_options().map(lambda spec: json.dumps({k: v for k, v in spec[1].items()
+                                                if k not in ("random", "executor", "environment_kwargs")})),
     st.dictionaries(st.sampled_from(OPTIONS), JSON_VALUES, max_size=3).map(json.dumps),
     JSON_VALUES.map(json.dumps),
     st.text(max_size=30),

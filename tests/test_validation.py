@@ -431,8 +431,8 @@ def test_a_checkpoint_of_another_task_is_refused_before_the_episode(capsys):
     from auv_mj.cli import policies
 
     executor = policies.shipped_checkpoint("executor")
-    with pytest.raises(ValueError, match="takes observations of size 9 and gives 2 actions; this task has "
-                                         "observations of size 20"):
+    with pytest.raises(ValueError, match="executor.pt does not fit this task: observation of size 21, the "
+                                         "policy expects 9"):
         policies.env_and_policy(str(executor), "goal", 0)
 
 
