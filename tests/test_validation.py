@@ -356,17 +356,24 @@ def test_centreline_files_are_read_within_bounds(tmp_path):
         tunnels.read_centreline(deep)
 
 
-def test_the_tunnel_command_refuses_as_a_usage_error_and_writes_nothing(tmp_path):
+def test_the_tunnel_command_refuses_as_a_usage_error_and_writes_nothing(tmp_path, capsys):
     line = tmp_path / "line.csv"
     line.write_text("x,y\n0,0\n150,0\n250,80\n")
     out = tmp_path / "out.xml"
-    for args, message in ((("--width", "30", "--smooth", "--smooth-iterations", "100"), "--smooth-iterations"),
-                          (("--width", "30", "--spacing", "1e-9"), "--spacing"),
-                          (("--width", "1e308"), "--width"),
-                          (("--width", "30", "--obstacle", "60,5,10,3,0,a", "--obstacle", "100,-5,10,3,0,a"),
-                           "obstacle_a is given twice")):
+    cases = ((("--width", "30", "--smooth", "--smooth-iterations", "100"), "--smooth-iterations"),
+             (("--width", "30", "--spacing", "1e-9"), "--spacing"),
+             (("--width", "1e308"), "--width"),
+             (("--width", "30", "--obstacle", "60,5,10,3,0,a", "--obstacle", "100,-5,10,3,0,a"),
+              "obstacle_a is given twice"))
+    for args, message in cases[1:3]:  # the command as a user runs it
         done = cli("tunnel", str(line), "-o", str(out), *args)
         assert done.returncode == 2 and done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
+        assert "Traceback" not in done.stderr and not out.exists()
+    for args, message in cases:  # and in this process, for speed
+        with pytest.raises(SystemExit) as exit_:
+            auv_mj_cli.main(["tunnel", str(line), "-o", str(out), *args])
+        err = capsys.readouterr().err
+        assert exit_.value.code == 2 and err.count("\n") == 1 and message in err, err
         assert not out.exists()
 
 
