@@ -408,7 +408,7 @@ def segment_crossings(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray,
     da, db = (a1 - a0)[:, None], (b1 - b0)[None]
     denom = da[..., 0] * db[..., 1] - da[..., 1] * db[..., 0]
     w = b0[None] - a0[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t = (w[..., 0] * db[..., 1] - w[..., 1] * db[..., 0]) / denom
         u = (w[..., 0] * da[..., 1] - w[..., 1] * da[..., 0]) / denom
     eps = 1e-9
