@@ -2,7 +2,9 @@
 
 The arena convention (what a task reads; see README "Authoring an arena"):
 - static geoms in `<worldbody>` are walls and obstacles; the sonar sees every geom but the vehicle's;
-  names start with `wall` (tunnel walls, map boundary) or `obstacle` (anything else in the water);
+  names start with `wall` (tunnel walls, map boundary), `obstacle` (anything else in the water), or
+  `unknown` (an obstacle the global path does not know of, Table 12's unknown obstacle: the path may
+  run through it, but it must leave a way past; `auv-mj check-arena` checks both);
 - sites `start` (its z-euler is the initial heading) and `goal`;
 - sites `path_0`, `path_1`, ... : the global path, in order (the tunnel's central axis);
 - mocap bodies `mover_*` are moving obstacles; `<numeric name="mover_<name>" data="x0 y0 x1 y1 speed"/>`
@@ -46,6 +48,8 @@ MAX_GRID = 4096
 """Largest texture or height field side [cells]."""
 MAX_MESH_VALUES = 30_000
 """Most numbers in an inline mesh's vertex or face list (10 000 vertices)."""
+UNKNOWN_OBSTACLE_PREFIX = "unknown"
+"""Static geoms named so are unknown obstacles: the global path may cross them."""
 
 
 def _read_xml(source: str | Path | ET.Element, what: str) -> tuple[ET.Element, str]:

@@ -3,6 +3,9 @@
 Loads an arena through `auv_mj.arena.load` and checks the convention of `auv_mj.arena` with MuJoCo's
 own queries: `mj_geomDistance` between the hull, posed along the global path, and every static geom
 (the d_s = 5 m of Table 1), and `mj_ray` along each path segment (does the path leave free space?).
+Unknown obstacles (`unknown*`) may stand on the path; for them it checks instead that water joins the
+start to the goal keeping d_s from every static geom (`auv_mj.tunnels.free_route`, on the geoms'
+outlines seen from above).
 """
 
 from __future__ import annotations
@@ -17,11 +20,21 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import shapely
 
 from auv_mj import inputs
-from auv_mj.arena import MAX_EXTENT, MAX_MOVER_SPEED, MOVER_PREFIX, PATH_SITE_PREFIX, ArenaInfo, arena_info, load
+from auv_mj.arena import (
+    MAX_EXTENT,
+    MAX_MOVER_SPEED,
+    MOVER_PREFIX,
+    PATH_SITE_PREFIX,
+    UNKNOWN_OBSTACLE_PREFIX,
+    ArenaInfo,
+    arena_info,
+    load,
+)
 from auv_mj.physics import AUVPhysics
-from auv_mj.tunnels import SAFETY_DISTANCE, segment_crossings
+from auv_mj.tunnels import ROUTE_MARGIN, SAFETY_DISTANCE, crossings, route_blocker, route_clearance, segment_lines
 
 CHECK_STEP = 1.0
 """Distance between the poses at which the path's clearance is measured [m]."""
@@ -33,11 +46,11 @@ HIDDEN_Z = 1e4
 """Where moving obstacles are parked [m] while the static map is checked."""
 MAX_LINES = 20
 """At most this many lines per kind of problem."""
-WALL_BLOCK = 256
-"""Walls compared with all others at once by the crossing check (bounds its memory)."""
 MAX_STATIC_GEOMS = 10_000
 """Most static geoms an arena may have: the checks pose the hull against the nearby ones along the path."""
-STATIC_PREFIXES = ("wall", "obstacle")
+RAY_STEP = 1e-3
+"""How far past a geom the path may cross a ray starts again [m]."""
+STATIC_PREFIXES = ("wall", "obstacle", UNKNOWN_OBSTACLE_PREFIX)
 
 
 @dataclass
@@ -85,8 +98,9 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
     static, absurd = _check_extent(model, physics, report)
     _check_geoms(model, physics, static, report)
     _check_walls(model, physics, static, report)
-    if info is not None and placed:
+    if info is not None and placed and not absurd:
         _check_route(physics, info, static, report)
+        _check_unknown(physics, info, static, report)
         _check_movers(physics, info, static, report)
     if png is not None:
         report.png = plot_arena(physics, info, png, title=Path(name).name, skip=absurd)
@@ -269,8 +283,8 @@ def _check_geoms(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], 
     for g in static:
         name = model.geom(g).name
         if not name.startswith(STATIC_PREFIXES):
-            notes.append(f"static {_name(model, g)}: the convention names walls wall* and "
-                         "obstacles obstacle*")
+            notes.append(f"static {_name(model, g)}: the convention names walls wall*, obstacles obstacle* "
+                         f"and unknown obstacles {UNKNOWN_OBSTACLE_PREFIX}*")
         if model.geom_rgba[g, 3] == 0:
             notes.append(f"{_name(model, g)} is fully transparent: the sonar (mj_ray) does not see it")
         if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE:
@@ -310,17 +324,12 @@ def _check_walls(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], 
     half = np.array([a[2] for a in axes])
     length = np.hypot(*(a1 - a0).T)
     found = []
-    for first in range(0, len(walls), WALL_BLOCK):  # blocks of rows keep the pair matrices small
-        cross, t, u = segment_crossings(a0[first:first + WALL_BLOCK], a1[first:first + WALL_BLOCK], a0, a1)
-        for k, j in np.argwhere(cross):
-            i = first + k
-            if j <= i:
-                continue
-            margin = WALL_JOIN_MARGIN * (half[i] + half[j])
-            if min(t[k, j], 1 - t[k, j]) * length[i] > margin and min(u[k, j], 1 - u[k, j]) * length[j] > margin:
-                p = a0[i] + t[k, j] * (a1[i] - a0[i])
-                found.append(f"walls {_name(model, walls[i])} and {_name(model, walls[j])} cross at ({_xy(p)}), "
-                             "not end to end: the wall intersects itself")
+    for i, j, p in zip(*crossings(segment_lines(a0, a1)), strict=True):
+        margin = WALL_JOIN_MARGIN * (half[i] + half[j])
+        along_i, along_j = np.hypot(*(p - a0[i])), np.hypot(*(p - a0[j]))
+        if min(along_i, length[i] - along_i) > margin and min(along_j, length[j] - along_j) > margin:
+            found.append(f"walls {_name(model, walls[i])} and {_name(model, walls[j])} cross at ({_xy(p)}), "
+                         "not end to end: the wall intersects itself")
     _add(report.problems, found)
 
 
@@ -356,10 +365,11 @@ def _check_route(physics: AUVPhysics, info: ArenaInfo, static: list[int], report
     _hide_movers(model, data)
     route = _route(info) if len(info.path) else []
     least = (math.inf, None, None)
+    known = [g for g in static if not _is_unknown(model, g)]
     if static:
         _add(report.problems, _check_poses(physics, data, info, route, static))
-        if len(route) > 1:
-            through, close, least = _check_segments(physics, data, route, static)
+        if len(route) > 1 and known:
+            through, close, least = _check_segments(physics, data, route, known)
             _add(report.problems, through)
             _add(report.problems, _close_runs(model, route, close))
     report.summary = _summary(model, info, static, least)
@@ -376,9 +386,14 @@ def _near(model: mujoco.MjModel, data: mujoco.MjData, hull: int, static: list[in
     return geoms[(gap < reach) | (model.geom_rbound[geoms] == 0)].tolist()
 
 
+def _is_unknown(model: mujoco.MjModel, geom: int) -> bool:
+    return model.geom(geom).name.startswith(UNKNOWN_OBSTACLE_PREFIX)
+
+
 def _check_poses(physics: AUVPhysics, data: mujoco.MjData, info: ArenaInfo, route: list,
                  static: list[int]) -> list[str]:
-    """The vehicle at start (d_s clear), at each path site and at the goal (not inside a geom)."""
+    """The vehicle at start (d_s clear), at each path site and at the goal (not inside a geom; path sites
+    may lie inside unknown obstacles)."""
     model = physics.model.ptr
     hull = model.geom("hull").id
     poses = [(name, p, route[min(k + 1, len(route) - 1)][1] - route[max(k - 1, 0)][1])
@@ -391,7 +406,10 @@ def _check_poses(physics: AUVPhysics, data: mujoco.MjData, info: ArenaInfo, rout
     problems = []
     for name, p, d in poses:
         _pose(physics, data, p[0], p[1], math.atan2(d[1], d[0]))
+        on_path = name.startswith(PATH_SITE_PREFIX)  # the path may run through unknown obstacles
         for g in _near(model, data, hull, static, SAFETY_DISTANCE):
+            if on_path and _is_unknown(model, g):
+                continue
             gap = mujoco.mj_geomDistance(model, data, hull, g, SAFETY_DISTANCE, None)
             if gap < 0:
                 problems.append(f"{name} ({_xy(p)}) lies inside {_name(model, g)}: "
@@ -412,16 +430,13 @@ def _check_segments(physics: AUVPhysics, data: mujoco.MjData, route: list, stati
     """
     model = physics.model.ptr
     hull, auv = model.geom("hull").id, model.body("auv").id
-    geomid = np.zeros(1, np.int32)
     through, close, least = [], {}, (math.inf, None, None)
     for k in range(len(route) - 1):
         (name_a, a), (name_b, b) = route[k], route[k + 1]
         segment = f"{name_a}-{name_b}"
         d = b - a
         length = float(np.hypot(*d))
-        hit = mujoco.mj_ray(model, data, np.array([a[0], a[1], 0.0]), np.array([d[0], d[1], 0.0]) / length,
-                            None, 1, auv, geomid)
-        crossed = int(geomid[0]) if 0 <= hit < length else -1
+        crossed, hit = _first_hit(model, data, a, d / length, length, auv, set(static))
         if crossed >= 0:
             through.append(f"segment {segment} runs through {_name(model, crossed)} at "
                            f"({_xy(a + d * hit / length)}): the path leaves free space")
@@ -435,6 +450,23 @@ def _check_segments(physics: AUVPhysics, data: mujoco.MjData, route: list, stati
                 if gap < SAFETY_DISTANCE and g != crossed and gap < close.get((g, k), (math.inf,))[0]:
                     close[(g, k)] = (gap, p)
     return through, close, least
+
+
+def _first_hit(model: mujoco.MjModel, data: mujoco.MjData, origin: np.ndarray, direction: np.ndarray,
+               length: float, auv: int, geoms: set[int]) -> tuple[int, float]:
+    """The first of `geoms` that a ray from `origin` meets within `length`, and where (-1 if none); the
+    ray goes on through any other geom it meets (unknown obstacles, which the path may cross)."""
+    geomid = np.zeros(1, np.int32)
+    direction = np.array([direction[0], direction[1], 0.0])
+    travelled = 0.0
+    while True:
+        start = np.array([origin[0], origin[1], 0.0]) + travelled * direction
+        hit = mujoco.mj_ray(model, data, start, direction, None, 1, auv, geomid)
+        if hit < 0 or travelled + hit >= length:
+            return -1, math.inf
+        if int(geomid[0]) in geoms:
+            return int(geomid[0]), travelled + hit
+        travelled += hit + RAY_STEP
 
 
 def _close_runs(model: mujoco.MjModel, route: list, close: dict) -> list[str]:
@@ -455,6 +487,28 @@ def _close_runs(model: mujoco.MjModel, route: list, close: dict) -> list[str]:
             lines.append(f"{where} {what} {_name(model, g)} at ({_xy(p)}), closer than "
                          f"d_s = {SAFETY_DISTANCE:g} m")
     return lines
+
+
+def _check_unknown(physics: AUVPhysics, info: ArenaInfo, static: list[int], report: ArenaReport) -> None:
+    """Unknown obstacles leave water from start to goal that keeps d_s from every static geom."""
+    model, data = physics.model.ptr, mujoco.MjData(physics.model.ptr)
+    unknown = [g for g in static if _is_unknown(model, g)]
+    if not unknown or info.start is None or info.goal is None or info.bounds is None or len(info.bounds) != 4:
+        return
+    mujoco.mj_kinematics(model, data)
+    outlines = {g: _outline(model, data, g) for g in static}
+    fixed = [shapely.polygons(outlines[g]) for g in static if g not in unknown and outlines[g] is not None]
+    unknown = [g for g in unknown if outlines[g] is not None]
+    k = route_blocker(fixed, [shapely.polygons(outlines[g]) for g in unknown], info.start, info.goal,
+                      info.bounds)
+    lane = f"keeps d_s = {SAFETY_DISTANCE:g} m from every static geom with the hull turned any way and " \
+           f"{ROUTE_MARGIN:g} m to spare (a lane {2 * (route_clearance() + ROUTE_MARGIN):.2f} m wide)"
+    if k == -1:
+        report.problems.append(f"no way from start to goal {lane}, even without the unknown obstacles")
+    elif k is not None:
+        where = _xy(model.geom_pos[unknown[k]])
+        report.problems.append(f"{_name(model, unknown[k])} at ({where}) closes the way: no way from start to "
+                               f"goal {lane}")
 
 
 def _check_movers(physics: AUVPhysics, info: ArenaInfo, static: list[int], report: ArenaReport) -> None:
@@ -494,8 +548,10 @@ def _check_movers(physics: AUVPhysics, info: ArenaInfo, static: list[int], repor
 def _summary(model: mujoco.MjModel, info: ArenaInfo, static: list[int], least) -> str:
     names = [model.geom(g).name for g in static]
     walls = sum(n.startswith("wall") for n in names)
+    unknown = sum(n.startswith(UNKNOWN_OBSTACLE_PREFIX) for n in names)
     length = float(np.sum(np.hypot(*np.diff(info.path, axis=0).T))) if len(info.path) > 1 else 0.0
-    text = (f"{walls} wall geoms, {len(static) - walls} other static geoms, {len(info.movers)} movers, "
+    text = (f"{walls} wall geoms, {len(static) - walls - unknown} other static geoms, "
+            f"{f'{unknown} unknown obstacles, ' if unknown else ''}{len(info.movers)} movers, "
             f"{len(info.path)} path sites over {length:.0f} m")
     if least is not None and least[1] is not None:
         text += f"; least clearance {least[0]:.2f} m (to {_name(model, least[1])}, segment {least[2]})"

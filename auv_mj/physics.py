@@ -75,6 +75,27 @@ class AUVPhysics(engine.Physics):
         physics._setup(coefficients, name)
         return physics
 
+    def reload_from_xml_string(self, xml_string: str, assets: dict | None = None,
+                               source: str = "<string>") -> None:
+        """Recompiles this physics in place from MJCF text: a new arena around the vehicle.
+
+        The object stays the same, so an environment holding it goes on with the new model (a task
+        that draws a fresh arena per episode calls this from `initialize_episode`); disturbances are kept.
+        """
+        coefficients = coefficients_from_xml(xml_string, source)
+        if coefficients is None:
+            raise ValueError(f"{source}: no hydrodynamic coefficients (<numeric name=\"hydro_*\">): "
+                             "not an auv-mj vehicle model")
+        hydro, disturbances = self._hydro, list(self._disturbances)
+        self._hydro = None  # dm_control runs a plain forward on the new model before `_setup` binds it
+        try:
+            super().reload_from_xml_string(xml_string, assets=assets)
+        except Exception as e:  # dm_control raises its own wrapper Error for compile failures
+            self._hydro = hydro
+            raise ValueError(f"{source}: MuJoCo cannot compile this model: {e}") from None
+        self._setup(coefficients, source)
+        self._disturbances = disturbances
+
     def _setup(self, coefficients, source: str) -> None:
         model = self.model.ptr
         check_vehicle(model, source)

@@ -25,9 +25,10 @@ def train_seed(run_seed: int, episode: int) -> int:
     return TRAIN.start + value % len(TRAIN)
 
 
-def split_of(seed: int) -> str:
-    """"test", "validation", "train" or "other" for a task seed."""
-    for name, seeds in (("test", TEST), ("validation", VALIDATION), ("train", TRAIN)):
-        if seed in seeds:
-            return name
-    return "other"
+SEEDS = {"train": TRAIN, "test": TEST, "validation": VALIDATION}
+"""The three ranges by name. Seeds outside them (0-9999, say) are free for examples and demos."""
+
+
+def seed_split(seed: int) -> str:
+    """The name of the SEEDS range holding `seed` ("train", "validation", "test"), or "unassigned"."""
+    return next((name for name, seeds in SEEDS.items() if seed in seeds), "unassigned")

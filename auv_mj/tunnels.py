@@ -3,7 +3,13 @@
 `build_tunnel` turns a tunnel axis (the known global route of Sec. 4.3) and a width into an arena
 MJCF element that follows the convention of `auv_mj.arena`. The path logic (reading, smoothing,
 offsetting, simplifying, validating: `layout_tunnel`) is kept apart from geom creation
-(`tunnel_element`), as in dm_control's corridor arenas. `auv-mj tunnel` is the command line.
+(`tunnel_element`), as in dm_control's corridor arenas. `auv-mj tunnel` is the command line, and the
+procedural arenas of `auv_mj.procedural` are laid out by the same functions.
+
+Shapely 2 (GEOS, vectorised) does the polyline geometry: resampling, Douglas-Peucker simplification
+of the walls, crossings (an STRtree query), exact distances, and the free-water test `free_route`.
+The wall offset stays our own miter offset: it takes a width per point, and a fold (a bend tighter than
+the width) must be reported, not cleaned up as GEOS offset curves do.
 """
 
 from __future__ import annotations
@@ -20,9 +26,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import shapely
 
 from auv_mj import inputs
-from auv_mj.arena import MAX_EXTENT, MAX_MOVER_SPEED, SAFETY_DISTANCE
+from auv_mj.arena import MAX_EXTENT, MAX_MOVER_SPEED, SAFETY_DISTANCE, UNKNOWN_OBSTACLE_PREFIX
 from auv_mj.geometry import wrap_angle
 from auv_mj.vehicle import vehicle_facts
 
@@ -30,6 +37,11 @@ from auv_mj.vehicle import vehicle_facts
 def min_width() -> float:
     """Narrowest tunnel [m]: d_s to both walls from a vehicle on the axis, turned any way (hull from the MJCF)."""
     return 2 * (SAFETY_DISTANCE + vehicle_facts().hull_half_length)
+
+
+def route_clearance() -> float:
+    """Distance [m] the vehicle's centre keeps from everything so that its hull keeps d_s, turned any way."""
+    return SAFETY_DISTANCE + vehicle_facts().hull_half_length
 
 
 def path_clearance() -> float:
@@ -56,6 +68,9 @@ MAX_TURN_DEG = 120.0
 """Sharpest turn of the centreline at one point [deg]."""
 MOVER_PREFIX = "mover_"
 OBSTACLE_PREFIX = "obstacle_"
+UNKNOWN_PREFIX = UNKNOWN_OBSTACLE_PREFIX + "_"
+ROUTE_MARGIN = 1.0
+"""Half width [m] of the lane that `free_route` asks for on top of d_s from everything: room to steer."""
 
 # Bounds on what a tunnel spec may ask for, so that every tunnel is built in bounded time and memory.
 MAX_SMOOTH_ITERATIONS = 8
@@ -366,65 +381,37 @@ def resample(points: np.ndarray, spacing: float, closed: bool = False) -> np.nda
 
 def _resample(points: np.ndarray, spacing: float, closed: bool) -> tuple[np.ndarray, np.ndarray]:
     """`resample`, and the arc length of each point."""
-    loop = np.vstack([points, points[:1]]) if closed else points
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(loop, axis=0).T))])
-    count = max(3 if closed else 1, math.ceil(s[-1] / spacing - 1e-9))
-    at = np.linspace(0.0, s[-1], count + 1)
+    line = polyline(points, closed)
+    count = max(3 if closed else 1, math.ceil(line.length / spacing - 1e-9))
+    at = np.linspace(0.0, line.length, count + 1)
     if closed:
         at = at[:-1]
-    return np.column_stack([np.interp(at, s, loop[:, 0]), np.interp(at, s, loop[:, 1])]), at
+    return shapely.get_coordinates(shapely.line_interpolate_point(line, at)), at
 
 
-def douglas_peucker(points: np.ndarray, tolerance: float) -> np.ndarray:
-    """Indices of the vertices of an open polyline that Douglas-Peucker keeps (both ends always)."""
-    keep = np.zeros(len(points), dtype=bool)
-    keep[[0, -1]] = True
-    stack = [(0, len(points) - 1)]
-    while stack:
-        i, j = stack.pop()
-        if j <= i + 1:
-            continue
-        inner = points[i + 1:j]
-        distance = point_segment_distance(inner, points[i], points[j])
-        k = int(np.argmax(distance))
-        if distance[k] > tolerance:
-            keep[i + 1 + k] = True
-            stack += [(i, i + 1 + k), (i + 1 + k, j)]
-    return np.flatnonzero(keep)
+def polyline(points: np.ndarray, closed: bool = False) -> shapely.LineString:
+    """A polyline (n, 2) as a Shapely LineString, or a LinearRing when `closed`."""
+    return shapely.linearrings(points) if closed else shapely.linestrings(points)
 
 
-def point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distances of points p (..., 2) to segments a-b (broadcast)."""
-    ab = b - a
-    length2 = np.maximum(np.sum(ab * ab, axis=-1), 1e-300)
-    t = np.clip(np.sum((p - a) * ab, axis=-1) / length2, 0.0, 1.0)
-    return np.hypot(*np.moveaxis(p - a - t[..., None] * ab, -1, 0))
+def segment_lines(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The segments a[i] -> b[i] ((n, 2) each) as an array of n Shapely LineStrings."""
+    return shapely.linestrings(np.stack([a, b], axis=1))
 
 
-def segment_crossings(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray,
-                      b1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Where segments a (n, 2) properly cross segments b (m, 2): boolean (n, m), and the
-    parameters (n, m) of the crossing point along a and along b."""
-    da, db = (a1 - a0)[:, None], (b1 - b0)[None]
-    denom = da[..., 0] * db[..., 1] - da[..., 1] * db[..., 0]
-    w = b0[None] - a0[:, None]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        t = (w[..., 0] * db[..., 1] - w[..., 1] * db[..., 0]) / denom
-        u = (w[..., 0] * da[..., 1] - w[..., 1] * da[..., 0]) / denom
-    eps = 1e-9
-    cross = (np.abs(denom) > 1e-12) & (t > eps) & (t < 1 - eps) & (u > eps) & (u < 1 - eps)
-    return cross, t, u
+def crossings(lines: np.ndarray, others: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where segments `lines` properly cross segments `others` (default: each other, i < j).
 
-
-def segments_distance(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
-    """Least distances (n, m) between segments a (n, 2) and segments b (m, 2); 0 where they cross."""
-    d = np.minimum.reduce([
-        point_segment_distance(a0[:, None], b0[None], b1[None]),
-        point_segment_distance(a1[:, None], b0[None], b1[None]),
-        point_segment_distance(b0[None], a0[:, None], a1[:, None]),
-        point_segment_distance(b1[None], a0[:, None], a1[:, None]),
-    ])
-    return np.where(segment_crossings(a0, a1, b0, b1)[0], 0.0, d)
+    Returns the index pairs (i, j) in lexicographic order and the crossing points (k, 2). Touching at an
+    end or running along each other is not crossing. An STRtree query, so about n log n.
+    """
+    i, j = shapely.STRtree(lines if others is None else others).query(lines, predicate="crosses")
+    if others is None:
+        i, j = i[i < j], j[i < j]
+    order = np.lexsort((j, i))
+    i, j = i[order], j[order]
+    points = shapely.intersection(lines[i], (lines if others is None else others)[j])
+    return i, j, shapely.get_coordinates(points).reshape(len(i), 2)
 
 
 @dataclass(frozen=True)
@@ -559,22 +546,31 @@ def check_extent(line: Centreline, widths: np.ndarray, smooth: int, closed: bool
     length = float(np.sum(np.hypot(*np.diff(loop, axis=0).T)))
     if length > MAX_TUNNEL_LENGTH:
         raise ValueError(f"{source}: the centreline is {length:.0f} m long; at most {MAX_TUNNEL_LENGTH:g} m")
-    for kind, items, cls in (("obstacle", obstacles, Obstacle), ("mover", movers, MovingObstacle)):
+    check_names(source, obstacles, movers)
+
+
+def check_names(source: str, obstacles: Sequence[Obstacle], movers: Sequence[MovingObstacle],
+                unknown: Sequence[Obstacle] = ()) -> None:
+    """Obstacles, movers and unknown obstacles are objects of their classes with unique MJCF names."""
+    for kind, items, cls in (("obstacle", obstacles, Obstacle), ("mover", movers, MovingObstacle),
+                             ("unknown obstacle", unknown, Obstacle)):
         if not all(isinstance(item, cls) for item in items):
             raise ValueError(f"{source}: {kind}s must be {cls.__name__} objects")
-    names = [obstacle_name(o, k) for k, o in enumerate(obstacles)] + [mover_name(m, k) for k, m in enumerate(movers)]
+    names = ([obstacle_name(o, k) for k, o in enumerate(obstacles)] + [mover_name(m, k) for k, m in enumerate(movers)]
+             + [unknown_name(o, k) for k, o in enumerate(unknown)])
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
         raise ValueError(f"{source}: obstacles and movers need unique names; {', '.join(repeated)} is given twice")
 
 
 def check_inside(source: str, walls: Sequence[WallSegment], obstacles: Sequence[Obstacle],
-                 movers: Sequence[MovingObstacle]) -> None:
-    """Every obstacle's centre and both ends of every mover's track lie inside the tunnel: within the closed
-    chains of wall faces (even-odd rule, so a closed tunnel's inner wall is a hole)."""
+                 movers: Sequence[MovingObstacle], unknown: Sequence[Obstacle] = ()) -> None:
+    """Every obstacle's centre (known or unknown) and both ends of every mover's track lie inside the tunnel:
+    within the closed chains of wall faces (even-odd rule, so a closed tunnel's inner wall is a hole)."""
     a = np.array([w.a for w in walls])
     b = np.array([w.b for w in walls])
     points = [(f"{obstacle_name(o, k)} at ({_xy([o.x, o.y])})", (o.x, o.y)) for k, o in enumerate(obstacles)]
+    points += [(f"{unknown_name(o, k)} at ({_xy([o.x, o.y])})", (o.x, o.y)) for k, o in enumerate(unknown)]
     points += [(f"{mover_name(m, k)}'s track {end} ({_xy(p)})", p) for k, m in enumerate(movers)
                for end, p in (("start", (m.x0, m.y0)), ("end", (m.x1, m.y1)))]
     if not points:
@@ -648,17 +644,12 @@ def _check_polyline(work: _Working) -> None:
         j = (i + 1) % len(work.points)
         raise ValueError(f"{source}: {line.label(i)} and {line.label(j)} are the same point "
                          f"({_xy(a[i])}); remove one")
-    cross, t, _ = segment_crossings(a, b, a, b)
-    cross = np.triu(cross, 2)
-    if work.closed:
-        cross[0, -1] = False
-    if cross.any():
-        i, j = np.argwhere(cross)[0]
-        n = len(work.points)
-        p = a[i] + t[i, j] * (b[i] - a[i])
+    i, j, points = crossings(segment_lines(a, b))
+    if len(i):
+        i, j, n = i[0], j[0], len(work.points)
         raise ValueError(f"{source}: the centreline crosses itself: the segment {line.label(i)} - "
                          f"{line.label((i + 1) % n)} crosses {line.label(j)} - {line.label((j + 1) % n)} "
-                         f"at ({_xy(p)})")
+                         f"at ({_xy(points[0])})")
 
 
 def _check_turns(work: _Working) -> None:
@@ -750,29 +741,17 @@ def _ring_segments(ring: _Ring) -> tuple[np.ndarray, np.ndarray, list[str], np.n
 
 
 def _check_walls(work: _Working, rings: list[_Ring]) -> None:
-    """Wall faces crossing each other anywhere but at their own joins (the tunnel overlaps itself)."""
+    """Wall faces crossing each other (the tunnel overlaps itself); faces only touch at their joins."""
     chains = [_ring_segments(r) for r in rings]
-    a = np.vstack([c[0] for c in chains])
-    b = np.vstack([c[1] for c in chains])
     names = sum((c[2] for c in chains), [])
     src = np.vstack([c[3] for c in chains])
-    ring_id = np.concatenate([np.full(len(c[0]), k) for k, c in enumerate(chains)])
-    cross, t, _ = segment_crossings(a, b, a, b)
-    index = np.arange(len(a))
-    first = np.array([np.flatnonzero(ring_id == k)[0] for k in range(len(chains))])[ring_id]
-    last = np.array([np.flatnonzero(ring_id == k)[-1] for k in range(len(chains))])[ring_id]
-    same_ring = ring_id[:, None] == ring_id[None]
-    adjacent = same_ring & ((np.abs(index[:, None] - index[None]) <= 1)
-                            | ((index[:, None] == first[:, None]) & (index[None] == last[None]))
-                            | ((index[:, None] == last[:, None]) & (index[None] == first[None])))
-    cross &= ~adjacent
-    if cross.any():
-        i, j = np.argwhere(np.triu(cross))[0]
-        p = a[i] + t[i, j] * (b[i] - a[i])
+    i, j, points = crossings(segment_lines(np.vstack([c[0] for c in chains]), np.vstack([c[1] for c in chains])))
+    if len(i):
+        i, j = i[0], j[0]
         what = {"left": "left wall", "right": "right wall", "cap_goal": "end cap at the goal",
                 "cap_start": "end cap at the start"}
         raise ValueError(
-            f"{work.line.source}: the tunnel walls cross at ({_xy(p)}): the {what[names[i]]} near "
+            f"{work.line.source}: the tunnel walls cross at ({_xy(points[0])}): the {what[names[i]]} near "
             f"{work.near(*src[i])} crosses the {what[names[j]]} near {work.near(*src[j])} (the bend is "
             "too tight for the width, or the tunnel runs into itself)")
 
@@ -783,14 +762,9 @@ def _merge_walls(rings: list[_Ring], tolerance: float, thickness: float) -> list
     for ring in rings:
         faces: list[tuple[str, np.ndarray, np.ndarray]] = []
         for name, pts, _ in ring.parts:
-            if ring.closed_part:
-                far = int(np.argmax(np.hypot(*(pts - pts[0]).T)))
-                loop = np.vstack([pts, pts[:1]])
-                keep = np.concatenate([douglas_peucker(loop[: far + 1], tolerance)[:-1],
-                                       far + douglas_peucker(loop[far:], tolerance)])
-            else:
-                keep = douglas_peucker(pts, tolerance)
-            kept = (np.vstack([pts, pts[:1]]) if ring.closed_part else pts)[keep]
+            # Douglas-Peucker (GEOS): the fewest vertices within `tolerance` of the exact offset curve
+            kept = shapely.get_coordinates(shapely.simplify(polyline(pts, ring.closed_part), tolerance,
+                                                            preserve_topology=False))
             count = len(kept) - 1
             for k in range(count):
                 # the right wall is walked backwards; number every wall from the start
@@ -811,40 +785,35 @@ def _merge_walls(rings: list[_Ring], tolerance: float, thickness: float) -> list
 
 
 def _check_clearance(work: _Working, walls: list[WallSegment], obstacles: Sequence[Obstacle]) -> None:
-    """The global path keeps path_clearance() from every wall and known obstacle."""
+    """The global path keeps path_clearance() from every wall and known obstacle (exact distances)."""
     source = work.line.source
-    samples, at = _resample(work.points, 1.0, work.closed)
+    path = polyline(work.points, work.closed)
     src = np.concatenate([work.src, work.src[:1] + len(work.line.points)]) if work.closed else work.src
-    s_src = np.interp(at, _arc_length(work.points, work.closed), src)
-    a = np.array([w.a for w in walls])
-    b = np.array([w.b for w in walls])
-    distance = point_segment_distance(samples[:, None], a[None], b[None])
-    i, j = np.unravel_index(np.argmin(distance), distance.shape)
-    if distance[i, j] < path_clearance():
+    arc = _arc_length(work.points, work.closed)
+
+    def nearest(shape) -> tuple[np.ndarray, str]:
+        """The point of the path nearest `shape`, and the input points around it."""
+        p = shapely.get_coordinates(shapely.shortest_line(path, shape))[0]
+        return p, work.near(float(np.interp(shapely.line_locate_point(path, shapely.points(p)), arc, src)))
+
+    faces = segment_lines(np.array([w.a for w in walls]), np.array([w.b for w in walls]))
+    distance = shapely.distance(path, faces)
+    j = int(np.argmin(distance))
+    if distance[j] < path_clearance():
+        p, near = nearest(faces[j])
         raise ValueError(
-            f"{source}: the global path near {work.near(s_src[i])} ({_xy(samples[i])}) passes "
-            f"{distance[i, j]:.2f} m from the wall {walls[j].name}, closer than d_s + hull radius = "
-            f"{path_clearance():.2f} m (another part of the tunnel is too close)")
-    pa, pb = _segments(samples, work.closed)
-    for k, obstacle in enumerate(obstacles):
-        corners = obstacle.corners()
-        edges = segments_distance(pa, pb, corners, np.roll(corners, -1, axis=0)).min(axis=1)
-        inside = _inside_polygon(samples, corners)
-        gap = np.where(inside[: len(edges)], 0.0, edges)
-        i = int(np.argmin(gap))
-        if gap[i] < path_clearance():
-            name = obstacle_name(obstacle, k)
+            f"{source}: the global path near {near} ({_xy(p)}) passes {distance[j]:.2f} m from the wall "
+            f"{walls[j].name}, closer than d_s + hull radius = {path_clearance():.2f} m (another part of the "
+            "tunnel is too close)")
+    boxes = shapely.polygons([o.corners() for o in obstacles]) if obstacles else np.array([])
+    for k, gap in enumerate(shapely.distance(path, boxes)):
+        if gap < path_clearance():
+            obstacle = obstacles[k]
+            p, near = nearest(boxes[k])
             raise ValueError(
-                f"{source}: {name} at ({_xy([obstacle.x, obstacle.y])}) is {gap[i]:.2f} m from the global "
-                f"path near {work.near(s_src[i])} ({_xy(samples[i])}), closer than d_s + hull radius = "
+                f"{source}: {obstacle_name(obstacle, k)} at ({_xy([obstacle.x, obstacle.y])}) is {gap:.2f} m "
+                f"from the global path near {near} ({_xy(p)}), closer than d_s + hull radius = "
                 f"{path_clearance():.2f} m: move it or route the centreline around it")
-
-
-def _inside_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    edges = np.roll(polygon, -1, axis=0) - polygon
-    rel = points[:, None] - polygon[None]
-    side = edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0]
-    return np.all(side >= 0, axis=1) | np.all(side <= 0, axis=1)
 
 
 def _bounds(walls: list[WallSegment], thickness: float, obstacles: Sequence[Obstacle],
@@ -860,10 +829,79 @@ def _bounds(walls: list[WallSegment], thickness: float, obstacles: Sequence[Obst
     return np.concatenate([lo - margin, hi + margin])
 
 
+# --- free water -----------------------------------------------------------------------------------
+
+
+def box_polygon(x: float, y: float, half_x: float, half_y: float, yaw: float) -> shapely.Polygon:
+    """The footprint of a box centred at (x, y) with half sizes (half_x, half_y), turned `yaw` [rad]."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    corners = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * [half_x, half_y]
+    return shapely.polygons(corners @ np.array([[c, s], [-s, c]]) + [x, y])
+
+
+def free_route(footprints: Sequence[shapely.Geometry], start, goal, bounds,
+               margin: float = ROUTE_MARGIN) -> bool:
+    """Whether water inside `bounds` (xmin, ymin, xmax, ymax) joins `start` to `goal` in which the hull,
+    turned any way, keeps d_s from every footprint with `margin` m to spare on either side.
+
+    The footprints are grown by `route_clearance()` + `margin` (the vehicle's configuration space, taken
+    conservatively as a disc) and the free part of the map that holds the start must hold the goal.
+    """
+    reach = route_clearance() + margin
+    blocked = shapely.union_all(shapely.buffer(np.asarray(footprints, dtype=object), reach, quad_segs=4))
+    parts = shapely.get_parts(shapely.difference(shapely.box(*bounds), blocked))
+    home = parts[shapely.intersects_xy(parts, *start)]
+    return bool(len(home)) and bool(shapely.intersects_xy(home, *goal).any())
+
+
+def route_blocker(fixed: Sequence[shapely.Geometry], added: Sequence[shapely.Geometry], start, goal, bounds,
+                  margin: float = ROUTE_MARGIN) -> int | None:
+    """Which of the footprints `added`, placed in order among `fixed`, first closes the way from start to
+    goal (`free_route`): its index, -1 if `fixed` alone leaves no way, None if there is a way."""
+    everything = [*fixed, *added]
+    if free_route(everything, start, goal, bounds, margin):
+        return None
+    for k in range(-1, len(added) - 1):
+        if not free_route(everything[:len(fixed) + k + 1], start, goal, bounds, margin):
+            return k
+    return len(added) - 1  # every shorter prefix leaves a way: the last one closes it
+
+
+def check_unknown(layout: TunnelLayout, unknown: Sequence[Obstacle], obstacles: Sequence[Obstacle] = (),
+                  wall_thickness: float = WALL_THICKNESS, margin: float = ROUTE_MARGIN,
+                  source: str = "<tunnel>") -> None:
+    """Raises ValueError naming the first unknown obstacle that leaves no way past it (`free_route` from
+    the path's first point to its last; on a closed tunnel, whose goal is next to its start, that says
+    little)."""
+    if not unknown:
+        return
+    fixed = [box_polygon(*centre, *half, yaw) for centre, half, yaw in
+             (wall_box(w, wall_thickness) for w in layout.walls)]
+    fixed += [shapely.polygons(o.corners()) for o in obstacles]
+    added = [shapely.polygons(o.corners()) for o in unknown]
+    k = route_blocker(fixed, added, layout.path[0], layout.path[-1], layout.bounds, margin)
+    gap = 2 * (route_clearance() + margin)
+    if k == -1:
+        raise ValueError(f"{source}: no way from start to goal keeps d_s = {SAFETY_DISTANCE:g} m from the walls "
+                         f"and known obstacles with the hull turned any way and {margin:g} m to spare (a lane "
+                         f"{gap:.2f} m wide): the tunnel is too narrow for unknown obstacles")
+    if k is not None:
+        o = unknown[k]
+        raise ValueError(f"{source}: {unknown_name(o, k)} at ({_xy([o.x, o.y])}) closes the tunnel: no way past "
+                         f"it keeps d_s = {SAFETY_DISTANCE:g} m from everything with the hull turned any way "
+                         f"and {margin:g} m to spare; leave a gap of at least {gap:.2f} m beside it")
+
+
 def obstacle_name(obstacle: Obstacle, index: int) -> str:
     """Geom name of a known obstacle: `obstacle_<name>` or `obstacle_<index>`."""
     name = obstacle.name or str(index)
     return name if name.startswith(OBSTACLE_PREFIX) else OBSTACLE_PREFIX + name
+
+
+def unknown_name(obstacle: Obstacle, index: int) -> str:
+    """Geom name of an unknown obstacle: `unknown_<name>` or `unknown_<index>`."""
+    name = obstacle.name or str(index)
+    return name if name.startswith(UNKNOWN_PREFIX) else UNKNOWN_PREFIX + name
 
 
 def mover_name(mover: MovingObstacle, index: int) -> str:
@@ -898,9 +936,11 @@ def wall_box(wall: WallSegment, thickness: float = WALL_THICKNESS) -> tuple[np.n
 
 def tunnel_element(layout: TunnelLayout, obstacles: Sequence[Obstacle] = (),
                    movers: Sequence[MovingObstacle] = (), wall_thickness: float = WALL_THICKNESS,
-                   name: str = "tunnel", command: str | None = None) -> ET.Element:
+                   name: str = "tunnel", command: str | None = None,
+                   unknown: Sequence[Obstacle] = ()) -> ET.Element:
     """The arena MJCF element of a laid-out tunnel (angles in radians, as the vehicle's compiler).
 
+    `unknown` obstacles are boxes `unknown_*` that the global path does not avoid (see `auv_mj.arena`).
     `command`, the command line that made it, is kept as `<text name="tunnel_command">`.
     """
     root = ET.Element("mujoco", model=_xml_text(name))
@@ -917,10 +957,11 @@ def tunnel_element(layout: TunnelLayout, obstacles: Sequence[Obstacle] = (),
         centre, half, yaw = wall_box(wall, wall_thickness)
         ET.SubElement(world, "geom", {"name": wall.name, "class": "tunnel_wall", "pos": _fmt(*centre, 0),
                                       "size": _fmt(*half, WALL_HALF_HEIGHT), "euler": _fmt(0, 0, yaw)})
-    for k, obstacle in enumerate(obstacles):
+    boxes = [(obstacle_name(o, k), o) for k, o in enumerate(obstacles)]
+    boxes += [(unknown_name(o, k), o) for k, o in enumerate(unknown)]
+    for geom_name, obstacle in boxes:
         ET.SubElement(world, "geom", {
-            "name": obstacle_name(obstacle, k), "class": "tunnel_obstacle",
-            "pos": _fmt(obstacle.x, obstacle.y, 0),
+            "name": geom_name, "class": "tunnel_obstacle", "pos": _fmt(obstacle.x, obstacle.y, 0),
             "size": _fmt(obstacle.length / 2, obstacle.width / 2, WALL_HALF_HEIGHT),
             "euler": _fmt(0, 0, math.radians(obstacle.angle))})
     path = layout.path
@@ -951,18 +992,32 @@ def build_tunnel(centreline: Centreline | Sequence | np.ndarray, width: float | 
                  obstacles: Sequence[Obstacle] = (), movers: Sequence[MovingObstacle] = (),
                  wall_thickness: float = WALL_THICKNESS, end_clearance: float = END_CLEARANCE,
                  margin: float = BOUNDS_MARGIN, merge_tolerance: float = MERGE_TOLERANCE,
-                 name: str = "tunnel", command: str | None = None) -> ET.Element:
+                 name: str = "tunnel", command: str | None = None,
+                 unknown: Sequence[Obstacle] = ()) -> ET.Element:
     """Arena MJCF element of a tunnel along `centreline` (points [m], or a `Centreline`).
 
     `width` [m] is constant unless the centreline gives one per point. `closed` makes a loop (no end
     caps; the goal is one path spacing short of the start); `smooth` is the number of Chaikin rounds.
-    An open tunnel runs `end_clearance` m past its ends. Raises ValueError naming the input on
-    malformed or unsafe geometry (too narrow, too tight a bend, walls or centreline crossing).
+    An open tunnel runs `end_clearance` m past its ends. `obstacles` are known (the path keeps d_s from
+    them), `unknown` ones are not (the path may run through them, but they must leave a way past:
+    `check_unknown`). Raises ValueError naming the input on malformed or unsafe geometry (too narrow,
+    too tight a bend, walls or centreline crossing, an obstacle on the path or closing the tunnel).
     """
-    layout = layout_tunnel(centreline, width, closed=closed, smooth=smooth, path_spacing=path_spacing,
+    line = as_centreline(centreline)
+    layout = layout_tunnel(line, width, closed=closed, smooth=smooth, path_spacing=path_spacing,
                            obstacles=obstacles, movers=movers, wall_thickness=wall_thickness,
                            end_clearance=end_clearance, margin=margin, merge_tolerance=merge_tolerance)
-    return tunnel_element(layout, obstacles, movers, wall_thickness, name, command)
+    check_unknown_spec(line.source, layout, obstacles, movers, unknown)
+    check_unknown(layout, unknown, obstacles, wall_thickness, source=line.source)
+    return tunnel_element(layout, obstacles, movers, wall_thickness, name, command, unknown)
+
+
+def check_unknown_spec(source: str, layout: TunnelLayout, obstacles: Sequence[Obstacle],
+                       movers: Sequence[MovingObstacle], unknown: Sequence[Obstacle]) -> None:
+    """Unknown obstacles have names unique among all obstacles and movers, and lie inside the tunnel."""
+    if unknown:
+        check_names(source, obstacles, movers, unknown)
+        check_inside(source, layout.walls, (), (), unknown)
 
 
 def _xml_text(text: str) -> str:

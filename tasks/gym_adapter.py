@@ -118,6 +118,7 @@ class AUVGymEnv(gymnasium.Env):
                      for bound in (action_spec.minimum, action_spec.maximum))
         self.action_space = spaces.Box(low, high, dtype=np.float32)
         self._camera = None
+        self._camera_model = None
         self._needs_reset = True
         self.protection = bool(protection)
         if self.protection and not self.is_goal_task:
@@ -208,9 +209,10 @@ class AUVGymEnv(gymnasium.Env):
             return None
         from dm_control.mujoco import engine
 
-        if self._camera is None:
-            height, width = self.render_size
+        if self._camera is None or self._camera_model is not self.physics.model.ptr:
+            height, width = self.render_size  # a new camera too when the task recompiled (a new arena)
             self._camera = engine.MovableCamera(self.physics, height, width)
+            self._camera_model = self.physics.model.ptr
         x, y, _ = self.physics.pose()
         self._camera.set_pose(lookat=np.array([x, y, 0.0]), distance=self.render_distance,
                               azimuth=90.0, elevation=-90.0)

@@ -8,19 +8,73 @@ virtual sub-goals (SUBGOAL_RADIUS, Table 1; passed ones die too, see `planning`)
 path point nearest the start; a `goal` site off the path's end is appended as the last goal. The
 vehicle starts at rest on the start site's heading; last_info["cross_track_error"] is the distance to
 the global path (Fig. 17).
+
+`arena="random"` draws a fresh procedural tunnel (`auv_mj.procedural`, RANDOM_TUNNELS) for every
+episode from the task's `random` and recompiles the physics in place before the episode starts; the
+episode's time limit is then `route_time_limit` of that tunnel (the environment's own limit is the
+longest such tunnel's). `random_arena(seed)` is the arena of the first episode of a task seeded `seed`
+(what `auv-mj tunnel --random SEED` writes). Train, validate and test on the ranges of `auv_mj.seeds`.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
+
 import numpy as np
 
-from auv_mj.arena import arena_info
+from auv_mj import procedural
+from auv_mj.arena import arena_info, compose_xml
 from auv_mj.assets import model_path
 from tasks import planning
 from tasks.registry import SUITE
 
 DEFAULT_ARENA = "arenas/tunnel_inspection.xml"
 """The Sec. 4.3 tunnel (Table 12), relative to `models/`."""
+RANDOM = "random"
+"""The `arena` value that draws a procedural tunnel per episode."""
+
+
+def least_turn_radius() -> float:
+    """The vehicle's least turn radius [m] in the planning tasks: the top speed MAX_SPEED over the
+    heading command's largest rate, MAX_HEADING_CHANGE per PLANNER_DT (Table 1: 6 deg per 0.5 s)."""
+    return planning.MAX_SPEED / (planning.MAX_HEADING_CHANGE / planning.PLANNER_DT)
+
+
+RANDOM_TUNNELS = procedural.TunnelSpec(turn_radius=least_turn_radius())
+"""The distribution of `arena="random"`: widths 20-60 m, lengths 300-1000 m, 1-3 unknown obstacles and
+1-2 movers (see `procedural.TunnelSpec`)."""
+
+
+def random_arena(random, spec: procedural.TunnelSpec = RANDOM_TUNNELS) -> procedural.ProceduralTunnel:
+    """The procedural tunnel drawn from `random` (a seed: the arena of that episode seed)."""
+    return procedural.random_tunnel(random, spec)
+
+
+def tunnel_spec(options: procedural.TunnelSpec | Mapping | None) -> procedural.TunnelSpec:
+    """RANDOM_TUNNELS with `options` set: field -> value, a range as [low, high] or one number, e.g.
+    {"width": 30, "length": [300, 500], "movers": 0}."""
+    if options is None:
+        return RANDOM_TUNNELS
+    if isinstance(options, procedural.TunnelSpec):
+        return options
+    if not isinstance(options, Mapping) or not all(isinstance(key, str) for key in options):
+        raise ValueError(f"arena_spec must be a dict of TunnelSpec fields, got {options!r:.60}")
+    fields = {f.name: getattr(RANDOM_TUNNELS, f.name) for f in dataclasses.fields(procedural.TunnelSpec)}
+    unknown = sorted(set(options) - set(fields))
+    if unknown:
+        raise ValueError(f"arena_spec: unknown field(s) {', '.join(unknown)}; valid: {', '.join(sorted(fields))}")
+    changes = {}
+    for name, value in options.items():
+        if isinstance(fields[name], tuple):
+            value = tuple(value) if isinstance(value, list | tuple) else (value, value)
+            if len(value) != 2:
+                raise ValueError(f"arena_spec: {name} must be [low, high] or one number, got {options[name]!r:.60}")
+        changes[name] = value
+    try:
+        return dataclasses.replace(RANDOM_TUNNELS, **changes)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"arena_spec: {' '.join(str(e).split())}") from None
 
 
 def tunnel_route(info) -> tuple[np.ndarray, np.ndarray]:
@@ -35,13 +89,37 @@ def tunnel_route(info) -> tuple[np.ndarray, np.ndarray]:
     return points[min(nearest + 1, len(points) - 1):], path
 
 
+def route_limit(info) -> float:
+    """The time limit [s] of an arena's route: `route_time_limit` of its start-to-goal path length."""
+    _, path = tunnel_route(info)
+    return planning.route_time_limit(planning.path_length(np.vstack([info.start, path])))
+
+
 class Tunnel(planning.PlanningTask):
     """Follow a tunnel's global path of virtual sub-goals, avoiding walls and unknown obstacles."""
 
-    def __init__(self, **kwargs):
-        """kwargs go to `PlanningTask` (goal_radius defaults to SUBGOAL_RADIUS)."""
+    def __init__(self, arena_spec: procedural.TunnelSpec | None = None, route_time_limit: bool = True,
+                 **kwargs):
+        """`arena_spec`: draw a procedural tunnel of it per episode, ending the episode at its
+        `route_limit` if `route_time_limit`; kwargs go to `PlanningTask` (goal_radius defaults to
+        SUBGOAL_RADIUS)."""
         kwargs.setdefault("goal_radius", planning.SUBGOAL_RADIUS)
         super().__init__(**kwargs)
+        self.arena_spec = arena_spec
+        self.route_time_limit = route_time_limit
+        self.arena: procedural.ProceduralTunnel | None = None
+        """The episode's procedural tunnel (None on a fixed arena)."""
+        self._time_limit: float | None = None
+
+    def initialize_episode(self, physics: planning.Physics) -> None:
+        """With `arena_spec`, draws the episode's tunnel and recompiles the physics around it first."""
+        if self.arena_spec is not None:
+            self.arena = random_arena(self.random, self.arena_spec)
+            xml, source = compose_xml(self.arena.element())
+            physics.reload_from_xml_string(xml, source=source)
+        super().initialize_episode(physics)
+        limited = self.arena_spec is not None and self.route_time_limit
+        self._time_limit = route_limit(arena_info(physics)) if limited else None
 
     def route(self, physics, info) -> planning.Route:
         """The arena's start, path sub-goals and movers."""
@@ -49,18 +127,36 @@ class Tunnel(planning.PlanningTask):
         return planning.Route(start=info.start, heading=info.start_heading, goals=goals, path=path,
                               movers=info.movers, pass_corridor=planning.PASS_CORRIDOR)
 
+    def get_termination(self, physics) -> float | None:
+        """As `PlanningTask`; on a procedural tunnel also 1.0 (truncation) at its own time limit."""
+        done = super().get_termination(physics)
+        if done is None and self._time_limit is not None \
+                and physics.time() >= self._time_limit - planning.PLANNER_DT / 2:
+            return 1.0
+        return done
+
 
 @SUITE.add("benchmarking", "goal", "planning", "obstacles", "tracking")
-def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, **task_kwargs):
-    """Tunnel inspection (Sec. 4.3); `arena` is an arena path or element (default the Table 12 tunnel).
+def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, arena_spec=None, **task_kwargs):
+    """Tunnel inspection (Sec. 4.3); `arena` is an arena path or element (default the Table 12 tunnel),
+    or "random": a procedural tunnel per episode, of RANDOM_TUNNELS with `arena_spec` (a dict of
+    `procedural.TunnelSpec` fields) set.
 
-    The arena is refused (ValueError naming it and its problems) unless `auv-mj check-arena` finds it
-    usable. time_limit defaults to `route_time_limit` of the start-to-goal path length.
+    A file or element is refused (ValueError naming it and its problems) unless `auv-mj check-arena` finds it
+    usable. time_limit defaults to `route_time_limit` of the start-to-goal path length (per episode when
+    random).
     """
+    if isinstance(arena, str) and arena == RANDOM:
+        spec = tunnel_spec(arena_spec)
+        task = Tunnel(arena_spec=spec, route_time_limit=time_limit is None, random=random, **task_kwargs)
+        physics = planning.Physics.load(planning.open_water_arena())  # replaced at every reset
+        if time_limit is None:  # the longest tunnel's; each episode ends at its own (Tunnel.get_termination)
+            time_limit = planning.route_time_limit(spec.length[1] + 2 * planning.SUBGOAL_SPACING)
+        return planning.environment(physics, task, time_limit, environment_kwargs)
+    if arena_spec is not None:
+        raise ValueError("arena_spec applies to arena='random' only")
     physics = planning.load_arena(model_path(DEFAULT_ARENA) if arena is None else arena, need_path=True)
     task = Tunnel(random=random, **task_kwargs)
     if time_limit is None:
-        info = arena_info(physics)
-        _, path = tunnel_route(info)
-        time_limit = planning.route_time_limit(planning.path_length(np.vstack([info.start, path])))
+        time_limit = route_limit(arena_info(physics))
     return planning.environment(physics, task, time_limit, environment_kwargs)

@@ -68,6 +68,17 @@ def test_trajectory_png(moving_record, tmp_path):
     assert red.any(), "no vehicle drawn"
 
 
+def test_gallery_png_has_a_panel_per_map(moving_record, tmp_path):
+    path = plots.plot_gallery([moving_record, [moving_record, moving_record], moving_record], tmp_path / "g.png",
+                              cols=2, panel_size=(300, 250))
+    pixels = _png(path, 600, 500)
+    black = pixels.max(axis=-1) < 60  # the map's frame and axes
+    assert black[:250, :300].any() and black[:250, 300:].any() and black[250:, :300].any()  # a map per panel
+    assert pixels[250:, 300:].min() > 250  # the fourth cell is left blank
+    with pytest.raises(ValueError, match="at least one panel"):
+        plots.plot_gallery([], tmp_path / "none.png")
+
+
 def test_tracking_png_from_record_and_csv(moving_record, tmp_path):
     _png(plots.plot_tracking(moving_record, tmp_path / "a.png", width=500, height=700), 500, 700)
     csv_path = plots.tracking_csv(moving_record, tmp_path / "tracking.csv")

@@ -238,8 +238,8 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
     np.testing.assert_allclose(offsets[:4], np.arange(1, 5) * planning.MAX_HEADING_CHANGE, atol=1e-3)
     psi = env.physics.pose()[2]
     assert abs(commands[-1][1] - psi) <= planning.MAX_HEADING_DIFFERENCE + 1e-9
-    assert step.observation["observation"][env.task.observation_fields.index("heading_command")] \
-        == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
+    heading_entry = env.task.observation_fields.index("heading_command")
+    assert step.observation["observation"][heading_entry] == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
     for a0, speed in ((-1.0, 0.0), (1.0, 2.0)):  # forward only: never astern, blind
         env.step(np.array([a0, 0.0]))
         assert env.task.last_info["command"][0] == pytest.approx(speed)
@@ -477,10 +477,10 @@ def test_random_obstacles_keep_off_the_start_and_the_goal():
         for g in active:
             centre, radius = data.geom_xpos[g][:2], model.geom_rbound[g]
             for point in (start, goal):
-                assert np.hypot(*(centre - point)) >= radius + obstacles.OBSTACLE_CLEARANCE - 1e-9
+                assert np.hypot(*(centre - point)) >= radius + obstacles.CLUTTER.clearance - 1e-9
             exact = mujoco.mj_geomDistance(model, data, model.geom("hull").id, g, 1e3, None)
-            assert exact > obstacles.OBSTACLE_CLEARANCE - 1.0
-    assert len(counts) > 1 and min(counts) >= obstacles.MIN_OBSTACLES
+            assert exact > obstacles.CLUTTER.clearance - 1.0
+    assert len(counts) > 1 and min(counts) >= obstacles.CLUTTER.obstacles[0]
 
 
 def test_named_layouts_fit_their_time_limits():

@@ -12,6 +12,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+import shapely
 
 from auv_mj import arena, arena_check, cli, tunnels
 from auv_mj.assets import model_path
@@ -282,9 +283,7 @@ def test_shipped_tunnel_inspection_matches_table_12_and_passes_the_check():
     assert mover.body == "mover_unknown" and mover.speed == pytest.approx(0.1)
     assert mover.end[0] < mover.start[0] and mover.end[1] == mover.start[1]  # moves left (-x)
     # it crosses the global path, ahead of the vehicle's start
-    a, b = info.path[:-1], info.path[1:]
-    crossed, _, _ = tunnels.segment_crossings(mover.start[None], mover.end[None], a, b)
-    assert crossed.any()
+    assert shapely.intersects(shapely.linestrings([mover.start, mover.end]), shapely.linestrings(info.path))
 
 
 def test_shipped_tunnel_inspection_is_reproduced_by_its_command(tmp_path):
@@ -346,3 +345,77 @@ def test_the_minimal_arena_of_the_docs_passes_the_check(tmp_path):
     assert report.ok, report.lines()
     info = arena.arena_info(arena.load(path))
     assert len(info.path) == 5 and info.movers[0].body == "mover_diver"
+
+
+# --- unknown obstacles ----------------------------------------------------------------------------
+
+
+def test_unknown_obstacle_on_the_path_passes_the_check_when_it_leaves_a_way_past():
+    rock = tunnels.Obstacle(100.0, -10.0, 10.0, 20.0, name="rock")  # y -20..0: a 20 m gap on the left
+    element = tunnels.build_tunnel([[0.0, 0.0], [200.0, 0.0]], STRAIGHT_WIDTH, unknown=[rock])
+    assert "unknown_rock" in _geom_names(element)
+    report = arena_check.check_arena(element)
+    assert report.ok, report.lines()
+    assert "1 unknown obstacles" in report.summary
+
+
+def test_unknown_obstacle_closing_the_tunnel_is_refused_naming_it():
+    gap = 2 * (tunnels.route_clearance() + tunnels.ROUTE_MARGIN)
+    # from inside the right wall (y = -20) up to gap - 0.5 m short of the left wall (y = 20)
+    closing = tunnels.Obstacle(100.0, -8.0, 10.0, 2 * (28.0 - gap + 0.5), name="rock")
+    with pytest.raises(ValueError, match=rf"unknown_rock at \(100\.0, -8\.0\) closes the tunnel.* {gap:.2f} m"):
+        tunnels.build_tunnel([[0.0, 0.0], [200.0, 0.0]], STRAIGHT_WIDTH, unknown=[closing])
+    element = tunnels.build_tunnel([[0.0, 0.0], [200.0, 0.0]], STRAIGHT_WIDTH)
+    ET.SubElement(element.find("worldbody"), "geom", {"name": "unknown_rock", "type": "box", "pos": "100 -8 0",
+                                                     "size": f"5 {closing.width / 2} 3"})
+    report = arena_check.check_arena(element)
+    assert any(p.startswith("unknown_rock at (100.0, -8.0) closes the way") for p in report.problems), report.lines()
+
+
+def test_a_known_obstacle_behind_an_unknown_one_is_still_seen_by_the_path_check(tmp_path):
+    def edit(element):
+        world = element.find("worldbody")
+        ET.SubElement(world, "geom", {"name": "unknown_rock", "type": "box", "pos": "100 0 0", "size": "2 5 3"})
+        ET.SubElement(world, "geom", {"name": "obstacle_wreck", "type": "box", "pos": "110 0 0", "size": "2 2 3"})
+    report = arena_check.check_arena(_straight(tmp_path, edit))
+    assert any("runs through obstacle_wreck" in p for p in report.problems), report.problems
+    assert not any("runs through unknown_rock" in p for p in report.problems)
+
+
+def test_cli_unknown_option(tmp_path):
+    csv_path = _csv(tmp_path, "x,y\n0,0\n200,0\n")
+    xml_path = tmp_path / "arena.xml"
+    built = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(xml_path),
+                            "--unknown", "100,-10,10,20,0,rock"], capture_output=True, text=True, timeout=120)
+    assert built.returncode == 0, built.stderr
+    assert "1 unknown obstacles" in built.stdout
+    bad = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(xml_path),
+                          "--unknown", "100,-10,10"], capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 1 and "--unknown '100,-10,10': expected x,y,length,width" in bad.stderr
+
+
+# --- the validation tunnels -----------------------------------------------------------------------
+
+VALIDATION = sorted((Path(__file__).parents[1] / "models" / "arenas" / "validation").glob("*.xml"))
+
+
+def test_the_six_validation_tunnels_are_shipped():
+    assert [p.stem for p in VALIDATION] == ["diagonal_crossing", "l_bend", "long_wave", "straight_drifter",
+                                            "u_turn", "zigzag"]
+
+
+@pytest.mark.parametrize("path", VALIDATION, ids=lambda p: p.stem)
+def test_validation_tunnel_passes_the_check_and_is_reproduced_by_its_command(path, tmp_path):
+    report = arena_check.check_arena(path)
+    assert report.ok, report.lines()
+    root = ET.parse(path).getroot()
+    argv = shlex.split(root.find("custom/text[@name='tunnel_command']").get("data"))[1:]
+    argv[argv.index("-o") + 1] = str(tmp_path / path.name)
+    argv[1] = str(path.with_suffix(".csv"))
+    assert cli.main(argv) == 0
+    rebuilt = ET.parse(tmp_path / path.name).getroot()
+    for tree in (root, rebuilt):
+        for text in tree.findall("custom/text"):
+            tree.find("custom").remove(text)
+        ET.indent(tree)
+    assert ET.tostring(rebuilt) == ET.tostring(root)

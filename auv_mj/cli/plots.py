@@ -1,7 +1,8 @@
 """Paper-style figures as PNG (matplotlib, Agg): trajectories, tracking errors and learning curves.
 
 - `plot_trajectory`: the map (bounds, walls, obstacles as polygons, moving obstacles and their paths),
-  the global path, start, goal area and the vehicle's trajectory (Figs. 9-11, 13a, 14a, 16).
+  the global path, start, goal area and the vehicle's trajectory (Figs. 9-11, 13a, 14a, 16);
+  `plot_gallery`: several such maps side by side (e.g. held-out procedural tunnels with their tracks).
 - `plot_tracking`: speed and heading against their commands over the steps, and the tracking errors
   (speed, heading, cross-track to the global path) (Figs. 12-14, 17); disturbance phases shaded.
 - `plot_learning`: episode return and success rate against episodes from training CSV logs, mean over
@@ -185,24 +186,27 @@ def plot_trajectory(records, path: str | Path, labels: Sequence[str] | None = No
     return _save(fig, path)
 
 
-def plot_gallery(groups: Sequence[tuple[str, Sequence[EpisodeRecord], Sequence[str]]], path: str | Path,
-                 columns: int = 3, panel: int = 420, title: str | None = None) -> Path:
-    """PNG of several arenas side by side: per panel (title, records on one arena, their labels)."""
-    rows = max(1, math.ceil(len(groups) / columns))
-    fig, axes = _figure(columns * panel, rows * panel, rows, columns, squeeze=False)
-    for ax in axes.ravel()[len(groups):]:
-        ax.set_visible(False)
-    for ax, (name, records, labels) in zip(axes.ravel(), groups, strict=False):
-        draw_trajectory(ax, list(records), list(labels))
-        ax.set_title(name, fontsize="small")
-        legend = ax.get_legend()
-        if legend is not None:
-            legend.remove()
-    handles, labels = axes.ravel()[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=min(6, len(labels)), fontsize="small")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout(rect=(0, 0.06, 1, 0.97 if title else 1))
+def plot_gallery(panels: Sequence, path: str | Path, titles: Sequence[str] | None = None, cols: int = 3,
+                 panel_size: tuple[int, int] = (500, 420)) -> Path:
+    """PNG of several maps side by side, each with its episodes' trajectories (`draw_trajectory`): e.g.
+    a handful of held-out procedural tunnels with a policy's tracks. `panels` holds one record (or .npz
+    path), or a list of records on the same map, per panel."""
+    panels = [as_records(panel) for panel in panels]
+    if not panels:
+        raise ValueError("plot_gallery needs at least one panel")
+    cols = max(1, min(cols, len(panels)))
+    rows = math.ceil(len(panels) / cols)
+    fig, axes = _figure(panel_size[0] * cols, panel_size[1] * rows, rows, cols, squeeze=False)
+    for k, ax in enumerate(axes.ravel()):
+        if k >= len(panels):
+            ax.set_axis_off()
+            continue
+        draw_trajectory(ax, panels[k])
+        record = panels[k][0]
+        ax.set_title(titles[k] if titles else f"{record.task} seed {record.seed}: "
+                     f"{'success' if record.succeeded else 'no success'}", fontsize="small")
+        ax.legend().set_visible(k == 0)
+    fig.tight_layout()
     return _save(fig, path)
 
 

@@ -12,6 +12,8 @@ The one place where tasks and agents meet (the app layer):
 - `los-avoid`: line of sight along the route with the protection domain, on the S-plane executor: the
   classical local planner;
 - `random`: uniform actions.
+`planner=PATH`, `planner-raw=PATH` and `two-layer=PATH` run the planner checkpoint PATH in place of the
+shipped one (to compare or choose candidates, e.g. on validation seeds).
 """
 
 from __future__ import annotations
@@ -89,11 +91,21 @@ def learned_executor(path: Path | None = None) -> LearnedExecutor:
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
 
+def split_name(policy_name: str) -> tuple[str, Path | None]:
+    """("two-layer", PATH) for "two-layer=PATH" (also planner, planner-raw); (name, None) otherwise."""
+    base, sep, path = policy_name.partition("=")
+    if sep and base in ("planner", "planner-raw", "two-layer"):
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"policy {policy_name!r}: no checkpoint at {path}")
+        return base, Path(path)
+    return policy_name, None
+
+
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     """The suite environment for one episode; `two-layer` plugs in the learned executor, and a checkpoint
     gets the observation it was trained on (read from its metadata)."""
     task_kwargs["random"] = seed
-    if policy_name in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
+    if split_name(policy_name)[0] in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
         task_kwargs["executor"] = learned_executor()
     checkpoint = _checkpoint_path(policy_name, task_name)
     if checkpoint is not None and "observation" not in task_kwargs:
@@ -107,6 +119,9 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
 
 def _checkpoint_path(policy_name: str, task_name: str | None = None) -> Path | None:
     """The checkpoint behind `policy_name` (on `task_name`), or None for a baseline."""
+    base, path = split_name(policy_name)
+    if path is not None:
+        return path
     if policy_name == "executor":
         return shipped_checkpoint("executor")
     if policy_name in ("planner", "planner-raw", "two-layer") and task_name not in EXECUTOR_TASKS:
@@ -143,6 +158,9 @@ def _checkpoint_policy(path: Path, env, protection: bool | None = None):
 def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the planner)."""
     planner = PLANNER_FOR_TASK.get(task, "planner")
+    base, path = split_name(policy_name)
+    if path is not None:
+        return _checkpoint_policy(path, protection=base != "planner-raw")
     if policy_name == "random":
         return uniform_random(env, seed)
     if policy_name == "splane":
@@ -174,7 +192,7 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
         chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
         if not chosen:
             raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
-    if policy_name in PLANNERS:
+    if split_name(policy_name)[0] in PLANNERS:
         chosen = [t for t in chosen if t not in EXECUTOR_TASKS]
     elif policy_name == "executor":
         chosen = [t for t in chosen if t in EXECUTOR_TASKS]

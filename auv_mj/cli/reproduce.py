@@ -269,9 +269,10 @@ def generalisation(lines: list[str], episodes: int, figures: Path) -> None:
                 for name in ("two-layer", "los-avoid"):
                     env, policy = policies.env_and_policy(name, task, seed, kwargs)
                     records.append(record_episode(env, policy, task=task, policy_name=name, seed=seed))
-                gallery.append((f"seed {seed}: " + ", ".join(f"{r.policy} {episode_metrics(r)['outcome']}"
-                                                             for r in records), records, ["two-layer", "los-avoid"]))
-    plots.plot_gallery(gallery, figures / "heldout_tunnels.png", title="Held-out random tunnels")
+                gallery.append(records)
+    titles = [f"seed {r[0].seed}: " + ", ".join(f"{x.policy} {episode_metrics(x)['outcome']}" for x in r)
+              for r in gallery]
+    plots.plot_gallery(gallery, figures / "heldout_tunnels.png", titles=titles)
     lines += ["", "![held-out tunnels](figures/heldout_tunnels.png)", "",
               f"Commands: `auv-mj eval --policy two-layer --task tunnel --arena random --episodes {episodes} "
               f"--seed {seeds.TEST.start}` (and `--task obstacles`, `--task moving_obstacles`; `--policy planner`, "

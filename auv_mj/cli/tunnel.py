@@ -1,6 +1,7 @@
-"""`auv-mj tunnel`: build a tunnel arena MJCF from a centreline CSV/JSON (`auv_mj.tunnels`).
+"""`auv-mj tunnel`: build a tunnel arena MJCF from a centreline CSV/JSON (`auv_mj.tunnels`), or write
+the procedural arena of a random episode (`--random SEED`, `auv_mj.procedural`).
 
-Every option is checked by type and range as it is parsed, the output path before any work, and the built
+Every option is checked by type and range as it is parsed, the output path before any work, and a built
 arena by `auv-mj check-arena`'s own checks before it is written (atomically): a refused spec is a usage
 error (exit 2, one line naming the file or option) and leaves no file behind.
 """
@@ -14,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from auv_mj import procedural
 from auv_mj.arena_check import check_arena
-from auv_mj.cli.options import bounded_float, bounded_int, check_output, usage_error
+from auv_mj.cli.options import bounded_float, bounded_int, check_output, seed_int, usage_error
 from auv_mj.tunnels import (
     BOUNDS_MARGIN,
     END_CLEARANCE,
@@ -24,6 +26,7 @@ from auv_mj.tunnels import (
     MAX_MERGE_TOLERANCE,
     MAX_PATH_SPACING,
     MAX_SMOOTH_ITERATIONS,
+    MAX_TUNNEL_LENGTH,
     MAX_WALL_THICKNESS,
     MAX_WIDTH,
     MERGE_TOLERANCE,
@@ -33,11 +36,17 @@ from auv_mj.tunnels import (
     WALL_THICKNESS,
     MovingObstacle,
     Obstacle,
+    check_unknown,
+    check_unknown_spec,
     layout_tunnel,
     read_centreline,
     save,
     tunnel_element,
 )
+from tasks import obstacles, tunnel
+
+RANDOM_TASKS = ("tunnel", "obstacles", "moving_obstacles")
+"""Tasks whose random arenas `--random` writes."""
 
 MAX_MODEL_NAME = 100
 """Longest --name."""
@@ -53,9 +62,10 @@ def model_name(text: str) -> str:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj tunnel`."""
-    parser.add_argument("centreline", help="CSV of x,y[,width] rows [m] (header optional) or JSON")
+    parser.add_argument("centreline", nargs="?", help="CSV of x,y[,width] rows [m] (header optional) or JSON")
     parser.add_argument("--width", type=bounded_float(0.0, MAX_WIDTH, "m", low_open=True),
-                        help="constant tunnel width [m] (unless per point)")
+                        help="constant tunnel width [m] (unless per point; with --random: this width instead of "
+                             "a random one)")
     parser.add_argument("-o", "--output", help="arena MJCF to write (default: the centreline's name, .xml)")
     parser.add_argument("--smooth", action="store_true", help="round the corners (Chaikin corner cutting)")
     parser.add_argument("--smooth-iterations", type=bounded_int(0, MAX_SMOOTH_ITERATIONS), default=SMOOTH_ITERATIONS,
@@ -64,6 +74,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--closed", action="store_true", help="the centreline is a loop: no end caps")
     parser.add_argument("--obstacle", action="append", default=[], metavar="X,Y,LENGTH,WIDTH[,ANGLE[,NAME]]",
                         help="a known box obstacle (angle in deg); repeatable")
+    parser.add_argument("--unknown", action="append", default=[], metavar="X,Y,LENGTH,WIDTH[,ANGLE[,NAME]]",
+                        help="an unknown box obstacle (unknown_NAME): the path may run through it, but it must "
+                             "leave a way past; repeatable")
     parser.add_argument("--mover", action="append", default=[], metavar="X0,Y0,X1,Y1,SPEED,RADIUS[,NAME]",
                         help="a moving cylinder going back and forth (m, m/s); repeatable")
     parser.add_argument("--spacing", type=bounded_float(MIN_PATH_SPACING, MAX_PATH_SPACING, "m"),
@@ -77,6 +90,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tolerance", type=bounded_float(0.0, MAX_MERGE_TOLERANCE, "m"), default=MERGE_TOLERANCE,
                         help=f"wall merging tolerance [m] (default {MERGE_TOLERANCE:g})")
     parser.add_argument("--name", type=model_name, default=None, help="model name (default: the output's stem)")
+    group = parser.add_argument_group(
+        "procedural arenas", "--random SEED writes the arena of the first episode of `--arena random --seed "
+        "SEED` (the same arena as `auv-mj eval` draws), unless an option below changes the distribution")
+    group.add_argument("--random", type=seed_int, metavar="SEED", help="a random arena from this seed "
+                            "(training, validation and test seed ranges: README)")
+    group.add_argument("--task", default="tunnel", choices=RANDOM_TASKS,
+                            help="whose random arena: a procedural tunnel (default), or the open-water layout of "
+                                 "obstacles / moving_obstacles")
+    group.add_argument("--length", type=bounded_float(0.0, MAX_TUNNEL_LENGTH, "m", low_open=True),
+                            metavar="M", help="tunnel length [m] instead of a random one")
+    group.add_argument("--obstacles", type=bounded_int(0, procedural.MAX_COUNT), metavar="N",
+                            help="number of unknown obstacles in the tunnel")
+    group.add_argument("--movers", type=bounded_int(0, procedural.MAX_COUNT), metavar="N",
+                            help="number of movers in the tunnel")
 
 
 def _command_line() -> str | None:
@@ -87,24 +114,34 @@ def _command_line() -> str | None:
 
 def run(args: argparse.Namespace) -> int:
     """`auv-mj tunnel`: writes the arena and prints what it holds."""
+    if args.random is not None:
+        return _run_random(args)
+    if args.centreline is None:
+        usage_error(args, "give a centreline file, or --random SEED")
+    fixed = [f"--{name}" for name in ("length", "obstacles", "movers") if getattr(args, name) is not None]
+    if fixed or args.task != "tunnel":
+        usage_error(args, f"{', '.join(fixed) or '--task'} go with --random only")
     try:
         output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
     except ValueError:
         usage_error(args, f"give the output file with -o: {args.centreline[:60]!r} has no name to derive one from")
-    check_output(args, output, "--output")
+    check_output(args, output, "-o")
     if output.resolve() == Path(args.centreline).resolve():
-        usage_error(args, f"--output {output} would overwrite the centreline")
+        usage_error(args, f"-o {output} would overwrite the centreline")
     try:
         line = read_centreline(args.centreline)
         obstacles = [Obstacle.parse(text) for text in args.obstacle]
         movers = [MovingObstacle.parse(text) for text in args.mover]
+        unknown = [_unknown(text) for text in args.unknown]
         layout = layout_tunnel(line, args.width, closed=args.closed,
                                smooth=args.smooth_iterations if args.smooth else 0, path_spacing=args.spacing,
                                obstacles=obstacles, movers=movers, wall_thickness=args.wall_thickness,
                                end_clearance=args.end_clearance, margin=args.margin,
                                merge_tolerance=args.tolerance)
+        check_unknown_spec(line.source, layout, obstacles, movers, unknown)
+        check_unknown(layout, unknown, obstacles, args.wall_thickness, source=line.source)
         element = tunnel_element(layout, obstacles, movers, args.wall_thickness, args.name or output.stem,
-                                 _command_line())
+                                 _command_line(), unknown)
         report = check_arena(element)
         if not report.ok:
             raise ValueError(f"{args.centreline}: the tunnel would not be a usable arena: {report.problems[0]}"
@@ -118,7 +155,64 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.prog}: error: cannot write {output}: {e.strerror or e}", file=sys.stderr)
         return 1
     length = float(np.sum(np.hypot(*np.diff(layout.path, axis=0).T)))
-    print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, "
+    unknown_text = f"{len(unknown)} unknown obstacles, " if unknown else ""
+    print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, {unknown_text}"
           f"{len(movers)} movers, {len(layout.path)} path sites over {length:.0f} m; "
+          f"check it with: auv-mj check-arena {output}")
+    return 0
+
+
+def _unknown(text: str) -> Obstacle:
+    """An `--unknown` obstacle (the `--obstacle` form)."""
+    try:
+        return Obstacle.parse(text)
+    except ValueError as e:
+        raise ValueError(str(e).replace("--obstacle", "--unknown", 1)) from None
+
+
+def _spec(args: argparse.Namespace) -> procedural.TunnelSpec:
+    """The tunnel task's distribution with the options that fix a width, length or count."""
+    changes = {name: getattr(args, name) for name in ("width", "length", "obstacles", "movers")
+               if getattr(args, name) is not None}
+    try:
+        return tunnel.tunnel_spec(changes)
+    except ValueError as e:
+        usage_error(args, str(e))
+
+
+def _run_random(args: argparse.Namespace) -> int:
+    """`auv-mj tunnel --random SEED`: the procedural arena of that seed."""
+    given = [option for option, value in (("CENTRELINE", args.centreline), ("--obstacle", args.obstacle),
+                                          ("--unknown", args.unknown), ("--mover", args.mover),
+                                          ("--closed", args.closed), ("--smooth", args.smooth)) if value]
+    if given:
+        usage_error(args, f"--random draws the whole arena: {', '.join(given)} cannot go with it")
+    if args.task != "tunnel":
+        fixed = [f"--{n}" for n in ("width", "length", "obstacles", "movers") if getattr(args, n) is not None]
+        if fixed:
+            usage_error(args, f"{', '.join(fixed)} apply to --task tunnel only")
+    name = args.name or (Path(args.output).stem if args.output else f"random_{args.task}_{args.random}")
+    output = Path(args.output) if args.output else Path(f"{name}.xml")
+    check_output(args, output, "-o")
+    if args.task == "tunnel":
+        spec = _spec(args)
+        try:
+            arena = tunnel.random_arena(args.random, spec)
+        except RuntimeError as e:  # the options leave no feasible tunnel: refuse them
+            usage_error(args, " ".join(str(e).split()))
+        element = arena.element(name, _command_line())
+        what = (f"a {arena.width:.1f} m wide tunnel over {arena.length:.0f} m, {len(arena.unknown)} unknown "
+                f"obstacles, {len(arena.movers)} movers")
+    else:
+        layout = obstacles.random_layout(np.random.RandomState(args.random), moving=args.task == "moving_obstacles")
+        element = layout.element(name, _command_line())
+        what = (f"open water, {len(layout.boxes)} unknown obstacles, {len(layout.movers)} movers, start to goal "
+                f"{np.hypot(*(layout.goal - layout.start)):.0f} m")
+    try:
+        save(element, output)
+    except OSError as e:
+        print(f"auv-mj tunnel: error: {e}", file=sys.stderr)
+        return 1
+    print(f"wrote {output}: {what} (seed {args.random}, {procedural.seed_split(args.random)} range); "
           f"check it with: auv-mj check-arena {output}")
     return 0
