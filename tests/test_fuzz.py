@@ -184,7 +184,8 @@ OPTIONS = ("goal_radius", "time_limit", "reward", "scenario", "layout", "command
 PLANNING_OPTIONS = ("goal_radius", "time_limit", "reward", "random", "executor", "environment_kwargs", "observation")
 TASK_OPTIONS = {"goal": PLANNING_OPTIONS + ("scenario",), "waypoints": PLANNING_OPTIONS + ("layout",),
                 "obstacles": PLANNING_OPTIONS + ("scenario",), "moving_obstacles": PLANNING_OPTIONS + ("scenario",),
-                "tunnel": PLANNING_OPTIONS + ("arena",), "path_line": PLANNING_OPTIONS, "path_curve": PLANNING_OPTIONS,
+                "tunnel": PLANNING_OPTIONS + ("arena", "arena", "arena_spec"), "path_line": PLANNING_OPTIONS,
+                "path_curve": PLANNING_OPTIONS,
                 "speed_heading": ("time_limit", "reward", "random", "command", "disturbances", "observation",
                                   "environment_kwargs")}
 """The options each task takes (the others are refused by name)."""
@@ -193,7 +194,12 @@ PLAUSIBLE_OPTIONS = {
     "reward": st.sampled_from(["suite", "paper", "progress"]), "random": st.integers(0, 2**32), "executor": st.none(),
     "environment_kwargs": st.just({"legacy_step": True}), "scenario": st.sampled_from(["random", "a", "b", "a1"]),
     "layout": st.sampled_from(["random", "b1", "c", "z"]),
-    "arena": st.sampled_from(["arenas/tunnel_inspection.xml", str(model_path("arenas/tunnel_inspection.xml"))]),
+    "arena": st.sampled_from(["random", "random", "arenas/tunnel_inspection.xml",
+                              str(model_path("arenas/tunnel_inspection.xml"))]),
+    "arena_spec": st.dictionaries(
+        st.sampled_from(["width", "length", "obstacles", "movers", "mover_radius", "tries", "placement", "colour"]),
+        st.one_of(st.floats(0.0, 400.0), st.integers(0, 5), st.tuples(st.integers(0, 500), st.integers(0, 1500)),
+                  ANY_VALUE), max_size=2),
     "command": st.one_of(st.sampled_from(["paper", "random"]),
                          st.tuples(st.floats(0.0, 4.0), st.floats(-4.0, 4.0)).map(list)),
     "disturbances": st.sampled_from(["paper", "random", "none"]),
@@ -465,10 +471,15 @@ def tunnel_options(draw) -> list[str]:
         else []
     for flag in draw(st.lists(st.sampled_from(["--smooth", "--closed", "--smooth-iterations", "--spacing",
                                                "--wall-thickness", "--end-clearance", "--margin", "--tolerance",
-                                               "--obstacle", "--mover", "--name"]), max_size=4)):
+                                               "--obstacle", "--unknown", "--mover", "--name", "--random",
+                                               "--length", "--obstacles", "--movers", "--task"]), max_size=4)):
         if flag in ("--smooth", "--closed"):
             options.append(flag)
-        elif flag == "--obstacle":
+        elif flag in ("--random", "--obstacles", "--movers"):
+            options += [flag, draw(st.one_of(st.integers(-3, 30).map(str), NUMBER_TEXT))]
+        elif flag == "--task":
+            options += [flag, draw(st.sampled_from(["tunnel", "obstacles", "moving_obstacles", "goal"]))]
+        elif flag in ("--obstacle", "--unknown"):
             options += [flag, _spec(draw, draw(st.integers(3, 6)))]
         elif flag == "--mover":
             options += [flag, _spec(draw, draw(st.integers(5, 7)))]
@@ -496,8 +507,16 @@ def _numbers(*values) -> str:
 def tunnel_specs(draw) -> tuple[bytes, list[str]]:
     """A centreline file and `auv-mj tunnel` options: half the time sensible (a random walk of gentle legs,
     obstacles and movers placed in the tunnel), half the time anything (absurd numbers, words, garbage)."""
-    if not draw(st.booleans()):
+    kind = draw(st.integers(0, 5))
+    if kind < 3:
         return draw(centreline_files()), draw(tunnel_options())
+    if kind == 3:  # a procedural arena of a seed, the command's other form
+        options = ["--random", str(draw(st.integers(0, 2**20)))]
+        if draw(st.booleans()):
+            options += ["--task", draw(st.sampled_from(["tunnel", "obstacles", "moving_obstacles"]))]
+        elif draw(st.booleans()):
+            options += ["--length", repr(draw(st.floats(120.0, 500.0))), "--movers", str(draw(st.integers(0, 2)))]
+        return b"", options
     points, heading = [(0.0, 0.0)], 0.0
     for _ in range(draw(st.integers(1, 4))):
         heading += draw(st.floats(-0.6, 0.6))
@@ -543,13 +562,16 @@ def test_fuzz_tunnel_command_writes_a_usable_arena_or_refuses(spec, suffix):
         source = Path(folder) / f"line{suffix}"
         source.write_bytes(centreline)
         output = Path(folder) / "tunnel.xml"
-        status, out, err = run_cli(["tunnel", str(source), "-o", str(output), *options])
+        line = [] if options[:1] == ["--random"] else [str(source)]
+        status, out, err = run_cli(["tunnel", *line, "-o", str(output), *options])
         event("accepted" if status == 0 else "refused")
         if status == 0:
-            assert output.is_file() and arena_check.check_arena(output).ok
-            env = suite.load("auv", "tunnel", task_kwargs={"arena": str(output)})
-            env.reset()
-            assert np.all(np.isfinite(env.step(np.zeros(2)).observation["observation"]))
+            open_water = any(task in options for task in ("obstacles", "moving_obstacles"))  # --random layouts
+            assert output.is_file() and arena_check.check_arena(output, need_path=not open_water).ok
+            if not open_water:
+                env = suite.load("auv", "tunnel", task_kwargs={"arena": str(output)})
+                env.reset()
+                assert np.all(np.isfinite(env.step(np.zeros(2)).observation["observation"]))
         else:
             assert status == 2, (status, err)
             assert err.startswith("auv-mj tunnel: error: ") and err.count("\n") == 1, err

@@ -391,7 +391,7 @@ def test_cli_unknown_option(tmp_path):
     assert "1 unknown obstacles" in built.stdout
     bad = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(xml_path),
                           "--unknown", "100,-10,10"], capture_output=True, text=True, timeout=120)
-    assert bad.returncode == 1 and "--unknown '100,-10,10': expected x,y,length,width" in bad.stderr
+    assert bad.returncode == 2 and "--unknown '100,-10,10': expected x,y,length,width" in bad.stderr
 
 
 # --- the validation tunnels -----------------------------------------------------------------------
