@@ -10,6 +10,7 @@ first under a name carrying the step count, so the checkpoint never points at a 
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -56,12 +57,24 @@ def config_to_dict(config: DDPGConfig) -> dict[str, Any]:
 
 
 def config_from_dict(values: Mapping[str, Any], source: str | Path = "config") -> DDPGConfig:
-    """A DDPGConfig from `config_to_dict` output; unknown fields raise ValueError naming `source`."""
-    fields = {f.name for f in dataclasses.fields(DDPGConfig)}
-    unknown = set(values) - fields
+    """A DDPGConfig from `config_to_dict` output; unknown fields or bad values raise ValueError naming `source`."""
+    if not isinstance(values, Mapping):
+        raise ValueError(f"{source}: config must be a dict of DDPGConfig fields, got {type(values).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(DDPGConfig)}
+    unknown = [str(k) for k in values if k not in fields]
     if unknown:
-        raise ValueError(f"{source}: unknown DDPGConfig fields {sorted(unknown)}")
-    return DDPGConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+        raise ValueError(f"{source}: unknown DDPGConfig fields {sorted(unknown)[:10]}")
+    kwargs = {}
+    for name, value in values.items():
+        if isinstance(value, list):
+            value = tuple(value)
+        elif fields[name].type in ("float", float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)  # JSON writes 1.0 as 1
+        kwargs[name] = value
+    try:
+        return DDPGConfig(**kwargs)
+    except ValueError as e:
+        raise ValueError(f"{source}: {e}") from None
 
 
 def agent_tensors(agent: DDPG) -> dict[str, torch.Tensor]:
@@ -87,11 +100,21 @@ def save_checkpoint(path: str | Path, agent: DDPG, metadata: Mapping[str, Any]) 
     atomic_write(path, lambda f: torch.save(payload, f))
 
 
+MAX_CHECKPOINT_BYTES = 2**30
+"""Largest checkpoint file read (1 GiB; the shipped ones are 2.3 MB)."""
+MAX_OBS_DIM, MAX_ACT_DIM = 10_000, 100
+"""Largest observation and action sizes a checkpoint may declare."""
+SPEC_KINDS = ("goal", "box")
+
+
 def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
-    """(tensors, metadata) of a checkpoint; ValueError naming the file if it is unreadable or foreign."""
+    """(tensors, metadata) of a checkpoint, checked against the schema (`check_checkpoint`) before any
+    network is built; ValueError naming the file if it is unreadable, foreign or inconsistent."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no checkpoint at {path}")
+    if path.stat().st_size > MAX_CHECKPOINT_BYTES:
+        raise ValueError(f"checkpoint {path} is larger than {MAX_CHECKPOINT_BYTES // 2**20} MiB")
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch raises many types for corrupt or truncated files
@@ -101,7 +124,114 @@ def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str
           and isinstance(payload.get("metadata"), dict) and payload["metadata"].get("format") == FORMAT)
     if not ok:
         raise ValueError(f"checkpoint {path} is not an auv-mj DDPG checkpoint (format {FORMAT!r} expected)")
+    check_checkpoint(payload["tensors"], payload["metadata"], path)
     return payload["tensors"], payload["metadata"]
+
+
+def _whole(value: Any, low: int, high: int) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
+
+
+def _finite_numbers(value: Any, count: int) -> bool:
+    return (isinstance(value, list) and len(value) == count
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value))
+
+
+def expected_shapes(obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...]) -> dict[str, tuple[int, ...]]:
+    """Tensor name -> shape of the networks and normaliser of an agent of these sizes (`agents.networks`)."""
+    shapes: dict[str, tuple[int, ...]] = {"obs_norm.count": ()}
+    shapes.update({f"obs_norm.{k}": (obs_dim,) for k in ("sum", "sumsq", "mean", "std")})
+    for prefix, inputs, outputs in (("actor", obs_dim, act_dim), ("critic", obs_dim + act_dim, 1)):
+        widths = [inputs, *hidden_sizes, outputs]
+        for layer, (n_in, n_out) in enumerate(zip(widths[:-1], widths[1:], strict=True)):
+            for net in (prefix, f"{prefix}_target"):
+                shapes[f"{net}.net.{2 * layer}.weight"] = (n_out, n_in)
+                shapes[f"{net}.net.{2 * layer}.bias"] = (n_out,)
+    return shapes
+
+
+def check_checkpoint(tensors: Mapping[str, Any], meta: Mapping[str, Any], path: str | Path) -> None:
+    """The checkpoint schema, checked before any network is allocated; ValueError naming the file and field.
+
+    The metadata must hold a valid `config` (no unknown field), `obs_dim` and `act_dim` within MAX_OBS_DIM
+    and MAX_ACT_DIM, a `spec` that agrees with them (finite action bounds, low < high), and the tensors
+    must be finite and have exactly the shapes those sizes give: an allocation never exceeds the file.
+    """
+    where = f"checkpoint {path}"
+    if "config" not in meta:
+        raise ValueError(f"{where}: its metadata has no 'config'")
+    config = config_from_dict(meta["config"], f"{where}: config")
+    obs_dim, act_dim = meta.get("obs_dim"), meta.get("act_dim")
+    if not _whole(obs_dim, 1, MAX_OBS_DIM):
+        raise ValueError(f"{where}: obs_dim must be a whole number in [1, {MAX_OBS_DIM}], got {obs_dim!r:.60}")
+    if not _whole(act_dim, 1, MAX_ACT_DIM):
+        raise ValueError(f"{where}: act_dim must be a whole number in [1, {MAX_ACT_DIM}], got {act_dim!r:.60}")
+    spec = meta.get("spec")
+    if not isinstance(spec, Mapping):
+        raise ValueError(f"{where}: its metadata has no 'spec' dict")
+    shape = spec.get("obs_shape")
+    low, high = spec.get("action_low"), spec.get("action_high")
+    problems = []
+    if spec.get("obs_dim") != obs_dim or spec.get("act_dim") != act_dim:
+        problems.append(f"spec obs_dim/act_dim {spec.get('obs_dim')!r:.30}/{spec.get('act_dim')!r:.30} differ "
+                        f"from obs_dim/act_dim {obs_dim}/{act_dim}")
+    if spec.get("kind") not in SPEC_KINDS:
+        problems.append(f"spec kind must be one of {SPEC_KINDS}, got {spec.get('kind')!r:.30}")
+    if not (isinstance(shape, list) and 1 <= len(shape) <= 8 and all(_whole(n, 1, MAX_OBS_DIM) for n in shape)
+            and int(np.prod(shape)) == obs_dim):
+        problems.append(f"spec obs_shape must be a list of sizes whose product is obs_dim {obs_dim}, "
+                        f"got {shape!r:.60}")
+    if not (_finite_numbers(low, act_dim) and _finite_numbers(high, act_dim)
+            and all(a < b for a, b in zip(low, high, strict=True))):
+        problems.append(f"spec action_low/action_high must be {act_dim} finite numbers each, low < high, got "
+                        f"{low!r:.40} / {high!r:.40}")
+    if spec.get("kind") == "goal":
+        parts = (spec.get("observation_dim"), spec.get("goal_dim"))
+        goal_input = spec.get("goal_input", True)
+        if not isinstance(goal_input, bool):
+            problems.append(f"spec goal_input must be true or false, got {goal_input!r:.40}")
+        elif not (all(_whole(n, 1, MAX_OBS_DIM) for n in parts) and parts[0] + parts[1] * goal_input == obs_dim):
+            problems.append(f"spec observation_dim (+ goal_dim when goal_input) must equal obs_dim {obs_dim}, got "
+                            f"{parts!r:.40}")
+    if not _whole(meta.get("num_updates", 0), 0, 2**62):
+        problems.append(f"num_updates must be a whole number >= 0, got {meta.get('num_updates')!r:.40}")
+    replay = meta.get("replay_file")
+    if replay is not None and not (isinstance(replay, str) and replay not in ("", ".", "..")
+                                   and replay == Path(replay).name):
+        problems.append(f"replay_file must be a file name beside the checkpoint, got {replay!r:.60}")
+    run_info = meta.get("run_info", {})
+    if not (isinstance(run_info, Mapping) and all(isinstance(run_info.get(k, {}), Mapping)
+                                                  for k in ("task_kwargs", "env_kwargs"))):
+        problems.append(f"run_info must be a dict whose task_kwargs and env_kwargs are dicts, got {run_info!r:.60}")
+    counters = meta.get("counters", {})
+    if not (isinstance(counters, Mapping) and all(
+            isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v < math.inf
+            for k, v in counters.items())):
+        problems.append(f"counters must be a dict of counts >= 0, got {counters!r:.60}")
+    if problems:
+        raise ValueError(f"{where}: {problems[0]}")
+    if not all(isinstance(k, str) and isinstance(v, torch.Tensor) for k, v in tensors.items()):
+        raise ValueError(f"{where}: its tensors must be a dict of name -> tensor")
+    for name, want in expected_shapes(obs_dim, act_dim, config.hidden_sizes).items():
+        if name.startswith(("critic", "actor_target")) and name not in tensors:
+            continue  # a policy-only file needs the actor and the normaliser
+        got = tuple(tensors[name].shape) if name in tensors else None
+        if got != want:
+            raise ValueError(f"{where} does not fit the architecture its metadata describes: tensor {name} has "
+                             f"shape {got}, obs_dim {obs_dim}, act_dim {act_dim} and hidden_sizes "
+                             f"{list(config.hidden_sizes)} need {want}")
+    pending = {f"obs_norm_pending.{k}": shape for k, shape in (("count", ()), ("sum", (obs_dim,)),
+                                                                 ("sumsq", (obs_dim,)))}
+    if 0 < sum(name in tensors for name in pending) < len(pending):
+        raise ValueError(f"{where}: it holds some but not all of the tensors {sorted(pending)}")
+    for name, want in pending.items():
+        if name in tensors and tuple(tensors[name].shape) != want:
+            raise ValueError(f"{where}: tensor {name} has shape {tuple(tensors[name].shape)}, obs_dim {obs_dim} "
+                             f"needs {want}")
+    for name, value in tensors.items():
+        if value.is_floating_point() and not bool(torch.isfinite(value).all()):
+            raise ValueError(f"{where}: tensor {name} holds NaN or infinite values: the checkpoint is damaged "
+                             "(or its training diverged)")
 
 
 def _load_module(module: nn.Module, tensors: Mapping[str, torch.Tensor], prefix: str, path: Path) -> None:
@@ -109,7 +239,8 @@ def _load_module(module: nn.Module, tensors: Mapping[str, torch.Tensor], prefix:
     try:
         module.load_state_dict(state, strict=True)
     except RuntimeError as exc:
-        raise ValueError(f"checkpoint {path} does not fit the architecture of {prefix!r}: {exc}") from exc
+        raise ValueError(f"checkpoint {path} does not fit the architecture of {prefix!r}: "
+                         f"{' '.join(str(exc).split())}") from None
 
 
 def _load_optimizer(opt: torch.optim.Optimizer, tensors: Mapping[str, torch.Tensor], prefix: str,
@@ -117,14 +248,17 @@ def _load_optimizer(opt: torch.optim.Optimizer, tensors: Mapping[str, torch.Tens
     state: dict[int, dict[str, torch.Tensor]] = {}
     for key, value in tensors.items():
         if key.startswith(prefix + ".state."):
-            index, name = key[len(prefix) + 7:].split(".", 1)
+            index, _, name = key[len(prefix) + 7:].partition(".")
+            if not (index.isdigit() and name):
+                raise ValueError(f"checkpoint {path}: tensor {key!r:.80} is not an optimiser state entry")
             state.setdefault(int(index), {})[name] = value
     full = opt.state_dict()
     full["state"] = state
     try:
         opt.load_state_dict(full)
     except (RuntimeError, ValueError, KeyError) as exc:
-        raise ValueError(f"checkpoint {path}: optimiser state {prefix!r} does not fit: {exc}") from exc
+        raise ValueError(f"checkpoint {path}: optimiser state {prefix!r} does not fit: "
+                         f"{' '.join(str(exc).split())}") from None
 
 
 def load_agent(path: str | Path, device: str | None = None, config: DDPGConfig | None = None,
@@ -150,10 +284,14 @@ def load_agent(path: str | Path, device: str | None = None, config: DDPGConfig |
     pending = {k.split(".", 1)[1]: v for k, v in tensors.items() if k.startswith("obs_norm_pending.")}
     if pending:
         agent.obs_norm.load_pending_state(pending)
-    agent.rng.bit_generator.state = meta["agent_rng"]
+    try:
+        agent.rng.bit_generator.state = meta["agent_rng"]
+        if "torch_rng" in tensors:
+            torch.set_rng_state(tensors["torch_rng"])
+    except (KeyError, TypeError, ValueError, RuntimeError) as exc:
+        raise ValueError(f"checkpoint {path}: its random generator states (agent_rng, torch_rng) are not "
+                         f"restorable: {' '.join(str(exc).split())}") from None
     agent.num_updates = int(meta.get("num_updates", 0))
-    if "torch_rng" in tensors:
-        torch.set_rng_state(tensors["torch_rng"])
     return agent, meta
 
 

@@ -76,10 +76,57 @@ class DDPGConfig:
     """torch.set_num_threads for training; small MLPs are fastest on one thread (ours)."""
 
     def __post_init__(self):
-        if self.epsilon_unit not in EPSILON_UNITS:
-            raise ValueError(f"epsilon_unit must be one of {EPSILON_UNITS}, got {self.epsilon_unit!r}")
-        if not self.hidden_sizes or self.her_k < 0 or self.train_every < 1 or self.batch_size < 1:
-            raise ValueError(f"invalid DDPGConfig: {self}")
+        check_config(self)
+
+
+MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH = 8, 8192
+"""Deepest and widest hidden layers a config may ask for."""
+CONFIG_RANGES: dict[str, tuple[type, float, float]] = {
+    "actor_lr": (float, 0.0, 1.0), "critic_lr": (float, 0.0, 1.0), "gamma": (float, 0.0, 1.0),
+    "epsilon_start": (float, 0.0, 1.0), "epsilon_end": (float, 0.0, 1.0), "epsilon_decay": (int, 0, 10**9),
+    "noise_std": (float, 0.0, 10.0), "buffer_size": (int, 1, 10**7), "batch_size": (int, 1, 65_536),
+    "tau": (float, 0.0, 1.0), "max_episodes": (int, 1, 10**9), "her_k": (int, 0, 64), "train_every": (int, 1, 10**6),
+    "updates_per_step": (float, 0.0, 1000.0), "learning_starts": (int, 0, 10**9), "action_l2": (float, 0.0, 1000.0),
+    "seed": (int, 0, 2**32 - 1), "torch_threads": (int, 1, 1024),
+}
+"""Type and inclusive range of each numeric DDPGConfig field (the learning rates, tau and updates_per_step
+must also be above 0); a bounded buffer and batch keep allocations bounded."""
+POSITIVE_FIELDS = ("actor_lr", "critic_lr", "tau", "updates_per_step")
+
+
+def check_config(config: DDPGConfig) -> None:
+    """ValueError naming the first field of `config` of the wrong type or out of its CONFIG_RANGES range."""
+    for name, (kind, low, high) in CONFIG_RANGES.items():
+        value = getattr(config, name)
+        number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+        if kind is int and not isinstance(value, (int, np.integer)):
+            number = False
+        if not number or not low <= value <= high or (name in POSITIVE_FIELDS and not value > 0):
+            interval = f"{'(' if name in POSITIVE_FIELDS else '['}{low:g}, {high:g}]"
+            what = "a whole number" if kind is int else "a number"
+            raise ValueError(f"DDPGConfig.{name} must be {what} in {interval}, got {_shown(value)}")
+    if config.epsilon_unit not in EPSILON_UNITS:
+        raise ValueError(f"DDPGConfig.epsilon_unit must be one of {EPSILON_UNITS}, got {_shown(config.epsilon_unit)}")
+    sizes = config.hidden_sizes
+    if not (isinstance(sizes, tuple) and 1 <= len(sizes) <= MAX_HIDDEN_LAYERS
+            and all(isinstance(w, (int, np.integer)) and not isinstance(w, bool) and 1 <= w <= MAX_HIDDEN_WIDTH
+                    for w in sizes)):
+        raise ValueError(f"DDPGConfig.hidden_sizes must be 1 to {MAX_HIDDEN_LAYERS} whole numbers in "
+                         f"[1, {MAX_HIDDEN_WIDTH}], got {_shown(sizes)}")
+    if not isinstance(config.device, str):
+        raise ValueError(f"DDPGConfig.device must be a torch device name like 'cpu' or 'cuda', "
+                         f"got {_shown(config.device)}")
+    try:
+        torch.device(config.device)
+    except (RuntimeError, ValueError):
+        raise ValueError(f"DDPGConfig.device must be a torch device name like 'cpu' or 'cuda', "
+                         f"got {_shown(config.device)}") from None
+
+
+def _shown(value, limit: int = 60) -> str:
+    """repr(value) cut to about `limit` characters, for one-line messages."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[:limit] + "..."
 
 
 def field_docs(cls: type) -> dict[str, str]:
@@ -138,6 +185,8 @@ class DDPG:
         config = config or DDPGConfig()
         self.config, self.obs_dim, self.act_dim = config, obs_dim, act_dim
         self.device = torch.device(config.device)
+        if self.device.type == "cuda" and not torch.cuda.is_available():
+            raise ValueError(f"DDPGConfig.device {config.device!r}: no CUDA device is available here (use 'cpu')")
         torch.manual_seed(config.seed)
         self.obs_norm = Normalizer(obs_dim).to(self.device)
         self.actor = Actor(obs_dim, act_dim, config.hidden_sizes).to(self.device)

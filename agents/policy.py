@@ -46,7 +46,7 @@ class Policy:
                 module.load_state_dict(state, strict=True)
             except RuntimeError as exc:
                 raise ValueError(f"checkpoint {path} does not fit the architecture of {prefix!r}: "
-                                 f"{exc}") from exc
+                                 f"{' '.join(str(exc).split())}") from None
         return cls(actor.to(device), obs_norm.to(device), meta, device)
 
     def flat_obs(self, obs: np.ndarray | Mapping[str, np.ndarray]) -> np.ndarray:

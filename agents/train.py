@@ -210,6 +210,9 @@ def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir:
     meta: dict[str, Any] = {}
     if resume:
         agent, meta = load_agent(ckpt_path, config=config)
+        missing = [k for k in ("agent", "counters", "replay_file") if k not in meta]
+        if missing:
+            raise ValueError(f"checkpoint {ckpt_path} cannot be resumed: its metadata lacks {missing}")
         saved_spec = {k: v for k, v in meta["spec"].items() if k != "env_id"}
         if meta["agent"] != agent_name or saved_spec != {k: v for k, v in spec.items() if k != "env_id"}:
             raise ValueError(f"checkpoint {ckpt_path} is a {meta['agent']} run on {meta['spec']}, "

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from auv_mj import inputs
 from auv_mj.assets import model_path
 from auv_mj.ocean import lag_actuators
 from auv_mj.physics import AUVPhysics
@@ -31,20 +32,36 @@ SAFETY_DISTANCE = 5.0
 MERGED_SECTIONS = ("asset", "default", "worldbody", "custom", "contact")
 PATH_SITE_PREFIX = "path_"
 MOVER_PREFIX = "mover_"
+MAX_EXTENT = 100_000.0
+"""Largest |coordinate| and size [m] anything in an arena may have (100 km; the paper's maps are 600 m)."""
+MAX_MOVER_SPEED = 10.0
+"""Fastest moving obstacle [m/s]: five times the vehicle's top commanded speed (Table 3)."""
+ARENA_ELEMENTS = {
+    "asset": {"texture", "material", "mesh", "hfield"},
+    "default": {"default", "geom", "site", "mesh", "material", "camera", "light"},
+    "worldbody": {"body", "geom", "site", "camera", "light", "frame", "inertial"},
+    "custom": {"numeric", "text", "tuple"},
+    "contact": {"pair", "exclude"},
+}
+"""The elements each arena section may hold: static and mocap geometry, sites and looks. No joints (moving
+obstacles are mocap bodies), no file references, no generators (replicate, composite, flexcomp)."""
+MAX_GRID = 4096
+"""Largest texture or height field side [cells]."""
+MAX_MESH_VALUES = 30_000
+"""Most numbers in an inline mesh's vertex or face list (10 000 vertices)."""
 UNKNOWN_OBSTACLE_PREFIX = "unknown"
 """Static geoms named so are unknown obstacles: the global path may cross them."""
 
 
 def _read_xml(source: str | Path | ET.Element, what: str) -> tuple[ET.Element, str]:
+    """The root of an MJCF file or element and its name for messages, within the bounds of `auv_mj.inputs`."""
     if isinstance(source, ET.Element):
-        return source, f"<{what} element>"
-    path = Path(source)
-    try:
-        return ET.parse(path).getroot(), str(path)
-    except OSError as e:
-        raise ValueError(f"{path}: cannot read {what}: {e}") from None
-    except ET.ParseError as e:
-        raise ValueError(f"{path}: not well-formed XML: {e}") from None
+        name = f"<{what} element>"
+        inputs.check_element(source, name, what)
+        return source, name
+    if not isinstance(source, (str, Path)):
+        raise ValueError(f"{what} must be a file path or an ElementTree element, got {type(source).__name__}")
+    return inputs.read_xml(source, what), inputs.source_name(source)
 
 
 def compose_xml(arena: str | Path | ET.Element | None = None,
@@ -67,6 +84,7 @@ def compose_xml(arena: str | Path | ET.Element | None = None,
         name = el.get("name")
         if name and name in taken and el.tag != "mujoco":
             raise ValueError(f"{aname}: <{el.tag} name=\"{name}\"> clashes with a name of the vehicle model")
+    check_arena_elements(aroot, aname)
     for section in aroot:
         if section.tag not in MERGED_SECTIONS:
             raise ValueError(f"{aname}: arenas may only hold {MERGED_SECTIONS}, found <{section.tag}>")
@@ -75,7 +93,42 @@ def compose_xml(arena: str | Path | ET.Element | None = None,
             target = ET.SubElement(vroot, section.tag)
         for child in section:
             target.append(copy.deepcopy(child))
-    return ET.tostring(vroot, encoding="unicode"), aname
+    return ET.tostring(vroot, encoding="unicode"), aname if vehicle is None else f"{aname} with vehicle {vname}"
+
+
+def check_arena_elements(root: ET.Element, name: str) -> None:
+    """Refuses (ValueError naming the arena and the element) what an arena may not hold: elements outside
+    ARENA_ELEMENTS, joints, references to other files, and grids or meshes beyond MAX_GRID / MAX_MESH_VALUES,
+    which MuJoCo would read or allocate before any other check could run."""
+    for section in root:
+        allowed = ARENA_ELEMENTS.get(section.tag)
+        if allowed is None:
+            continue  # refused by section in `compose_xml`
+        stack = list(section)
+        while stack:
+            element = stack.pop()
+            if element.tag not in allowed:
+                hint = (": moving obstacles are mocap bodies" if element.tag in ("joint", "freejoint") else "")
+                raise ValueError(f"{name}: <{element.tag}> may not appear in an arena's <{section.tag}>{hint}")
+            files = [a for a in element.attrib if a.startswith("file")]
+            if files:
+                raise ValueError(f"{name}: <{element.tag} {files[0]}=...>: an arena may not read other files")
+            for attribute in ("width", "height", "nrow", "ncol"):
+                value = element.get(attribute)
+                if element.tag in ("texture", "hfield") and value is not None and not _count_within(value, MAX_GRID):
+                    raise ValueError(f"{name}: <{element.tag} {attribute}=\"{value[:20]}\"> must be a whole number "
+                                     f"up to {MAX_GRID}")
+            for attribute in ("vertex", "face", "normal", "texcoord"):
+                if len(element.get(attribute, "").split()) > MAX_MESH_VALUES:
+                    raise ValueError(f"{name}: <{element.tag} {attribute}> holds more than {MAX_MESH_VALUES} numbers")
+            stack.extend(element)
+
+
+def _count_within(text: str, limit: int) -> bool:
+    try:
+        return 0 <= int(text) <= limit
+    except ValueError:
+        return False
 
 
 def load(arena: str | Path | ET.Element | None = None, vehicle=None, thruster_lag: bool = False) -> AUVPhysics:

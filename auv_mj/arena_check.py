@@ -10,6 +10,8 @@ outlines seen from above).
 
 from __future__ import annotations
 
+import collections
+import hashlib
 import math
 import re
 import xml.etree.ElementTree as ET
@@ -20,7 +22,17 @@ import mujoco
 import numpy as np
 import shapely
 
-from auv_mj.arena import MOVER_PREFIX, PATH_SITE_PREFIX, UNKNOWN_OBSTACLE_PREFIX, ArenaInfo, arena_info, load
+from auv_mj import inputs
+from auv_mj.arena import (
+    MAX_EXTENT,
+    MAX_MOVER_SPEED,
+    MOVER_PREFIX,
+    PATH_SITE_PREFIX,
+    UNKNOWN_OBSTACLE_PREFIX,
+    ArenaInfo,
+    arena_info,
+    load,
+)
 from auv_mj.physics import AUVPhysics
 from auv_mj.tunnels import ROUTE_MARGIN, SAFETY_DISTANCE, crossings, route_blocker, route_clearance, segment_lines
 
@@ -34,6 +46,8 @@ HIDDEN_Z = 1e4
 """Where moving obstacles are parked [m] while the static map is checked."""
 MAX_LINES = 20
 """At most this many lines per kind of problem."""
+MAX_STATIC_GEOMS = 10_000
+"""Most static geoms an arena may have: the checks pose the hull against the nearby ones along the path."""
 RAY_STEP = 1e-3
 """How far past a geom the path may cross a ray starts again [m]."""
 STATIC_PREFIXES = ("wall", "obstacle", UNKNOWN_OBSTACLE_PREFIX)
@@ -68,7 +82,7 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
 
     `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8).
     """
-    name = str(source) if not isinstance(source, ET.Element) else "<arena element>"
+    name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
     report = ArenaReport(name)
     try:
         physics = load(source)
@@ -77,19 +91,55 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
         return report
     model = physics.model.ptr
     info = None
+    placed = False
     if _check_numerics(model, report):
         info = arena_info(physics)
-        _check_sites(model, info, report, need_path)
-    static = [g for g in range(model.ngeom) if model.geom_bodyid[g] == 0]
+        placed = _check_sites(model, info, report, need_path)
+    static, absurd = _check_extent(model, physics, report)
     _check_geoms(model, physics, static, report)
     _check_walls(model, physics, static, report)
-    if info is not None:
+    if info is not None and placed and not absurd:
         _check_route(physics, info, static, report)
         _check_unknown(physics, info, static, report)
         _check_movers(physics, info, static, report)
     if png is not None:
-        report.png = plot_arena(physics, info, png, title=Path(name).name)
+        report.png = plot_arena(physics, info, png, title=Path(name).name, skip=absurd)
     return report
+
+
+_VERDICTS: collections.OrderedDict[tuple[str, bool], tuple[str, ...]] = collections.OrderedDict()
+VERDICT_CACHE_SIZE = 64
+"""Arenas whose `require_usable` verdict is remembered (by content), so a task loads a checked arena fast."""
+SHOWN_PROBLEMS = 3
+"""`require_usable` names this many problems in its one-line error."""
+
+
+def require_usable(source: str | Path | ET.Element, need_path: bool = True) -> None:
+    """Refuses an arena that `check_arena` (the code of `auv-mj check-arena`) finds unusable.
+
+    Raises ValueError naming the arena and its problems, on one line. Tasks call this where an arena enters;
+    the verdict is cached by the arena's content, so loading the same arena again costs a hash.
+    """
+    if isinstance(source, ET.Element):
+        name = "<arena element>"
+        inputs.check_element(source, name, "arena")
+        content = ET.tostring(source, encoding="unicode").encode()
+    elif isinstance(source, (str, Path)):
+        name = inputs.source_name(source)
+        content = inputs.read_bytes(source, "arena", inputs.MAX_XML_BYTES)
+    else:
+        raise ValueError(f"an arena is a file path or an ElementTree element, got {type(source).__name__}")
+    key = (hashlib.sha256(content).hexdigest(), need_path)
+    problems = _VERDICTS.get(key)
+    if problems is None:
+        problems = tuple(" ".join(p.split()) for p in check_arena(source, need_path=need_path).problems)
+        _VERDICTS[key] = problems
+        while len(_VERDICTS) > VERDICT_CACHE_SIZE:
+            _VERDICTS.popitem(last=False)
+    if problems:
+        shown = "; ".join(p.removeprefix(f"{name}: ") for p in problems[:SHOWN_PROBLEMS])
+        more = f"; and {len(problems) - SHOWN_PROBLEMS} more" if len(problems) > SHOWN_PROBLEMS else ""
+        raise ValueError(f"{name}: not a usable arena: {shown}{more} (`auv-mj check-arena` lists them all)")
 
 
 def _name(model: mujoco.MjModel, geom: int) -> str:
@@ -105,26 +155,46 @@ def _add(lines: list[str], new: list[str]) -> None:
 def _check_numerics(model: mujoco.MjModel, report: ArenaReport) -> bool:
     """The `<numeric>`s the convention reads: arena_bounds and one per mover; False if unreadable."""
     readable = True
-    numerics = {model.numeric(i).name: int(model.numeric_size[i]) for i in range(model.nnumeric)}
+    numerics = {model.numeric(i).name: i for i in range(model.nnumeric)}
+
+    def values(name: str) -> np.ndarray:
+        i = numerics[name]
+        return model.numeric_data[model.numeric_adr[i]:model.numeric_adr[i] + model.numeric_size[i]]
+
     if "arena_bounds" not in numerics:
         report.problems.append('no <numeric name="arena_bounds" data="xmin ymin xmax ymax">: '
                                "the map has no edge")
-    elif numerics["arena_bounds"] != 4:
-        report.problems.append(f'<numeric name="arena_bounds"> has {numerics["arena_bounds"]} values; '
+    elif len(values("arena_bounds")) != 4:
+        report.problems.append(f'<numeric name="arena_bounds"> has {len(values("arena_bounds"))} values; '
                                "expected xmin ymin xmax ymax")
-    for i in range(model.nbody):
-        body = model.body(i).name
-        if body.startswith(MOVER_PREFIX) and model.body_mocapid[i] < 0:
+    elif not np.all(np.abs(values("arena_bounds")) <= MAX_EXTENT):  # NaN fails too
+        report.problems.append(f"arena_bounds {_xy4(values('arena_bounds'))} must be finite numbers within "
+                               f"+-{MAX_EXTENT:g} m")
+    bodies = {model.body(i).name: i for i in range(model.nbody)}
+    for name in numerics:
+        if name.startswith(MOVER_PREFIX) and name not in bodies:
+            report.problems.append(f'<numeric name="{name}"> has no <body name="{name}" mocap="true">: '
+                                   "a mover's path needs its obstacle")
+    for body, i in bodies.items():
+        if not body.startswith(MOVER_PREFIX):
+            continue
+        if model.body_mocapid[i] < 0:
             report.warnings.append(f"body {body} is not a mocap body, so it is not a moving obstacle")
-        elif body.startswith(MOVER_PREFIX) and numerics.get(body, 5) != 5:
-            report.problems.append(f'<numeric name="{body}"> has {numerics[body]} values; '
+        elif body not in numerics:
+            report.problems.append(f'mover body {body} has no <numeric name="{body}" '
+                                   'data="x0 y0 x1 y1 speed">: it would never move')
+        elif len(values(body)) != 5:
+            report.problems.append(f'<numeric name="{body}"> has {len(values(body))} values; '
                                    "expected x0 y0 x1 y1 speed")
             readable = False
     return readable
 
 
-def _check_sites(model: mujoco.MjModel, info: ArenaInfo, report: ArenaReport, need_path: bool) -> None:
-    """start, goal, path_0..path_N present and in order, all inside arena_bounds."""
+def _check_sites(model: mujoco.MjModel, info: ArenaInfo, report: ArenaReport, need_path: bool) -> bool:
+    """start, goal, path_0..path_N present, finite, in order and inside arena_bounds; movers' paths valid.
+
+    False when a position or heading is not a finite number (the checks that pose the vehicle are skipped).
+    """
     for name, xy in (("start", info.start), ("goal", info.goal)):
         if xy is None:
             report.problems.append(f'no <site name="{name}">')
@@ -142,17 +212,68 @@ def _check_sites(model: mujoco.MjModel, info: ArenaInfo, report: ArenaReport, ne
         report.problems.append(f"the global path skips {shown}{' ...' if len(missing) > 10 else ''}: "
                                f"its sites must be numbered {PATH_SITE_PREFIX}0, {PATH_SITE_PREFIX}1, ... "
                                "in order")
-    if info.bounds is None or len(info.bounds) != 4:
-        return
+    points = [("start", info.start), ("goal", info.goal)]
+    points += [(f"{PATH_SITE_PREFIX}{k}", p) for k, p in zip(numbers, info.path, strict=False)]
+    placed = _check_movers_numbers(info, report)
+    far = [f"{name} ({_xy(p)}) is not at finite coordinates within +-{MAX_EXTENT:g} m" for name, p in points
+           if p is not None and not np.all(np.abs(p) <= MAX_EXTENT)]
+    _add(report.problems, far)
+    if not math.isfinite(info.start_heading):
+        report.problems.append("the start site's orientation is not a finite angle: no initial heading")
+    placed = placed and not far and math.isfinite(info.start_heading)
+    length = float(np.sum(np.hypot(*np.diff(info.path, axis=0).T))) if len(info.path) > 1 else 0.0
+    if length > MAX_EXTENT:
+        report.problems.append(f"the global path is {length:.0f} m long; at most {MAX_EXTENT:g} m")
+        placed = False
+    if info.bounds is None or len(info.bounds) != 4 or not np.all(np.abs(info.bounds) <= MAX_EXTENT):
+        return placed
     xmin, ymin, xmax, ymax = info.bounds
     if not (xmin < xmax and ymin < ymax):
         report.problems.append(f"arena_bounds {_xy4(info.bounds)} is empty (needs xmin < xmax, ymin < ymax)")
-        return
-    points = [("start", info.start), ("goal", info.goal)]
-    points += [(f"{PATH_SITE_PREFIX}{k}", p) for k, p in zip(numbers, info.path, strict=False)]
+        return placed
+    points += [(f"{m.body} {end}", p) for m in info.movers for end, p in (("start", m.start), ("end", m.end))]
     outside = [f"{name} ({_xy(p)}) is outside arena_bounds {_xy4(info.bounds)}" for name, p in points
-               if p is not None and not (xmin <= p[0] <= xmax and ymin <= p[1] <= ymax)]
+               if p is not None and np.all(np.isfinite(p)) and not (xmin <= p[0] <= xmax and ymin <= p[1] <= ymax)]
     _add(report.problems, outside)
+    return placed
+
+
+def _check_movers_numbers(info: ArenaInfo, report: ArenaReport) -> bool:
+    """Each mover's path ends are finite and its speed is in [0, MAX_MOVER_SPEED]; False if any is not."""
+    bad = []
+    for mover in info.movers:
+        if not np.all(np.abs(np.concatenate([mover.start, mover.end])) <= MAX_EXTENT):
+            bad.append(f"{mover.body}: its path ends ({_xy(mover.start)}) and ({_xy(mover.end)}) must be finite "
+                       f"within +-{MAX_EXTENT:g} m")
+        if not 0.0 <= mover.speed <= MAX_MOVER_SPEED:
+            bad.append(f"{mover.body}: speed {mover.speed:g} m/s is not in [0, {MAX_MOVER_SPEED:g}] m/s")
+    _add(report.problems, bad)
+    return not bad
+
+
+def _check_extent(model: mujoco.MjModel, physics: AUVPhysics, report: ArenaReport) -> tuple[list[int], set[int]]:
+    """Geoms of the arena (static and movers') with sizes and positions within MAX_EXTENT.
+
+    Returns the static geoms fit for the geometric checks, and the geoms too large or too far to check or draw.
+    """
+    data = physics.data.ptr
+    vehicle = model.body("auv").id
+    absurd, lines = set(), []
+    for g in range(model.ngeom):
+        if model.geom_bodyid[g] == vehicle:
+            continue
+        size, centre, reach = model.geom_size[g], data.geom_xpos[g], model.geom_rbound[g]
+        if not (np.all(np.abs(size) <= MAX_EXTENT) and np.all(np.abs(centre) <= MAX_EXTENT)
+                and abs(reach) <= MAX_EXTENT):
+            absurd.add(g)
+            lines.append(f"{_name(model, g)} (size {' '.join(f'{v:g}' for v in size)}, at "
+                         f"{_xy(centre)}) is beyond the largest arena extent, {MAX_EXTENT:g} m")
+    _add(report.problems, lines)
+    static = [g for g in range(model.ngeom) if model.geom_bodyid[g] == 0 and g not in absurd]
+    if len(static) > MAX_STATIC_GEOMS:
+        report.problems.append(f"{len(static)} static geoms; at most {MAX_STATIC_GEOMS}")
+        return [], absurd
+    return static, absurd
 
 
 def _check_geoms(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], report: ArenaReport) -> None:
@@ -254,6 +375,17 @@ def _check_route(physics: AUVPhysics, info: ArenaInfo, static: list[int], report
     report.summary = _summary(model, info, static, least)
 
 
+def _near(model: mujoco.MjModel, data: mujoco.MjData, hull: int, static: list[int], reach: float) -> list[int]:
+    """The geoms of `static` whose bounding spheres come within `reach` of the hull's (planes always):
+    only they can be closer than `reach`, so a large arena costs mj_geomDistance calls only nearby."""
+    geoms = np.asarray(static, dtype=int)
+    if not len(geoms):
+        return []
+    gap = (np.hypot(*(data.geom_xpos[geoms, :2] - data.geom_xpos[hull, :2]).T)
+           - model.geom_rbound[geoms] - model.geom_rbound[hull])
+    return geoms[(gap < reach) | (model.geom_rbound[geoms] == 0)].tolist()
+
+
 def _is_unknown(model: mujoco.MjModel, geom: int) -> bool:
     return model.geom(geom).name.startswith(UNKNOWN_OBSTACLE_PREFIX)
 
@@ -275,7 +407,7 @@ def _check_poses(physics: AUVPhysics, data: mujoco.MjData, info: ArenaInfo, rout
     for name, p, d in poses:
         _pose(physics, data, p[0], p[1], math.atan2(d[1], d[0]))
         on_path = name.startswith(PATH_SITE_PREFIX)  # the path may run through unknown obstacles
-        for g in static:
+        for g in _near(model, data, hull, static, SAFETY_DISTANCE):
             if on_path and _is_unknown(model, g):
                 continue
             gap = mujoco.mj_geomDistance(model, data, hull, g, SAFETY_DISTANCE, None)
@@ -311,7 +443,7 @@ def _check_segments(physics: AUVPhysics, data: mujoco.MjData, route: list, stati
         for s in np.linspace(0.0, 1.0, max(2, math.ceil(length / CHECK_STEP) + 1)):
             p = a + s * d
             _pose(physics, data, p[0], p[1], math.atan2(d[1], d[0]))
-            for g in static:
+            for g in _near(model, data, hull, static, SEARCH_DISTANCE):
                 gap = mujoco.mj_geomDistance(model, data, hull, g, SEARCH_DISTANCE, None)
                 if gap < least[0]:
                     least = (gap, g, segment)
@@ -466,8 +598,17 @@ def _outline(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray |
     return centre[:2] + model.geom_rbound[g] * circle
 
 
-def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, title: str = "") -> Path:
-    """Writes a top-down PNG of walls, obstacles, movers and their paths, the global path, start and goal."""
+def _drawable(points) -> bool:
+    """Finite and within MAX_EXTENT: what the preview can draw (matplotlib fails on huge or NaN limits)."""
+    return points is not None and bool(np.all(np.abs(np.asarray(points, dtype=float)) <= MAX_EXTENT))
+
+
+def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, title: str = "",
+               skip: set[int] | frozenset[int] = frozenset()) -> Path:
+    """Writes a top-down PNG of walls, obstacles, movers and their paths, the global path, start and goal.
+
+    Geoms in `skip`, and anything not at finite coordinates within MAX_EXTENT, are left out.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -480,10 +621,10 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
     movers = {model.body(m.body).id: m for m in info.movers} if info is not None else {}
     for g in range(model.ngeom):
         body = model.geom_bodyid[g]
-        if body != 0 and body not in movers:
+        if (body != 0 and body not in movers) or g in skip:
             continue
         outline = _outline(model, data, g)
-        if outline is None:
+        if outline is None or not _drawable(outline):
             continue
         name = model.geom(g).name
         colour = "#d9342b" if body in movers else "#73787f" if name.startswith("wall") else "#9a6a3f"
@@ -492,22 +633,26 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
             ax.annotate(name, outline.mean(axis=0), fontsize=7, ha="center", va="bottom",
                         xytext=(0, 6), textcoords="offset points")
     for mover in movers.values():
+        if not (_drawable([mover.start, mover.end]) and math.isfinite(mover.speed)):
+            continue
         ax.annotate("", mover.end, mover.start, zorder=3,
                     arrowprops={"arrowstyle": "->", "color": "#d9342b", "ls": "--"})
         ax.annotate(f"{mover.body} ({mover.speed:g} m/s)", mover.start, fontsize=7, color="#d9342b",
                     xytext=(0, 8), textcoords="offset points", ha="center")
     if info is not None:
-        if len(info.path):
-            ax.plot(*info.path.T, "-", color="#1f77b4", lw=1.2, label="global path", zorder=3)
-            ax.plot(*info.path.T, ".", color="#1f77b4", ms=3, zorder=3)
-        if info.start is not None:
+        path = info.path[np.all(np.abs(info.path) <= MAX_EXTENT, axis=1)] if len(info.path) else info.path
+        if len(path):
+            ax.plot(*path.T, "-", color="#1f77b4", lw=1.2, label="global path", zorder=3)
+            ax.plot(*path.T, ".", color="#1f77b4", ms=3, zorder=3)
+        if _drawable(info.start):
             ax.plot(*info.start, "o", color="#2ca02c", ms=8, label="start", zorder=4)
-            ax.annotate("", info.start + 15 * np.array([math.cos(info.start_heading),
-                                                         math.sin(info.start_heading)]),
-                        info.start, arrowprops={"arrowstyle": "->", "color": "#2ca02c", "lw": 1.5}, zorder=4)
-        if info.goal is not None:
+            if math.isfinite(info.start_heading):
+                ax.annotate("", info.start + 15 * np.array([math.cos(info.start_heading),
+                                                             math.sin(info.start_heading)]),
+                            info.start, arrowprops={"arrowstyle": "->", "color": "#2ca02c", "lw": 1.5}, zorder=4)
+        if _drawable(info.goal):
             ax.plot(*info.goal, "*", color="#e6b800", ms=14, mec="k", mew=0.5, label="goal", zorder=4)
-        if info.bounds is not None and len(info.bounds) == 4:
+        if info.bounds is not None and len(info.bounds) == 4 and _drawable(info.bounds):
             xmin, ymin, xmax, ymax = info.bounds
             ax.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False, ls=":", color="k",
                                    lw=0.8, label="arena_bounds"))

@@ -13,6 +13,7 @@ saves to and loads from a single .npz file.
 
 from __future__ import annotations
 
+import zipfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -21,6 +22,7 @@ import mujoco
 import numpy as np
 
 from auv_mj import arena as arena_lib
+from auv_mj import inputs
 
 VEHICLE_BODY = "auv"
 CIRCLE_SEGMENTS = 32
@@ -256,7 +258,17 @@ class EpisodeRecord:
 
     @classmethod
     def load(cls, path: str | Path) -> EpisodeRecord:
-        """Reads a record written by `save`."""
+        """Reads a record written by `save`; ValueError naming the file if it is not one."""
+        try:
+            return cls._read(path)
+        except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError, EOFError,
+                zipfile.BadZipFile) as e:
+            reason = " ".join(f"{type(e).__name__}: {e}".split())[:200]
+            raise ValueError(f"{inputs.source_name(path)}: not an episode record of `auv-mj render "
+                             f"--save-episode` ({reason})") from None
+
+    @classmethod
+    def _read(cls, path: str | Path) -> EpisodeRecord:
         with np.load(path, allow_pickle=False) as npz:
             data = {k: npz[k] for k in npz.files}
         sizes = data.pop("arena/polygon_sizes")

@@ -30,7 +30,6 @@ inertia. A time-varying current (`auv_mj.ocean`) is held constant between its up
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -38,11 +37,19 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
+
 NUMERIC_PREFIX = "hydro_"
 REQUIRED = ("X_udot", "Y_vdot", "Y_rdot", "N_rdot", "X_uu", "Y_vv", "Y_vr", "Y_rv", "Y_rr",
             "N_vv", "N_vr", "N_rv", "N_rr")
 OPTIONAL = ("Y_uv", "Y_ur", "N_uv", "N_ur")
 VEHICLE_JOINTS = ("x", "y", "yaw")
+NON_POSITIVE = {"X_udot": "an added-mass", "Y_vdot": "an added-mass", "N_rdot": "an added-mass",
+                "X_uu": "a drag", "Y_vv": "a drag", "N_rr": "a drag"}
+"""Coefficients that are <= 0 in the SNAME convention (Eq. 6, 11): added mass adds inertia and drag takes
+energy out; the wrong sign makes M_A negative or feeds energy in, and the step diverges."""
+MAX_COEFFICIENT = 1e6
+"""Largest |coefficient| accepted (SI units); REMUS's largest, Y_vv, is 1310."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +91,16 @@ class HydroCoefficients:
                                      f"<numeric name=\"{NUMERIC_PREFIX}{f.name}\">")
                 continue
             kwargs[f.name] = _as_float(values[f.name], f.name, source)
+        for name, value in kwargs.items():
+            numeric = f"<numeric name=\"{NUMERIC_PREFIX}{name}\">"
+            if abs(value) > MAX_COEFFICIENT:
+                raise ValueError(f"{source}: {numeric} = {value:g} is beyond +-{MAX_COEFFICIENT:g}: not a "
+                                 "vehicle's coefficient")
+            if name in NON_POSITIVE and value > 0:
+                effect = ("makes the added mass negative" if "mass" in NON_POSITIVE[name]
+                          else "feeds energy in instead of taking it out")
+                raise ValueError(f"{source}: {numeric} = {value:g} must be <= 0 (SNAME convention): "
+                                 f"{NON_POSITIVE[name]} derivative of the wrong sign {effect}")
         return cls(**kwargs)
 
 
@@ -105,10 +122,7 @@ def coefficients_from_xml(xml: str, source: str = "<string>") -> HydroCoefficien
     Returns None when the file has no `hydro_*` numeric at all (a model without a vehicle).
     Parsing ourselves lets a bad value be reported by field and file rather than by MuJoCo.
     """
-    try:
-        root = ET.fromstring(xml)
-    except ET.ParseError as e:
-        raise ValueError(f"{source}: not well-formed XML: {e}") from None
+    root = parse_xml(xml, source, "vehicle MJCF")
     values: dict[str, str] = {}
     for numeric in root.iter("numeric"):
         name = numeric.get("name", "")
@@ -130,7 +144,7 @@ def coefficients_from_xml(xml: str, source: str = "<string>") -> HydroCoefficien
 def coefficients_from_path(path: str | Path) -> HydroCoefficients | None:
     """`coefficients_from_xml` for a file."""
     path = Path(path)
-    return coefficients_from_xml(path.read_text(), str(path))
+    return coefficients_from_xml(read_text(path, "vehicle MJCF", MAX_XML_BYTES), str(path))
 
 
 class Hydrodynamics:

@@ -15,10 +15,23 @@ from dm_control.rl.control import PhysicsError
 
 from auv_mj.disturbances import Disturbance
 from auv_mj.hydrodynamics import Hydrodynamics, coefficients_from_xml
+from auv_mj.inputs import MAX_XML_BYTES, read_text, source_name
 from auv_mj.sonar import SONAR_NAMES, clip_ranges
+from auv_mj.vehicle import check_vehicle
 
 SUPPORTED_INTEGRATORS = (mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
 SENSOR_DISABLE_BIT = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+CONSTRAINT_DISABLE_BIT = int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+CONTACT_DISABLE_BIT = int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+SETTLED_CACHE_SIZE = 256
+"""Vehicles (coefficients, inertia, timestep, integrator) remembered as having passed the settle check."""
+_SETTLED: set = set()
+SETTLE_STATES = ((2.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (2.0, 0.5, 0.5), (-1.0, -0.5, -0.5))
+"""Body velocities (u, v, r) [m/s, m/s, rad/s] from which the load-time settle check coasts the vehicle."""
+SETTLE_STEPS = 20
+"""Physics steps of each settle run: an unstable step grows within a few steps."""
+SETTLE_GROWTH = 2.0
+"""Coasting without thrust, the kinetic energy may not grow by more than this factor (drag takes it out)."""
 
 
 class AUVPhysics(engine.Physics):
@@ -46,7 +59,7 @@ class AUVPhysics(engine.Physics):
         try:
             physics = super().from_xml_string(xml_string, assets=assets)
         except Exception as e:  # dm_control raises its own wrapper Error for compile failures
-            raise ValueError(f"{source}: MuJoCo cannot compile this model: {e}") from None
+            raise ValueError(f"{source}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
         physics._setup(coefficients, source)
         return physics
 
@@ -54,19 +67,17 @@ class AUVPhysics(engine.Physics):
     def from_xml_path(cls, file_path: str | Path):
         """Physics from an MJCF file (includes resolved relative to the file)."""
         path = Path(file_path)
-        try:
-            text = path.read_text()
-        except OSError as e:
-            raise ValueError(f"{path}: cannot read: {e}") from None
-        coefficients = coefficients_from_xml(text, str(path))
+        name = source_name(path)
+        text = read_text(path, "vehicle MJCF", MAX_XML_BYTES)
+        coefficients = coefficients_from_xml(text, name)
         if coefficients is None:
-            raise ValueError(f"{path}: no hydrodynamic coefficients (<numeric name=\"hydro_*\">): "
+            raise ValueError(f"{name}: no hydrodynamic coefficients (<numeric name=\"hydro_*\">): "
                              "not an auv-mj vehicle model")
         try:
             physics = super().from_xml_path(str(path))
         except Exception as e:  # dm_control raises its own wrapper Error for compile failures
-            raise ValueError(f"{path}: MuJoCo cannot compile this model: {e}") from None
-        physics._setup(coefficients, str(path))
+            raise ValueError(f"{name}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
+        physics._setup(coefficients, name)
         return physics
 
     def reload_from_xml_string(self, xml_string: str, assets: dict | None = None,
@@ -92,6 +103,7 @@ class AUVPhysics(engine.Physics):
 
     def _setup(self, coefficients, source: str) -> None:
         model = self.model.ptr
+        check_vehicle(model, source)
         if model.opt.integrator not in SUPPORTED_INTEGRATORS:
             raise ValueError(f"{source}: integrator must be Euler or implicitfast for the hydrodynamic "
                              f"step hook, got {mujoco.mjtIntegrator(model.opt.integrator).name}")
@@ -101,6 +113,7 @@ class AUVPhysics(engine.Physics):
         self._vehicle_body = body
         self._nominal_mass = (float(model.body_mass[body]), model.body_inertia[body].copy())
         self.source = source
+        self._settle_check()
         self._disturbances: list[Disturbance] = []
         addresses = [int(model.sensor_adr[model.sensor(n).id]) for n in SONAR_NAMES]
         contiguous = addresses == list(range(addresses[0], addresses[0] + len(addresses)))
@@ -111,6 +124,75 @@ class AUVPhysics(engine.Physics):
         self._step_ready = False
         self._bound = None
         self.forward()
+
+    def _settle_check(self) -> None:
+        """Coasts the vehicle briefly from SETTLE_STATES (no thrust, no contacts): a model whose numerics
+        make the step diverge right after load is refused here, naming the suspicious coefficients.
+
+        The coast depends only on the vehicle (coefficients, inertia, timestep, integrator), so a vehicle that
+        passed once is not coasted again in this process (a vehicle in another arena is the same vehicle).
+        """
+        model = self.model.ptr
+        key = (self._hydro.coefficients, self._hydro.total_mass.tobytes(), float(model.opt.timestep),
+               int(model.opt.integrator))
+        if key in _SETTLED:
+            return
+        data = mujoco.MjData(model)
+        hook = self._hydro.bind(model, data)
+        dofs = self._hydro.dofs
+        flags = model.opt.disableflags
+        model.opt.disableflags = flags | CONSTRAINT_DISABLE_BIT | CONTACT_DISABLE_BIT
+        try:
+            for start in SETTLE_STATES:
+                mujoco.mj_resetData(model, data)
+                data.qvel[dofs] = start  # psi = 0: body and world velocities coincide
+                mujoco.mj_step1(model, data)
+                history = [start]
+                for _ in range(SETTLE_STEPS):
+                    hook(model.opt.timestep)
+                    mujoco.mj_step2(model, data)
+                    mujoco.mj_step1(model, data)
+                    history.append(self._hydro.body_velocity(data))
+                nus = np.array(history)
+                with np.errstate(over="ignore", invalid="ignore"):
+                    energy = 0.5 * np.einsum("ij,jk,ik->i", nus, self._hydro.total_mass, nus)
+                blown = bool(np.any(data.warning.number)) or not np.all(np.isfinite(energy))
+                grown = not blown and energy.max() > SETTLE_GROWTH * energy[0]
+                if blown or grown:
+                    onset = np.flatnonzero(~(energy <= SETTLE_GROWTH * energy[0]))  # NaN counts
+                    nu = nus[onset[0] - 1] if len(onset) else nus[np.argmax(energy)]  # the state before it
+                    raise ValueError(
+                        f"{self.source}: the vehicle's dynamics diverge right after load: coasting from "
+                        f"(u, v, r) = {start} with steps of {model.opt.timestep:g} s "
+                        f"{'blows up' if blown else 'gains energy'} near (u, v, r) = "
+                        f"{tuple(np.round(nu, 3).tolist())}; suspicious numerics: {self._suspects(nu)}")
+        finally:
+            model.opt.disableflags = flags
+        if len(_SETTLED) >= SETTLED_CACHE_SIZE:
+            _SETTLED.clear()
+        _SETTLED.add(key)
+
+    def _suspects(self, nu) -> str:
+        """The three hydrodynamic coefficients whose terms change the velocity most in one step at `nu`.
+
+        A term F of a coefficient changes its velocity by |F| dt / m per explicit step (m: rigid-body plus
+        added mass of that degree of freedom); near or above the velocity itself the step is unstable.
+        """
+        c = self._hydro.coefficients
+        u, v, r = (float(x) for x in nu)
+        au, av, ar = abs(u), abs(v), abs(r)
+        terms = {"X_uu": (0, c.X_uu * au * u), "Y_vv": (1, c.Y_vv * av * v), "Y_vr": (1, c.Y_vr * ar * v),
+                 "Y_rv": (1, c.Y_rv * av * r), "Y_rr": (1, c.Y_rr * ar * r), "Y_uv": (1, c.Y_uv * u * v),
+                 "Y_ur": (1, c.Y_ur * u * r), "N_vv": (2, c.N_vv * av * v), "N_vr": (2, c.N_vr * ar * v),
+                 "N_rv": (2, c.N_rv * av * r), "N_rr": (2, c.N_rr * ar * r), "N_uv": (2, c.N_uv * u * v),
+                 "N_ur": (2, c.N_ur * u * r)}
+        mass = self._hydro.total_mass.diagonal()
+        dt = float(self.model.opt.timestep)
+        change = {k: abs(force) * dt / mass[dof] for k, (dof, force) in terms.items()}
+        units = ("m/s", "m/s", "rad/s")
+        ranked = sorted(change, key=lambda k: -change[k])[:3]
+        return ", ".join(f"hydro_{k} = {getattr(c, k):g} (changes {'uvr'[terms[k][0]]} by {change[k]:.3g} "
+                         f"{units[terms[k][0]]} per step)" for k in ranked)
 
     @property
     def hydrodynamics(self) -> Hydrodynamics:
@@ -202,8 +284,8 @@ class AUVPhysics(engine.Physics):
         """Raises dm_control's PhysicsError (or logs, inside `suppress_physics_errors`) as its step would."""
         names = list(mujoco.mjtWarning.__members__)
         new = [names[i] for i in np.flatnonzero(self._warnings != warnings_before)]
-        message = (f"Physics state is invalid. Warning(s) raised: {', '.join(new)}" if new else
-                   "Physics state is invalid: MuJoCo reset it during the step (time went back)")
+        message = (f"Physics state is invalid ({self.source}). Warning(s) raised: {', '.join(new)}" if new else
+                   f"Physics state is invalid ({self.source}): MuJoCo reset it during the step (time went back)")
         if self._warnings_cause_exception:
             raise PhysicsError(message)
         logging.warning(message)

@@ -44,8 +44,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from auv_mj.arena import MAX_EXTENT, MAX_MOVER_SPEED
 from auv_mj.seeds import SEEDS, seed_split  # noqa: F401  (re-exported: the arenas' seed ranges)
 from auv_mj.tunnels import (
+    MAX_MOVER_RADIUS,
+    MAX_OBSTACLE_SIZE,
+    MAX_TUNNEL_LENGTH,
+    MAX_WIDTH,
     WALL_THICKNESS,
     MovingObstacle,
     Obstacle,
@@ -98,6 +103,18 @@ def passing_gap() -> float:
     return 2.0 * (route_clearance() + LANE)
 
 
+MAX_COUNT = 20
+"""Most unknown obstacles or movers a spec may ask for."""
+MAX_TRIES = 1000
+"""Most draws a spec may allow before it gives up."""
+
+
+def _real(value, whole: bool = False) -> bool:
+    """A finite real number (a whole one if `whole`), not a bool."""
+    kinds = (int, np.integer) if whole else (int, float, np.integer, np.floating)
+    return isinstance(value, kinds) and not isinstance(value, (bool, np.bool_)) and math.isfinite(value)
+
+
 @dataclass(frozen=True)
 class TunnelSpec:
     """What random tunnels are drawn from (ranges are (low, high), counts inclusive)."""
@@ -132,12 +149,23 @@ class TunnelSpec:
     """Draws before giving up (each failed draw is redrawn from the same random stream)."""
 
     def __post_init__(self):
-        ranges = {name: getattr(self, name) for name in ("width", "length", "obstacles", "movers", "obstacle_length",
-                                                          "mover_radius", "crossing_speed", "along_speed",
-                                                          "along_length")}
-        for name, (low, high) in ranges.items():
-            if not (math.isfinite(low) and math.isfinite(high) and 0 <= low <= high):
-                raise ValueError(f"TunnelSpec.{name} = {(low, high)}: expected 0 <= low <= high, finite")
+        limits = {"width": MAX_WIDTH, "length": MAX_TUNNEL_LENGTH, "obstacles": MAX_COUNT, "movers": MAX_COUNT,
+                  "obstacle_length": MAX_OBSTACLE_SIZE, "mover_radius": MAX_MOVER_RADIUS,
+                  "crossing_speed": MAX_MOVER_SPEED, "along_speed": MAX_MOVER_SPEED, "along_length": MAX_TUNNEL_LENGTH}
+        for name, high in limits.items():
+            value = getattr(self, name)
+            whole = name in ("obstacles", "movers")
+            if not (isinstance(value, tuple) and len(value) == 2 and all(_real(v, whole) for v in value)
+                    and 0 <= value[0] <= value[1] <= high):
+                raise ValueError(f"TunnelSpec.{name} = {value!r:.60}: expected 0 <= low <= high <= {high:g}"
+                                 f"{', whole numbers' if whole else ', finite'}")
+        scalars = (("turn_radius", MAX_EXTENT, False), ("placement", MAX_EXTENT / 2, False),
+                   ("obstacle_reach", MAX_WIDTH, False), ("tries", MAX_TRIES, True))
+        for name, high, whole in scalars:
+            value = getattr(self, name)
+            if not (_real(value, whole) and 0 <= value <= high):
+                raise ValueError(f"TunnelSpec.{name} = {value!r:.40}: expected a {'whole ' if whole else ''}number "
+                                 f"in [0, {high:g}]")
         if self.width[0] < min_width():
             raise ValueError(f"TunnelSpec.width = {self.width}: below the narrowest tunnel, {min_width():.2f} m")
         if self.length[0] < 2 * END_CLEARANCE:

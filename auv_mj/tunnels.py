@@ -19,6 +19,7 @@ import csv
 import io
 import json
 import math
+import os
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -27,7 +28,8 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from auv_mj.arena import SAFETY_DISTANCE, UNKNOWN_OBSTACLE_PREFIX
+from auv_mj import inputs
+from auv_mj.arena import MAX_EXTENT, MAX_MOVER_SPEED, SAFETY_DISTANCE, UNKNOWN_OBSTACLE_PREFIX
 from auv_mj.geometry import wrap_angle
 from auv_mj.vehicle import vehicle_facts
 
@@ -70,6 +72,37 @@ UNKNOWN_PREFIX = UNKNOWN_OBSTACLE_PREFIX + "_"
 ROUTE_MARGIN = 1.0
 """Half width [m] of the lane that `free_route` asks for on top of d_s from everything: room to steer."""
 
+# Bounds on what a tunnel spec may ask for, so that every tunnel is built in bounded time and memory.
+MAX_SMOOTH_ITERATIONS = 8
+"""Most Chaikin rounds (each doubles the points)."""
+MIN_PATH_SPACING, MAX_PATH_SPACING = 1.0, 1000.0
+"""Path site spacing range [m]; the tasks' sub-goals are SUBGOAL_SPACING = 10 m apart anyway."""
+MAX_WIDTH = 1000.0
+"""Widest tunnel [m]."""
+MAX_WALL_THICKNESS = 100.0
+"""Thickest wall [m]."""
+MAX_END_CLEARANCE = 1000.0
+"""Longest run past the ends [m]."""
+MAX_MARGIN = 1000.0
+"""Widest margin around the tunnel [m]."""
+MAX_MERGE_TOLERANCE = 10.0
+"""Largest wall merging tolerance [m]."""
+MAX_CENTRELINE_POINTS = 5000
+"""Most centreline points read."""
+MAX_WORKING_POINTS = 1000
+"""Most centreline points after smoothing (points x 2^rounds): the wall checks compare every wall face
+with every other, so this bounds their time and memory."""
+MAX_TUNNEL_LENGTH = 20_000.0
+"""Longest centreline [m]."""
+MAX_OBSTACLE_SIZE = 1000.0
+"""Largest obstacle length or width [m]."""
+MAX_MOVER_RADIUS = 100.0
+"""Largest moving obstacle radius [m]."""
+MAX_NAME_LENGTH = 64
+"""Longest obstacle or mover name."""
+JSON_KEYS = ("centreline", "centerline", "width")
+"""The keys a JSON centreline object may have."""
+
 WALL_RGBA = "0.45 0.47 0.5 1"
 OBSTACLE_RGBA = "0.6 0.4 0.25 1"
 MOVER_RGBA = "0.85 0.2 0.2 1"
@@ -110,10 +143,13 @@ class Obstacle:
 
     def __post_init__(self):
         what = f"obstacle {self.name or ''} at ({self.x}, {self.y})".replace("  ", " ")
-        if not all(math.isfinite(v) for v in (self.x, self.y, self.angle)):
-            raise ValueError(f"{what}: not a finite number")
-        if not (self.length > 0 and self.width > 0):
-            raise ValueError(f"{what}: length {self.length} and width {self.width} must be positive")
+        _check_name(self.name, what)
+        _check_numbers(what, (("x", self.x, -MAX_EXTENT, MAX_EXTENT), ("y", self.y, -MAX_EXTENT, MAX_EXTENT),
+                              ("angle", self.angle, -360.0, 360.0)))
+        if not (_is_real(self.length) and _is_real(self.width) and 0 < self.length <= MAX_OBSTACLE_SIZE
+                and 0 < self.width <= MAX_OBSTACLE_SIZE):
+            raise ValueError(f"{what}: length {self.length} and width {self.width} must be positive, at most "
+                             f"{MAX_OBSTACLE_SIZE:g} m")
 
     @classmethod
     def parse(cls, text: str) -> Obstacle:
@@ -145,10 +181,12 @@ class MovingObstacle:
 
     def __post_init__(self):
         what = f"mover {self.name}" if self.name else "mover"
-        if not all(math.isfinite(v) for v in (self.x0, self.y0, self.x1, self.y1)):
-            raise ValueError(f"{what}: its path ends must be finite numbers")
-        if not (self.speed >= 0 and self.radius > 0):
-            raise ValueError(f"{what}: speed {self.speed} must be >= 0 and radius {self.radius} > 0")
+        _check_name(self.name, what)
+        _check_numbers(what, [(k, getattr(self, k), -MAX_EXTENT, MAX_EXTENT) for k in ("x0", "y0", "x1", "y1")])
+        if not (_is_real(self.speed) and _is_real(self.radius) and 0 <= self.speed <= MAX_MOVER_SPEED
+                and 0 < self.radius <= MAX_MOVER_RADIUS):
+            raise ValueError(f"{what}: speed {self.speed} must be in [0, {MAX_MOVER_SPEED:g}] m/s and radius "
+                             f"{self.radius} in (0, {MAX_MOVER_RADIUS:g}] m")
 
     @classmethod
     def parse(cls, text: str) -> MovingObstacle:
@@ -172,9 +210,31 @@ def _split_spec(text: str, option: str, form: str, least: int, most: int) -> tup
         if not _is_number(cell) or not math.isfinite(float(cell)):
             raise ValueError(f"{option} {text!r}: {cell!r} is not a finite number (expected {form})")
         numbers.append(float(cell))
-    if name and not name.replace("_", "").isalnum():
-        raise ValueError(f"{option} {text!r}: name {name!r} may hold only letters, digits and _")
+    if name and not (name.replace("_", "").isalnum() and name.isascii() and len(name) <= MAX_NAME_LENGTH):
+        raise ValueError(f"{option} {text!r}: name {name!r} may hold only letters, digits and _ "
+                         f"(at most {MAX_NAME_LENGTH})")
     return numbers, name
+
+
+def _is_real(value) -> bool:
+    """A finite real number that is not a bool."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)) \
+        and math.isfinite(value)
+
+
+def _check_numbers(what: str, checks) -> None:
+    """ValueError naming `what` and the field unless each (field, value, low, high) is a finite number in range."""
+    for field_name, value, low, high in checks:
+        if not (_is_real(value) and low <= value <= high):
+            raise ValueError(f"{what}: {field_name} = {value!r:.40} must be a finite number in [{low:g}, {high:g}]")
+
+
+def _check_name(name, what: str) -> None:
+    """Names become MJCF names: letters, digits and _, at most MAX_NAME_LENGTH characters."""
+    if not isinstance(name, str) or len(name) > MAX_NAME_LENGTH or (name and not name.replace("_", "").isalnum()) \
+            or not name.isascii():
+        raise ValueError(f"{what}: name {name!r:.80} may hold only letters, digits and _ "
+                         f"(at most {MAX_NAME_LENGTH})")
 
 
 def _is_number(cell: str) -> bool:
@@ -188,22 +248,24 @@ def _is_number(cell: str) -> bool:
 def read_centreline(path: str | Path) -> Centreline:
     """Reads a centreline from CSV (x,y[,width] rows, header optional) or JSON.
 
-    JSON is a list of [x, y] or [x, y, width], or {"centreline": [...], "width": W}.
+    JSON is a list of [x, y] or [x, y, width], or {"centreline": [...], "width": W}. The file is read within
+    the bounds of `auv_mj.inputs` (size, UTF-8 text, JSON nesting); errors name the file.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise ValueError(f"{path}: cannot read the centreline: {e}") from None
+    text = inputs.read_text(path, "the centreline")
     if path.suffix.lower() == ".json" or text.lstrip().startswith(("[", "{")):
-        return _parse_json(text, str(path))
-    return _parse_csv(text, str(path))
+        return _parse_json(text, inputs.source_name(path))
+    return _parse_csv(text, inputs.source_name(path))
 
 
 def _parse_csv(text: str, source: str) -> Centreline:
     rows, labels = [], []
     columns = ("x", "y", "width")
-    for lineno, cells in enumerate(csv.reader(io.StringIO(text)), start=1):
+    try:
+        table = list(csv.reader(io.StringIO(text)))
+    except csv.Error as e:
+        raise ValueError(f"{source}: not a CSV file: {e}") from None
+    for lineno, cells in enumerate(table, start=1):
         cells = [c.strip() for c in cells]
         if not any(cells) or cells[0].startswith("#"):
             continue
@@ -225,12 +287,14 @@ def _parse_csv(text: str, source: str) -> Centreline:
 
 
 def _parse_json(text: str, source: str) -> Centreline:
+    inputs.check_json_depth(text, source)
     try:
         data = json.loads(text)
     except json.JSONDecodeError as e:
         raise ValueError(f"{source}: not valid JSON: {e}") from None
     width = None
     if isinstance(data, dict):
+        _check_json_keys(data, source)
         points = data.get("centreline", data.get("centerline"))
         if points is None:
             raise ValueError(f"{source}: a JSON object needs a \"centreline\" list of [x, y] points")
@@ -256,7 +320,19 @@ def _parse_json(text: str, source: str) -> Centreline:
     return Centreline(line.points, line.widths, line.labels, source, width)
 
 
+def _check_json_keys(data: dict, source: str) -> None:
+    """A JSON centreline object holds JSON_KEYS only, and one spelling of "centreline"."""
+    unknown = [k for k in data if k not in JSON_KEYS]
+    if unknown:
+        raise ValueError(f"{source}: unknown keys {unknown[:5]!r:.80} in the JSON object; it may hold "
+                         f"{', '.join(JSON_KEYS)}")
+    if "centreline" in data and "centerline" in data:
+        raise ValueError(f"{source}: give \"centreline\" or \"centerline\", not both")
+
+
 def _centreline(rows: list[list[float]], labels: list[str], source: str) -> Centreline:
+    if len(rows) > MAX_CENTRELINE_POINTS:
+        raise ValueError(f"{source}: {len(rows)} centreline points; at most {MAX_CENTRELINE_POINTS}")
     array = np.array(rows, dtype=float).reshape(-1, len(rows[0]) if rows else 2)
     for i, row in enumerate(array):
         for column, value in zip(("x", "y", "width"), row, strict=False):
@@ -393,11 +469,10 @@ def layout_tunnel(centreline: Centreline | Sequence | np.ndarray, width: float |
     """The walls, path and bounds of a tunnel, validated; see `build_tunnel` for the arguments."""
     line = as_centreline(centreline)
     source = line.source
+    check_parameters(source, width=width, smooth=smooth, path_spacing=path_spacing, wall_thickness=wall_thickness,
+                     end_clearance=end_clearance, margin=margin, merge_tolerance=merge_tolerance)
     widths = _widths(line, width)
-    if not (path_spacing > 0 and wall_thickness > 0 and end_clearance >= 0 and margin >= 0
-            and merge_tolerance >= 0 and smooth >= 0):
-        raise ValueError(f"{source}: path spacing and wall thickness must be positive; end clearance, "
-                         "margin, tolerance and smoothing non-negative")
+    check_extent(line, widths, smooth, closed, obstacles, movers)
     points = line.points
     if closed and len(points) > 2 and np.allclose(points[0], points[-1]):
         line = Centreline(points[:-1], None if line.widths is None else line.widths[:-1],
@@ -424,11 +499,93 @@ def layout_tunnel(centreline: Centreline | Sequence | np.ndarray, width: float |
     rings = _wall_rings(work, end_clearance)
     _check_walls(work, rings)
     walls = _merge_walls(rings, merge_tolerance, wall_thickness)
+    check_inside(source, walls, obstacles, movers)
     path = resample(work.points, path_spacing, closed)
     _check_clearance(work, walls, obstacles)
     heading = math.atan2(*(work.points[1] - work.points[0])[::-1])
     bounds = _bounds(walls, wall_thickness, obstacles, movers, margin)
     return TunnelLayout(tuple(walls), path, heading, bounds, closed, work.points)
+
+
+def check_parameters(source: str, *, width, smooth, path_spacing, wall_thickness, end_clearance, margin,
+                     merge_tolerance) -> None:
+    """The layout options, by type and range (the MAX_* / MIN_* bounds); ValueError naming the option."""
+    if not (isinstance(smooth, (int, np.integer)) and not isinstance(smooth, bool)
+            and 0 <= smooth <= MAX_SMOOTH_ITERATIONS):
+        raise ValueError(f"{source}: smoothing rounds must be a whole number in [0, {MAX_SMOOTH_ITERATIONS}], "
+                         f"got {smooth!r:.40}")
+    checks = [("path spacing", path_spacing, MIN_PATH_SPACING, MAX_PATH_SPACING),
+              ("wall thickness", wall_thickness, 0.0, MAX_WALL_THICKNESS),
+              ("end clearance", end_clearance, 0.0, MAX_END_CLEARANCE), ("margin", margin, 0.0, MAX_MARGIN),
+              ("merge tolerance", merge_tolerance, 0.0, MAX_MERGE_TOLERANCE)]
+    if width is not None:
+        checks.append(("width", width, 0.0, MAX_WIDTH))
+    _check_numbers(source, checks)
+    if not wall_thickness > 0:
+        raise ValueError(f"{source}: wall thickness must be above 0 m, got {wall_thickness:g}")
+
+
+def check_extent(line: Centreline, widths: np.ndarray, smooth: int, closed: bool,
+                 obstacles: Sequence[Obstacle], movers: Sequence[MovingObstacle]) -> None:
+    """Bounded work: coordinates within MAX_EXTENT, widths up to MAX_WIDTH, at most MAX_WORKING_POINTS points
+    after smoothing, a centreline up to MAX_TUNNEL_LENGTH; and obstacles and movers of unique names."""
+    source = line.source
+    far = np.flatnonzero(np.any(np.abs(line.points) > MAX_EXTENT, axis=1))
+    if len(far):
+        raise ValueError(f"{source}: {line.label(int(far[0]))} ({_xy(line.points[far[0]])}) is beyond "
+                         f"+-{MAX_EXTENT:g} m")
+    wide = np.flatnonzero(widths > MAX_WIDTH)
+    if len(wide):
+        where = f"{line.label(int(wide[0]))}: " if line.widths is not None else ""
+        raise ValueError(f"{source}: {where}width {widths[wide[0]]:g} m is wider than {MAX_WIDTH:g} m")
+    working = len(line.points) * 2 ** int(smooth)
+    if working > MAX_WORKING_POINTS:
+        raise ValueError(f"{source}: {len(line.points)} centreline points smoothed {smooth} times make {working} "
+                         f"points; at most {MAX_WORKING_POINTS}: use fewer points or rounds")
+    loop = np.vstack([line.points, line.points[:1]]) if closed else line.points
+    length = float(np.sum(np.hypot(*np.diff(loop, axis=0).T)))
+    if length > MAX_TUNNEL_LENGTH:
+        raise ValueError(f"{source}: the centreline is {length:.0f} m long; at most {MAX_TUNNEL_LENGTH:g} m")
+    check_names(source, obstacles, movers)
+
+
+def check_names(source: str, obstacles: Sequence[Obstacle], movers: Sequence[MovingObstacle],
+                unknown: Sequence[Obstacle] = ()) -> None:
+    """Obstacles, movers and unknown obstacles are objects of their classes with unique MJCF names."""
+    for kind, items, cls in (("obstacle", obstacles, Obstacle), ("mover", movers, MovingObstacle),
+                             ("unknown obstacle", unknown, Obstacle)):
+        if not all(isinstance(item, cls) for item in items):
+            raise ValueError(f"{source}: {kind}s must be {cls.__name__} objects")
+    names = ([obstacle_name(o, k) for k, o in enumerate(obstacles)] + [mover_name(m, k) for k, m in enumerate(movers)]
+             + [unknown_name(o, k) for k, o in enumerate(unknown)])
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ValueError(f"{source}: obstacles and movers need unique names; {', '.join(repeated)} is given twice")
+
+
+def check_inside(source: str, walls: Sequence[WallSegment], obstacles: Sequence[Obstacle],
+                 movers: Sequence[MovingObstacle], unknown: Sequence[Obstacle] = ()) -> None:
+    """Every obstacle's centre (known or unknown) and both ends of every mover's track lie inside the tunnel:
+    within the closed chains of wall faces (even-odd rule, so a closed tunnel's inner wall is a hole)."""
+    a = np.array([w.a for w in walls])
+    b = np.array([w.b for w in walls])
+    points = [(f"{obstacle_name(o, k)} at ({_xy([o.x, o.y])})", (o.x, o.y)) for k, o in enumerate(obstacles)]
+    points += [(f"{unknown_name(o, k)} at ({_xy([o.x, o.y])})", (o.x, o.y)) for k, o in enumerate(unknown)]
+    points += [(f"{mover_name(m, k)}'s track {end} ({_xy(p)})", p) for k, m in enumerate(movers)
+               for end, p in (("start", (m.x0, m.y0)), ("end", (m.x1, m.y1)))]
+    if not points:
+        return
+    xy = np.array([p for _, p in points], dtype=float)
+    x, y = xy[:, :1], xy[:, 1:]
+    ya, yb = a[None, :, 1], b[None, :, 1]
+    straddles = (ya > y) != (yb > y)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        cross_x = a[None, :, 0] + (y - ya) * (b[None, :, 0] - a[None, :, 0]) / (yb - ya)
+    inside = np.count_nonzero(straddles & (cross_x > x), axis=1) % 2 == 1
+    outside = [name for (name, _), ok in zip(points, inside, strict=True) if not ok]
+    if outside:
+        raise ValueError(f"{source}: {outside[0]} is outside the tunnel: obstacles and movers must lie between "
+                         "its walls")
 
 
 def _start_near(loop: np.ndarray, first: np.ndarray) -> np.ndarray:
@@ -786,7 +943,7 @@ def tunnel_element(layout: TunnelLayout, obstacles: Sequence[Obstacle] = (),
     `unknown` obstacles are boxes `unknown_*` that the global path does not avoid (see `auv_mj.arena`).
     `command`, the command line that made it, is kept as `<text name="tunnel_command">`.
     """
-    root = ET.Element("mujoco", model=name)
+    root = ET.Element("mujoco", model=_xml_text(name))
     default = ET.SubElement(root, "default")
     for cls, tag, attrs in (
         ("tunnel_wall", "geom", {"type": "box", "rgba": WALL_RGBA}),
@@ -818,7 +975,7 @@ def tunnel_element(layout: TunnelLayout, obstacles: Sequence[Obstacle] = (),
     custom = ET.SubElement(root, "custom")
     ET.SubElement(custom, "numeric", {"name": "arena_bounds", "data": _fmt(*layout.bounds)})
     if command:
-        ET.SubElement(custom, "text", {"name": "tunnel_command", "data": command})
+        ET.SubElement(custom, "text", {"name": "tunnel_command", "data": _xml_text(command)})
     for k, mover in enumerate(movers):
         body_name = mover_name(mover, k)
         body = ET.SubElement(world, "body", {"name": body_name, "mocap": "true",
@@ -850,15 +1007,35 @@ def build_tunnel(centreline: Centreline | Sequence | np.ndarray, width: float | 
     layout = layout_tunnel(line, width, closed=closed, smooth=smooth, path_spacing=path_spacing,
                            obstacles=obstacles, movers=movers, wall_thickness=wall_thickness,
                            end_clearance=end_clearance, margin=margin, merge_tolerance=merge_tolerance)
+    check_unknown_spec(line.source, layout, obstacles, movers, unknown)
     check_unknown(layout, unknown, obstacles, wall_thickness, source=line.source)
     return tunnel_element(layout, obstacles, movers, wall_thickness, name, command, unknown)
 
 
+def check_unknown_spec(source: str, layout: TunnelLayout, obstacles: Sequence[Obstacle],
+                       movers: Sequence[MovingObstacle], unknown: Sequence[Obstacle]) -> None:
+    """Unknown obstacles have names unique among all obstacles and movers, and lie inside the tunnel."""
+    if unknown:
+        check_names(source, obstacles, movers, unknown)
+        check_inside(source, layout.walls, (), (), unknown)
+
+
+def _xml_text(text: str) -> str:
+    """`text` with the characters XML 1.0 cannot hold (control characters, lone surrogates) replaced by '?'."""
+    return "".join(c if c in "\t\n\r" or (" " <= c <= "\ud7ff") or ("\ue000" <= c <= "\ufffd")
+                   or ("\U00010000" <= c <= "\U0010ffff") else "?" for c in str(text))
+
+
 def save(element: ET.Element, path: str | Path) -> Path:
-    """Writes an arena element as indented MJCF."""
+    """Writes an arena element as indented MJCF, atomically: a file there is either the old one or the new one."""
     path = Path(path)
     element = copy.deepcopy(element)
     ET.indent(element)
     text = ET.tostring(element, encoding="unicode")
-    path.write_text(f"<!-- {HEADER} -->\n{text}\n")
+    temporary = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        temporary.write_text(f"<!-- {HEADER} -->\n{text}\n")
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
     return path

@@ -12,6 +12,8 @@ import warnings
 import numpy as np
 from dm_env import specs
 
+from tasks.options import shown
+
 
 class ActionClipped(UserWarning):
     """A finite action outside the action spec's bounds was clipped."""
@@ -20,14 +22,17 @@ class ActionClipped(UserWarning):
 def checked_action(action, spec: specs.BoundedArray, task: object) -> np.ndarray:
     """`action` as a float array within `spec`, or a ValueError; see the module docstring."""
     name = type(task).__name__
-    raw = np.asarray(action)
+    try:
+        raw = np.asarray(action)
+    except (TypeError, ValueError, OverflowError):  # ragged sequences and objects numpy cannot read
+        raise ValueError(f"{name}: an action must be numbers of shape {spec.shape}, got {shown(action)}") from None
     if raw.dtype.kind not in "biuf":
-        raise ValueError(f"{name}: an action must be numbers, got {action!r} (dtype {raw.dtype})")
+        raise ValueError(f"{name}: an action must be numbers, got {shown(action)} (dtype {raw.dtype})")
     value = raw.astype(float)
     if value.shape != spec.shape:
-        raise ValueError(f"{name}: an action must have shape {spec.shape}, got {value.shape}: {action!r}")
+        raise ValueError(f"{name}: an action must have shape {spec.shape}, got {value.shape}: {shown(action)}")
     if not np.all(np.isfinite(value)):
-        raise ValueError(f"{name}: an action must be finite, got {action!r}")
+        raise ValueError(f"{name}: an action must be finite, got {shown(action)}")
     low, high = np.broadcast_to(spec.minimum, spec.shape), np.broadcast_to(spec.maximum, spec.shape)
     if np.any(value < low) or np.any(value > high):
         if not getattr(task, "_warned_clip", False):

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tasks import planning
+from tasks import options, planning
 from tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 600.0
@@ -29,8 +29,7 @@ class Goal(planning.PlanningTask):
 
     def __init__(self, scenario: str = "random", **kwargs):
         """`scenario` is "random" or a key of SCENARIOS; other kwargs go to `PlanningTask`."""
-        if scenario != "random" and scenario not in SCENARIOS:
-            raise ValueError(f"unknown goal scenario {scenario!r}; valid: random, {', '.join(SCENARIOS)}")
+        options.choice("scenario", scenario, ("random", *SCENARIOS))
         super().__init__(**kwargs)
         self.scenario = scenario
 

@@ -27,6 +27,7 @@ import numpy as np
 from gymnasium import spaces
 
 from auv_mj.goals import GOAL_KEYS
+from tasks import options as checks
 from tasks.actions import checked_action
 
 DOMAIN = "auv"
@@ -38,6 +39,10 @@ RENDER_SIZE = (480, 480)
 """Default (height, width) of `render()` images [pixels]."""
 RENDER_DISTANCE = 30.0
 """Default height of the top-down render camera above the vehicle [m]."""
+MAX_RENDER_SIZE = 4096
+"""Largest `render()` image side [pixels]."""
+MAX_RENDER_DISTANCE = 10_000.0
+"""Highest render camera [m]."""
 ENTRY_POINT = "tasks.gym_adapter:AUVGymEnv"
 GYM_IDS = {
     "auv_mj/Goal-v0": "goal",
@@ -77,14 +82,20 @@ class AUVGymEnv(gymnasium.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
                              f"got {render_mode!r}")
+        if task_kwargs is not None and not isinstance(task_kwargs, Mapping):
+            raise ValueError(f"task_kwargs must be a dict of task options, got {checks.shown(task_kwargs)}")
+        if not isinstance(protection, bool):
+            raise ValueError(f"protection must be True or False, got {checks.shown(protection)}")
         task_kwargs = dict(task_kwargs or {})
         if "random" in task_kwargs:
             raise ValueError("seed the task through reset(seed=...), not task_kwargs['random']")
         self.task_name = task_name
         self.render_mode = render_mode
-        self.render_size = tuple(render_size)
-        self.render_distance = float(render_distance)
-        environment_kwargs = dict(environment_kwargs or {})
+        self.render_size = tuple(int(v) for v in checks.pair("render_size", render_size,
+                                                              ((1, MAX_RENDER_SIZE, "px"),) * 2))
+        self.render_distance = checks.number("render_distance", render_distance, 0.0, MAX_RENDER_DISTANCE, "m",
+                                              low_open=True)
+        environment_kwargs = checks.environment_kwargs(environment_kwargs)
         self._env = suite.load(DOMAIN, task_name, task_kwargs=task_kwargs,
                                environment_kwargs=environment_kwargs)
         obs_spec = self._env.observation_spec()
@@ -135,6 +146,8 @@ class AUVGymEnv(gymnasium.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Starts an episode; a `seed` reseeds the task's RandomState (same episode as random=seed)."""
+        if seed is not None:
+            checks.seed(seed, "seed")
         super().reset(seed=seed)
         if seed is not None:
             self.task.random.seed(seed)
@@ -144,7 +157,12 @@ class AUVGymEnv(gymnasium.Env):
         return self._observation(time_step.observation), self._info()
 
     def step(self, action):
-        """One task step; `terminated` on a LAST step with discount 0, `truncated` at the time limit."""
+        """One task step; `terminated` on a LAST step with discount 0, `truncated` at the time limit.
+
+        The action follows the suite's one convention (`tasks.actions`): not numbers (strings included),
+        the wrong shape or NaN/inf raise ValueError; a finite action outside the space is clipped to it with
+        an `ActionClipped` warning, once per task.
+        """
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
         if self.protection:
@@ -244,10 +262,19 @@ class PlanningMix(gymnasium.Env):
     def __init__(self, tasks: tuple[str, ...] = MIX_TASKS, weights: tuple[float, ...] | None = None,
                  task_kwargs: Mapping[str, Any] | None = None,
                  per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool = False):
+        if isinstance(tasks, str) or not isinstance(tasks, (list, tuple)) or not all(isinstance(t, str) for t in tasks):
+            raise ValueError(f"tasks: a list of planning task names, got {checks.shown(tasks)}")
         tasks = tuple(tasks)
         if not tasks:
             raise ValueError("tasks: give at least one planning task")
-        weights = np.ones(len(tasks)) if weights is None else np.asarray(weights, dtype=float)
+        try:
+            weights = np.ones(len(tasks)) if weights is None else np.asarray(weights, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"weights: {len(tasks)} non-negative numbers, got {checks.shown(weights)}") from None
+        if per_task_kwargs is not None and not (isinstance(per_task_kwargs, Mapping) and all(
+                isinstance(v, Mapping) for v in per_task_kwargs.values())):
+            raise ValueError(f"per_task_kwargs: a dict of task name -> dict of options, got "
+                             f"{checks.shown(per_task_kwargs)}")
         if weights.shape != (len(tasks),) or not np.all(np.isfinite(weights)) or np.any(weights < 0) \
                 or weights.sum() <= 0:
             raise ValueError(f"weights: {len(tasks)} non-negative numbers with a positive sum, got {weights}")
@@ -260,9 +287,10 @@ class PlanningMix(gymnasium.Env):
         first = self.envs[0]
         for name, env in zip(tasks, self.envs, strict=True):
             if not env.is_goal_task:
-                raise ValueError(f"{name!r} is not a planning (goal) task")
+                raise ValueError(f"tasks: {name!r} is not a planning (goal) task")
             if env.observation_space != first.observation_space or env.action_space != first.action_space:
-                raise ValueError(f"{name!r} has other spaces than {tasks[0]!r}: give the tasks one observation")
+                raise ValueError(f"tasks: {name!r} has other spaces than {tasks[0]!r}: give the tasks one "
+                                 "observation")
         self.observation_space, self.action_space = first.observation_space, first.action_space
         self.active = first
 

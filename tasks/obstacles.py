@@ -30,7 +30,7 @@ import numpy as np
 from auv_mj import arena, procedural
 from auv_mj.assets import model_path
 from auv_mj.tunnels import mover_name
-from tasks import planning
+from tasks import options, planning
 from tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 900.0
@@ -93,9 +93,7 @@ class Obstacles(planning.PlanningTask):
 
     def __init__(self, scenario: str = "random", **kwargs):
         """`scenario` is "random" or a key of SCENARIOS; other kwargs go to `PlanningTask`."""
-        if scenario != "random" and scenario not in SCENARIOS:
-            raise ValueError(f"unknown obstacles scenario {scenario!r}; "
-                             f"valid: random, {', '.join(SCENARIOS)}")
+        options.choice("scenario", scenario, ("random", *SCENARIOS))
         super().__init__(**kwargs)
         self.scenario = scenario
 
@@ -117,9 +115,7 @@ class MovingObstacles(planning.PlanningTask):
 
     def __init__(self, scenario: str = "random", **kwargs):
         """`scenario` is "random" or a key of MOVING_SCENARIOS; other kwargs go to `PlanningTask`."""
-        if scenario != "random" and scenario not in MOVING_SCENARIOS:
-            raise ValueError(f"unknown moving_obstacles scenario {scenario!r}; "
-                             f"valid: random, {', '.join(MOVING_SCENARIOS)}")
+        options.choice("scenario", scenario, ("random", *MOVING_SCENARIOS))
         super().__init__(**kwargs)
         self.scenario = scenario
 
@@ -153,8 +149,9 @@ def obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kwargs=No
     is scenario="random", a fresh layout per episode)."""
     scenario = _scenario(scenario, arena)
     task = Obstacles(scenario=scenario, random=random, **task_kwargs)
-    physics = planning.Physics.load(random_obstacle_arena() if scenario == "random"
-                                    else model_path(SCENARIOS[scenario]), task_kwargs.get("conditions"))
+    conditions = task_kwargs.get("conditions")
+    physics = (planning.Physics.load(random_obstacle_arena(), conditions) if scenario == "random"
+               else planning.load_arena(model_path(SCENARIOS[scenario]), need_path=False, conditions=conditions))
     return planning.environment(physics, task, time_limit, environment_kwargs)
 
 
@@ -165,6 +162,8 @@ def moving_obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kw
     is scenario="random", a fresh layout per episode)."""
     scenario = _scenario(scenario, arena)
     task = MovingObstacles(scenario=scenario, random=random, **task_kwargs)
-    physics = planning.Physics.load(random_mover_arena() if scenario == "random"
-                                    else model_path(MOVING_SCENARIOS[scenario]), task_kwargs.get("conditions"))
+    conditions = task_kwargs.get("conditions")
+    physics = (planning.Physics.load(random_mover_arena(), conditions) if scenario == "random"
+               else planning.load_arena(model_path(MOVING_SCENARIOS[scenario]), need_path=False,
+                                        conditions=conditions))
     return planning.environment(physics, task, time_limit, environment_kwargs)

@@ -73,11 +73,12 @@ from dm_control.suite import base
 from dm_control.utils import rewards
 from dm_env import specs
 
-from auv_mj import arena, ocean
+from auv_mj import arena, arena_check, ocean
 from auv_mj.arena import SAFETY_DISTANCE
 from auv_mj.geometry import wrap_angle
 from auv_mj.physics import AUVPhysics
 from auv_mj.sonar import SONAR_NAMES, SONAR_RANGE
+from tasks import options
 from tasks.actions import checked_action
 from tasks.splane import EXECUTOR_DT, SPlaneController
 
@@ -100,6 +101,8 @@ GOAL_RADIUS = 12.5
 """Radius of a target area [m]: Tables 6-8's target area diameter of 25 m."""
 SUBGOAL_RADIUS = 2.0
 """Radius of a virtual sub-goal on a global path [m] (Table 1: L_target <= 2 m)."""
+MAX_GOAL_RADIUS = 50.0
+"""Largest `goal_radius` a task accepts [m]: four target areas; beyond it a start can count as the goal."""
 SUBGOAL_SPACING = 10.0
 """Largest distance between consecutive virtual sub-goals of a discretised path [m]."""
 PASS_CORRIDOR = 15.0
@@ -367,9 +370,34 @@ class Physics(AUVPhysics):
 
 def environment(physics: Physics, task: PlanningTask, time_limit: float,
                 environment_kwargs: dict | None = None) -> control.Environment:
-    """The `control.Environment` of a planning task: one step per PLANNER_DT, `time_limit` seconds."""
+    """The `control.Environment` of a planning task: one step per PLANNER_DT, `time_limit` seconds.
+
+    The options every planning factory shares (time_limit, environment_kwargs) are checked here.
+    """
+    time_limit = options.time_limit(time_limit)
+    environment_kwargs = options.environment_kwargs(environment_kwargs)
+    check_timestep(physics, PLANNER_DT, EXECUTOR_DT)
     return control.Environment(physics, task, time_limit=time_limit, control_timestep=PLANNER_DT,
-                               **(environment_kwargs or {}))
+                               **environment_kwargs)
+
+
+def check_timestep(physics: AUVPhysics, *periods: float) -> None:
+    """ValueError naming the model unless each period [s] is a whole number of its physics timesteps."""
+    for period in periods:
+        try:
+            control.compute_n_steps(period, physics.timestep())
+        except ValueError:
+            raise ValueError(f"{physics.source}: the timestep {physics.timestep():g} s must divide the "
+                             f"{period:g} s control period into whole steps") from None
+
+
+def load_arena(source: str | Path | ET.Element, need_path: bool, conditions=None) -> Physics:
+    """Physics of the vehicle in an arena file or element, refused unless `auv-mj check-arena` finds it usable.
+
+    The arena is checked once where it enters a task, by `arena_check.require_usable` (cached by content).
+    """
+    arena_check.require_usable(options.arena_source(source), need_path)
+    return Physics.load(source, conditions)
 
 
 def route_time_limit(length: float) -> float:
@@ -411,18 +439,12 @@ class PlanningTask(base.Task):
         """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); `reward` one of
         REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`)."""
-        if reward not in REWARDS:
-            raise ValueError(f"reward must be one of {REWARDS}, got {reward!r}")
-        if observation not in OBSERVATIONS:
-            raise ValueError(f"observation must be one of {OBSERVATIONS}, got {observation!r}")
-        executor = SPlaneController() if executor is None else executor
-        if not callable(executor):
-            raise ValueError(f"executor must be callable as executor(command, state), got {executor!r}")
-        super().__init__(random=random)
-        self.executor = executor
-        self.reward_kind = reward
-        self.observation_kind = observation
-        self.goal_radius = float(goal_radius)
+        self.reward_kind = options.choice("reward", reward, REWARDS)
+        self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
+        executor = options.function("executor", executor, "executor(command, state) -> (tau_u, tau_r)")
+        self.goal_radius = options.number("goal_radius", goal_radius, 0.0, MAX_GOAL_RADIUS, "m", low_open=True)
+        super().__init__(random=options.seed(random))
+        self.executor = SPlaneController() if executor is None else executor
         self.ocean = ocean.Ocean(conditions)
         self.last_info: dict = {}
         self._model_ptr = None

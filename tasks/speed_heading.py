@@ -12,8 +12,9 @@ error under a steady force, which the S-plane's integrating bias du removes. A l
 its own integrals outside the task (`auv_mj.cli.policies.LearnedExecutor`).
 
 Commands: "paper" (default) holds the Sec. 4.2 command, 1.0 m/s and pi/12, from rest at psi = 0; a pair
-(V, psi) holds that command; "random" (training) starts from a random speed and heading and changes the
-command every COMMAND_HOLD_STEPS, as the 2 Hz planner would.
+(V, psi), V in [0, `top_speed()`] m/s and psi in [-pi, pi] rad, holds that command; "random" (training)
+starts from a random speed and heading and changes the command every COMMAND_HOLD_STEPS, as the 2 Hz
+planner would.
 
 Disturbances: "paper" (default) is the Sec. 4.2 schedule, in executor steps k: a 180 N body-frame sway
 burst for 10 steps from k = 250, a constant 30 N world +y ("E-eta") force for 350 steps from k = 350,
@@ -46,6 +47,8 @@ from auv_mj import arena, ocean
 from auv_mj.episode import phase_mae as _phase_mae
 from auv_mj.episode import record_episode
 from auv_mj.geometry import wrap_angle
+from auv_mj.vehicle import vehicle_facts
+from tasks import options
 from tasks.actions import checked_action
 from tasks.registry import SUITE
 from tasks.splane import EXECUTOR_DT
@@ -118,6 +121,14 @@ COMMANDS = ("paper", "random")
 DISTURBANCES = ("paper", "random", "none")
 
 Executor = Callable[[Sequence[float], Sequence[float]], np.ndarray]
+
+
+def top_speed() -> float:
+    """The vehicle's top surge speed [m/s]: full thrust against the surge drag, sqrt(tau_u max / -X_uu).
+
+    A fixed `command` may ask for any speed from 0 up to this (read from the vehicle MJCF)."""
+    facts = vehicle_facts()
+    return math.sqrt(facts.surge_limit / facts.surge_drag)
 
 
 def executor_observation(command: Sequence[float], state: Sequence[float]) -> np.ndarray:
@@ -232,18 +243,13 @@ class SpeedHeading(base.Task):
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`; the
         sonar's play no part here)."""
         if isinstance(command, str):
-            if command not in COMMANDS:
-                raise ValueError(f"command must be one of {COMMANDS} or a pair (V, psi), got {command!r}")
+            options.choice("command", command, COMMANDS)
         else:
-            command = tuple(float(c) for c in command)
-            if len(command) != 2 or not all(math.isfinite(c) for c in command):
-                raise ValueError(f"a fixed command is a finite pair (V [m/s], psi [rad]), got {command!r}")
-        if disturbances not in DISTURBANCES:
-            raise ValueError(f"disturbances must be one of {DISTURBANCES}, got {disturbances!r}")
-        if reward not in REWARDS:
-            raise ValueError(f"reward must be one of {REWARDS}, got {reward!r}")
-        if observation not in OBSERVATIONS:
-            raise ValueError(f"observation must be one of {OBSERVATIONS}, got {observation!r}")
+            command = options.pair("command", command, ((0.0, top_speed(), "m/s"), (-math.pi, math.pi, "rad")))
+        options.choice("disturbances", disturbances, DISTURBANCES)
+        options.choice("reward", reward, REWARDS)
+        options.choice("observation", observation, OBSERVATIONS)
+        random = options.seed(random)
         self.ocean = ocean.Ocean(conditions)
         self._integral = ErrorIntegral() if observation == "integral" else None
         self._integral_obs = np.zeros(0 if self._integral is None else len(INTEGRAL_NAMES))
@@ -399,10 +405,12 @@ class SpeedHeading(base.Task):
 def speed_heading(time_limit: float = _DEFAULT_TIME_LIMIT, random=None, environment_kwargs=None,
                   **task_kwargs) -> control.Environment:
     """The execution layer's speed/heading tracking task (Sec. 3.3, 4.2) in open water."""
+    time_limit = options.time_limit(time_limit)
+    environment_kwargs = options.environment_kwargs(environment_kwargs)
     physics = arena.load(None, thruster_lag=ocean.conditions(task_kwargs.get("conditions")).thruster_lag)
     task = SpeedHeading(random=random, **task_kwargs)
     return control.Environment(physics, task, time_limit=time_limit, control_timestep=EXECUTOR_DT,
-                               **(environment_kwargs or {}))
+                               **environment_kwargs)
 
 
 # --- evaluation (Table 9) ---------------------------------------------------------------------------------

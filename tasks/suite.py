@@ -10,6 +10,7 @@ goal, waypoints, obstacles, moving_obstacles, tunnel, path_line, path_curve (pla
 from __future__ import annotations
 
 import argparse
+import re
 import time
 
 import numpy as np
@@ -44,17 +45,28 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
 
     `task_kwargs` go to the task's factory (e.g. {"random": 0, "reward": "paper", "scenario": "a"}; every
     task takes "conditions": "ideal" (default), "ocean" or a mapping of effects, see `auv_mj.ocean`);
-    `environment_kwargs` to `control.Environment`. Raises ValueError naming the valid choices.
+    `environment_kwargs` to `control.Environment`. Raises ValueError naming the valid choices, or the option
+    the task refuses (`tasks.options`).
     """
     if domain_name != DOMAIN:
         raise ValueError(f"domain {domain_name!r} does not exist; valid domains: {DOMAIN}")
-    if task_name not in SUITE:
+    if not isinstance(task_name, str) or task_name not in SUITE:
         raise ValueError(f"task {task_name!r} does not exist in domain {domain_name!r}; "
                          f"valid tasks: {', '.join(SUITE)}")
+    if task_kwargs is not None and not isinstance(task_kwargs, dict):
+        raise ValueError(f"task_kwargs must be a dict of task options, got {type(task_kwargs).__name__}")
     task_kwargs = dict(task_kwargs or {})
+    if not all(isinstance(key, str) for key in task_kwargs):
+        raise ValueError(f"task option names must be strings, got {sorted(map(repr, task_kwargs))[:5]}")
     if environment_kwargs is not None:
         task_kwargs["environment_kwargs"] = environment_kwargs
-    env = SUITE[task_name](**task_kwargs)
+    try:
+        env = SUITE[task_name](**task_kwargs)
+    except TypeError as e:  # an option the task does not take: a bad option, as any other
+        unknown = re.search(r"keyword argument '([^']*)'", str(e))
+        if unknown is None:
+            raise
+        raise ValueError(f"task {task_name!r} has no option {unknown.group(1)!r} (or it is given twice)") from None
     env.task.visualize_reward = visualize_reward
     return env
 

@@ -58,6 +58,8 @@ def tunnel_spec(options: procedural.TunnelSpec | Mapping | None) -> procedural.T
         return RANDOM_TUNNELS
     if isinstance(options, procedural.TunnelSpec):
         return options
+    if not isinstance(options, Mapping) or not all(isinstance(key, str) for key in options):
+        raise ValueError(f"arena_spec must be a dict of TunnelSpec fields, got {options!r:.60}")
     fields = {f.name: getattr(RANDOM_TUNNELS, f.name) for f in dataclasses.fields(procedural.TunnelSpec)}
     unknown = sorted(set(options) - set(fields))
     if unknown:
@@ -67,12 +69,12 @@ def tunnel_spec(options: procedural.TunnelSpec | Mapping | None) -> procedural.T
         if isinstance(fields[name], tuple):
             value = tuple(value) if isinstance(value, list | tuple) else (value, value)
             if len(value) != 2:
-                raise ValueError(f"arena_spec: {name} must be [low, high] or one number, got {options[name]!r}")
+                raise ValueError(f"arena_spec: {name} must be [low, high] or one number, got {options[name]!r:.60}")
         changes[name] = value
     try:
         return dataclasses.replace(RANDOM_TUNNELS, **changes)
-    except TypeError as e:
-        raise ValueError(f"arena_spec {dict(options)}: {e}") from None
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"arena_spec: {' '.join(str(e).split())}") from None
 
 
 def tunnel_route(info) -> tuple[np.ndarray, np.ndarray]:
@@ -140,7 +142,9 @@ def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, ar
     or "random": a procedural tunnel per episode, of RANDOM_TUNNELS with `arena_spec` (a dict of
     `procedural.TunnelSpec` fields) set.
 
-    time_limit defaults to `route_time_limit` of the start-to-goal path length (per episode when random).
+    A file or element is refused (ValueError naming it and its problems) unless `auv-mj check-arena` finds it
+    usable. time_limit defaults to `route_time_limit` of the start-to-goal path length (per episode when
+    random).
     """
     if isinstance(arena, str) and arena == RANDOM:
         spec = tunnel_spec(arena_spec)
@@ -152,8 +156,8 @@ def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, ar
         return planning.environment(physics, task, time_limit, environment_kwargs)
     if arena_spec is not None:
         raise ValueError("arena_spec applies to arena='random' only")
-    physics = planning.Physics.load(model_path(DEFAULT_ARENA) if arena is None else arena,
-                                    task_kwargs.get("conditions"))
+    physics = planning.load_arena(model_path(DEFAULT_ARENA) if arena is None else arena, need_path=True,
+                                  conditions=task_kwargs.get("conditions"))
     task = Tunnel(random=random, **task_kwargs)
     if time_limit is None:
         time_limit = route_limit(arena_info(physics))

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from tasks import planning
+from tasks import options, planning
 from tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 4000.0
@@ -43,8 +43,7 @@ class Waypoints(planning.PlanningTask):
 
     def __init__(self, layout: str = "random", **kwargs):
         """`layout` is "random" or a key of LAYOUTS; other kwargs go to `PlanningTask`."""
-        if layout != "random" and layout not in LAYOUTS:
-            raise ValueError(f"unknown waypoints layout {layout!r}; valid: random, {', '.join(LAYOUTS)}")
+        options.choice("layout", layout, ("random", *LAYOUTS))
         super().__init__(**kwargs)
         self.layout = layout
 

@@ -76,6 +76,7 @@ def small_tunnel(length: float = 120.0, half_width: float = 10.0, heading: float
     ET.SubElement(world, "site", name="start", pos="0 0 0", euler=f"0 0 {heading}")
     for i, x in enumerate(np.arange(0.0, length + 1e-9, 10.0)):
         ET.SubElement(world, "site", name=f"path_{i}", pos=f"{x} 0 0")
+    ET.SubElement(world, "site", name="goal", pos=f"{length} 0 0")
     if mover is not None:
         x0, y0, x1, y1, speed, radius = mover
         body = ET.SubElement(world, "body", name="mover_test", mocap="true", pos=f"{x0} {y0} 0")
@@ -111,7 +112,7 @@ def test_suite_lists_every_task_and_rejects_unknown_names():
         suite.load("auv", "flying")
     with pytest.raises(ValueError, match="valid tags"):
         suite.tasks_by_tag("nope")
-    with pytest.raises(ValueError, match="valid: random, a1"):
+    with pytest.raises(ValueError, match="scenario must be one of 'random', 'a1'"):
         suite.load("auv", "goal", task_kwargs={"scenario": "z"})
     with pytest.raises(ValueError, match="reward must be"):
         suite.load("auv", "goal", task_kwargs={"reward": "dense"})

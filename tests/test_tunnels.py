@@ -326,8 +326,9 @@ def test_cli_errors_exit_nonzero_naming_the_problem(tmp_path):
     bad = _csv(tmp_path, "x,y\n0,0\n100,zero\n")
     built = subprocess.run([str(AUV_MJ), "tunnel", str(bad), "--width", "30"], capture_output=True, text=True,
                            timeout=120)
-    assert built.returncode == 1
-    assert "row 3, column y: 'zero' is not a number" in built.stderr
+    assert built.returncode == 2  # a usage error: one line, no file written
+    assert "row 3, column y: 'zero' is not a number" in built.stderr and built.stderr.count("\n") == 1
+    assert not bad.with_suffix(".xml").exists()
     no_goal = _straight(tmp_path, lambda e: e.find("worldbody").remove(_site(e, "goal")))
     checked = subprocess.run([str(AUV_MJ), "check-arena", str(no_goal), "--no-png"], capture_output=True,
                              text=True, timeout=120)
@@ -390,7 +391,7 @@ def test_cli_unknown_option(tmp_path):
     assert "1 unknown obstacles" in built.stdout
     bad = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(xml_path),
                           "--unknown", "100,-10,10"], capture_output=True, text=True, timeout=120)
-    assert bad.returncode == 1 and "--unknown '100,-10,10': expected x,y,length,width" in bad.stderr
+    assert bad.returncode == 2 and "--unknown '100,-10,10': expected x,y,length,width" in bad.stderr
 
 
 # --- the validation tunnels -----------------------------------------------------------------------

@@ -70,7 +70,7 @@ def test_unknown_coefficient_and_string_source_are_named():
 
 def test_non_positive_mass_matrix_is_rejected(tmp_path):
     root = vehicle_tree()
-    root.find("custom/numeric[@name='hydro_Y_vdot']").set("data", "35.5")  # wrong sign: M_A < -M_RB
+    root.find("custom/numeric[@name='hydro_Y_rdot']").set("data", "100")  # coupling beyond sqrt(m_22 m_33)
     with pytest.raises(ValueError, match="positive definite"):
         AUVPhysics.from_xml_path(write(tmp_path, root))
 

@@ -28,9 +28,16 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
 )
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: `auv-mj COMMAND: error: ...` and exit status 2, no usage block."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The top-level parser; subcommand arguments are added lazily in `main`."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="auv-mj",
         description="MuJoCo simulator of an underactuated planar AUV with learned planning and control.",
     )
@@ -53,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.parse_args(argv)  # prints argparse's "invalid choice" error and exits 2
     module_name, help_text = modules[argv[0]]
     module = importlib.import_module(module_name)
-    sub = argparse.ArgumentParser(prog=f"auv-mj {argv[0]}", description=help_text)
+    sub = Parser(prog=f"auv-mj {argv[0]}", description=help_text)
     module.add_arguments(sub)
     args = sub.parse_args(argv[1:])
     args.prog = sub.prog

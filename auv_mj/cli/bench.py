@@ -28,6 +28,7 @@ from agents.replay import Batch
 from agents.train import env_spec
 from auv_mj import glbackend, render
 from auv_mj.arena import load
+from auv_mj.cli.options import bounded_int, check_output, seed_int, usage_error
 from auv_mj.physics import AUVPhysics
 from tasks import suite
 from tasks.guidance import line_of_sight
@@ -324,12 +325,13 @@ def print_section(name: str, measurements: list[Measurement]) -> None:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj bench`."""
     parser.add_argument("--quick", action="store_true", help="a tenth of the calls and 3 repeats (seconds)")
-    parser.add_argument("--repeats", type=int, default=None, help="timed repeats (default 7, --quick 3)")
+    parser.add_argument("--repeats", type=bounded_int(1, 1000), default=None,
+                        help="timed repeats (default 7, --quick 3)")
     parser.add_argument("--sections", default=None,
                         help=f"comma-separated sections to run (default all: {','.join(SECTIONS)})")
     parser.add_argument("--json", type=Path, default=None, metavar="PATH",
                         help="also write the figures as JSON")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the wall layouts")
+    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the wall layouts")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -337,11 +339,9 @@ def run(args: argparse.Namespace) -> int:
     names = list(SECTIONS) if args.sections is None else [n.strip() for n in args.sections.split(",") if n]
     unknown = [n for n in names if n not in SECTIONS]
     if unknown:
-        raise SystemExit(f"auv-mj bench: unknown section(s) {', '.join(unknown)}; "
-                         f"known: {', '.join(SECTIONS)}")
+        usage_error(args, f"--sections: unknown section(s) {', '.join(unknown)[:200]}; known: {', '.join(SECTIONS)}")
+    check_output(args, args.json, "--json")
     repeats = args.repeats if args.repeats is not None else (3 if args.quick else 7)
-    if repeats < 1:
-        raise SystemExit("auv-mj bench: --repeats must be at least 1")
     settings = BenchSettings(repeats=repeats, scale=0.1 if args.quick else 1.0, seed=args.seed)
     print(f"auv-mj bench: medians over {settings.repeats} repeats; ratios of workloads timed side by side")
     results = run_sections(names, settings, print_section)

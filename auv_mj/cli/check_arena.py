@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from auv_mj.arena_check import check_arena
+from auv_mj.cli.options import check_output, usage_error
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -19,7 +20,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """`auv-mj check-arena`: prints the report; exit status 0 only for a usable arena."""
-    png = None if args.no_png else Path(args.png) if args.png else Path(args.arena).with_suffix(".png")
+    try:
+        png = None if args.no_png else Path(args.png) if args.png else Path(args.arena).with_suffix(".png")
+    except ValueError:
+        usage_error(args, f"give the preview file with --png (or --no-png): {args.arena[:60]!r} has no name")
+    check_output(args, png, "--png")
     try:
         report = check_arena(args.arena, png, need_path=not args.no_path)
     except OSError as e:

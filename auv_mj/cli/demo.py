@@ -18,7 +18,7 @@ import numpy as np
 
 from auv_mj import glbackend, render
 from auv_mj.cli import plots, policies
-from auv_mj.cli.options import add_episode_options, check_output, task_kwargs, usage_error
+from auv_mj.cli.options import add_episode_options, check_output, fps, pixels, task_kwargs, usage_error
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, episode_metrics, record_episode
 
 TASK = "tunnel"
@@ -68,9 +68,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj demo`."""
     add_episode_options(parser, task=TASK, policy=SYSTEM)
     parser.add_argument("--out", type=Path, default=Path("demo"), help="output folder (default: demo/)")
-    parser.add_argument("--width", type=int, default=1280)
-    parser.add_argument("--height", type=int, default=720)
-    parser.add_argument("--fps", type=float, default=30.0)
+    parser.add_argument("--width", type=pixels, default=1280)
+    parser.add_argument("--height", type=pixels, default=720)
+    parser.add_argument("--fps", type=fps, default=30.0)
     parser.add_argument("--no-video", action="store_true", help="skip the video (table and plot only)")
 
 
@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         env, policy = policies.env_and_policy(args.policy, task, args.seed, kwargs)
     except (FileNotFoundError, ValueError) as e:
-        usage_error(args, str(e))
+        usage_error(args, " ".join(str(e).split()))
     args.out.mkdir(parents=True, exist_ok=True)
     recorder = EpisodeRecorder(env, task, args.policy, args.seed)
     video = args.out / f"{task}.mp4"

@@ -35,6 +35,9 @@ from auv_mj.cli.options import add_episode_options, check_output, positive_int, 
 from auv_mj.console import progress_bar
 from auv_mj.episode import OUTCOMES, episode_metrics, record_episode
 
+SEED_LIMIT = 2**32 - 1
+"""Largest task seed (NumPy's RandomState); episode i of a run uses --seed + i."""
+
 
 def run_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
                 max_steps: int | None = None) -> dict:
@@ -198,6 +201,8 @@ def run(args: argparse.Namespace) -> int:
     """Runs the evaluation, prints the table, writes JSON/CSV (their paths checked first)."""
     check_output(args, args.json, "--json")
     check_output(args, args.csv, "--csv")
+    if args.seed + args.episodes - 1 > SEED_LIMIT:
+        usage_error(args, f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {SEED_LIMIT}")
     kwargs = task_kwargs(args)
     if args.retries < 0:
         usage_error(args, f"--retries must be >= 0, got {args.retries}")

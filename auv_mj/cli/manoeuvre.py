@@ -9,6 +9,7 @@ import time
 import numpy as np
 
 from auv_mj.arena import load
+from auv_mj.cli.options import bounded_float
 from auv_mj.manoeuvre import (
     APPROACH_TIME,
     CHANNEL_HALF_WIDTH,
@@ -18,29 +19,34 @@ from auv_mj.manoeuvre import (
     channel_arena,
     zigzag,
 )
+from auv_mj.vehicle import vehicle_facts
+
+MAX_DURATION = 3600.0
+"""Longest simulated manoeuvre [s]."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj manoeuvre`."""
-    parser.add_argument("--duration", type=float, default=60.0, help="simulated time [s] (default 60)")
-    parser.add_argument("--angle", type=float, default=ZIGZAG_ANGLE,
+    limits = vehicle_facts()
+    parser.add_argument("--duration", type=bounded_float(0.0, MAX_DURATION, "s", low_open=True), default=60.0,
+                        help="simulated time [s] (default 60)")
+    parser.add_argument("--angle", type=bounded_float(0.0, 89.0, "deg", low_open=True), default=ZIGZAG_ANGLE,
                         help=f"heading switch angle [deg] (default {ZIGZAG_ANGLE:g}: a 20/20 zig-zag)")
-    parser.add_argument("--tau-u", type=float, default=SURGE_FORCE,
+    parser.add_argument("--tau-u", type=bounded_float(-limits.surge_limit, limits.surge_limit, "N"),
+                        default=SURGE_FORCE,
                         help=f"surge force [N] (default {SURGE_FORCE:g})")
-    parser.add_argument("--tau-r", type=float, default=YAW_MOMENT,
+    parser.add_argument("--tau-r", type=bounded_float(-limits.yaw_limit, limits.yaw_limit, "N m"), default=YAW_MOMENT,
                         help=f"bang-bang yaw moment [N m] (default {YAW_MOMENT:g})")
-    parser.add_argument("--approach", type=float, default=APPROACH_TIME,
+    parser.add_argument("--approach", type=bounded_float(0.0, MAX_DURATION, "s"), default=APPROACH_TIME,
                         help=f"straight run before the first switch [s] (default {APPROACH_TIME:g})")
-    parser.add_argument("--print-every", type=float, default=2.0, help="track print interval [s] (default 2)")
-    parser.add_argument("--half-width", type=float, default=CHANNEL_HALF_WIDTH,
+    parser.add_argument("--print-every", type=bounded_float(0.0, MAX_DURATION, "s", low_open=True), default=2.0,
+                        help="track print interval [s] (default 2)")
+    parser.add_argument("--half-width", type=bounded_float(1.0, 1000.0, "m", low_open=True), default=CHANNEL_HALF_WIDTH,
                         help=f"channel half width [m] (default {CHANNEL_HALF_WIDTH:g})")
 
 
 def run(args: argparse.Namespace) -> int:
     """`auv-mj manoeuvre`: runs the zig-zag and prints the track, the sonar and the zig-zag figures."""
-    if not (args.duration > 0 and args.print_every > 0 and args.half_width > 1.0 and 0 < args.angle < 90):
-        raise SystemExit("auv-mj manoeuvre: need duration > 0, print-every > 0, half-width > 1 m "
-                         "and 0 < angle < 90")
     wall_clock = time.perf_counter()
     physics = load(channel_arena(args.half_width))
     result = zigzag(physics, args.duration, args.angle, args.tau_u, args.tau_r, args.approach)

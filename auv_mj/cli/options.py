@@ -10,49 +10,40 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
-MAX_JSON_DEPTH = 32
-"""Deepest nesting of `--task-kwargs` (objects and arrays) accepted; deeper input is refused, not recursed."""
+from auv_mj.inputs import MAX_JSON_DEPTH, json_depth
+
 MAX_JSON_CHARS = 100_000
 """Longest `--task-kwargs` text accepted."""
 
 
-def _depth(text: str) -> int:
-    """Deepest bracket nesting of JSON text outside strings (a scan, so it cannot recurse)."""
-    depth = deepest = 0
-    in_string = escaped = False
-    for char in text:
-        if in_string:
-            escaped = not escaped and char == "\\"
-            if char == '"' and not escaped:
-                in_string = False
-            continue
-        if char == '"':
-            in_string = True
-        elif char in "[{":
-            depth += 1
-            deepest = max(deepest, depth)
-        elif char in "]}":
-            depth -= 1
-    return deepest
+SEED_RANGE = (0, 2**31 - 1)
+"""Seeds `--seed` takes; episode i of a run uses seed + i, which stays below NumPy's 2**32 limit."""
+
+
+def _shown(text: str, limit: int = 60) -> str:
+    """`text` as a quoted literal for a one-line message, cut to about `limit` characters."""
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + f"... ({len(text)} characters)"
 
 
 def json_object(text: str) -> dict:
     """argparse type of the `--task-kwargs JSON` options: a JSON object, or a usage error naming the text."""
     if len(text) > MAX_JSON_CHARS:
         raise argparse.ArgumentTypeError(f"longer than {MAX_JSON_CHARS} characters ({len(text)})")
-    if _depth(text) > MAX_JSON_DEPTH:
+    if json_depth(text) > MAX_JSON_DEPTH:
         raise argparse.ArgumentTypeError(f"nested deeper than {MAX_JSON_DEPTH} levels")
     try:
         value = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise argparse.ArgumentTypeError(f"not valid JSON ({e}): {text!r}") from None
+    except (json.JSONDecodeError, RecursionError) as e:
+        raise argparse.ArgumentTypeError(f"not valid JSON ({e}): {_shown(text)}") from None
     if not isinstance(value, dict):
-        raise argparse.ArgumentTypeError(f"must be a JSON object like '{{\"key\": 1}}', got {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a JSON object like '{{\"key\": 1}}', got {_shown(text)}")
     return value
 
 
@@ -61,10 +52,54 @@ def positive_int(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {_shown(text)}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
     return value
+
+
+def bounded_int(low: int, high: int) -> Callable[[str], int]:
+    """argparse type of a whole number in [low, high]; argparse names the option in its error."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be a whole number in [{low}, {high}], got {_shown(text)}")
+        return value
+
+    return parse
+
+
+def bounded_float(low: float, high: float, unit: str = "", *, low_open: bool = False) -> Callable[[str], float]:
+    """argparse type of a finite number in [low, high] (`low_open`: in (low, high]) with its unit."""
+    interval = f"{'(' if low_open else '['}{low:g}, {high:g}]{' ' + unit if unit else ''}"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        inside = (low < value if low_open else low <= value) and value <= high
+        if not inside:  # NaN fails both comparisons
+            raise argparse.ArgumentTypeError(f"must be a number in {interval}, got {_shown(text)}")
+        return value
+
+    return parse
+
+
+seed_int = bounded_int(*SEED_RANGE)
+"""argparse type of `--seed`."""
+MAX_PIXELS = 4096
+"""Largest image or video side [pixels] a command draws."""
+pixels = bounded_int(16, MAX_PIXELS)
+"""argparse type of --width / --height of images and videos."""
+MAX_FPS = 240.0
+"""Highest video frame rate [frames/s]."""
+fps = bounded_float(0.0, MAX_FPS, "frames/s", low_open=True)
+"""argparse type of --fps."""
 
 
 def add_episode_options(parser: argparse.ArgumentParser, *, task: str | None = "goal",
@@ -78,7 +113,7 @@ def add_episode_options(parser: argparse.ArgumentParser, *, task: str | None = "
     parser.add_argument("--arena", default=None, metavar="PATH",
                         help="arena MJCF for the task (shortcut for --task-kwargs '{\"arena\": PATH}'); "
                              "`random` draws a fresh arena per episode where the task can")
-    parser.add_argument("--seed", type=int, default=0, help=seed_help)
+    parser.add_argument("--seed", type=seed_int, default=0, help=seed_help)
     if with_policy:
         parser.add_argument("--policy", default=policy, required=policy_required,
                             help="checkpoint path, shipped policy (planner, planner-raw, executor, two-layer, "

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from auv_mj.cli import policies
-from auv_mj.cli.options import add_episode_options, check_output, positive_int, task_kwargs, usage_error
+from auv_mj.cli.options import add_episode_options, check_output, pixels, positive_int, task_kwargs, usage_error
 from auv_mj.cli.plots import (
     BANDS,
     DEFAULT_SIZE,
@@ -53,8 +53,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, help="PNG file")
     p.add_argument("--title", default=None)
-    p.add_argument("--width", type=int, default=DEFAULT_SIZE[0], help="image width [px]")
-    p.add_argument("--height", type=int, default=None,
+    p.add_argument("--width", type=pixels, default=DEFAULT_SIZE[0], help="image width [px]")
+    p.add_argument("--height", type=pixels, default=None,
                    help=f"image height [px] (default {DEFAULT_SIZE[1]}; trajectories: fit the map)")
 
 
@@ -95,7 +95,9 @@ def run(args: argparse.Namespace) -> int:
                 usage_error(args, f"{len(args.runs)} --runs groups but {len(labels)} --label")
             path = plot_learning(list(zip(labels, args.runs, strict=True)), args.output, args.window,
                                  args.band, args.x, **size)
-    except (ValueError, OSError) as e:
-        raise SystemExit(f"{args.prog}: {e}") from None
+    except ValueError as e:
+        usage_error(args, " ".join(str(e).split()))
+    except OSError as e:
+        raise SystemExit(f"{args.prog}: error: {' '.join(str(e).split())}") from None
     print(f"wrote {path}")
     return 0

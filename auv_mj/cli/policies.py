@@ -130,10 +130,19 @@ def _checkpoint_path(policy_name: str, task_name: str | None = None) -> Path | N
     return path if path.is_file() else None
 
 
-def _checkpoint_policy(path: Path, protection: bool | None = None):
-    """The checkpoint's policy on time steps; a planner trained with the protection domain in the loop
-    (`--env-kwargs '{"protection": true}'`) runs with it, as it was trained (unless `protection` says)."""
+def _checkpoint_policy(path: Path, env, protection: bool | None = None):
+    """The checkpoint's policy on time steps of `env`; a planner trained with the protection domain in the loop
+    (`--env-kwargs '{"protection": true}'`) runs with it, as it was trained (unless `protection` says).
+    ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = Policy.load(path)
+    sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
+    actions = tuple(env.action_spec().shape)
+    try:
+        policy.flat_obs(sample["observation"] if set(sample) == {"observation"} else sample)
+        if actions != (len(policy.low),):
+            raise ValueError(f"it gives {len(policy.low)} actions, the task takes shape {actions}")
+    except (KeyError, ValueError) as e:
+        raise ValueError(f"checkpoint {path} does not fit this task: {' '.join(str(e).split())}") from None
 
     def act(time_step):
         observation = time_step.observation
@@ -161,15 +170,15 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     if policy_name == "los-avoid":
         return los_avoid(env)
     if policy_name in ("planner", "two-layer"):
-        return _checkpoint_policy(shipped_checkpoint(planner), protection=True)
+        return _checkpoint_policy(shipped_checkpoint(planner), env, protection=True)
     if policy_name == "planner-raw":
-        return _checkpoint_policy(shipped_checkpoint(planner), protection=False)
+        return _checkpoint_policy(shipped_checkpoint(planner), env, protection=False)
     if policy_name == "executor":
-        return _checkpoint_policy(shipped_checkpoint("executor"))
+        return _checkpoint_policy(shipped_checkpoint("executor"), env)
     path = Path(policy_name)
     if not path.is_file():
         raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of {list(NAMES)}")
-    return _checkpoint_policy(path)
+    return _checkpoint_policy(path, env)
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:

@@ -9,7 +9,16 @@ from pathlib import Path
 
 from auv_mj import glbackend
 from auv_mj.cli import policies
-from auv_mj.cli.options import add_episode_options, check_output, positive_int, task_kwargs, usage_error
+from auv_mj.cli.options import (
+    add_episode_options,
+    bounded_float,
+    check_output,
+    fps,
+    pixels,
+    positive_int,
+    task_kwargs,
+    usage_error,
+)
 from auv_mj.episode import EpisodeRecorder, outcome
 from auv_mj.render import (
     CAMERAS,
@@ -28,17 +37,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj render`."""
     add_episode_options(parser)
     parser.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif)")
-    parser.add_argument("--fps", type=float, default=DEFAULT_FPS, help="video frame rate")
-    parser.add_argument("--width", type=int, default=DEFAULT_SIZE[0], help="frame width [px] (made even)")
-    parser.add_argument("--height", type=int, default=DEFAULT_SIZE[1], help="frame height [px] (made even)")
+    parser.add_argument("--fps", type=fps, default=DEFAULT_FPS, help="video frame rate")
+    parser.add_argument("--width", type=pixels, default=DEFAULT_SIZE[0], help="frame width [px] (made even)")
+    parser.add_argument("--height", type=pixels, default=DEFAULT_SIZE[1], help="frame height [px] (made even)")
     parser.add_argument("--camera", choices=CAMERAS, default="both",
                         help="follow (top-down, vehicle centred), overview (whole arena), "
                              "both (follow + overview inset)")
-    parser.add_argument("--follow-view", type=float, default=FOLLOW_VIEW, help="follow view height [m]")
-    parser.add_argument("--speedup", type=float, default=None,
+    parser.add_argument("--follow-view", type=bounded_float(0.0, 10_000.0, "m", low_open=True), default=FOLLOW_VIEW,
+                        help="follow view height [m]")
+    parser.add_argument("--speedup", type=bounded_float(0.0, 10_000.0, low_open=True), default=None,
                         help="simulation seconds per video second (default: one frame per control step)")
     parser.add_argument("--max-steps", type=positive_int, default=None, help="cut the episode after this many steps")
-    parser.add_argument("--hold-end", type=float, default=DEFAULT_HOLD_END,
+    parser.add_argument("--hold-end", type=bounded_float(0.0, 60.0, "s"), default=DEFAULT_HOLD_END,
                         help="seconds to hold the last frame")
     parser.add_argument("--gif", action="store_true", help="write an animated GIF instead of an MP4")
     parser.add_argument("--save-episode", type=Path, default=None, help="also save the episode record (.npz)")

@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from auv_mj.cli.options import positive_int, seed_int
+
 TARGET = 0.9
 WINDOW = 20
 NOISE_STD = 0.3
@@ -95,8 +97,8 @@ def train_sb3(steps: int, csv_path: Path, seed: int = 0, noise_std: float = NOIS
 def main(argv: list[str] | None = None) -> int:
     """Trains the SB3 peer and prints its time to TARGET success beside ours (if --ours is given)."""
     parser = argparse.ArgumentParser(prog="python -m auv_mj.cli.sb3_peer", description=__doc__)
-    parser.add_argument("--steps", type=int, default=60_000)
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--steps", type=positive_int, default=60_000)
+    parser.add_argument("--seed", type=seed_int, default=0)
     parser.add_argument("--csv", type=Path, default=Path("runs/sb3-peer/progress.csv"))
     parser.add_argument("--noise-std", type=float, default=NOISE_STD, help="std of the Gaussian action noise")
     parser.add_argument("--raw", action="store_true", help="no VecNormalize: raw observations (as first shipped)")

@@ -20,7 +20,8 @@ import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from agents.checkpoint import config_from_dict, read_checkpoint
 from agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
 from agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
-from auv_mj.cli.options import json_object, positive_int, task_kwargs, usage_error
+from auv_mj.cli.options import json_object, positive_int, seed_int, task_kwargs, usage_error
+from auv_mj.inputs import check_json_depth, read_text
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
@@ -101,7 +102,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
     parser.add_argument("--init", type=Path, metavar="CHECKPOINT",
                         help="start a new run from this checkpoint's networks (fine-tuning)")
-    parser.add_argument("--seed", type=int, help="run seed (default 0, or the checkpoint's)")
+    parser.add_argument("--seed", type=seed_int, help="run seed (default 0, or the checkpoint's)")
     parser.add_argument("--device", help="torch device, cpu or cuda (default cpu, or the checkpoint's)")
     parser.add_argument("--checkpoint-every", type=positive_int, default=100, help="episodes between checkpoints")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -137,6 +138,16 @@ def config_overrides(args: argparse.Namespace) -> dict[str, Any]:
     return overrides
 
 
+def _read_options(path: Path) -> dict:
+    """The JSON object of options a run directory keeps (task_kwargs.json, env_kwargs.json), read within bounds."""
+    text = read_text(path, "the run's options")
+    check_json_depth(text, str(path))
+    value = json.loads(text)
+    if not isinstance(value, dict):
+        raise ValueError(f"{path}: must hold a JSON object of options")
+    return value
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs `auv-mj train`; returns the exit status."""
     if args.collectors < 0:
@@ -147,10 +158,10 @@ def run(args: argparse.Namespace) -> int:
         kwargs_file, env_file = run_dir / TASK_KWARGS_NAME, run_dir / ENV_KWARGS_NAME
         kwargs = task_kwargs(args) or None
         if kwargs is None and args.resume and kwargs_file.is_file():
-            kwargs = json.loads(kwargs_file.read_text())
+            kwargs = _read_options(kwargs_file)
         env_kwargs = args.env_kwargs
         if env_kwargs is None and args.resume and env_file.is_file():
-            env_kwargs = json.loads(env_file.read_text())
+            env_kwargs = _read_options(env_file)
         if args.resume and args.init:
             raise ValueError("--init starts a new run; it cannot be combined with --resume")
         env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": kwargs} if kwargs else {}),

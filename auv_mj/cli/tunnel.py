@@ -1,5 +1,10 @@
 """`auv-mj tunnel`: build a tunnel arena MJCF from a centreline CSV/JSON (`auv_mj.tunnels`), or write
-the procedural arena of a random episode (`--random SEED`, `auv_mj.procedural`)."""
+the procedural arena of a random episode (`--random SEED`, `auv_mj.procedural`).
+
+Every option is checked by type and range as it is parsed, the output path before any work, and a built
+arena by `auv-mj check-arena`'s own checks before it is written (atomically): a refused spec is a usage
+error (exit 2, one line naming the file or option) and leaves no file behind.
+"""
 
 from __future__ import annotations
 
@@ -11,17 +16,28 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj import procedural
-from auv_mj.cli.options import check_output, usage_error
+from auv_mj.arena_check import check_arena
+from auv_mj.cli.options import bounded_float, bounded_int, check_output, seed_int, usage_error
 from auv_mj.tunnels import (
     BOUNDS_MARGIN,
     END_CLEARANCE,
+    MAX_END_CLEARANCE,
+    MAX_MARGIN,
+    MAX_MERGE_TOLERANCE,
+    MAX_PATH_SPACING,
+    MAX_SMOOTH_ITERATIONS,
+    MAX_TUNNEL_LENGTH,
+    MAX_WALL_THICKNESS,
+    MAX_WIDTH,
     MERGE_TOLERANCE,
+    MIN_PATH_SPACING,
     PATH_SPACING,
     SMOOTH_ITERATIONS,
     WALL_THICKNESS,
     MovingObstacle,
     Obstacle,
     check_unknown,
+    check_unknown_spec,
     layout_tunnel,
     read_centreline,
     save,
@@ -32,16 +48,29 @@ from tasks import obstacles, tunnel
 RANDOM_TASKS = ("tunnel", "obstacles", "moving_obstacles")
 """Tasks whose random arenas `--random` writes."""
 
+MAX_MODEL_NAME = 100
+"""Longest --name."""
+
+
+def model_name(text: str) -> str:
+    """argparse type of --name: printable text without quotes or angle brackets, at most MAX_MODEL_NAME long."""
+    if not (text and len(text) <= MAX_MODEL_NAME and text.isprintable() and not set(text) & set("<>&\"'")):
+        raise argparse.ArgumentTypeError(f"must be 1 to {MAX_MODEL_NAME} printable characters without <>&\"', "
+                                         f"got {text[:60]!r}")
+    return text
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj tunnel`."""
     parser.add_argument("centreline", nargs="?", help="CSV of x,y[,width] rows [m] (header optional) or JSON")
-    parser.add_argument("--width", type=float, help="constant tunnel width [m] (unless per point; with --random: "
-                                                     "this width instead of a random one)")
+    parser.add_argument("--width", type=bounded_float(0.0, MAX_WIDTH, "m", low_open=True),
+                        help="constant tunnel width [m] (unless per point; with --random: this width instead of "
+                             "a random one)")
     parser.add_argument("-o", "--output", help="arena MJCF to write (default: the centreline's name, .xml)")
     parser.add_argument("--smooth", action="store_true", help="round the corners (Chaikin corner cutting)")
-    parser.add_argument("--smooth-iterations", type=int, default=SMOOTH_ITERATIONS,
-                        help=f"Chaikin rounds of --smooth (default {SMOOTH_ITERATIONS})")
+    parser.add_argument("--smooth-iterations", type=bounded_int(0, MAX_SMOOTH_ITERATIONS), default=SMOOTH_ITERATIONS,
+                        help=f"Chaikin rounds of --smooth (default {SMOOTH_ITERATIONS}, at most "
+                             f"{MAX_SMOOTH_ITERATIONS})")
     parser.add_argument("--closed", action="store_true", help="the centreline is a loop: no end caps")
     parser.add_argument("--obstacle", action="append", default=[], metavar="X,Y,LENGTH,WIDTH[,ANGLE[,NAME]]",
                         help="a known box obstacle (angle in deg); repeatable")
@@ -50,26 +79,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "leave a way past; repeatable")
     parser.add_argument("--mover", action="append", default=[], metavar="X0,Y0,X1,Y1,SPEED,RADIUS[,NAME]",
                         help="a moving cylinder going back and forth (m, m/s); repeatable")
-    parser.add_argument("--spacing", type=float, default=PATH_SPACING,
-                        help=f"distance between path sites [m] (default {PATH_SPACING:g})")
-    parser.add_argument("--wall-thickness", type=float, default=WALL_THICKNESS)
-    parser.add_argument("--end-clearance", type=float, default=END_CLEARANCE,
+    parser.add_argument("--spacing", type=bounded_float(MIN_PATH_SPACING, MAX_PATH_SPACING, "m"),
+                        default=PATH_SPACING, help=f"distance between path sites [m] (default {PATH_SPACING:g})")
+    parser.add_argument("--wall-thickness", type=bounded_float(0.0, MAX_WALL_THICKNESS, "m", low_open=True),
+                        default=WALL_THICKNESS)
+    parser.add_argument("--end-clearance", type=bounded_float(0.0, MAX_END_CLEARANCE, "m"), default=END_CLEARANCE,
                         help=f"tunnel length past start and goal [m] (default {END_CLEARANCE:g})")
-    parser.add_argument("--margin", type=float, default=BOUNDS_MARGIN, help="arena_bounds margin [m]")
-    parser.add_argument("--tolerance", type=float, default=MERGE_TOLERANCE,
+    parser.add_argument("--margin", type=bounded_float(0.0, MAX_MARGIN, "m"), default=BOUNDS_MARGIN,
+                        help="arena_bounds margin [m]")
+    parser.add_argument("--tolerance", type=bounded_float(0.0, MAX_MERGE_TOLERANCE, "m"), default=MERGE_TOLERANCE,
                         help=f"wall merging tolerance [m] (default {MERGE_TOLERANCE:g})")
-    parser.add_argument("--name", default=None, help="model name (default: the output's stem)")
-    procedural = parser.add_argument_group(
+    parser.add_argument("--name", type=model_name, default=None, help="model name (default: the output's stem)")
+    group = parser.add_argument_group(
         "procedural arenas", "--random SEED writes the arena of the first episode of `--arena random --seed "
         "SEED` (the same arena as `auv-mj eval` draws), unless an option below changes the distribution")
-    procedural.add_argument("--random", type=int, metavar="SEED", help="a random arena from this seed "
+    group.add_argument("--random", type=seed_int, metavar="SEED", help="a random arena from this seed "
                             "(training, validation and test seed ranges: README)")
-    procedural.add_argument("--task", default="tunnel", choices=RANDOM_TASKS,
+    group.add_argument("--task", default="tunnel", choices=RANDOM_TASKS,
                             help="whose random arena: a procedural tunnel (default), or the open-water layout of "
                                  "obstacles / moving_obstacles")
-    procedural.add_argument("--length", type=float, metavar="M", help="tunnel length [m] instead of a random one")
-    procedural.add_argument("--obstacles", type=int, metavar="N", help="number of unknown obstacles in the tunnel")
-    procedural.add_argument("--movers", type=int, metavar="N", help="number of movers in the tunnel")
+    group.add_argument("--length", type=bounded_float(0.0, MAX_TUNNEL_LENGTH, "m", low_open=True),
+                            metavar="M", help="tunnel length [m] instead of a random one")
+    group.add_argument("--obstacles", type=bounded_int(0, procedural.MAX_COUNT), metavar="N",
+                            help="number of unknown obstacles in the tunnel")
+    group.add_argument("--movers", type=bounded_int(0, procedural.MAX_COUNT), metavar="N",
+                            help="number of movers in the tunnel")
 
 
 def _command_line() -> str | None:
@@ -87,8 +121,13 @@ def run(args: argparse.Namespace) -> int:
     fixed = [f"--{name}" for name in ("length", "obstacles", "movers") if getattr(args, name) is not None]
     if fixed or args.task != "tunnel":
         usage_error(args, f"{', '.join(fixed) or '--task'} go with --random only")
-    output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
+    try:
+        output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
+    except ValueError:
+        usage_error(args, f"give the output file with -o: {args.centreline[:60]!r} has no name to derive one from")
     check_output(args, output, "-o")
+    if output.resolve() == Path(args.centreline).resolve():
+        usage_error(args, f"-o {output} would overwrite the centreline")
     try:
         line = read_centreline(args.centreline)
         obstacles = [Obstacle.parse(text) for text in args.obstacle]
@@ -99,12 +138,21 @@ def run(args: argparse.Namespace) -> int:
                                obstacles=obstacles, movers=movers, wall_thickness=args.wall_thickness,
                                end_clearance=args.end_clearance, margin=args.margin,
                                merge_tolerance=args.tolerance)
+        check_unknown_spec(line.source, layout, obstacles, movers, unknown)
         check_unknown(layout, unknown, obstacles, args.wall_thickness, source=line.source)
         element = tunnel_element(layout, obstacles, movers, args.wall_thickness, args.name or output.stem,
                                  _command_line(), unknown)
+        report = check_arena(element)
+        if not report.ok:
+            raise ValueError(f"{args.centreline}: the tunnel would not be a usable arena: {report.problems[0]}"
+                             + (f" (and {len(report.problems) - 1} more problems)" if len(report.problems) > 1
+                                else ""))
+    except ValueError as e:
+        usage_error(args, " ".join(str(e).split()))
+    try:
         save(element, output)
-    except (ValueError, OSError) as e:
-        print(f"auv-mj tunnel: error: {e}", file=sys.stderr)
+    except OSError as e:
+        print(f"{args.prog}: error: cannot write {output}: {e.strerror or e}", file=sys.stderr)
         return 1
     length = float(np.sum(np.hypot(*np.diff(layout.path, axis=0).T)))
     unknown_text = f"{len(unknown)} unknown obstacles, " if unknown else ""
@@ -150,9 +198,8 @@ def _run_random(args: argparse.Namespace) -> int:
         spec = _spec(args)
         try:
             arena = tunnel.random_arena(args.random, spec)
-        except RuntimeError as e:
-            print(f"auv-mj tunnel: error: {e}", file=sys.stderr)
-            return 1
+        except RuntimeError as e:  # the options leave no feasible tunnel: refuse them
+            usage_error(args, " ".join(str(e).split()))
         element = arena.element(name, _command_line())
         what = (f"a {arena.width:.1f} m wide tunnel over {arena.length:.0f} m, {len(arena.unknown)} unknown "
                 f"obstacles, {len(arena.movers)} movers")
