@@ -149,9 +149,7 @@ class AUVPhysics(engine.Physics):
                 mujoco.mj_step1(model, data)
                 history = [start]
                 for _ in range(SETTLE_STEPS):
-                    hook(model.opt.timestep)
-                    mujoco.mj_step2(model, data)
-                    mujoco.mj_step1(model, data)
+                    hook(1, model.opt.timestep)  # Eq. (3)-(11), then mj_step2 and mj_step1
                     history.append(self._hydro.body_velocity(data))
                 nus = np.array(history)
                 with np.errstate(over="ignore", invalid="ignore"):
