@@ -169,9 +169,12 @@ def _check_actuators(model: mujoco.MjModel, data: mujoco.MjData, source: str) ->
         gain = model.actuator_gainprm[i, 0] if model.actuator_gaintype[i] == mujoco.mjtGain.mjGAIN_FIXED else math.nan
         surge, sway, turn = ACTUATOR_AXES[name]
         expected = np.array([c * surge - s * sway, s * surge + c * sway, turn])
-        plain = (model.actuator_dyntype[i] == mujoco.mjtDyn.mjDYN_NONE
+        # No dynamics, or the first-order thruster lag of the ocean conditions (filterexact, tau > 0).
+        dynamics = model.actuator_dyntype[i]
+        lag = dynamics == mujoco.mjtDyn.mjDYN_FILTEREXACT and model.actuator_dynprm[i, 0] > 0
+        plain = ((dynamics == mujoco.mjtDyn.mjDYN_NONE or lag)
                  and model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_NONE)
         if not (plain and np.allclose(gain * moment[dofs], expected, atol=AXIS_TOLERANCE)):
             what = "a body-frame surge force" if name == "tau_u" else "a yaw moment"
             raise _fail(source, f"actuator {name} must apply {what} equal to its control (Eq. 12: gear, gain 1, "
-                                "no dynamics or bias)")
+                                "no bias; no dynamics but a first-order lag, filterexact with a time constant > 0)")
