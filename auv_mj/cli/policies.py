@@ -12,6 +12,9 @@ The one place where tasks and agents meet (the app layer):
 - `los-avoid`: line of sight along the route with the protection domain, on the S-plane executor: the
   classical local planner;
 - `random`: uniform actions.
+- `planner-general`, `two-layer-general`: the same with the planner trained on the distribution of arenas
+  (`planner_general.pt`: body-frame goal, no map coordinates, protection domain in the loop; issue 15),
+  on the S-plane and on the learned executor.
 `planner=PATH`, `planner-raw=PATH` and `two-layer=PATH` run the planner checkpoint PATH in place of the
 shipped one (to compare or choose candidates, e.g. on validation seeds).
 """
@@ -31,7 +34,8 @@ from tasks.avoidance import with_repulsion
 from tasks.guidance import classical, line_of_sight, los_avoid
 from tasks.speed_heading import ErrorIntegral, executor_observation, observation_kind
 
-SHIPPED = {"planner": "planner.pt", "planner-tunnel": "planner_tunnel.pt", "executor": "executor.pt"}
+SHIPPED = {"planner": "planner.pt", "planner-tunnel": "planner_tunnel.pt", "planner-general": "planner_general.pt",
+           "executor": "executor.pt"}
 """Shipped checkpoints: name -> file in `agents/checkpoints/`."""
 PLANNER_FOR_TASK = {"tunnel": "planner-tunnel"}
 """Tasks with a planner of their own (trained on that task, as the paper trains per environment)."""
@@ -39,7 +43,8 @@ BASELINES = ("splane", "los-avoid", "random")
 EXECUTOR_TASKS = ("speed_heading",)
 LEARNED_EXECUTOR_POLICIES = ("two-layer", "los-executor")
 PLANNERS = ("planner", "planner-raw", "two-layer", "los-executor", "los-avoid")
-NAMES = ("planner", "planner-raw", "executor", "two-layer", "los-executor", *BASELINES)
+NAMES = ("planner", "planner-raw", "executor", "two-layer", "planner-general", "two-layer-general", "los-executor",
+         *BASELINES)
 """Every policy name `--policy` takes besides a checkpoint path."""
 
 
@@ -91,8 +96,15 @@ def learned_executor(path: Path | None = None) -> LearnedExecutor:
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
 
+GENERAL = {"planner-general": "planner", "two-layer-general": "two-layer"}
+"""Names of the generalising planner: the system it runs in."""
+
+
 def split_name(policy_name: str) -> tuple[str, Path | None]:
-    """("two-layer", PATH) for "two-layer=PATH" (also planner, planner-raw); (name, None) otherwise."""
+    """("two-layer", PATH) for "two-layer=PATH" (also planner, planner-raw) and for the general planner's
+    names; (name, None) otherwise."""
+    if policy_name in GENERAL:
+        return GENERAL[policy_name], shipped_checkpoint("planner-general")
     base, sep, path = policy_name.partition("=")
     if sep and base in ("planner", "planner-raw", "two-layer"):
         if not Path(path).is_file():
