@@ -311,7 +311,10 @@ def vehicle_texts(draw) -> str:
         kind = draw(st.sampled_from(["coefficient", "coefficient", "set", "delete", "joint"]))
         if kind == "coefficient":
             numeric = draw(st.sampled_from(root.findall("custom/numeric")))
-            value = float(numeric.get("data"))
+            try:
+                value = float(numeric.get("data"))
+            except (TypeError, ValueError):  # an earlier edit wrote a word there
+                value = 1.0
             factor = draw(st.sampled_from([-1.0, 0.0, 10.0, 100.0, 1e3, 1e4, 1e6]))
             scaled = draw(st.one_of(st.just(factor * value), st.floats(-1e7, 1e7),
                                     st.sampled_from([math.nan, math.inf, 1e308, -1e308])))
