@@ -226,28 +226,36 @@ class DDPG:
     def _to_tensors(self, batch: Batch) -> Batch:
         return Batch(*(torch.as_tensor(np.asarray(a, dtype=np.float32), device=self.device) for a in batch))
 
-    def _step(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def critic_step(self, obs: torch.Tensor, batch: Batch, next_obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """One critic step (Eq. 17-18) on normalised obs / next_obs, then its target (Eq. 19); (loss, mean target)."""
         cfg = self.config
-        obs, next_obs = self.obs_norm(batch.obs), self.obs_norm(batch.next_obs)
-        target = td_target(self.critic_target, self.actor_target, batch.rewards, next_obs,
-                           batch.terminated, cfg.gamma)
+        target = td_target(self.critic_target, self.actor_target, batch.rewards, next_obs, batch.terminated,
+                           cfg.gamma)
         q_loss = critic_loss(self.critic, obs, batch.actions, target)
         self.critic_opt.zero_grad(set_to_none=True)
         q_loss.backward()
         self.critic_opt.step()
+        soft_update(self.critic_target, self.critic, cfg.tau)
+        return q_loss.detach(), target.mean()
 
+    def actor_step(self, obs: torch.Tensor) -> torch.Tensor:
+        """One actor step (Eq. 16) on normalised obs against the current critic, then its target (Eq. 19)."""
         # The critic is frozen while the actor climbs it: no wasted weight gradients.
         self.critic.requires_grad_(False)
-        pi_loss = actor_loss(self.actor, self.critic, obs, cfg.action_l2)
+        pi_loss = actor_loss(self.actor, self.critic, obs, self.config.action_l2)
         self.actor_opt.zero_grad(set_to_none=True)
         pi_loss.backward()
         self.actor_opt.step()
         self.critic.requires_grad_(True)
+        soft_update(self.actor_target, self.actor, self.config.tau)
+        return pi_loss.detach()
 
-        soft_update(self.critic_target, self.critic, cfg.tau)
-        soft_update(self.actor_target, self.actor, cfg.tau)
+    def _step(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        obs, next_obs = self.obs_norm(batch.obs), self.obs_norm(batch.next_obs)
+        q_loss, q_target = self.critic_step(obs, batch, next_obs)
+        pi_loss = self.actor_step(obs)
         self.num_updates += 1
-        return q_loss.detach(), pi_loss.detach(), target.mean()
+        return q_loss, pi_loss, q_target
 
     def update(self, batch: Batch) -> dict[str, float]:
         """One gradient step on critic (Eq. 17-18) then actor (Eq. 16), then the targets (Eq. 19)."""

@@ -10,11 +10,17 @@ Goal tasks (dict observations with observation / achieved_goal / desired_goal) t
 round(train_every * updates_per_step) gradient steps on one batched sample. Episodes end on
 `terminated` (goal, collision: no bootstrap) or `truncated` (time limit: bootstrap).
 
+`collectors=N` (N >= 1) uses more cores: the environments are stepped, and the actor learnt, in N collector
+processes while this process learns the critic, in lock-step rounds (`agents.collector`); a run is then
+deterministic given its seed and N, and the update-to-data ratio is the serial one.
+
 A run directory holds `checkpoint.pt` (atomic, see agents.checkpoint), `replay-<steps>.npz`,
 `progress.csv` (one row per episode), `config.json` and TensorBoard scalars in `tb/`. `resume=True`
 continues the same run from its last checkpoint, replay buffer and RNG states included; each episode
 resets the env with a seed derived from (seed, episode index), so a resumed run repeats the
-uninterrupted one exactly when checkpoints fall on episode boundaries.
+uninterrupted one exactly when checkpoints fall on episode boundaries. With collectors a resumed run
+continues from its checkpoint but does not repeat the uninterrupted run: the episodes the collectors had
+in progress are dropped and begun afresh.
 """
 
 from __future__ import annotations
@@ -40,12 +46,12 @@ from agents.checkpoint import (
     save_checkpoint,
     save_replay,
 )
+from agents.collector import Collectors, env_action, episode_seed, flat_observation
 from agents.ddpg import DDPG, DDPGConfig, epsilon_at
-from agents.her import HerReplayBuffer, policy_input
-from agents.replay import ReplayBuffer
+from agents.her import HerReplayBuffer
+from agents.replay import Batch, ReplayBuffer
 from auv_mj.console import progress_bar
 from auv_mj.goals import GOAL_KEYS
-from auv_mj.seeds import train_seed
 
 AGENTS = ("ddpg", "her-ddpg", "executor")
 """Agent names of `auv-mj train AGENT`: her-ddpg needs a goal task, executor a Box task."""
@@ -102,12 +108,6 @@ def env_spec(env: gym.Env) -> dict[str, Any]:
     else:
         raise ValueError(f"expected a goal Dict {GOAL_KEYS} or a Box observation space, got {space}")
     return spec
-
-
-def episode_seed(seed: int, episode: int) -> int:
-    """The env reset seed of episode `episode` of a run seeded with `seed`: in the TRAIN range of
-    `auv_mj.seeds`, never a validation or test seed."""
-    return train_seed(seed, episode)
 
 
 def _check_agent_env(agent_name: str, kind: str) -> None:
@@ -200,7 +200,8 @@ class _Run:
 
 
 def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir: Path, resume: bool,
-              init: str | Path | None, tensorboard: bool, run_info: Mapping[str, Any] | None) -> _Run:
+              init: str | Path | None, tensorboard: bool, run_info: Mapping[str, Any] | None,
+              collectors: int = 0) -> _Run:
     """Builds the agent and buffer of a new run, or restores them (and the counters) from `run_dir`."""
     spec = env_spec(env)
     spec["env_id"] = getattr(env.spec, "id", None)
@@ -235,7 +236,8 @@ def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir:
 
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "config.json").write_text(json.dumps(
-        {"agent": agent_name, "config": config_to_dict(agent.config), "spec": spec}, indent=2))
+        {"agent": agent_name, "config": config_to_dict(agent.config), "spec": spec, "collectors": collectors},
+        indent=2))
     kept = _restore_log(run_dir / LOG_NAME, counters["episodes"]) if resume else []
     log_file = open(run_dir / LOG_NAME, "a" if resume else "w", newline="")
     if log_file.tell() == 0:
@@ -250,20 +252,22 @@ def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir:
                 run_info=dict(run_info if run_info is not None else meta.get("run_info", {})))
 
 
-def _flat(run: _Run, obs: Any) -> np.ndarray:
-    """The actor's input: [observation, desired_goal] on goal tasks, the flat observation otherwise."""
-    if run.spec["kind"] == "goal":
-        return policy_input(obs["observation"], obs["desired_goal"], run.spec.get("goal_input", True))
-    return np.asarray(obs, np.float32).ravel()
-
-
 def _learn(run: _Run) -> None:
     """round(train_every * updates_per_step) gradient steps on one batched sample (Algorithm 1, l. 12-16)."""
     config, counters = run.agent.config, run.counters
-    n_updates = max(1, round(config.train_every * config.updates_per_step))
     if counters["env_steps"] % config.train_every or counters["env_steps"] < config.learning_starts:
         return
-    if not (run.buffer.num_samplable if run.her else len(run.buffer)):
+    _update(run, _updates_per_round(config))
+
+
+def _updates_per_round(config: DDPGConfig) -> int:
+    return max(1, round(config.train_every * config.updates_per_step))
+
+
+def _update(run: _Run, n_updates: int) -> None:
+    """`n_updates` gradient steps on one batched sample, if the buffer has anything to sample."""
+    config, counters = run.agent.config, run.counters
+    if not n_updates or not (run.buffer.num_samplable if run.her else len(run.buffer)):
         return
     t0 = time.perf_counter()
     metrics = run.agent.update_many(run.buffer.sample(config.batch_size * n_updates), n_updates)
@@ -280,18 +284,16 @@ def _collect_episode(run: _Run, env: gym.Env, total_steps: int | None) -> tuple[
     Returns (return, length, ended, last info); `ended` is False when cut at `total_steps`.
     """
     agent, config, counters = run.agent, run.agent.config, run.counters
-    low = np.asarray(run.spec["action_low"], np.float32)
-    span = np.asarray(run.spec["action_high"], np.float32) - low
     obs, info = env.reset(seed=episode_seed(config.seed, counters["episodes"]))
-    x = _flat(run, obs)
+    x = flat_observation(run.spec, obs)
     ep_return, ep_len, ended = 0.0, 0, False
     while not ended:
         agent.obs_norm.update(x)
         agent.epsilon = epsilon_at(config, counters["env_steps"], counters["episodes"])
         action = agent.act(x, explore=True)
-        next_obs, reward, terminated, truncated, info = env.step(
-            (low + (action + 1.0) * 0.5 * span).astype(env.action_space.dtype))
-        next_x = _flat(run, next_obs)
+        next_obs, reward, terminated, truncated, info = env.step(env_action(run.spec, action,
+                                                                            env.action_space.dtype))
+        next_x = flat_observation(run.spec, next_obs)
         if run.her:
             run.buffer.add(obs, action, reward, next_obs, terminated, truncated, info)
         else:
@@ -307,6 +309,136 @@ def _collect_episode(run: _Run, env: gym.Env, total_steps: int | None) -> tuple[
     if run.her:
         run.buffer.end_episode()
     return ep_return, ep_len, ended, info
+
+
+def _train_serial(run: _Run, env: gym.Env, total_steps: int | None, episodes: int | None,
+                  checkpoint_every: int, bar: Any) -> None:
+    """Episode after episode in this process, learning every train_every steps (Algorithm 1)."""
+    counters, by_steps = run.counters, total_steps is not None
+    while not ((by_steps and counters["env_steps"] >= total_steps)
+               or (episodes is not None and counters["episodes"] >= episodes)):
+        ep_return, ep_len, ended, info = _collect_episode(run, env, total_steps)
+        bar.update(ep_len if by_steps else int(ended))
+        if not ended:
+            break  # stopped mid-episode at total_steps: the partial episode is stored but not logged
+        _log_episode(run, ep_return, ep_len, info)
+        bar.set_postfix(success=f"{np.mean(run.successes):.2f}", ret=f"{np.mean(run.returns):.2f}",
+                        eps=f"{run.agent.epsilon:.2f}", refresh=False)
+        if counters["episodes"] % checkpoint_every == 0:
+            _save(run)
+
+
+def _owed_updates(config: DDPGConfig, before: int, after: int) -> int:
+    """Gradient steps the serial loop does while env steps go from `before` to `after`: a round of them
+    at every multiple of train_every reached, from learning_starts on."""
+    first = max(before + 1, config.learning_starts)
+    rounds = max(0, after // config.train_every - (first - 1) // config.train_every)
+    return rounds * _updates_per_round(config)
+
+
+def _critic_round(run: _Run, n_updates: int) -> tuple[Any, list[np.ndarray] | None]:
+    """Samples the round's batch; returns a thunk doing its `n_updates` critic steps and the normalised
+    observations of the matching actor steps (None when there is nothing to learn yet)."""
+    agent, config = run.agent, run.agent.config
+    if not n_updates or not (run.buffer.num_samplable if run.her else len(run.buffer)):
+        return None, None
+    t0 = time.perf_counter()
+    agent.obs_norm.sync()
+    data = agent._to_tensors(run.buffer.sample(config.batch_size * n_updates))
+    size = config.batch_size
+    with torch.no_grad():
+        obs, next_obs = agent.obs_norm(data.obs), agent.obs_norm(data.next_obs)
+    parts = [slice(k * size, (k + 1) * size) for k in range(n_updates)]
+    run.update_time += time.perf_counter() - t0
+
+    def critic_steps() -> dict[str, float]:
+        t1 = time.perf_counter()
+        sums = torch.zeros(2)
+        for part in parts:
+            batch = Batch(*(a[part] for a in data))
+            sums += torch.stack(agent.critic_step(obs[part], batch, next_obs[part]))
+        agent.num_updates += n_updates
+        run.counters["gradient_steps"] += n_updates
+        run.update_time += time.perf_counter() - t1
+        q_loss, q_target = (sums / n_updates).tolist()
+        return {"critic_loss": q_loss, "q_target": q_target}
+
+    return critic_steps, [obs[part].numpy() for part in parts]
+
+
+def _train_with_collectors(run: _Run, env_fn: Callable[[], gym.Env], count: int, total_steps: int | None,
+                           episodes: int | None, checkpoint_every: int, bar: Any) -> None:
+    """The lock-step rounds of `agents.collector`: `count` collector processes step their environments
+    (and the first one learns the actor) while this process learns the critic, each round on the batch
+    sampled at its start from the transitions of the rounds before."""
+    config, counters = run.agent.config, run.counters
+    by_steps = total_steps is not None
+    open_episodes: list[list[tuple]] = [[] for _ in range(count)]
+    """Per collector, the transitions of its episode in progress (HER stores an episode when it ends)."""
+    running = [[0.0, 0] for _ in range(count)]
+    """Per collector, return and length of its episode in progress."""
+
+    def round_steps() -> int:
+        steps = config.train_every * count
+        return min(steps, total_steps - counters["env_steps"]) if by_steps else steps
+
+    def finished() -> bool:
+        return (by_steps and counters["env_steps"] >= total_steps) or (
+            episodes is not None and counters["episodes"] >= episodes)
+
+    critic_steps, owed = None, 0
+    with Collectors(env_fn, run.spec, run.agent, count, first_episode=counters["episodes"]) as pool:
+        if not finished():
+            pool.start_round(round_steps(), counters["env_steps"], counters["episodes"])
+        while not finished():
+            metrics = critic_steps() if critic_steps else {}  # while the collectors step and learn the actor
+            before, save = counters["env_steps"], False
+            rounds, actor_loss = pool.finish_round()
+            if run.writer is not None and metrics:
+                for key, value in {**metrics, "actor_loss": actor_loss}.items():
+                    run.writer.add_scalar(f"train/{key}", value, before)
+            for index, transitions in enumerate(rounds):
+                for obs, x, action, reward, next_obs, terminated, truncated, info in transitions:
+                    run.agent.obs_norm.update(x)
+                    if run.her:
+                        open_episodes[index].append((obs, action, reward, next_obs, terminated, truncated, info))
+                    else:
+                        run.buffer.add(x, action, reward, flat_observation(run.spec, next_obs), terminated)
+                    counters["env_steps"] += 1
+                    running[index][0] += reward
+                    running[index][1] += 1
+                    if not (terminated or truncated):
+                        continue
+                    if run.her:
+                        for transition in open_episodes[index]:
+                            run.buffer.add(*transition)
+                        run.buffer.end_episode()
+                        open_episodes[index] = []
+                    if episodes is None or counters["episodes"] < episodes:
+                        run.agent.epsilon = epsilon_at(config, counters["env_steps"], counters["episodes"])
+                        _log_episode(run, *running[index], info)
+                        save |= counters["episodes"] % checkpoint_every == 0
+                        if not by_steps:
+                            bar.update(1)
+                    running[index] = [0.0, 0]
+            if by_steps:
+                bar.update(counters["env_steps"] - before)
+            if run.successes:
+                bar.set_postfix(success=f"{np.mean(run.successes):.2f}", ret=f"{np.mean(run.returns):.2f}",
+                                eps=f"{run.agent.epsilon:.2f}", refresh=False)
+            owed = _owed_updates(config, before, counters["env_steps"])
+            if finished():
+                break
+            critic_steps, actor_obs = _critic_round(run, owed)
+            pool.start_round(round_steps(), counters["env_steps"], counters["episodes"], actor_obs)
+            if save:
+                _save(run)
+    _update(run, owed)  # the last round's gradient steps, here: the collectors are done
+    if run.her:  # episodes cut at the end are stored, not logged, as the serial loop does
+        for transitions in open_episodes:
+            for transition in transitions:
+                run.buffer.add(*transition)
+            run.buffer.end_episode()
 
 
 def _log_episode(run: _Run, ep_return: float, ep_len: int, info: dict) -> None:
@@ -355,7 +487,8 @@ def _result(run: _Run, interrupted: bool) -> TrainResult:
 def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | None = None, *,
           total_steps: int | None = None, episodes: int | None = None, run_dir: str | Path | None = None,
           resume: bool = False, init: str | Path | None = None, checkpoint_every: int = 100,
-          progress: bool = True, tensorboard: bool = True, run_info: Mapping[str, Any] | None = None) -> TrainResult:
+          progress: bool = True, tensorboard: bool = True, run_info: Mapping[str, Any] | None = None,
+          collectors: int = 0) -> TrainResult:
     """Trains `agent_name` on env_fn() until `total_steps` env steps or `episodes` episodes (totals).
 
     With neither given, trains for config.max_episodes (Table 4). `resume=True` continues the run in
@@ -364,14 +497,17 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
     `goal` planner on `obstacles`), with fresh counters, replay buffer and random streams.
     Checkpoints every `checkpoint_every` episodes and at the end (also on Ctrl-C). `run_info` (JSON-able:
     the task and its options, say) is kept in every checkpoint's metadata; a resumed run keeps its own.
+    `collectors` >= 1 steps that many environments in collector processes while this process learns
+    (`agents.collector`: deterministic given the seed and the count, but not the serial run); `env_fn`
+    must then pickle.
     """
     for name, value, least in (("total_steps", total_steps, 0), ("episodes", episodes, 0),
-                               ("checkpoint_every", checkpoint_every, 1)):
+                               ("checkpoint_every", checkpoint_every, 1), ("collectors", collectors, 0)):
         if value is not None and value < least:
             raise ValueError(f"{name} must be >= {least}, got {value}")
     env = env_fn()
     run_dir = Path(run_dir) if run_dir is not None else Path("runs") / f"{agent_name}-{time.strftime('%Y%m%d-%H%M%S')}"
-    run = _open_run(env, agent_name, config, run_dir, resume, init, tensorboard, run_info)
+    run = _open_run(env, agent_name, config, run_dir, resume, init, tensorboard, run_info, collectors)
     if total_steps is None and episodes is None:
         episodes = run.agent.config.max_episodes
     counters = run.counters
@@ -381,17 +517,10 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
                        unit="step" if by_steps else "ep", disable=not progress, dynamic_ncols=True)
     interrupted = False
     try:
-        while not ((by_steps and counters["env_steps"] >= total_steps)
-                   or (episodes is not None and counters["episodes"] >= episodes)):
-            ep_return, ep_len, ended, info = _collect_episode(run, env, total_steps)
-            bar.update(ep_len if by_steps else int(ended))
-            if not ended:
-                break  # stopped mid-episode at total_steps: the partial episode is stored but not logged
-            _log_episode(run, ep_return, ep_len, info)
-            bar.set_postfix(success=f"{np.mean(run.successes):.2f}", ret=f"{np.mean(run.returns):.2f}",
-                            eps=f"{run.agent.epsilon:.2f}", refresh=False)
-            if counters["episodes"] % checkpoint_every == 0:
-                _save(run)
+        if collectors:
+            _train_with_collectors(run, env_fn, collectors, total_steps, episodes, checkpoint_every, bar)
+        else:
+            _train_serial(run, env, total_steps, episodes, checkpoint_every, bar)
     except KeyboardInterrupt:
         interrupted = True
         if run.her:

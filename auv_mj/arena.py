@@ -24,6 +24,7 @@ import numpy as np
 
 from auv_mj import inputs
 from auv_mj.assets import model_path
+from auv_mj.ocean import lag_actuators
 from auv_mj.physics import AUVPhysics
 
 SAFETY_DISTANCE = 5.0
@@ -64,10 +65,15 @@ def _read_xml(source: str | Path | ET.Element, what: str) -> tuple[ET.Element, s
 
 
 def compose_xml(arena: str | Path | ET.Element | None = None,
-                vehicle: str | Path | ET.Element | None = None) -> tuple[str, str]:
-    """MJCF text of the vehicle with the arena's sections merged in, and a name for error messages."""
+                vehicle: str | Path | ET.Element | None = None, thruster_lag: bool = False) -> tuple[str, str]:
+    """MJCF text of the vehicle with the arena's sections merged in, and a name for error messages.
+
+    `thruster_lag` compiles the vehicle's actuators with their first-order lag (`auv_mj.ocean`).
+    """
     vroot, vname = _read_xml(vehicle if vehicle is not None else model_path("auv.xml"), "vehicle")
     vroot = copy.deepcopy(vroot)
+    if thruster_lag:
+        lag_actuators(vroot, vname)
     if arena is None:
         return ET.tostring(vroot, encoding="unicode"), vname
     aroot, aname = _read_xml(arena, "arena")
@@ -125,9 +131,10 @@ def _count_within(text: str, limit: int) -> bool:
         return False
 
 
-def load(arena: str | Path | ET.Element | None = None, vehicle=None) -> AUVPhysics:
-    """AUVPhysics of the vehicle inside `arena` (a path, an ElementTree root, or None for open water)."""
-    xml, source = compose_xml(arena, vehicle)
+def load(arena: str | Path | ET.Element | None = None, vehicle=None, thruster_lag: bool = False) -> AUVPhysics:
+    """AUVPhysics of the vehicle inside `arena` (a path, an ElementTree root, or None for open water);
+    `thruster_lag` compiles the actuators with their first-order lag."""
+    xml, source = compose_xml(arena, vehicle, thruster_lag)
     return AUVPhysics.from_xml_string(xml, source=source)
 
 

@@ -12,6 +12,19 @@ with a11 = -X_udot, a22 = -Y_vdot, a23 = -Y_rdot, a33 = -N_rdot (Eq. 6). Damping
 |v| v (not v^2) so that drag always opposes motion; the optional lift terms Y_uv, Y_ur, N_uv, N_ur
 are the speed-dependent lift of Prestero (2001), zero unless the MJCF gives them. The per-step hook
 (`Hydrodynamics.bind`) also makes the stiff surge and yaw drag linearly implicit (see there).
+
+Ocean current. `model.opt.wind[:2]` is the current V_c in the world frame [m/s] (MuJoCo's medium
+velocity: `<option wind="..."/>` in the MJCF, or set at run time; the vehicle MJCF has density 0, so
+MuJoCo's own fluid model stays off and only this module reads it). The water forces act on the velocity
+relative to the water, nu_r = nu - nu_c with nu_c = R(psi)^T V_c (Fossen 2011, Sec. 8.3):
+
+    M_RB nu_dot + C_RB(nu) nu + M_A nu_r_dot + C_A(nu_r) nu_r + D(nu_r) nu_r - lift(nu_r) = tau.
+
+For a constant, irrotational V_c, nu_c_dot = (r v_c, -r u_c, 0), so M_A nu_r_dot = M_A nu_dot -
+M_A r (v_c, -u_c, 0), and with M_A dR^T/dt qdot = M_A r (v, -u, 0) the added-mass terms combine into
+M_A r (v_r, -u_r, 0): the whole velocity force above is the still-water one evaluated at (u_r, v_r, r).
+So the hook only replaces nu by nu_r (r_r = r), and the added mass stays implicit in the joint-space
+inertia. A time-varying current (`auv_mj.ocean`) is held constant between its updates.
 """
 
 from __future__ import annotations
@@ -226,55 +239,98 @@ class Hydrodynamics:
 
         `disturbance` is a world-frame (Fx, Fy, Mz), the g_0 of Eq. (3). For repeated use, `bind` once.
         """
-        wrench = (0.0, 0.0, 0.0) if disturbance is None else tuple(float(f) for f in disturbance)
-        self.bind(model, data)(model.opt.timestep, *wrench)
+        wrench = None if disturbance is None else tuple(float(f) for f in disturbance)
+        self.bind(model, data)(0, model.opt.timestep, None if wrench is None else lambda: wrench)
 
     def bind(self, model: mujoco.MjModel, data: mujoco.MjData) -> Callable[..., None]:
-        """The step hook of this vehicle in (`model`, `data`): `hook(dt, fx, fy, mz)` applies Eq. (3)-(11).
+        """The stepper of this vehicle in (`model`, `data`): `advance(nstep, dt, wrench=None)`.
 
-        The hook adds the body force (rotated to the world) and the world-frame disturbance g_0 =
-        (fx, fy, mz) to `qfrc_passive`, and R (M_A + dt K) R^T to the joint-space inertia `data.M`,
-        which it re-factors. It must run after `mj_step1` (or `mj_forward`) and before `mj_step2`;
-        dt is the coming step's timestep, or 0 for the plain dynamics (true accelerations).
-        Binding keeps this per-step path free of attribute look-ups, fancy indexing and allocation.
+        Each of `nstep` steps applies Eq. (3)-(11) and then runs `mj_step2` and `mj_step1`; `nstep = 0` only
+        applies them (for `mj_forward`'s accelerations). Applying adds the body force at the velocity
+        relative to the water, nu_r (rotated to the world; the current is `model.opt.wind[:2]`, read at
+        every step), and the world-frame disturbance g_0 = `wrench()` -> (fx, fy, mz) to `qfrc_passive`,
+        and R (M_A + dt K) R^T to the joint-space inertia `data.M`, which it re-factors. Call it after
+        `mj_step1` (or `mj_forward`); dt is the timestep, or 0 for the plain dynamics (true accelerations).
 
         K makes MuJoCo's Euler step treat the quadratic drag of Eq. (11) linearly implicitly:
-        K_uu = -2 X_uu |u| and K_rr = -2 N_rr |r| (backward Euler; this halves the position error
+        K_uu = -2 X_uu |u_r| and K_rr = -2 N_rr |r| (backward Euler; this halves the position error
         against an exact solution at dt = 0.01 s). Sway stays explicit, which is more accurate (the
         diagonal-only linearisation of the stiff sway drag made errors 15x larger), except that
-        K_vv = max(0, |Y_vv| |v| - m_v / dt) stops one step of sway drag from reversing v: large
+        K_vv = max(0, |Y_vv| |v_r| - m_v / dt) stops one step of sway drag from reversing v_r: large
         timesteps stay stable at any sway speed.
+
+        This is the simulator's hot loop, written for CPython: the arrays are read and written through
+        memoryviews (plain floats, no NumPy scalars), the coefficients are closure locals, MuJoCo's functions
+        are called directly, and the force of `body_force` is inlined in the same order of operations (so
+        the same floating-point values; terms whose coefficient is zero are skipped, as they add exactly
+        nothing). tests/test_hydrodynamics.py checks the two agree, with and without cross-flow terms.
         """
-        qpos, qvel, qfrc, M = data.qpos, data.qvel, data.qfrc_passive, data.M
+        qpos, qvel, qfrc, M = (memoryview(a) for a in (data.qpos, data.qvel, data.qfrc_passive, data.M))
+        wind = memoryview(model.opt.wind)
         ix, iy, ir = self._dof_x, self._dof_y, self._dof_yaw
         m_xx, m_yx, m_yy, m_rx, m_ry, m_rr = (int(i) for i in self._M_index)
         i_psi = self.qpos_yaw
         a11, a22, a23, a33 = self._a11, self._a22, self._a23, self._a33
-        coefficients = self.coefficients
-        k_u, k_v, k_r = (max(0.0, -k) for k in (coefficients.X_uu, coefficients.Y_vv, coefficients.N_rr))
+        c = self.coefficients
+        k_u, k_v, k_r = (max(0.0, -k) for k in (c.X_uu, c.Y_vv, c.N_rr))
         sway_mass = float(self.total_mass[1, 1])
-        body_force = self._body_force
-        factor = mujoco.mj_factorM
+        munk = a11 - a22
+        neg_munk = -munk
+        X_uu, Y_uv, Y_ur, N_uv, N_ur = c.X_uu, c.Y_uv, c.Y_ur, c.N_uv, c.N_ur
+        Y_vv, Y_vr, Y_rv, Y_rr = c.Y_vv, c.Y_vr, c.Y_rv, c.Y_rr
+        N_vv, N_vr, N_rv, N_rr = c.N_vv, c.N_vr, c.N_rv, c.N_rr
+        cross_flow = any((Y_vr, Y_rv, N_vr, N_rv))  # REMUS has none: their zero terms are skipped
+        factor, step1, step2 = mujoco.mj_factorM, mujoco.mj_step1, mujoco.mj_step2
         cos, sin = math.cos, math.sin
 
-        def hook(dt: float, fx: float = 0.0, fy: float = 0.0, mz: float = 0.0) -> None:
-            psi = qpos.item(i_psi)
-            xd, yd, r = qvel.item(ix), qvel.item(iy), qvel.item(ir)
-            c, s = cos(psi), sin(psi)
-            u, v = c * xd + s * yd, c * yd - s * xd
-            X, Y, N = body_force(u, v, r)
-            qfrc[ix] += c * X - s * Y + fx
-            qfrc[iy] += s * X + c * Y + fy
-            qfrc[ir] += N + mz
-            b11 = a11 + 2.0 * dt * k_u * abs(u)
-            b22 = a22 + max(0.0, dt * k_v * abs(v) - sway_mass)
-            cc, ss, cs = c * c, s * s, c * s
-            M[m_xx] += b11 * cc + b22 * ss
-            M[m_yx] += (b11 - b22) * cs
-            M[m_yy] += b11 * ss + b22 * cc
-            M[m_rx] -= a23 * s
-            M[m_ry] += a23 * c
-            M[m_rr] += a33 + 2.0 * dt * k_r * abs(r)
-            factor(model, data)
+        def advance(nstep: int, dt: float, wrench: Callable[[], tuple[float, float, float]] | None = None) -> None:
+            wx, wy = wind[0], wind[1]  # the current changes between calls, not within one
+            implicit_u, implicit_v, implicit_r = 2.0 * dt * k_u, dt * k_v, 2.0 * dt * k_r
+            for _ in range(nstep if nstep > 0 else 1):
+                psi = qpos[i_psi]
+                xd = qvel[ix] - wx
+                yd = qvel[iy] - wy
+                r = qvel[ir]
+                cp = cos(psi)
+                sp = sin(psi)
+                u = cp * xd + sp * yd
+                v = cp * yd - sp * xd
+                au = u if u >= 0.0 else -u  # abs() without the call; a -0.0 here changes no sum
+                av = v if v >= 0.0 else -v
+                ar = r if r >= 0.0 else -r
+                X = neg_munk * r * v + a23 * r * r + X_uu * au * u
+                if cross_flow:
+                    Y = (neg_munk * u * r + (Y_vv * av + Y_vr * ar) * v + (Y_rv * av + Y_rr * ar) * r
+                         + Y_uv * u * v + Y_ur * u * r)
+                    N = (munk * u * v + (N_vv * av + N_vr * ar) * v + (N_rv * av + N_rr * ar) * r
+                         + N_uv * u * v + N_ur * u * r)
+                else:  # the same sums without their zero terms, which add exactly nothing
+                    Y = neg_munk * u * r + Y_vv * av * v + Y_rr * ar * r + Y_uv * u * v + Y_ur * u * r
+                    N = munk * u * v + N_vv * av * v + N_rr * ar * r + N_uv * u * v + N_ur * u * r
+                if wrench is None:
+                    qfrc[ix] += cp * X - sp * Y
+                    qfrc[iy] += sp * X + cp * Y
+                    qfrc[ir] += N
+                else:
+                    fx, fy, mz = wrench()
+                    qfrc[ix] += cp * X - sp * Y + fx
+                    qfrc[iy] += sp * X + cp * Y + fy
+                    qfrc[ir] += N + mz
+                b11 = a11 + implicit_u * au
+                excess = implicit_v * av - sway_mass
+                b22 = a22 + excess if excess > 0.0 else a22
+                cc = cp * cp
+                ss = sp * sp
+                cs = cp * sp
+                M[m_xx] += b11 * cc + b22 * ss
+                M[m_yx] += (b11 - b22) * cs
+                M[m_yy] += b11 * ss + b22 * cc
+                M[m_rx] -= a23 * sp
+                M[m_ry] += a23 * cp
+                M[m_rr] += a33 + implicit_r * ar
+                factor(model, data)
+                if nstep:
+                    step2(model, data)
+                    step1(model, data)
 
-        return hook
+        return advance

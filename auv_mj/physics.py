@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
+from collections.abc import Mapping
 from pathlib import Path
 
 import mujoco
@@ -39,10 +41,13 @@ class AUVPhysics(engine.Physics):
     MuJoCo's own passive forces are applied, without a process-global callback: other MuJoCo
     models in the same process are unaffected, and each physics carries its own coefficients.
     Sensors are not evaluated on physics sub-steps; `sonar()` evaluates the rangefinders on demand.
+    The ocean current is `model.opt.wind[:2]` (see `auv_mj.hydrodynamics`); `scale_vehicle` departs from
+    the MJCF's vehicle for model uncertainty (`auv_mj.ocean`).
     """
 
     _hydro: Hydrodynamics | None = None
     _step_ready = False
+    _bound: tuple | None = None
 
     @classmethod
     def from_xml_string(cls, xml_string: str, assets: dict | None = None, source: str = "<string>"):
@@ -103,6 +108,10 @@ class AUVPhysics(engine.Physics):
             raise ValueError(f"{source}: integrator must be Euler or implicitfast for the hydrodynamic "
                              f"step hook, got {mujoco.mjtIntegrator(model.opt.integrator).name}")
         self._hydro = Hydrodynamics(model, coefficients, source)
+        self._nominal = coefficients
+        body = int(model.jnt_bodyid[model.joint("x").id])
+        self._vehicle_body = body
+        self._nominal_mass = (float(model.body_mass[body]), model.body_inertia[body].copy())
         self.source = source
         self._settle_check()
         self._disturbances: list[Disturbance] = []
@@ -113,7 +122,7 @@ class AUVPhysics(engine.Physics):
         self._pose_adr = np.array([model.jnt_qposadr[model.joint(n).id] for n in ("x", "y", "yaw")])
         model.opt.disableflags |= SENSOR_DISABLE_BIT
         self._step_ready = False
-        self._bound_data = None
+        self._bound = None
         self.forward()
 
     def _settle_check(self) -> None:
@@ -140,9 +149,7 @@ class AUVPhysics(engine.Physics):
                 mujoco.mj_step1(model, data)
                 history = [start]
                 for _ in range(SETTLE_STEPS):
-                    hook(model.opt.timestep)
-                    mujoco.mj_step2(model, data)
-                    mujoco.mj_step1(model, data)
+                    hook(1, model.opt.timestep)  # Eq. (3)-(11), then mj_step2 and mj_step1
                     history.append(self._hydro.body_velocity(data))
                 nus = np.array(history)
                 with np.errstate(over="ignore", invalid="ignore"):
@@ -190,21 +197,54 @@ class AUVPhysics(engine.Physics):
         """The hydrodynamic model of this physics (coefficients, body-frame force)."""
         return self._hydro
 
+    def scale_vehicle(self, coefficients: Mapping[str, float] | None = None, mass: float = 1.0) -> None:
+        """Scales the vehicle from its MJCF values: each named hydrodynamic coefficient (e.g. "X_uu") by its
+        factor, the body's mass and inertia by `mass`; `scale_vehicle()` restores the MJCF vehicle.
+
+        MuJoCo's constants that depend on the mass are recomputed (`mj_setConst`); the next step rebuilds
+        the joint-space inertia. A ValueError names an unknown coefficient or a vehicle that is no longer
+        physical (M_RB + M_A not positive definite).
+        """
+        coefficients = dict(coefficients or {})
+        nominal = self._nominal
+        unknown = [k for k in coefficients if not hasattr(nominal, k)]
+        if unknown:
+            raise ValueError(f"scale_vehicle: unknown hydrodynamic coefficient(s) {unknown}")
+        if not (math.isfinite(mass) and mass > 0):
+            raise ValueError(f"scale_vehicle: the mass factor must be positive, got {mass}")
+        scaled = dataclasses.replace(nominal, **{k: getattr(nominal, k) * float(f) for k, f in coefficients.items()})
+        model = self.model.ptr
+        body = self._vehicle_body
+        body_mass, body_inertia = self._nominal_mass
+        model.body_mass[body] = body_mass * mass
+        model.body_inertia[body] = body_inertia * mass
+        mujoco.mj_setConst(model, mujoco.MjData(model))
+        try:
+            self._hydro = Hydrodynamics(model, scaled, self.source)
+        except ValueError:
+            if coefficients or mass != 1.0:  # leave the MJCF's vehicle, not a half-scaled one
+                self.scale_vehicle()
+            raise
+        finally:
+            self._bound = None
+            self._step_ready = False
+
     # --- stepping -------------------------------------------------------------------------------
 
-    def _hook(self, model: mujoco.MjModel, data: mujoco.MjData):
-        """The hydrodynamic step hook bound to the current data (re-bound after `copy` or a reload)."""
-        if self._bound_data is not data:
-            self._bound_hook = self._hydro.bind(model, data)
-            self._bound_data = data
-        return self._bound_hook
+    def _reload_from_data(self, data) -> None:
+        """dm_control's (re)binding to new MuJoCo data (construction, copy, reload): drops the step binding."""
+        self._bound = None
+        super()._reload_from_data(data)
+        self._bound = None
 
-    def _apply_hydrodynamics(self, hook, data: mujoco.MjData, timestep: float) -> None:
-        """Adds Eq. (3)-(11) and the active disturbances g_0 to the step in progress."""
-        if self._disturbances:
-            hook(timestep, *self._disturbance_wrench(data))
-        else:
-            hook(timestep)
+    def _bind(self) -> tuple:
+        """What `step` reads on every call, bound once per (model, data): MuJoCo's structs, the hydrodynamic
+        stepper, the disturbance wrench and memoryviews of ctrl and the warning counts."""
+        model, data = self.model.ptr, self.data.ptr
+        self._bound = (model, data, model.opt, self._hydro.bind(model, data),
+                       lambda: self._disturbance_wrench(data), memoryview(data.ctrl),
+                       memoryview(self._warnings))
+        return self._bound
 
     def _disturbance_wrench(self, data: mujoco.MjData) -> tuple[float, float, float]:
         """Sum of the active disturbances, world frame (Fx, Fy, Mz), at the state's time and heading."""
@@ -224,26 +264,18 @@ class AUVPhysics(engine.Physics):
         a direct change of qpos or qvel, call `forward()` first. A new MuJoCo warning (e.g. an
         unstable state, which MuJoCo resets) raises PhysicsError after the call.
         """
-        model, data = self.model.ptr, self.data.ptr
-        self._check_control(data.ctrl)
-        hook = self._hook(model, data)
-        timestep = model.opt.timestep
-        warnings_before = self._warnings.tobytes()
+        model, data, opt, advance, wrench, ctrl, warnings = self._bound or self._bind()
+        if not math.isfinite(sum(ctrl)):  # one sum per call; a NaN or inf anywhere makes it non-finite
+            self._check_control(data.ctrl)
+        timestep = opt.timestep
+        warnings_before = warnings.tobytes()
         start_time = data.time
-        step1, step2 = mujoco.mj_step1, mujoco.mj_step2
         if not self._step_ready:  # after forward(), reset or copy: rebuild M and the passive forces
-            step1(model, data)
-        disturbances = self._disturbances
-        for _ in range(nstep):
-            if disturbances:
-                hook(timestep, *self._disturbance_wrench(data))
-            else:
-                hook(timestep)
-            step2(model, data)
-            step1(model, data)
+            mujoco.mj_step1(model, data)
+        advance(nstep, timestep, wrench if self._disturbances else None)
         self._step_ready = True
         # MuJoCo auto-resets an unstable state, which rewinds time and may leave the counts unchanged.
-        if self._warnings.tobytes() != warnings_before or data.time < start_time + (nstep - 0.5) * timestep:
+        if warnings.tobytes() != warnings_before or data.time < start_time + (nstep - 0.5) * timestep:
             self._report_invalid_state(np.frombuffer(warnings_before, dtype=self._warnings.dtype))
 
     def _report_invalid_state(self, warnings_before: np.ndarray) -> None:
@@ -261,10 +293,10 @@ class AUVPhysics(engine.Physics):
         if self._hydro is None:  # still being constructed by dm_control
             super().forward()
             return
-        model, data = self.model.ptr, self.data.ptr
+        model, data, _, advance, wrench, *_ = self._bound or self._bind()
         with self.check_invalid_state():
             mujoco.mj_forward(model, data)
-            self._apply_hydrodynamics(self._hook(model, data), data, 0.0)
+            advance(0, 0.0, wrench if self._disturbances else None)
             mujoco.mj_fwdAcceleration(model, data)
             mujoco.mj_fwdConstraint(model, data)
         self._step_ready = False
@@ -339,11 +371,12 @@ class AUVPhysics(engine.Physics):
         """A copy of this physics with the same hydrodynamics and disturbances."""
         new = super().copy(share_model=share_model)
         new._hydro = self._hydro
+        new._nominal, new._vehicle_body, new._nominal_mass = self._nominal, self._vehicle_body, self._nominal_mass
         new.source = self.source
         new._disturbances = list(self._disturbances)
         new._sonar_index = self._sonar_index
         new._actuator_names = self._actuator_names
         new._pose_adr = self._pose_adr
         new._step_ready = False
-        new._bound_data = None
+        new._bound = None
         return new

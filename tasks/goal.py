@@ -46,6 +46,6 @@ class Goal(planning.PlanningTask):
 @SUITE.add("benchmarking", "goal", "planning")
 def goal(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kwargs=None, **task_kwargs):
     """Reach a target area in open water (Table 6 (a); task_kwargs scenario="random"|"a1"|"a2"|"a3")."""
-    physics = planning.Physics.load(planning.open_water_arena())
+    physics = planning.Physics.load(planning.open_water_arena(), task_kwargs.get("conditions"))
     task = Goal(random=random, **task_kwargs)
     return planning.environment(physics, task, time_limit, environment_kwargs)

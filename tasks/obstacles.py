@@ -149,8 +149,9 @@ def obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kwargs=No
     is scenario="random", a fresh layout per episode)."""
     scenario = _scenario(scenario, arena)
     task = Obstacles(scenario=scenario, random=random, **task_kwargs)
-    physics = (planning.Physics.load(random_obstacle_arena()) if scenario == "random"
-               else planning.load_arena(model_path(SCENARIOS[scenario]), need_path=False))
+    conditions = task_kwargs.get("conditions")
+    physics = (planning.Physics.load(random_obstacle_arena(), conditions) if scenario == "random"
+               else planning.load_arena(model_path(SCENARIOS[scenario]), need_path=False, conditions=conditions))
     return planning.environment(physics, task, time_limit, environment_kwargs)
 
 
@@ -161,6 +162,8 @@ def moving_obstacles(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kw
     is scenario="random", a fresh layout per episode)."""
     scenario = _scenario(scenario, arena)
     task = MovingObstacles(scenario=scenario, random=random, **task_kwargs)
-    physics = (planning.Physics.load(random_mover_arena()) if scenario == "random"
-               else planning.load_arena(model_path(MOVING_SCENARIOS[scenario]), need_path=False))
+    conditions = task_kwargs.get("conditions")
+    physics = (planning.Physics.load(random_mover_arena(), conditions) if scenario == "random"
+               else planning.load_arena(model_path(MOVING_SCENARIOS[scenario]), need_path=False,
+                                        conditions=conditions))
     return planning.environment(physics, task, time_limit, environment_kwargs)

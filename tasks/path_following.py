@@ -76,7 +76,7 @@ _CURVE_TIME_LIMIT = _time_limit(curve_polyline(), CURVE_START)
 @SUITE.add("benchmarking", "goal", "planning", "tracking")
 def path_line(time_limit=_LINE_TIME_LIMIT, random=None, environment_kwargs=None, **task_kwargs):
     """Follow the straight path (200, 40) -> (300, 300) from (70, 40) (Sec. 4.2, Fig. 13, Table 10)."""
-    physics = planning.Physics.load(planning.open_water_arena())
+    physics = planning.Physics.load(planning.open_water_arena(), task_kwargs.get("conditions"))
     task = PathFollowing(LINE, LINE_START, random=random, **task_kwargs)
     return planning.environment(physics, task, time_limit, environment_kwargs)
 
@@ -84,7 +84,7 @@ def path_line(time_limit=_LINE_TIME_LIMIT, random=None, environment_kwargs=None,
 @SUITE.add("benchmarking", "goal", "planning", "tracking")
 def path_curve(time_limit=_CURVE_TIME_LIMIT, random=None, environment_kwargs=None, **task_kwargs):
     """Follow y = 30 sin(0.02 x) + 180, 65 <= x <= 500, from (35, 230) (Sec. 4.2, Fig. 14, Table 11)."""
-    physics = planning.Physics.load(planning.open_water_arena())
+    physics = planning.Physics.load(planning.open_water_arena(), task_kwargs.get("conditions"))
     path = curve_polyline()
     task = PathFollowing(path, CURVE_START, subgoals=equal_arc_points(path), random=random, **task_kwargs)
     return planning.environment(physics, task, time_limit, environment_kwargs)

@@ -41,13 +41,20 @@ of goals, 1 on success, 0 on a collision or leaving the map.
 Events (last_info["event"]): "collision" (a contact between the vehicle and any other geom, checked at
 every executor tick), "left_map" (outside the arena's `arena_bounds`), "goal", "subgoal", or "".
 Collisions, leaving the map and success end the episode (discount 0); the time limit truncates it
-(discount 1). "safety_violation" is Table 1's d_{1-9} >= 5 m broken: a sonar range below d_s.
+(discount 1). "safety_violation" is Table 1's d_{1-9} >= 5 m broken: a true sonar range below d_s.
 "min_clearance" is the exact distance from the hull to the nearest other geom (`mj_geomDistance`,
 capped at SONAR_RANGE), for metrics; so are "cross_track_error" (to the route's reference path, by
 default the straight legs from the start through the goals) and the executor's tracking errors
 "speed_error" (V_cmd - u) and "heading_error" (psi_cmd - psi). "tracked" marks the steps whose tracking
 errors count in the metrics: on routes of several goals (paths, tunnels) only once the vehicle has reached
 the first one, so that the drive to the path is left out, as the paper does for Tables 10-11.
+
+Conditions. `conditions="ideal"` (default) is the paper's world; "ocean" or a mapping of effects
+(`auv_mj.ocean`) adds a current (moved on at every executor tick), lagged actuators (`Physics.load` compiles
+them), a noisy, delayed sonar with dropouts (what the observation and r_avoid see; the metrics
+"safety_violation" and "min_sonar_range" keep the true ranges) and a vehicle scaled per episode that the
+executor does not know about. The ocean's seed is drawn from the task's RandomState after the route, so a
+seed gives the same layout in both.
 """
 
 from __future__ import annotations
@@ -66,7 +73,7 @@ from dm_control.suite import base
 from dm_control.utils import rewards
 from dm_env import specs
 
-from auv_mj import arena, arena_check
+from auv_mj import arena, arena_check, ocean
 from auv_mj.arena import SAFETY_DISTANCE
 from auv_mj.geometry import wrap_angle
 from auv_mj.physics import AUVPhysics
@@ -322,9 +329,10 @@ class Physics(AUVPhysics):
     _steps_to_tick = 0
 
     @classmethod
-    def load(cls, arena_source: str | Path | ET.Element | None) -> Physics:
-        """The vehicle in `arena_source` (an arena MJCF path or ElementTree root; see `auv_mj.arena`)."""
-        xml, source = arena.compose_xml(arena_source)
+    def load(cls, arena_source: str | Path | ET.Element | None, conditions=None) -> Physics:
+        """The vehicle in `arena_source` (an arena MJCF path or ElementTree root; see `auv_mj.arena`), compiled
+        for the task option `conditions` (`auv_mj.ocean.conditions`: lagged actuators where they ask for it)."""
+        xml, source = arena.compose_xml(arena_source, thruster_lag=ocean.conditions(conditions).thruster_lag)
         return cls.from_xml_string(xml, source=source)
 
     def set_tick(self, callback: Callable[[Physics], None] | None, period: float = EXECUTOR_DT) -> None:
@@ -383,13 +391,13 @@ def check_timestep(physics: AUVPhysics, *periods: float) -> None:
                              f"{period:g} s control period into whole steps") from None
 
 
-def load_arena(source: str | Path | ET.Element, need_path: bool) -> Physics:
+def load_arena(source: str | Path | ET.Element, need_path: bool, conditions=None) -> Physics:
     """Physics of the vehicle in an arena file or element, refused unless `auv-mj check-arena` finds it usable.
 
     The arena is checked once where it enters a task, by `arena_check.require_usable` (cached by content).
     """
     arena_check.require_usable(options.arena_source(source), need_path)
-    return Physics.load(source)
+    return Physics.load(source, conditions)
 
 
 def route_time_limit(length: float) -> float:
@@ -426,15 +434,18 @@ class PlanningTask(base.Task):
     """
 
     def __init__(self, executor: Callable | None = None, reward: str = "suite",
-                 goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None):
+                 goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
+                 conditions="ideal"):
         """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); `reward` one of
-        REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS)."""
+        REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
+        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`)."""
         self.reward_kind = options.choice("reward", reward, REWARDS)
         self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
         executor = options.function("executor", executor, "executor(command, state) -> (tau_u, tau_r)")
         self.goal_radius = options.number("goal_radius", goal_radius, 0.0, MAX_GOAL_RADIUS, "m", low_open=True)
         super().__init__(random=options.seed(random))
         self.executor = SPlaneController() if executor is None else executor
+        self.ocean = ocean.Ocean(conditions)
         self.last_info: dict = {}
         self._model_ptr = None
 
@@ -496,10 +507,12 @@ class PlanningTask(base.Task):
         self._sonar = None
         self.last_info = {}
         physics.set_tick(self._tick, EXECUTOR_DT)
+        self.ocean.start(physics, self.random, len(SONAR_NAMES))
 
     def _tick(self, physics: Physics) -> None:
         """The executor's 10 Hz tick: controls from the command, movers moved, contacts checked."""
         data = physics.data.ptr
+        self.ocean.tick(physics)
         psi = data.qpos[self._qpos[2]]
         u, v, r = physics.hydrodynamics.body_velocity(data)
         data.ctrl[:] = self.executor(self._command, (u, v, r, psi))
@@ -529,7 +542,8 @@ class PlanningTask(base.Task):
         """Senses, detects events, advances the goals and computes the step's reward and `last_info`."""
         data = physics.data.ptr
         position = data.qpos[self._qpos[:2]].copy()
-        self._sonar = sonar = physics.sonar()
+        true_ranges = physics.sonar()
+        self._sonar = sonar = self.ocean.sense(true_ranges)
         collision = self._collided or (data.ncon > 0 and self._vehicle_contact(physics))
         self._collided = collision
         bounds = self._bounds
@@ -545,7 +559,7 @@ class PlanningTask(base.Task):
         if passed > self._reached:
             self._reached = passed
         success = self._reached == n and not (collision or left_map)
-        nearest = float(np.min(sonar))
+        nearest, true_nearest = float(np.min(sonar)), float(np.min(true_ranges))
         r_follow = float(following_reward(self._previous, position, desired, self.goal_radius))
         r_avoid = COLLISION_REWARD if collision or left_map else avoid_reward(nearest, self._repulsion_range)
         k1, k2, k3 = REWARD_WEIGHTS
@@ -576,11 +590,11 @@ class PlanningTask(base.Task):
             "paper_reward": paper,
             "collision": collision,
             "left_map": left_map,
-            "safety_violation": nearest < SAFETY_DISTANCE,
+            "safety_violation": true_nearest < SAFETY_DISTANCE,
             "success": success,
             "is_success": success,
             "min_clearance": self._clearance(physics),
-            "min_sonar_range": nearest,
+            "min_sonar_range": true_nearest,
             "event": event,
             "goals_reached": self._reached,
             "num_goals": n,
@@ -659,7 +673,7 @@ class PlanningTask(base.Task):
         """Vehicle state, command and sonar, normalised (OBSERVATION_FIELDS); the goals in metres."""
         data = physics.data.ptr
         if self._sonar is None:
-            self._sonar = physics.sonar()
+            self._sonar = self.ocean.sense(physics.sonar())
         x, y, psi = data.qpos[self._qpos]
         u, v, r = physics.hydrodynamics.body_velocity(data)
         speed_command, heading_command = self._command

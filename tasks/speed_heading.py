@@ -23,6 +23,10 @@ start, continuous within a step), over 1100 steps. "random" draws bursts, curren
 of random size, direction and timing; "none" applies nothing. `last_info["phase"]` names the latest
 disturbance to have started ("none" before the first), so that the per-phase MAE of Table 9 covers each
 disturbance and the recovery from it; `run_executor` computes it.
+
+Conditions: "ideal" (default) is the paper's world; "ocean" or a mapping of effects (`auv_mj.ocean`) adds
+a current (moved on every step, beside the disturbances above), lagged actuators and a vehicle scaled per
+episode that the executor does not know about.
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ from dm_control.suite import base
 from dm_control.utils import rewards
 from dm_env import specs
 
-from auv_mj import arena
+from auv_mj import arena, ocean
 from auv_mj.episode import phase_mae as _phase_mae
 from auv_mj.episode import record_episode
 from auv_mj.geometry import wrap_angle
@@ -232,10 +236,12 @@ class SpeedHeading(base.Task):
     """Follow (V_cmd, psi_cmd) with (tau_u, tau_r) under disturbances (Sec. 3.3, 4.2)."""
 
     def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper",
-                 reward: str = "suite", observation: str = "paper", random=None):
+                 reward: str = "suite", observation: str = "paper", random=None, conditions="ideal"):
         """`command`: "paper", "random" or (V, psi); `disturbances`: "paper", "random", "none";
         `reward`: "suite" ([0, 1]) or "paper" (Eq. 30); `observation`: "paper" (Eq. 27) or "integral"
-        (Eq. 27 and the error integrals of `ErrorIntegral`); `random`: seed, RandomState or None."""
+        (Eq. 27 and the error integrals of `ErrorIntegral`); `random`: seed, RandomState or None;
+        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`; the
+        sonar's play no part here)."""
         if isinstance(command, str):
             options.choice("command", command, COMMANDS)
         else:
@@ -244,6 +250,7 @@ class SpeedHeading(base.Task):
         options.choice("reward", reward, REWARDS)
         options.choice("observation", observation, OBSERVATIONS)
         random = options.seed(random)
+        self.ocean = ocean.Ocean(conditions)
         self._integral = ErrorIntegral() if observation == "integral" else None
         self._integral_obs = np.zeros(0 if self._integral is None else len(INTEGRAL_NAMES))
         self._command_mode = command
@@ -294,6 +301,7 @@ class SpeedHeading(base.Task):
         self._step, self._step_command = 0, self.command(physics)
         if self._integral is not None:
             self._integral.reset()
+        self.ocean.start(physics, self.random)
         super().initialize_episode(physics)  # calls after_step: errors and last_info of the start
 
     def _hold(self) -> int:
@@ -356,6 +364,7 @@ class SpeedHeading(base.Task):
 
     def before_step(self, action, physics) -> None:
         """Scales the action from [-1, 1] to the actuator ranges (ctrlrange) and applies it."""
+        self.ocean.tick(physics)
         self._step = self.step_index(physics)
         self._step_command = self.command(physics)
         action = checked_action(action, self.action_spec(physics), self)
@@ -398,7 +407,7 @@ def speed_heading(time_limit: float = _DEFAULT_TIME_LIMIT, random=None, environm
     """The execution layer's speed/heading tracking task (Sec. 3.3, 4.2) in open water."""
     time_limit = options.time_limit(time_limit)
     environment_kwargs = options.environment_kwargs(environment_kwargs)
-    physics = arena.load(None)
+    physics = arena.load(None, thruster_lag=ocean.conditions(task_kwargs.get("conditions")).thruster_lag)
     task = SpeedHeading(random=random, **task_kwargs)
     return control.Environment(physics, task, time_limit=time_limit, control_timestep=EXECUTOR_DT,
                                **environment_kwargs)

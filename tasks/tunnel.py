@@ -115,7 +115,7 @@ class Tunnel(planning.PlanningTask):
         """With `arena_spec`, draws the episode's tunnel and recompiles the physics around it first."""
         if self.arena_spec is not None:
             self.arena = random_arena(self.random, self.arena_spec)
-            xml, source = compose_xml(self.arena.element())
+            xml, source = compose_xml(self.arena.element(), thruster_lag=self.ocean.conditions.thruster_lag)
             physics.reload_from_xml_string(xml, source=source)
         super().initialize_episode(physics)
         limited = self.arena_spec is not None and self.route_time_limit
@@ -149,13 +149,15 @@ def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, ar
     if isinstance(arena, str) and arena == RANDOM:
         spec = tunnel_spec(arena_spec)
         task = Tunnel(arena_spec=spec, route_time_limit=time_limit is None, random=random, **task_kwargs)
-        physics = planning.Physics.load(planning.open_water_arena())  # replaced at every reset
+        physics = planning.Physics.load(planning.open_water_arena(),  # replaced at every reset
+                                        task_kwargs.get("conditions"))
         if time_limit is None:  # the longest tunnel's; each episode ends at its own (Tunnel.get_termination)
             time_limit = planning.route_time_limit(spec.length[1] + 2 * planning.SUBGOAL_SPACING)
         return planning.environment(physics, task, time_limit, environment_kwargs)
     if arena_spec is not None:
         raise ValueError("arena_spec applies to arena='random' only")
-    physics = planning.load_arena(model_path(DEFAULT_ARENA) if arena is None else arena, need_path=True)
+    physics = planning.load_arena(model_path(DEFAULT_ARENA) if arena is None else arena, need_path=True,
+                                  conditions=task_kwargs.get("conditions"))
     task = Tunnel(random=random, **task_kwargs)
     if time_limit is None:
         time_limit = route_limit(arena_info(physics))

@@ -66,6 +66,6 @@ class Waypoints(planning.PlanningTask):
 @SUITE.add("benchmarking", "goal", "planning", "waypoints")
 def waypoints(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kwargs=None, **task_kwargs):
     """Reach target areas in turn (Table 6 (b)-(d); task_kwargs layout="random"|"b1"|"b2"|"c"|"d")."""
-    physics = planning.Physics.load(planning.open_water_arena())
+    physics = planning.Physics.load(planning.open_water_arena(), task_kwargs.get("conditions"))
     task = Waypoints(random=random, **task_kwargs)
     return planning.environment(physics, task, time_limit, environment_kwargs)

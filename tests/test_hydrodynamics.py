@@ -19,6 +19,8 @@ INITIAL_STATES = {
     "from rest": (0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
     "moving": (1.0, -2.0, 0.3, 1.2, 0.2, 0.1),  # (x, y, psi, u, v, r)
 }
+CURRENTS = {"still water": (0.0, 0.0), "current": (0.3, -0.2)}
+"""World-frame currents V_c [m/s] (`model.opt.wind[:2]`): none, and a coastal one of 0.36 m/s."""
 
 
 def manoeuvre_tau(t: float) -> tuple[float, float]:
@@ -47,18 +49,20 @@ def wrap(angle):
 
 
 @functools.cache
-def reference_solution(state_name: str):
-    return ReferenceAUV.from_xml().solve(INITIAL_STATES[state_name], MANOEUVRE_TIME, manoeuvre_tau)
+def reference_solution(state_name: str, current_name: str = "still water"):
+    return ReferenceAUV.from_xml().solve(INITIAL_STATES[state_name], MANOEUVRE_TIME, manoeuvre_tau,
+                                         CURRENTS[current_name])
 
 
 @functools.cache
-def manoeuvre_errors(state_name: str, timestep: float) -> tuple[float, float]:
+def manoeuvre_errors(state_name: str, timestep: float, current_name: str = "still water") -> tuple[float, float]:
     """Max position [m] and heading [rad] error of the simulator against the reference over the manoeuvre.
 
     The simulator holds tau(t_k) over each step (zero-order hold), the reference sees tau(t): an O(dt)
     difference of the same order as the Euler step's own error.
     """
     physics = new_physics(timestep)
+    physics.model.opt.wind[:2] = CURRENTS[current_name]
     set_state(physics, *INITIAL_STATES[state_name])
     steps = int(round(MANOEUVRE_TIME / timestep))
     times, poses = np.empty(steps), np.empty((steps, 3))
@@ -66,33 +70,108 @@ def manoeuvre_errors(state_name: str, timestep: float) -> tuple[float, float]:
         physics.set_control(manoeuvre_tau(physics.time()))
         physics.step()
         times[k], poses[k] = physics.time(), physics.pose()
-    reference = reference_solution(state_name)(times)
+    reference = reference_solution(state_name, current_name)(times)
     position_error = np.max(np.hypot(*(poses[:, :2] - reference[:2].T).T))
     heading_error = np.max(np.abs(wrap(poses[:, 2] - reference[2])))
     return float(position_error), float(heading_error)
 
 
+@pytest.mark.parametrize("current_name", CURRENTS)
 @pytest.mark.parametrize("state_name", INITIAL_STATES)
-def test_manoeuvre_matches_scipy_reference_at_default_timestep(state_name):
+def test_manoeuvre_matches_scipy_reference_at_default_timestep(state_name, current_name):
     assert new_physics().model.opt.timestep == 0.01
-    position_error, heading_error = manoeuvre_errors(state_name, 0.01)
+    position_error, heading_error = manoeuvre_errors(state_name, 0.01, current_name)
     assert position_error <= 0.5
     assert heading_error <= 0.1
 
 
+@pytest.mark.parametrize("current_name", CURRENTS)
 @pytest.mark.parametrize("state_name", INITIAL_STATES)
-def test_halving_the_timestep_halves_the_error(state_name):
+def test_halving_the_timestep_halves_the_error(state_name, current_name):
     """Semi-implicit Euler is first order: errors scale with dt."""
-    coarse, fine = manoeuvre_errors(state_name, 0.01), manoeuvre_errors(state_name, 0.005)
+    coarse = manoeuvre_errors(state_name, 0.01, current_name)
+    fine = manoeuvre_errors(state_name, 0.005, current_name)
     assert 1.6 <= coarse[0] / fine[0] <= 2.4
     assert 1.6 <= coarse[1] / fine[1] <= 2.4
 
 
 def test_the_reference_is_nontrivial():
-    """The manoeuvre turns, sways and travels far, so the comparison above tests every term."""
-    states = reference_solution("from rest")(np.linspace(0, MANOEUVRE_TIME, 601))
+    """The manoeuvre turns, sways and travels far, so the comparison above tests every term; the current
+    moves the track by far more than the errors allowed, so the comparison in a current tests it too."""
+    times = np.linspace(0, MANOEUVRE_TIME, 601)
+    states = reference_solution("from rest")(times)
     assert np.ptp(states[2]) > 3.0 and np.max(np.abs(states[4])) > 0.05 and np.max(states[3]) > 2.0
     assert np.max(np.hypot(states[0], states[1])) > 15.0
+    drifted = reference_solution("from rest", "current")(times)
+    assert np.max(np.hypot(*(drifted[:2] - states[:2]))) > 10.0
+
+
+# --- the current: relative velocity, drift, Galilean invariance -------------------------------------------
+
+@pytest.mark.parametrize("cross_flow", [{}, {"Y_vr": -40.0, "Y_rv": -6.0, "N_vr": 3.0, "N_rv": -20.0}],
+                         ids=["REMUS", "with cross-flow terms"])
+def test_force_is_the_still_water_force_at_the_relative_velocity(cross_flow):
+    """After forward(), qfrc_passive is R(psi) body_force(u_r, v_r, r), with nu_r = nu - R^T V_c: the step's
+    inlined force is `body_force`, for REMUS (no cross-flow terms) and for a hull with them."""
+    physics = new_physics(xml=vehicle_xml_with(**cross_flow))
+    rng = np.random.default_rng(3)
+    for psi, u, v, r, vcx, vcy in rng.uniform([-3, -2, -1, -1, -0.5, -0.5], [3, 2, 1, 1, 0.5, 0.5], size=(50, 6)):
+        physics.model.opt.wind[:2] = vcx, vcy
+        set_state(physics, 0.0, 0.0, psi, u, v, r)
+        c, s = math.cos(psi), math.sin(psi)
+        X, Y, N = physics.hydrodynamics.body_force(u - (c * vcx + s * vcy), v - (-s * vcx + c * vcy), r)
+        np.testing.assert_allclose(physics.data.qfrc_passive[:3], [c * X - s * Y, s * X + c * Y, N],
+                                   rtol=1e-12, atol=1e-12)
+
+
+def test_a_vehicle_at_rest_in_the_water_drifts_with_it_exactly():
+    """Moving with the water (nu_r = 0, tau = 0) nothing acts on the hull: it keeps V_c and its heading."""
+    physics = new_physics()
+    physics.model.opt.wind[:2] = 0.3, -0.2
+    with physics.reset_context():
+        physics.data.qpos[:3] = 5.0, 1.0, 0.8
+        physics.data.qvel[:3] = 0.3, -0.2, 0.0
+    physics.step(3000)
+    np.testing.assert_allclose(physics.data.qvel[:3], [0.3, -0.2, 0.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(physics.pose(), [5.0 + 0.3 * 30.0, 1.0 - 0.2 * 30.0, 0.8], atol=1e-9)
+
+
+def test_motion_relative_to_a_current_is_the_still_water_motion():
+    """Galilean invariance: a constant current only carries the whole still-water motion along.
+
+    For a constant, irrotational V_c the equations in nu_r are the still-water equations (Fossen 2011,
+    Property 8.1), so a manoeuvre started at nu_0 + nu_c in the current, seen from the water, is the same
+    manoeuvre started at nu_0 in still water: same heading and relative velocity, track shifted by V_c t.
+    """
+    current = np.array([-0.25, 0.35])
+    still, drifting = new_physics(), new_physics()
+    drifting.model.opt.wind[:2] = current
+    psi = 0.4
+    set_state(still, 0.0, 0.0, psi, 1.0, 0.1, 0.05)
+    with drifting.reset_context():
+        drifting.data.qpos[:3] = still.data.qpos[:3]
+        drifting.data.qvel[:3] = still.data.qvel[:3] + [*current, 0.0]
+    for _ in range(60):
+        for physics in (still, drifting):
+            physics.set_control(manoeuvre_tau(physics.time()))
+            physics.step(100)
+        t = drifting.time()
+        np.testing.assert_allclose(drifting.data.qvel[:3] - [*current, 0.0], still.data.qvel[:3], atol=1e-9)
+        np.testing.assert_allclose(drifting.pose(), still.pose() + [*(current * t), 0.0], atol=1e-8)
+    assert np.hypot(*still.pose()[:2]) > 10.0 and abs(still.pose()[2] - psi) > 1.0  # it really manoeuvred
+
+
+@pytest.mark.parametrize("along", [0.3, -0.3])
+def test_thrust_along_the_current_adds_the_current_to_the_terminal_speed(along):
+    """Heading along V_c, the surge balance holds on the relative speed: u = sqrt(tau_u / -X_uu) + V_c."""
+    physics = new_physics()
+    physics.model.opt.wind[:2] = along * math.cos(0.7), along * math.sin(0.7)
+    set_state(physics, 0.0, 0.0, 0.7, 0.0, 0.0, 0.0)
+    physics.set_control([10.0, 0.0])
+    physics.step(6000)
+    u, v, r = physics.body_velocity()
+    assert u == pytest.approx(math.sqrt(10.0 / -COEFFICIENTS["X_uu"]) + along, rel=1e-3)
+    assert abs(v) < 1e-9 and abs(r) < 1e-9
 
 
 # --- structure of the force: C_A(nu) does no work, drag is |v| v -------------------------------------
@@ -346,7 +425,9 @@ def test_other_mujoco_models_are_unaffected():
 
 
 if __name__ == "__main__":  # the accuracy figures of the issue: python tests/test_hydrodynamics.py
-    for name in INITIAL_STATES:
-        for dt in (0.01, 0.005):
-            position, heading = manoeuvre_errors(name, dt)
-            print(f"{name:>12}  dt {dt:<6} max position error {position:.3f} m  max heading error {heading:.4f} rad")
+    for current in CURRENTS:
+        for name in INITIAL_STATES:
+            for dt in (0.01, 0.005):
+                position, heading = manoeuvre_errors(name, dt, current)
+                print(f"{current:>11}  {name:>9}  dt {dt:<6} max position error {position:.3f} m  "
+                      f"max heading error {heading:.4f} rad")

@@ -264,3 +264,15 @@ def test_cli_tunnel_random_refuses_a_centreline_too(tmp_path):
 def test_arena_spec_refuses_bad_options_naming_them(options, message):
     with pytest.raises(ValueError, match=message):
         suite.load("auv", "tunnel", task_kwargs={"arena": "random", "arena_spec": options})
+
+
+def test_random_tunnels_take_the_ocean_conditions_too():
+    """A fresh arena per episode keeps the task's conditions: the lagged thrusters are recompiled with it."""
+    env = tunnel.tunnel(arena="random", arena_spec=SHORT, conditions="ocean", random=10_001)
+    env.reset()
+    assert env.physics.model.na == 2  # the two filterexact actuators
+    for _ in range(3):
+        env.step(np.array([0.5, 0.0]))
+    ideal = tunnel.tunnel(arena="random", arena_spec=SHORT, random=10_001)
+    ideal.reset()
+    assert ideal.physics.model.na == 0

@@ -1,7 +1,9 @@
 """An independent reference for the vehicle tests: Eq. (1)-(12) written out and integrated with scipy.
 
 Nothing here calls auv_mj's force code: the coefficients are read from the MJCF with ElementTree and
-the equations are the paper's matrices (Eq. 5, 6, 9, 10, 11) plus the lift terms of the MJCF.
+the equations are the paper's matrices (Eq. 5, 6, 9, 10, 11) plus the lift terms of the MJCF. With an
+ocean current the equations are Fossen's (2011, Sec. 8.3) in the relative velocity, term by term as the
+matrices read, not the simulator's rearrangement of them.
 """
 
 from __future__ import annotations
@@ -45,7 +47,12 @@ def vehicle_xml_with(**numerics: float) -> str:
 
 @dataclass(frozen=True)
 class ReferenceAUV:
-    """Eq. (3) in the body frame: M nu_dot + C_RB nu + C_A nu + D nu = tau + lift + g_0 (body frame)."""
+    """Eq. (3) in the body frame: M nu_dot + C_RB nu + C_A nu + D nu = tau + lift + g_0 (body frame).
+
+    In a constant world-frame current V_c the water terms take the relative velocity nu_r = nu - nu_c,
+    nu_c = R(psi)^T V_c: M_RB nu_dot + C_RB(nu) nu + M_A nu_r_dot + C_A(nu_r) nu_r + D(nu_r) nu_r = tau +
+    lift(nu_r), with nu_r_dot = nu_dot - nu_c_dot and nu_c_dot = (r v_c, -r u_c, 0).
+    """
 
     c: dict[str, float]
     m: float
@@ -58,19 +65,32 @@ class ReferenceAUV:
 
     def mass_matrix(self) -> np.ndarray:
         """M = M_RB + M_A, Eq. (4)-(6)."""
+        return self.rigid_body_mass() + self.added_mass()
+
+    def rigid_body_mass(self) -> np.ndarray:
+        """M_RB, Eq. (5)."""
+        return np.diag([self.m, self.m, self.iz])
+
+    def added_mass(self) -> np.ndarray:
+        """M_A, Eq. (6)."""
         c = self.c
-        return np.array([[self.m - c["X_udot"], 0.0, 0.0],
-                         [0.0, self.m - c["Y_vdot"], -c["Y_rdot"]],
-                         [0.0, -c["Y_rdot"], self.iz - c["N_rdot"]]])
+        return -np.array([[c["X_udot"], 0.0, 0.0], [0.0, c["Y_vdot"], c["Y_rdot"]], [0.0, c["Y_rdot"], c["N_rdot"]]])
 
     def coriolis(self, u: float, v: float, r: float) -> np.ndarray:
         """C(nu) = C_RB(nu) + C_A(nu), Eq. (8)-(10)."""
-        c, m = self.c, self.m
-        c_rb = np.array([[0.0, 0.0, -m * v], [0.0, 0.0, m * u], [m * v, -m * u, 0.0]])
-        c_a = np.array([[0.0, 0.0, c["Y_vdot"] * v + c["Y_rdot"] * r],
-                        [0.0, 0.0, -c["X_udot"] * u],
-                        [-c["Y_vdot"] * v - c["Y_rdot"] * r, c["X_udot"] * u, 0.0]])
-        return c_rb + c_a
+        return self.rigid_body_coriolis(u, v, r) + self.added_mass_coriolis(u, v, r)
+
+    def rigid_body_coriolis(self, u: float, v: float, r: float) -> np.ndarray:
+        """C_RB(nu), Eq. (8)."""
+        m = self.m
+        return np.array([[0.0, 0.0, -m * v], [0.0, 0.0, m * u], [m * v, -m * u, 0.0]])
+
+    def added_mass_coriolis(self, u: float, v: float, r: float) -> np.ndarray:
+        """C_A(nu), Eq. (9)."""
+        c = self.c
+        return np.array([[0.0, 0.0, c["Y_vdot"] * v + c["Y_rdot"] * r],
+                         [0.0, 0.0, -c["X_udot"] * u],
+                         [-c["Y_vdot"] * v - c["Y_rdot"] * r, c["X_udot"] * u, 0.0]])
 
     def damping(self, u: float, v: float, r: float) -> np.ndarray:
         """D(nu) of Eq. (11)."""
@@ -85,24 +105,32 @@ class ReferenceAUV:
         return np.array([0.0, c.get("Y_uv", 0.0) * u * v + c.get("Y_ur", 0.0) * u * r,
                          c.get("N_uv", 0.0) * u * v + c.get("N_ur", 0.0) * u * r])
 
-    def rhs(self, tau: Callable[[float], tuple[float, float]]) -> Callable[[float, np.ndarray], np.ndarray]:
-        """d/dt (x, y, psi, u, v, r) under tau(t) = (tau_u, tau_r), Eq. (1)-(3), (12)."""
+    def rhs(self, tau: Callable[[float], tuple[float, float]],
+            current: tuple[float, float] = (0.0, 0.0)) -> Callable[[float, np.ndarray], np.ndarray]:
+        """d/dt (x, y, psi, u, v, r) under tau(t) = (tau_u, tau_r) in a constant world-frame `current`
+        (V_cx, V_cy) [m/s], Eq. (1)-(3), (12); (u, v, r) is the velocity over ground."""
         m_inv = np.linalg.inv(self.mass_matrix())
+        m_a = self.added_mass()
+        vcx, vcy = current
 
         def f(t, s):
             _, _, psi, u, v, r = s
             tau_u, tau_r = tau(t)
-            nu = np.array([u, v, r])
-            force = np.array([tau_u, 0.0, tau_r]) + self.lift(u, v, r) - (
-                self.coriolis(u, v, r) + self.damping(u, v, r)) @ nu
             c, s_ = math.cos(psi), math.sin(psi)
+            u_c, v_c = c * vcx + s_ * vcy, -s_ * vcx + c * vcy  # nu_c = R^T V_c
+            ur, vr = u - u_c, v - v_c
+            nu, nu_r = np.array([u, v, r]), np.array([ur, vr, r])
+            nu_c_dot = np.array([r * v_c, -r * u_c, 0.0])
+            force = (np.array([tau_u, 0.0, tau_r]) + self.lift(ur, vr, r) - self.rigid_body_coriolis(u, v, r) @ nu
+                     - (self.added_mass_coriolis(ur, vr, r) + self.damping(ur, vr, r)) @ nu_r + m_a @ nu_c_dot)
             return np.concatenate(([c * u - s_ * v, s_ * u + c * v, r], m_inv @ force))
 
         return f
 
-    def solve(self, state0, t_end: float, tau) -> Callable[[np.ndarray], np.ndarray]:
+    def solve(self, state0, t_end: float, tau,
+              current: tuple[float, float] = (0.0, 0.0)) -> Callable[[np.ndarray], np.ndarray]:
         """Dense DOP853 solution (rtol = atol = 1e-10) of the state (x, y, psi, u, v, r) on [0, t_end]."""
-        sol = solve_ivp(self.rhs(tau), (0.0, t_end), np.asarray(state0, float), method="DOP853",
+        sol = solve_ivp(self.rhs(tau, current), (0.0, t_end), np.asarray(state0, float), method="DOP853",
                         rtol=1e-10, atol=1e-10, dense_output=True)
         assert sol.success, sol.message
         return sol.sol

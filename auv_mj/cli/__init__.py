@@ -20,6 +20,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("tunnel", "auv_mj.cli.tunnel", "build a tunnel arena MJCF from a centreline CSV/JSON"),
     ("check-arena", "auv_mj.cli.check_arena", "check an arena MJCF and write a top-down PNG preview"),
     ("train", "auv_mj.cli.train", "train an agent (ddpg, her-ddpg, executor) on a task"),
+    ("sweep", "auv_mj.cli.sweep", "training over seeds and hyper-parameters on Ray Tune, with a results table"),
     ("eval", "auv_mj.cli.evaluate", "suite-style evaluation of a policy on tasks"),
     ("render", "auv_mj.cli.render", "render an episode to MP4/GIF off-screen"),
     ("plot", "auv_mj.cli.plot", "trajectory, tracking-error and learning-curve plots (PNG)"),

@@ -12,6 +12,12 @@ Per task the summary holds (units in brackets):
 A figure that is undefined is null in the JSON (never NaN): `time_to_goal` when no episode succeeded,
 clearances on a task without obstacles to measure (speed_heading), tracking errors where the task
 reports none. The JSON is strict (any parser reads it); the CSV leaves such cells empty.
+
+`--workers N` runs the episodes in N local processes and `--ray ADDRESS` (or `local`) as Ray tasks on a
+cluster (`auv_mj.cli.distributed`); each episode is seeded as in the serial loop and the summaries are
+taken over the episodes in index order, so the JSON is the serial one. An episode that produced no result
+(its worker died more than `--retries` times, or it raised) is listed under "failed" by task, episode
+index and seed; the summaries cover the finished episodes, and the exit status is 1.
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli import policies
+from auv_mj.cli import distributed, policies
 from auv_mj.cli.options import add_episode_options, check_output, positive_int, task_kwargs, usage_error
 from auv_mj.console import progress_bar
 from auv_mj.episode import OUTCOMES, episode_metrics, record_episode
@@ -68,11 +74,18 @@ def summarise(episodes: list[dict]) -> dict:
 
 
 def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
-             max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None) -> dict:
+             max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
+             workers: int = 1, ray_address: str | None = None, retries: int = distributed.RETRIES,
+             episode_fn=None) -> dict:
     """Evaluates `policy_name` on each task; returns {"policy", "seed", "tasks": {task: summary}}.
 
     `task_kwargs` go to every task (e.g. random commands on speed_heading); the seed is the episode's.
+    With `workers` > 1 or a `ray_address` the episodes run in parallel (`evaluate_parallel`).
     """
+    if workers > 1 or ray_address is not None:
+        return evaluate_parallel(policy_name, task_names, episodes, seed, max_steps, progress, task_kwargs,
+                                 workers=workers, ray_address=ray_address, retries=retries,
+                                 episode_fn=episode_fn)
     task_kwargs = dict(task_kwargs or {})
     results = {}
     for task_name in task_names:
@@ -86,6 +99,46 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
         results[task_name] = summarise(runs)
     return {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
             "tasks": results}
+
+
+def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
+                      max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
+                      workers: int = 2, ray_address: str | None = None, retries: int = distributed.RETRIES,
+                      episode_fn=None) -> dict:
+    """`evaluate` with the episodes of every task spread over `workers` local processes or a Ray cluster.
+
+    Episode i of a task runs `episode_fn(policy_name, task, seed + i, task_kwargs, max_steps)` (by default
+    `run_episode`; a module-level function, for pickling), as the serial loop does; results are kept as they arrive and
+    summarised in episode order, so the result equals the serial one. Episodes that gave no result are
+    listed under "failed" ({task, episode, seed, error}); the summaries cover the others.
+    """
+    task_kwargs = dict(task_kwargs or {})
+    jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task in task_names for i in range(episodes)]
+    finished: dict[int, dict] = {}
+    failed = []
+    bar = progress_bar(total=len(jobs), desc=f"eval {len(task_names)} task(s)", unit="ep", disable=not progress)
+    try:
+        for k, result in distributed.run_jobs(episode_fn or run_episode, jobs, workers=workers,
+                                              ray_address=ray_address, retries=retries):
+            if isinstance(result, distributed.JobFailed):
+                failed.append({"task": jobs[k][1], "episode": k % episodes, "seed": jobs[k][2],
+                               "error": result.error})
+            else:
+                finished[k] = result
+            bar.update(1)
+            bar.set_postfix(success=f"{np.mean([r['success'] for r in finished.values()] or [0]):.2f}",
+                            failed=len(failed))
+    finally:
+        bar.close()
+    results = {}
+    for t, task_name in enumerate(task_names):
+        runs = [finished[k] for k in range(t * episodes, (t + 1) * episodes) if k in finished]
+        results[task_name] = summarise(runs) if runs else {"episodes": 0, "outcomes": dict.fromkeys(OUTCOMES, 0)}
+    out = {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
+           "tasks": results}
+    if failed:
+        out["failed"] = sorted(failed, key=lambda f: (task_names.index(f["task"]), f["episode"]))
+    return out
 
 
 TABLE_COLUMNS = ("success_rate", "collision_rate", "min_clearance", "path_length", "time_to_goal", "return",
@@ -135,6 +188,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, default=None, help="write results as JSON here")
     parser.add_argument("--csv", type=Path, default=None, help="write results as CSV here")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--workers", type=positive_int, default=1,
+                        help="run the episodes in this many local processes (with --ray local: Ray's CPUs)")
+    parser.add_argument("--ray", default=None, metavar="ADDRESS",
+                        help="run the episodes as Ray tasks: 'local' starts Ray here, 'auto' or HOST:PORT "
+                             "joins a running cluster (`ray start --head`)")
+    parser.add_argument("--retries", type=int, default=distributed.RETRIES,
+                        help="reruns of an episode whose worker process died, before it is reported failed")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -144,6 +204,15 @@ def run(args: argparse.Namespace) -> int:
     if args.seed + args.episodes - 1 > SEED_LIMIT:
         usage_error(args, f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {SEED_LIMIT}")
     kwargs = task_kwargs(args)
+    if args.retries < 0:
+        usage_error(args, f"--retries must be >= 0, got {args.retries}")
+    if args.ray not in (None, distributed.LOCAL) and args.workers > 1:
+        usage_error(args, "--workers sets the CPUs of --ray local only; a cluster's CPUs are its own")
+    if args.ray is not None:
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            usage_error(args, "--ray needs Ray: pip install 'ray[tune]'")
     try:
         task_names = policies.resolve_tasks(args.task, args.policy)
         if "random" in kwargs:
@@ -154,7 +223,8 @@ def run(args: argparse.Namespace) -> int:
         usage_error(args, str(e))
     try:
         results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps,
-                           progress=not args.no_progress, task_kwargs=kwargs)
+                           progress=not args.no_progress, task_kwargs=kwargs, workers=args.workers,
+                           ray_address=args.ray, retries=args.retries)
     except (ValueError, FileNotFoundError) as e:
         print(f"{args.prog}: error: {e}", file=sys.stderr)
         return 1
@@ -163,4 +233,7 @@ def run(args: argparse.Namespace) -> int:
     for path in (args.json, args.csv):
         if path:
             print(f"wrote {path}")
-    return 0
+    for failure in results.get("failed", []):
+        print(f"{args.prog}: episode {failure['episode']} of {failure['task']} (seed {failure['seed']}) failed: "
+              f"{failure['error']}", file=sys.stderr)
+    return 1 if results.get("failed") else 0

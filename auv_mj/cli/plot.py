@@ -8,6 +8,7 @@ from pathlib import Path
 from auv_mj.cli import policies
 from auv_mj.cli.options import add_episode_options, check_output, pixels, positive_int, task_kwargs, usage_error
 from auv_mj.cli.plots import (
+    BANDS,
     DEFAULT_SIZE,
     LEARNING_WINDOW,
     as_records,
@@ -43,7 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "repeat per group")
     p.add_argument("--label", action="append", default=None, help="label of each --runs group, in order")
     p.add_argument("--window", type=positive_int, default=LEARNING_WINDOW, help="episodes per moving average")
-    p.add_argument("--band", choices=("minmax", "std"), default="minmax", help="shaded band across runs")
+    p.add_argument("--band", choices=BANDS, default="minmax",
+                   help="shaded band across runs (ci: 95 %% confidence interval of the mean)")
     p.add_argument("--x", choices=("episode", "steps"), default="episode", help="horizontal axis")
     _common(p)
 

@@ -32,6 +32,8 @@ DEFAULT_SIZE = (1000, 800)
 """Default figure size [px]; `width`, `height` arguments set it exactly (at DPI)."""
 LEARNING_WINDOW = 5
 """Episodes averaged per point of a learning curve (Sec. 4.1: "recorded every five epochs")."""
+BANDS = ("minmax", "std", "ci")
+"""Shaded bands of the learning curves: range, one standard deviation, 95 % confidence of the mean."""
 VEHICLE_MARK = 0.02
 """The vehicle's red rectangle is drawn this fraction of the map's size long (the hull is 1.33 m)."""
 TRACKING_COLUMNS = ("step", "time", "speed", "speed_command", "heading", "heading_command",
@@ -385,10 +387,11 @@ def learning_curve(runs: Sequence[dict[str, np.ndarray]], column: str, window: i
     """(x, mean, low, high) of a column over runs, each smoothed over `window` episodes.
 
     Runs are cut to the shortest; `x` is "episode" or "steps" (the mean over runs of the step counts);
-    `band` "minmax" (range of the runs) or "std" (mean +- one standard deviation).
+    `band` "minmax" (range of the runs), "std" (mean +- one standard deviation) or "ci" (the 95 %
+    confidence interval of the mean over runs, Student's t with runs - 1 degrees of freedom).
     """
-    if band not in ("minmax", "std"):
-        raise ValueError(f"band must be 'minmax' or 'std', got {band!r}")
+    if band not in BANDS:
+        raise ValueError(f"band must be one of {BANDS}, got {band!r}")
     n = min(len(r[column]) for r in runs)
     values = np.stack([smooth(r[column][:n], window) for r in runs])
     if x == "steps" and all("steps" in r for r in runs):
@@ -399,6 +402,13 @@ def learning_curve(runs: Sequence[dict[str, np.ndarray]], column: str, window: i
     if band == "std":
         std = values.std(axis=0)
         return xs, mean, mean - std, mean + std
+    if band == "ci":
+        if len(runs) < 2:
+            return xs, mean, mean, mean
+        from scipy import stats
+
+        half = stats.t.ppf(0.975, len(runs) - 1) * values.std(axis=0, ddof=1) / np.sqrt(len(runs))
+        return xs, mean, mean - half, mean + half
     return xs, mean, values.min(axis=0), values.max(axis=0)
 
 
@@ -424,7 +434,8 @@ def plot_learning(groups: Sequence[tuple[str, Sequence[str | Path]]], path: str 
     for ax in (ret_ax, succ_ax):
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize="small")
-    band_name = "min-max over runs" if band == "minmax" else "mean +- std over runs"
+    band_name = {"minmax": "min-max over runs", "std": "mean +- std over runs",
+                 "ci": "95 % confidence interval of the mean"}[band]
     ret_ax.set_title(title if title is not None else f"learning curves (band: {band_name})")
     fig.tight_layout()
     return _save(fig, path)

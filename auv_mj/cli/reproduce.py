@@ -2,8 +2,9 @@
 
 Covers Table 9 (executor vs S-plane under disturbances), Tables 10-11 (line and curve following),
 Fig. 8 (HER-DDPG vs DDPG learning curves, from the training logs in `--runs`), the named scenarios
-of Tables 6-8 and 12, and the issue's planner targets on random layouts. Every number is printed with
-the command that reproduces it.
+of Tables 6-8 and 12, the issue's planner targets on random layouts, and the same under ocean conditions
+(`auv_mj.ocean`: current, thruster lag, sonar noise, model uncertainty) beside the ideal ones. Every number
+is printed with the command that reproduces it; `--sections` runs a subset.
 """
 
 from __future__ import annotations
@@ -19,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj import seeds
+from auv_mj import ocean, seeds
 from auv_mj.cli import evaluate, plots, policies
-from auv_mj.cli.options import check_output, positive_int
+from auv_mj.cli.options import check_output, positive_int, usage_error
 from auv_mj.episode import episode_metrics, record_episode
 
 PAPER_TABLE9 = {  # Table 9: MAE of speed [m/s] and heading [rad] per disturbance phase
@@ -51,6 +52,13 @@ TRACKING_POLICIES = ("los-executor", "splane")
 RANDOM_TARGETS = (("goal", 0.95, None), ("obstacles", 0.90, 0.02))
 """(task, success target, collision ceiling) of the planner on random layouts (the issue's targets)."""
 FIG8_TARGET = 0.9
+OCEAN_TASKS = ("obstacles", "moving_obstacles")
+"""Random-layout tasks of the ocean comparison (held-out seeds from 10000)."""
+OCEAN_POLICIES = ("planner", "two-layer", "splane", "los-avoid")
+"""The learned planners and the classical baselines, compared in ideal and ocean conditions."""
+CONDITIONS = ("ideal", "ocean")
+HELD_OUT_SEED = 10_000
+"""First seed of the held-out layouts (never used in training)."""
 
 
 def _fmt(value: float, digits: int = 4) -> str:
@@ -73,6 +81,13 @@ def table9(lines: list[str]) -> None:
               "`--policy splane`).", ""]
 
 
+def tracking_errors(name: str, task: str, conditions: str = "ideal") -> tuple[float, ...]:
+    """(MAE speed, MAE heading, MAX speed, MAX heading, cross-track MAE) of one episode, once on the path
+    (the steps the task marks `tracked`: `auv_mj.episode.episode_metrics`)."""
+    m = evaluate.run_episode(name, task, 0, {"conditions": conditions})
+    return m["mae_speed"], m["mae_heading"], m["max_speed"], m["max_heading"], m["mae_cross_track"]
+
+
 def tracking(lines: list[str]) -> None:
     """Tables 10-11: speed and heading tracking along the line and the curve, once on the path."""
     lines += ["## Tables 10-11: line and curve following", "",
@@ -85,9 +100,8 @@ def tracking(lines: list[str]) -> None:
     for task, paper in PAPER_TRACKING.items():
         lines.append(f"| {task} | paper (DDPG) | {paper[0]} | {paper[1]} | {paper[2]} | {paper[3]} | n/a |")
         for name in TRACKING_POLICIES:
-            m = evaluate.run_episode(name, task, 0)
-            lines.append(f"| {task} | {name} | {_fmt(m['mae_speed'])} | {_fmt(m['mae_heading'])} | "
-                         f"{_fmt(m['max_speed'])} | {_fmt(m['max_heading'])} | {_fmt(m['mae_cross_track'], 2)} |")
+            *errors, cross = tracking_errors(name, task)
+            lines.append(f"| {task} | {name} | {' | '.join(_fmt(e) for e in errors)} | {_fmt(cross, 2)} |")
     lines += ["", "Command: `auv-mj eval --policy los-executor --task path_line --episodes 1` (the same figures).",
               ""]
 
@@ -101,47 +115,90 @@ def episodes_to(success: np.ndarray, target: float, window: int = 20) -> float:
     return float(hits[0] + window) if hits.size else math.nan
 
 
+def fig8_logs(runs: Path, agent: str) -> list[Path]:
+    """The training logs of `agent` in `runs`: `<agent>-seed*.csv` files, or the `<agent>-seed*/progress.csv`
+    of the run directories an `auv-mj sweep` (or `auv-mj train --run-dir`) writes there."""
+    files = sorted(runs.glob(f"{agent}-seed*.csv"))
+    runs_dirs = sorted(p / "progress.csv" for p in runs.glob(f"{agent}-seed*") if (p / "progress.csv").is_file())
+    return sorted(files + runs_dirs, key=lambda p: _seed_of(p))
+
+
+def _seed_of(path: Path) -> int:
+    name = path.parent.name if path.name == "progress.csv" else path.stem
+    digits = name.rpartition("seed")[2]
+    return int(digits) if digits.isdigit() else -1
+
+
+def mean_ci(values: list[float]) -> tuple[float, float]:
+    """Mean and the half-width of its 95 % confidence interval (Student's t); half-width NaN for one value."""
+    from scipy import stats
+
+    values = np.asarray(values, dtype=float)
+    if len(values) < 2:
+        return float(np.mean(values)) if len(values) else math.nan, math.nan
+    half = stats.t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / math.sqrt(len(values))
+    return float(values.mean()), float(half)
+
+
 def fig8(lines: list[str], runs: Path, figures: Path) -> None:
-    """Fig. 8: HER-DDPG vs DDPG on `goal`, learning curves over seeds from the training logs in `runs`."""
+    """Fig. 8: HER-DDPG vs DDPG on `goal`, learning curves over seeds from the training logs in `runs`.
+
+    The claim is tested, not eyeballed: a one-sided Mann-Whitney U test of the episodes to FIG8_TARGET
+    (runs that never reach it rank last), HER-DDPG fewer; the band of the curves is the 95 % confidence
+    interval of the mean over seeds.
+    """
+    from scipy import stats
+
     from auv_mj.cli import plots
 
     lines += ["## Fig. 8: HER-DDPG vs plain DDPG on `goal`", ""]
-    groups = [(label, sorted(runs.glob(f"{agent}-seed*.csv"))) for label, agent in
-              (("HER-DDPG", "her-ddpg"), ("DDPG", "ddpg"))]
+    groups = [(label, fig8_logs(runs, agent)) for label, agent in (("HER-DDPG", "her-ddpg"), ("DDPG", "ddpg"))]
     if not all(files for _, files in groups):
-        lines += [f"No training logs in `{runs}` (expected `her-ddpg-seed*.csv` and `ddpg-seed*.csv`).", ""]
+        lines += [f"No training logs in `{runs}` (expected `her-ddpg-seed*.csv` and `ddpg-seed*.csv`, or the "
+                  "run directories `her-ddpg-seed*/` and `ddpg-seed*/` of `auv-mj sweep`).", ""]
         return
     figure = plots.plot_learning([(label, [str(f) for f in files]) for label, files in groups],
-                                 figures / "fig8_learning.png", title="goal: HER-DDPG vs DDPG")
+                                 figures / "fig8_learning.png", band="ci",
+                                 title="goal: HER-DDPG vs DDPG (band: 95 % confidence interval of the mean)")
     lines += [f"![learning curves]({figure.relative_to(figures.parent)})", "",
               f"| algorithm | run | episodes | env steps | mean success over the run | final success (last 20) | "
               f"episodes to {FIG8_TARGET:.0%} success (20-episode window) |",
               "| --- | --- | --- | --- | --- | --- | --- |"]
-    medians, reached_count, mean_success = {}, {}, {}
+    reached_by: dict[str, list[float]] = {}
     for label, files in groups:
-        reached, means = [], []
+        reached = []
         for f in files:
             data = plots.read_learning_csv(f)
             success = np.asarray(data["success"], dtype=float)
             first = episodes_to(success, FIG8_TARGET)
             reached.append(first)
-            means.append(success.mean())
-            lines.append(f"| {label} | {f.stem} | {len(success)} | {int(data['steps'][-1])} | "
+            name = f.parent.name if f.name == "progress.csv" else f.stem
+            lines.append(f"| {label} | {name} | {len(success)} | {int(data['steps'][-1])} | "
                          f"{success.mean():.2f} | {success[-20:].mean():.2f} | {_fmt(first, 0)} |")
-        medians[label] = float(np.median([r if not math.isnan(r) else math.inf for r in reached]))
-        reached_count[label] = sum(not math.isnan(r) for r in reached)
-        mean_success[label] = float(np.median(means))
-    her, ddpg = medians["HER-DDPG"], medians["DDPG"]
-    verdict = ("reproduced" if her < ddpg else
-               "undecided: neither median run reached the target within the budget" if her == ddpg == math.inf
-               else "NOT reproduced")
-    lines += ["", f"Median episodes to {FIG8_TARGET:.0%}: HER-DDPG {her:.0f}, DDPG {ddpg:.0f} (inf = never within "
-              f"the run); runs reaching it: HER-DDPG {reached_count['HER-DDPG']} of {len(groups[0][1])}, DDPG "
-              f"{reached_count['DDPG']} of {len(groups[1][1])}; median of the runs' mean success: HER-DDPG "
-              f"{mean_success['HER-DDPG']:.2f}, DDPG {mean_success['DDPG']:.2f}. Fig. 8's claim (HER-DDPG "
-              f"reaches {FIG8_TARGET:.0%} in fewer episodes): **{verdict}**.", "",
-              f"Command: `auv-mj train her-ddpg --task goal --seed S --steps N` and `auv-mj train ddpg --task goal "
-              f"--seed S --steps N`; the logs are `progress.csv` of each run, copied to `{runs}`.", ""]
+        reached_by[label] = [math.inf if math.isnan(r) else r for r in reached]
+    lines += ["", f"| algorithm | runs | reached {FIG8_TARGET:.0%} | median episodes to {FIG8_TARGET:.0%} | "
+              "mean +- 95 % CI (runs that reached it) |", "| --- | --- | --- | --- | --- |"]
+    for label, reached in reached_by.items():
+        finite = [r for r in reached if math.isfinite(r)]
+        mean, half = mean_ci(finite) if finite else (math.nan, math.nan)
+        lines.append(f"| {label} | {len(reached)} | {len(finite)} | {float(np.median(reached)):.0f} | "
+                     f"{_fmt(mean, 1)} +- {_fmt(half, 1)} |")
+    her, ddpg = reached_by["HER-DDPG"], reached_by["DDPG"]
+    p_fewer = float(stats.mannwhitneyu(her, ddpg, alternative="less").pvalue)
+    p_more = float(stats.mannwhitneyu(her, ddpg, alternative="greater").pvalue)
+    if all(math.isinf(r) for r in her + ddpg):
+        verdict = "undecided: no run reached the target within the budget"
+    elif p_fewer < 0.05:
+        verdict = f"reproduced (one-sided Mann-Whitney U, p = {p_fewer:.3f})"
+    elif p_more < 0.05:
+        verdict = f"NOT reproduced: plain DDPG reaches it in fewer episodes (p = {p_more:.3f})"
+    else:
+        verdict = (f"not shown: the difference is within the spread of the seeds (one-sided Mann-Whitney U, "
+                   f"p = {p_fewer:.3f} for HER-DDPG fewer)")
+    lines += ["", f"Fig. 8's claim (HER-DDPG reaches {FIG8_TARGET:.0%} in fewer episodes): **{verdict}**.", "",
+              "Command: `auv-mj sweep her-ddpg ddpg --task goal --seeds 0-9 --steps N --out OUT`, then "
+              f"`auv-mj reproduce --runs OUT` (or single `auv-mj train` runs' `progress.csv` copied to `{runs}` "
+              "as `<agent>-seed<S>.csv`).", ""]
 
 
 def training_speed(lines: list[str], runs: Path) -> None:
@@ -159,15 +216,18 @@ def training_speed(lines: list[str], runs: Path) -> None:
         lines += [f"No peer logs in `{runs}` (expected `auv-mj-*.csv` and `sb3-*.csv`).", ""]
         return
     best: dict[str, tuple[float, bool]] = {}
+    rates: dict[str, float] = {}
     for label, files in groups.items():
-        times = []
+        times, speeds = [], []
         for f in files:
             data = plots.read_learning_csv(f)
             wall, steps = time_to_success(f)
             total_steps, total_wall = int(data["steps"][-1]), float(data["wall_time"][-1])
             times.append((wall, total_wall))
+            speeds.append(total_steps / total_wall)
             lines.append(f"| {label} | {f.stem} | {_fmt(wall, 0)} | {steps if steps >= 0 else 'never'} | "
                          f"{total_steps} | {total_wall:.0f} | {total_steps / total_wall:.0f} |")
+        rates[label] = float(np.median(speeds))
         reached = [w for w, _ in times if not math.isnan(w)]
         best[label] = ((float(np.median(reached)), True) if len(reached) == len(times)
                        else (max(t for _, t in times), False))
@@ -179,7 +239,13 @@ def training_speed(lines: list[str], runs: Path) -> None:
                  f"**{peer / ours:.2f}** (a lower bound)")
     else:
         ratio = "auv-mj did not reach the target in every run: no ratio"
-    lines += ["", ratio + ".", "",
+    lines += ["", f"Raw throughput at the same updates per step (one gradient step per env step each): auv-mj "
+              f"{rates['auv-mj HER-DDPG']:.0f}, SB3 {rates['SB3 DDPG+HER']:.0f} env steps/s, auv-mj / SB3 = "
+              f"**{rates['auv-mj HER-DDPG'] / rates['SB3 DDPG+HER']:.2f}** (medians over runs). Time to "
+              f"{TARGET:.0%} success: " + ratio + ".", "",
+              "The peer is SB3 as its users would run it here: observations normalised by `VecNormalize` and "
+              "Gaussian action noise of std 0.3 (with raw goals in metres and std 0.1 its actor saturates at V = 0 "
+              "and never explores forward).", "",
               "Command: `python -m auv_mj.cli.sb3_peer --steps 100000 --seed S --csv sb3-ddpg-her-seedS.csv` beside "
               "`auv-mj train her-ddpg --task goal --seed S --steps 100000` (its `progress.csv`), copied to "
               f"`{runs}`.", ""]
@@ -219,7 +285,7 @@ def random_targets(lines: list[str], episodes: int) -> None:
               "| task | policy | episodes | success | target | collisions | ceiling | min clearance [m] |",
               "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for task, target, ceiling in RANDOM_TARGETS:
-        summary = evaluate.evaluate("planner", [task], episodes, 10_000, progress=False)["tasks"][task]
+        summary = evaluate.evaluate("planner", [task], episodes, HELD_OUT_SEED, progress=False)["tasks"][task]
         lines.append(f"| {task} | planner | {episodes} | {summary['success_rate']:.2f} | >= {target} | "
                      f"{summary['collision_rate']:.2f} | {'<= ' + str(ceiling) if ceiling else '-'} | "
                      f"{_fmt(summary['min_clearance'], 1)} |")
@@ -279,6 +345,83 @@ def generalisation(lines: list[str], episodes: int, figures: Path) -> None:
               "`los-avoid`, `splane`).", ""]
 
 
+def _worse(label: str, speed: tuple, heading: tuple) -> list[str]:
+    """"label: speed/heading MAE a -> b" for each (ideal, ocean) MAE pair that at least tripled and grew by
+    0.02 or more: what the report calls broken."""
+    return [f"{label}: {what} MAE {before:.4f} -> {after:.4f}" for what, (before, after) in
+            (("speed", speed), ("heading", heading))
+            if before is not None and after is not None and after > max(3 * before, before + 0.02)]
+
+
+def ocean_conditions(lines: list[str], episodes: int) -> None:
+    """The same planners, executors and baselines under ocean conditions beside ideal ones, and what breaks."""
+    c = ocean.OCEAN
+    lines += ["## Ocean conditions", "",
+              "`conditions=\"ocean\"` (`auv_mj/ocean.py`, README \"Ocean conditions\"): a Gauss-Markov current of "
+              f"{c.current.mean_speed} m/s mean (spread {c.current.speed_sigma} m/s, at most "
+              f"{c.current.speed_bounds[1]} m/s, direction random per episode), thrust and yaw moment lagged "
+              "(0.4 s and 0.2 s, MuJoCo filterexact), sonar noise of "
+              f"{c.sonar.floor} m + {c.sonar.proportional:.0%} of range with {c.sonar.dropout:.0%} dropouts and "
+              f"the previous ping ({c.sonar.latency} ping latency), and every hydrodynamic coefficient scaled by "
+              f"up to +-{c.model_uncertainty.hydrodynamics:.0%} and the mass by up to "
+              f"+-{c.model_uncertainty.mass:.0%} per episode, unknown to the controllers. The same seeds give the "
+              "same layouts in both columns.", "",
+              f"### Planners and classical baselines on held-out random layouts (seeds from {HELD_OUT_SEED})", "",
+              "| task | policy | episodes | success ideal | success ocean | collisions ideal | collisions ocean | "
+              "min clearance ideal [m] | min clearance ocean [m] |",
+              "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    broken = []
+    for task in OCEAN_TASKS:
+        for name in OCEAN_POLICIES:
+            summary = {condition: evaluate.evaluate(name, [task], episodes, HELD_OUT_SEED, progress=False,
+                                                    task_kwargs={"conditions": condition})["tasks"][task]
+                       for condition in CONDITIONS}
+            ideal, rough = summary["ideal"], summary["ocean"]
+            lines.append(f"| {task} | {name} | {episodes} | {ideal['success_rate']:.2f} | "
+                         f"{rough['success_rate']:.2f} | {ideal['collision_rate']:.2f} | "
+                         f"{rough['collision_rate']:.2f} | {_fmt(ideal['min_clearance'], 1)} | "
+                         f"{_fmt(rough['min_clearance'], 1)} |")
+            if rough["success_rate"] < ideal["success_rate"] - 0.1:
+                broken.append(f"`{name}` on `{task}`: success {ideal['success_rate']:.2f} -> "
+                              f"{rough['success_rate']:.2f}, collisions {ideal['collision_rate']:.2f} -> "
+                              f"{rough['collision_rate']:.2f}")
+    lines += ["", f"Command: `auv-mj eval --policy planner --task obstacles --episodes {episodes} "
+              f"--seed {HELD_OUT_SEED} --task-kwargs "
+              "'{\"conditions\": \"ocean\"}'` (and `\"ideal\"`, the default).", "",
+              "### Table 9 under ocean conditions", "",
+              "| controller | phase | MAE speed ideal | MAE speed ocean | MAE heading ideal | MAE heading ocean |",
+              "| --- | --- | --- | --- | --- | --- |"]
+    for name in ("executor", "splane"):
+        summary = {condition: evaluate.evaluate(name, ["speed_heading"], 1, 0, progress=False,
+                                                task_kwargs={"conditions": condition})["tasks"]["speed_heading"]
+                   for condition in CONDITIONS}
+        for phase in PAPER_TABLE9[name]:
+            speed = [summary[condition].get(f"mae_speed_{phase}") for condition in CONDITIONS]
+            heading = [summary[condition].get(f"mae_heading_{phase}") for condition in CONDITIONS]
+            lines.append(f"| {name} | {phase} | {_fmt(speed[0])} | {_fmt(speed[1])} | {_fmt(heading[0])} | "
+                         f"{_fmt(heading[1])} |")
+            broken += _worse(f"`{name}` on speed_heading, {phase} phase", speed, heading)
+    lines += ["", "Command: `auv-mj eval --policy executor --task speed_heading --episodes 1 --task-kwargs "
+              "'{\"conditions\": \"ocean\"}'` (and `--policy splane`).", "",
+              "### Tables 10-11 under ocean conditions", "",
+              "| path | controller | conditions | MAE speed | MAE heading | MAX speed | MAX heading | "
+              "cross-track MAE [m] |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for task in PAPER_TRACKING:
+        for name in TRACKING_POLICIES:
+            errors = {}
+            for condition in CONDITIONS:
+                errors[condition] = tracking_errors(name, task, condition)
+                *maes, cross = errors[condition]
+                lines.append(f"| {task} | {name} | {condition} | {' | '.join(_fmt(e) for e in maes)} | "
+                             f"{_fmt(cross, 2)} |")
+            (speed, heading, *_), (rough_speed, rough_heading, *_) = errors["ideal"], errors["ocean"]
+            broken += _worse(f"`{name}` on {task}", (speed, rough_speed), (heading, rough_heading))
+    lines += ["", "Command: `auv-mj eval --policy los-executor --task path_line --episodes 1 --task-kwargs "
+              "'{\"conditions\": \"ocean\"}'` (errors once on the path).", "",
+              "What breaks (success down by more than 0.1, or a tracking MAE tripled and up by 0.02 or more): "
+              + ("; ".join(broken) if broken else "nothing by these measures") + ".", ""]
+
+
 def _commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
@@ -294,12 +437,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder of the Fig. 8 training logs (her-ddpg-seed*.csv, ddpg-seed*.csv)")
     parser.add_argument("--peer-runs", type=Path, default=Path("docs/runs/peer"),
                         help="folder of the training-speed logs (auv-mj-*.csv, sb3-*.csv)")
-    parser.add_argument("--episodes", type=positive_int, default=100, help="held-out episodes for the random targets")
+    parser.add_argument("--episodes", type=positive_int, default=100,
+                        help="held-out episodes per task and policy on random layouts (random targets, ocean)")
     parser.add_argument("--quick", action="store_true", help="10 episodes for the random targets")
+    parser.add_argument("--sections", default=None,
+                        help=f"comma-separated sections to run (default all: {','.join(SECTIONS)})")
+
+
+SECTIONS = ("table9", "tracking", "fig8", "training_speed", "scenarios", "random_targets", "ocean")
+"""The report's sections, in order."""
 
 
 def run(args: argparse.Namespace) -> int:
-    """Measures everything and writes the Markdown report with its figures."""
+    """Measures everything (or `--sections`) and writes the Markdown report with its figures."""
+    names = list(SECTIONS) if args.sections is None else [n.strip() for n in args.sections.split(",") if n.strip()]
+    unknown = [n for n in names if n not in SECTIONS]
+    if unknown:
+        usage_error(args, f"--sections: unknown section(s) {', '.join(unknown)}; known: {', '.join(SECTIONS)}")
     check_output(args, args.out, "--out")
     start = time.perf_counter()
     figures = args.out.parent / "figures"
@@ -313,16 +467,15 @@ def run(args: argparse.Namespace) -> int:
              f"({platform.python_implementation()} {platform.python_version()}), CPU only.", "",
              "Our vehicle is REMUS-100 (Prestero 2001), not the paper's unnamed AUV, so absolute errors differ; "
              "the comparisons that carry over are the orderings (learned vs classical, HER vs plain DDPG).", ""]
-    for section in (table9, tracking):
-        print(f"reproduce: {section.__name__} ...", file=sys.stderr)
-        section(lines)
-    print("reproduce: fig8 ...", file=sys.stderr)
-    fig8(lines, args.runs, figures)
-    training_speed(lines, args.peer_runs)
-    print("reproduce: scenarios ...", file=sys.stderr)
-    scenarios(lines, figures)
-    print("reproduce: random targets ...", file=sys.stderr)
-    random_targets(lines, episodes)
+    sections = {"table9": lambda: table9(lines), "tracking": lambda: tracking(lines),
+                "fig8": lambda: fig8(lines, args.runs, figures),
+                "training_speed": lambda: training_speed(lines, args.peer_runs),
+                "scenarios": lambda: scenarios(lines, figures),
+                "random_targets": lambda: random_targets(lines, episodes),
+                "ocean": lambda: ocean_conditions(lines, episodes)}
+    for name in names:
+        print(f"reproduce: {name} ...", file=sys.stderr)
+        sections[name]()
     lines += [f"_Report generated in {time.perf_counter() - start:.0f} s._", ""]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text("\n".join(lines))

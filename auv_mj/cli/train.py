@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib
 import json
 import re
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -31,19 +31,47 @@ def task_env_id(task: str) -> str:
     """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, or `auv_mj/<CamelCase>-v0`."""
     if task in TASK_IDS:
         return TASK_IDS[task]
-    if "/" in task:
+    if "/" in task or ":" in task:
         return task
     camel = "".join(part[:1].upper() + part[1:] for part in re.split(r"[-_\s]+", task) if part)
     return f"auv_mj/{camel}-v0"
 
 
-def make_env_fn(env_id: str, **kwargs: Any) -> Callable[[], gym.Env]:
-    """A factory of `gymnasium.make(env_id)`; ValueError listing the auv_mj ids if it is not registered."""
+@dataclasses.dataclass(frozen=True)
+class EnvFactory:
+    """`gymnasium.make(env_id, **kwargs)` as a picklable factory (for collector processes and Ray trials).
+
+    Unpickling it imports this module, which registers the auv_mj ids; `module` (from Gymnasium's
+    `module:id` form) is imported first too, for ids registered elsewhere.
+    """
+
+    env_id: str
+    kwargs: dict = dataclasses.field(default_factory=dict)
+    module: str | None = None
+
+    def __call__(self) -> gym.Env:
+        if self.module:
+            importlib.import_module(self.module)
+        return gym.make(self.env_id, **self.kwargs)
+
+
+def make_env_fn(env_id: str, **kwargs: Any) -> EnvFactory:
+    """A factory of `gymnasium.make(env_id)`; ValueError listing the auv_mj ids if it is not registered.
+
+    `module:id` (Gymnasium's form) imports `module` first, which registers `id`.
+    """
+    module = None
+    if ":" in env_id:
+        module, _, env_id = env_id.partition(":")
+        try:
+            importlib.import_module(module)
+        except ImportError as exc:
+            raise ValueError(f"Gymnasium id {module}:{env_id}: cannot import {module!r} ({exc})") from None
     if env_id not in gym.registry:
         known = sorted(k for k in gym.registry if k.startswith("auv_mj/"))
         raise ValueError(f"Gymnasium id {env_id!r} is not registered; "
                          f"registered auv_mj ids: {known or 'none'}")
-    return lambda: gym.make(env_id, **kwargs)
+    return EnvFactory(env_id, kwargs, module)
 
 
 _CLI_SKIP = ("seed", "device")
@@ -79,6 +107,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint-every", type=positive_int, default=100, help="episodes between checkpoints")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard scalars")
+    parser.add_argument("--collectors", type=int, default=0, metavar="N",
+                        help="step N environments in collector processes while this one learns (1 uses a "
+                             "second core; deterministic given --seed and N, not the serial run) [0: serial]")
+    add_config_options(parser)
+
+
+def add_config_options(parser: argparse.ArgumentParser) -> None:
+    """One option per DDPGConfig field but seed and device (`--hidden-sizes 64 64`, `--noise-std 0.3`, ...)."""
     group = parser.add_argument_group("hyper-parameters (DDPGConfig; default Table 4 or the checkpoint's)")
     docs = field_docs(DDPGConfig)
     for field in dataclasses.fields(DDPGConfig):
@@ -93,6 +129,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             group.add_argument(flag, type=type(field.default), help=help_text)
 
 
+def config_overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """The DDPGConfig fields given on the command line (hidden_sizes as a tuple)."""
+    overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(DDPGConfig)
+                 if getattr(args, f.name, None) is not None}
+    if "hidden_sizes" in overrides:
+        overrides["hidden_sizes"] = tuple(overrides["hidden_sizes"])
+    return overrides
+
+
 def _read_options(path: Path) -> dict:
     """The JSON object of options a run directory keeps (task_kwargs.json, env_kwargs.json), read within bounds."""
     text = read_text(path, "the run's options")
@@ -105,6 +150,8 @@ def _read_options(path: Path) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Runs `auv-mj train`; returns the exit status."""
+    if args.collectors < 0:
+        usage_error(args, f"--collectors must be >= 0, got {args.collectors}")
     try:
         run_dir = args.run_dir or (Path("runs") / args.task.replace("/", "_")
                                    / f"{args.agent}-seed{args.seed or 0}")
@@ -127,14 +174,11 @@ def run(args: argparse.Namespace) -> int:
         base = DDPGConfig()
         if args.resume:
             base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"])
-        overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(DDPGConfig)
-                     if getattr(args, f.name, None) is not None}
-        if "hidden_sizes" in overrides:
-            overrides["hidden_sizes"] = tuple(overrides["hidden_sizes"])
-        result = train(env_fn, args.agent, dataclasses.replace(base, **overrides), total_steps=args.steps,
-                       episodes=args.episodes, run_dir=run_dir, resume=args.resume, init=args.init,
+        config = dataclasses.replace(base, **config_overrides(args))
+        result = train(env_fn, args.agent, config, total_steps=args.steps, episodes=args.episodes,
+                       run_dir=run_dir, resume=args.resume, init=args.init,
                        checkpoint_every=args.checkpoint_every, progress=not args.no_progress,
-                       tensorboard=not args.no_tensorboard,
+                       tensorboard=not args.no_tensorboard, collectors=args.collectors,
                        run_info={"task": args.task, "task_kwargs": kwargs or {}, "env_kwargs": env_kwargs or {}})
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))

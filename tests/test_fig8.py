@@ -1,0 +1,76 @@
+"""Fig. 8 from a sweep's run directories: the per-run table, the 95 % confidence band and the tested verdict."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from auv_mj.cli import plots
+from auv_mj.cli.reproduce import fig8, fig8_logs, mean_ci
+
+
+def _run_dir(root: Path, name: str, first_success: int, episodes: int = 120) -> None:
+    """A run directory whose progress.csv fails `first_success` episodes, then always succeeds."""
+    folder = root / name
+    folder.mkdir(parents=True)
+    rows = ["episode,steps,length,return,success,wall_time"]
+    for i in range(1, episodes + 1):
+        rows.append(f"{i},{100 * i},100,0.0,{float(i > first_success)},{i}")
+    (folder / "progress.csv").write_text("\n".join(rows) + "\n")
+
+
+def test_fig8_reads_sweep_run_directories_and_tests_the_claim(tmp_path):
+    runs = tmp_path / "sweep"
+    for seed in range(10):
+        _run_dir(runs, f"her-ddpg-seed{seed}", 20 + seed)
+        _run_dir(runs, f"ddpg-seed{seed}", 50 + seed)
+    _run_dir(runs, "her-ddpg-noise_std=0.3-seed0", 0)  # another grid point: not part of Fig. 8
+    assert [p.parent.name for p in fig8_logs(runs, "her-ddpg")] == [f"her-ddpg-seed{s}" for s in range(10)]
+    lines: list[str] = []
+    fig8(lines, runs, tmp_path / "figures")
+    report = "\n".join(lines)
+    assert (tmp_path / "figures" / "fig8_learning.png").stat().st_size > 1000
+    # a run that fails its first 20 + s episodes reaches 90 % over 20 episodes at episode 20 + s + 18
+    assert "| HER-DDPG | her-ddpg-seed3 | 120 | 12000 | " in report and "| 41 |" in report
+    assert "| HER-DDPG | 10 | 10 | 42 | 42.5 +- " in report
+    assert "**reproduced (one-sided Mann-Whitney U, p = 0.000)**" in report
+
+    close = tmp_path / "close"
+    for seed, (her, ddpg) in enumerate(((30, 32), (40, 31), (35, 38))):
+        _run_dir(close, f"her-ddpg-seed{seed}", her)
+        _run_dir(close, f"ddpg-seed{seed}", ddpg)
+    lines = []
+    fig8(lines, close, tmp_path / "figures")
+    assert "**not shown: the difference is within the spread of the seeds" in "\n".join(lines)
+
+
+def test_confidence_interval_of_the_mean():
+    values = [3.0, 5.0, 7.0, 9.0]
+    mean, half = mean_ci(values)
+    assert mean == 6.0
+    assert math.isclose(half, stats.t.ppf(0.975, 3) * np.std(values, ddof=1) / 2)
+    runs = [{"episode": np.arange(1.0, 4.0), "success": np.array(v)} for v in ([0, 1, 1], [0, 0, 1], [1, 1, 1])]
+    _, mean_curve, low, high = plots.learning_curve(runs, "success", window=1, band="ci")
+    np.testing.assert_allclose(mean_curve, [1 / 3, 2 / 3, 1])
+    np.testing.assert_allclose(high - mean_curve, stats.t.ppf(0.975, 2) * np.std([0, 0, 1], ddof=1) / np.sqrt(3)
+                               * np.array([1, 1, 0]))
+    np.testing.assert_allclose(mean_curve - low, high - mean_curve)
+
+
+def test_peer_report_gives_throughput_and_time_to_target_side_by_side(tmp_path):
+    from auv_mj.cli.reproduce import training_speed
+
+    for name, seconds in (("auv-mj-her-ddpg-seed11", 2.0), ("sb3-ddpg-her-seed11", 8.0)):
+        _run_dir(tmp_path, name, 10, episodes=40)
+        rows = (tmp_path / name / "progress.csv").read_text().splitlines()
+        scaled = [rows[0]] + [",".join([*r.split(",")[:5], str(seconds * (i + 1))]) for i, r in enumerate(rows[1:])]
+        (tmp_path / f"{name}.csv").write_text("\n".join(scaled) + "\n")
+    lines: list[str] = []
+    training_speed(lines, tmp_path)
+    report = "\n".join(lines)
+    # 100 steps per episode: 50 vs 12.5 env steps/s; both reach 90 % at episode 28: 56 s vs 224 s
+    assert "auv-mj 50, SB3 12 env steps/s, auv-mj / SB3 = **4.00**" in report
+    assert "SB3 / auv-mj wall-clock to the target = **4.00**" in report
