@@ -147,3 +147,15 @@ def test_python_m_runs_the_app():
                           timeout=60)
     assert done.returncode == 0 and "check-arena" in done.stdout
     assert Path(__file__).exists()
+
+
+def test_a_candidate_planner_checkpoint_runs_under_the_shipped_names(tmp_path):
+    """`two-layer=PATH` runs the checkpoint PATH as the planner of the two-layer system."""
+    from auv_mj.cli import evaluate, policies
+
+    path = policies.shipped_checkpoint("planner")
+    ours = evaluate.evaluate(f"two-layer={path}", ["goal"], 1, max_steps=5, progress=False)
+    shipped = evaluate.evaluate("two-layer", ["goal"], 1, max_steps=5, progress=False)
+    assert ours["tasks"] == shipped["tasks"]
+    with pytest.raises(FileNotFoundError, match="no checkpoint"):
+        policies.split_name(f"planner={tmp_path / 'missing.pt'}")

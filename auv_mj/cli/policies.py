@@ -160,7 +160,7 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     planner = PLANNER_FOR_TASK.get(task, "planner")
     base, path = split_name(policy_name)
     if path is not None:
-        return _checkpoint_policy(path, protection=base != "planner-raw")
+        return _checkpoint_policy(path, env, protection=base != "planner-raw")
     if policy_name == "random":
         return uniform_random(env, seed)
     if policy_name == "splane":
