@@ -51,18 +51,26 @@ COEFFICIENT_NAMES = REQUIRED + OPTIONAL
 """The hydrodynamic coefficients model uncertainty scales (all of `hydro_*`)."""
 
 
+MAX_CURRENT = 5.0
+"""Fastest current a condition may ask for [m/s]: twice the vehicle's top speed."""
+MAX_TIME_CONSTANT = 1e6
+"""Longest correlation time [s]."""
+MAX_LATENCY = 100
+"""Most pings of sonar latency."""
+
+
 def _number(value: Any, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise ValueError(f"{name} must be a number, got {value!r}")
+        raise ValueError(f"{name} must be a number, got {value!r:.60}")
     number = float(value)
     if not math.isfinite(number):
-        raise ValueError(f"{name} must be finite, got {value!r}")
+        raise ValueError(f"{name} must be finite, got {value!r:.60}")
     return number
 
 
 def _check(condition: bool, name: str, requirement: str, value: Any) -> None:
     if not condition:
-        raise ValueError(f"{name} must be {requirement}, got {value!r}")
+        raise ValueError(f"{name} must be {requirement}, got {value!r:.60}")
 
 
 @dataclass(frozen=True)
@@ -105,19 +113,23 @@ class CurrentModel:
             value = getattr(self, f.name)
             if f.name == "speed_bounds":
                 if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
-                    raise ValueError(f"{name}.speed_bounds must be a pair (min, max) [m/s], got {value!r}")
+                    raise ValueError(f"{name}.speed_bounds must be a pair (min, max) [m/s], got {value!r:.60}")
                 low, high = (_number(v, f"{name}.speed_bounds") for v in value)
-                _check(0.0 <= low <= high, f"{name}.speed_bounds", "a pair 0 <= min <= max", value)
+                _check(0.0 <= low <= high <= MAX_CURRENT, f"{name}.speed_bounds",
+                       f"a pair 0 <= min <= max <= {MAX_CURRENT:g} m/s", value)
                 object.__setattr__(self, f.name, (low, high))
             elif not (f.name == "mean_direction" and value is None):
                 object.__setattr__(self, f.name, _number(value, f"{name}.{f.name}"))
         low, high = self.speed_bounds
         _check(low <= self.mean_speed <= high, f"{name}.mean_speed", f"within speed_bounds {self.speed_bounds}",
                self.mean_speed)
-        for field_name in ("speed_sigma", "direction_sigma", "direction_bound"):
-            _check(getattr(self, field_name) >= 0, f"{name}.{field_name}", ">= 0", getattr(self, field_name))
+        for field_name, high in (("speed_sigma", MAX_CURRENT), ("direction_sigma", 2 * math.pi),
+                                 ("direction_bound", math.pi)):
+            value = getattr(self, field_name)
+            _check(0 <= value <= high, f"{name}.{field_name}", f"in [0, {high:g}]", value)
         for field_name in ("speed_time_constant", "direction_time_constant"):
-            _check(getattr(self, field_name) > 0, f"{name}.{field_name}", "> 0 [s]", getattr(self, field_name))
+            value = getattr(self, field_name)
+            _check(0 < value <= MAX_TIME_CONSTANT, f"{name}.{field_name}", f"in (0, {MAX_TIME_CONSTANT:g}] s", value)
         _check(self.direction_bound <= math.pi, f"{name}.direction_bound", "<= pi", self.direction_bound)
 
 
@@ -148,14 +160,14 @@ class SonarNoise:
 
     def __post_init__(self):
         name = "sonar"
-        for field_name in ("floor", "proportional", "dropout"):
+        for field_name, high in (("floor", SONAR_RANGE), ("proportional", 1.0), ("dropout", 1.0)):
             value = _number(getattr(self, field_name), f"{name}.{field_name}")
-            _check(value >= 0, f"{name}.{field_name}", ">= 0", value)
+            _check(0 <= value <= high, f"{name}.{field_name}", f"in [0, {high:g}]", value)
             object.__setattr__(self, field_name, value)
         _check(self.dropout < 1, f"{name}.dropout", "a probability in [0, 1)", self.dropout)
         latency = self.latency
-        _check(isinstance(latency, (int, np.integer)) and not isinstance(latency, bool) and latency >= 0,
-               f"{name}.latency", "a whole number of pings >= 0", latency)
+        _check(isinstance(latency, (int, np.integer)) and not isinstance(latency, bool) and 0 <= latency <= MAX_LATENCY,
+               f"{name}.latency", f"a whole number of pings in [0, {MAX_LATENCY}]", latency)
         object.__setattr__(self, "latency", int(latency))
 
 
@@ -242,17 +254,17 @@ def conditions(spec: str | Conditions | Mapping[str, Any] | None = "ideal") -> C
         return spec
     if isinstance(spec, str):
         if spec not in _PRESET:
-            raise ValueError(f"conditions must be one of {PRESETS} or a mapping of effects, got {spec!r}")
+            raise ValueError(f"conditions must be one of {PRESETS} or a mapping of effects, got {spec!r:.60}")
         return _PRESET[spec]
     if not isinstance(spec, Mapping):
-        raise ValueError(f"conditions must be one of {PRESETS} or a mapping of effects, got {spec!r}")
+        raise ValueError(f"conditions must be one of {PRESETS} or a mapping of effects, got {spec!r:.60}")
     unknown = [k for k in spec if k not in ("base", *EFFECTS)]
     if unknown:
         raise ValueError(f"conditions: unknown key(s) {', '.join(map(repr, unknown))}; "
                          f"known: base, {', '.join(EFFECTS)}")
     base = spec.get("base", "ocean")
-    if base not in _PRESET:
-        raise ValueError(f"conditions.base must be one of {PRESETS}, got {base!r}")
+    if not isinstance(base, str) or base not in _PRESET:
+        raise ValueError(f"conditions.base must be one of {PRESETS}, got {base!r:.60}")
     changes: dict[str, Any] = {}
     for effect, value in spec.items():
         if effect == "base":
@@ -275,7 +287,7 @@ def _effect(effect: str, value: Any):
     if isinstance(value, _EFFECT_CLASSES[effect]):
         return value
     if not isinstance(value, Mapping):
-        raise ValueError(f"conditions.{effect} must be true, false or a mapping of its fields, got {value!r}")
+        raise ValueError(f"conditions.{effect} must be true, false or a mapping of its fields, got {value!r:.60}")
     known = [f.name for f in fields(_EFFECT_CLASSES[effect])]
     unknown = [k for k in value if k not in known]
     if unknown:

@@ -6,7 +6,8 @@ needs the hull's size. Editing the vehicle's XML changes all of them at once.
 
 The contract (Eq. 1-2, 12 and Sec. 2.2): slide joints `x`, `y` along the world x and y axes and a hinge
 `yaw` about z, in that order on one body, and no other joint in the model; actuators `tau_u` (a body-frame
-surge force) and `tau_r` (a yaw moment), in that order, with finite control ranges around 0; rangefinders
+surge force) and `tau_r` (a yaw moment), in that order, instantaneous or behind a first-order lag, with finite
+control ranges around 0; rangefinders
 `sonar_1`..`sonar_9` on sites of the vehicle; a capsule `hull` on the vehicle; a positive timestep within
 TIMESTEP_RANGE and a positive mass and yaw inertia. A model that breaks it is refused with a ValueError
 naming the file and the element.
@@ -42,6 +43,11 @@ MAX_CONTROL = 1e6
 MAX_HULL_SIZE = 100.0
 """Largest hull radius or half length [m]."""
 AXIS_TOLERANCE = 1e-6
+LAG_DYNAMICS = (int(mujoco.mjtDyn.mjDYN_FILTER), int(mujoco.mjtDyn.mjDYN_FILTEREXACT))
+"""Actuator dynamics a vehicle may have: a first-order lag (thruster lag, `auv_mj.ocean`), whose force
+settles to the control."""
+MAX_LAG = 60.0
+"""Longest actuator time constant (dynprm) [s]."""
 
 
 @dataclass(frozen=True)
@@ -169,12 +175,12 @@ def _check_actuators(model: mujoco.MjModel, data: mujoco.MjData, source: str) ->
         gain = model.actuator_gainprm[i, 0] if model.actuator_gaintype[i] == mujoco.mjtGain.mjGAIN_FIXED else math.nan
         surge, sway, turn = ACTUATOR_AXES[name]
         expected = np.array([c * surge - s * sway, s * surge + c * sway, turn])
-        # No dynamics, or the first-order thruster lag of the ocean conditions (filterexact, tau > 0).
-        dynamics = model.actuator_dyntype[i]
-        lag = dynamics == mujoco.mjtDyn.mjDYN_FILTEREXACT and model.actuator_dynprm[i, 0] > 0
-        plain = ((dynamics == mujoco.mjtDyn.mjDYN_NONE or lag)
-                 and model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_NONE)
+        dyntype = int(model.actuator_dyntype[i])
+        lag = float(model.actuator_dynprm[i, 0])
+        settles = dyntype == mujoco.mjtDyn.mjDYN_NONE or (dyntype in LAG_DYNAMICS and 0 < lag <= MAX_LAG)
+        plain = settles and model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_NONE
         if not (plain and np.allclose(gain * moment[dofs], expected, atol=AXIS_TOLERANCE)):
             what = "a body-frame surge force" if name == "tau_u" else "a yaw moment"
             raise _fail(source, f"actuator {name} must apply {what} equal to its control (Eq. 12: gear, gain 1, "
-                                "no bias; no dynamics but a first-order lag, filterexact with a time constant > 0)")
+                                f"no bias; dynamics none, or a first-order lag with a time constant in (0, "
+                                f"{MAX_LAG:g}] s)")

@@ -181,13 +181,14 @@ def test_fuzz_arenas_are_refused_by_the_tunnel_task_or_run(text, preview):
 
 OPTIONS = ("goal_radius", "time_limit", "reward", "scenario", "layout", "command", "disturbances", "observation",
            "random", "executor", "environment_kwargs", "arena", "colour")
-PLANNING_OPTIONS = ("goal_radius", "time_limit", "reward", "random", "executor", "environment_kwargs", "observation")
+PLANNING_OPTIONS = ("goal_radius", "time_limit", "reward", "random", "executor", "environment_kwargs", "observation",
+                    "conditions")
 TASK_OPTIONS = {"goal": PLANNING_OPTIONS + ("scenario",), "waypoints": PLANNING_OPTIONS + ("layout",),
                 "obstacles": PLANNING_OPTIONS + ("scenario",), "moving_obstacles": PLANNING_OPTIONS + ("scenario",),
                 "tunnel": PLANNING_OPTIONS + ("arena", "arena", "arena_spec"), "path_line": PLANNING_OPTIONS,
                 "path_curve": PLANNING_OPTIONS,
                 "speed_heading": ("time_limit", "reward", "random", "command", "disturbances", "observation",
-                                  "environment_kwargs")}
+                                  "environment_kwargs", "conditions")}
 """The options each task takes (the others are refused by name)."""
 PLAUSIBLE_OPTIONS = {
     "goal_radius": st.floats(0.1, 60.0), "time_limit": st.floats(0.5, 30.0),
@@ -203,7 +204,14 @@ PLAUSIBLE_OPTIONS = {
     "command": st.one_of(st.sampled_from(["paper", "random"]),
                          st.tuples(st.floats(0.0, 4.0), st.floats(-4.0, 4.0)).map(list)),
     "disturbances": st.sampled_from(["paper", "random", "none"]),
-    "observation": st.sampled_from(["paper", "integral", "relative"])}
+    "observation": st.sampled_from(["paper", "integral", "relative"]),
+    "conditions": st.one_of(st.sampled_from(["ideal", "ocean", "storm"]), st.dictionaries(
+        st.sampled_from(["base", "current", "sonar", "model_uncertainty", "thruster_lag", "tide"]),
+        st.one_of(st.booleans(), st.sampled_from(["ideal", "ocean"]), st.dictionaries(
+            st.sampled_from(["mean_speed", "speed_sigma", "speed_time_constant", "speed_bounds", "mean_direction",
+                             "floor", "proportional", "dropout", "latency", "hydrodynamics", "mass", "other"]),
+            st.one_of(st.floats(0.0, 2.0), st.integers(0, 5), st.tuples(st.floats(0.0, 1.0), st.floats(1.0, 3.0)),
+                      ANY_VALUE), max_size=2), ANY_VALUE), max_size=3))}
 """Values near or inside each option's range."""
 
 
@@ -311,7 +319,10 @@ def vehicle_texts(draw) -> str:
         kind = draw(st.sampled_from(["coefficient", "coefficient", "set", "delete", "joint"]))
         if kind == "coefficient":
             numeric = draw(st.sampled_from(root.findall("custom/numeric")))
-            value = float(numeric.get("data"))
+            try:
+                value = float(numeric.get("data"))
+            except (TypeError, ValueError):  # an earlier edit wrote a word there
+                value = 1.0
             factor = draw(st.sampled_from([-1.0, 0.0, 10.0, 100.0, 1e3, 1e4, 1e6]))
             scaled = draw(st.one_of(st.just(factor * value), st.floats(-1e7, 1e7),
                                     st.sampled_from([math.nan, math.inf, 1e308, -1e308])))

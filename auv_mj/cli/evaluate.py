@@ -31,7 +31,16 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj.cli import distributed, policies
-from auv_mj.cli.options import add_episode_options, check_output, positive_int, task_kwargs, usage_error
+from auv_mj.cli.options import (
+    MAX_PROCESSES,
+    MAX_RETRIES,
+    add_episode_options,
+    bounded_int,
+    check_output,
+    positive_int,
+    task_kwargs,
+    usage_error,
+)
 from auv_mj.console import progress_bar
 from auv_mj.episode import OUTCOMES, episode_metrics, record_episode
 
@@ -188,12 +197,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, default=None, help="write results as JSON here")
     parser.add_argument("--csv", type=Path, default=None, help="write results as CSV here")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument("--workers", type=positive_int, default=1,
+    parser.add_argument("--workers", type=bounded_int(1, MAX_PROCESSES), default=1,
                         help="run the episodes in this many local processes (with --ray local: Ray's CPUs)")
     parser.add_argument("--ray", default=None, metavar="ADDRESS",
                         help="run the episodes as Ray tasks: 'local' starts Ray here, 'auto' or HOST:PORT "
                              "joins a running cluster (`ray start --head`)")
-    parser.add_argument("--retries", type=int, default=distributed.RETRIES,
+    parser.add_argument("--retries", type=bounded_int(0, MAX_RETRIES), default=distributed.RETRIES,
                         help="reruns of an episode whose worker process died, before it is reported failed")
 
 

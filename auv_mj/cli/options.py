@@ -92,6 +92,10 @@ def bounded_float(low: float, high: float, unit: str = "", *, low_open: bool = F
 
 seed_int = bounded_int(*SEED_RANGE)
 """argparse type of `--seed`."""
+MAX_PROCESSES = 256
+"""Most worker or collector processes a command starts."""
+MAX_RETRIES = 100
+"""Most reruns of a failed episode or trial."""
 MAX_PIXELS = 4096
 """Largest image or video side [pixels] a command draws."""
 pixels = bounded_int(16, MAX_PIXELS)

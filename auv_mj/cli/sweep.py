@@ -35,7 +35,15 @@ import numpy as np
 from agents.checkpoint import read_checkpoint
 from agents.ddpg import DDPGConfig
 from agents.train import AGENTS, CHECKPOINT_NAME, LOG_NAME
-from auv_mj.cli.options import json_object, positive_int, task_kwargs, usage_error
+from auv_mj.cli.options import (
+    MAX_PROCESSES,
+    MAX_RETRIES,
+    bounded_int,
+    json_object,
+    positive_int,
+    task_kwargs,
+    usage_error,
+)
 from auv_mj.cli.reproduce import episodes_to
 from auv_mj.cli.train import add_config_options, config_overrides, make_env_fn, task_env_id
 
@@ -248,17 +256,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='DDPGConfig fields and their values, e.g. \'{"noise_std": [0.1, 0.3]}\'')
     parser.add_argument("--steps", type=positive_int, help="env steps per trial (default: --episodes)")
     parser.add_argument("--episodes", type=positive_int, help="episodes per trial (default: max_episodes)")
-    parser.add_argument("--collectors", type=int, default=0, metavar="N",
+    parser.add_argument("--collectors", type=bounded_int(0, MAX_PROCESSES), default=0, metavar="N",
                         help="collector processes per trial (`auv-mj train --collectors`); a trial then "
                              "takes N + 1 CPUs [0: serial, one CPU]")
     parser.add_argument("--out", type=Path, required=True, help="sweep folder: one run directory per trial")
     parser.add_argument("--resume", action="store_true", help="continue the sweep in --out from its checkpoints")
     parser.add_argument("--ray", default="local", metavar="ADDRESS",
                         help="'local' (default) starts Ray here; 'auto' or HOST:PORT joins a cluster")
-    parser.add_argument("--workers", type=positive_int, default=None,
+    parser.add_argument("--workers", type=bounded_int(1, MAX_PROCESSES), default=None,
                         help="CPUs of the local Ray (default: all); a trial takes one (N + 1 with --collectors N)")
     parser.add_argument("--checkpoint-every", type=positive_int, default=20, help="episodes between checkpoints")
-    parser.add_argument("--retries", type=int, default=2, help="reruns of a trial whose worker died")
+    parser.add_argument("--retries", type=bounded_int(0, MAX_RETRIES), default=2,
+                        help="reruns of a trial whose worker died")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_config_options(parser)
 

@@ -20,7 +20,15 @@ import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from agents.checkpoint import config_from_dict, read_checkpoint
 from agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
 from agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
-from auv_mj.cli.options import json_object, positive_int, seed_int, task_kwargs, usage_error
+from auv_mj.cli.options import (
+    MAX_PROCESSES,
+    bounded_int,
+    json_object,
+    positive_int,
+    seed_int,
+    task_kwargs,
+    usage_error,
+)
 from auv_mj.inputs import check_json_depth, read_text
 
 TASK_IDS: dict[str, str] = {}
@@ -107,7 +115,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint-every", type=positive_int, default=100, help="episodes between checkpoints")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard scalars")
-    parser.add_argument("--collectors", type=int, default=0, metavar="N",
+    parser.add_argument("--collectors", type=bounded_int(0, MAX_PROCESSES), default=0, metavar="N",
                         help="step N environments in collector processes while this one learns (1 uses a "
                              "second core; deterministic given --seed and N, not the serial run) [0: serial]")
     add_config_options(parser)
