@@ -19,6 +19,9 @@ def test_models_are_found_from_an_installed_wheel(tmp_path):
         names = archive.namelist()
         archive.extractall(site)
     assert "auv_mj_models/auv.xml" in names and "auv_mj_models/arenas/tunnel_inspection.xml" in names
+    assert "auv_mj/cli/__init__.py" in names and "auv_mj/cli/evaluate.py" in names  # the app ships too
+    assert "agents/checkpoints/planner_general.pt" in names
+    assert "auv_mj_models/arenas/validation/l_bend.xml" in names
     probe = ("import auv_mj, tasks; from auv_mj import AUVPhysics, model_path; "
              "p = AUVPhysics.from_xml_path(model_path('auv.xml')); "
              "print(auv_mj.__file__); print(model_path('arenas/tunnel_inspection.xml')); print(p.sonar()[4])")
