@@ -149,8 +149,6 @@ def fig8(lines: list[str], runs: Path, figures: Path) -> None:
     """
     from scipy import stats
 
-    from auv_mj.cli import plots
-
     lines += ["## Fig. 8: HER-DDPG vs plain DDPG on `goal`", ""]
     groups = [(label, fig8_logs(runs, agent)) for label, agent in (("HER-DDPG", "her-ddpg"), ("DDPG", "ddpg"))]
     if not all(files for _, files in groups):
@@ -203,7 +201,6 @@ def fig8(lines: list[str], runs: Path, figures: Path) -> None:
 
 def training_speed(lines: list[str], runs: Path) -> None:
     """Wall-clock to 90 % success on `goal`, ours vs the SB3 DDPG+HER peer, from logs of side-by-side runs."""
-    from auv_mj.cli import plots
     from auv_mj.cli.sb3_peer import TARGET, WINDOW, time_to_success
 
     lines += ["## Training speed: auv-mj vs the Stable-Baselines3 peer", "",
@@ -253,8 +250,6 @@ def training_speed(lines: list[str], runs: Path) -> None:
 
 def scenarios(lines: list[str], figures: Path) -> None:
     """The named scenarios of Tables 6-8 and 12 with each policy (one deterministic episode each)."""
-    from auv_mj.cli import plots
-
     lines += ["## Scenarios of Tables 6-8 and 12", "",
               "One episode per scenario (start, goal and obstacles from the table; obstacle shapes ours). "
               "`two-layer` = HER-DDPG planner on the DDPG executor (Sec. 4.3); `planner` = HER-DDPG on the "
