@@ -21,6 +21,7 @@ import torch
 from torch import nn
 
 from agents.ddpg import DDPG, DDPGConfig
+from agents.td3 import TD3, TD3Config
 
 FORMAT = "auv-mj-ddpg/1"
 """Format tag in every checkpoint's metadata."""
@@ -51,19 +52,42 @@ def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> None:
         os.close(fd)
 
 
+AGENT_CLASSES: dict[str, tuple[type[DDPG], type[DDPGConfig]]] = {
+    "ddpg": (DDPG, DDPGConfig), "her-ddpg": (DDPG, DDPGConfig), "executor": (DDPG, DDPGConfig), "td3": (TD3, TD3Config),
+}
+"""Agent name (`auv-mj train AGENT`) -> the learner and its one config dataclass."""
+
+
+def agent_classes(agent_name: Any) -> tuple[type[DDPG], type[DDPGConfig]]:
+    """(learner class, config class) of `agent_name`; a checkpoint without a name is a DDPG one."""
+    if agent_name is None:
+        return DDPG, DDPGConfig
+    if agent_name not in AGENT_CLASSES:
+        raise ValueError(f"unknown agent {_short(agent_name)}; choose one of {tuple(AGENT_CLASSES)}")
+    return AGENT_CLASSES[agent_name]
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:40] + "..."
+
+
 def config_to_dict(config: DDPGConfig) -> dict[str, Any]:
     """The config as a JSON-able dict (tuples become lists)."""
     return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(config).items()}
 
 
-def config_from_dict(values: Mapping[str, Any], source: str | Path = "config") -> DDPGConfig:
-    """A DDPGConfig from `config_to_dict` output; unknown fields or bad values raise ValueError naming `source`."""
+def config_from_dict(values: Mapping[str, Any], source: str | Path = "config",
+                     config_class: type[DDPGConfig] = DDPGConfig) -> DDPGConfig:
+    """A `config_class` (DDPGConfig or TD3Config) from `config_to_dict` output; unknown fields or bad values
+    raise ValueError naming `source`."""
+    name = config_class.__name__
     if not isinstance(values, Mapping):
-        raise ValueError(f"{source}: config must be a dict of DDPGConfig fields, got {type(values).__name__}")
-    fields = {f.name: f for f in dataclasses.fields(DDPGConfig)}
+        raise ValueError(f"{source}: config must be a dict of {name} fields, got {type(values).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(config_class)}
     unknown = [str(k) for k in values if k not in fields]
     if unknown:
-        raise ValueError(f"{source}: unknown DDPGConfig fields {sorted(unknown)[:10]}")
+        raise ValueError(f"{source}: unknown {name} fields {sorted(unknown)[:10]}")
     kwargs = {}
     for name, value in values.items():
         if isinstance(value, list):
@@ -72,7 +96,7 @@ def config_from_dict(values: Mapping[str, Any], source: str | Path = "config") -
             value = float(value)  # JSON writes 1.0 as 1
         kwargs[name] = value
     try:
-        return DDPGConfig(**kwargs)
+        return config_class(**kwargs)
     except ValueError as e:
         raise ValueError(f"{source}: {e}") from None
 
@@ -137,11 +161,16 @@ def _finite_numbers(value: Any, count: int) -> bool:
             and all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value))
 
 
-def expected_shapes(obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...]) -> dict[str, tuple[int, ...]]:
-    """Tensor name -> shape of the networks and normaliser of an agent of these sizes (`agents.networks`)."""
+def expected_shapes(obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...],
+                    twin: bool = False) -> dict[str, tuple[int, ...]]:
+    """Tensor name -> shape of the networks and normaliser of an agent of these sizes (`agents.networks`);
+    `twin` adds TD3's second critic."""
     shapes: dict[str, tuple[int, ...]] = {"obs_norm.count": ()}
     shapes.update({f"obs_norm.{k}": (obs_dim,) for k in ("sum", "sumsq", "mean", "std")})
-    for prefix, inputs, outputs in (("actor", obs_dim, act_dim), ("critic", obs_dim + act_dim, 1)):
+    nets = [("actor", obs_dim, act_dim), ("critic", obs_dim + act_dim, 1)]
+    if twin:
+        nets.append(("critic2", obs_dim + act_dim, 1))
+    for prefix, inputs, outputs in nets:
         widths = [inputs, *hidden_sizes, outputs]
         for layer, (n_in, n_out) in enumerate(zip(widths[:-1], widths[1:], strict=True)):
             for net in (prefix, f"{prefix}_target"):
@@ -160,7 +189,11 @@ def check_checkpoint(tensors: Mapping[str, Any], meta: Mapping[str, Any], path: 
     where = f"checkpoint {path}"
     if "config" not in meta:
         raise ValueError(f"{where}: its metadata has no 'config'")
-    config = config_from_dict(meta["config"], f"{where}: config")
+    try:
+        learner, config_class = agent_classes(meta.get("agent"))
+    except ValueError as e:
+        raise ValueError(f"{where}: {e}") from None
+    config = config_from_dict(meta["config"], f"{where}: config", config_class)
     obs_dim, act_dim = meta.get("obs_dim"), meta.get("act_dim")
     if not _whole(obs_dim, 1, MAX_OBS_DIM):
         raise ValueError(f"{where}: obs_dim must be a whole number in [1, {MAX_OBS_DIM}], got {obs_dim!r:.60}")
@@ -212,7 +245,7 @@ def check_checkpoint(tensors: Mapping[str, Any], meta: Mapping[str, Any], path: 
         raise ValueError(f"{where}: {problems[0]}")
     if not all(isinstance(k, str) and isinstance(v, torch.Tensor) for k, v in tensors.items()):
         raise ValueError(f"{where}: its tensors must be a dict of name -> tensor")
-    for name, want in expected_shapes(obs_dim, act_dim, config.hidden_sizes).items():
+    for name, want in expected_shapes(obs_dim, act_dim, config.hidden_sizes, twin=learner is TD3).items():
         if name.startswith(("critic", "actor_target")) and name not in tensors:
             continue  # a policy-only file needs the actor and the normaliser
         got = tuple(tensors[name].shape) if name in tensors else None
@@ -269,14 +302,18 @@ def load_agent(path: str | Path, device: str | None = None, config: DDPGConfig |
     """
     path = Path(path)
     tensors, meta = read_checkpoint(path)
-    saved = config_from_dict(meta["config"], path)
+    learner, config_class = agent_classes(meta.get("agent"))
+    saved = config_from_dict(meta["config"], path, config_class)
     config = config or saved
     if device is not None:
         config = dataclasses.replace(config, device=device)
     if config.hidden_sizes != saved.hidden_sizes:
         raise ValueError(f"checkpoint {path} has hidden sizes {saved.hidden_sizes}, "
                          f"config asks for {config.hidden_sizes}")
-    agent = DDPG(int(meta["obs_dim"]), int(meta["act_dim"]), config)
+    if not isinstance(config, config_class):
+        raise ValueError(f"checkpoint {path} is a {meta.get('agent')} agent: it needs a {config_class.__name__}, "
+                         f"got a {type(config).__name__}")
+    agent = learner(int(meta["obs_dim"]), int(meta["act_dim"]), config)
     for prefix, module in agent.modules().items():
         _load_module(module, tensors, prefix, path)
     for prefix, opt in agent.optimizers().items():

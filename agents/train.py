@@ -6,7 +6,8 @@ collect an episode, learn from the buffer every `train_every` steps, log the epi
 
 Goal tasks (dict observations with observation / achieved_goal / desired_goal) train `her-ddpg` with a
 `HerReplayBuffer`, or `ddpg` on the flat [observation, desired_goal] without relabelling; Box tasks train
-`ddpg` or `executor` (the execution layer of Sec. 3.3). Every `train_every` env steps the agent does
+`ddpg`, `executor` (the execution layer of Sec. 3.3) or `td3` (DDPG with TD3's twin critics, delayed actor
+and target smoothing, `agents.td3`; on either kind of task, as `ddpg`). Every `train_every` env steps the agent does
 round(train_every * updates_per_step) gradient steps on one batched sample. Episodes end on
 `terminated` (goal, collision: no bootstrap) or `truncated` (time limit: bootstrap).
 
@@ -40,6 +41,7 @@ import torch
 from gymnasium import spaces
 
 from agents.checkpoint import (
+    agent_classes,
     config_to_dict,
     load_agent,
     read_replay,
@@ -53,8 +55,8 @@ from agents.replay import Batch, ReplayBuffer
 from auv_mj.console import progress_bar
 from auv_mj.goals import GOAL_KEYS
 
-AGENTS = ("ddpg", "her-ddpg", "executor")
-"""Agent names of `auv-mj train AGENT`: her-ddpg needs a goal task, executor a Box task."""
+AGENTS = ("ddpg", "her-ddpg", "executor", "td3")
+"""Agent names of `auv-mj train AGENT`: her-ddpg needs a goal task, executor a Box task; td3 takes either."""
 CHECKPOINT_NAME = "checkpoint.pt"
 LOG_NAME = "progress.csv"
 LOG_FIELDS = ("episode", "steps", "length", "return", "success", "wall_time")
@@ -221,7 +223,11 @@ def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir:
     else:
         if ckpt_path.exists():
             raise FileExistsError(f"{ckpt_path} exists: resume it or choose another run directory")
-        agent = DDPG(spec["obs_dim"], spec["act_dim"], config or DDPGConfig())
+        learner, config_class = agent_classes(agent_name)
+        config = config or config_class()
+        if not isinstance(config, config_class):
+            raise ValueError(f"agent {agent_name} takes a {config_class.__name__}, got a {type(config).__name__}")
+        agent = learner(spec["obs_dim"], spec["act_dim"], config)
         if init is not None:
             _initialise_from(agent, Path(init), spec)
         counters = {"env_steps": 0, "episodes": 0, "gradient_steps": 0, "wall_time": 0.0}
@@ -505,6 +511,9 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
                                ("checkpoint_every", checkpoint_every, 1), ("collectors", collectors, 0)):
         if value is not None and value < least:
             raise ValueError(f"{name} must be >= {least}, got {value}")
+    if collectors and agent_name == "td3":
+        raise ValueError("collectors: td3 trains serially (its delayed actor steps are not split across "
+                         "collector processes); use collectors=0")
     env = env_fn()
     run_dir = Path(run_dir) if run_dir is not None else Path("runs") / f"{agent_name}-{time.strftime('%Y%m%d-%H%M%S')}"
     run = _open_run(env, agent_name, config, run_dir, resume, init, tensorboard, run_info, collectors)

@@ -8,8 +8,15 @@ r = -|e_V| - |e_psi|; "suite" (default) is in [0, 1], the mean of two `tolerance
 
 Observation "paper" (default) is Eq. 27; "integral" appends the clamped integrals of e_V and e_psi
 (`ErrorIntegral`), a memory Eq. 27 lacks: without it a learned executor is a static map and keeps a steady
-error under a steady force, which the S-plane's integrating bias du removes. A learned executor carries
-its own integrals outside the task (`auv_mj.cli.policies.LearnedExecutor`).
+error under a steady force, which the S-plane's integrating bias du removes. "history" appends, after the
+integrals, the last HISTORY_STEPS commands sent to the actuators: with lagged thrusters (ocean conditions)
+the force acting now is a filtered sum of those, which Eq. 27 cannot see.
+
+Residual (`residual` > 0, ours after Johannink et al. 2019 and Silver et al. 2018): the S-plane of Eq. 32
+with its nominal gains runs inside the task and the agent's action is a correction to it,
+command = clip(S-plane + residual * a, -1, 1); the observation then ends with the S-plane's command. A zero
+action is exactly the S-plane. `ExecutorMemory` holds the integrals, the history and the S-plane: the task
+and a learned executor deployed in a planning task (`auv_mj.cli.policies.LearnedExecutor`) share it.
 
 Commands: "paper" (default) holds the Sec. 4.2 command, 1.0 m/s and pi/12, from rest at psi = 0; a pair
 (V, psi), V in [0, `top_speed()`] m/s and psi in [-pi, pi] rad, holds that command; "random" (training)
@@ -34,8 +41,9 @@ from __future__ import annotations
 import auv_mj  # noqa: F401  # isort: skip  (first: it picks MuJoCo's OpenGL backend before dm_control loads)
 import collections
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from dm_control.rl import control
@@ -51,7 +59,7 @@ from auv_mj.vehicle import vehicle_facts
 from tasks import options
 from tasks.actions import checked_action
 from tasks.registry import SUITE
-from tasks.splane import EXECUTOR_DT
+from tasks.splane import EXECUTOR_DT, SPlaneController
 
 EPISODE_STEPS = 1100
 """Length of the Sec. 4.2 experiment, in executor steps."""
@@ -115,7 +123,15 @@ INTEGRAL_BAND = (0.2, 0.2)
 separation, as in the S-plane's du of Eq. 32, so that large command steps do not wind them up)."""
 INTEGRAL_LIMIT = (1.0, 1.0)
 """Clamp of the integrals of e_V [m] and e_psi [rad s]; the observation holds integral / limit."""
-OBSERVATIONS = ("paper", "integral")
+HISTORY_STEPS = 3
+"""Commands (normalised tau_u, tau_r; newest first) the "history" observation appends: 0.3 s, about the
+thruster lags of the ocean conditions (0.4 s surge, 0.2 s yaw)."""
+HISTORY_NAMES = tuple(f"{name}_cmd_{k}" for k in range(1, HISTORY_STEPS + 1) for name in ("tau_u", "tau_r"))
+RESIDUAL_NAMES = ("splane_tau_u", "splane_tau_r")
+"""Entries a residual executor's observation ends with: the S-plane's normalised command."""
+MAX_RESIDUAL = 2.0
+"""Largest `residual`: the correction's span as a multiple of the normalised actuator range."""
+OBSERVATIONS = ("paper", "integral", "history")
 REWARDS = ("suite", "paper")
 COMMANDS = ("paper", "random")
 DISTURBANCES = ("paper", "random", "none")
@@ -165,6 +181,83 @@ class ErrorIntegral:
         limit = np.asarray(INTEGRAL_LIMIT)
         self.value = np.clip(self.value + inside * error * EXECUTOR_DT, -limit, limit)
         return self.value / limit
+
+
+class ExecutorMemory:
+    """A learned executor's inputs and output, the one implementation for the task and a deployed executor.
+
+    `observe(command, state)` is called once per executor step, with the command and state the next action
+    acts on: it moves the integrals (observation "integral", "history") and, for a residual executor, the
+    S-plane (Eq. 32, nominal gains), and returns the observation. `compose(action)` turns the policy's action
+    into the normalised actuator command ([-1, 1]^2, Eq. 28-29): the action itself, or the S-plane's command
+    plus `residual` times the action, clipped; it remembers the command for the "history" observation.
+    `low`, `high` are the actuator ranges (ctrlrange) that normalise the S-plane's forces.
+    """
+
+    def __init__(self, observation: str = "paper", residual: float = 0.0,
+                 low: Sequence[float] = (-1.0, -1.0), high: Sequence[float] = (1.0, 1.0)):
+        self.observation = options.choice("observation", observation, OBSERVATIONS)
+        self.residual = options.number("residual", residual, 0.0, MAX_RESIDUAL)
+        self.low, self.high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+        self._integral = ErrorIntegral() if observation in ("integral", "history") else None
+        self._splane = SPlaneController() if self.residual > 0 else None
+        self.reset()
+
+    @property
+    def size(self) -> int:
+        """Entries of the observation."""
+        return observation_size(self.observation, self.residual > 0)
+
+    def reset(self, low: Sequence[float] | None = None, high: Sequence[float] | None = None) -> None:
+        """Start of an episode: zero integrals and history, a fresh S-plane (and new actuator ranges if given)."""
+        if low is not None and high is not None:
+            self.low, self.high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+        if self._integral is not None:
+            self._integral.reset()
+        if self._splane is not None:
+            self._splane.reset()
+        self._history = np.zeros(2 * HISTORY_STEPS if self.observation == "history" else 0)
+        self._proposal = np.zeros(2)
+
+    def observe(self, command: Sequence[float], state: Sequence[float]) -> np.ndarray:
+        """The observation for `command` (V_cmd, psi_cmd) and `state` (u, v, r, psi); moves the memories."""
+        parts = [executor_observation(command, state)]
+        if self._integral is not None:
+            parts.append(self._integral.update(command, state))
+        parts.append(self._history)
+        if self._splane is not None:
+            tau = np.clip(self._splane(command, state), self.low, self.high)
+            self._proposal = np.clip(2 * (tau - self.low) / (self.high - self.low) - 1, -1.0, 1.0)
+            parts.append(self._proposal)
+        return np.concatenate(parts)
+
+    def compose(self, action: np.ndarray) -> np.ndarray:
+        """The normalised actuator command for the policy's `action` (in [-1, 1]^2)."""
+        action = np.asarray(action, dtype=float)
+        command = action if self._splane is None else np.clip(self._proposal + self.residual * action, -1.0, 1.0)
+        if self._history.size:
+            self._history = np.concatenate([command, self._history[:-2]])
+        return command
+
+
+def observation_size(observation: str, residual: bool) -> int:
+    """Entries of the executor observation of this kind, with or without the residual's S-plane command."""
+    extra = {"paper": 0, "integral": len(INTEGRAL_NAMES), "history": len(INTEGRAL_NAMES) + len(HISTORY_NAMES)}
+    return len(OBSERVATION_NAMES) + extra[observation] + len(RESIDUAL_NAMES) * bool(residual)
+
+
+def executor_options(obs_dim: int, task_kwargs: Mapping[str, Any] | None = None) -> tuple[str, float]:
+    """(observation, residual) of a learned executor with `obs_dim` inputs trained with `task_kwargs` (a
+    checkpoint's run_info); without them, the observation its input size gives ("paper" or "integral").
+    ValueError when the two disagree."""
+    task_kwargs = task_kwargs or {}
+    observation = task_kwargs.get("observation") or observation_kind(obs_dim)
+    residual = float(task_kwargs.get("residual", 0.0))
+    options.choice("observation", observation, OBSERVATIONS)
+    if observation_size(observation, residual > 0) != obs_dim:
+        raise ValueError(f"an executor trained with observation {observation!r} and residual {residual:g} has "
+                         f"{observation_size(observation, residual > 0)} inputs, not {obs_dim}")
+    return observation, residual
 
 
 def observation_kind(size: int) -> str:
@@ -236,23 +329,24 @@ class SpeedHeading(base.Task):
     """Follow (V_cmd, psi_cmd) with (tau_u, tau_r) under disturbances (Sec. 3.3, 4.2)."""
 
     def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper",
-                 reward: str = "suite", observation: str = "paper", random=None, conditions="ideal"):
+                 reward: str = "suite", observation: str = "paper", random=None, conditions="ideal",
+                 residual: float = 0.0):
         """`command`: "paper", "random" or (V, psi); `disturbances`: "paper", "random", "none";
         `reward`: "suite" ([0, 1]) or "paper" (Eq. 30); `observation`: "paper" (Eq. 27) or "integral"
         (Eq. 27 and the error integrals of `ErrorIntegral`); `random`: seed, RandomState or None;
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`; the
-        sonar's play no part here)."""
+        sonar's play no part here); `residual`: 0 (the action is the command, Eq. 28-29) or the span of the
+        agent's correction to the S-plane's command, in (0, MAX_RESIDUAL] (module docstring)."""
         if isinstance(command, str):
             options.choice("command", command, COMMANDS)
         else:
             command = options.pair("command", command, ((0.0, top_speed(), "m/s"), (-math.pi, math.pi, "rad")))
         options.choice("disturbances", disturbances, DISTURBANCES)
         options.choice("reward", reward, REWARDS)
-        options.choice("observation", observation, OBSERVATIONS)
+        self.memory = ExecutorMemory(observation, residual)
         random = options.seed(random)
         self.ocean = ocean.Ocean(conditions)
-        self._integral = ErrorIntegral() if observation == "integral" else None
-        self._integral_obs = np.zeros(0 if self._integral is None else len(INTEGRAL_NAMES))
+        self._observation = np.zeros(self.memory.size)
         self._command_mode = command
         self._disturbance_mode = disturbances
         self._reward_mode = reward
@@ -299,8 +393,7 @@ class SpeedHeading(base.Task):
                                     duration=w.steps * EXECUTOR_DT, frame=w.frame)
         physics.set_control(np.zeros(physics.model.nu))
         self._step, self._step_command = 0, self.command(physics)
-        if self._integral is not None:
-            self._integral.reset()
+        self.memory.reset(*physics.model.actuator_ctrlrange.T)
         self.ocean.start(physics, self.random)
         super().initialize_episode(physics)  # calls after_step: errors and last_info of the start
 
@@ -363,11 +456,12 @@ class SpeedHeading(base.Task):
         return specs.BoundedArray((physics.model.nu,), float, -1.0, 1.0, name="tau_u,tau_r")
 
     def before_step(self, action, physics) -> None:
-        """Scales the action from [-1, 1] to the actuator ranges (ctrlrange) and applies it."""
+        """Scales the action from [-1, 1] to the actuator ranges (ctrlrange) and applies it (as a correction to
+        the S-plane's command for a residual executor)."""
         self.ocean.tick(physics)
         self._step = self.step_index(physics)
         self._step_command = self.command(physics)
-        action = checked_action(action, self.action_spec(physics), self)
+        action = self.memory.compose(checked_action(action, self.action_spec(physics), self))
         low, high = physics.model.actuator_ctrlrange.T
         physics.set_control(low + 0.5 * (action + 1.0) * (high - low))
 
@@ -375,15 +469,15 @@ class SpeedHeading(base.Task):
         """Errors against the command that was in force during the step; the step's info."""
         self._errors = self._tracking_errors(physics, self._step_command)
         self.last_info = self._info(self._step, self._step_command)
-        if self._integral is not None:  # integrates the errors the next action will act on
-            self._integral_obs = self._integral.update(self.command(physics), self.state(physics))
+        # the memories move with the errors the next action will act on
+        self._observation = self.memory.observe(self.command(physics), self.state(physics))
 
     def get_observation(self, physics) -> collections.OrderedDict:
         """"observation": (V_cmd, u, v, r, e_V, cos e_psi, sin e_psi) for the current command (Eq. 27),
-        then the two error integrals for the "integral" observation."""
+        then the error integrals ("integral", "history"), the last commands ("history") and the S-plane's
+        command (residual), as `ExecutorMemory.observe` built them after the step."""
         obs = collections.OrderedDict()
-        obs["observation"] = np.concatenate([executor_observation(self.command(physics), self.state(physics)),
-                                             self._integral_obs])
+        obs["observation"] = self._observation.copy()
         return obs
 
     def get_reward(self, physics) -> float:

@@ -1,6 +1,10 @@
 """Offline tuning of the S-plane gains (Eq. 32) on the nominal vehicle: `python -m tasks.splane_tuning --tune`.
 
 The cost and the search behind the defaults of `tasks.splane.SPlaneGains` (see that module's docstring).
+`--conditions ocean` re-tunes them where the water is not ideal (lagged thrusters, current, a scaled vehicle;
+`auv_mj.ocean`): the same scenarios, each run on OCEAN_TUNING_EPISODES ocean draws of training seeds (never a
+validation or test seed), starting from the nominal optimum as a practitioner would. Its optimum is
+`tasks.splane.OCEAN_GAINS`, the strongest classical executor the learned ones are compared with (issue 17).
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import numpy as np
 
 from auv_mj import arena
 from auv_mj.geometry import wrap_angle
+from auv_mj.seeds import train_seed
 from tasks.speed_heading import phase_mae, rollout
 from tasks.splane import SPlaneController, SPlaneGains
 
@@ -33,6 +38,10 @@ OVERSHOOT_WEIGHT = 2.0
 """Weight of the heading overshoot [rad] in the tuning cost."""
 CHATTER_WEIGHT = 0.1
 """Weight of the mean step-to-step change of the normalised outputs |du_i| in the tuning cost."""
+OCEAN_TUNING_EPISODES = 3
+"""Ocean draws (training seeds `train_seed(TUNING_RUN_SEED, k)`) each scenario of an ocean cost averages over."""
+TUNING_RUN_SEED = 17
+"""Run seed of the ocean tuning's training seeds."""
 
 
 def step_response(gains: SPlaneGains, command: tuple[float, float], initial_speed: float = 0.0,
@@ -64,32 +73,54 @@ def _overshoot(heading_error: np.ndarray) -> float:
     return float(max(0.0, -np.min(sign * heading_error)))
 
 
-def tuning_cost(gains: SPlaneGains, verbose: bool = False) -> float:
-    """The cost `--tune` minimises: MAE (speed + heading) of three steps and the Sec. 4.2 episode."""
+SCENARIOS = {"speed 0->1": ((1.0, 0.0), 0.0), "heading 90deg": ((1.0, math.pi / 2), 1.0),
+             "speed 1->2, 60deg": ((2.0, math.pi / 3), 1.0)}
+"""The step scenarios of the cost: name -> (command (V [m/s], psi [rad]), initial surge speed [m/s])."""
+
+
+def _ocean_step_response(gains: SPlaneGains, command: tuple[float, float], seed: int,
+                         conditions: str | dict) -> tuple[np.ndarray, np.ndarray]:
+    """(speed, heading) errors of a step to `command` from rest in ocean `conditions` (speed_heading, no
+    disturbance forces), one per executor step."""
+    trace = rollout(SPlaneController(gains), random=seed, command=command, disturbances="none",
+                    conditions=conditions, time_limit=STEP_SECONDS)
+    return trace["speed_error"], trace["heading_error"]
+
+
+def tuning_cost(gains: SPlaneGains, verbose: bool = False, conditions: str | dict = "ideal") -> float:
+    """The cost `--tune` minimises: MAE (speed + heading) of three steps and the Sec. 4.2 episode.
+
+    In "ideal" water each scenario runs once on the nominal vehicle; otherwise each is averaged over
+    OCEAN_TUNING_EPISODES draws of `conditions` (the steps then start from rest)."""
+    ideal = conditions == "ideal"
+    seeds = [0] if ideal else [train_seed(TUNING_RUN_SEED, k) for k in range(OCEAN_TUNING_EPISODES)]
     cost = 0.0
-    scenarios = {"speed 0->1": ((1.0, 0.0), 0.0), "heading 90deg": ((1.0, math.pi / 2), 1.0),
-                 "speed 1->2, 60deg": ((2.0, math.pi / 3), 1.0)}
-    for name, (command, initial_speed) in scenarios.items():
-        e_v, e_psi = step_response(gains, command, initial_speed)
-        part = np.mean(np.abs(e_v)) + np.mean(np.abs(e_psi)) + OVERSHOOT_WEIGHT * _overshoot(e_psi)
+    for name, (command, initial_speed) in SCENARIOS.items():
+        for seed in seeds:
+            e_v, e_psi = step_response(gains, command, initial_speed) if ideal else \
+                _ocean_step_response(gains, command, seed, conditions)
+            part = np.mean(np.abs(e_v)) + np.mean(np.abs(e_psi)) + OVERSHOOT_WEIGHT * _overshoot(e_psi)
+            if verbose:
+                print(f"  {name:18s} MAE v {np.mean(np.abs(e_v)):.4f}  psi {np.mean(np.abs(e_psi)):.4f}  "
+                      f"overshoot {_overshoot(e_psi):.4f}")
+            cost += part / len(seeds)
+    for seed in seeds:
+        trace = rollout(SPlaneController(gains)) if ideal else \
+            rollout(SPlaneController(gains), random=seed, conditions=conditions)
+        for phase, (mae_v, mae_psi) in phase_mae(trace).items():
+            if verbose:
+                print(f"  Sec. 4.2 {phase:13s} MAE v {mae_v:.4f}  psi {mae_psi:.4f}")
+            if phase != "none":
+                cost += (mae_v + mae_psi) / len(seeds)
+        chatter = np.mean(np.abs(np.diff(trace["tau"] / [gains.surge_limit, gains.yaw_limit], axis=0)))
         if verbose:
-            print(f"  {name:18s} MAE v {np.mean(np.abs(e_v)):.4f}  psi {np.mean(np.abs(e_psi)):.4f}  "
-                  f"overshoot {_overshoot(e_psi):.4f}")
-        cost += part
-    trace = rollout(SPlaneController(gains))
-    for phase, (mae_v, mae_psi) in phase_mae(trace).items():
-        if verbose:
-            print(f"  Sec. 4.2 {phase:13s} MAE v {mae_v:.4f}  psi {mae_psi:.4f}")
-        if phase != "none":
-            cost += mae_v + mae_psi
-    chatter = np.mean(np.abs(np.diff(trace["tau"] / [gains.surge_limit, gains.yaw_limit], axis=0)))
-    if verbose:
-        print(f"  Sec. 4.2 chatter mean |du| {chatter:.4f}")
-    return float(cost + CHATTER_WEIGHT * chatter)
+            print(f"  Sec. 4.2 chatter mean |du| {chatter:.4f}")
+        cost += CHATTER_WEIGHT * chatter / len(seeds)
+    return float(cost)
 
 
-def tune(start: SPlaneGains | None = None, max_evaluations: int = 400) -> SPlaneGains:
-    """Nelder-Mead over log-gains of TUNED_FIELDS (within TUNING_BOUNDS), minimising `tuning_cost`.
+def tune(start: SPlaneGains | None = None, max_evaluations: int = 400, conditions: str | dict = "ideal") -> SPlaneGains:
+    """Nelder-Mead over log-gains of TUNED_FIELDS (within TUNING_BOUNDS), minimising `tuning_cost` in `conditions`.
 
     Starts from `start`, by default INITIAL_GAINS; returns the optimum rounded to 3 decimals.
     """
@@ -99,7 +130,8 @@ def tune(start: SPlaneGains | None = None, max_evaluations: int = 400) -> SPlane
     x0 = np.log([getattr(start, f) for f in TUNED_FIELDS])
 
     def cost(x: np.ndarray) -> float:
-        return tuning_cost(replace(start, **dict(zip(TUNED_FIELDS, np.exp(x).tolist(), strict=True))))
+        return tuning_cost(replace(start, **dict(zip(TUNED_FIELDS, np.exp(x).tolist(), strict=True))),
+                           conditions=conditions)
 
     result = minimize(cost, x0, method="Nelder-Mead", bounds=np.log(TUNING_BOUNDS),
                       options={"maxfev": max_evaluations, "xatol": 0.02, "fatol": 1e-4})
@@ -112,13 +144,19 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m tasks.splane_tuning", description=__doc__.splitlines()[0])
     parser.add_argument("--tune", action="store_true", help="run the Nelder-Mead search from INITIAL_GAINS")
     parser.add_argument("--max-evaluations", type=int, default=400)
+    parser.add_argument("--conditions", choices=("ideal", "ocean"), default="ideal",
+                        help="tune in ideal water from INITIAL_GAINS, or in ocean conditions from the nominal "
+                             "optimum (the SPlaneGains defaults)")
     args = parser.parse_args(argv)
+    if args.max_evaluations < 1:
+        parser.error(f"--max-evaluations must be >= 1, got {args.max_evaluations}")
     print("defaults:", SPlaneGains())
-    print(f"cost {tuning_cost(SPlaneGains(), verbose=True):.4f}")
+    print(f"cost in {args.conditions} water {tuning_cost(SPlaneGains(), True, args.conditions):.4f}")
     if args.tune:
-        gains = tune(max_evaluations=args.max_evaluations)
+        start = None if args.conditions == "ideal" else SPlaneGains()
+        gains = tune(start, max_evaluations=args.max_evaluations, conditions=args.conditions)
         print("tuned:", ", ".join(f"{k}={v}" for k, v in asdict(gains).items() if k in TUNED_FIELDS))
-        print(f"cost {tuning_cost(gains, verbose=True):.4f}")
+        print(f"cost {tuning_cost(gains, True, args.conditions):.4f}")
     return 0
 
 

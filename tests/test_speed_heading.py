@@ -233,3 +233,65 @@ def test_speed_heading_refuses_an_infinite_action_as_the_planning_tasks_do():
     env.reset()
     with pytest.raises(ValueError, match="finite"):
         env.step(np.array([np.inf, 0.0]))
+
+
+# --- residual executor and the "history" observation (issue 17) -------------------------------------------
+
+
+@pytest.mark.parametrize("conditions", ["ideal", "ocean"])
+def test_a_residual_executor_with_zero_correction_is_exactly_the_splane(conditions):
+    kwargs = dict(command="random", disturbances="random", conditions=conditions, random=7, time_limit=40.0)
+    splane = sh.rollout(SPlaneController(), **kwargs)
+    env = sh.speed_heading(residual=0.8, observation="history", **kwargs)
+    time_step, forces, errors = env.reset(), [], []
+    while not time_step.last():
+        time_step = env.step(np.zeros(2))
+        forces.append(env.physics.data.ctrl.copy())
+        errors.append(env.task.last_info["speed_error"])
+    np.testing.assert_array_equal(np.array(forces), splane["tau"])
+    np.testing.assert_array_equal(np.array(errors), splane["speed_error"])
+
+
+def test_residual_observation_ends_with_the_splane_command_and_the_action_corrects_it():
+    env = sh.speed_heading(command="random", disturbances="random", residual=0.5, random=2)
+    low, high = env.physics.model.actuator_ctrlrange.T
+    shadow = SPlaneController()  # the S-plane the task runs, replayed outside it
+    time_step = env.reset()
+    task, physics = env.task, env.physics
+    assert time_step.observation["observation"].shape == (sh.observation_size("paper", True),) == (9,)
+    for k in range(30):
+        tau = np.clip(shadow(task.command(physics), task.state(physics)), low, high)
+        proposal = 2 * (tau - low) / (high - low) - 1
+        np.testing.assert_allclose(time_step.observation["observation"][-2:], proposal, atol=1e-12)
+        action = np.array([0.9 * math.sin(0.4 * k), -0.7])
+        time_step = env.step(action)
+        applied = np.clip(proposal + 0.5 * action, -1, 1)
+        np.testing.assert_allclose(physics.data.ctrl, low + 0.5 * (applied + 1) * (high - low), atol=1e-9)
+
+
+def test_history_observation_holds_the_last_commands_newest_first():
+    env = sh.speed_heading(command="random", disturbances="random", observation="history", random=4)
+    time_step = env.reset()
+    size = sh.observation_size("history", False)
+    assert size == len(sh.OBSERVATION_NAMES) + len(sh.INTEGRAL_NAMES) + len(sh.HISTORY_NAMES) == 15
+    start = len(sh.OBSERVATION_NAMES) + len(sh.INTEGRAL_NAMES)
+    np.testing.assert_array_equal(time_step.observation["observation"][start:], np.zeros(6))
+    actions = [np.array([0.1 * k, -0.05 * k]) for k in range(1, 6)]
+    for k, action in enumerate(actions):
+        time_step = env.step(action)
+        recent = actions[max(0, k - 2):k + 1][::-1]
+        expected = np.concatenate(recent + [np.zeros(2)] * (3 - len(recent)))
+        np.testing.assert_allclose(time_step.observation["observation"][start:], expected)
+
+
+@pytest.mark.parametrize("residual", [-0.1, 2.5, math.nan, "big"])
+def test_bad_residual_is_refused_by_name(residual):
+    with pytest.raises(ValueError, match="residual"):
+        sh.SpeedHeading(residual=residual)
+
+
+def test_executor_options_follow_the_checkpoint_and_refuse_a_mismatch():
+    assert sh.executor_options(9) == ("integral", 0.0)
+    assert sh.executor_options(17, {"observation": "history", "residual": 0.5}) == ("history", 0.5)
+    with pytest.raises(ValueError, match="has 17 inputs, not 15"):
+        sh.executor_options(15, {"observation": "history", "residual": 0.5})

@@ -6,6 +6,10 @@ The one place where tasks and agents meet (the app layer):
   the protection domain of Sec. 3.2.2 active (`tasks.avoidance`), on the task's default S-plane executor;
   `planner-raw`: the same without the protection domain;
 - `executor`: the shipped DDPG execution layer (speed_heading);
+- `residual-executor`: the shipped residual execution layer (speed_heading): TD3's learned correction to the
+  S-plane, trained in ocean conditions (issue 17, `executor_residual.pt`);
+- `splane-ocean`: the classical baseline with the S-plane gains re-tuned in ocean conditions
+  (`tasks.splane.OCEAN_GAINS`);
 - `two-layer`: the shipped planner (protection domain active) on the shipped learned executor (Sec. 4.3);
 - `los-executor`: line-of-sight guidance on the shipped learned executor (the execution layer alone);
 - `splane`: the classical baseline (line of sight + S-plane, or S-plane alone on speed_heading);
@@ -17,6 +21,10 @@ The one place where tasks and agents meet (the app layer):
   on the S-plane and on the learned executor.
 `planner=PATH`, `planner-raw=PATH` and `two-layer=PATH` run the planner checkpoint PATH in place of the
 shipped one (to compare or choose candidates, e.g. on validation seeds).
+
+On the planning tasks the executor under any planner is chosen by name in the task options,
+`--task-kwargs '{"executor": NAME}'` with NAME one of EXECUTORS (or a speed_heading checkpoint path), e.g. the
+general planner on the residual executor: `--policy planner-general --task-kwargs '{"executor": "residual-executor"}'`.
 """
 
 from __future__ import annotations
@@ -31,20 +39,25 @@ from agents.policy import Policy
 from auv_mj import arena
 from tasks import suite
 from tasks.avoidance import with_repulsion
-from tasks.guidance import classical, line_of_sight, los_avoid
-from tasks.speed_heading import ErrorIntegral, executor_observation, observation_kind
+from tasks.guidance import classical, is_goal_task, line_of_sight, los_avoid
+from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
+from tasks.splane import OCEAN_GAINS, SPlaneController
 
 SHIPPED = {"planner": "planner.pt", "planner-tunnel": "planner_tunnel.pt", "planner-general": "planner_general.pt",
-           "executor": "executor.pt"}
+           "executor": "executor.pt", "residual-executor": "executor_residual.pt"}
 """Shipped checkpoints: name -> file in `agents/checkpoints/`."""
 PLANNER_FOR_TASK = {"tunnel": "planner-tunnel"}
 """Tasks with a planner of their own (trained on that task, as the paper trains per environment)."""
-BASELINES = ("splane", "los-avoid", "random")
+BASELINES = ("splane", "splane-ocean", "los-avoid", "random")
 EXECUTOR_TASKS = ("speed_heading",)
 LEARNED_EXECUTOR_POLICIES = ("two-layer", "los-executor")
+EXECUTOR_POLICIES = ("executor", "residual-executor")
+"""Policies of the speed_heading task alone."""
+EXECUTORS = ("splane", "splane-ocean", "executor", "residual-executor")
+"""Executor names a planning task's `executor` option takes on the command line."""
 PLANNERS = ("planner", "planner-raw", "two-layer", "los-executor", "los-avoid")
-NAMES = ("planner", "planner-raw", "executor", "two-layer", "planner-general", "two-layer-general", "los-executor",
-         *BASELINES)
+NAMES = ("planner", "planner-raw", "executor", "residual-executor", "two-layer", "planner-general",
+         "two-layer-general", "los-executor", *BASELINES)
 """Every policy name `--policy` takes besides a checkpoint path."""
 
 
@@ -67,33 +80,44 @@ def shipped_checkpoint(name: str) -> Path:
 class LearnedExecutor:
     """A trained speed_heading policy as a planning task's executor: (command, state) -> (tau_u, tau_r).
 
-    Its input is the speed_heading observation it was trained on (Eq. 27, or Eq. 27 and the error
-    integrals of the "integral" observation, which it then keeps itself; `reset` zeroes them) and its
-    [-1, 1] output is scaled to the actuator ranges exactly as the speed_heading task does (Eq. 28-29).
-    Call it once per executor step, as the tasks do.
+    Its input is the speed_heading observation it was trained on and its output becomes the actuator command
+    exactly as in the speed_heading task (Eq. 28-29; a residual executor's output corrects the S-plane's),
+    through the task's own `ExecutorMemory` (integrals, command history, the S-plane), set up from the
+    checkpoint's training options. Call it once per executor step, as the tasks do; `reset` starts an episode.
     """
 
     def __init__(self, policy, low: np.ndarray, high: np.ndarray):
         self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
-        self._integral = ErrorIntegral() if observation_kind(policy.obs_dim) == "integral" else None
+        kwargs = getattr(policy, "metadata", {}).get("run_info", {}).get("task_kwargs", {})
+        self.memory = ExecutorMemory(*executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
 
     def reset(self) -> None:
-        """Zeroes the error integrals (the start of an episode)."""
-        if self._integral is not None:
-            self._integral.reset()
+        """Zeroes the memories (the start of an episode)."""
+        self.memory.reset()
 
     def __call__(self, command, state) -> np.ndarray:
-        obs = executor_observation(command, state)
-        if self._integral is not None:
-            obs = np.concatenate([obs, self._integral.update(command, state)])
-        action = np.clip(self.policy(obs), -1.0, 1.0)
+        obs = self.memory.observe(command, state)
+        action = self.memory.compose(np.clip(self.policy(obs), -1.0, 1.0))
         return self.low + 0.5 * (action + 1.0) * (self.high - self.low)
 
 
 def learned_executor(path: Path | None = None) -> LearnedExecutor:
-    """The shipped (or given) DDPG execution layer as a task executor."""
+    """The shipped (or given) learned execution layer as a task executor."""
     low, high = arena.load().model.actuator_ctrlrange.T
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
+
+
+def named_executor(name: str):
+    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path) as `executor(command, state)`."""
+    if name == "splane":
+        return SPlaneController()
+    if name == "splane-ocean":
+        return SPlaneController(OCEAN_GAINS)
+    if name in EXECUTOR_POLICIES:
+        return learned_executor(shipped_checkpoint(name))
+    if Path(name).is_file():
+        return learned_executor(Path(name))
+    raise ValueError(f"task_kwargs executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
 
 
 GENERAL = {"planner-general": "planner", "two-layer-general": "two-layer"}
@@ -117,13 +141,24 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     """The suite environment for one episode; `two-layer` plugs in the learned executor, and a checkpoint
     gets the observation it was trained on (read from its metadata)."""
     task_kwargs["random"] = seed
+    executor = task_kwargs.get("executor")
     if split_name(policy_name)[0] in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
+        if executor is not None:
+            raise ValueError(f"policy {policy_name!r} runs the learned executor; leave 'executor' out of "
+                             f"task_kwargs (or use a planner policy with it)")
         task_kwargs["executor"] = learned_executor()
+    elif isinstance(executor, str):
+        task_kwargs["executor"] = named_executor(executor)
+    elif policy_name == "splane-ocean" and task_name not in EXECUTOR_TASKS:
+        task_kwargs["executor"] = SPlaneController(OCEAN_GAINS)
     checkpoint = _checkpoint_path(policy_name, task_name)
     if checkpoint is not None and "observation" not in task_kwargs:
         meta = read_checkpoint(checkpoint)[1]
-        if task_name in EXECUTOR_TASKS:  # the executor's observation, by its input size
-            task_kwargs["observation"] = observation_kind(int(meta["obs_dim"]))
+        if task_name in EXECUTOR_TASKS:  # the executor's observation (and residual) it was trained with
+            trained = meta.get("run_info", {}).get("task_kwargs", {})
+            task_kwargs["observation"], residual = executor_options(int(meta["obs_dim"]), trained)
+            if residual:
+                task_kwargs.setdefault("residual", residual)
         elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
     return suite.load("auv", task_name, task_kwargs=task_kwargs)
@@ -134,8 +169,8 @@ def _checkpoint_path(policy_name: str, task_name: str | None = None) -> Path | N
     base, path = split_name(policy_name)
     if path is not None:
         return path
-    if policy_name == "executor":
-        return shipped_checkpoint("executor")
+    if policy_name in EXECUTOR_POLICIES:
+        return shipped_checkpoint(policy_name)
     if policy_name in ("planner", "planner-raw", "two-layer") and task_name not in EXECUTOR_TASKS:
         return shipped_checkpoint(PLANNER_FOR_TASK.get(task_name, "planner"))
     path = Path(policy_name)
@@ -177,6 +212,8 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
         return uniform_random(env, seed)
     if policy_name == "splane":
         return classical(env)
+    if policy_name == "splane-ocean":  # on a planning task its executor was set by make_env
+        return line_of_sight(env) if is_goal_task(env) else executor_policy(env, SPlaneController(OCEAN_GAINS))
     if policy_name == "los-executor":
         return line_of_sight(env)
     if policy_name == "los-avoid":
@@ -185,8 +222,8 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
         return _checkpoint_policy(shipped_checkpoint(planner), env, protection=True)
     if policy_name == "planner-raw":
         return _checkpoint_policy(shipped_checkpoint(planner), env, protection=False)
-    if policy_name == "executor":
-        return _checkpoint_policy(shipped_checkpoint("executor"), env)
+    if policy_name in EXECUTOR_POLICIES:
+        return _checkpoint_policy(shipped_checkpoint(policy_name), env)
     path = Path(policy_name)
     if not path.is_file():
         raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of {list(NAMES)}")
@@ -206,7 +243,7 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
             raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
     if split_name(policy_name)[0] in PLANNERS:
         chosen = [t for t in chosen if t not in EXECUTOR_TASKS]
-    elif policy_name == "executor":
+    elif policy_name in EXECUTOR_POLICIES:
         chosen = [t for t in chosen if t in EXECUTOR_TASKS]
     if not chosen:
         raise ValueError(f"policy {policy_name!r} cannot run any task of {spec!r}")

@@ -419,6 +419,93 @@ def ocean_conditions(lines: list[str], episodes: int) -> None:
               + ("; ".join(broken) if broken else "nothing by these measures") + ".", ""]
 
 
+EXECUTOR_ROWS = (("executor", "DDPG executor, Eq. 27-30 (the paper's row)"),
+                 ("residual-executor", "residual TD3 on the S-plane, trained in ocean water"),
+                 ("splane", "S-plane, nominal gains"), ("splane-ocean", "S-plane re-tuned in ocean water"))
+"""Every executor of the executor comparison: speed_heading policy name, what it is."""
+EXECUTOR_SEED = seeds.TEST.start
+"""First held-out seed of the executor comparison (the ocean draw differs per seed)."""
+SYSTEM_TASKS = (("obstacles", {}), ("moving_obstacles", {}), ("tunnel", {"arena": "random"}))
+"""Held-out random arenas of the two-layer comparison under ocean conditions."""
+
+
+def _executor_table9(lines: list[str], episodes: int) -> dict:
+    """Table 9 in ideal and ocean water for every executor, mean over `episodes` held-out seeds."""
+    lines += ["### Table 9, ideal and ocean water", "",
+              f"The Sec. 4.2 schedule (1.0 m/s, pi/12; burst, constant and periodic forces), {episodes} held-out seeds "
+              f"from {EXECUTOR_SEED} (in ideal water every seed is the same episode; in ocean water each draws its "
+              "own current, lag and vehicle). MAE of speed [m/s] / heading [rad] per phase.", "",
+              "| executor | water | instantaneous | constant | periodic | all steps |",
+              "| --- | --- | --- | --- | --- | --- |"]
+    results = {}
+    for name, _ in EXECUTOR_ROWS:
+        for condition in CONDITIONS:
+            summary = evaluate.evaluate(name, ["speed_heading"], episodes, EXECUTOR_SEED, progress=False,
+                                        task_kwargs={"conditions": condition})["tasks"]["speed_heading"]
+            results[name, condition] = summary
+            cells = [f"{_fmt(summary.get(f'mae_speed_{p}'))} / {_fmt(summary.get(f'mae_heading_{p}'))}"
+                     for p in ("instantaneous", "constant", "periodic")]
+            lines.append(f"| {name} | {condition} | {' | '.join(cells)} | {_fmt(summary['mae_speed'])} / "
+                         f"{_fmt(summary['mae_heading'])} |")
+    lines += ["", f"Command: `auv-mj eval --policy residual-executor --task speed_heading --episodes {episodes} "
+              f"--seed {EXECUTOR_SEED} --task-kwargs '{{\"conditions\": \"ocean\"}}'` (and each executor; "
+              "`\"ideal\"`).", ""]
+    return results
+
+
+def _beats(results: dict, name: str, other: str, condition: str) -> str:
+    """Whether executor `name` has MAE of speed AND heading at most `other`'s in every phase (issue 17's target)."""
+    worse = [f"{p} {q}" for p in ("instantaneous", "constant", "periodic") for q in ("speed", "heading")
+             if results[name, condition][f"mae_{q}_{p}"] > results[other, condition][f"mae_{q}_{p}"]]
+    return "yes" if not worse else "no (worse in " + ", ".join(worse) + ")"
+
+
+def executors(lines: list[str], episodes: int) -> None:
+    """Issue 17: every executor in ideal and ocean water (Tables 9-11), and the two-layer system on it."""
+    lines += ["## Executors in ideal and ocean water", "",
+              "Every executor: " + "; ".join(f"`{n}` = {what}" for n, what in EXECUTOR_ROWS) + ". The nominal "
+              "S-plane keeps the gains tuned on the nominal model (as a practitioner would); `splane-ocean` is the "
+              "strongest classical executor we have, re-tuned in ocean water on training seeds.", ""]
+    n_exec = max(10, min(episodes, 20))
+    results = _executor_table9(lines, n_exec)
+    lines += ["Target (issue 17): the learned executor's MAE of speed and heading at most the S-plane's in every "
+              "phase, in ocean water.", "", "| learned executor | against | ocean: at most in every phase? | "
+              "ideal: at most in every phase? |", "| --- | --- | --- | --- |"]
+    for name in ("residual-executor", "executor"):
+        for other in ("splane", "splane-ocean"):
+            lines.append(f"| {name} | {other} | {_beats(results, name, other, 'ocean')} | "
+                         f"{_beats(results, name, other, 'ideal')} |")
+    lines += ["", "### Tables 10-11, ideal and ocean water", "",
+              "Line-of-sight guidance on each executor (`--task-kwargs '{\"executor\": NAME}'` on the path "
+              "tasks), errors once on the path, one episode (seed 0).", "",
+              "| path | executor | water | MAE speed | MAE heading | MAX speed | MAX heading | cross-track MAE [m] |",
+              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for task in PAPER_TRACKING:
+        for name, _ in EXECUTOR_ROWS:
+            for condition in CONDITIONS:
+                m = evaluate.run_episode("splane", task, 0, {"conditions": condition, "executor": name})
+                errors = (m["mae_speed"], m["mae_heading"], m["max_speed"], m["max_heading"])
+                lines.append(f"| {task} | {name} | {condition} | {' | '.join(_fmt(e) for e in errors)} | "
+                             f"{_fmt(m['mae_cross_track'], 2)} |")
+    lines += ["", "Command: `auv-mj eval --policy splane --task path_line --episodes 1 --task-kwargs "
+              "'{\"conditions\": \"ocean\", \"executor\": \"residual-executor\"}'`.", "",
+              "### The two-layer system in ocean water", "",
+              f"The general planner (`planner-general`, protection domain on) on the S-plane and on the residual "
+              f"executor, held-out random arenas (test seeds from {HELD_OUT_SEED}), ocean water.", "",
+              "| task | executor | episodes | success | collisions | outcomes | time to goal [s] | min clearance [m] |",
+              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for task, kwargs in SYSTEM_TASKS:
+        for name in ("splane", "residual-executor"):
+            s = evaluate.evaluate("planner-general", [task], episodes, HELD_OUT_SEED, progress=False,
+                                  task_kwargs={**kwargs, "conditions": "ocean", "executor": name})["tasks"][task]
+            outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
+            lines.append(f"| {task} | {name} | {s['episodes']} | {s['success_rate']:.2f} | {s['collision_rate']:.2f} "
+                         f"| {outcomes} | {_fmt(s['time_to_goal'], 0)} | {_fmt(s['min_clearance'], 1)} |")
+    lines += ["", f"Command: `auv-mj eval --policy planner-general --task obstacles --episodes {episodes} --seed "
+              f"{HELD_OUT_SEED} --workers 2 --task-kwargs '{{\"conditions\": \"ocean\", \"executor\": "
+              "\"residual-executor\"}'` (and `\"splane\"`; `--task tunnel --arena random`).", ""]
+
+
 def _commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
@@ -442,7 +529,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 SECTIONS = ("table9", "tracking", "fig8", "training_speed", "scenarios", "random_targets", "generalisation",
-            "ocean")
+            "ocean", "executors")
 """The report's sections, in order."""
 
 
@@ -471,7 +558,8 @@ def run(args: argparse.Namespace) -> int:
                 "scenarios": lambda: scenarios(lines, figures),
                 "random_targets": lambda: random_targets(lines, episodes),
                 "generalisation": lambda: generalisation(lines, episodes, figures),
-                "ocean": lambda: ocean_conditions(lines, episodes)}
+                "ocean": lambda: ocean_conditions(lines, episodes),
+                "executors": lambda: executors(lines, episodes)}
     for name in names:
         print(f"reproduce: {name} ...", file=sys.stderr)
         sections[name]()

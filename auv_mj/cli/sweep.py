@@ -97,13 +97,14 @@ def check_grid(grid: dict[str, Any]) -> dict[str, list]:
 def run_trial(config: dict[str, Any], *, env_id: str, env_kwargs: dict, base: dict[str, Any], root: str,
               steps: int | None, episodes: int | None, collectors: int, checkpoint_every: int) -> dict[str, Any]:
     """One trial (in a Ray worker): train in ROOT/<trial name>, resuming its checkpoint if there is one."""
+    from agents.checkpoint import agent_classes
     from agents.train import train
 
     agent, seed, params = config["agent"], config["seed"], config["params"]
     overrides = {k: tuple(v) if isinstance(v, list) else v for k, v in {**base, **params}.items()}
     run_dir = Path(root) / trial_name(agent, seed, params)
     resume = (run_dir / CHECKPOINT_NAME).is_file()
-    result = train(make_env_fn(env_id, **env_kwargs), agent, DDPGConfig(**overrides, seed=seed),
+    result = train(make_env_fn(env_id, **env_kwargs), agent, agent_classes(agent)[1](**overrides, seed=seed),
                    total_steps=steps, episodes=episodes, run_dir=run_dir, resume=resume,
                    checkpoint_every=checkpoint_every, progress=False, tensorboard=False, collectors=collectors)
     metrics = {"env_steps": result.env_steps, "episodes": result.episodes, "success_rate": result.success_rate,

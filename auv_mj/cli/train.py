@@ -17,8 +17,9 @@ from typing import Any
 import gymnasium as gym
 
 import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
-from agents.checkpoint import config_from_dict, read_checkpoint
+from agents.checkpoint import agent_classes, config_from_dict, read_checkpoint
 from agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
+from agents.td3 import TD3Config
 from agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
 from auv_mj.cli.options import (
     MAX_PROCESSES,
@@ -92,7 +93,8 @@ TASK_KWARGS_NAME = "task_kwargs.json"
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj train AGENT --task TASK ...`; every DDPGConfig field is an option."""
     parser.add_argument("agent", choices=AGENTS,
-                        help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading)")
+                        help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading) | td3 (DDPG with twin "
+                             "critics, delayed actor, target smoothing; any task)")
     parser.add_argument("--task", required=True, help="suite task name or Gymnasium id (auv_mj/...-v0)")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
                         help='task options, e.g. \'{"command": "random", "disturbances": "random"}\'; '
@@ -122,13 +124,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_config_options(parser: argparse.ArgumentParser) -> None:
-    """One option per DDPGConfig field but seed and device (`--hidden-sizes 64 64`, `--noise-std 0.3`, ...)."""
-    group = parser.add_argument_group("hyper-parameters (DDPGConfig; default Table 4 or the checkpoint's)")
-    docs = field_docs(DDPGConfig)
-    for field in dataclasses.fields(DDPGConfig):
+    """One option per TD3Config field (DDPGConfig's and TD3's three) but seed and device (`--hidden-sizes 64 64`,
+    `--noise-std 0.3`, `--policy-delay 2`, ...)."""
+    group = parser.add_argument_group("hyper-parameters (DDPGConfig, and TD3Config for td3; default Table 4 "
+                                      "or the checkpoint's)")
+    docs = {**field_docs(DDPGConfig), **field_docs(TD3Config)}
+    td3_only = _td3_only()
+    for field in dataclasses.fields(TD3Config):
         if field.name in _CLI_SKIP:
             continue
         flag, help_text = "--" + field.name.replace("_", "-"), f"{docs.get(field.name, '')} [{field.default}]"
+        if field.name in td3_only:
+            help_text = "td3 only: " + help_text
         if field.name == "hidden_sizes":
             group.add_argument(flag, type=int, nargs="+", help=help_text)
         elif field.name == "epsilon_unit":
@@ -137,10 +144,18 @@ def add_config_options(parser: argparse.ArgumentParser) -> None:
             group.add_argument(flag, type=type(field.default), help=help_text)
 
 
+def _td3_only() -> set[str]:
+    return {f.name for f in dataclasses.fields(TD3Config)} - {f.name for f in dataclasses.fields(DDPGConfig)}
+
+
 def config_overrides(args: argparse.Namespace) -> dict[str, Any]:
-    """The DDPGConfig fields given on the command line (hidden_sizes as a tuple)."""
-    overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(DDPGConfig)
+    """The config fields given on the command line (hidden_sizes as a tuple); ValueError for a TD3 option
+    given to another agent."""
+    overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(TD3Config)
                  if getattr(args, f.name, None) is not None}
+    stray = sorted(set(overrides) & _td3_only()) if getattr(args, "agent", "td3") != "td3" else []
+    if stray:
+        raise ValueError(f"--{stray[0].replace('_', '-')} is a td3 option; agent {args.agent} does not take it")
     if "hidden_sizes" in overrides:
         overrides["hidden_sizes"] = tuple(overrides["hidden_sizes"])
     return overrides
@@ -179,9 +194,10 @@ def run(args: argparse.Namespace) -> int:
             if data:
                 run_dir.mkdir(parents=True, exist_ok=True)
                 path.write_text(json.dumps(data))
-        base = DDPGConfig()
+        config_class = agent_classes(args.agent)[1]
+        base = config_class()
         if args.resume:
-            base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"])
+            base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"], run_dir, config_class)
         config = dataclasses.replace(base, **config_overrides(args))
         result = train(env_fn, args.agent, config, total_steps=args.steps, episodes=args.episodes,
                        run_dir=run_dir, resume=args.resume, init=args.init,
