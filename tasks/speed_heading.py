@@ -14,8 +14,8 @@ the force acting now is a filtered sum of those, which Eq. 27 cannot see.
 
 Residual (`residual` > 0, ours after Johannink et al. 2019 and Silver et al. 2018): the S-plane of Eq. 32
 with its nominal gains runs inside the task and the agent's action is a correction to it,
-command = clip(S-plane + residual * a, -1, 1); the observation then ends with the S-plane's command. A zero
-action is exactly the S-plane. `ExecutorMemory` holds the integrals, the history and the S-plane: the task
+tau = clip(tau_S-plane + residual * a * (actuator half-range)); the observation then ends with the S-plane's
+normalised command. A zero action gives exactly the S-plane's forces. `ExecutorMemory` holds the integrals, the history and the S-plane: the task
 and a learned executor deployed in a planning task (`auv_mj.cli.policies.LearnedExecutor`) share it.
 
 Commands: "paper" (default) holds the Sec. 4.2 command, 1.0 m/s and pi/12, from rest at psi = 0; a pair
@@ -188,10 +188,11 @@ class ExecutorMemory:
 
     `observe(command, state)` is called once per executor step, with the command and state the next action
     acts on: it moves the integrals (observation "integral", "history") and, for a residual executor, the
-    S-plane (Eq. 32, nominal gains), and returns the observation. `compose(action)` turns the policy's action
-    into the normalised actuator command ([-1, 1]^2, Eq. 28-29): the action itself, or the S-plane's command
-    plus `residual` times the action, clipped; it remembers the command for the "history" observation.
-    `low`, `high` are the actuator ranges (ctrlrange) that normalise the S-plane's forces.
+    S-plane (Eq. 32, nominal gains), and returns the observation. `forces(action)` turns the policy's action
+    in [-1, 1]^2 into the actuator forces (tau_u, tau_r): the action scaled to the actuator ranges `low`, `high`
+    (Eq. 28-29), or for a residual executor the S-plane's forces plus `residual` times the action in half-ranges,
+    clipped to the ranges, so that a zero action gives the S-plane's forces exactly. It remembers the
+    normalised command for the "history" observation.
     """
 
     def __init__(self, observation: str = "paper", residual: float = 0.0,
@@ -217,7 +218,10 @@ class ExecutorMemory:
         if self._splane is not None:
             self._splane.reset()
         self._history = np.zeros(2 * HISTORY_STEPS if self.observation == "history" else 0)
-        self._proposal = np.zeros(2)
+        self._splane_forces = np.zeros(2)
+
+    def _normalised(self, forces: np.ndarray) -> np.ndarray:
+        return np.clip(2 * (forces - self.low) / (self.high - self.low) - 1, -1.0, 1.0)
 
     def observe(self, command: Sequence[float], state: Sequence[float]) -> np.ndarray:
         """The observation for `command` (V_cmd, psi_cmd) and `state` (u, v, r, psi); moves the memories."""
@@ -226,18 +230,21 @@ class ExecutorMemory:
             parts.append(self._integral.update(command, state))
         parts.append(self._history)
         if self._splane is not None:
-            tau = np.clip(self._splane(command, state), self.low, self.high)
-            self._proposal = np.clip(2 * (tau - self.low) / (self.high - self.low) - 1, -1.0, 1.0)
-            parts.append(self._proposal)
+            self._splane_forces = np.clip(self._splane(command, state), self.low, self.high)
+            parts.append(self._normalised(self._splane_forces))
         return np.concatenate(parts)
 
-    def compose(self, action: np.ndarray) -> np.ndarray:
-        """The normalised actuator command for the policy's `action` (in [-1, 1]^2)."""
+    def forces(self, action: np.ndarray) -> np.ndarray:
+        """The actuator forces (tau_u [N], tau_r [N m]) for the policy's `action` in [-1, 1]^2."""
         action = np.asarray(action, dtype=float)
-        command = action if self._splane is None else np.clip(self._proposal + self.residual * action, -1.0, 1.0)
+        if self._splane is None:
+            forces = self.low + 0.5 * (action + 1.0) * (self.high - self.low)
+        else:
+            forces = np.clip(self._splane_forces + self.residual * action * 0.5 * (self.high - self.low),
+                             self.low, self.high)
         if self._history.size:
-            self._history = np.concatenate([command, self._history[:-2]])
-        return command
+            self._history = np.concatenate([self._normalised(forces), self._history[:-2]])
+        return forces
 
 
 def observation_size(observation: str, residual: bool) -> int:
@@ -461,9 +468,7 @@ class SpeedHeading(base.Task):
         self.ocean.tick(physics)
         self._step = self.step_index(physics)
         self._step_command = self.command(physics)
-        action = self.memory.compose(checked_action(action, self.action_spec(physics), self))
-        low, high = physics.model.actuator_ctrlrange.T
-        physics.set_control(low + 0.5 * (action + 1.0) * (high - low))
+        physics.set_control(self.memory.forces(checked_action(action, self.action_spec(physics), self)))
 
     def after_step(self, physics) -> None:
         """Errors against the command that was in force during the step; the step's info."""

@@ -185,3 +185,54 @@ def test_progress_bars_redraw_rarely_off_a_terminal(monkeypatch):
         with progress_bar(total=3, desc="bar") as bar:
             assert bar.mininterval == interval
         assert "bar:   0%" in stream.getvalue()  # drawn on stderr
+
+
+class ZeroResidual:
+    """A residual executor's policy that never corrects: with it the executor must be the S-plane exactly."""
+
+    obs_dim = 17
+    metadata = {"run_info": {"task_kwargs": {"observation": "history", "residual": 0.5}}}
+
+    def __init__(self):
+        self.inputs = []
+
+    def __call__(self, obs):
+        self.inputs.append(np.asarray(obs))
+        return np.zeros(2)
+
+
+def test_a_deployed_residual_executor_with_zero_correction_drives_a_planning_task_as_the_splane():
+    from auv_mj.episode import record_episode
+    from tasks import suite
+    from tasks.guidance import line_of_sight
+
+    low, high = np.array([-20.0, -10.0]), np.array([20.0, 10.0])
+    runs = []
+    for executor in (None, policies.LearnedExecutor(ZeroResidual(), low, high)):
+        kwargs = {"random": 10_003, "conditions": "ocean"} | ({"executor": executor} if executor else {})
+        env = suite.load("auv", "obstacles", task_kwargs=kwargs)
+        runs.append(record_episode(env, line_of_sight(env), max_steps=60))
+    np.testing.assert_array_equal(runs[0].control, runs[1].control)
+    np.testing.assert_array_equal(runs[0].pose, runs[1].pose)
+    assert len(executor.policy.inputs) > 100 and all(x.shape == (17,) for x in executor.policy.inputs)
+
+
+def test_executors_by_name_on_planning_tasks():
+    splane = evaluate.run_episode("splane", "path_line", 0, {}, max_steps=80)
+    named = evaluate.run_episode("splane", "path_line", 0, {"executor": "splane"}, max_steps=80)
+    assert named == splane  # the default executor, asked for by name
+    retuned = evaluate.run_episode("splane", "path_line", 0, {"executor": "splane-ocean"}, max_steps=80)
+    assert retuned == evaluate.run_episode("splane-ocean", "path_line", 0, {}, max_steps=80)
+    assert retuned["return"] != splane["return"] and retuned["path_length"] != splane["path_length"]
+    with pytest.raises(ValueError, match="executor 'warp': not one of"):
+        evaluate.run_episode("splane", "path_line", 0, {"executor": "warp"}, max_steps=5)
+    with pytest.raises(ValueError, match="runs the learned executor; leave 'executor' out"):
+        evaluate.run_episode("two-layer", "goal", 0, {"executor": "splane"}, max_steps=5)
+
+
+def test_the_ocean_gains_lower_the_ocean_tuning_cost_and_not_the_ideal_one():
+    from tasks.splane import OCEAN_GAINS, SPlaneGains
+    from tasks.splane_tuning import tuning_cost
+
+    assert tuning_cost(OCEAN_GAINS, conditions="ocean") < 0.8 * tuning_cost(SPlaneGains(), conditions="ocean")
+    assert tuning_cost(SPlaneGains()) < tuning_cost(OCEAN_GAINS)  # each set is best in the water it was tuned in

@@ -96,9 +96,7 @@ class LearnedExecutor:
         self.memory.reset()
 
     def __call__(self, command, state) -> np.ndarray:
-        obs = self.memory.observe(command, state)
-        action = self.memory.compose(np.clip(self.policy(obs), -1.0, 1.0))
-        return self.low + 0.5 * (action + 1.0) * (self.high - self.low)
+        return self.memory.forces(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
 
 
 def learned_executor(path: Path | None = None) -> LearnedExecutor:
