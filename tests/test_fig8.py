@@ -74,3 +74,25 @@ def test_peer_report_gives_throughput_and_time_to_target_side_by_side(tmp_path):
     # 100 steps per episode: 50 vs 12.5 env steps/s; both reach 90 % at episode 28: 56 s vs 224 s
     assert "auv-mj 50, SB3 12 env steps/s, auv-mj / SB3 = **4.00**" in report
     assert "SB3 / auv-mj wall-clock to the target = **4.00**" in report
+
+
+def test_reproduce_sections_rewrite_their_blocks_in_place_and_keep_the_others(tmp_path):
+    from auv_mj.cli import main
+    from auv_mj.cli.reproduce import SECTION_END, SECTION_START, merge_report
+
+    def block(name, body):
+        return f"{SECTION_START.format(name)}\n{body}\n{SECTION_END.format(name)}"
+
+    old = "# old header\n" + "\n\n".join([block("table9", "T9 old"), block("fig8", "F8 old"), block("ocean", "OC old")])
+    merged = merge_report(old, {"fig8": block("fig8", "F8 new"), "tracking": block("tracking", "TR new")}, ["# new"])
+    assert merged.startswith("# new\n") and "old header" not in merged
+    assert [line for line in merged.splitlines() if not line.startswith(("<!--", "#")) and line] == \
+        ["T9 old", "TR new", "F8 new", "OC old"]  # SECTIONS order, the others kept as they were
+    report = tmp_path / "report.md"
+    report.write_text(old)
+    assert main(["reproduce", "--sections", "training_speed", "--out", str(report),
+                 "--peer-runs", str(tmp_path / "no-peer-logs")]) == 0
+    text = report.read_text()
+    assert "T9 old" in text and "F8 old" in text and "OC old" in text
+    assert text.index("T9 old") < text.index(SECTION_START.format("training_speed")) < text.index("OC old")
+    assert "_Section `training_speed` measured" in text

@@ -525,7 +525,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="held-out episodes per task and policy on random layouts (random targets, ocean)")
     parser.add_argument("--quick", action="store_true", help="10 episodes for the random targets")
     parser.add_argument("--sections", default=None,
-                        help=f"comma-separated sections to run (default all: {','.join(SECTIONS)})")
+                        help=f"comma-separated sections to run (default all: {','.join(SECTIONS)}); into an "
+                             "existing report they are written in place, the other sections kept")
 
 
 SECTIONS = ("table9", "tracking", "fig8", "training_speed", "scenarios", "random_targets", "generalisation",
@@ -533,8 +534,32 @@ SECTIONS = ("table9", "tracking", "fig8", "training_speed", "scenarios", "random
 """The report's sections, in order."""
 
 
+SECTION_START, SECTION_END = "<!-- section: {} -->", "<!-- /section: {} -->"
+"""Markers around each section of the report, so that `--sections` can rewrite some and keep the rest."""
+
+
+def _blocks(text: str) -> dict[str, str]:
+    """The marked sections of a report: name -> its block, markers included."""
+    blocks = {}
+    for name in SECTIONS:
+        start, end = SECTION_START.format(name), SECTION_END.format(name)
+        if start in text and end in text[text.index(start):]:
+            i = text.index(start)
+            blocks[name] = text[i:text.index(end, i) + len(end)]
+    return blocks
+
+
+def merge_report(old: str, new_blocks: dict[str, str], header: list[str]) -> str:
+    """The report `old` with `new_blocks` in place of its sections of the same names (the others kept), in
+    SECTIONS order, under `header`; sections of neither are left out."""
+    kept = _blocks(old)
+    kept.update(new_blocks)
+    return "\n".join(header) + "\n" + "\n\n".join(kept[name] for name in SECTIONS if name in kept) + "\n"
+
+
 def run(args: argparse.Namespace) -> int:
-    """Measures everything (or `--sections`) and writes the Markdown report with its figures."""
+    """Measures everything (or `--sections`) and writes the Markdown report with its figures; sections into
+    an existing report replace their own blocks and keep the others (each block says when it was measured)."""
     names = list(SECTIONS) if args.sections is None else [n.strip() for n in args.sections.split(",") if n.strip()]
     unknown = [n for n in names if n not in SECTIONS]
     if unknown:
@@ -560,11 +585,20 @@ def run(args: argparse.Namespace) -> int:
                 "generalisation": lambda: generalisation(lines, episodes, figures),
                 "ocean": lambda: ocean_conditions(lines, episodes),
                 "executors": lambda: executors(lines, episodes)}
+    header, blocks = list(lines), {}
     for name in names:
         print(f"reproduce: {name} ...", file=sys.stderr)
+        began, lines[:] = time.perf_counter(), []
         sections[name]()
-    lines += [f"_Report generated in {time.perf_counter() - start:.0f} s._", ""]
+        stamp = (f"_Section `{name}` measured {datetime.date.today().isoformat()} at commit `{_commit()}` in "
+                 f"{time.perf_counter() - began:.0f} s (`--episodes {episodes}`)._")
+        blocks[name] = "\n".join([SECTION_START.format(name), *lines, stamp, SECTION_END.format(name)])
+    old = args.out.read_text() if args.out.is_file() else ""
+    header[header.index(next(h for h in header if h.startswith("Generated")))] = (
+        f"Last updated {datetime.date.today().isoformat()} at commit `{_commit()}` on {platform.machine()} "
+        f"({platform.python_implementation()} {platform.python_version()}), CPU only; each section says when it "
+        "was measured.")
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text("\n".join(lines))
-    print(f"wrote {args.out}")
+    args.out.write_text(merge_report(old, blocks, header))
+    print(f"wrote {args.out} in {time.perf_counter() - start:.0f} s")
     return 0
