@@ -15,8 +15,11 @@ the force acting now is a filtered sum of those, which Eq. 27 cannot see.
 Residual (`residual` > 0, ours after Johannink et al. 2019 and Silver et al. 2018): the S-plane of Eq. 32
 with its nominal gains runs inside the task and the agent's action is a correction to it,
 tau = clip(tau_S-plane + residual * a * (actuator half-range)); the observation then ends with the S-plane's
-normalised command. A zero action gives exactly the S-plane's forces. `ExecutorMemory` holds the integrals, the history and the S-plane: the task
-and a learned executor deployed in a planning task (`auv_mj.cli.policies.LearnedExecutor`) share it.
+normalised command. Gain scheduling (`gains` > 0, ours): the agent's four actions set the S-plane's gains
+(k_V1, k_V2, k_psi1, k_psi2) of Eq. 32 for the step, each times 2^(gains * a), and the S-plane acts. In both
+a zero action gives exactly the S-plane's forces. `ExecutorMemory` holds the integrals, the history and the
+S-plane: the task and a learned executor deployed in a planning task (`auv_mj.cli.policies.LearnedExecutor`)
+share it.
 
 Commands: "paper" (default) holds the Sec. 4.2 command, 1.0 m/s and pi/12, from rest at psi = 0; a pair
 (V, psi), V in [0, `top_speed()`] m/s and psi in [-pi, pi] rad, holds that command; "random" (training)
@@ -131,6 +134,10 @@ RESIDUAL_NAMES = ("splane_tau_u", "splane_tau_r")
 """Entries a residual executor's observation ends with: the S-plane's normalised command."""
 MAX_RESIDUAL = 2.0
 """Largest `residual`: the correction's span as a multiple of the normalised actuator range."""
+MAX_GAIN_OCTAVES = 4.0
+"""Largest `gains`: a gain-scheduling action of +-1 multiplies a gain by 2^(+-gains)."""
+GAIN_NAMES = ("k1_speed", "k2_speed", "k1_heading", "k2_heading")
+"""The S-plane gains a gain-scheduling executor sets, one action each."""
 OBSERVATIONS = ("paper", "integral", "history")
 REWARDS = ("suite", "paper")
 COMMANDS = ("paper", "random")
@@ -195,14 +202,22 @@ class ExecutorMemory:
     normalised command for the "history" observation.
     """
 
-    def __init__(self, observation: str = "paper", residual: float = 0.0,
+    def __init__(self, observation: str = "paper", residual: float = 0.0, gains: float = 0.0,
                  low: Sequence[float] = (-1.0, -1.0), high: Sequence[float] = (1.0, 1.0)):
         self.observation = options.choice("observation", observation, OBSERVATIONS)
         self.residual = options.number("residual", residual, 0.0, MAX_RESIDUAL)
+        self.gains = options.number("gains", gains, 0.0, MAX_GAIN_OCTAVES)
+        if self.residual and self.gains:
+            raise ValueError("residual and gains are two ways of building on the S-plane: set one of them")
         self.low, self.high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
         self._integral = ErrorIntegral() if observation in ("integral", "history") else None
-        self._splane = SPlaneController() if self.residual > 0 else None
+        self._splane = SPlaneController() if self.residual > 0 or self.gains > 0 else None
         self.reset()
+
+    @property
+    def action_size(self) -> int:
+        """Entries of the policy's action: (tau_u, tau_r), or the four gain factors when scheduling gains."""
+        return len(GAIN_NAMES) if self.gains else 2
 
     @property
     def size(self) -> int:
@@ -219,6 +234,7 @@ class ExecutorMemory:
             self._splane.reset()
         self._history = np.zeros(2 * HISTORY_STEPS if self.observation == "history" else 0)
         self._splane_forces = np.zeros(2)
+        self._seen: tuple[Sequence[float], Sequence[float]] = ((0.0, 0.0), (0.0, 0.0, 0.0, 0.0))
 
     def _normalised(self, forces: np.ndarray) -> np.ndarray:
         return np.clip(2 * (forces - self.low) / (self.high - self.low) - 1, -1.0, 1.0)
@@ -229,15 +245,18 @@ class ExecutorMemory:
         if self._integral is not None:
             parts.append(self._integral.update(command, state))
         parts.append(self._history)
-        if self._splane is not None:
+        self._seen = (tuple(command), tuple(state))
+        if self.residual:
             self._splane_forces = np.clip(self._splane(command, state), self.low, self.high)
             parts.append(self._normalised(self._splane_forces))
         return np.concatenate(parts)
 
     def forces(self, action: np.ndarray) -> np.ndarray:
-        """The actuator forces (tau_u [N], tau_r [N m]) for the policy's `action` in [-1, 1]^2."""
+        """The actuator forces (tau_u [N], tau_r [N m]) for the policy's `action` in [-1, 1]^action_size."""
         action = np.asarray(action, dtype=float)
-        if self._splane is None:
+        if self.gains:  # the S-plane on the state observed, with this step's gains
+            forces = np.clip(self._splane(*self._seen, scale=np.exp2(self.gains * action)), self.low, self.high)
+        elif self._splane is None:
             forces = self.low + 0.5 * (action + 1.0) * (self.high - self.low)
         else:
             forces = np.clip(self._splane_forces + self.residual * action * 0.5 * (self.high - self.low),
@@ -253,18 +272,18 @@ def observation_size(observation: str, residual: bool) -> int:
     return len(OBSERVATION_NAMES) + extra[observation] + len(RESIDUAL_NAMES) * bool(residual)
 
 
-def executor_options(obs_dim: int, task_kwargs: Mapping[str, Any] | None = None) -> tuple[str, float]:
-    """(observation, residual) of a learned executor with `obs_dim` inputs trained with `task_kwargs` (a
-    checkpoint's run_info); without them, the observation its input size gives ("paper" or "integral").
-    ValueError when the two disagree."""
+def executor_options(obs_dim: int, task_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The `ExecutorMemory` options (observation, residual, gains) of a learned executor with `obs_dim` inputs
+    trained with `task_kwargs` (a checkpoint's run_info); without them, the observation its input size gives
+    ("paper" or "integral"). ValueError when the two disagree."""
     task_kwargs = task_kwargs or {}
     observation = task_kwargs.get("observation") or observation_kind(obs_dim)
-    residual = float(task_kwargs.get("residual", 0.0))
+    residual, gains = float(task_kwargs.get("residual", 0.0)), float(task_kwargs.get("gains", 0.0))
     options.choice("observation", observation, OBSERVATIONS)
     if observation_size(observation, residual > 0) != obs_dim:
         raise ValueError(f"an executor trained with observation {observation!r} and residual {residual:g} has "
                          f"{observation_size(observation, residual > 0)} inputs, not {obs_dim}")
-    return observation, residual
+    return {"observation": observation, "residual": residual, "gains": gains}
 
 
 def observation_kind(size: int) -> str:
@@ -337,20 +356,21 @@ class SpeedHeading(base.Task):
 
     def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper",
                  reward: str = "suite", observation: str = "paper", random=None, conditions="ideal",
-                 residual: float = 0.0):
+                 residual: float = 0.0, gains: float = 0.0):
         """`command`: "paper", "random" or (V, psi); `disturbances`: "paper", "random", "none";
         `reward`: "suite" ([0, 1]) or "paper" (Eq. 30); `observation`: "paper" (Eq. 27) or "integral"
         (Eq. 27 and the error integrals of `ErrorIntegral`); `random`: seed, RandomState or None;
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`; the
         sonar's play no part here); `residual`: 0 (the action is the command, Eq. 28-29) or the span of the
-        agent's correction to the S-plane's command, in (0, MAX_RESIDUAL] (module docstring)."""
+        agent's correction to the S-plane's command, in (0, MAX_RESIDUAL]; `gains`: 0 or the octaves by which
+        a gain-scheduling action moves the S-plane's gains, in (0, MAX_GAIN_OCTAVES] (module docstring)."""
         if isinstance(command, str):
             options.choice("command", command, COMMANDS)
         else:
             command = options.pair("command", command, ((0.0, top_speed(), "m/s"), (-math.pi, math.pi, "rad")))
         options.choice("disturbances", disturbances, DISTURBANCES)
         options.choice("reward", reward, REWARDS)
-        self.memory = ExecutorMemory(observation, residual)
+        self.memory = ExecutorMemory(observation, residual, gains)
         random = options.seed(random)
         self.ocean = ocean.Ocean(conditions)
         self._observation = np.zeros(self.memory.size)
@@ -459,7 +479,9 @@ class SpeedHeading(base.Task):
     # --- dm_control Task ---------------------------------------------------------------------------
 
     def action_spec(self, physics) -> specs.BoundedArray:
-        """Normalised (tau_u, tau_r) in [-1, 1]^2."""
+        """Normalised (tau_u, tau_r) in [-1, 1]^2, or the four gain-scheduling actions in [-1, 1]^4."""
+        if self.memory.gains:
+            return specs.BoundedArray((len(GAIN_NAMES),), float, -1.0, 1.0, name=",".join(GAIN_NAMES))
         return specs.BoundedArray((physics.model.nu,), float, -1.0, 1.0, name="tau_u,tau_r")
 
     def before_step(self, action, physics) -> None:

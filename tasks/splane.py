@@ -108,9 +108,17 @@ class SPlaneController:
         self._int_heading = 0.0
         self._last_u: float | None = None
 
-    def __call__(self, command: Sequence[float], state: Sequence[float]) -> np.ndarray:
-        """(tau_u [N], tau_r [N m]) for command (V_cmd, psi_cmd) and state (u, v, r, psi); Eq. (32)."""
+    def __call__(self, command: Sequence[float], state: Sequence[float],
+                 scale: Sequence[float] | None = None) -> np.ndarray:
+        """(tau_u [N], tau_r [N m]) for command (V_cmd, psi_cmd) and state (u, v, r, psi); Eq. (32).
+
+        `scale` multiplies (k_V1, k_V2, k_psi1, k_psi2) for this call only (a gain-scheduling executor's
+        action); None leaves the gains as they are."""
         g = self.gains
+        k1_speed, k2_speed, k1_heading, k2_heading = g.k1_speed, g.k2_speed, g.k1_heading, g.k2_heading
+        if scale is not None:
+            k1_speed, k2_speed, k1_heading, k2_heading = (k * float(f) for k, f in zip(
+                (k1_speed, k2_speed, k1_heading, k2_heading), scale, strict=True))
         v_cmd, psi_cmd = float(command[0]), float(command[1])
         u, _, r, psi = (float(s) for s in state[:4])
         e_v = v_cmd - u
@@ -125,8 +133,8 @@ class SPlaneController:
         du_v = feed_forward + g.ki_speed * self._int_speed
         du_psi = g.ki_heading * self._int_heading
 
-        u_v = s_plane(e_v, edot_v, g.k1_speed, g.k2_speed) + du_v
-        u_psi = s_plane(e_psi, edot_psi, g.k1_heading, g.k2_heading) + du_psi
+        u_v = s_plane(e_v, edot_v, k1_speed, k2_speed) + du_v
+        u_psi = s_plane(e_psi, edot_psi, k1_heading, k2_heading) + du_psi
         return np.array([g.surge_limit * np.clip(u_v, -1.0, 1.0), g.yaw_limit * np.clip(u_psi, -1.0, 1.0)])
 
 

@@ -293,7 +293,31 @@ def test_bad_residual_is_refused_by_name(residual):
 
 
 def test_executor_options_follow_the_checkpoint_and_refuse_a_mismatch():
-    assert sh.executor_options(9) == ("integral", 0.0)
-    assert sh.executor_options(17, {"observation": "history", "residual": 0.5}) == ("history", 0.5)
+    assert sh.executor_options(9) == {"observation": "integral", "residual": 0.0, "gains": 0.0}
+    assert sh.executor_options(17, {"observation": "history", "residual": 0.5}) == \
+        {"observation": "history", "residual": 0.5, "gains": 0.0}
+    assert sh.executor_options(15, {"observation": "history", "gains": 2})["gains"] == 2.0
     with pytest.raises(ValueError, match="has 17 inputs, not 15"):
         sh.executor_options(15, {"observation": "history", "residual": 0.5})
+
+
+@pytest.mark.parametrize("action", [np.zeros(4), np.array([0.3, -0.2, -0.8, 0.5])])
+def test_a_gain_scheduling_executor_is_the_splane_with_the_gains_it_chose(action):
+    import dataclasses
+
+    env = sh.speed_heading(command="random", disturbances="random", conditions="ocean", gains=2.0,
+                           observation="history", random=5, time_limit=30.0)
+    assert env.action_spec().shape == (4,)
+    low, high = env.physics.model.actuator_ctrlrange.T
+    nominal = sh.SPlaneController().gains
+    factors = dict(zip(sh.GAIN_NAMES, np.exp2(2.0 * action), strict=True))
+    shadow = SPlaneController(dataclasses.replace(nominal, **{k: getattr(nominal, k) * f for k, f in factors.items()}))
+    time_step, task, physics = env.reset(), env.task, env.physics
+    while not time_step.last():
+        expected = np.clip(shadow(task.command(physics), task.state(physics)), low, high)
+        time_step = env.step(action)
+        np.testing.assert_array_equal(physics.data.ctrl, expected)
+    with pytest.raises(ValueError, match="set one of them"):
+        sh.SpeedHeading(residual=0.5, gains=1.0)
+    with pytest.raises(ValueError, match="gains"):
+        sh.SpeedHeading(gains=5.0)

@@ -89,7 +89,7 @@ class LearnedExecutor:
     def __init__(self, policy, low: np.ndarray, high: np.ndarray):
         self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
         kwargs = getattr(policy, "metadata", {}).get("run_info", {}).get("task_kwargs", {})
-        self.memory = ExecutorMemory(*executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
+        self.memory = ExecutorMemory(**executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
 
     def reset(self) -> None:
         """Zeroes the memories (the start of an episode)."""
@@ -154,9 +154,9 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
         meta = read_checkpoint(checkpoint)[1]
         if task_name in EXECUTOR_TASKS:  # the executor's observation (and residual) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})
-            task_kwargs["observation"], residual = executor_options(int(meta["obs_dim"]), trained)
-            if residual:
-                task_kwargs.setdefault("residual", residual)
+            memory = executor_options(int(meta["obs_dim"]), trained)
+            task_kwargs["observation"] = memory["observation"]
+            task_kwargs.update({k: memory[k] for k in ("residual", "gains") if memory[k] and k not in task_kwargs})
         elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
     return suite.load("auv", task_name, task_kwargs=task_kwargs)
