@@ -289,8 +289,10 @@ def run(args: argparse.Namespace) -> int:
     agents = list(dict.fromkeys(args.agents))
     try:
         kwargs = task_kwargs(args)
+        others = [a for a in agents if a != "td3"]
+        base = config_overrides(argparse.Namespace(**{**vars(args), "agent": others[0] if others else "td3"}))
         rows = run_sweep(args.out, agents, seeds, args.grid, task=args.task,
-                         env_kwargs={"task_kwargs": kwargs} if kwargs else {}, base=config_overrides(args),
+                         env_kwargs={"task_kwargs": kwargs} if kwargs else {}, base=base,
                          steps=args.steps, episodes=args.episodes, collectors=args.collectors, ray_address=args.ray,
                          workers=args.workers, resume=args.resume, checkpoint_every=args.checkpoint_every,
                          retries=args.retries, progress=not args.no_progress)
