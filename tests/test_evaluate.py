@@ -236,3 +236,19 @@ def test_the_ocean_gains_lower_the_ocean_tuning_cost_and_not_the_ideal_one():
 
     assert tuning_cost(OCEAN_GAINS, conditions="ocean") < 0.8 * tuning_cost(SPlaneGains(), conditions="ocean")
     assert tuning_cost(SPlaneGains()) < tuning_cost(OCEAN_GAINS)  # each set is best in the water it was tuned in
+
+
+def test_the_shipped_ocean_executor_is_rebuilt_from_its_checkpoint_on_every_task():
+    from tasks.speed_heading import GAIN_NAMES
+
+    meta = policies.Policy.load(policies.shipped_checkpoint("ocean-executor")).metadata
+    assert meta["agent"] == "td3" and meta["run_info"]["task_kwargs"]["conditions"] == "ocean"
+    env, policy = policies.env_and_policy("ocean-executor", "speed_heading", 10_000, {"conditions": "ocean"})
+    assert env.action_spec().shape == (len(GAIN_NAMES),)  # the gain-scheduling task it was trained on
+    time_step = env.reset()
+    assert policy(time_step).shape == (len(GAIN_NAMES),)
+    executor = policies.named_executor("ocean-executor")
+    assert executor.memory.gains == meta["run_info"]["task_kwargs"]["gains"]
+    m = evaluate.run_episode("splane", "goal", 10_000, {"conditions": "ocean", "executor": "ocean-executor"},
+                             max_steps=30)
+    assert m["path_length"] > 10.0  # the vehicle moves under the planner's guidance on this executor

@@ -6,8 +6,8 @@ The one place where tasks and agents meet (the app layer):
   the protection domain of Sec. 3.2.2 active (`tasks.avoidance`), on the task's default S-plane executor;
   `planner-raw`: the same without the protection domain;
 - `executor`: the shipped DDPG execution layer (speed_heading);
-- `residual-executor`: the shipped residual execution layer (speed_heading): TD3's learned correction to the
-  S-plane, trained in ocean conditions (issue 17, `executor_residual.pt`);
+- `ocean-executor`: the shipped execution layer trained in ocean water (speed_heading): TD3 scheduling the
+  S-plane's gains every step from the errors and the last commands (issue 17, `executor_ocean.pt`);
 - `splane-ocean`: the classical baseline with the S-plane gains re-tuned in ocean conditions
   (`tasks.splane.OCEAN_GAINS`);
 - `two-layer`: the shipped planner (protection domain active) on the shipped learned executor (Sec. 4.3);
@@ -24,7 +24,8 @@ shipped one (to compare or choose candidates, e.g. on validation seeds).
 
 On the planning tasks the executor under any planner is chosen by name in the task options,
 `--task-kwargs '{"executor": NAME}'` with NAME one of EXECUTORS (or a speed_heading checkpoint path), e.g. the
-general planner on the residual executor: `--policy planner-general --task-kwargs '{"executor": "residual-executor"}'`.
+general planner on the learned ocean executor:
+`--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`.
 """
 
 from __future__ import annotations
@@ -44,19 +45,19 @@ from tasks.speed_heading import ExecutorMemory, executor_options, executor_polic
 from tasks.splane import OCEAN_GAINS, SPlaneController
 
 SHIPPED = {"planner": "planner.pt", "planner-tunnel": "planner_tunnel.pt", "planner-general": "planner_general.pt",
-           "executor": "executor.pt", "residual-executor": "executor_residual.pt"}
+           "executor": "executor.pt", "ocean-executor": "executor_ocean.pt"}
 """Shipped checkpoints: name -> file in `agents/checkpoints/`."""
 PLANNER_FOR_TASK = {"tunnel": "planner-tunnel"}
 """Tasks with a planner of their own (trained on that task, as the paper trains per environment)."""
 BASELINES = ("splane", "splane-ocean", "los-avoid", "random")
 EXECUTOR_TASKS = ("speed_heading",)
 LEARNED_EXECUTOR_POLICIES = ("two-layer", "los-executor")
-EXECUTOR_POLICIES = ("executor", "residual-executor")
+EXECUTOR_POLICIES = ("executor", "ocean-executor")
 """Policies of the speed_heading task alone."""
-EXECUTORS = ("splane", "splane-ocean", "executor", "residual-executor")
+EXECUTORS = ("splane", "splane-ocean", "executor", "ocean-executor")
 """Executor names a planning task's `executor` option takes on the command line."""
 PLANNERS = ("planner", "planner-raw", "two-layer", "los-executor", "los-avoid")
-NAMES = ("planner", "planner-raw", "executor", "residual-executor", "two-layer", "planner-general",
+NAMES = ("planner", "planner-raw", "executor", "ocean-executor", "two-layer", "planner-general",
          "two-layer-general", "los-executor", *BASELINES)
 """Every policy name `--policy` takes besides a checkpoint path."""
 

@@ -420,7 +420,7 @@ def ocean_conditions(lines: list[str], episodes: int) -> None:
 
 
 EXECUTOR_ROWS = (("executor", "DDPG executor, Eq. 27-30 (the paper's row)"),
-                 ("residual-executor", "residual TD3 on the S-plane, trained in ocean water"),
+                 ("ocean-executor", "TD3 scheduling the S-plane's gains, trained in ocean water"),
                  ("splane", "S-plane, nominal gains"), ("splane-ocean", "S-plane re-tuned in ocean water"))
 """Every executor of the executor comparison: speed_heading policy name, what it is."""
 EXECUTOR_SEED = seeds.TEST.start
@@ -447,7 +447,7 @@ def _executor_table9(lines: list[str], episodes: int) -> dict:
                      for p in ("instantaneous", "constant", "periodic")]
             lines.append(f"| {name} | {condition} | {' | '.join(cells)} | {_fmt(summary['mae_speed'])} / "
                          f"{_fmt(summary['mae_heading'])} |")
-    lines += ["", f"Command: `auv-mj eval --policy residual-executor --task speed_heading --episodes {episodes} "
+    lines += ["", f"Command: `auv-mj eval --policy ocean-executor --task speed_heading --episodes {episodes} "
               f"--seed {EXECUTOR_SEED} --task-kwargs '{{\"conditions\": \"ocean\"}}'` (and each executor; "
               "`\"ideal\"`).", ""]
     return results
@@ -471,7 +471,7 @@ def executors(lines: list[str], episodes: int) -> None:
     lines += ["Target (issue 17): the learned executor's MAE of speed and heading at most the S-plane's in every "
               "phase, in ocean water.", "", "| learned executor | against | ocean: at most in every phase? | "
               "ideal: at most in every phase? |", "| --- | --- | --- | --- |"]
-    for name in ("residual-executor", "executor"):
+    for name in ("ocean-executor", "executor"):
         for other in ("splane", "splane-ocean"):
             lines.append(f"| {name} | {other} | {_beats(results, name, other, 'ocean')} | "
                          f"{_beats(results, name, other, 'ideal')} |")
@@ -488,14 +488,14 @@ def executors(lines: list[str], episodes: int) -> None:
                 lines.append(f"| {task} | {name} | {condition} | {' | '.join(_fmt(e) for e in errors)} | "
                              f"{_fmt(m['mae_cross_track'], 2)} |")
     lines += ["", "Command: `auv-mj eval --policy splane --task path_line --episodes 1 --task-kwargs "
-              "'{\"conditions\": \"ocean\", \"executor\": \"residual-executor\"}'`.", "",
+              "'{\"conditions\": \"ocean\", \"executor\": \"ocean-executor\"}'`.", "",
               "### The two-layer system in ocean water", "",
-              f"The general planner (`planner-general`, protection domain on) on the S-plane and on the residual "
-              f"executor, held-out random arenas (test seeds from {HELD_OUT_SEED}), ocean water.", "",
+              f"The general planner (`planner-general`, protection domain on) on the S-plane and on the learned "
+              f"ocean executor, held-out random arenas (test seeds from {HELD_OUT_SEED}), ocean water.", "",
               "| task | executor | episodes | success | collisions | outcomes | time to goal [s] | min clearance [m] |",
               "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for task, kwargs in SYSTEM_TASKS:
-        for name in ("splane", "residual-executor"):
+        for name in ("splane", "ocean-executor"):
             s = evaluate.evaluate("planner-general", [task], episodes, HELD_OUT_SEED, progress=False,
                                   task_kwargs={**kwargs, "conditions": "ocean", "executor": name})["tasks"][task]
             outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
@@ -503,7 +503,7 @@ def executors(lines: list[str], episodes: int) -> None:
                          f"| {outcomes} | {_fmt(s['time_to_goal'], 0)} | {_fmt(s['min_clearance'], 1)} |")
     lines += ["", f"Command: `auv-mj eval --policy planner-general --task obstacles --episodes {episodes} --seed "
               f"{HELD_OUT_SEED} --workers 2 --task-kwargs '{{\"conditions\": \"ocean\", \"executor\": "
-              "\"residual-executor\"}'` (and `\"splane\"`; `--task tunnel --arena random`).", ""]
+              "\"ocean-executor\"}'` (and `\"splane\"`; `--task tunnel --arena random`).", ""]
 
 
 def _commit() -> str:
