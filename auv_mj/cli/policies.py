@@ -33,6 +33,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from agents.baselines import uniform_random
 from agents.checkpoint import read_checkpoint
@@ -252,8 +253,10 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
 def env_and_policy(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None):
     """The environment of one episode of `task_name` (seeded `seed`) and the named policy acting in it.
 
-    Raises ValueError naming the option when the task does not take one of `task_kwargs`.
+    Raises ValueError naming the option when the task does not take one of `task_kwargs`. Policies infer on
+    one torch thread: their small MLPs are fastest so, and parallel episodes do not oversubscribe the cores.
     """
+    torch.set_num_threads(1)
     task_kwargs = dict(task_kwargs or {})
     if "random" in task_kwargs:
         raise ValueError("task_kwargs: 'random' is set by --seed (episode i gets seed + i), leave it out")
