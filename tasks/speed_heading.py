@@ -196,10 +196,13 @@ class ExecutorMemory:
     `observe(command, state)` is called once per executor step, with the command and state the next action
     acts on: it moves the integrals (observation "integral", "history") and, for a residual executor, the
     S-plane (Eq. 32, nominal gains), and returns the observation. `forces(action)` turns the policy's action
-    in [-1, 1]^2 into the actuator forces (tau_u, tau_r): the action scaled to the actuator ranges `low`, `high`
-    (Eq. 28-29), or for a residual executor the S-plane's forces plus `residual` times the action in half-ranges,
-    clipped to the ranges, so that a zero action gives the S-plane's forces exactly. It remembers the
-    normalised command for the "history" observation.
+    (in [-1, 1]^action_size) into the actuator forces (tau_u, tau_r):
+    - plain: the action scaled to the actuator ranges `low`, `high` (Eq. 28-29);
+    - residual: the S-plane's forces plus `residual` times the action in half-ranges, clipped to the ranges;
+    - gains: the S-plane on the observed command and state with (k_V1, k_V2, k_psi1, k_psi2) times
+      2^(gains * action).
+    In both S-plane modes a zero action gives the S-plane's forces exactly. It remembers the normalised
+    command for the "history" observation.
     """
 
     def __init__(self, observation: str = "paper", residual: float = 0.0, gains: float = 0.0,
