@@ -196,7 +196,7 @@ class ExecutorMemory:
     `observe(command, state)` is called once per executor step, with the command and state the next action
     acts on: it moves the integrals (observation "integral", "history") and, for a residual executor, the
     S-plane (Eq. 32, nominal gains), and returns the observation. `forces(action)` turns the policy's action
-    (in [-1, 1]^action_size) into the actuator forces (tau_u, tau_r):
+    (one per actuator, or one per GAIN_NAMES entry, in [-1, 1]) into the actuator forces (tau_u, tau_r):
     - plain: the action scaled to the actuator ranges `low`, `high` (Eq. 28-29);
     - residual: the S-plane's forces plus `residual` times the action in half-ranges, clipped to the ranges;
     - gains: the S-plane on the observed command and state with (k_V1, k_V2, k_psi1, k_psi2) times
@@ -216,11 +216,6 @@ class ExecutorMemory:
         self._integral = ErrorIntegral() if observation in ("integral", "history") else None
         self._splane = SPlaneController() if self.residual > 0 or self.gains > 0 else None
         self.reset()
-
-    @property
-    def action_size(self) -> int:
-        """Entries of the policy's action: (tau_u, tau_r), or the four gain factors when scheduling gains."""
-        return len(GAIN_NAMES) if self.gains else 2
 
     @property
     def size(self) -> int:
@@ -255,7 +250,7 @@ class ExecutorMemory:
         return np.concatenate(parts)
 
     def forces(self, action: np.ndarray) -> np.ndarray:
-        """The actuator forces (tau_u [N], tau_r [N m]) for the policy's `action` in [-1, 1]^action_size."""
+        """The actuator forces (tau_u [N], tau_r [N m]) for the policy's `action` (entries in [-1, 1])."""
         action = np.asarray(action, dtype=float)
         if self.gains:  # the S-plane on the state observed, with this step's gains
             forces = np.clip(self._splane(*self._seen, scale=np.exp2(self.gains * action)), self.low, self.high)

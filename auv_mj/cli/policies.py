@@ -150,7 +150,7 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     elif isinstance(executor, str):
         task_kwargs["executor"] = named_executor(executor)
     elif policy_name == "splane-ocean" and task_name not in EXECUTOR_TASKS:
-        task_kwargs["executor"] = SPlaneController(OCEAN_GAINS)
+        task_kwargs["executor"] = named_executor("splane-ocean")
     checkpoint = _checkpoint_path(policy_name, task_name)
     if checkpoint is not None and "observation" not in task_kwargs:
         meta = read_checkpoint(checkpoint)[1]
@@ -213,7 +213,7 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     if policy_name == "splane":
         return classical(env)
     if policy_name == "splane-ocean":  # on a planning task its executor was set by make_env
-        return line_of_sight(env) if is_goal_task(env) else executor_policy(env, SPlaneController(OCEAN_GAINS))
+        return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
     if policy_name == "los-executor":
         return line_of_sight(env)
     if policy_name == "los-avoid":
