@@ -125,6 +125,10 @@ def _make_buffer(agent_name: str, spec: dict[str, Any], env: gym.Env,
                  config: DDPGConfig) -> ReplayBuffer | HerReplayBuffer:
     if agent_name == "her-ddpg":
         base = env.unwrapped
+        if getattr(base, "goal_dependent_actions", False):
+            raise ValueError("her-ddpg relabels goals, but this environment's actions depend on the goal (a "
+                             "residual planner, env option residual > 0): relabelled transitions would not have "
+                             "happened; train it with ddpg")
         for fn in ("compute_reward", "compute_terminated"):
             if not callable(getattr(base, fn, None)):
                 raise ValueError(f"her-ddpg needs env.unwrapped.{fn}(achieved_goal, desired_goal, info)")

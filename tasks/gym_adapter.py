@@ -70,12 +70,14 @@ class AUVGymEnv(gymnasium.Env):
     def __init__(self, task_name: str, task_kwargs: Mapping[str, Any] | None = None,
                  environment_kwargs: Mapping[str, Any] | None = None, render_mode: str | None = None,
                  render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE,
-                 protection: bool = False):
+                 protection: bool = False, residual: float = 0.0):
         """`task_kwargs` go to the task factory (not "random": seed through `reset(seed=...)`).
 
         `protection=True` (planning tasks) puts the protection domain of Sec. 3.2.2 (`tasks.avoidance`) in
         the environment: every action's heading is bent away from near echoes before the task sees it,
         as the `planner` policies are run, so that a planner can be trained with it in the loop.
+        `residual` > 0 (planning tasks) makes the action a residual planner's, a correction of that span to
+        line of sight (`tasks.guidance.guided_action`), applied before the protection domain.
         """
         from tasks import suite  # imported here so that registering the ids stays light
 
@@ -123,7 +125,18 @@ class AUVGymEnv(gymnasium.Env):
         self.protection = bool(protection)
         if self.protection and not self.is_goal_task:
             raise ValueError(f"protection is for the planning tasks, not {task_name!r}")
+        from tasks.guidance import MAX_RESIDUAL
+
+        self.residual = checks.number("residual", residual, 0.0, MAX_RESIDUAL)
+        if self.residual and not self.is_goal_task:
+            raise ValueError(f"residual (a correction to line of sight) is for the planning tasks, not {task_name!r}")
         self._last_observation = None
+
+    @property
+    def goal_dependent_actions(self) -> bool:
+        """Whether what an action does depends on the desired goal (a residual planner): hindsight
+        relabelling would then store transitions that did not happen."""
+        return self.residual > 0
 
     # --- the wrapped dm_control objects ------------------------------------------------------------
 
@@ -165,6 +178,11 @@ class AUVGymEnv(gymnasium.Env):
         """
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
+        if self.residual:
+            from tasks.guidance import guided_action
+
+            action = guided_action(checked_action(action, self._env.action_spec(), self.task),
+                                   self._last_observation["desired_goal"], self.physics.pose(), self.residual)
         if self.protection:
             from tasks.avoidance import protect
 
@@ -261,7 +279,8 @@ class PlanningMix(gymnasium.Env):
 
     def __init__(self, tasks: tuple[str, ...] = MIX_TASKS, weights: tuple[float, ...] | None = None,
                  task_kwargs: Mapping[str, Any] | None = None,
-                 per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool = False):
+                 per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool = False,
+                 residual: float = 0.0):
         if isinstance(tasks, str) or not isinstance(tasks, (list, tuple)) or not all(isinstance(t, str) for t in tasks):
             raise ValueError(f"tasks: a list of planning task names, got {checks.shown(tasks)}")
         tasks = tuple(tasks)
@@ -283,7 +302,7 @@ class PlanningMix(gymnasium.Env):
             raise ValueError(f"per_task_kwargs: {sorted(unknown)} not among the tasks {tasks}")
         self.tasks, self.weights = tasks, weights / weights.sum()
         self.envs = [AUVGymEnv(name, {**dict(task_kwargs or {}), **dict((per_task_kwargs or {}).get(name, {}))},
-                               protection=protection) for name in tasks]
+                               protection=protection, residual=residual) for name in tasks]
         first = self.envs[0]
         for name, env in zip(tasks, self.envs, strict=True):
             if not env.is_goal_task:
@@ -297,6 +316,10 @@ class PlanningMix(gymnasium.Env):
     @property
     def goal_in_observation(self) -> bool:
         return self.active.goal_in_observation
+
+    @property
+    def goal_dependent_actions(self) -> bool:
+        return self.active.goal_dependent_actions
 
     @property
     def task_name(self) -> str:

@@ -62,7 +62,7 @@ from auv_mj.vehicle import vehicle_facts
 from tasks import options
 from tasks.actions import checked_action
 from tasks.registry import SUITE
-from tasks.splane import EXECUTOR_DT, SPlaneController
+from tasks.splane import EXECUTOR_DT, OCEAN_GAINS, SPlaneController, SPlaneGains
 
 EPISODE_STEPS = 1100
 """Length of the Sec. 4.2 experiment, in executor steps."""
@@ -138,6 +138,9 @@ MAX_GAIN_OCTAVES = 4.0
 """Largest `gains`: a gain-scheduling action of +-1 multiplies a gain by 2^(+-gains)."""
 GAIN_NAMES = ("k1_speed", "k2_speed", "k1_heading", "k2_heading")
 """The S-plane gains a gain-scheduling executor sets, one action each."""
+BASES = {"nominal": SPlaneGains(), "ocean": OCEAN_GAINS}
+"""The S-plane a residual or gain-scheduling executor builds on (`base`): the gains tuned on the nominal model
+(`tasks.splane_tuning`) or re-tuned in ocean water (`OCEAN_GAINS`, `--conditions ocean`)."""
 OBSERVATIONS = ("paper", "integral", "history")
 REWARDS = ("suite", "paper")
 COMMANDS = ("paper", "random")
@@ -195,7 +198,7 @@ class ExecutorMemory:
 
     `observe(command, state)` is called once per executor step, with the command and state the next action
     acts on: it moves the integrals (observation "integral", "history") and, for a residual executor, the
-    S-plane (Eq. 32, nominal gains), and returns the observation. `forces(action)` turns the policy's action
+    S-plane (Eq. 32; gains BASES[base]), and returns the observation. `forces(action)` turns the policy's action
     (one per actuator, or one per GAIN_NAMES entry, in [-1, 1]) into the actuator forces (tau_u, tau_r):
     - plain: the action scaled to the actuator ranges `low`, `high` (Eq. 28-29);
     - residual: the S-plane's forces plus `residual` times the action in half-ranges, clipped to the ranges;
@@ -206,15 +209,19 @@ class ExecutorMemory:
     """
 
     def __init__(self, observation: str = "paper", residual: float = 0.0, gains: float = 0.0,
-                 low: Sequence[float] = (-1.0, -1.0), high: Sequence[float] = (1.0, 1.0)):
+                 low: Sequence[float] = (-1.0, -1.0), high: Sequence[float] = (1.0, 1.0), base: str = "nominal"):
         self.observation = options.choice("observation", observation, OBSERVATIONS)
         self.residual = options.number("residual", residual, 0.0, MAX_RESIDUAL)
         self.gains = options.number("gains", gains, 0.0, MAX_GAIN_OCTAVES)
+        self.base = options.choice("base", base, tuple(BASES))
         if self.residual and self.gains:
             raise ValueError("residual and gains are two ways of building on the S-plane: set one of them")
+        if base != "nominal" and not (self.residual or self.gains):
+            raise ValueError(f"base {base!r} is the S-plane a residual or gain-scheduling executor builds on: "
+                             "set residual or gains too")
         self.low, self.high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
         self._integral = ErrorIntegral() if observation in ("integral", "history") else None
-        self._splane = SPlaneController() if self.residual > 0 or self.gains > 0 else None
+        self._splane = SPlaneController(BASES[base]) if self.residual > 0 or self.gains > 0 else None
         self.reset()
 
     @property
@@ -271,7 +278,7 @@ def observation_size(observation: str, residual: bool) -> int:
 
 
 def executor_options(obs_dim: int, task_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """The `ExecutorMemory` options (observation, residual, gains) of a learned executor with `obs_dim` inputs
+    """The `ExecutorMemory` options (observation, residual, gains, base) of a learned executor with `obs_dim` inputs
     trained with `task_kwargs` (a checkpoint's run_info); without them, the observation its input size gives
     ("paper" or "integral"). ValueError when the two disagree."""
     task_kwargs = task_kwargs or {}
@@ -281,7 +288,8 @@ def executor_options(obs_dim: int, task_kwargs: Mapping[str, Any] | None = None)
     if observation_size(observation, residual > 0) != obs_dim:
         raise ValueError(f"an executor trained with observation {observation!r} and residual {residual:g} has "
                          f"{observation_size(observation, residual > 0)} inputs, not {obs_dim}")
-    return {"observation": observation, "residual": residual, "gains": gains}
+    return {"observation": observation, "residual": residual, "gains": gains,
+            "base": str(task_kwargs.get("base", "nominal"))}
 
 
 def observation_kind(size: int) -> str:
@@ -354,21 +362,22 @@ class SpeedHeading(base.Task):
 
     def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper",
                  reward: str = "suite", observation: str = "paper", random=None, conditions="ideal",
-                 residual: float = 0.0, gains: float = 0.0):
+                 residual: float = 0.0, gains: float = 0.0, base: str = "nominal"):
         """`command`: "paper", "random" or (V, psi); `disturbances`: "paper", "random", "none";
         `reward`: "suite" ([0, 1]) or "paper" (Eq. 30); `observation`: "paper" (Eq. 27) or "integral"
         (Eq. 27 and the error integrals of `ErrorIntegral`); `random`: seed, RandomState or None;
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`; the
         sonar's play no part here); `residual`: 0 (the action is the command, Eq. 28-29) or the span of the
         agent's correction to the S-plane's command, in (0, MAX_RESIDUAL]; `gains`: 0 or the octaves by which
-        a gain-scheduling action moves the S-plane's gains, in (0, MAX_GAIN_OCTAVES] (module docstring)."""
+        a gain-scheduling action moves the S-plane's gains, in (0, MAX_GAIN_OCTAVES] (module docstring);
+        `base`: the S-plane those two build on, "nominal" or "ocean" (BASES)."""
         if isinstance(command, str):
             options.choice("command", command, COMMANDS)
         else:
             command = options.pair("command", command, ((0.0, top_speed(), "m/s"), (-math.pi, math.pi, "rad")))
         options.choice("disturbances", disturbances, DISTURBANCES)
         options.choice("reward", reward, REWARDS)
-        self.memory = ExecutorMemory(observation, residual, gains)
+        self.memory = ExecutorMemory(observation, residual, gains, base=base)
         random = options.seed(random)
         self.ocean = ocean.Ocean(conditions)
         self._observation = np.zeros(self.memory.size)

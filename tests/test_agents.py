@@ -402,6 +402,10 @@ def test_box_task_ddpg_and_action_rescaling(tmp_path):
     with pytest.raises(ValueError, match="executor needs a Box"):
         train(make_env, "executor", FAST, episodes=1, run_dir=tmp_path / "x", progress=False,
               tensorboard=False)
+    # a residual planner's actions depend on the goal: hindsight relabelling is refused, ddpg named
+    with pytest.raises(ValueError, match="residual planner.*train it with ddpg"):
+        train(lambda: gym.make("auv_mj/Goal-v0", residual=0.5), "her-ddpg", FAST, episodes=1,
+              run_dir=tmp_path / "r", progress=False, tensorboard=False)
 
 
 def test_corrupt_truncated_and_foreign_checkpoints_raise_clear_errors(tmp_path):

@@ -48,3 +48,42 @@ def test_line_of_sight_with_the_domain_clears_the_table_7_obstacles():
     guarded = episode_metrics(record_episode(env, with_repulsion(line_of_sight(env))))
     assert bare["collision"] and not bare["success"]
     assert guarded["success"] and not guarded["collision"] and guarded["min_clearance"] > 5.0
+
+
+# --- a residual planner on line of sight (issue 15) --------------------------------------------------------
+
+
+def test_a_residual_planners_zero_action_is_los_avoid_exactly_and_its_correction_bends_the_heading():
+    import gymnasium as gym
+
+    from tasks.guidance import guided_action, los_avoid
+
+    env = gym.make("auv_mj/Planning-v0", tasks=["tunnel"], per_task_kwargs={"tunnel": {"arena": "random"}},
+                   protection=True, residual=0.5).unwrapped
+    twin = gym.make("auv_mj/Planning-v0", tasks=["tunnel"],  # los-avoid brings its own protection domain
+                    per_task_kwargs={"tunnel": {"arena": "random"}}).unwrapped
+    env.reset(seed=3)
+    twin.reset(seed=3)
+    assert env.goal_dependent_actions and not twin.goal_dependent_actions
+    classical = los_avoid(twin.active.dm_env)
+    for _ in range(60):  # the guided env with zero actions and los-avoid in the plain env: the same run
+        last = twin.active._last_observation
+        expected = classical(type("TimeStep", (), {"observation": last})())
+        env.step(np.zeros(2))
+        twin.step(expected)
+        np.testing.assert_array_equal(env.active.physics.data.qpos, twin.active.physics.data.qpos)
+    # a correction adds residual * a1 to line of sight's normalised heading offset, clipped to [-1, 1]
+    goal, pose = np.array([10.0, 10.0]), np.array([0.0, 0.0, 0.0])  # bearing 45 deg = 0.5 of the range
+    np.testing.assert_allclose(guided_action([0.3, 0.4], goal, pose, 0.5), [0.3, 0.7])
+    np.testing.assert_allclose(guided_action([0.3, 1.0], goal, pose, 2.0), [0.3, 1.0])
+    np.testing.assert_allclose(guided_action([-0.2, -1.0], goal, pose, 2.0), [-0.2, -1.0])
+
+
+@pytest.mark.parametrize("residual", [-0.5, 3.0, "some"])
+def test_a_bad_planner_residual_is_refused_by_name(residual):
+    from tasks.gym_adapter import AUVGymEnv
+
+    with pytest.raises(ValueError, match="residual"):
+        AUVGymEnv("goal", residual=residual)
+    with pytest.raises(ValueError, match="residual"):
+        AUVGymEnv("speed_heading", residual=0.5)

@@ -9,7 +9,7 @@ import pytest
 from auv_mj.geometry import wrap_angle
 from tasks import speed_heading as sh
 from tasks.registry import SUITE
-from tasks.splane import SPlaneController
+from tasks.splane import OCEAN_GAINS, SPlaneController, SPlaneGains
 
 
 @pytest.fixture(scope="module")
@@ -293,23 +293,25 @@ def test_bad_residual_is_refused_by_name(residual):
 
 
 def test_executor_options_follow_the_checkpoint_and_refuse_a_mismatch():
-    assert sh.executor_options(9) == {"observation": "integral", "residual": 0.0, "gains": 0.0}
+    assert sh.executor_options(9) == {"observation": "integral", "residual": 0.0, "gains": 0.0, "base": "nominal"}
     assert sh.executor_options(17, {"observation": "history", "residual": 0.5}) == \
-        {"observation": "history", "residual": 0.5, "gains": 0.0}
+        {"observation": "history", "residual": 0.5, "gains": 0.0, "base": "nominal"}
     assert sh.executor_options(15, {"observation": "history", "gains": 2})["gains"] == 2.0
+    assert sh.executor_options(15, {"observation": "history", "gains": 1, "base": "ocean"})["base"] == "ocean"
     with pytest.raises(ValueError, match="has 17 inputs, not 15"):
         sh.executor_options(15, {"observation": "history", "residual": 0.5})
 
 
-@pytest.mark.parametrize("action", [np.zeros(4), np.array([0.3, -0.2, -0.8, 0.5])])
-def test_a_gain_scheduling_executor_is_the_splane_with_the_gains_it_chose(action):
+@pytest.mark.parametrize("action, base", [(np.zeros(4), "nominal"), (np.array([0.3, -0.2, -0.8, 0.5]), "nominal"),
+                                          (np.zeros(4), "ocean"), (np.array([-0.6, 0.1, 0.4, -0.3]), "ocean")])
+def test_a_gain_scheduling_executor_is_the_splane_with_the_gains_it_chose(action, base):
     import dataclasses
 
     env = sh.speed_heading(command="random", disturbances="random", conditions="ocean", gains=2.0,
-                           observation="history", random=5, time_limit=30.0)
+                           observation="history", random=5, time_limit=30.0, base=base)
     assert env.action_spec().shape == (4,)
     low, high = env.physics.model.actuator_ctrlrange.T
-    nominal = sh.SPlaneController().gains
+    nominal = OCEAN_GAINS if base == "ocean" else SPlaneGains()  # the tuned gains each base names
     factors = dict(zip(sh.GAIN_NAMES, np.exp2(2.0 * action), strict=True))
     shadow = SPlaneController(dataclasses.replace(nominal, **{k: getattr(nominal, k) * f for k, f in factors.items()}))
     time_step, task, physics = env.reset(), env.task, env.physics
@@ -321,3 +323,10 @@ def test_a_gain_scheduling_executor_is_the_splane_with_the_gains_it_chose(action
         sh.SpeedHeading(residual=0.5, gains=1.0)
     with pytest.raises(ValueError, match="gains"):
         sh.SpeedHeading(gains=5.0)
+
+
+@pytest.mark.parametrize("kwargs, message", [({"gains": 1.0, "base": "tuned"}, "base"),
+                                             ({"base": "ocean"}, "set residual or gains too")])
+def test_a_bad_base_is_refused_by_name(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        sh.SpeedHeading(**kwargs)

@@ -17,8 +17,11 @@ The one place where tasks and agents meet (the app layer):
   classical local planner;
 - `random`: uniform actions.
 - `planner-general`, `two-layer-general`: the same with the planner trained on the distribution of arenas
-  (`planner_general.pt`: body-frame goal, no map coordinates, protection domain in the loop; issue 15),
-  on the S-plane and on the learned executor.
+  (`planner_general.pt`, issue 15): a residual planner on line of sight along the route (`tasks.guidance`):
+  it sets the speed and corrects the line-of-sight heading from the body-frame goal, its motion and the
+  sonar, with the protection domain in the loop; no map coordinates. On the S-plane / the learned executor.
+- `planner-e2e`, `two-layer-e2e`: the first planner trained on that distribution, end to end (HER-DDPG, no
+  line of sight under it; `planner_e2e.pt`), kept for comparison.
 `planner=PATH`, `planner-raw=PATH` and `two-layer=PATH` run the planner checkpoint PATH in place of the
 shipped one (to compare or choose candidates, e.g. on validation seeds).
 
@@ -41,12 +44,12 @@ from agents.policy import Policy
 from auv_mj import arena
 from tasks import suite
 from tasks.avoidance import with_repulsion
-from tasks.guidance import classical, is_goal_task, line_of_sight, los_avoid
+from tasks.guidance import classical, is_goal_task, line_of_sight, los_avoid, with_guidance
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from tasks.splane import OCEAN_GAINS, SPlaneController
 
 SHIPPED = {"planner": "planner.pt", "planner-tunnel": "planner_tunnel.pt", "planner-general": "planner_general.pt",
-           "executor": "executor.pt", "ocean-executor": "executor_ocean.pt"}
+           "planner-e2e": "planner_e2e.pt", "executor": "executor.pt", "ocean-executor": "executor_ocean.pt"}
 """Shipped checkpoints: name -> file in `agents/checkpoints/`."""
 PLANNER_FOR_TASK = {"tunnel": "planner-tunnel"}
 """Tasks with a planner of their own (trained on that task, as the paper trains per environment)."""
@@ -59,7 +62,7 @@ EXECUTORS = ("splane", "splane-ocean", "executor", "ocean-executor")
 """Executor names a planning task's `executor` option takes on the command line."""
 PLANNERS = ("planner", "planner-raw", "two-layer", "los-executor", "los-avoid")
 NAMES = ("planner", "planner-raw", "executor", "ocean-executor", "two-layer", "planner-general",
-         "two-layer-general", "los-executor", *BASELINES)
+         "two-layer-general", "planner-e2e", "two-layer-e2e", "los-executor", *BASELINES)
 """Every policy name `--policy` takes besides a checkpoint path."""
 
 
@@ -120,15 +123,17 @@ def named_executor(name: str):
     raise ValueError(f"task_kwargs executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
 
 
-GENERAL = {"planner-general": "planner", "two-layer-general": "two-layer"}
-"""Names of the generalising planner: the system it runs in."""
+GENERAL = {"planner-general": ("planner", "planner-general"), "two-layer-general": ("two-layer", "planner-general"),
+           "planner-e2e": ("planner", "planner-e2e"), "two-layer-e2e": ("two-layer", "planner-e2e")}
+"""Names of the planners trained on the distribution of arenas: (the system it runs in, its SHIPPED checkpoint)."""
 
 
 def split_name(policy_name: str) -> tuple[str, Path | None]:
     """("two-layer", PATH) for "two-layer=PATH" (also planner, planner-raw) and for the general planner's
     names; (name, None) otherwise."""
     if policy_name in GENERAL:
-        return GENERAL[policy_name], shipped_checkpoint("planner-general")
+        system, checkpoint = GENERAL[policy_name]
+        return system, shipped_checkpoint(checkpoint)
     base, sep, path = policy_name.partition("=")
     if sep and base in ("planner", "planner-raw", "two-layer"):
         if not Path(path).is_file():
@@ -154,11 +159,13 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     checkpoint = _checkpoint_path(policy_name, task_name)
     if checkpoint is not None and "observation" not in task_kwargs:
         meta = read_checkpoint(checkpoint)[1]
-        if task_name in EXECUTOR_TASKS:  # the executor's observation (and residual) it was trained with
+        if task_name in EXECUTOR_TASKS:  # the executor's observation (residual, gains, base) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})
             memory = executor_options(int(meta["obs_dim"]), trained)
             task_kwargs["observation"] = memory["observation"]
             task_kwargs.update({k: memory[k] for k in ("residual", "gains") if memory[k] and k not in task_kwargs})
+            if memory["base"] != "nominal" and "base" not in task_kwargs:  # the S-plane it builds on
+                task_kwargs["base"] = memory["base"]
         elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
     return suite.load("auv", task_name, task_kwargs=task_kwargs)
@@ -179,7 +186,8 @@ def _checkpoint_path(policy_name: str, task_name: str | None = None) -> Path | N
 
 def _checkpoint_policy(path: Path, env, protection: bool | None = None):
     """The checkpoint's policy on time steps of `env`; a planner trained with the protection domain in the loop
-    (`--env-kwargs '{"protection": true}'`) runs with it, as it was trained (unless `protection` says).
+    (`--env-kwargs '{"protection": true}'`) runs with it, as it was trained (unless `protection` says), and a
+    residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`).
     ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = Policy.load(path)
     sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
@@ -197,8 +205,11 @@ def _checkpoint_policy(path: Path, env, protection: bool | None = None):
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
 
+    env_kwargs = policy.metadata.get("run_info", {}).get("env_kwargs", {}) or {}
+    if float(env_kwargs.get("residual", 0.0)) > 0:  # a residual planner acts through line of sight
+        act = with_guidance(act, env, float(env_kwargs["residual"]))
     if protection is None:
-        protection = bool(policy.metadata.get("run_info", {}).get("env_kwargs", {}).get("protection", False))
+        protection = bool(env_kwargs.get("protection", False))
     return with_repulsion(act) if protection else act
 
 

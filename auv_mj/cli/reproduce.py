@@ -288,9 +288,18 @@ def random_targets(lines: list[str], episodes: int) -> None:
               "(seeds from 10000 are never used in training).", ""]
 
 
-GENERALISATION_POLICIES = ("two-layer-general", "two-layer", "los-avoid", "splane")
-"""The planner trained on random arenas and the paper's planner (both with the protection domain, on the learned
-executor) against the classical local planner and plain line of sight."""
+GENERALISATION_POLICIES = ("two-layer-general", "two-layer-e2e", "two-layer", "los-avoid", "splane")
+"""The planners trained on random arenas (residual on line of sight, and end to end) and the paper's planner (all
+with the protection domain, on the learned executor) against the classical local planner and plain line of
+sight."""
+BENCHMARK_EPISODES = 200
+"""Held-out arenas per set in the "benchmark" section (issue 15's size)."""
+BENCHMARK_POLICIES = ("two-layer-general", "planner-general", "los-avoid")
+"""The general planner on the learned and on the S-plane executor, and the classical local planner."""
+BENCHMARK_TARGETS = (0.95, 0.01)
+"""(success floor, collision ceiling) of the general planner on each held-out set (issue 15)."""
+SCENARIO_CLEARANCE = 5.0
+"""Least clearance [m] the general planner keeps in every scenario of Tables 6-8 and 12 (issue 15)."""
 GENERALISATION_SETS = (  # (label, task, task kwargs)
     ("random tunnels", "tunnel", {"arena": "random"}),
     ("random obstacles", "obstacles", {}),
@@ -304,7 +313,7 @@ def _policy_set(name: str, task: str, kwargs: dict, seeds: list[int]) -> dict:
     return evaluate.summarise([evaluate.run_episode(name, task, s, kwargs) for s in seeds])
 
 
-def generalisation(lines: list[str], episodes: int, figures: Path) -> None:
+def generalisation(lines: list[str], episodes: int, figures: Path, workers: int = 1) -> None:
     """Success, collisions and time on arenas the planner trained on versus held-out ones, every policy."""
     held_out = [seeds.TEST.start + i for i in range(episodes)]
     trained = [seeds.train_seed(TRAINING_RUN_SEED, i) for i in range(max(1, episodes // 4))]
@@ -319,7 +328,9 @@ def generalisation(lines: list[str], episodes: int, figures: Path) -> None:
     for label, task, kwargs in GENERALISATION_SETS:
         for split, chosen in (("held-out", held_out), ("training", trained)):
             for name in GENERALISATION_POLICIES:
-                s = _policy_set(name, task, kwargs, chosen)
+                s = (evaluate.evaluate(name, [task], episodes, held_out[0], progress=False, task_kwargs=kwargs,
+                                       workers=workers)["tasks"][task] if split == "held-out"
+                     else _policy_set(name, task, kwargs, chosen))
                 outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
                 lines.append(f"| {label} | {split} | {name} | {s['episodes']} | {s['success_rate']:.2f} | "
                              f"{s['collision_rate']:.2f} | {outcomes} | {_fmt(s['time_to_goal'], 0)} | "
@@ -340,6 +351,51 @@ def generalisation(lines: list[str], episodes: int, figures: Path) -> None:
               f"Commands: `auv-mj eval --policy two-layer-general --task tunnel --arena random --episodes {episodes} "
               f"--seed {seeds.TEST.start} --workers 2` (and `--task obstacles`, `--task moving_obstacles`; `--policy "
               "two-layer`, `los-avoid`, `splane`).", ""]
+
+
+def benchmark(lines: list[str], workers: int) -> None:
+    """Issue 15's bar: BENCHMARK_EPISODES held-out arenas per set for the general planner and `los-avoid`, and
+    every paper scenario with at least SCENARIO_CLEARANCE of clearance."""
+    floor, ceiling = BENCHMARK_TARGETS
+    lines += ["## Held-out benchmark: the general planner against the classical local planner", "",
+              f"{BENCHMARK_EPISODES} held-out arenas per set (test seeds {seeds.TEST.start}.."
+              f"{seeds.TEST.start + BENCHMARK_EPISODES - 1}); target: success >= {floor}, collisions <= {ceiling}, "
+              "at least `los-avoid`'s success and a shorter mean time to the goal (over each policy's "
+              "successful episodes).", "",
+              "| set | policy | episodes | success | collisions | outcomes | time to goal [s] | min clearance [m] |",
+              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    verdicts = []
+    for label, task, kwargs in GENERALISATION_SETS:
+        results = {}
+        for name in BENCHMARK_POLICIES:
+            run = evaluate.evaluate(name, [task], BENCHMARK_EPISODES, seeds.TEST.start, progress=False,
+                                    task_kwargs=kwargs, workers=workers)
+            s = results[name] = run["tasks"][task]
+            outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
+            lines.append(f"| {label} | {name} | {s['episodes']} | {s['success_rate']:.3f} | {s['collision_rate']:.3f} "
+                         f"| {outcomes} | {_fmt(s['time_to_goal'], 0)} | {_fmt(s['min_clearance'], 1)} |")
+        ours, classical = results["two-layer-general"], results["los-avoid"]
+        met = (ours["success_rate"] >= floor and ours["collision_rate"] <= ceiling
+               and ours["success_rate"] >= classical["success_rate"]
+               and (ours["time_to_goal"] or math.inf) < (classical["time_to_goal"] or math.inf))
+        verdicts.append(f"{label}: **{'met' if met else 'NOT met'}**")
+    lines += ["", "Target (two-layer-general): " + "; ".join(verdicts) + ".", "",
+              "### Every paper scenario", "",
+              f"`two-layer-general` on the scenarios of Tables 6-8 and 12 (one episode each); target: the goal with "
+              f">= {SCENARIO_CLEARANCE:g} m clearance.", "",
+              "| scenario | paper | outcome | min clearance [m] | time [s] |", "| --- | --- | --- | --- | --- |"]
+    short = []
+    for label, table, task, kwargs in SCENARIOS:
+        m = evaluate.run_episode("two-layer-general", task, 0, kwargs)
+        ok = m["outcome"] == "goal" and (m["min_clearance"] is None or m["min_clearance"] >= SCENARIO_CLEARANCE)
+        short += [] if ok else [label]
+        lines.append(f"| {label} | {table} | {m['outcome']} | {_fmt(m['min_clearance'], 1)} | "
+                     f"{_fmt(m['time_to_goal'], 0)} |")
+    lines += ["", f"Scenarios: **{'all met' if not short else 'NOT met: ' + ', '.join(short)}**.", "",
+              f"Commands: `auv-mj eval --policy two-layer-general --task tunnel --arena random --episodes "
+              f"{BENCHMARK_EPISODES} --seed {seeds.TEST.start} --workers 2` (and `--task obstacles`, `--task "
+              "moving_obstacles`; `--policy planner-general`, `los-avoid`); `auv-mj eval --policy two-layer-general "
+              "--task obstacles --task-kwargs '{\"scenario\": \"a\"}' --episodes 1 --seed 0`.", ""]
 
 
 def _worse(label: str, speed: tuple, heading: tuple) -> list[str]:
@@ -524,13 +580,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=positive_int, default=100,
                         help="held-out episodes per task and policy on random layouts (random targets, ocean)")
     parser.add_argument("--quick", action="store_true", help="10 episodes for the random targets")
+    parser.add_argument("--workers", type=positive_int, default=1,
+                        help="local processes for the held-out episodes of the generalisation and benchmark "
+                             "sections (the result is the serial one)")
     parser.add_argument("--sections", default=None,
                         help=f"comma-separated sections to run (default all: {','.join(SECTIONS)}); into an "
                              "existing report they are written in place, the other sections kept")
 
 
 SECTIONS = ("table9", "tracking", "fig8", "training_speed", "scenarios", "random_targets", "generalisation",
-            "ocean", "executors")
+            "benchmark", "ocean", "executors")
 """The report's sections, in order."""
 
 
@@ -582,7 +641,8 @@ def run(args: argparse.Namespace) -> int:
                 "training_speed": lambda: training_speed(lines, args.peer_runs),
                 "scenarios": lambda: scenarios(lines, figures),
                 "random_targets": lambda: random_targets(lines, episodes),
-                "generalisation": lambda: generalisation(lines, episodes, figures),
+                "generalisation": lambda: generalisation(lines, episodes, figures, args.workers),
+                "benchmark": lambda: benchmark(lines, args.workers),
                 "ocean": lambda: ocean_conditions(lines, episodes),
                 "executors": lambda: executors(lines, episodes)}
     header, blocks = list(lines), {}

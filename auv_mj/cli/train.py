@@ -61,7 +61,19 @@ class EnvFactory:
     def __call__(self) -> gym.Env:
         if self.module:
             importlib.import_module(self.module)
-        return gym.make(self.env_id, **self.kwargs)
+        return gym.make(self.env_id, **_with_executor(self.kwargs))
+
+
+def _with_executor(kwargs: dict) -> dict:
+    """`kwargs` with a planning task's executor named in its task_kwargs ("executor": one of
+    `policies.EXECUTORS` or a speed_heading checkpoint) built, so that a planner trains on the execution layer
+    it will run on (e.g. the learned one of the two-layer system)."""
+    task_kwargs = kwargs.get("task_kwargs")
+    if isinstance(task_kwargs, dict) and isinstance(task_kwargs.get("executor"), str):
+        from auv_mj.cli.policies import named_executor
+
+        return {**kwargs, "task_kwargs": {**task_kwargs, "executor": named_executor(task_kwargs["executor"])}}
+    return kwargs
 
 
 def make_env_fn(env_id: str, **kwargs: Any) -> EnvFactory:
