@@ -96,3 +96,39 @@ def test_reproduce_sections_rewrite_their_blocks_in_place_and_keep_the_others(tm
     assert "T9 old" in text and "F8 old" in text and "OC old" in text
     assert text.index("T9 old") < text.index(SECTION_START.format("training_speed")) < text.index("OC old")
     assert "_Section `training_speed` measured" in text
+
+
+def _summary(success: float, collisions: float, time: float | None) -> dict:
+    return {"episodes": 200, "success_rate": success, "collision_rate": collisions, "time_to_goal": time,
+            "min_clearance": 2.0, "outcomes": {"goal": int(200 * success), "collision": int(200 * collisions)}}
+
+
+def test_the_benchmark_section_judges_each_set_by_the_issue_15_bar(monkeypatch):
+    from auv_mj.cli import evaluate, reproduce
+
+    figures = {  # (policy, task) -> summary; los-avoid is slower everywhere
+        ("two-layer-general", "tunnel"): _summary(0.97, 0.005, 400.0),  # met
+        ("two-layer-general", "obstacles"): _summary(0.97, 0.02, 140.0),  # too many collisions
+        ("two-layer-general", "moving_obstacles"): _summary(0.96, 0.0, 300.0),  # slower than los-avoid
+        ("los-avoid", "tunnel"): _summary(0.96, 0.0, 800.0),
+        ("los-avoid", "obstacles"): _summary(1.0, 0.0, 280.0),
+        ("los-avoid", "moving_obstacles"): _summary(0.96, 0.0, 280.0),
+    }
+    calls = []
+
+    def fake_evaluate(name, tasks, episodes, seed, **kwargs):
+        calls.append((name, tasks[0], episodes, seed, kwargs["workers"]))
+        return {"tasks": {tasks[0]: figures.get((name, tasks[0]), _summary(0.5, 0.1, 100.0))}}
+
+    def fake_episode(name, task, seed, kwargs):  # the scenarios: one too close to an obstacle
+        short = kwargs.get("scenario") == "b" and task == "obstacles"
+        return {"outcome": "goal", "min_clearance": 4.2 if short else 8.0, "time_to_goal": 100.0}
+
+    monkeypatch.setattr(evaluate, "evaluate", fake_evaluate)
+    monkeypatch.setattr(evaluate, "run_episode", fake_episode)
+    lines: list[str] = []
+    reproduce.benchmark(lines, workers=2)
+    report = "\n".join(lines)
+    assert {c[2:] for c in calls} == {(reproduce.BENCHMARK_EPISODES, 10_000, 2)}
+    assert "random tunnels: **met**; random obstacles: **NOT met**; random moving obstacles: **NOT met**" in report
+    assert "Scenarios: **NOT met: obstacles b**." in report
