@@ -125,6 +125,8 @@ COLLISION_REWARD = -1.0
 """r_avoid inside d_s, on a collision and on leaving the map (Eq. 24)."""
 NAVIGATION_REWARD = -0.05
 """r_navigation per planner step (Eq. 25)."""
+MAX_COLLISION_PENALTY = 1000.0
+"""Largest `collision_penalty` (a whole route's progress reward is at most a few hundred)."""
 REWARD_WEIGHTS = (1.0, 1.0, 1.0)
 """(k1, k2, k3) of Eq. (26); the paper leaves them open, and equal weights keep its term sizes."""
 SUITE_REWARD_MARGIN = 100.0
@@ -435,14 +437,17 @@ class PlanningTask(base.Task):
 
     def __init__(self, executor: Callable | None = None, reward: str = "suite",
                  goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
-                 conditions="ideal"):
+                 conditions="ideal", collision_penalty: float = 0.0):
         """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); `reward` one of
         REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
-        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`)."""
+        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`);
+        `collision_penalty`: subtracted from the "paper" and "progress" rewards on a collision or on leaving
+        the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY]."""
         self.reward_kind = options.choice("reward", reward, REWARDS)
         self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
         executor = options.function("executor", executor, "executor(command, state) -> (tau_u, tau_r)")
         self.goal_radius = options.number("goal_radius", goal_radius, 0.0, MAX_GOAL_RADIUS, "m", low_open=True)
+        self.collision_penalty = options.number("collision_penalty", collision_penalty, 0.0, MAX_COLLISION_PENALTY)
         super().__init__(random=options.seed(random))
         self.executor = SPlaneController() if executor is None else executor
         self.ocean = ocean.Ocean(conditions)
@@ -563,7 +568,7 @@ class PlanningTask(base.Task):
         r_follow = float(following_reward(self._previous, position, desired, self.goal_radius))
         r_avoid = COLLISION_REWARD if collision or left_map else avoid_reward(nearest, self._repulsion_range)
         k1, k2, k3 = REWARD_WEIGHTS
-        independent = k2 * r_avoid + k3 * NAVIGATION_REWARD
+        independent = k2 * r_avoid + k3 * NAVIGATION_REWARD - self.collision_penalty * (collision or left_map)
         paper = k1 * r_follow + independent
         if collision:
             event = "collision"

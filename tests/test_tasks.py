@@ -491,3 +491,23 @@ def test_named_layouts_fit_their_time_limits():
         route = np.vstack([step.observation["achieved_goal"][:2], env.task.goals])
         limit = env._step_limit * planning.PLANNER_DT
         assert planning.path_length(route) / planning.TARGET_SPEED < 0.75 * limit, (name, kwargs)
+
+
+@pytest.mark.parametrize("reward", ["progress", "paper"])
+def test_a_collision_penalty_is_subtracted_on_the_collision_step_only(reward):
+    rewards, events = {}, {}
+    for penalty in (0.0, 40.0):  # the same seed and actions: the runs differ only in the reward
+        env = suite.load("auv", "obstacles", task_kwargs={"random": 3, "reward": reward, "collision_penalty": penalty})
+        env.reset()
+        trace = []
+        for _ in range(400):
+            time_step = env.step(np.array([1.0, 0.0]))  # full speed ahead, into whatever is there
+            trace.append(time_step.reward)
+            if time_step.last():
+                break
+        rewards[penalty], events[penalty] = np.array(trace), env.task.last_info["event"]
+    assert events[0.0] == events[40.0] in ("collision", "left_map")
+    np.testing.assert_array_equal(rewards[0.0][:-1], rewards[40.0][:-1])
+    assert rewards[40.0][-1] == pytest.approx(rewards[0.0][-1] - 40.0)
+    with pytest.raises(ValueError, match="collision_penalty"):
+        suite.load("auv", "goal", task_kwargs={"collision_penalty": -1.0})
