@@ -178,16 +178,16 @@ class AUVGymEnv(gymnasium.Env):
         """
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
-        if self.residual:
+        if self.residual or self.protection:  # the layers on top read a valid action (checked once)
+            from tasks.avoidance import protect
             from tasks.guidance import guided_action
 
-            action = guided_action(checked_action(action, self._env.action_spec(), self.task),
-                                   self._last_observation["desired_goal"], self.physics.pose(), self.residual)
-        if self.protection:
-            from tasks.avoidance import protect
-
-            action = protect(checked_action(action, self._env.action_spec(), self.task),
-                             self._last_observation["observation"])
+            action = checked_action(action, self._env.action_spec(), self.task)
+            if self.residual:
+                action = guided_action(action, self._last_observation["desired_goal"], self.physics.pose(),
+                                       self.residual)
+            if self.protection:
+                action = protect(action, self._last_observation["observation"])
         time_step = self._env.step(action)
         self._last_observation = time_step.observation
         terminated = bool(time_step.last() and time_step.discount == 0.0)

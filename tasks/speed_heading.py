@@ -216,12 +216,12 @@ class ExecutorMemory:
         self.base = options.choice("base", base, tuple(BASES))
         if self.residual and self.gains:
             raise ValueError("residual and gains are two ways of building on the S-plane: set one of them")
-        if base != "nominal" and not (self.residual or self.gains):
-            raise ValueError(f"base {base!r} is the S-plane a residual or gain-scheduling executor builds on: "
+        if self.base != "nominal" and not (self.residual or self.gains):
+            raise ValueError(f"base {self.base!r} is the S-plane a residual or gain-scheduling executor builds on: "
                              "set residual or gains too")
         self.low, self.high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
         self._integral = ErrorIntegral() if observation in ("integral", "history") else None
-        self._splane = SPlaneController(BASES[base]) if self.residual > 0 or self.gains > 0 else None
+        self._splane = SPlaneController(BASES[self.base]) if self.residual > 0 or self.gains > 0 else None
         self.reset()
 
     @property

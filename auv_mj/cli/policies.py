@@ -162,10 +162,7 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
         if task_name in EXECUTOR_TASKS:  # the executor's observation (residual, gains, base) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})
             memory = executor_options(int(meta["obs_dim"]), trained)
-            task_kwargs["observation"] = memory["observation"]
-            task_kwargs.update({k: memory[k] for k in ("residual", "gains") if memory[k] and k not in task_kwargs})
-            if memory["base"] != "nominal" and "base" not in task_kwargs:  # the S-plane it builds on
-                task_kwargs["base"] = memory["base"]
+            task_kwargs.update({k: v for k, v in memory.items() if k not in task_kwargs})
         elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
     return suite.load("auv", task_name, task_kwargs=task_kwargs)
