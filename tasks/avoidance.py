@@ -4,6 +4,14 @@ When sonar echoes enter the protection domain, a repulsive field (the gradient o
 k (1/d - 1/d0)) pushes the planner's heading away from them; once the obstacle leaves the domain the
 planner's own heading is restored. It works on the observation alone (the nine sonar ranges), so it
 wraps any planning policy: `with_repulsion(policy)`.
+
+The paper sizes the domain for its 1 m/s target speed. A planner that cruises faster (up to Table 3's
+2 m/s) has less time to turn away from an echo at the same distance: at 2 m/s and Table 1's 6 deg per step
+it closes 10 m in the 10 steps a 60 deg turn takes. The speed-aware domain (ours, `PROTECTIONS["speed-aware"]`)
+keeps the paper's domain in time to contact instead of metres: above the reference speed V_ref the echoes
+are read as d V_ref / V_cmd, and an echo within SLOW_CONE of the bow nearer than `slow_distance` brings the
+command back to V_ref, where the domain is the paper's again. At or below V_ref it is the paper's domain
+exactly, so line of sight at the target speed (`los-avoid`) runs the same with either.
 """
 
 from __future__ import annotations
@@ -16,10 +24,13 @@ import dm_env
 import numpy as np
 
 from auv_mj.sonar import BEAM_ANGLES, SONAR_RANGE
+from tasks import options as checks
 from tasks.planning import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
-from tasks.planning import SONAR_SLICE
+from tasks.planning import SONAR_SLICE, TARGET_SPEED, speed_action, speed_command
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
+SLOW_CONE = math.pi / 8
+"""Half-width [rad] of the cone ahead whose echoes slow a speed-aware domain's planner: beams S4-S6."""
 
 
 @dataclass(frozen=True)
@@ -33,6 +44,20 @@ class RepulsiveField:
     """k_2 of Eq. (22): an echo at d_s = 5 m outweighs the planner's heading 4:1. Chosen by a scan of
     (gain, influence) on the Table 7, 8 and 12 scenarios with line-of-sight guidance: the smallest gain
     keeping every scenario's clearance above d_s (5.7 m at the least)."""
+    reference_speed: float | None = None
+    """V_ref [m/s] of the speed-aware domain (module docstring); None is the paper's domain at any speed."""
+    slow_distance: float = 0.0
+    """Above V_ref, an echo within SLOW_CONE of the bow nearer than this [m] brings the command back to V_ref.
+    20 m: two beam gaps ahead of the bow at 2 m/s, chosen on validation tunnels (docs/runs/planner-speed-aware)."""
+
+    def speed_and_ranges(self, speed: float, ranges: np.ndarray) -> tuple[float, np.ndarray]:
+        """The commanded speed [m/s] after the slow-down rule, and the ranges [m] as the domain reads them at
+        that speed (unchanged for the paper's domain or at or below V_ref)."""
+        if self.reference_speed is None or speed <= self.reference_speed:
+            return speed, ranges
+        if np.min(ranges[np.abs(BEAM_ANGLES) <= SLOW_CONE + 1e-9]) < self.slow_distance:
+            return self.reference_speed, ranges
+        return speed, ranges * (self.reference_speed / speed)
 
     def heading_offset(self, ranges: np.ndarray, planner_offset: float) -> float:
         """The planner's heading offset [rad] (body frame) bent by the repulsion of the echoes [m]."""
@@ -53,12 +78,34 @@ class RepulsiveField:
         return float(np.clip(math.atan2(y, x), -MAX_HEADING_OFFSET, MAX_HEADING_OFFSET))
 
 
+PROTECTIONS = {"paper": RepulsiveField(),
+               "speed-aware": RepulsiveField(reference_speed=TARGET_SPEED, slow_distance=20.0)}
+"""The protection domains by name: the paper's (Sec. 3.2.2) and the speed-aware one (module docstring)."""
+
+
+def protection_field(value) -> RepulsiveField | None:
+    """The protection domain an option names: True or "paper" the paper's, "speed-aware" ours, False or None
+    none. ValueError naming the value otherwise."""
+    if value is None or value is False:
+        return None
+    if value is True:
+        return PROTECTIONS["paper"]
+    if isinstance(value, str) and value in PROTECTIONS:
+        return PROTECTIONS[value]
+    raise ValueError(f"protection must be True, False or one of {list(PROTECTIONS)}, got {checks.shown(value)}")
+
+
 def protect(action, observation: np.ndarray, field: RepulsiveField | None = None) -> np.ndarray:
     """A planning action (speed, heading offset) with its heading bent by the echoes in `observation`
-    (a planning task's "observation" vector, either layout: the sonar ends both)."""
+    (a planning task's "observation" vector, either layout: the sonar ends both), and with a speed-aware
+    domain its speed capped near echoes ahead."""
     field = field or RepulsiveField()
     action = np.array(action, dtype=float)
     ranges = np.asarray(observation)[SONAR_SLICE] * SONAR_RANGE
+    speed = speed_command(float(action[0]))
+    limited, ranges = field.speed_and_ranges(speed, ranges)
+    if limited != speed:
+        action[0] = speed_action(limited)
     action[1] = field.heading_offset(ranges, float(action[1]) * MAX_HEADING_OFFSET) / MAX_HEADING_OFFSET
     return action
 

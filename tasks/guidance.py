@@ -20,12 +20,12 @@ import numpy as np
 
 from auv_mj.geometry import wrap_angle
 from tasks.avoidance import with_repulsion
-from tasks.planning import ACTION_HEADING_RANGE, MAX_SPEED, MIN_SPEED, TARGET_SPEED
+from tasks.planning import ACTION_HEADING_RANGE, TARGET_SPEED, speed_action
 from tasks.speed_heading import executor_policy
 from tasks.splane import SPlaneController
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
-CRUISE_ACTION = 2.0 * (TARGET_SPEED - MIN_SPEED) / (MAX_SPEED - MIN_SPEED) - 1.0
+CRUISE_ACTION = speed_action(TARGET_SPEED)
 """The speed action a0 commanding the target velocity of Tables 6-8 and 12 (Table 3, forward only)."""
 MAX_RESIDUAL = 2.0
 """Largest heading correction span of a residual planner (normalised heading offsets: 2 overrides any

@@ -70,12 +70,13 @@ class AUVGymEnv(gymnasium.Env):
     def __init__(self, task_name: str, task_kwargs: Mapping[str, Any] | None = None,
                  environment_kwargs: Mapping[str, Any] | None = None, render_mode: str | None = None,
                  render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE,
-                 protection: bool = False, residual: float = 0.0):
+                 protection: bool | str = False, residual: float = 0.0):
         """`task_kwargs` go to the task factory (not "random": seed through `reset(seed=...)`).
 
-        `protection=True` (planning tasks) puts the protection domain of Sec. 3.2.2 (`tasks.avoidance`) in
-        the environment: every action's heading is bent away from near echoes before the task sees it,
-        as the `planner` policies are run, so that a planner can be trained with it in the loop.
+        `protection=True` or "paper" (planning tasks) puts the protection domain of Sec. 3.2.2
+        (`tasks.avoidance`) in the environment: every action's heading is bent away from near echoes before
+        the task sees it, as the `planner` policies are run, so that a planner can be trained with it in the
+        loop; "speed-aware" puts in the speed-aware domain (`tasks.avoidance.PROTECTIONS`).
         `residual` > 0 (planning tasks) makes the action a residual planner's, a correction of that span to
         line of sight (`tasks.guidance.guided_action`), applied before the protection domain.
         """
@@ -86,8 +87,9 @@ class AUVGymEnv(gymnasium.Env):
                              f"got {render_mode!r}")
         if task_kwargs is not None and not isinstance(task_kwargs, Mapping):
             raise ValueError(f"task_kwargs must be a dict of task options, got {checks.shown(task_kwargs)}")
-        if not isinstance(protection, bool):
-            raise ValueError(f"protection must be True or False, got {checks.shown(protection)}")
+        from tasks.avoidance import protection_field
+
+        self._field = protection_field(protection)
         task_kwargs = dict(task_kwargs or {})
         if "random" in task_kwargs:
             raise ValueError("seed the task through reset(seed=...), not task_kwargs['random']")
@@ -122,7 +124,7 @@ class AUVGymEnv(gymnasium.Env):
         self._camera = None
         self._camera_model = None
         self._needs_reset = True
-        self.protection = bool(protection)
+        self.protection = self._field is not None
         if self.protection and not self.is_goal_task:
             raise ValueError(f"protection is for the planning tasks, not {task_name!r}")
         from tasks.guidance import MAX_RESIDUAL
@@ -187,7 +189,7 @@ class AUVGymEnv(gymnasium.Env):
                 action = guided_action(action, self._last_observation["desired_goal"], self.physics.pose(),
                                        self.residual)
             if self.protection:
-                action = protect(action, self._last_observation["observation"])
+                action = protect(action, self._last_observation["observation"], self._field)
         time_step = self._env.step(action)
         self._last_observation = time_step.observation
         terminated = bool(time_step.last() and time_step.discount == 0.0)
@@ -279,7 +281,7 @@ class PlanningMix(gymnasium.Env):
 
     def __init__(self, tasks: tuple[str, ...] = MIX_TASKS, weights: tuple[float, ...] | None = None,
                  task_kwargs: Mapping[str, Any] | None = None,
-                 per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool = False,
+                 per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool | str = False,
                  residual: float = 0.0):
         if isinstance(tasks, str) or not isinstance(tasks, (list, tuple)) or not all(isinstance(t, str) for t in tasks):
             raise ValueError(f"tasks: a list of planning task names, got {checks.shown(tasks)}")

@@ -253,6 +253,11 @@ def speed_command(a0: float) -> float:
     return MIN_SPEED + 0.5 * (a0 + 1.0) * (MAX_SPEED - MIN_SPEED)
 
 
+def speed_action(speed: float) -> float:
+    """The speed action a0 commanding V_cmd = `speed` [m/s]: the inverse of `speed_command`."""
+    return 2.0 * (speed - MIN_SPEED) / (MAX_SPEED - MIN_SPEED) - 1.0
+
+
 def discretise(polyline: np.ndarray, spacing: float = SUBGOAL_SPACING) -> np.ndarray:
     """Points along `polyline` (its vertices kept) no more than `spacing` apart: the virtual sub-goals."""
     polyline = np.asarray(polyline, dtype=float).reshape(-1, 2)

@@ -87,3 +87,57 @@ def test_a_bad_planner_residual_is_refused_by_name(residual):
         AUVGymEnv("goal", residual=residual)
     with pytest.raises(ValueError, match="residual"):
         AUVGymEnv("speed_heading", residual=0.5)
+
+
+# --- the speed-aware protection domain (issue 15) ----------------------------------------------------------
+
+
+def test_the_speed_aware_domain_is_the_papers_at_or_below_the_reference_speed():
+    from tasks.avoidance import PROTECTIONS, protect
+    from tasks.planning import SONAR_SLICE, speed_command
+
+    rng = np.random.default_rng(0)
+    observation = np.zeros(18)
+    for _ in range(200):
+        observation[SONAR_SLICE] = rng.uniform(0.0, 1.0, 9) ** 3  # many echoes inside the domain
+        action = np.array([rng.uniform(-1.0, 0.0), rng.uniform(-1.0, 1.0)])  # V_cmd in [0, 1] m/s
+        assert speed_command(action[0]) <= PROTECTIONS["speed-aware"].reference_speed
+        np.testing.assert_array_equal(protect(action, observation, PROTECTIONS["speed-aware"]),
+                                      protect(action, observation, PROTECTIONS["paper"]))
+
+
+def test_above_the_reference_speed_echoes_count_in_time_to_contact_and_one_ahead_slows_the_vehicle():
+    from tasks.avoidance import PROTECTIONS, protect
+    from tasks.planning import SONAR_SLICE, speed_action, speed_command
+
+    aware, paper = PROTECTIONS["speed-aware"], PROTECTIONS["paper"]
+    observation = np.zeros(18)
+    # An echo to port (outside the cone ahead) at 24 m seen at 2 m/s bends the heading as one at 12 m does at 1 m/s.
+    observation[SONAR_SLICE] = ranges(s8=24.0) / SONAR_RANGE
+    fast = protect([1.0, 0.2], observation, aware)
+    assert fast[0] == 1.0  # nothing ahead: the speed stays
+    assert fast[1] < protect([1.0, 0.2], observation, paper)[1]  # bent harder than by the paper's domain
+    observation[SONAR_SLICE] = ranges(s8=12.0) / SONAR_RANGE
+    assert fast[1] == pytest.approx(protect([0.0, 0.2], observation, paper)[1], abs=1e-12)
+    # An echo in the cone ahead nearer than slow_distance brings the command back to the reference speed,
+    # where the domain is the paper's; one beyond it does not.
+    for beam in ("s4", "s5", "s6"):
+        observation[SONAR_SLICE] = ranges(**{beam: aware.slow_distance - 0.1}) / SONAR_RANGE
+        slowed = protect([0.6, 0.0], observation, aware)
+        assert speed_command(slowed[0]) == pytest.approx(aware.reference_speed)
+        assert slowed[0] == speed_action(aware.reference_speed)
+        np.testing.assert_array_equal(slowed, protect([slowed[0], 0.0], observation, paper))
+    observation[SONAR_SLICE] = ranges(s5=aware.slow_distance + 0.1) / SONAR_RANGE
+    assert protect([0.6, 0.0], observation, aware)[0] == 0.6
+    observation[SONAR_SLICE] = ranges(s3=aware.slow_distance - 5.0) / SONAR_RANGE  # 45 deg: outside the cone
+    assert protect([0.6, 0.0], observation, aware)[0] == 0.6
+
+
+@pytest.mark.parametrize("value", ["fast", 1, 0.5, [True]])
+def test_a_protection_option_that_names_no_domain_is_refused_by_value(value):
+    from tasks.avoidance import protection_field
+
+    with pytest.raises(ValueError, match="protection must be True, False or one of"):
+        protection_field(value)
+    assert protection_field(False) is None and protection_field(None) is None
+    assert protection_field(True) == RepulsiveField() == protection_field("paper")

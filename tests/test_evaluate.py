@@ -252,3 +252,30 @@ def test_the_shipped_ocean_executor_is_rebuilt_from_its_checkpoint_on_every_task
     m = evaluate.run_episode("splane", "goal", 10_000, {"conditions": "ocean", "executor": "ocean-executor"},
                              max_steps=30)
     assert m["path_length"] > 10.0  # the vehicle moves under the planner's guidance on this executor
+
+
+def test_the_general_two_layer_system_runs_on_the_best_learned_executor_and_the_e2e_one_on_the_papers():
+    shipped = {name: policies.Policy.load(policies.shipped_checkpoint(name)).metadata
+               for name in ("ocean-executor", "executor")}
+    for name, executor in (("two-layer-general", "ocean-executor"), ("two-layer-e2e", "executor")):
+        env, _ = policies.env_and_policy(name, "goal", 20_000, {})
+        assert isinstance(env.task.executor, policies.LearnedExecutor)
+        assert env.task.executor.policy.metadata == shipped[executor]
+    env, _ = policies.env_and_policy("planner-general", "goal", 20_000, {})
+    assert not isinstance(env.task.executor, policies.LearnedExecutor)  # the S-plane
+
+
+def test_the_general_planner_slows_to_the_reference_speed_whenever_an_echo_is_close_ahead():
+    from auv_mj.episode import record_episode
+    from auv_mj.sonar import BEAM_ANGLES
+    from tasks.avoidance import PROTECTIONS, SLOW_CONE
+
+    assert policies.GENERAL["planner-general"].protection == "speed-aware"
+    field = PROTECTIONS["speed-aware"]
+    env, policy = policies.env_and_policy("planner-general", "obstacles", 3, {})  # a random layout
+    record = record_episode(env, policy)
+    ahead = record.sonar[:-1][:, np.abs(BEAM_ANGLES) <= SLOW_CONE + 1e-9].min(axis=1)  # what each step saw
+    close = ahead < field.slow_distance
+    assert record.succeeded and close.sum() >= 5  # the scenario puts obstacles in its way
+    assert np.all(record.command[close, 0] <= field.reference_speed + 1e-9)
+    assert np.any(record.command[~close, 0] > field.reference_speed + 0.2)  # and it does cruise faster elsewhere

@@ -217,17 +217,18 @@ def test_planning_mix_draws_the_task_from_the_seed_and_relabels_with_each_steps_
     np.testing.assert_array_equal(env.unwrapped.compute_terminated(achieved, desired, info), [True, False])
 
 
-def test_protection_in_the_loop_bends_the_heading_as_the_planner_policy_does():
-    from tasks.avoidance import protect
+@pytest.mark.parametrize("protection", [True, "speed-aware"])
+def test_protection_in_the_loop_bends_the_heading_as_the_planner_policy_does(protection):
+    from tasks.avoidance import protect, protection_field
 
-    env = AUVGymEnv("obstacles", task_kwargs={"scenario": "a"}, protection=True)
+    env = AUVGymEnv("obstacles", task_kwargs={"scenario": "a"}, protection=protection)
     bare = AUVGymEnv("obstacles", task_kwargs={"scenario": "a"})
     obs, _ = env.reset(seed=0)
     bare_obs, _ = bare.reset(seed=0)
     for _ in range(200):
-        action = np.array([0.0, 0.0], dtype=np.float32)
+        action = np.array([0.8, 0.0], dtype=np.float32)  # 1.8 m/s: the speed-aware domain acts on it
         obs, _, terminated, truncated, _ = env.step(action)
-        bare_obs, *_ = bare.step(protect(action, bare_obs["observation"]))
+        bare_obs, *_ = bare.step(protect(action, bare_obs["observation"], protection_field(protection)))
         np.testing.assert_allclose(obs["observation"], bare_obs["observation"], atol=1e-12)
         if terminated or truncated:
             break

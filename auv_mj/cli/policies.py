@@ -16,12 +16,13 @@ The one place where tasks and agents meet (the app layer):
 - `los-avoid`: line of sight along the route with the protection domain, on the S-plane executor: the
   classical local planner;
 - `random`: uniform actions.
-- `planner-general`, `two-layer-general`: the same with the planner trained on the distribution of arenas
+- `planner-general`, `two-layer-general`: the planner trained on the distribution of arenas
   (`planner_general.pt`, issue 15): a residual planner on line of sight along the route (`tasks.guidance`):
   it sets the speed and corrects the line-of-sight heading from the body-frame goal, its motion and the
-  sonar, with the protection domain in the loop; no map coordinates. On the S-plane / the learned executor.
+  sonar, with the speed-aware protection domain in the loop (`tasks.avoidance.PROTECTIONS`); no map
+  coordinates. On the S-plane / on the best learned executor, `ocean-executor` (issue 17).
 - `planner-e2e`, `two-layer-e2e`: the first planner trained on that distribution, end to end (HER-DDPG, no
-  line of sight under it; `planner_e2e.pt`), kept for comparison.
+  line of sight under it; `planner_e2e.pt`), kept for comparison; on the S-plane / the paper's executor.
 `planner=PATH`, `planner-raw=PATH` and `two-layer=PATH` run the planner checkpoint PATH in place of the
 shipped one (to compare or choose candidates, e.g. on validation seeds).
 
@@ -34,6 +35,7 @@ general planner on the learned ocean executor:
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -43,7 +45,7 @@ from agents.checkpoint import read_checkpoint
 from agents.policy import Policy
 from auv_mj import arena
 from tasks import suite
-from tasks.avoidance import with_repulsion
+from tasks.avoidance import PROTECTIONS, protection_field, with_repulsion
 from tasks.guidance import classical, is_goal_task, line_of_sight, los_avoid, with_guidance
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from tasks.splane import OCEAN_GAINS, SPlaneController
@@ -123,17 +125,32 @@ def named_executor(name: str):
     raise ValueError(f"task_kwargs executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
 
 
-GENERAL = {"planner-general": ("planner", "planner-general"), "two-layer-general": ("two-layer", "planner-general"),
-           "planner-e2e": ("planner", "planner-e2e"), "two-layer-e2e": ("two-layer", "planner-e2e")}
-"""Names of the planners trained on the distribution of arenas: (the system it runs in, its SHIPPED checkpoint)."""
+class General(NamedTuple):
+    """A planner trained on the distribution of arenas, as a named policy."""
+
+    system: str
+    """"planner" (on the task's S-plane executor, or the one the task options name) or "two-layer"."""
+    checkpoint: str
+    """Its SHIPPED checkpoint."""
+    executor: str = "executor"
+    """The learned executor of its two-layer system (one of EXECUTOR_POLICIES)."""
+    protection: str | None = None
+    """The protection domain it is deployed with (`tasks.avoidance.PROTECTIONS`); None: the one it trained with."""
+
+
+GENERAL = {"planner-general": General("planner", "planner-general", protection="speed-aware"),
+           "two-layer-general": General("two-layer", "planner-general", "ocean-executor", "speed-aware"),
+           "planner-e2e": General("planner", "planner-e2e"), "two-layer-e2e": General("two-layer", "planner-e2e")}
+"""Names of the planners trained on the distribution of arenas. The residual planner trained with the paper's
+domain in the loop and runs with the speed-aware one, as chosen on validation (docs/runs/planner-speed-aware)."""
 
 
 def split_name(policy_name: str) -> tuple[str, Path | None]:
     """("two-layer", PATH) for "two-layer=PATH" (also planner, planner-raw) and for the general planner's
     names; (name, None) otherwise."""
     if policy_name in GENERAL:
-        system, checkpoint = GENERAL[policy_name]
-        return system, shipped_checkpoint(checkpoint)
+        general = GENERAL[policy_name]
+        return general.system, shipped_checkpoint(general.checkpoint)
     base, sep, path = policy_name.partition("=")
     if sep and base in ("planner", "planner-raw", "two-layer"):
         if not Path(path).is_file():
@@ -151,7 +168,8 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
         if executor is not None:
             raise ValueError(f"policy {policy_name!r} runs the learned executor; leave 'executor' out of "
                              f"task_kwargs (or use a planner policy with it)")
-        task_kwargs["executor"] = learned_executor()
+        task_kwargs["executor"] = named_executor(GENERAL[policy_name].executor if policy_name in GENERAL
+                                                 else "executor")
     elif isinstance(executor, str):
         task_kwargs["executor"] = named_executor(executor)
     elif policy_name == "splane-ocean" and task_name not in EXECUTOR_TASKS:
@@ -181,10 +199,12 @@ def _checkpoint_path(policy_name: str, task_name: str | None = None) -> Path | N
     return path if path.is_file() else None
 
 
-def _checkpoint_policy(path: Path, env, protection: bool | None = None):
-    """The checkpoint's policy on time steps of `env`; a planner trained with the protection domain in the loop
-    (`--env-kwargs '{"protection": true}'`) runs with it, as it was trained (unless `protection` says), and a
-    residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`).
+def _checkpoint_policy(path: Path, env, protection: bool | str | None = None):
+    """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
+    (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, and a
+    residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`). `protection`
+    False runs it without a domain, True with its own (the paper's if it was trained with none), a name of
+    `tasks.avoidance.PROTECTIONS` with that one.
     ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = Policy.load(path)
     sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
@@ -205,9 +225,12 @@ def _checkpoint_policy(path: Path, env, protection: bool | None = None):
     env_kwargs = policy.metadata.get("run_info", {}).get("env_kwargs", {}) or {}
     if float(env_kwargs.get("residual", 0.0)) > 0:  # a residual planner acts through line of sight
         act = with_guidance(act, env, float(env_kwargs["residual"]))
-    if protection is None:
-        protection = bool(env_kwargs.get("protection", False))
-    return with_repulsion(act) if protection else act
+    field = protection_field(env_kwargs.get("protection", False))
+    if isinstance(protection, str):
+        field = protection_field(protection)
+    elif protection is not None:
+        field = (field or PROTECTIONS["paper"]) if protection else None
+    return with_repulsion(act, field) if field is not None else act
 
 
 def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
@@ -215,7 +238,8 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
     planner = PLANNER_FOR_TASK.get(task, "planner")
     base, path = split_name(policy_name)
     if path is not None:
-        return _checkpoint_policy(path, env, protection=base != "planner-raw")
+        deployed = GENERAL[policy_name].protection if policy_name in GENERAL else None
+        return _checkpoint_policy(path, env, protection=deployed or base != "planner-raw")
     if policy_name == "random":
         return uniform_random(env, seed)
     if policy_name == "splane":

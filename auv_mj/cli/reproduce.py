@@ -294,8 +294,10 @@ with the protection domain, on the learned executor) against the classical local
 sight."""
 BENCHMARK_EPISODES = 200
 """Held-out arenas per set in the "benchmark" section (issue 15's size)."""
-BENCHMARK_POLICIES = ("two-layer-general", "planner-general", "los-avoid")
-"""The general planner on the learned and on the S-plane executor, and the classical local planner."""
+BENCHMARK_POLICIES = (("two-layer-general", {}), ("planner-general", {}), ("planner-general", {"executor": "executor"}),
+                      ("los-avoid", {}))
+"""(policy, extra task options): the general planner on the best learned executor (its two-layer system), on the
+S-plane and on the paper's DDPG executor (Eq. 27-30), and the classical local planner."""
 BENCHMARK_TARGETS = (0.95, 0.01)
 """(success floor, collision ceiling) of the general planner on each held-out set (issue 15)."""
 SCENARIO_CLEARANCE = 5.0
@@ -367,12 +369,13 @@ def benchmark(lines: list[str], workers: int) -> None:
     verdicts = []
     for label, task, kwargs in GENERALISATION_SETS:
         results = {}
-        for name in BENCHMARK_POLICIES:
+        for name, extra in BENCHMARK_POLICIES:
             run = evaluate.evaluate(name, [task], BENCHMARK_EPISODES, seeds.TEST.start, progress=False,
-                                    task_kwargs=kwargs, workers=workers)
-            s = results[name] = run["tasks"][task]
+                                    task_kwargs={**kwargs, **extra}, workers=workers)
+            s = results[name if not extra else f"{name} {extra}"] = run["tasks"][task]
             outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
-            lines.append(f"| {label} | {name} | {s['episodes']} | {s['success_rate']:.3f} | {s['collision_rate']:.3f} "
+            shown = name + (f" (executor: {extra['executor']})" if extra else "")
+            lines.append(f"| {label} | {shown} | {s['episodes']} | {s['success_rate']:.3f} | {s['collision_rate']:.3f} "
                          f"| {outcomes} | {_fmt(s['time_to_goal'], 0)} | {_fmt(s['min_clearance'], 1)} |")
         ours, classical = results["two-layer-general"], results["los-avoid"]
         met = (ours["success_rate"] >= floor and ours["collision_rate"] <= ceiling
@@ -394,7 +397,8 @@ def benchmark(lines: list[str], workers: int) -> None:
     lines += ["", f"Scenarios: **{'all met' if not short else 'NOT met: ' + ', '.join(short)}**.", "",
               f"Commands: `auv-mj eval --policy two-layer-general --task tunnel --arena random --episodes "
               f"{BENCHMARK_EPISODES} --seed {seeds.TEST.start} --workers 2` (and `--task obstacles`, `--task "
-              "moving_obstacles`; `--policy planner-general`, `los-avoid`); `auv-mj eval --policy two-layer-general "
+              "moving_obstacles`; `--policy planner-general`, `los-avoid`; the paper's executor: `--policy "
+              "planner-general --task-kwargs '{\"executor\": \"executor\"}'`); `auv-mj eval --policy two-layer-general "
               "--task obstacles --task-kwargs '{\"scenario\": \"a\"}' --episodes 1 --seed 0`.", ""]
 
 
@@ -482,6 +486,8 @@ EXECUTOR_ROWS = (("executor", "DDPG executor, Eq. 27-30 (the paper's row)"),
 EXECUTOR_SEED = seeds.TEST.start
 """First held-out seed of the executor comparison (the ocean draw differs per seed)."""
 SYSTEM_TASKS = (("obstacles", {}), ("moving_obstacles", {}), ("tunnel", {"arena": "random"}))
+SYSTEM_EPISODES = 100
+"""Held-out arenas per task for the two-layer system in ocean water (issue 17: does success drop?)."""
 """Held-out random arenas of the two-layer comparison under ocean conditions."""
 
 
@@ -516,7 +522,7 @@ def _beats(results: dict, name: str, other: str, condition: str) -> str:
     return "yes" if not worse else "no (worse in " + ", ".join(worse) + ")"
 
 
-def executors(lines: list[str], episodes: int) -> None:
+def executors(lines: list[str], episodes: int, workers: int = 1) -> None:
     """Issue 17: every executor in ideal and ocean water (Tables 9-11), and the two-layer system on it."""
     lines += ["## Executors in ideal and ocean water", "",
               "Every executor: " + "; ".join(f"`{n}` = {what}" for n, what in EXECUTOR_ROWS) + ". The nominal "
@@ -546,19 +552,21 @@ def executors(lines: list[str], episodes: int) -> None:
     lines += ["", "Command: `auv-mj eval --policy splane --task path_line --episodes 1 --task-kwargs "
               "'{\"conditions\": \"ocean\", \"executor\": \"ocean-executor\"}'`.", "",
               "### The two-layer system in ocean water", "",
-              f"The general planner (`planner-general`, protection domain on) on the S-plane and on the learned "
-              f"ocean executor, held-out random arenas (test seeds from {HELD_OUT_SEED}), ocean water.", "",
+              f"The general planner (`planner-general`, its protection domain on) on each S-plane and on the learned "
+              f"ocean executor (`two-layer-general`), {SYSTEM_EPISODES} held-out random arenas per task (test seeds "
+              f"from {HELD_OUT_SEED}), ocean water.", "",
               "| task | executor | episodes | success | collisions | outcomes | time to goal [s] | min clearance [m] |",
               "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for task, kwargs in SYSTEM_TASKS:
-        for name in ("splane", "ocean-executor"):
-            s = evaluate.evaluate("planner-general", [task], episodes, HELD_OUT_SEED, progress=False,
-                                  task_kwargs={**kwargs, "conditions": "ocean", "executor": name})["tasks"][task]
+        for name in ("splane", "splane-ocean", "ocean-executor"):
+            s = evaluate.evaluate("planner-general", [task], SYSTEM_EPISODES, HELD_OUT_SEED, progress=False,
+                                  task_kwargs={**kwargs, "conditions": "ocean", "executor": name},
+                                  workers=workers)["tasks"][task]
             outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
             lines.append(f"| {task} | {name} | {s['episodes']} | {s['success_rate']:.2f} | {s['collision_rate']:.2f} "
                          f"| {outcomes} | {_fmt(s['time_to_goal'], 0)} | {_fmt(s['min_clearance'], 1)} |")
-    lines += ["", f"Command: `auv-mj eval --policy planner-general --task obstacles --episodes {episodes} --seed "
-              f"{HELD_OUT_SEED} --workers 2 --task-kwargs '{{\"conditions\": \"ocean\", \"executor\": "
+    lines += ["", f"Command: `auv-mj eval --policy planner-general --task obstacles --episodes {SYSTEM_EPISODES} "
+              f"--seed {HELD_OUT_SEED} --workers 2 --task-kwargs '{{\"conditions\": \"ocean\", \"executor\": "
               "\"ocean-executor\"}'` (and `\"splane\"`; `--task tunnel --arena random`).", ""]
 
 
@@ -644,7 +652,7 @@ def run(args: argparse.Namespace) -> int:
                 "generalisation": lambda: generalisation(lines, episodes, figures, args.workers),
                 "benchmark": lambda: benchmark(lines, args.workers),
                 "ocean": lambda: ocean_conditions(lines, episodes),
-                "executors": lambda: executors(lines, episodes)}
+                "executors": lambda: executors(lines, episodes, args.workers)}
     header, blocks = list(lines), {}
     for name in names:
         print(f"reproduce: {name} ...", file=sys.stderr)

@@ -115,9 +115,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="arena MJCF for the task (shortcut for --task-kwargs '{\"arena\": PATH}')")
     parser.add_argument("--env-kwargs", type=json_object, default=None, metavar="JSON",
                         help="keyword arguments of the Gymnasium environment, e.g. '{\"protection\": true}' "
-                             "(the protection domain in the loop) or, for --task planning, '{\"tasks\": "
-                             "[\"goal\", \"tunnel\"], \"per_task_kwargs\": {\"tunnel\": {\"arena\": "
-                             "\"random\"}}}'; kept in the run directory and reused by --resume")
+                             "(the protection domain in the loop; \"speed-aware\" for ours) or, for --task "
+                             "planning, '{\"tasks\": [\"goal\", \"tunnel\"], \"per_task_kwargs\": {\"tunnel\": "
+                             "{\"arena\": \"random\"}}}'; kept in the run directory and reused by --resume")
     parser.add_argument("--steps", type=positive_int, help="total env steps (default: --episodes)")
     parser.add_argument("--episodes", type=positive_int, help="total episodes (default: max_episodes, Table 4)")
     parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
