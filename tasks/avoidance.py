@@ -31,6 +31,8 @@ from tasks.planning import SONAR_SLICE, TARGET_SPEED, speed_action, speed_comman
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
 SLOW_CONE = math.pi / 8
 """Half-width [rad] of the cone ahead whose echoes slow a speed-aware domain's planner: beams S4-S6."""
+_AHEAD = np.abs(BEAM_ANGLES) <= SLOW_CONE + 1e-9
+"""The beams inside SLOW_CONE."""
 
 
 @dataclass(frozen=True)
@@ -56,7 +58,7 @@ class RepulsiveField:
         that speed (unchanged for the paper's domain or at or below V_ref)."""
         if self.reference_speed is None or speed <= self.reference_speed:
             return speed, ranges
-        if np.min(ranges[np.abs(BEAM_ANGLES) <= SLOW_CONE + 1e-9]) < self.slow_distance:
+        if np.min(ranges[_AHEAD]) < self.slow_distance:
             return self.reference_speed, ranges
         return speed, ranges * (self.reference_speed / speed)
 

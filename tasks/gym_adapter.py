@@ -124,7 +124,6 @@ class AUVGymEnv(gymnasium.Env):
         self._camera = None
         self._camera_model = None
         self._needs_reset = True
-        self.protection = self._field is not None
         if self.protection and not self.is_goal_task:
             raise ValueError(f"protection is for the planning tasks, not {task_name!r}")
         from tasks.guidance import MAX_RESIDUAL
@@ -133,6 +132,11 @@ class AUVGymEnv(gymnasium.Env):
         if self.residual and not self.is_goal_task:
             raise ValueError(f"residual (a correction to line of sight) is for the planning tasks, not {task_name!r}")
         self._last_observation = None
+
+    @property
+    def protection(self) -> bool:
+        """Whether a protection domain acts on every action (`tasks.avoidance.protection_field`)."""
+        return self._field is not None
 
     @property
     def goal_dependent_actions(self) -> bool:
@@ -318,6 +322,11 @@ class PlanningMix(gymnasium.Env):
     @property
     def goal_in_observation(self) -> bool:
         return self.active.goal_in_observation
+
+    @property
+    def protection(self) -> bool:
+        """Whether a protection domain acts on every action (`tasks.avoidance.protection_field`)."""
+        return self._field is not None
 
     @property
     def goal_dependent_actions(self) -> bool:

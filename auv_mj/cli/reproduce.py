@@ -372,9 +372,9 @@ def benchmark(lines: list[str], workers: int) -> None:
         for name, extra in BENCHMARK_POLICIES:
             run = evaluate.evaluate(name, [task], BENCHMARK_EPISODES, seeds.TEST.start, progress=False,
                                     task_kwargs={**kwargs, **extra}, workers=workers)
-            s = results[name if not extra else f"{name} {extra}"] = run["tasks"][task]
-            outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
             shown = name + (f" (executor: {extra['executor']})" if extra else "")
+            s = results[shown] = run["tasks"][task]
+            outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)
             lines.append(f"| {label} | {shown} | {s['episodes']} | {s['success_rate']:.3f} | {s['collision_rate']:.3f} "
                          f"| {outcomes} | {_fmt(s['time_to_goal'], 0)} | {_fmt(s['min_clearance'], 1)} |")
         ours, classical = results["two-layer-general"], results["los-avoid"]
@@ -486,9 +486,9 @@ EXECUTOR_ROWS = (("executor", "DDPG executor, Eq. 27-30 (the paper's row)"),
 EXECUTOR_SEED = seeds.TEST.start
 """First held-out seed of the executor comparison (the ocean draw differs per seed)."""
 SYSTEM_TASKS = (("obstacles", {}), ("moving_obstacles", {}), ("tunnel", {"arena": "random"}))
+"""Held-out random arenas of the two-layer comparison under ocean conditions."""
 SYSTEM_EPISODES = 100
 """Held-out arenas per task for the two-layer system in ocean water (issue 17: does success drop?)."""
-"""Held-out random arenas of the two-layer comparison under ocean conditions."""
 
 
 def _executor_table9(lines: list[str], episodes: int) -> dict:
