@@ -43,3 +43,23 @@ class SampleAndHold:
             self._held = physics.sonar()
             self._next_time = (np.floor(time / self.period + 1e-9) + 1) * self.period
         return self._held.copy()
+
+
+def fence_ranges(origin: np.ndarray, heading: float, bounds) -> np.ndarray:
+    """What the nine beams would read if the edge of the map were a wall (a geofence; ours).
+
+    `origin`: the sonars' (x, y) [m]; `heading`: psi [rad]; `bounds`: the map (x_min, y_min, x_max, y_max) [m].
+    Each beam (heading + BEAM_ANGLES) is followed to where it leaves the rectangle; the distance is capped at
+    SONAR_RANGE, and is 0 for a beam from outside the map. The map's edge is no geom, so the rangefinders
+    cannot see it; a vehicle that knows its map (the paper's 600 m square) knows this instead.
+    """
+    x, y = float(origin[0]), float(origin[1])
+    x_min, y_min, x_max, y_max = (float(b) for b in bounds)
+    if not (x_min <= x <= x_max and y_min <= y <= y_max):
+        return np.zeros(len(BEAM_ANGLES))
+    angles = heading + BEAM_ANGLES
+    c, s = np.cos(angles), np.sin(angles)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        to_x = np.where(c > 0, (x_max - x) / c, np.where(c < 0, (x_min - x) / c, np.inf))
+        to_y = np.where(s > 0, (y_max - y) / s, np.where(s < 0, (y_min - y) / s, np.inf))
+    return np.minimum(np.minimum(to_x, to_y), SONAR_RANGE)

@@ -11,7 +11,12 @@ it closes 10 m in the 10 steps a 60 deg turn takes. The speed-aware domain (ours
 keeps the paper's domain in time to contact instead of metres: above the reference speed V_ref the echoes
 are read as d V_ref / V_cmd, and an echo within SLOW_CONE of the bow nearer than `slow_distance` brings the
 command back to V_ref, where the domain is the paper's again. At or below V_ref it is the paper's domain
-exactly, so line of sight at the target speed (`los-avoid`) runs the same with either.
+(with its own gain k_2, see PROTECTIONS); `los-avoid` keeps the paper's domain and is unchanged.
+
+The map's edge is no obstacle the rangefinders can see, yet leaving the map ends an episode. A planner that
+swings wide round obstacles at speed can cross it where `los-avoid` does not, so the speed-aware domain also
+reads the edge as a wall along each beam (`fence`, `PlanningTask.map_fence`, a geofence; ours): the vehicle
+knows its map, as it knows its goal.
 """
 
 from __future__ import annotations
@@ -52,6 +57,10 @@ class RepulsiveField:
     """Above V_ref, an echo within SLOW_CONE of the bow nearer than this [m] brings the command back to V_ref.
     20 m (10 s at 2 m/s): of 20, 25 and 30 m, each without a failure on 60 validation tunnels, the fastest
     (docs/runs/planner-speed-aware)."""
+    fence: bool = False
+    """Whether the map's edge counts as an echo where it is nearer than the sonar's (`PlanningTask.map_fence`, a
+    geofence; ours): the rangefinders cannot see it, and a planner passing obstacles at speed can leave the map
+    on the side of its edge."""
 
     def speed_and_ranges(self, speed: float, ranges: np.ndarray) -> tuple[float, np.ndarray]:
         """The commanded speed [m/s] after the slow-down rule, and the ranges [m] as the domain reads them at
@@ -82,8 +91,11 @@ class RepulsiveField:
 
 
 PROTECTIONS = {"paper": RepulsiveField(),
-               "speed-aware": RepulsiveField(reference_speed=TARGET_SPEED, slow_distance=20.0)}
-"""The protection domains by name: the paper's (Sec. 3.2.2) and the speed-aware one (module docstring)."""
+               "speed-aware": RepulsiveField(gain=150.0, reference_speed=TARGET_SPEED, slow_distance=20.0,
+                                             fence=True)}
+"""The protection domains by name: the paper's (Sec. 3.2.2) and the speed-aware one (module docstring), which
+also reads the map's edge and pushes with k_2 = 150 (chosen on validation, docs/runs/planner-speed-aware,
+section 5)."""
 
 
 def protection_field(value) -> RepulsiveField | None:
@@ -98,13 +110,17 @@ def protection_field(value) -> RepulsiveField | None:
     raise ValueError(f"protection must be True, False or one of {list(PROTECTIONS)}, got {checks.shown(value)}")
 
 
-def protect(action, observation: np.ndarray, field: RepulsiveField | None = None) -> np.ndarray:
+def protect(action, observation: np.ndarray, field: RepulsiveField | None = None,
+            fence: np.ndarray | None = None) -> np.ndarray:
     """A planning action (speed, heading offset) with its heading bent by the echoes in `observation`
     (a planning task's "observation" vector, either layout: the sonar ends both), and with a speed-aware
-    domain its speed capped near echoes ahead."""
+    domain its speed capped near echoes ahead. A field with `fence` also reads `fence`, the map's edge per
+    beam [m] (`PlanningTask.map_fence`), as echoes."""
     field = field or RepulsiveField()
     action = np.array(action, dtype=float)
     ranges = np.asarray(observation)[SONAR_SLICE] * SONAR_RANGE
+    if field.fence and fence is not None:
+        ranges = np.minimum(ranges, fence)
     speed = speed_command(float(action[0]))
     limited, ranges = field.speed_and_ranges(speed, ranges)
     if limited != speed:
@@ -113,14 +129,26 @@ def protect(action, observation: np.ndarray, field: RepulsiveField | None = None
     return action
 
 
-def with_repulsion(policy: Policy, field: RepulsiveField | None = None) -> Policy:
-    """`policy` with the protection domain active: its heading action is bent away from near echoes."""
+def with_repulsion(policy: Policy, field: RepulsiveField | None = None,
+                   fence: Callable[[], np.ndarray] | None = None) -> Policy:
+    """`policy` with the protection domain active: its heading action is bent away from near echoes.
+    `fence()`: the map's edge per beam now (e.g. `map_fence(env)`), read by a field with `fence`."""
     field = field or RepulsiveField()
 
     def act(time_step: dm_env.TimeStep) -> np.ndarray:
-        return protect(policy(time_step), time_step.observation["observation"], field)
+        edge = fence() if field.fence and fence is not None else None
+        return protect(policy(time_step), time_step.observation["observation"], field, edge)
 
     for name in ("reset",):
         if hasattr(policy, name):
             setattr(act, name, getattr(policy, name))
     return act
+
+
+def map_fence(env) -> Callable[[], np.ndarray] | None:
+    """`fence()` for `with_repulsion`: the map's edge per beam in `env` (a planning task's suite environment)
+    at its current state; None for a task without a map."""
+    task = getattr(env, "task", None)
+    if not hasattr(task, "map_fence"):
+        return None
+    return lambda: task.map_fence(env.physics)

@@ -193,7 +193,8 @@ class AUVGymEnv(gymnasium.Env):
                 action = guided_action(action, self._last_observation["desired_goal"], self.physics.pose(),
                                        self.residual)
             if self.protection:
-                action = protect(action, self._last_observation["observation"], self._field)
+                fence = self.task.map_fence(self.physics) if self._field.fence else None
+                action = protect(action, self._last_observation["observation"], self._field, fence)
         time_step = self._env.step(action)
         self._last_observation = time_step.observation
         terminated = bool(time_step.last() and time_step.discount == 0.0)

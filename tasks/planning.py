@@ -77,7 +77,7 @@ from auv_mj import arena, arena_check, ocean
 from auv_mj.arena import SAFETY_DISTANCE
 from auv_mj.geometry import wrap_angle
 from auv_mj.physics import AUVPhysics
-from auv_mj.sonar import SONAR_NAMES, SONAR_RANGE
+from auv_mj.sonar import SONAR_NAMES, SONAR_RANGE, fence_ranges
 from tasks import options
 from tasks.actions import checked_action
 from tasks.splane import EXECUTOR_DT, SPlaneController
@@ -168,6 +168,8 @@ step closer instead pays for dawdling."""
 EVENTS = ("", "subgoal", "goal", "collision", "left_map")
 """Values of last_info["event"]."""
 HULL = "hull"
+SONAR_SITE = "sonar_site_5"
+"""A sonar site of the vehicle's MJCF: all nine beams start there (the bow)."""
 """The vehicle geom whose length and beam are L and B of Eq. (21)."""
 
 
@@ -481,6 +483,7 @@ class PlanningTask(base.Task):
         self._others = np.flatnonzero(~vehicle_geoms & (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE))
         self._repulsion_range = repulsion_range(physics)
         self._goal_site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "goal")
+        self._sonar_site = model.site(SONAR_SITE).id
 
     def initialize_episode(self, physics: Physics) -> None:
         """Draws the route, places the vehicle at rest and the movers at t = 0, resets the executor."""
@@ -700,6 +703,15 @@ class PlanningTask(base.Task):
         desired = np.array([goal[0], goal[1], math.cos(heading), math.sin(heading)])
         vector = np.concatenate([relative_goal(achieved, desired), motion, self._sonar / SONAR_RANGE])
         return collections.OrderedDict(observation=vector, achieved_goal=achieved, desired_goal=desired)
+
+    def map_fence(self, physics: Physics) -> np.ndarray:
+        """The map's edge as the nine beams would read it were it a wall, from where the sonars are now
+        (`auv_mj.sonar.fence_ranges`): what a protection domain with a geofence adds to the echoes. SONAR_RANGE on
+        every beam in an arena without `arena_bounds`."""
+        if self._bounds is None:
+            return np.full(len(SONAR_NAMES), SONAR_RANGE)
+        data = physics.data.ptr
+        return fence_ranges(data.site_xpos[self._sonar_site], data.qpos[self._qpos[2]], self._bounds)
 
     def relabel_observation(self, observation, achieved_goal, desired_goal) -> np.ndarray:
         """The observation had `desired_goal` been the goal (hindsight relabelling; vectorised over rows).

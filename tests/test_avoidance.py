@@ -93,24 +93,31 @@ def test_a_bad_planner_residual_is_refused_by_name(residual):
 
 
 def test_the_speed_aware_domain_is_the_papers_at_or_below_the_reference_speed():
+    """The paper's repulsion (with the speed-aware domain's own gain k_2) whenever V_cmd <= V_ref."""
+    from dataclasses import replace
+
     from tasks.avoidance import PROTECTIONS, protect
     from tasks.planning import SONAR_SLICE, speed_command
 
+    aware = PROTECTIONS["speed-aware"]
+    papers_form = replace(PROTECTIONS["paper"], gain=aware.gain)
     rng = np.random.default_rng(0)
     observation = np.zeros(18)
     for _ in range(200):
         observation[SONAR_SLICE] = rng.uniform(0.0, 1.0, 9) ** 3  # many echoes inside the domain
         action = np.array([rng.uniform(-1.0, 0.0), rng.uniform(-1.0, 1.0)])  # V_cmd in [0, 1] m/s
         assert speed_command(action[0]) <= PROTECTIONS["speed-aware"].reference_speed
-        np.testing.assert_array_equal(protect(action, observation, PROTECTIONS["speed-aware"]),
-                                      protect(action, observation, PROTECTIONS["paper"]))
+        np.testing.assert_array_equal(protect(action, observation, aware), protect(action, observation, papers_form))
 
 
 def test_above_the_reference_speed_echoes_count_in_time_to_contact_and_one_ahead_slows_the_vehicle():
+    from dataclasses import replace
+
     from tasks.avoidance import PROTECTIONS, protect
     from tasks.planning import SONAR_SLICE, speed_action, speed_command
 
-    aware, paper = PROTECTIONS["speed-aware"], PROTECTIONS["paper"]
+    aware = PROTECTIONS["speed-aware"]
+    paper = replace(PROTECTIONS["paper"], gain=aware.gain)  # the paper's form with the same k_2
     observation = np.zeros(18)
     # An echo to port (outside the cone ahead) at 24 m seen at 2 m/s bends the heading as one at 12 m does at 1 m/s.
     observation[SONAR_SLICE] = ranges(s8=24.0) / SONAR_RANGE
@@ -141,3 +148,46 @@ def test_a_protection_option_that_names_no_domain_is_refused_by_value(value):
         protection_field(value)
     assert protection_field(False) is None and protection_field(None) is None
     assert protection_field(True) == RepulsiveField() == protection_field("paper")
+
+
+# --- the map's edge in the protection domain (a geofence) ---------------------------------------------------
+
+
+def test_a_field_with_a_fence_reads_the_map_edge_as_echoes_and_one_without_ignores_it():
+    from dataclasses import replace
+
+    from tasks.avoidance import PROTECTIONS, protect
+    from tasks.planning import SONAR_SLICE
+
+    observation = np.zeros(18)
+    observation[SONAR_SLICE] = ranges(s2=60.0) / SONAR_RANGE
+    edge = ranges(s5=12.0, s6=14.0)
+    for field in (PROTECTIONS["paper"], PROTECTIONS["speed-aware"]):
+        fenced, unfenced = replace(field, fence=True), replace(field, fence=False)
+        echoes = observation.copy()
+        echoes[SONAR_SLICE] = np.minimum(ranges(s2=60.0), edge) / SONAR_RANGE
+        np.testing.assert_array_equal(protect([0.6, 0.1], observation, fenced, edge),
+                                      protect([0.6, 0.1], echoes, fenced))  # the edge is an echo like any
+        np.testing.assert_array_equal(protect([0.6, 0.1], observation, unfenced, edge),
+                                      protect([0.6, 0.1], observation, unfenced))
+        assert protect([0.6, 0.1], observation, fenced, edge)[1] != protect([0.6, 0.1], observation, unfenced)[1]
+
+
+def test_a_planning_task_measures_its_map_edge_from_the_bow_of_the_vehicle():
+    """`map_fence` against the fence computed here from the pose, the bow offset and the arena's bounds."""
+    from auv_mj import arena
+    from auv_mj.sonar import fence_ranges
+    from tasks.avoidance import map_fence
+
+    env = suite.load("auv", "obstacles", task_kwargs={"random": 4})
+    env.reset()
+    y = env.physics.pose()[1]
+    bounds = arena.arena_info(env.physics).bounds
+    with env.physics.reset_context():
+        env.physics.data.qpos[:3] = bounds[2] - 15.0, y, 0.0  # 15 m from the east edge, facing it
+    fence = map_fence(env)
+    bow = 0.665  # models/auv.xml's sonar sites
+    expected = fence_ranges((bounds[2] - 15.0 + bow, y), 0.0, bounds)
+    np.testing.assert_allclose(fence(), expected, atol=1e-9)
+    assert fence()[4] == pytest.approx(15.0 - bow)
+    assert map_fence(suite.load("auv", "speed_heading", task_kwargs={"random": 0})) is None

@@ -228,7 +228,8 @@ def test_protection_in_the_loop_bends_the_heading_as_the_planner_policy_does(pro
     for _ in range(200):
         action = np.array([0.8, 0.0], dtype=np.float32)  # 1.8 m/s: the speed-aware domain acts on it
         obs, _, terminated, truncated, _ = env.step(action)
-        bare_obs, *_ = bare.step(protect(action, bare_obs["observation"], protection_field(protection)))
+        fence = bare.task.map_fence(bare.physics)  # read by a domain with a geofence
+        bare_obs, *_ = bare.step(protect(action, bare_obs["observation"], protection_field(protection), fence))
         np.testing.assert_allclose(obs["observation"], bare_obs["observation"], atol=1e-12)
         if terminated or truncated:
             break

@@ -118,3 +118,33 @@ def test_sonar_follows_the_vehicle_after_steps_and_holds_at_2_hz():
     physics.step(30)
     x = physics.pose()[0]
     assert sampler.read(physics)[4] == pytest.approx(30.0 - x - BOW, abs=1e-6) and x > 0.05
+
+
+# --- the map's edge as the beams would read it (a geofence, issue 15) --------------------------------------
+
+
+@pytest.mark.parametrize("pose", [(0.0, 0.0, 0.0), (37.0, -5.0, 0.4), (-52.0, 30.0, 2.9), (10.0, 38.5, -1.2),
+                                  (-60.0, -39.0, -2.3)])
+def test_the_fence_reads_what_the_sonar_would_if_the_map_edge_were_walls(pose):
+    """`fence_ranges` against MuJoCo's own rangefinders in a room whose inner faces are the map's bounds."""
+    from auv_mj.sonar import fence_ranges
+
+    bounds = (-70.0, -45.0, 55.0, 40.0)
+    x_min, y_min, x_max, y_max = bounds
+    cx, cy, hx, hy = (x_min + x_max) / 2, (y_min + y_max) / 2, (x_max - x_min) / 2 + 1, (y_max - y_min) / 2 + 1
+    physics = load(arena_of_walls(("wall_n", (cx, y_max + 0.5), (hx, 0.5)), ("wall_s", (cx, y_min - 0.5), (hx, 0.5)),
+                                  ("wall_e", (x_max + 0.5, cy), (0.5, hy)), ("wall_w", (x_min - 0.5, cy), (0.5, hy))))
+    place(physics, *pose)
+    origin = beam_ray(*pose, 0.0)[0]
+    np.testing.assert_allclose(fence_ranges(origin, pose[2], bounds), physics.sonar(), atol=1e-6)
+
+
+def test_the_fence_is_at_most_the_sonar_range_and_zero_outside_the_map():
+    from auv_mj.sonar import fence_ranges
+
+    bounds = (0.0, 0.0, 600.0, 600.0)
+    np.testing.assert_array_equal(fence_ranges((300.0, 300.0), 0.3, bounds), SONAR_RANGE)
+    near_east = fence_ranges((590.0, 300.0), 0.0, bounds)  # heading east, 10 m from the edge
+    assert near_east[4] == pytest.approx(10.0) and near_east[3] == pytest.approx(10.0 / math.cos(math.pi / 8))
+    assert near_east[0] == near_east[8] == SONAR_RANGE  # beams along the edge see nothing within range
+    np.testing.assert_array_equal(fence_ranges((600.5, 300.0), 0.0, bounds), 0.0)

@@ -45,7 +45,7 @@ from agents.checkpoint import read_checkpoint
 from agents.policy import Policy
 from auv_mj import arena
 from tasks import suite
-from tasks.avoidance import PROTECTIONS, protection_field, with_repulsion
+from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
 from tasks.guidance import classical, is_goal_task, line_of_sight, los_avoid, with_guidance
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from tasks.splane import OCEAN_GAINS, SPlaneController
@@ -230,7 +230,7 @@ def _checkpoint_policy(path: Path, env, protection: bool | str | None = None):
         field = protection_field(protection)
     elif protection is not None:
         field = (field or PROTECTIONS["paper"]) if protection else None
-    return with_repulsion(act, field) if field is not None else act
+    return with_repulsion(act, field, map_fence(env)) if field is not None else act
 
 
 def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
