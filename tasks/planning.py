@@ -168,9 +168,9 @@ step closer instead pays for dawdling."""
 EVENTS = ("", "subgoal", "goal", "collision", "left_map")
 """Values of last_info["event"]."""
 HULL = "hull"
-SONAR_SITE = "sonar_site_5"
-"""A sonar site of the vehicle's MJCF: all nine beams start there (the bow)."""
 """The vehicle geom whose length and beam are L and B of Eq. (21)."""
+SONAR_SITE = "sonar_site_5"
+"""The site of the bow sonar S5 in the vehicle's MJCF, where the map's edge is measured from (`map_fence`)."""
 
 
 # --- rewards ------------------------------------------------------------------------------------------
