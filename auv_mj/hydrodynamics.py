@@ -29,6 +29,7 @@ inertia. A time-varying current (`auv_mj.ocean`) is held constant between its up
 
 from __future__ import annotations
 
+import ctypes
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, fields
@@ -38,6 +39,8 @@ import mujoco
 import numpy as np
 
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
+from auv_mj.native import NativeKernel
+from auv_mj.native import kernel as native_kernel
 
 NUMERIC_PREFIX = "hydro_"
 REQUIRED = ("X_udot", "Y_vdot", "Y_rdot", "N_rdot", "X_uu", "Y_vv", "Y_vr", "Y_rv", "Y_rr",
@@ -50,6 +53,12 @@ NON_POSITIVE = {"X_udot": "an added-mass", "Y_vdot": "an added-mass", "N_rdot": 
 energy out; the wrong sign makes M_A negative or feeds energy in, and the step diverges."""
 MAX_COEFFICIENT = 1e6
 """Largest |coefficient| accepted (SI units); REMUS's largest, Y_vv, is 1310."""
+KERNEL_COEFFICIENTS = ("a11", "a22", "a23", "a33", "munk", "neg_munk", "X_uu", "Y_uv", "Y_ur", "N_uv", "N_ur",
+                       "Y_vv", "Y_vr", "Y_rv", "Y_rr", "N_vv", "N_vr", "N_rv", "N_rr", "k_u", "k_v", "k_r",
+                       "sway_mass", "cross_flow")
+"""The values the C step (`hydro_kernel.c`) reads, in the order of its enum."""
+KERNEL_INDICES = ("i_psi", "ix", "iy", "ir", "m_xx", "m_yx", "m_yy", "m_rx", "m_ry", "m_rr")
+"""The addresses (in qpos, qvel and the CSR inertia M) the C step reads, in the order of its enum."""
 
 
 @dataclass(frozen=True)
@@ -242,7 +251,7 @@ class Hydrodynamics:
         wrench = None if disturbance is None else tuple(float(f) for f in disturbance)
         self.bind(model, data)(0, model.opt.timestep, None if wrench is None else lambda: wrench)
 
-    def bind(self, model: mujoco.MjModel, data: mujoco.MjData) -> Callable[..., None]:
+    def bind(self, model: mujoco.MjModel, data: mujoco.MjData, native: bool = True) -> Callable[..., None]:
         """The stepper of this vehicle in (`model`, `data`): `advance(nstep, dt, wrench=None)`.
 
         Each of `nstep` steps applies Eq. (3)-(11) and then runs `mj_step2` and `mj_step1`; `nstep = 0` only
@@ -259,11 +268,15 @@ class Hydrodynamics:
         K_vv = max(0, |Y_vv| |v_r| - m_v / dt) stops one step of sway drag from reversing v_r: large
         timesteps stay stable at any sway speed.
 
-        This is the simulator's hot loop, written for CPython: the arrays are read and written through
-        memoryviews (plain floats, no NumPy scalars), the coefficients are closure locals, MuJoCo's functions
-        are called directly, and the force of `body_force` is inlined in the same order of operations (so
-        the same floating-point values; terms whose coefficient is zero are skipped, as they add exactly
-        nothing). tests/test_hydrodynamics.py checks the two agree, with and without cross-flow terms.
+        This is the simulator's hot loop. By default it runs in C (`auv_mj.native`, one call per `advance`,
+        none into MuJoCo from Python); with `native=False`, or where no C compiler is found, in Python. The
+        two compute the same floating-point values, operation for operation (tests/test_hydrodynamics.py
+        compares their trajectories bit for bit). The Python loop is written for CPython: the arrays are
+        read and written through memoryviews (plain floats, no NumPy scalars), the coefficients are closure
+        locals, MuJoCo's functions are called directly, and the force of `body_force` is inlined in the
+        same order of operations (so the same floating-point values; terms whose coefficient is zero are
+        skipped, as they add exactly nothing). tests/test_hydrodynamics.py checks that the step's force is
+        `body_force`, with and without cross-flow terms.
         """
         qpos, qvel, qfrc, M = (memoryview(a) for a in (data.qpos, data.qvel, data.qfrc_passive, data.M))
         wind = memoryview(model.opt.wind)
@@ -280,6 +293,16 @@ class Hydrodynamics:
         Y_vv, Y_vr, Y_rv, Y_rr = c.Y_vv, c.Y_vr, c.Y_rv, c.Y_rr
         N_vv, N_vr, N_rv, N_rr = c.N_vv, c.N_vr, c.N_rv, c.N_rr
         cross_flow = any((Y_vr, Y_rv, N_vr, N_rv))  # REMUS has none: their zero terms are skipped
+        compiled = native_kernel() if native else None
+        if compiled is not None:
+            values = dict(a11=a11, a22=a22, a23=a23, a33=a33, munk=munk, neg_munk=neg_munk, X_uu=X_uu,
+                          Y_uv=Y_uv, Y_ur=Y_ur, N_uv=N_uv, N_ur=N_ur, Y_vv=Y_vv, Y_vr=Y_vr, Y_rv=Y_rv, Y_rr=Y_rr,
+                          N_vv=N_vv, N_vr=N_vr, N_rv=N_rv, N_rr=N_rr, k_u=k_u, k_v=k_v, k_r=k_r,
+                          sway_mass=sway_mass, cross_flow=float(cross_flow))
+            addresses = dict(i_psi=i_psi, ix=ix, iy=iy, ir=ir, m_xx=m_xx, m_yx=m_yx, m_yy=m_yy, m_rx=m_rx,
+                             m_ry=m_ry, m_rr=m_rr)
+            return _native_advance(compiled, model, data, np.array([values[k] for k in KERNEL_COEFFICIENTS]),
+                                   np.array([addresses[k] for k in KERNEL_INDICES], dtype=np.dtype(ctypes.c_long)))
         factor, step1, step2 = mujoco.mj_factorM, mujoco.mj_step1, mujoco.mj_step2
         cos, sin = math.cos, math.sin
 
@@ -334,3 +357,31 @@ class Hydrodynamics:
                     step1(model, data)
 
         return advance
+
+
+def _native_advance(compiled: NativeKernel, model: mujoco.MjModel, data: mujoco.MjData, coefficients: np.ndarray,
+                    indices: np.ndarray) -> Callable[..., None]:
+    """`Hydrodynamics.bind`'s stepper on the C loop: one ctypes call per `advance(nstep, dt)`, or one per
+    step when a disturbance `wrench()` must be read at each step's time and heading."""
+    if (len(coefficients), len(indices)) != compiled.sizes:
+        raise RuntimeError(f"hydro_kernel.c expects {compiled.sizes} values, auv_mj gives "
+                           f"{(len(coefficients), len(indices))}: the two are out of step")
+    vp = ctypes.c_void_p
+    wrench_now = np.zeros(3)
+    keep = (model, data, coefficients, indices, wrench_now)  # owners of every address below
+    head = (vp(model._address), vp(data._address), *compiled.functions, vp(coefficients.ctypes.data),
+            vp(indices.ctypes.data), *(vp(a.ctypes.data) for a in (data.qpos, data.qvel, data.qfrc_passive,
+                                                                     data.M, model.opt.wind)))
+    wrench_at = vp(wrench_now.ctypes.data)
+    step, c_int, c_double = compiled.advance, ctypes.c_int, ctypes.c_double
+
+    def advance(nstep: int, dt: float, wrench: Callable[[], tuple[float, float, float]] | None = None,
+                _keep=keep) -> None:
+        if wrench is None:
+            step(*head, None, c_int(nstep), c_double(dt))
+            return
+        for _ in range(nstep if nstep > 0 else 1):
+            wrench_now[:] = wrench()
+            step(*head, wrench_at, c_int(1 if nstep else 0), c_double(dt))
+
+    return advance

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 
 import mujoco
 import numpy as np
 import pytest
 from vehicle_reference import ReferenceAUV, read_numerics, read_rigid_body, vehicle_xml_with
 
-from auv_mj import AUVPhysics, model_path
+from auv_mj import AUVPhysics, model_path, native
 
 COEFFICIENTS = read_numerics()
 MASS, IZ = read_rigid_body()
@@ -422,6 +423,57 @@ def test_other_mujoco_models_are_unaffected():
     assert data.qvel[2] == pytest.approx(-9.81 * t, rel=1e-9)
     np.testing.assert_array_equal(vehicle.data.qpos, alone.data.qpos)
     np.testing.assert_array_equal(vehicle.data.qvel, alone.data.qvel)
+
+
+# --- the C step (auv_mj.native) against the Python loop ----------------------------------------------------
+
+@pytest.mark.parametrize("cross_flow", [{}, {"Y_vr": -40.0, "Y_rv": -6.0, "N_vr": 3.0, "N_rv": -20.0}],
+                         ids=["REMUS", "with cross-flow terms"])
+def test_the_c_step_gives_the_python_loops_bits(cross_flow):
+    """`Hydrodynamics.bind` in C and in Python give the same trajectory, bit for bit: steps of 1 and 10, a
+    current changed between calls, a disturbance read at every step, and nstep = 0 (forward's accelerations)."""
+    assert native.kernel() is not None, "the C step was not built: is a C compiler (cc) on this machine?"
+    physics = new_physics(xml=vehicle_xml_with(**cross_flow))
+    model, hydro = physics.model.ptr, physics.hydrodynamics
+    datas = [mujoco.MjData(model), mujoco.MjData(model)]
+    advances = [hydro.bind(model, datas[0]), hydro.bind(model, datas[1], native=False)]
+    for data in datas:
+        data.qvel[:3] = 1.2, 0.4, 0.2
+        mujoco.mj_step1(model, data)
+    rng = np.random.default_rng(5)
+    for k in range(300):
+        controls, wind = rng.uniform([-20, -10], [20, 10]), rng.uniform(-0.5, 0.5, 2)
+        nstep = (0, 1, 10)[k % 3]
+        wrenches = [(lambda d=d: (5.0 * math.sin(d.time), -3.0 * math.cos(d.qpos[2]), 0.5 * d.qpos[2]))
+                    if k % 4 == 0 else None for d in datas]
+        model.opt.wind[:2] = wind
+        for data, advance, wrench in zip(datas, advances, wrenches, strict=True):
+            data.ctrl[:] = controls
+            advance(nstep, model.opt.timestep, wrench)
+        for name in ("qpos", "qvel", "qfrc_passive", "M", "qacc"):
+            np.testing.assert_array_equal(getattr(datas[0], name), getattr(datas[1], name), err_msg=name)
+        if nstep == 0:  # an unstepped apply leaves M and the passive force to the next mj_step1
+            for data in datas:
+                mujoco.mj_step1(model, data)
+    assert datas[0].time > 10.0 and np.all(np.isfinite(datas[0].qpos))
+
+
+def test_the_c_step_is_built_into_its_cache_or_the_python_loop_runs(tmp_path, monkeypatch):
+    """The library is compiled into AUV_MJ_CACHE and loads; with no compiler, one warning and no kernel
+    (the Python loop runs); AUV_MJ_NATIVE=0 chooses the Python loop without a word."""
+    build = native.kernel.__wrapped__  # uncached: each call looks again
+    monkeypatch.setenv("AUV_MJ_CACHE", str(tmp_path / "cache"))
+    built = build()
+    files = [path.name for path in (tmp_path / "cache").iterdir()]
+    assert built is not None and len(files) == 1 and files[0].startswith("hydro_kernel-"), files  # no temporary
+    monkeypatch.setenv("AUV_MJ_CACHE", str(tmp_path / "other"))
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
+    with pytest.warns(RuntimeWarning, match="no C compiler found"):
+        assert build() is None
+    monkeypatch.setenv("AUV_MJ_NATIVE", "0")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert build() is None
 
 
 if __name__ == "__main__":  # the accuracy figures of the issue: python tests/test_hydrodynamics.py

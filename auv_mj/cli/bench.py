@@ -26,7 +26,7 @@ import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from agents.ddpg import DDPG, DDPGConfig
 from agents.replay import Batch
 from agents.train import env_spec
-from auv_mj import glbackend, render
+from auv_mj import glbackend, native, render
 from auv_mj.arena import load
 from auv_mj.cli.options import bounded_int, check_output, seed_int, usage_error
 from auv_mj.physics import AUVPhysics
@@ -126,18 +126,31 @@ def physics_section(settings: BenchSettings) -> list[Measurement]:
     def disturbed_steps() -> None:
         disturbed.step(SUB_STEPS)
 
+    python_data = mujoco.MjData(model)  # the same stepper with its Python loop (the fallback without cc)
+    mujoco.mju_copy(python_data.qvel, physics.data.qvel)
+    mujoco.mju_copy(python_data.qpos, physics.data.qpos)
+    python_data.ctrl[:] = physics.data.ctrl
+    mujoco.mj_step1(model, python_data)
+    python_advance = physics.hydrodynamics.bind(model, python_data, native=False)
+
+    def python_steps() -> None:
+        python_advance(SUB_STEPS, model.opt.timestep)
+
     calls = settings.calls(400)
-    times = interleaved_times([plain_steps, hydro_steps, single_steps, disturbed_steps], [calls] * 4,
-                              settings.repeats) / SUB_STEPS
+    times = interleaved_times([plain_steps, hydro_steps, single_steps, disturbed_steps, python_steps],
+                              [calls] * 5, settings.repeats) / SUB_STEPS
     median = np.median(times, axis=0) * 1e6
+    loop = "C loop" if native.kernel() is not None else "Python loop: no C compiler"
     return [
         Measurement("mj_step (plain, same model)", median[0], "us/step", "the limit"),
-        Measurement(f"AUVPhysics.step({SUB_STEPS})", median[1], "us/step"),
+        Measurement(f"AUVPhysics.step({SUB_STEPS})", median[1], "us/step", loop),
         Measurement("AUVPhysics.step() per call", median[2], "us/step", "one step per call"),
         Measurement(f"AUVPhysics.step({SUB_STEPS}) + disturbance", median[3], "us/step", "periodic g_0"),
-        Measurement("hydrodynamic step / plain mj_step", median_ratio(times, 1, 0), "x"),
+        Measurement(f"Python loop, {SUB_STEPS} steps per call", median[4], "us/step", "native=False"),
+        Measurement("hydrodynamic step / plain mj_step", median_ratio(times, 1, 0), "x", loop),
         Measurement("single-step calls / plain mj_step", median_ratio(times, 2, 0), "x"),
         Measurement("disturbed step / plain mj_step", median_ratio(times, 3, 0), "x"),
+        Measurement("Python loop / plain mj_step", median_ratio(times, 4, 0), "x", "native=False"),
         Measurement("simulated / wall-clock time", physics.timestep() / (median[1] * 1e-6), "x",
                     f"AUVPhysics.step({SUB_STEPS})"),
     ]
