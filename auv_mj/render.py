@@ -7,10 +7,16 @@
 What a frame shows: a follow camera (orthographic, looking straight down, FOLLOW_VIEW metres tall,
 north up) and/or an overview of the whole arena (full frame, or as picture-in-picture with
 `--camera both`); the model's own geoms (walls, obstacles, moving obstacles where the physics puts
-them); decorations added to the MuJoCo scene after `mjv_updateScene` (never to the model): the water
-and the map bounds, the global path, the goal area and sub-goals, the trajectory trail, the nine sonar
-beams from the bow to their hit points coloured by range, and the vehicle as a scaled-up dart marker
-(the 1.33 m hull would be a few pixels); and a text overlay (MuJoCo's `mjr_overlay`).
+them) drawn by MuJoCo; the water, the map bounds, the global path, the goal area and sub-goals, the
+trajectory trail, the nine sonar beams from the bow to their hit points coloured by range, and the vehicle
+as a scaled-up dart marker (the 1.33 m hull would be a few pixels); and a text overlay.
+
+How: OpenGL here is usually a CPU rasteriser (Mesa llvmpipe), which pays for every pixel it fills. So
+MuJoCo draws only the boxes around the model's geoms, each on a patch of water, and only those boxes are
+read back; the open water, the decorations and the text (MuJoCo's bitmap fonts, read back once) are drawn
+in numpy (`auv_mj.raster`), touching only their own pixels; geoms taller than the decorations are put
+back over them. The overview's arena (water, static geoms, bounds, paths, goals) is cached as an image
+and drawn again only when its window or the goals change; what moves is drawn over it each frame.
 
 Timing: a video frame every `speedup / fps` simulation seconds. By default one frame per control step
 (speedup = fps x control period: 15x real time for the 0.5 s planner at 30 fps); a smaller speedup
@@ -36,7 +42,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from auv_mj import glbackend
+from auv_mj import glbackend, raster
 from auv_mj.console import progress_bar
 from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions
 from auv_mj.geometry import wrap_angle
@@ -72,8 +78,10 @@ SAMPLES = 0
 (Mesa llvmpipe) for slightly smoother lines; 0 is sharp enough at 720p."""
 TIME_TOLERANCE = 1e-6
 """Frame times within this of a recorded instant [s] show that instant (physics time drifts by ulps)."""
-EXTRA_GEOMS = 3000
-"""Room in the scene for the decorations."""
+EXTRA_GEOMS = 1000
+"""Room in the scene for the patches of water under the model's geoms."""
+HEADLIGHT_GAIN = 0.5
+"""Light on a face seen head-on from MuJoCo's default headlight (ambient 0.1 + diffuse 0.4)."""
 
 WATER_RGBA = (0.06, 0.20, 0.34, 1.0)
 BOUNDS_RGBA = (0.9, 0.9, 0.9, 1.0)
@@ -190,6 +198,37 @@ def _in_view(points: np.ndarray, window: tuple[float, float, float], aspect: flo
         stride *= 2
 
 
+def _line(rgba) -> np.ndarray:
+    """The colour [0-255] MuJoCo gives a decoration line of `rgba` (drawn unlit, as given)."""
+    return np.floor(np.asarray(rgba[:3], float) * 255)
+
+
+def _fill(rgba, emission: float) -> np.ndarray:
+    """The colour [0-255] MuJoCo gives a flat decoration of `rgba` seen head-on: emission plus the
+    headlight's ambient and diffuse light (HEADLIGHT_GAIN), saturating at white."""
+    return np.floor(np.minimum(np.asarray(rgba[:3], float) * (emission + HEADLIGHT_GAIN), 1.0) * 255)
+
+
+def _merge(boxes: list[tuple[tuple[int, int, int, int], bool]]) -> list[tuple[tuple[int, int, int, int], bool]]:
+    """Pixel boxes (row0, row1, col0, col1) with a flag, overlapping ones merged into their bounding box
+    (flags or-ed): one OpenGL pass per merged box."""
+    boxes = list(boxes)
+    merged = True
+    while merged and len(boxes) > 1:
+        merged = False
+        for i in range(len(boxes)):
+            for j in range(i + 1, len(boxes)):
+                (a, fa), (b, fb) = boxes[i], boxes[j]
+                if a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]:
+                    boxes[i] = ((min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])), fa or fb)
+                    del boxes[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return boxes
+
+
 def _range_colour(distance: float) -> tuple[float, float, float, float]:
     """Red (touching) through yellow to green (120 m) for a sonar echo."""
     f = float(np.clip(distance / SONAR_RANGE, 0.0, 1.0))
@@ -254,12 +293,39 @@ class FrameRenderer:
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         self.camera.azimuth, self.camera.elevation = 90.0, -90.0  # +x right, +y up
         self.camera.orthographic = 1
-        self._full = mujoco.MjrRect(0, 0, self.width, self.height)
-        self._rects = [mujoco.MjrRect(*v.rect) for v in self.views]
-        self._pixels = np.empty((self.height, self.width, 3), dtype=np.uint8)
         self._eye = np.eye(3).ravel()
-        self._zero = np.zeros(3)
+        # The model's geoms: all, those that never move (the overview's cached layer; obstacles are mocap
+        # bodies too, but only the arena's movers move), the movers'.
+        m = self.model
+        movers = [m.body(n).id for n in self.arena.mover_names]
+        moving_roots = {int(m.body_rootid[b]) for b in range(1, m.nbody) if m.body_dofnum[b]} | set(movers)
+        moving = np.isin(m.body_rootid[m.geom_bodyid], list(moving_roots)) | np.isin(m.geom_bodyid, movers)
+        self._all_mask = np.ones(m.ngeom, bool)
+        self._static_mask = ~moving
+        self._mover_geoms = [np.flatnonzero(m.geom_bodyid == m.body(n).id) for n in self.arena.mover_names]
+        self._mover_geoms = [g for g in self._mover_geoms if len(g)]
+        self._mover_mask = np.isin(np.arange(m.ngeom), np.concatenate([[], *self._mover_geoms]).astype(int))
+        self._mover_colours: list[np.ndarray] = []
+        self._layer, self._layer_key = None, None
+        self._water_image = np.empty((self.height, self.width, 3), np.uint8)
+        self._water_image[:] = self._water_colour()
+        self._font = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_NORMAL, self.width, self.height)
+        self._font_big = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_BIG, self.width, self.height)
         self._trail_bounds = np.full(4, np.nan)  # bounding box of the trail (open-water overview)
+
+    def _water_colour(self) -> np.ndarray:
+        """The colour OpenGL gives the patches of water (numpy paints the rest of the sea with it)."""
+        self.camera.lookat[:] = (1e7, 1e7, 0.0)  # nothing of the model there
+        self.camera.distance = 0.5 * self.model.stat.extent
+        self.model.vis.global_.fovy = 10.0
+        mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
+                               mujoco.mjtCatBit.mjCAT_ALL, self.scene)
+        self.scene.ngeom = 0
+        self._add(mujoco.mjtGeom.mjGEOM_BOX, WATER_RGBA, np.array([1e7, 1e7, Z_WATER]), np.array([50.0, 50.0, 0.05]))
+        mujoco.mjr_render(mujoco.MjrRect(0, 0, 4, 4), self.scene, self._context)
+        pixel = np.empty((1, 1, 3), np.uint8)
+        mujoco.mjr_readPixels(pixel, None, mujoco.MjrRect(2, 2, 1, 1), self._context)
+        return pixel[0, 0]
 
     # --- geometry of the views ----------------------------------------------------------------------
 
@@ -281,110 +347,228 @@ class FrameRenderer:
 
     # --- decorations ------------------------------------------------------------------------------------
 
-    def _add(self, kind: int, rgba, pos=None, size=None, mat=None, emission: float = 0.6):
+    def _add(self, kind: int, rgba, pos, size, emission: float = 1.0) -> None:
+        """Appends a decoration geom to the MuJoCo scene (only the water under the model's geoms)."""
         scene = self.scene
         if scene.ngeom >= scene.maxgeom:
-            return None
+            return
         geom = scene.geoms[scene.ngeom]
-        mujoco.mjv_initGeom(geom, kind, self._zero if size is None else size,
-                            self._zero if pos is None else pos, self._eye if mat is None else mat,
-                            np.asarray(rgba, dtype=np.float32))
+        mujoco.mjv_initGeom(geom, kind, size, pos, self._eye, np.asarray(rgba, dtype=np.float32))
         geom.emission = emission
         geom.specular = 0.0  # flat colours: no highlight of the headlight on the water
         geom.category = mujoco.mjtCatBit.mjCAT_DECOR
         scene.ngeom += 1
-        return geom
 
-    def _line(self, a, b, rgba, width: float, z: float) -> None:
-        geom = self._add(mujoco.mjtGeom.mjGEOM_LINE, rgba)
-        if geom is not None:
-            mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_LINE, width,
-                                 np.array([a[0], a[1], z]), np.array([b[0], b[1], z]))
-
-    def _polyline(self, points: np.ndarray, rgba, width: float, z: float, closed: bool = False) -> None:
-        if closed and len(points) > 2:
-            points = np.concatenate([points, points[:1]])
-        self._segments((points[:-1], points[1:]), rgba, width, z)
-
-    def _segments(self, segments: tuple[np.ndarray, np.ndarray], rgba, width: float, z: float) -> None:
-        for a, b in zip(*segments, strict=True):
-            self._line(a, b, rgba, width, z)
-
-    def _disc(self, centre, radius: float, rgba, z: float) -> None:
-        self._add(mujoco.mjtGeom.mjGEOM_CYLINDER, rgba, np.array([centre[0], centre[1], z]),
-                  np.array([radius, radius, 0.05]), emission=0.8)
-
-    def _box(self, centre, half_size, rgba, z: float) -> None:
-        self._add(mujoco.mjtGeom.mjGEOM_BOX, rgba, np.array([centre[0], centre[1], z]),
-                  np.array([half_size[0], half_size[1], 0.05]), emission=1.0)
-
-    def _triangle(self, p0, p1, p2, rgba, z: float) -> None:
-        # MuJoCo's triangle geom spans (0,0,0), (size0,0,0), (0,size1,0) through `mat`: a shear puts
-        # its corners anywhere. Both windings are drawn so that it shows from above whatever the order.
-        for a, b in ((p1, p2), (p2, p1)):
-            mat = np.array([[a[0] - p0[0], b[0] - p0[0], 0.0],
-                            [a[1] - p0[1], b[1] - p0[1], 0.0],
-                            [0.0, 0.0, 1.0]]).ravel()
-            self._add(mujoco.mjtGeom.mjGEOM_TRIANGLE, rgba, np.array([p0[0], p0[1], z]),
-                      np.array([1.0, 1.0, 1.0]), mat, emission=1.0)
-
-    def _decorate(self, view: View, state: Snapshot, trail: np.ndarray, subgoals: np.ndarray,
-                  reached: int, window: tuple[float, float, float]) -> None:
+    def _geom_boxes(self, window: tuple[float, float, float], size: tuple[int, int], geoms: np.ndarray
+                    ) -> list[tuple[tuple[int, int, int, int], bool]]:
+        """Pixel boxes (row0, row1, col0, col1) around the model's geoms `geoms` (a mask) in a view, and
+        whether each geom stands above the decorations (its top higher than the marker's)."""
         cx, cy, view_h = window
-        _, _, w, h = view.rect
-        view_w = view_h * w / h
-        px = view_h / h  # metres per pixel
-        a = self.arena
-        # Water: one box over the whole view (the sea goes on past the map's bounds, drawn as lines).
-        self._box((cx, cy), (view_w / 2, view_h / 2), WATER_RGBA, Z_WATER)
-        if np.all(np.isfinite(a.bounds)):
-            corners = np.array([a.bounds[:2], a.bounds[[2, 1]], a.bounds[2:], a.bounds[[0, 3]]])
-            self._polyline(corners, BOUNDS_RGBA, 2.0, Z_PATH, closed=True)
-        # Scale bar in the bottom-left corner, above its label (drawn by `render`).
-        bar, line_h = scale_bar_length(view_w), self._context.charHeight * px
-        start = np.array([cx - view_w / 2 + 0.6 * line_h, cy - view_h / 2 + 1.8 * line_h])
-        self._line(start, start + (bar, 0.0), SCALE_RGBA, 3.0, Z_MARKER)
-        for end in (start, start + (bar, 0.0)):
-            self._line(end - (0.0, 0.3 * line_h), end + (0.0, 0.3 * line_h), SCALE_RGBA, 2.0, Z_MARKER)
-        # Global path, moving obstacles' paths, goals: only what the view shows.
-        if len(a.path) > 1:
-            self._segments(_in_view(a.path, window, w / h), PATH_RGBA, 2.0, Z_PATH)
-        for start, end in a.mover_paths:
-            self._line(start, end, MOVER_PATH_RGBA, 1.0, Z_PATH)
+        w, h = size
+        s = h / view_h
+        d, m = self.data, self.model
+        half = np.where((m.geom_type == mujoco.mjtGeom.mjGEOM_BOX)[:, None],
+                        np.einsum("gij,gj->gi", np.abs(d.geom_xmat.reshape(-1, 3, 3)[:, :2]), m.geom_size),
+                        m.geom_rbound[:, None])
+        half[m.geom_type == mujoco.mjtGeom.mjGEOM_PLANE] = np.inf
+        x0, y1 = cx - view_h * w / h / 2, cy + view_h / 2
+        cols0 = np.floor((d.geom_xpos[:, 0] - half[:, 0] - x0) * s) - 1
+        cols1 = np.ceil((d.geom_xpos[:, 0] + half[:, 0] - x0) * s) + 1
+        rows0 = np.floor((y1 - d.geom_xpos[:, 1] - half[:, 1]) * s) - 1
+        rows1 = np.ceil((y1 - d.geom_xpos[:, 1] + half[:, 1]) * s) + 1
+        c0, c1 = np.clip(cols0, 0, w), np.clip(cols1, 0, w)
+        r0, r1 = np.clip(rows0, 0, h), np.clip(rows1, 0, h)
+        show = geoms & (c0 < c1) & (r0 < r1)
+        top = d.geom_xpos[:, 2] + np.where(m.geom_type == mujoco.mjtGeom.mjGEOM_BOX,
+                                           np.einsum("gj,gj->g", np.abs(d.geom_xmat[:, 6:9]), m.geom_size),
+                                           m.geom_rbound)
+        return [((int(a), int(b), int(c), int(e)), bool(t)) for a, b, c, e, t in
+                zip(r0[show], r1[show], c0[show], c1[show], top[show] > Z_MARKER, strict=True)]
+
+    def _draw_geoms(self, image: np.ndarray, window: tuple[float, float, float], geoms: np.ndarray) -> list:
+        """Water, and the model's geoms `geoms` (a mask) as MuJoCo draws them, into `image` (one view).
+
+        OpenGL draws only the boxes around the geoms, each on its own patch of water, and only those are
+        read back: a software rasteriser pays for every pixel filled, and most of a view is open water.
+        Returns the patches of geoms that stand above the decorations, (box, pixels, mask), for `_occlude`.
+        """
+        h, w = image.shape[:2]
+        np.copyto(image, self._water_image[:h, :w])
+        boxes = self._geom_boxes(window, (w, h), geoms)
+        if not boxes:
+            return []
+        cx, cy, view_h = window
+        px = view_h / h
+        x0, y1 = cx - view_h * w / h / 2, cy + view_h / 2
+        self.camera.lookat[:] = (cx, cy, 0.0)
+        self.camera.distance = 0.5 * self.model.stat.extent
+        self.model.vis.global_.fovy = view_h  # orthographic: the view height in metres
+        mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
+                               mujoco.mjtCatBit.mjCAT_ALL, self.scene)
+        boxes = _merge(boxes)
+        for (r0, r1, c0, c1), _ in boxes:
+            centre = np.array([x0 + (c0 + c1) / 2 * px, y1 - (r0 + r1) / 2 * px, Z_WATER])
+            self._add(mujoco.mjtGeom.mjGEOM_BOX, WATER_RGBA, centre,
+                      np.array([(c1 - c0 + 2) / 2 * px, (r1 - r0 + 2) / 2 * px, 0.05]))
+        mujoco.mjr_render(mujoco.MjrRect(0, 0, w, h), self.scene, self._context)
+        above = []
+        water = self._water_image[0, 0, 2]
+        for (r0, r1, c0, c1), tall in boxes:
+            patch = np.empty((r1 - r0, c1 - c0, 3), np.uint8)
+            mujoco.mjr_readPixels(patch, None, mujoco.MjrRect(c0, h - r1, c1 - c0, r1 - r0), self._context)
+            image[r0:r1, c0:c1] = patch = patch[::-1]
+            if tall:  # the geom's pixels: where the patch is not water (its blue channel tells, cheaply)
+                above.append(((r0, r1, c0, c1), patch, patch[..., 2] != water))
+        return above
+
+    @staticmethod
+    def _occlude(image: np.ndarray, above: list) -> None:
+        """Puts back the pixels of the geoms that stand above the decorations (obstacles hide the beams'
+        ends, as they did when OpenGL drew the decorations at their heights)."""
+        for (r0, r1, c0, c1), patch, mask in above:
+            np.copyto(image[r0:r1, c0:c1], patch, where=mask[..., None])
+
+    def _to_pixels(self, points: np.ndarray, window: tuple[float, float, float], size: tuple[int, int]
+                   ) -> np.ndarray:
+        """(column, row) pixel coordinates of world points (N, 2) in a view of `size` (w, h) px."""
+        cx, cy, view_h = window
+        w, h = size
+        s = h / view_h
+        points = np.asarray(points, float).reshape(-1, 2)
+        return np.stack([(points[:, 0] - cx) * s + w / 2, (cy - points[:, 1]) * s + h / 2], axis=1)
+
+    def _draw_static(self, image: np.ndarray, view: View, window: tuple[float, float, float], goal: np.ndarray,
+                     subgoals: np.ndarray, reached: int) -> None:
+        """What does not move with the vehicle: goals, map bounds, global path, movers' paths, scale bar."""
+        h, w = image.shape[:2]
+        cx, cy, view_h = window
+        view_w, px, a = view_h * w / h, view_h / h, self.arena
+        pix = lambda p: self._to_pixels(p, window, (w, h))  # noqa: E731
         visible = np.all(np.abs(subgoals - (cx, cy)) < np.array([view_w, view_h]) / 2 + a.goal_radius, axis=1)
         for i in np.flatnonzero(visible):
-            if not np.allclose(subgoals[i], state.desired_goal):
-                self._disc(subgoals[i], a.goal_radius, REACHED_RGBA if i < reached else SUBGOAL_RGBA, Z_GOAL)
-        goal = state.desired_goal if np.all(np.isfinite(state.desired_goal)) else a.goal
+            if not np.allclose(subgoals[i], goal):
+                rgba = REACHED_RGBA if i < reached else SUBGOAL_RGBA
+                raster.fill_disc(image, pix(subgoals[i])[0], a.goal_radius / px, _fill(rgba, 0.8), rgba[3])
         if np.all(np.isfinite(goal)):
-            self._disc(goal, a.goal_radius, GOAL_RGBA, Z_GOAL + 0.05)
-            self._disc(goal, max(1.5 * px, 0.5), GOAL_RGBA[:3] + (1.0,), Z_GOAL + 0.1)
-        # Trail.
+            centre = pix(goal)[0]
+            raster.fill_disc(image, centre, a.goal_radius / px, _fill(GOAL_RGBA, 0.8), GOAL_RGBA[3])
+            raster.fill_disc(image, centre, max(1.5 * px, 0.5) / px, _fill(GOAL_RGBA, 0.8))
+        if np.all(np.isfinite(a.bounds)):
+            corners = np.array([a.bounds[:2], a.bounds[[2, 1]], a.bounds[2:], a.bounds[[0, 3]], a.bounds[:2]])
+            raster.lines(image, pix(corners[:-1]), pix(corners[1:]), _line(BOUNDS_RGBA), 2)
+        if len(a.path) > 1:
+            starts, ends = _in_view(a.path, window, w / h)
+            raster.lines(image, pix(starts), pix(ends), _line(PATH_RGBA), 2)
+        if len(a.mover_paths):
+            paths = np.asarray(a.mover_paths, float).reshape(-1, 2, 2)
+            raster.lines(image, pix(paths[:, 0]), pix(paths[:, 1]), _line(MOVER_PATH_RGBA), 1,
+                         MOVER_PATH_RGBA[3])
+        # Scale bar in the bottom-left corner, above its label.
+        bar, line_h = scale_bar_length(view_w) / px, self._context.charHeight
+        x, y = 0.6 * line_h, h - 1.8 * line_h
+        white = _line(SCALE_RGBA)
+        raster.lines(image, np.array([[x, y]]), np.array([[x + bar, y]]), white, 3)
+        raster.lines(image, np.array([[x, y - 0.3 * line_h], [x + bar, y - 0.3 * line_h]]),
+                     np.array([[x, y + 0.3 * line_h], [x + bar, y + 0.3 * line_h]]), white, 2)
+
+    def _draw_moving(self, image: np.ndarray, view: View, window: tuple[float, float, float], state: Snapshot,
+                     trail: np.ndarray, movers: bool) -> None:
+        """What moves: the trail, the sonar beams, the moving obstacles (`movers`: where OpenGL did not
+        draw them) and the vehicle marker."""
+        h, w = image.shape[:2]
+        view_h = window[2]
+        px = view_h / h
+        pix = lambda p: self._to_pixels(p, window, (w, h))  # noqa: E731
         points = np.concatenate([trail.reshape(-1, 2), state.pose[None, :2]])
-        self._segments(_in_view(points, window, w / h), TRAIL_RGBA, 2.0 if view.kind == "follow" else 1.5,
-                       Z_TRAIL)
+        starts, ends = _in_view(points, window, w / h)
+        raster.lines(image, pix(starts), pix(ends), _line(TRAIL_RGBA), 2 if view.kind == "follow" else 2)
         # Sonar beams from the bow to their hit points.
         d = self.data
-        for site, distance in zip(self._sonar_sites, state.sonar, strict=True):
-            start = d.site_xpos[site]
-            end = start + d.site_xmat[site].reshape(3, 3)[:, 2] * distance
-            if distance >= SONAR_RANGE - 1e-6:
-                self._line(start, end, NO_ECHO_RGBA, 1.0, Z_BEAM)
-            else:
-                colour = _range_colour(distance)
-                self._line(start, end, colour, 2.0 if view.kind == "follow" else 1.0, Z_BEAM)
-                self._box(end, (2.5 * px, 2.5 * px), colour, Z_BEAM + 0.1)  # square: fewer triangles
+        origin = d.site_xpos[self._sonar_sites, :2]
+        heading = d.site_xmat[self._sonar_sites].reshape(-1, 3, 3)[:, :2, 2]
+        distance = np.asarray(state.sonar, float)
+        hits = origin + heading * distance[:, None]
+        echo = distance < SONAR_RANGE - 1e-6
+        a, b = pix(origin), pix(hits)
+        raster.lines(image, a[~echo], b[~echo], _line(NO_ECHO_RGBA), 1, NO_ECHO_RGBA[3])
+        if np.any(echo):
+            colours = np.array([_range_colour(r)[:3] for r in distance[echo]])
+            raster.lines(image, a[echo], b[echo], np.floor(colours * 255), 2 if view.kind == "follow" else 1)
+            raster.fill_squares(image, b[echo], 2.5, np.floor(np.minimum(colours * 1.5, 1.0) * 255))
+        if movers:
+            for geoms, colour in zip(self._mover_geoms, self._mover_colours, strict=True):
+                for g in geoms:
+                    self._fill_geom(image, g, window, colour)
         # The vehicle: a dart pointing along its heading, MARKER_LENGTH of the view tall.
         x, y, psi = state.pose
         length = max(MARKER_LENGTH * view_h, 1.4)
-        c, s = math.cos(psi), math.sin(psi)
-        fwd, left = np.array([c, s]), np.array([-s, c])
+        fwd, left = np.array([math.cos(psi), math.sin(psi)]), np.array([-math.sin(psi), math.cos(psi)])
         centre = np.array([x, y])
-        tip, notch = centre + 0.6 * length * fwd, centre - 0.2 * length * fwd
-        port, starboard = centre - 0.4 * length * fwd + 0.35 * length * left, \
-            centre - 0.4 * length * fwd - 0.35 * length * left
-        self._triangle(tip, port, notch, MARKER_RGBA, Z_MARKER)
-        self._triangle(tip, notch, starboard, MARKER_RGBA, Z_MARKER)
+        dart = pix([centre + 0.6 * length * fwd, centre - 0.4 * length * fwd + 0.35 * length * left,
+                    centre - 0.2 * length * fwd, centre - 0.4 * length * fwd - 0.35 * length * left])
+        marker = _fill(MARKER_RGBA, 1.0)
+        raster.fill_polygon(image, dart[[0, 1, 2]], marker)
+        raster.fill_polygon(image, dart[[0, 2, 3]], marker)
+        del px
+
+    def _fill_geom(self, image: np.ndarray, geom: int, window: tuple[float, float, float], colour) -> None:
+        """A model geom's footprint seen from above, in one colour (moving obstacles in the overview)."""
+        m, d = self.model, self.data
+        h, w = image.shape[:2]
+        centre, size = d.geom_xpos[geom, :2], m.geom_size[geom]
+        if m.geom_type[geom] == mujoco.mjtGeom.mjGEOM_BOX:
+            axes = d.geom_xmat[geom].reshape(3, 3)[:2, :2] * size[:2]
+            corners = centre + np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) @ axes.T
+            raster.fill_polygon(image, self._to_pixels(corners, window, (w, h)), colour)
+        else:
+            raster.fill_disc(image, self._to_pixels(centre, window, (w, h))[0], size[0] * h / window[2], colour)
+
+    def _labels(self, image: np.ndarray, view: View, window: tuple[float, float, float]) -> None:
+        """The scale bar's length under it, and the overview's height, at the corners of `view` in the
+        frame `image` (a label wider than the inset spills over its edge, as with mjr_overlay)."""
+        if self.height < OVERLAY_MIN_HEIGHT:
+            return
+        _, _, w, h = view.rect
+        bar = scale_bar_length(window[2] * w / h)
+        self._font.overlay(image, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT, view.rect, f"{bar:g} m")
+        if view.kind == "overview":
+            self._font.overlay(image, mujoco.mjtGridPos.mjGRID_BOTTOMRIGHT, view.rect,
+                               f"overview, {window[2]:.0f} m tall")
+
+    def _overview_layer(self, view: View, window: tuple[float, float, float], goal: np.ndarray,
+                        subgoals: np.ndarray, reached: int) -> np.ndarray:
+        """The overview without what moves (vehicle, trail, beams, movers), framed by its border when it is
+        an inset; drawn again only when the window or the goals change."""
+        key = (window, tuple(np.round(goal, 9)), subgoals.tobytes(), min(reached, len(subgoals)))
+        if self._layer_key == key:
+            return self._layer
+        _, _, w, h = view.rect
+        border = INSET_BORDER if view.inset else 0
+        layer = np.full((h + 2 * border, w + 2 * border, 3), 230, np.uint8)  # 0.9 grey, as mjr_rectangle
+        inner = layer[border:border + h, border:border + w]
+        qpos, mocap = self.data.qpos.copy(), self.data.mocap_pos.copy()
+        try:
+            # Movers in place first, to find the colour OpenGL gives them from this far away.
+            self.data.qpos[self._qpos[:2]] = 1e7
+            mujoco.mj_kinematics(self.model, self.data)
+            probe = np.empty_like(inner)
+            self._draw_geoms(probe, window, self._mover_mask)
+            self._mover_colours = []
+            for geoms in self._mover_geoms:
+                c, r = self._to_pixels(self.data.geom_xpos[geoms[0], :2], window, (w, h))[0].astype(int)
+                inside = 0 <= r < h and 0 <= c < w
+                self._mover_colours.append(probe[r, c].copy() if inside else _fill(self.model.geom_rgba[
+                    geoms[0]], 0.0))
+            self.data.mocap_pos[self._movers] = 1e7
+            mujoco.mj_kinematics(self.model, self.data)
+            above = self._draw_geoms(inner, window, self._static_mask)
+        finally:
+            self.data.qpos[:], self.data.mocap_pos[:] = qpos, mocap
+            mujoco.mj_kinematics(self.model, self.data)
+        self._draw_static(inner, view, window, goal, subgoals, reached)
+        self._occlude(inner, above)
+        self._layer, self._layer_key, self._layer_above = layer, key, above
+        return layer
 
     # --- drawing ------------------------------------------------------------------------------------------
 
@@ -399,40 +583,34 @@ class FrameRenderer:
                reached: int = 0, event: str = "", out: np.ndarray | None = None) -> np.ndarray:
         """One (H, W, 3) uint8 frame of `state`; `trail` (K, 2) the path so far, `event` a banner."""
         trail = np.zeros((0, 2)) if trail is None else trail
-        subgoals = np.zeros((0, 2)) if subgoals is None else subgoals
+        subgoals = np.zeros((0, 2)) if subgoals is None else np.asarray(subgoals, float).reshape(-1, 2)
+        if out is None:
+            out = np.empty((self.height, self.width, 3), np.uint8)
         self._gl.make_current()
         self.set_state(state)
-        model, ctx = self.model, self._context
-        for view, rect in zip(self.views, self._rects, strict=True):
-            cx, cy, view_h = window = self._view_window(view, state, trail)
-            self.camera.lookat[:] = (cx, cy, 0.0)
-            self.camera.distance = 0.5 * model.stat.extent
-            model.vis.global_.fovy = view_h  # orthographic: the view height in metres
-            mujoco.mjv_updateScene(model, self.data, self.option, None, self.camera,
-                                   mujoco.mjtCatBit.mjCAT_ALL, self.scene)
-            self._decorate(view, state, trail, subgoals, reached, window)
-            if view.inset:
-                left, bottom, w, h = view.rect
-                border = mujoco.MjrRect(left - INSET_BORDER, bottom - INSET_BORDER,
-                                        w + 2 * INSET_BORDER, h + 2 * INSET_BORDER)
-                mujoco.mjr_rectangle(border, 0.9, 0.9, 0.9, 1.0)
-            mujoco.mjr_render(rect, self.scene, ctx)
-            if self.height >= OVERLAY_MIN_HEIGHT:
-                bar = scale_bar_length(window[2] * view.rect[2] / view.rect[3])
-                mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT, rect,
-                                   f"{bar:g} m", "", ctx)
-                if view.inset or (view.kind == "overview" and len(self.views) == 1):
-                    mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_BOTTOMRIGHT, rect,
-                                       f"overview, {window[2]:.0f} m tall", "", ctx)
+        goal = state.desired_goal if np.all(np.isfinite(state.desired_goal)) else self.arena.goal
+        for view in self.views:
+            window = self._view_window(view, state, trail)
+            left, bottom, w, h = view.rect
+            top = self.height - bottom - h
+            image = out[top:top + h, left:left + w]
+            if view.kind == "follow":
+                above = self._draw_geoms(image, window, self._all_mask)
+                self._draw_static(image, view, window, goal, subgoals, reached)
+                self._draw_moving(image, view, window, state, trail, movers=False)
+                self._occlude(image, above)
+            else:
+                layer = self._overview_layer(view, window, goal, subgoals, reached)
+                border = (layer.shape[0] - h) // 2
+                out[top - border:top + h + border, left - border:left + w + border] = layer
+                self._draw_moving(image, view, window, state, trail, movers=True)
+                self._occlude(image, self._layer_above)
+            self._labels(out, view, window)
         if self.height >= OVERLAY_MIN_HEIGHT:
-            self._overlay(state, event, reached, len(subgoals))
-        mujoco.mjr_readPixels(self._pixels, None, self._full, ctx)
-        if out is None:
-            out = np.empty_like(self._pixels)
-        np.copyto(out, self._pixels[::-1])
+            self._overlay(out, state, event, reached, len(subgoals))
         return out
 
-    def _overlay(self, state: Snapshot, event: str, reached: int, goals: int) -> None:
+    def _overlay(self, image: np.ndarray, state: Snapshot, event: str, reached: int, goals: int) -> None:
         u, v, r = state.velocity
         heading = math.degrees(state.pose[2])
         labels = ["time", "speed", "heading", "reward"]
@@ -448,21 +626,22 @@ class FrameRenderer:
         if self.title:
             labels.insert(0, "task")
             values.insert(0, self.title)
-        mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_TOPLEFT, self._full,
-                           "\n".join(labels), "\n".join(values), self._context)
+        self._font.overlay(image, mujoco.mjtGridPos.mjGRID_TOPLEFT, (0, 0, self.width, self.height),
+                           "\n".join(labels), "\n".join(values))
         if event and event not in QUIET_EVENTS:
-            self._banner(event.upper().replace("_", " "), EVENT_COLOURS.get(event, (1.0, 1.0, 1.0)))
+            self._banner(image, event.upper().replace("_", " "), EVENT_COLOURS.get(event, (1.0, 1.0, 1.0)))
 
-    def _banner(self, text: str, colour: tuple[float, float, float]) -> None:
+    def _banner(self, image: np.ndarray, text: str, colour: tuple[float, float, float]) -> None:
         """`text` in the big font, centred near the bottom of the frame on a dark box."""
-        ctx = self._context
-        text_w = sum(ctx.charWidthBig[ord(c)] for c in text if ord(c) < len(ctx.charWidthBig))
-        text_h = ctx.charHeightBig
+        font = self._font_big
+        text_w, text_h = font.width(text), font.height
         pad = text_h // 2
-        box = mujoco.MjrRect(self.width // 2 - text_w // 2 - pad, self.height // 12,
-                             text_w + 2 * pad, text_h + 2 * pad)
-        mujoco.mjr_rectangle(box, 0.0, 0.0, 0.0, 0.6)  # also makes `box` the viewport mjr_text is relative to
-        mujoco.mjr_text(mujoco.mjtFont.mjFONT_BIG, text, ctx, pad / box.width, pad / box.height, *colour)
+        left, bottom = self.width // 2 - text_w // 2 - pad, self.height // 12
+        width, height = text_w + 2 * pad, text_h + 2 * pad
+        top = self.height - bottom - height
+        raster.darken(image[max(top, 0):top + height, max(left, 0):left + width], 0.4)
+        font.text(image, text, left + pad, bottom + pad, np.floor(np.asarray(colour) * 255))
+
 
     def close(self) -> None:
         """Frees the OpenGL resources (also done at garbage collection)."""

@@ -150,3 +150,32 @@ def test_missing_gl_libraries_name_the_packages(tmp_path):
     assert result.returncode == 2
     assert "libegl1" in result.stderr and "libosmesa6" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_numpy_text_matches_mujoco_overlay():
+    """The overlay drawn in numpy (glyph cells read back once) is pixel for pixel MuJoCo's mjr_overlay."""
+    import mujoco
+
+    from auv_mj.raster import BitmapFont
+
+    env = suite.load("auv", "obstacles", task_kwargs={"random": 0})
+    env.reset()
+    width, height = 640, 360
+    with render.FrameRenderer(env.physics, width, height, "follow") as renderer:
+        ctx, full = renderer._context, mujoco.MjrRect(0, 0, width, height)
+        font = BitmapFont(ctx, mujoco.mjtFont.mjFONT_NORMAL, width, height)
+        text, values = "time\nspeed", "   12.5 s   step 25\n 1.00 m/s   cmd 1.00"
+        mujoco.mjr_rectangle(full, 0.2, 0.4, 0.6, 1.0)
+        mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_TOPLEFT, full, text, values, ctx)
+        mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_BOTTOMRIGHT, full, "100 m", "",
+                           ctx)
+        expected = np.empty((height, width, 3), np.uint8)
+        mujoco.mjr_readPixels(expected, None, full, ctx)
+        expected = expected[::-1]
+        mujoco.mjr_rectangle(full, 0.2, 0.4, 0.6, 1.0)
+        ours = np.empty((height, width, 3), np.uint8)
+        mujoco.mjr_readPixels(ours, None, full, ctx)
+        ours = ours[::-1].copy()
+        font.overlay(ours, mujoco.mjtGridPos.mjGRID_TOPLEFT, (0, 0, width, height), text, values)
+        font.overlay(ours, mujoco.mjtGridPos.mjGRID_BOTTOMRIGHT, (0, 0, width, height), "100 m")
+    assert np.array_equal(ours, expected), np.argwhere(np.any(ours != expected, axis=2))[:5]
