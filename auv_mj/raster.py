@@ -15,13 +15,18 @@ OVERLAY_PAD = 5
 """Padding [px] of MuJoCo's text overlay boxes (`mjr_overlay`), reproduced by `BitmapFont.overlay`."""
 
 
-def _clip_segments(starts: np.ndarray, ends: np.ndarray, width: int, height: int,
-                   margin: float = 2.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The parts of segments inside the image (plus `margin`), Liang-Barsky, all segments at once, and
-    which segments have such a part."""
+Clip = tuple[int, int, int, int]
+"""(row0, row1, col0, col1): the part of an image a view covers; drawing stays inside it."""
+
+
+def _clip_segments(starts: np.ndarray, ends: np.ndarray, clip: Clip, margin: float = 2.0
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of segments inside `clip` (plus `margin`), Liang-Barsky, all segments at once, and which
+    segments have such a part."""
     d = ends - starts
     t0, t1 = np.zeros(len(d)), np.ones(len(d))
-    lo, hi = np.array([-margin, -margin]), np.array([width + margin, height + margin])
+    lo = np.array([clip[2] - margin, clip[0] - margin])
+    hi = np.array([clip[3] + margin, clip[1] + margin])
     for axis in (0, 1):
         with np.errstate(divide="ignore", invalid="ignore"):
             ta = (lo[axis] - starts[:, axis]) / d[:, axis]
@@ -34,18 +39,18 @@ def _clip_segments(starts: np.ndarray, ends: np.ndarray, width: int, height: int
     return starts[keep] + t0[keep, None] * d[keep], starts[keep] + t1[keep, None] * d[keep], keep
 
 
-def line_pixels(starts: np.ndarray, ends: np.ndarray, width: int, shape: tuple[int, int]
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rows, columns) of the pixels of `width`-pixel lines from `starts` to `ends` (N, 2), and each pixel's
-    segment.
+def line_pixels(starts: np.ndarray, ends: np.ndarray, widths: np.ndarray, image_width: int, clip: Clip
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Flat pixel indices (into an image `image_width` wide) of lines from `starts` to `ends` (N, 2),
+    `widths` (N,) pixels wide, inside `clip`, and each pixel's segment.
 
     Like OpenGL's aliased wide lines: one sample per pixel along the major axis, `width` pixels across it.
     """
-    height, image_width = shape
-    a, b, keep = _clip_segments(np.asarray(starts, float), np.asarray(ends, float), image_width, height)
+    a, b, keep = _clip_segments(starts, ends, clip)
     if len(a) == 0:
         empty = np.zeros(0, np.intp)
-        return empty, empty, empty
+        return empty, empty
+    widths = np.asarray(widths, np.intp)[keep]
     d = b - a
     steps = np.maximum(np.ceil(np.abs(d).max(axis=1)).astype(np.intp), 1)
     n = steps + 1
@@ -54,90 +59,102 @@ def line_pixels(starts: np.ndarray, ends: np.ndarray, width: int, shape: tuple[i
     t = k / steps[segment]
     cols = np.floor(a[segment, 0] + t * d[segment, 0]).astype(np.intp)
     rows = np.floor(a[segment, 1] + t * d[segment, 1]).astype(np.intp)
-    if width > 1:
-        offsets = np.arange(width) - (width - 1) // 2
+    wide = int(widths.max())
+    if wide > 1:
+        across = np.arange(wide)
+        offsets = across - ((widths - 1) // 2)[segment, None]
         x_major = (np.abs(d[:, 0]) >= np.abs(d[:, 1]))[segment, None]
-        rows = (rows[:, None] + np.where(x_major, offsets, 0)).ravel()
-        cols = (cols[:, None] + np.where(x_major, 0, offsets)).ravel()
-        segment = np.repeat(segment, width)
-    inside = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < image_width)
-    return rows[inside], cols[inside], np.flatnonzero(keep)[segment[inside]]
+        valid = (across < widths[segment, None]).ravel()
+        rows = (rows[:, None] + np.where(x_major, offsets, 0)).ravel()[valid]
+        cols = (cols[:, None] + np.where(x_major, 0, offsets)).ravel()[valid]
+        segment = np.repeat(segment, wide)[valid]
+    inside = (rows >= clip[0]) & (rows < clip[1]) & (cols >= clip[2]) & (cols < clip[3])
+    return rows[inside] * image_width + cols[inside], np.flatnonzero(keep)[segment[inside]]
 
 
-def paint(image: np.ndarray, rows: np.ndarray, cols: np.ndarray, colour: np.ndarray, alpha: float = 1.0) -> None:
-    """Sets the pixels (`rows`, `cols`) to `colour` ((3,) or one per pixel, 0-255), blended with what is
-    there when `alpha` < 1."""
-    if alpha >= 1.0:
-        image[rows, cols] = colour
-    else:
-        image[rows, cols] = (image[rows, cols] * (1.0 - alpha) + np.asarray(colour, float) * alpha
-                             + 0.5).astype(np.uint8)
-
-
-def lines(image: np.ndarray, starts: np.ndarray, ends: np.ndarray, colour, width: int,
-          alpha: float = 1.0) -> None:
-    """Draws segments (N, 2) -> (N, 2) in one colour ((3,) 0-255) or one colour per segment ((N, 3))."""
+def lines(image: np.ndarray, starts: np.ndarray, ends: np.ndarray, colours: np.ndarray, widths: np.ndarray,
+          alphas: np.ndarray, clip: Clip, hidden: np.ndarray | None = None) -> None:
+    """Draws segments (N, 2) -> (N, 2), each with its colour (N, 3) [0-255], width [px] and opacity, in
+    order (a later segment covers an earlier one), inside `clip` of the contiguous `image`, except on the
+    pixels `hidden` (an image-sized mask, or None)."""
     if len(starts) == 0:
         return
-    rows, cols, segment = line_pixels(starts, ends, width, image.shape[:2])
-    colour = np.asarray(colour)
-    paint(image, rows, cols, colour[segment] if colour.ndim == 2 else colour, alpha)
+    flat, segment = line_pixels(starts, ends, widths, image.shape[1], clip)
+    if hidden is not None:
+        shown = ~hidden.reshape(-1)[flat]
+        flat, segment = flat[shown], segment[shown]
+    pixels = image.reshape(-1, 3)
+    colour, alpha = colours[segment], alphas[segment, None]
+    if np.all(alphas >= 1.0):
+        pixels[flat] = colour
+    else:
+        pixels[flat] = (pixels[flat] * (1.0 - alpha) + colour * alpha + 0.5).astype(np.uint8)
 
 
-def _box(image: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[int, int, int, int] | None:
-    """Integer (row0, row1, col0, col1) of the pixels whose centres may lie in [lo, hi], clipped."""
-    h, w = image.shape[:2]
+def _box(lo: np.ndarray, hi: np.ndarray, clip: Clip) -> Clip | None:
+    """Integer (row0, row1, col0, col1) of the pixels whose centres may lie in [lo, hi] (x, y), in `clip`."""
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
         return None
-    c0, r0 = np.maximum(np.floor(lo - 0.5).astype(int), 0)
-    c1, r1 = np.minimum(np.ceil(hi + 0.5).astype(int), (w, h))
+    c0, r0 = int(max(np.floor(lo[0] - 0.5), clip[2])), int(max(np.floor(lo[1] - 0.5), clip[0]))
+    c1, r1 = int(min(np.ceil(hi[0] + 0.5), clip[3])), int(min(np.ceil(hi[1] + 0.5), clip[1]))
     return None if c0 >= c1 or r0 >= r1 else (r0, r1, c0, c1)
 
 
-def _blend(region: np.ndarray, mask: np.ndarray, colour, alpha: float) -> None:
+def _blend(image: np.ndarray, box: Clip, mask: np.ndarray, colour, alpha: float, hidden: np.ndarray | None
+           ) -> None:
+    r0, r1, c0, c1 = box
+    region = image[r0:r1, c0:c1]
+    if hidden is not None:
+        mask = mask & ~hidden[r0:r1, c0:c1]
     if alpha >= 1.0:
         region[mask] = colour
     else:
         region[mask] = (region[mask] * (1.0 - alpha) + np.asarray(colour, float) * alpha + 0.5).astype(np.uint8)
 
 
-def fill_polygon(image: np.ndarray, vertices: np.ndarray, colour, alpha: float = 1.0) -> None:
+def fill_polygon(image: np.ndarray, vertices: np.ndarray, colour, clip: Clip, hidden: np.ndarray | None = None,
+                 alpha: float = 1.0) -> None:
     """Fills a convex polygon (K, 2) of either winding: the pixels whose centres lie inside it."""
     vertices = np.asarray(vertices, float)
-    box = _box(image, vertices.min(axis=0), vertices.max(axis=0))
+    box = _box(vertices.min(axis=0), vertices.max(axis=0), clip)
     if box is None:
         return
     r0, r1, c0, c1 = box
     x = np.arange(c0, c1) + 0.5
     y = (np.arange(r0, r1) + 0.5)[:, None]
-    edges = np.roll(vertices, -1, axis=0) - vertices
-    area = np.sum(vertices[:, 0] * np.roll(vertices[:, 1], -1) - np.roll(vertices[:, 0], -1) * vertices[:, 1])
-    sign = 1.0 if area >= 0 else -1.0
+    nxt = np.roll(vertices, -1, axis=0)
+    edges = nxt - vertices
+    sign = 1.0 if np.sum(vertices[:, 0] * nxt[:, 1] - nxt[:, 0] * vertices[:, 1]) >= 0 else -1.0
     mask = np.ones((r1 - r0, c1 - c0), bool)
     for (vx, vy), (ex, ey) in zip(vertices, edges, strict=True):
         mask &= sign * (ex * (y - vy) - ey * (x - vx)) >= 0
-    _blend(image[r0:r1, c0:c1], mask, colour, alpha)
+    _blend(image, box, mask, colour, alpha, hidden)
 
 
-def fill_disc(image: np.ndarray, centre, radius: float, colour, alpha: float = 1.0) -> None:
+def fill_disc(image: np.ndarray, centre, radius: float, colour, clip: Clip, hidden: np.ndarray | None = None,
+              alpha: float = 1.0) -> None:
     """Fills the pixels whose centres lie within `radius` of `centre`."""
     centre = np.asarray(centre, float)
-    box = _box(image, centre - radius, centre + radius)
+    box = _box(centre - radius, centre + radius, clip)
     if box is None:
         return
     r0, r1, c0, c1 = box
     dx = np.arange(c0, c1) + 0.5 - centre[0]
     dy = (np.arange(r0, r1) + 0.5)[:, None] - centre[1]
-    _blend(image[r0:r1, c0:c1], dx * dx + dy * dy <= radius * radius, colour, alpha)
+    _blend(image, box, dx * dx + dy * dy <= radius * radius, colour, alpha, hidden)
 
 
-def fill_squares(image: np.ndarray, centres: np.ndarray, half: float, colours: np.ndarray) -> None:
+def fill_squares(image: np.ndarray, centres: np.ndarray, half: float, colours: np.ndarray, clip: Clip,
+                 hidden: np.ndarray | None = None) -> None:
     """Axis-aligned squares of half-size `half` [px] around `centres` (N, 2), one colour each."""
     for centre, colour in zip(np.asarray(centres, float), colours, strict=True):
-        box = _box(image, centre - half, centre + half)
+        box = _box(centre - half, centre + half, clip)
         if box is not None:
             r0, r1, c0, c1 = box
-            image[r0:r1, c0:c1] = colour
+            if hidden is None:
+                image[r0:r1, c0:c1] = colour
+            else:
+                np.copyto(image[r0:r1, c0:c1], colour.astype(np.uint8), where=~hidden[r0:r1, c0:c1, None])
 
 
 def darken(region: np.ndarray, keep: float) -> None:

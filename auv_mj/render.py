@@ -78,6 +78,9 @@ SAMPLES = 0
 (Mesa llvmpipe) for slightly smoother lines; 0 is sharp enough at 720p."""
 TIME_TOLERANCE = 1e-6
 """Frame times within this of a recorded instant [s] show that instant (physics time drifts by ulps)."""
+GEOM_SLICES = (16, 6)
+"""Slices and stacks of round geoms (MuJoCo's defaults 28 and 16): the hull is a few pixels long under its
+marker, and the rasteriser pays per vertex."""
 EXTRA_GEOMS = 1000
 """Room in the scene for the patches of water under the model's geoms."""
 HEADLIGHT_GAIN = 0.5
@@ -263,6 +266,7 @@ class FrameRenderer:
         vis.global_.orthographic = 1
         vis.quality.offsamples = samples
         vis.quality.numquads = 1  # boxes seen from above need no subdivided faces
+        vis.quality.numslices, vis.quality.numstacks = GEOM_SLICES
         vis.map.znear, vis.map.zfar = 0.001, 10.0
         self._extent = arena_extent(self.arena)
         self.model.stat.extent = max(self._extent[2], self._extent[3], follow_view, 10.0)
@@ -308,6 +312,7 @@ class FrameRenderer:
         self._mover_colours: list[np.ndarray] = []
         self._layer, self._layer_key = None, None
         self._water_image = np.empty((self.height, self.width, 3), np.uint8)
+        self._hidden = np.zeros((self.height, self.width), bool)  # pixels of geoms above the decorations
         self._water_image[:] = self._water_colour()
         self._font = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_NORMAL, self.width, self.height)
         self._font_big = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_BIG, self.width, self.height)
@@ -385,18 +390,20 @@ class FrameRenderer:
         return [((int(a), int(b), int(c), int(e)), bool(t)) for a, b, c, e, t in
                 zip(r0[show], r1[show], c0[show], c1[show], top[show] > Z_MARKER, strict=True)]
 
-    def _draw_geoms(self, image: np.ndarray, window: tuple[float, float, float], geoms: np.ndarray) -> list:
-        """Water, and the model's geoms `geoms` (a mask) as MuJoCo draws them, into `image` (one view).
+    def _draw_geoms(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float],
+                    geoms: np.ndarray, hidden: np.ndarray) -> bool:
+        """Water, and the model's geoms `geoms` (a mask) as MuJoCo draws them, into the part `clip` of `image`.
 
-        OpenGL draws only the boxes around the geoms, each on its own patch of water, and only those are
-        read back: a software rasteriser pays for every pixel filled, and most of a view is open water.
-        Returns the patches of geoms that stand above the decorations, (box, pixels, mask), for `_occlude`.
+        Each box around the geoms is drawn by OpenGL on its own patch of water, in a viewport of its size
+        (packed from the corner of the framebuffer), and read back: a software rasteriser pays for every
+        pixel it clears or fills, and most of a view is open water. Marks in `hidden` (cleared in `clip`)
+        the pixels of geoms that stand above the decorations; returns whether there are any.
         """
-        h, w = image.shape[:2]
-        np.copyto(image, self._water_image[:h, :w])
-        boxes = self._geom_boxes(window, (w, h), geoms)
-        if not boxes:
-            return []
+        r0, r1, c0, c1 = clip
+        w, h = c1 - c0, r1 - r0
+        np.copyto(image[r0:r1, c0:c1], self._water_image[:h, :w])
+        hidden[r0:r1, c0:c1] = False
+        boxes = _merge(self._geom_boxes(window, (w, h), geoms))
         cx, cy, view_h = window
         px = view_h / h
         x0, y1 = cx - view_h * w / h / 2, cy + view_h / 2
@@ -405,123 +412,140 @@ class FrameRenderer:
         self.model.vis.global_.fovy = view_h  # orthographic: the view height in metres
         mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
                                mujoco.mjtCatBit.mjCAT_ALL, self.scene)
-        boxes = _merge(boxes)
-        for (r0, r1, c0, c1), _ in boxes:
-            centre = np.array([x0 + (c0 + c1) / 2 * px, y1 - (r0 + r1) / 2 * px, Z_WATER])
-            self._add(mujoco.mjtGeom.mjGEOM_BOX, WATER_RGBA, centre,
-                      np.array([(c1 - c0 + 2) / 2 * px, (r1 - r0 + 2) / 2 * px, 0.05]))
-        mujoco.mjr_render(mujoco.MjrRect(0, 0, w, h), self.scene, self._context)
-        above = []
-        water = self._water_image[0, 0, 2]
-        for (r0, r1, c0, c1), tall in boxes:
-            patch = np.empty((r1 - r0, c1 - c0, 3), np.uint8)
-            mujoco.mjr_readPixels(patch, None, mujoco.MjrRect(c0, h - r1, c1 - c0, r1 - r0), self._context)
-            image[r0:r1, c0:c1] = patch = patch[::-1]
-            if tall:  # the geom's pixels: where the patch is not water (its blue channel tells, cheaply)
-                above.append(((r0, r1, c0, c1), patch, patch[..., 2] != water))
-        return above
+        places, x, y, shelf = [], 0, 0, 0
+        for (b0, b1, a0, a1), _ in boxes:
+            bw, bh = a1 - a0, b1 - b0
+            if x + bw > self.width:  # next shelf of the framebuffer
+                x, y, shelf = 0, y + shelf, 0
+            places.append((x, y))
+            x, shelf = x + bw, max(shelf, bh)
+            centre = np.array([x0 + (a0 + a1) / 2 * px, y1 - (b0 + b1) / 2 * px, Z_WATER])
+            self._add(mujoco.mjtGeom.mjGEOM_BOX, WATER_RGBA, centre, np.array([bw * px, bh * px, 0.05]))
+        for ((b0, b1, a0, a1), _), (x, y) in zip(boxes, places, strict=True):
+            # The box's part of the view's frustum, so the camera and its headlight stay where they are.
+            for cam in self.scene.camera:
+                cam.frustum_center = x0 + (a0 + a1) / 2 * px - cx
+                cam.frustum_bottom, cam.frustum_top = view_h / 2 - b1 * px, view_h / 2 - b0 * px
+                cam.frustum_width = 0.0
+            mujoco.mjr_render(mujoco.MjrRect(x, y, a1 - a0, b1 - b0), self.scene, self._context)
+        water, any_tall = self._water_image[0, 0, 2], False
+        for ((b0, b1, a0, a1), tall), (x, y) in zip(boxes, places, strict=True):
+            patch = np.empty((b1 - b0, a1 - a0, 3), np.uint8)
+            mujoco.mjr_readPixels(patch, None, mujoco.MjrRect(x, y, a1 - a0, b1 - b0), self._context)
+            image[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = patch = patch[::-1]
+            if tall:  # the geom's own pixels: where the patch is not water (its blue channel tells)
+                hidden[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = patch[..., 2] != water
+                any_tall = True
+        return any_tall
 
     @staticmethod
-    def _occlude(image: np.ndarray, above: list) -> None:
-        """Puts back the pixels of the geoms that stand above the decorations (obstacles hide the beams'
-        ends, as they did when OpenGL drew the decorations at their heights)."""
-        for (r0, r1, c0, c1), patch, mask in above:
-            np.copyto(image[r0:r1, c0:c1], patch, where=mask[..., None])
-
-    def _to_pixels(self, points: np.ndarray, window: tuple[float, float, float], size: tuple[int, int]
-                   ) -> np.ndarray:
-        """(column, row) pixel coordinates of world points (N, 2) in a view of `size` (w, h) px."""
+    def _to_pixels(points, window: tuple[float, float, float], clip: raster.Clip) -> np.ndarray:
+        """(column, row) pixel coordinates in the image of world points (N, 2) seen in `window` at `clip`."""
         cx, cy, view_h = window
-        w, h = size
-        s = h / view_h
+        r0, r1, c0, c1 = clip
+        s = (r1 - r0) / view_h
         points = np.asarray(points, float).reshape(-1, 2)
-        return np.stack([(points[:, 0] - cx) * s + w / 2, (cy - points[:, 1]) * s + h / 2], axis=1)
+        return np.stack([(points[:, 0] - cx) * s + (c0 + c1) / 2, (cy - points[:, 1]) * s + (r0 + r1) / 2], axis=1)
 
-    def _draw_static(self, image: np.ndarray, view: View, window: tuple[float, float, float], goal: np.ndarray,
-                     subgoals: np.ndarray, reached: int) -> None:
-        """What does not move with the vehicle: goals, map bounds, global path, movers' paths, scale bar."""
-        h, w = image.shape[:2]
+    def _static_lines(self, window: tuple[float, float, float], clip: raster.Clip) -> list:
+        """Segments of what does not move: map bounds, global path, movers' paths, scale bar."""
+        r0, r1, c0, c1 = clip
+        w, h = c1 - c0, r1 - r0
+        view_w, a = window[2] * w / h, self.arena
+        segments = []
+        if np.all(np.isfinite(a.bounds)):
+            corners = np.array([a.bounds[:2], a.bounds[[2, 1]], a.bounds[2:], a.bounds[[0, 3]], a.bounds[:2]])
+            segments.append((corners[:-1], corners[1:], BOUNDS_RGBA, 2))
+        if len(a.path) > 1:
+            segments.append((*_in_view(a.path, window, w / h), PATH_RGBA, 2))
+        if len(a.mover_paths):
+            paths = np.asarray(a.mover_paths, float).reshape(-1, 2, 2)
+            segments.append((paths[:, 0], paths[:, 1], MOVER_PATH_RGBA, 1))
+        segments = [(self._to_pixels(s, window, clip), self._to_pixels(e, window, clip), c, wd)
+                    for s, e, c, wd in segments]
+        # Scale bar in the bottom-left corner, above its label.
+        bar, line_h = scale_bar_length(view_w) * h / window[2], self._context.charHeight
+        x, y = c0 + 0.6 * line_h, r1 - 1.8 * line_h
+        segments.append((np.array([[x, y]]), np.array([[x + bar, y]]), SCALE_RGBA, 3))
+        segments.append((np.array([[x, y - 0.3 * line_h], [x + bar, y - 0.3 * line_h]]),
+                         np.array([[x, y + 0.3 * line_h], [x + bar, y + 0.3 * line_h]]), SCALE_RGBA, 2))
+        return segments
+
+    def _draw_goals(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float],
+                    goal: np.ndarray, subgoals: np.ndarray, reached: int, hidden: np.ndarray | None) -> None:
+        """The goal area and the sub-goals (reached ones green)."""
+        r0, r1, c0, c1 = clip
         cx, cy, view_h = window
+        w, h = c1 - c0, r1 - r0
         view_w, px, a = view_h * w / h, view_h / h, self.arena
-        pix = lambda p: self._to_pixels(p, window, (w, h))  # noqa: E731
         visible = np.all(np.abs(subgoals - (cx, cy)) < np.array([view_w, view_h]) / 2 + a.goal_radius, axis=1)
         for i in np.flatnonzero(visible):
             if not np.allclose(subgoals[i], goal):
                 rgba = REACHED_RGBA if i < reached else SUBGOAL_RGBA
-                raster.fill_disc(image, pix(subgoals[i])[0], a.goal_radius / px, _fill(rgba, 0.8), rgba[3])
+                raster.fill_disc(image, self._to_pixels(subgoals[i], window, clip)[0], a.goal_radius / px,
+                                 _fill(rgba, 0.8), clip, hidden, rgba[3])
         if np.all(np.isfinite(goal)):
-            centre = pix(goal)[0]
-            raster.fill_disc(image, centre, a.goal_radius / px, _fill(GOAL_RGBA, 0.8), GOAL_RGBA[3])
-            raster.fill_disc(image, centre, max(1.5 * px, 0.5) / px, _fill(GOAL_RGBA, 0.8))
-        if np.all(np.isfinite(a.bounds)):
-            corners = np.array([a.bounds[:2], a.bounds[[2, 1]], a.bounds[2:], a.bounds[[0, 3]], a.bounds[:2]])
-            raster.lines(image, pix(corners[:-1]), pix(corners[1:]), _line(BOUNDS_RGBA), 2)
-        if len(a.path) > 1:
-            starts, ends = _in_view(a.path, window, w / h)
-            raster.lines(image, pix(starts), pix(ends), _line(PATH_RGBA), 2)
-        if len(a.mover_paths):
-            paths = np.asarray(a.mover_paths, float).reshape(-1, 2, 2)
-            raster.lines(image, pix(paths[:, 0]), pix(paths[:, 1]), _line(MOVER_PATH_RGBA), 1,
-                         MOVER_PATH_RGBA[3])
-        # Scale bar in the bottom-left corner, above its label.
-        bar, line_h = scale_bar_length(view_w) / px, self._context.charHeight
-        x, y = 0.6 * line_h, h - 1.8 * line_h
-        white = _line(SCALE_RGBA)
-        raster.lines(image, np.array([[x, y]]), np.array([[x + bar, y]]), white, 3)
-        raster.lines(image, np.array([[x, y - 0.3 * line_h], [x + bar, y - 0.3 * line_h]]),
-                     np.array([[x, y + 0.3 * line_h], [x + bar, y + 0.3 * line_h]]), white, 2)
+            centre = self._to_pixels(goal, window, clip)[0]
+            raster.fill_disc(image, centre, a.goal_radius / px, _fill(GOAL_RGBA, 0.8), clip, hidden, GOAL_RGBA[3])
+            raster.fill_disc(image, centre, max(1.5 * px, 0.5) / px, _fill(GOAL_RGBA, 0.8), clip, hidden)
 
-    def _draw_moving(self, image: np.ndarray, view: View, window: tuple[float, float, float], state: Snapshot,
-                     trail: np.ndarray, movers: bool) -> None:
-        """What moves: the trail, the sonar beams, the moving obstacles (`movers`: where OpenGL did not
-        draw them) and the vehicle marker."""
-        h, w = image.shape[:2]
-        view_h = window[2]
-        px = view_h / h
-        pix = lambda p: self._to_pixels(p, window, (w, h))  # noqa: E731
+    def _draw_moving(self, image: np.ndarray, clip: raster.Clip, view: View, window: tuple[float, float, float],
+                     state: Snapshot, trail: np.ndarray, hidden: np.ndarray | None, segments: list,
+                     movers: bool) -> None:
+        """What moves, over `segments` (static lines still to draw): the trail, the sonar beams and their
+        hits, the moving obstacles (`movers`: where OpenGL did not draw them) and the vehicle marker."""
+        follow = view.kind == "follow"
         points = np.concatenate([trail.reshape(-1, 2), state.pose[None, :2]])
-        starts, ends = _in_view(points, window, w / h)
-        raster.lines(image, pix(starts), pix(ends), _line(TRAIL_RGBA), 2 if view.kind == "follow" else 2)
+        starts, ends = _in_view(points, window, (clip[3] - clip[2]) / (clip[1] - clip[0]))
+        segments.append((self._to_pixels(starts, window, clip), self._to_pixels(ends, window, clip),
+                         TRAIL_RGBA, 2))
         # Sonar beams from the bow to their hit points.
         d = self.data
         origin = d.site_xpos[self._sonar_sites, :2]
         heading = d.site_xmat[self._sonar_sites].reshape(-1, 3, 3)[:, :2, 2]
         distance = np.asarray(state.sonar, float)
-        hits = origin + heading * distance[:, None]
         echo = distance < SONAR_RANGE - 1e-6
-        a, b = pix(origin), pix(hits)
-        raster.lines(image, a[~echo], b[~echo], _line(NO_ECHO_RGBA), 1, NO_ECHO_RGBA[3])
-        if np.any(echo):
-            colours = np.array([_range_colour(r)[:3] for r in distance[echo]])
-            raster.lines(image, a[echo], b[echo], np.floor(colours * 255), 2 if view.kind == "follow" else 1)
-            raster.fill_squares(image, b[echo], 2.5, np.floor(np.minimum(colours * 1.5, 1.0) * 255))
+        a = self._to_pixels(origin, window, clip)
+        b = self._to_pixels(origin + heading * distance[:, None], window, clip)
+        colours = np.array([_range_colour(r) for r in distance])
+        colours[~echo] = NO_ECHO_RGBA
+        starts = np.concatenate([s for s, *_ in segments] + [a])
+        ends = np.concatenate([e for _, e, *_ in segments] + [b])
+        rgba = np.concatenate([np.broadcast_to(np.asarray(c, float), (len(s), 4)) for s, _, c, _ in segments]
+                              + [colours])
+        widths = np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments]
+                                + [np.where(echo, 2 if follow else 1, 1)])
+        raster.lines(image, starts, ends, np.floor(rgba[:, :3] * 255), widths, rgba[:, 3], clip, hidden)
+        raster.fill_squares(image, b[echo], 2.5, np.floor(np.minimum(colours[echo, :3] * 1.5, 1.0) * 255), clip,
+                            hidden)
         if movers:
             for geoms, colour in zip(self._mover_geoms, self._mover_colours, strict=True):
                 for g in geoms:
-                    self._fill_geom(image, g, window, colour)
+                    self._fill_geom(image, clip, g, window, colour)
         # The vehicle: a dart pointing along its heading, MARKER_LENGTH of the view tall.
         x, y, psi = state.pose
-        length = max(MARKER_LENGTH * view_h, 1.4)
+        length = max(MARKER_LENGTH * window[2], 1.4)
         fwd, left = np.array([math.cos(psi), math.sin(psi)]), np.array([-math.sin(psi), math.cos(psi)])
         centre = np.array([x, y])
-        dart = pix([centre + 0.6 * length * fwd, centre - 0.4 * length * fwd + 0.35 * length * left,
-                    centre - 0.2 * length * fwd, centre - 0.4 * length * fwd - 0.35 * length * left])
+        dart = self._to_pixels([centre + 0.6 * length * fwd, centre - 0.4 * length * fwd + 0.35 * length * left,
+                                centre - 0.2 * length * fwd, centre - 0.4 * length * fwd - 0.35 * length * left],
+                               window, clip)
         marker = _fill(MARKER_RGBA, 1.0)
-        raster.fill_polygon(image, dart[[0, 1, 2]], marker)
-        raster.fill_polygon(image, dart[[0, 2, 3]], marker)
-        del px
+        raster.fill_polygon(image, dart[[0, 1, 2]], marker, clip, hidden)
+        raster.fill_polygon(image, dart[[0, 2, 3]], marker, clip, hidden)
 
-    def _fill_geom(self, image: np.ndarray, geom: int, window: tuple[float, float, float], colour) -> None:
+    def _fill_geom(self, image: np.ndarray, clip: raster.Clip, geom: int, window: tuple[float, float, float],
+                   colour) -> None:
         """A model geom's footprint seen from above, in one colour (moving obstacles in the overview)."""
         m, d = self.model, self.data
-        h, w = image.shape[:2]
         centre, size = d.geom_xpos[geom, :2], m.geom_size[geom]
         if m.geom_type[geom] == mujoco.mjtGeom.mjGEOM_BOX:
             axes = d.geom_xmat[geom].reshape(3, 3)[:2, :2] * size[:2]
             corners = centre + np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) @ axes.T
-            raster.fill_polygon(image, self._to_pixels(corners, window, (w, h)), colour)
+            raster.fill_polygon(image, self._to_pixels(corners, window, clip), colour, clip)
         else:
-            raster.fill_disc(image, self._to_pixels(centre, window, (w, h))[0], size[0] * h / window[2], colour)
+            raster.fill_disc(image, self._to_pixels(centre, window, clip)[0],
+                             size[0] * (clip[1] - clip[0]) / window[2], colour, clip)
 
     def _labels(self, image: np.ndarray, view: View, window: tuple[float, float, float]) -> None:
         """The scale bar's length under it, and the overview's height, at the corners of `view` in the
@@ -536,39 +560,44 @@ class FrameRenderer:
                                f"overview, {window[2]:.0f} m tall")
 
     def _overview_layer(self, view: View, window: tuple[float, float, float], goal: np.ndarray,
-                        subgoals: np.ndarray, reached: int) -> np.ndarray:
+                        subgoals: np.ndarray, reached: int) -> tuple[np.ndarray, np.ndarray | None]:
         """The overview without what moves (vehicle, trail, beams, movers), framed by its border when it is
-        an inset; drawn again only when the window or the goals change."""
+        an inset, and its pixels of tall geoms (or None); drawn again only when the window or goals change."""
         key = (window, tuple(np.round(goal, 9)), subgoals.tobytes(), min(reached, len(subgoals)))
         if self._layer_key == key:
             return self._layer
         _, _, w, h = view.rect
         border = INSET_BORDER if view.inset else 0
         layer = np.full((h + 2 * border, w + 2 * border, 3), 230, np.uint8)  # 0.9 grey, as mjr_rectangle
-        inner = layer[border:border + h, border:border + w]
+        hidden = np.zeros(layer.shape[:2], bool)
+        clip = (border, border + h, border, border + w)
         qpos, mocap = self.data.qpos.copy(), self.data.mocap_pos.copy()
         try:
             # Movers in place first, to find the colour OpenGL gives them from this far away.
             self.data.qpos[self._qpos[:2]] = 1e7
             mujoco.mj_kinematics(self.model, self.data)
-            probe = np.empty_like(inner)
-            self._draw_geoms(probe, window, self._mover_mask)
+            probe = layer.copy()
+            self._draw_geoms(probe, clip, window, self._mover_mask, hidden)
             self._mover_colours = []
             for geoms in self._mover_geoms:
-                c, r = self._to_pixels(self.data.geom_xpos[geoms[0], :2], window, (w, h))[0].astype(int)
-                inside = 0 <= r < h and 0 <= c < w
+                c, r = self._to_pixels(self.data.geom_xpos[geoms[0], :2], window, clip)[0].astype(int)
+                inside = border <= r < border + h and border <= c < border + w
                 self._mover_colours.append(probe[r, c].copy() if inside else _fill(self.model.geom_rgba[
                     geoms[0]], 0.0))
             self.data.mocap_pos[self._movers] = 1e7
             mujoco.mj_kinematics(self.model, self.data)
-            above = self._draw_geoms(inner, window, self._static_mask)
+            tall = self._draw_geoms(layer, clip, window, self._static_mask, hidden)
         finally:
             self.data.qpos[:], self.data.mocap_pos[:] = qpos, mocap
             mujoco.mj_kinematics(self.model, self.data)
-        self._draw_static(inner, view, window, goal, subgoals, reached)
-        self._occlude(inner, above)
-        self._layer, self._layer_key, self._layer_above = layer, key, above
-        return layer
+        self._draw_goals(layer, clip, window, goal, subgoals, reached, hidden)
+        segments = self._static_lines(window, clip)
+        starts, ends = np.concatenate([s for s, *_ in segments]), np.concatenate([e for _, e, *_ in segments])
+        rgba = np.concatenate([np.broadcast_to(np.asarray(c, float), (len(s), 4)) for s, _, c, _ in segments])
+        widths = np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments])
+        raster.lines(layer, starts, ends, np.floor(rgba[:, :3] * 255), widths, rgba[:, 3], clip, hidden)
+        self._layer, self._layer_key = (layer, hidden if tall else None), key
+        return self._layer
 
     # --- drawing ------------------------------------------------------------------------------------------
 
@@ -593,18 +622,22 @@ class FrameRenderer:
             window = self._view_window(view, state, trail)
             left, bottom, w, h = view.rect
             top = self.height - bottom - h
-            image = out[top:top + h, left:left + w]
+            clip = (top, top + h, left, left + w)
             if view.kind == "follow":
-                above = self._draw_geoms(image, window, self._all_mask)
-                self._draw_static(image, view, window, goal, subgoals, reached)
-                self._draw_moving(image, view, window, state, trail, movers=False)
-                self._occlude(image, above)
+                tall = self._draw_geoms(out, clip, window, self._all_mask, self._hidden)
+                hidden = self._hidden if tall else None
+                self._draw_goals(out, clip, window, goal, subgoals, reached, hidden)
+                self._draw_moving(out, clip, view, window, state, trail, hidden,
+                                  self._static_lines(window, clip), movers=False)
             else:
-                layer = self._overview_layer(view, window, goal, subgoals, reached)
-                border = (layer.shape[0] - h) // 2
-                out[top - border:top + h + border, left - border:left + w + border] = layer
-                self._draw_moving(image, view, window, state, trail, movers=True)
-                self._occlude(image, self._layer_above)
+                layer, layer_hidden = self._overview_layer(view, window, goal, subgoals, reached)
+                b = (layer.shape[0] - h) // 2
+                out[top - b:top + h + b, left - b:left + w + b] = layer
+                hidden = None
+                if layer_hidden is not None:
+                    self._hidden[top - b:top + h + b, left - b:left + w + b] = layer_hidden
+                    hidden = self._hidden
+                self._draw_moving(out, clip, view, window, state, trail, hidden, [], movers=True)
             self._labels(out, view, window)
         if self.height >= OVERLAY_MIN_HEIGHT:
             self._overlay(out, state, event, reached, len(subgoals))
