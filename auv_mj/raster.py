@@ -144,17 +144,52 @@ def fill_disc(image: np.ndarray, centre, radius: float, colour, clip: Clip, hidd
     _blend(image, box, dx * dx + dy * dy <= radius * radius, colour, alpha, hidden)
 
 
-def fill_squares(image: np.ndarray, centres: np.ndarray, half: float, colours: np.ndarray, clip: Clip,
+def fill_squares(image: np.ndarray, centres: np.ndarray, size: int, colours: np.ndarray, clip: Clip,
                  hidden: np.ndarray | None = None) -> None:
-    """Axis-aligned squares of half-size `half` [px] around `centres` (N, 2), one colour each."""
-    for centre, colour in zip(np.asarray(centres, float), colours, strict=True):
-        box = _box(centre - half, centre + half, clip)
-        if box is not None:
-            r0, r1, c0, c1 = box
-            if hidden is None:
-                image[r0:r1, c0:c1] = colour
-            else:
-                np.copyto(image[r0:r1, c0:c1], colour.astype(np.uint8), where=~hidden[r0:r1, c0:c1, None])
+    """Axis-aligned squares of `size` pixels around `centres` (N, 2), one colour each (the pixels whose
+    centres lie within size / 2 of the centre), all in one assignment."""
+    if len(centres) == 0:
+        return
+    first = np.ceil(np.asarray(centres, float) - size / 2 - 0.5).astype(np.intp)  # (col, row) of the corner
+    span = np.arange(size)
+    cols = (first[:, 0, None, None] + span[None, None, :]).repeat(size, axis=1).reshape(-1)
+    rows = (first[:, 1, None, None] + span[None, :, None]).repeat(size, axis=2).reshape(-1)
+    square = np.repeat(np.arange(len(first)), size * size)
+    inside = (rows >= clip[0]) & (rows < clip[1]) & (cols >= clip[2]) & (cols < clip[3])
+    flat, square = rows[inside] * image.shape[1] + cols[inside], square[inside]
+    if hidden is not None:
+        shown = ~hidden.reshape(-1)[flat]
+        flat, square = flat[shown], square[shown]
+    image.reshape(-1, 3)[flat] = colours[square]
+
+
+def polygon_mask(vertices: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """A convex polygon (K, 2) as a bool mask of the pixels whose centres lie inside it, and the (row,
+    column) of the mask's corner."""
+    vertices = np.asarray(vertices, float)
+    c0, r0 = np.floor(vertices.min(axis=0)).astype(int)
+    c1, r1 = np.ceil(vertices.max(axis=0)).astype(int) + 1
+    x = np.arange(c0, c1) + 0.5
+    y = (np.arange(r0, r1) + 0.5)[:, None]
+    nxt = np.roll(vertices, -1, axis=0)
+    sign = 1.0 if np.sum(vertices[:, 0] * nxt[:, 1] - nxt[:, 0] * vertices[:, 1]) >= 0 else -1.0
+    mask = np.ones((r1 - r0, c1 - c0), bool)
+    for (vx, vy), (ex, ey) in zip(vertices, nxt - vertices, strict=True):
+        mask &= sign * (ex * (y - vy) - ey * (x - vx)) >= 0
+    return mask, int(r0), int(c0)
+
+
+def stamp(image: np.ndarray, mask: np.ndarray, row: int, col: int, colour, clip: Clip,
+          hidden: np.ndarray | None = None) -> None:
+    """Sets the pixels of `mask` placed with its corner at (`row`, `col`) to `colour`, inside `clip`."""
+    r0, c0 = max(row, clip[0]), max(col, clip[2])
+    r1, c1 = min(row + mask.shape[0], clip[1]), min(col + mask.shape[1], clip[3])
+    if r0 >= r1 or c0 >= c1:
+        return
+    mask = mask[r0 - row:r1 - row, c0 - col:c1 - col]
+    if hidden is not None:
+        mask = mask & ~hidden[r0:r1, c0:c1]
+    image[r0:r1, c0:c1][mask] = colour
 
 
 def darken(region: np.ndarray, keep: float) -> None:

@@ -304,12 +304,15 @@ class FrameRenderer:
         movers = [m.body(n).id for n in self.arena.mover_names]
         moving_roots = {int(m.body_rootid[b]) for b in range(1, m.nbody) if m.body_dofnum[b]} | set(movers)
         moving = np.isin(m.body_rootid[m.geom_bodyid], list(moving_roots)) | np.isin(m.geom_bodyid, movers)
-        self._all_mask = np.ones(m.ngeom, bool)
         self._static_mask = ~moving
         self._mover_geoms = [np.flatnonzero(m.geom_bodyid == m.body(n).id) for n in self.arena.mover_names]
         self._mover_geoms = [g for g in self._mover_geoms if len(g)]
         self._mover_mask = np.isin(np.arange(m.ngeom), np.concatenate([[], *self._mover_geoms]).astype(int))
         self._mover_colours: list[np.ndarray] = []
+        # The follow view leaves out the vehicle's own geoms: its marker covers the 1.33 m hull.
+        self._follow_mask = self._static_mask | self._mover_mask
+        self._darts: dict[tuple[float, int], tuple[np.ndarray, int, int]] = {}
+        self._marker_colour = _fill(MARKER_RGBA, 1.0)
         self._layer, self._layer_key = None, None
         self._water_image = np.empty((self.height, self.width, 3), np.uint8)
         self._hidden = np.zeros((self.height, self.width), bool)  # pixels of geoms above the decorations
@@ -516,23 +519,39 @@ class FrameRenderer:
         widths = np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments]
                                 + [np.where(echo, 2 if follow else 1, 1)])
         raster.lines(image, starts, ends, np.floor(rgba[:, :3] * 255), widths, rgba[:, 3], clip, hidden)
-        raster.fill_squares(image, b[echo], 2.5, np.floor(np.minimum(colours[echo, :3] * 1.5, 1.0) * 255), clip,
+        raster.fill_squares(image, b[echo], 5, np.floor(np.minimum(colours[echo, :3] * 1.5, 1.0) * 255), clip,
                             hidden)
         if movers:
             for geoms, colour in zip(self._mover_geoms, self._mover_colours, strict=True):
                 for g in geoms:
                     self._fill_geom(image, clip, g, window, colour)
         # The vehicle: a dart pointing along its heading, MARKER_LENGTH of the view tall.
-        x, y, psi = state.pose
-        length = max(MARKER_LENGTH * window[2], 1.4)
-        fwd, left = np.array([math.cos(psi), math.sin(psi)]), np.array([-math.sin(psi), math.cos(psi)])
-        centre = np.array([x, y])
-        dart = self._to_pixels([centre + 0.6 * length * fwd, centre - 0.4 * length * fwd + 0.35 * length * left,
-                                centre - 0.2 * length * fwd, centre - 0.4 * length * fwd - 0.35 * length * left],
-                               window, clip)
-        marker = _fill(MARKER_RGBA, 1.0)
-        raster.fill_polygon(image, dart[[0, 1, 2]], marker, clip, hidden)
-        raster.fill_polygon(image, dart[[0, 2, 3]], marker, clip, hidden)
+        length = max(MARKER_LENGTH * window[2], 1.4) * (clip[1] - clip[0]) / window[2]
+        mask, row, col = self._dart(length, float(state.pose[2]))
+        centre = np.round(self._to_pixels(state.pose[:2], window, clip)[0]).astype(int)
+        raster.stamp(image, mask, row + centre[1], col + centre[0], self._marker_colour, clip, hidden)
+
+    def _dart(self, length: float, heading: float) -> tuple[np.ndarray, int, int]:
+        """The vehicle marker `length` pixels long pointing along `heading`, as a mask around (0, 0), cached
+        by length and heading (to 0.5 degrees)."""
+        key = (round(length, 1), round(math.degrees(heading) * 2) % 720)
+        dart = self._darts.get(key)
+        if dart is None:
+            psi = math.radians(key[1] / 2)
+            fwd, left = np.array([math.cos(psi), -math.sin(psi)]), np.array([-math.sin(psi), -math.cos(psi)])
+            tip, notch = 0.6 * length * fwd, -0.2 * length * fwd
+            port, starboard = -0.4 * length * fwd + 0.35 * length * left, -0.4 * length * fwd - 0.35 * length * left
+            (m1, r1, c1), (m2, r2, c2) = raster.polygon_mask([tip, port, notch]), raster.polygon_mask(
+                [tip, notch, starboard])
+            r0, c0 = min(r1, r2), min(c1, c2)
+            mask = np.zeros((max(r1 + m1.shape[0], r2 + m2.shape[0]) - r0,
+                             max(c1 + m1.shape[1], c2 + m2.shape[1]) - c0), bool)
+            mask[r1 - r0:r1 - r0 + m1.shape[0], c1 - c0:c1 - c0 + m1.shape[1]] |= m1
+            mask[r2 - r0:r2 - r0 + m2.shape[0], c2 - c0:c2 - c0 + m2.shape[1]] |= m2
+            if len(self._darts) > 8192:
+                self._darts.clear()
+            dart = self._darts[key] = (mask, r0, c0)
+        return dart
 
     def _fill_geom(self, image: np.ndarray, clip: raster.Clip, geom: int, window: tuple[float, float, float],
                    colour) -> None:
@@ -624,7 +643,7 @@ class FrameRenderer:
             top = self.height - bottom - h
             clip = (top, top + h, left, left + w)
             if view.kind == "follow":
-                tall = self._draw_geoms(out, clip, window, self._all_mask, self._hidden)
+                tall = self._draw_geoms(out, clip, window, self._follow_mask, self._hidden)
                 hidden = self._hidden if tall else None
                 self._draw_goals(out, clip, window, goal, subgoals, reached, hidden)
                 self._draw_moving(out, clip, view, window, state, trail, hidden,
