@@ -232,6 +232,12 @@ def _merge(boxes: list[tuple[tuple[int, int, int, int], bool]]) -> list[tuple[tu
     return boxes
 
 
+def _opacity(alpha):
+    """How opaque MuJoCo draws a translucent decoration of `alpha`: it blends the back and then the front
+    faces (a line twice), so 1 - (1 - alpha)^2."""
+    return 1.0 - (1.0 - np.asarray(alpha, float)) ** 2
+
+
 def _range_colour(distance: float) -> tuple[float, float, float, float]:
     """Red (touching) through yellow to green (120 m) for a sonar echo."""
     f = float(np.clip(distance / SONAR_RANGE, 0.0, 1.0))
@@ -293,6 +299,7 @@ class FrameRenderer:
                      mujoco.mjtRndFlag.mjRND_SKYBOX, mujoco.mjtRndFlag.mjRND_FOG):
             self.scene.flags[flag] = 0
         self.option = mujoco.MjvOption()
+        self.option.flags[mujoco.mjtVisFlag.mjVIS_RANGEFINDER] = 0  # the render copy computes no sensors
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         self.camera.azimuth, self.camera.elevation = 90.0, -90.0  # +x right, +y up
@@ -304,10 +311,14 @@ class FrameRenderer:
         movers = [m.body(n).id for n in self.arena.mover_names]
         moving_roots = {int(m.body_rootid[b]) for b in range(1, m.nbody) if m.body_dofnum[b]} | set(movers)
         moving = np.isin(m.body_rootid[m.geom_bodyid], list(moving_roots)) | np.isin(m.geom_bodyid, movers)
-        self._static_mask = ~moving
         self._mover_geoms = [np.flatnonzero(m.geom_bodyid == m.body(n).id) for n in self.arena.mover_names]
         self._mover_geoms = [g for g in self._mover_geoms if len(g)]
-        self._mover_mask = np.isin(np.arange(m.ngeom), np.concatenate([[], *self._mover_geoms]).astype(int))
+        mover = np.isin(np.arange(m.ngeom), np.concatenate([[], *self._mover_geoms]).astype(int))
+        # Masks over the geoms, then the sites (the goal area's site is drawn, as MuJoCo would draw it).
+        site_moving = np.isin(m.body_rootid[m.site_bodyid], list(moving_roots))
+        site_shown = (self.option.sitegroup[np.clip(m.site_group, 0, 5)] > 0) & (m.site_rgba[:, 3] > 0)
+        self._static_mask = np.concatenate([~moving, site_shown & ~site_moving])
+        self._mover_mask = np.concatenate([mover, np.zeros(m.nsite, bool)])
         self._mover_colours: list[np.ndarray] = []
         # The follow view leaves out the vehicle's own geoms: its marker covers the 1.33 m hull.
         self._follow_mask = self._static_mask | self._mover_mask
@@ -369,27 +380,28 @@ class FrameRenderer:
 
     def _geom_boxes(self, window: tuple[float, float, float], size: tuple[int, int], geoms: np.ndarray
                     ) -> list[tuple[tuple[int, int, int, int], bool]]:
-        """Pixel boxes (row0, row1, col0, col1) around the model's geoms `geoms` (a mask) in a view, and
-        whether each geom stands above the decorations (its top higher than the marker's)."""
+        """Pixel boxes (row0, row1, col0, col1) around the model's geoms and visible sites selected by `geoms`
+        (a mask over geoms, then sites) in a view, and whether each stands above the decorations (its top
+        higher than the marker's)."""
         cx, cy, view_h = window
         w, h = size
         s = h / view_h
         d, m = self.data, self.model
-        half = np.where((m.geom_type == mujoco.mjtGeom.mjGEOM_BOX)[:, None],
-                        np.einsum("gij,gj->gi", np.abs(d.geom_xmat.reshape(-1, 3, 3)[:, :2]), m.geom_size),
-                        m.geom_rbound[:, None])
-        half[m.geom_type == mujoco.mjtGeom.mjGEOM_PLANE] = np.inf
+        pos = np.concatenate([d.geom_xpos, d.site_xpos])
+        mat = np.concatenate([d.geom_xmat, d.site_xmat]).reshape(-1, 3, 3)
+        sizes = np.concatenate([m.geom_size, m.site_size])
+        kind = np.concatenate([m.geom_type, m.site_type])
+        bound = np.concatenate([m.geom_rbound, m.site_size.max(axis=1)])
+        box = kind == mujoco.mjtGeom.mjGEOM_BOX
+        half = np.where(box[:, None], np.einsum("gij,gj->gi", np.abs(mat[:, :2]), sizes), bound[:, None])
+        half[kind == mujoco.mjtGeom.mjGEOM_PLANE] = np.inf
         x0, y1 = cx - view_h * w / h / 2, cy + view_h / 2
-        cols0 = np.floor((d.geom_xpos[:, 0] - half[:, 0] - x0) * s) - 1
-        cols1 = np.ceil((d.geom_xpos[:, 0] + half[:, 0] - x0) * s) + 1
-        rows0 = np.floor((y1 - d.geom_xpos[:, 1] - half[:, 1]) * s) - 1
-        rows1 = np.ceil((y1 - d.geom_xpos[:, 1] + half[:, 1]) * s) + 1
-        c0, c1 = np.clip(cols0, 0, w), np.clip(cols1, 0, w)
-        r0, r1 = np.clip(rows0, 0, h), np.clip(rows1, 0, h)
+        c0 = np.clip(np.floor((pos[:, 0] - half[:, 0] - x0) * s) - 1, 0, w)
+        c1 = np.clip(np.ceil((pos[:, 0] + half[:, 0] - x0) * s) + 1, 0, w)
+        r0 = np.clip(np.floor((y1 - pos[:, 1] - half[:, 1]) * s) - 1, 0, h)
+        r1 = np.clip(np.ceil((y1 - pos[:, 1] + half[:, 1]) * s) + 1, 0, h)
         show = geoms & (c0 < c1) & (r0 < r1)
-        top = d.geom_xpos[:, 2] + np.where(m.geom_type == mujoco.mjtGeom.mjGEOM_BOX,
-                                           np.einsum("gj,gj->g", np.abs(d.geom_xmat[:, 6:9]), m.geom_size),
-                                           m.geom_rbound)
+        top = pos[:, 2] + np.where(box, np.einsum("gj,gj->g", np.abs(mat[:, 2]), sizes), bound)
         return [((int(a), int(b), int(c), int(e)), bool(t)) for a, b, c, e, t in
                 zip(r0[show], r1[show], c0[show], c1[show], top[show] > Z_MARKER, strict=True)]
 
@@ -486,10 +498,11 @@ class FrameRenderer:
             if not np.allclose(subgoals[i], goal):
                 rgba = REACHED_RGBA if i < reached else SUBGOAL_RGBA
                 raster.fill_disc(image, self._to_pixels(subgoals[i], window, clip)[0], a.goal_radius / px,
-                                 _fill(rgba, 0.8), clip, hidden, rgba[3])
+                                 _fill(rgba, 0.8), clip, hidden, _opacity(rgba[3]))
         if np.all(np.isfinite(goal)):
             centre = self._to_pixels(goal, window, clip)[0]
-            raster.fill_disc(image, centre, a.goal_radius / px, _fill(GOAL_RGBA, 0.8), clip, hidden, GOAL_RGBA[3])
+            raster.fill_disc(image, centre, a.goal_radius / px, _fill(GOAL_RGBA, 0.8), clip, hidden,
+                             _opacity(GOAL_RGBA[3]))
             raster.fill_disc(image, centre, max(1.5 * px, 0.5) / px, _fill(GOAL_RGBA, 0.8), clip, hidden)
 
     def _draw_moving(self, image: np.ndarray, clip: raster.Clip, view: View, window: tuple[float, float, float],
@@ -518,7 +531,7 @@ class FrameRenderer:
                               + [colours])
         widths = np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments]
                                 + [np.where(echo, 2 if follow else 1, 1)])
-        raster.lines(image, starts, ends, np.floor(rgba[:, :3] * 255), widths, rgba[:, 3], clip, hidden)
+        raster.lines(image, starts, ends, np.floor(rgba[:, :3] * 255), widths, _opacity(rgba[:, 3]), clip, hidden)
         raster.fill_squares(image, b[echo], 5, np.floor(np.minimum(colours[echo, :3] * 1.5, 1.0) * 255), clip,
                             hidden)
         if movers:
@@ -614,7 +627,7 @@ class FrameRenderer:
         starts, ends = np.concatenate([s for s, *_ in segments]), np.concatenate([e for _, e, *_ in segments])
         rgba = np.concatenate([np.broadcast_to(np.asarray(c, float), (len(s), 4)) for s, _, c, _ in segments])
         widths = np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments])
-        raster.lines(layer, starts, ends, np.floor(rgba[:, :3] * 255), widths, rgba[:, 3], clip, hidden)
+        raster.lines(layer, starts, ends, np.floor(rgba[:, :3] * 255), widths, _opacity(rgba[:, 3]), clip, hidden)
         self._layer, self._layer_key = (layer, hidden if tall else None), key
         return self._layer
 
