@@ -235,7 +235,7 @@ class BitmapFont:
 
     def width(self, text: str) -> int:
         """Width [px] of one line of text."""
-        return int(sum(self.widths[ord(c)] for c in text if ord(c) < len(self.widths)))
+        return self.mask(text).shape[1]
 
     def mask(self, text: str) -> np.ndarray:
         """(charHeight, width) bool mask of one line of text (cached: most lines repeat frame to frame)."""

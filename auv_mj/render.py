@@ -83,6 +83,9 @@ GEOM_SLICES = (16, 6)
 marker, and the rasteriser pays per vertex."""
 EXTRA_GEOMS = 1000
 """Room in the scene for the patches of water under the model's geoms."""
+MERGE_AREA = 40000
+"""Boxes around geoms are drawn in one OpenGL pass when that adds fewer pixels than this (a pass costs about
+as much as shading them on a CPU rasteriser)."""
 HEADLIGHT_GAIN = 0.5
 """Light on a face seen head-on from MuJoCo's default headlight (ambient 0.1 + diffuse 0.4)."""
 
@@ -212,24 +215,26 @@ def _fill(rgba, emission: float) -> np.ndarray:
     return np.floor(np.minimum(np.asarray(rgba[:3], float) * (emission + HEADLIGHT_GAIN), 1.0) * 255)
 
 
-def _merge(boxes: list[tuple[tuple[int, int, int, int], bool]]) -> list[tuple[tuple[int, int, int, int], bool]]:
-    """Pixel boxes (row0, row1, col0, col1) with a flag, overlapping ones merged into their bounding box
-    (flags or-ed): one OpenGL pass per merged box."""
-    boxes = list(boxes)
-    merged = True
-    while merged and len(boxes) > 1:
-        merged = False
-        for i in range(len(boxes)):
-            for j in range(i + 1, len(boxes)):
-                (a, fa), (b, fb) = boxes[i], boxes[j]
-                if a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]:
-                    boxes[i] = ((min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])), fa or fb)
-                    del boxes[j]
-                    merged = True
-                    break
-            if merged:
-                break
-    return boxes
+def _merge(boxes: np.ndarray, merge_area: float) -> np.ndarray:
+    """Pixel boxes (N, 4) of (row0, row1, col0, col1) grouped into fewer, disjoint ones: overlapping boxes
+    always, others while their bounding box adds fewer than `merge_area` pixels (a pass of OpenGL costs
+    about as much as shading that many). Greedy, the cheapest pair first."""
+    boxes = np.asarray(boxes, float).reshape(-1, 4)
+    while len(boxes) > 1:
+        lo = np.minimum(boxes[:, None, [0, 2]], boxes[None, :, [0, 2]])
+        hi = np.maximum(boxes[:, None, [1, 3]], boxes[None, :, [1, 3]])
+        area = (boxes[:, 1] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 2])
+        overlap = np.prod(np.clip(np.minimum(boxes[:, None, [1, 3]], boxes[None, :, [1, 3]])
+                                  - np.maximum(boxes[:, None, [0, 2]], boxes[None, :, [0, 2]]), 0, None), axis=2)
+        added = np.prod(hi - lo, axis=2) - area[:, None] - area[None, :] + overlap
+        added = np.where(overlap > 0, -1.0, added)
+        added[np.diag_indices(len(boxes))] = np.inf
+        i, j = np.unravel_index(np.argmin(added), added.shape)
+        if added[i, j] >= merge_area:
+            break
+        boxes[i] = (lo[i, j, 0], hi[i, j, 0], lo[i, j, 1], hi[i, j, 1])
+        boxes = np.delete(boxes, j, axis=0)
+    return boxes.astype(int)
 
 
 def _opacity(alpha):
@@ -238,10 +243,11 @@ def _opacity(alpha):
     return 1.0 - (1.0 - np.asarray(alpha, float)) ** 2
 
 
-def _range_colour(distance: float) -> tuple[float, float, float, float]:
-    """Red (touching) through yellow to green (120 m) for a sonar echo."""
-    f = float(np.clip(distance / SONAR_RANGE, 0.0, 1.0))
-    return (min(1.0, 2 * (1 - f)), min(1.0, 2 * f), 0.1, 1.0)
+def _range_colours(distance: np.ndarray) -> np.ndarray:
+    """RGBA (N, 4): red (touching) through yellow to green (120 m) for sonar echoes at `distance` (N,)."""
+    f = np.clip(np.asarray(distance, float) / SONAR_RANGE, 0.0, 1.0)
+    return np.stack([np.minimum(1.0, 2 * (1 - f)), np.minimum(1.0, 2 * f), np.full_like(f, 0.1), np.ones_like(f)],
+                    axis=1)
 
 
 class FrameRenderer:
@@ -418,7 +424,11 @@ class FrameRenderer:
         w, h = c1 - c0, r1 - r0
         np.copyto(image[r0:r1, c0:c1], self._water_image[:h, :w])
         hidden[r0:r1, c0:c1] = False
-        boxes = _merge(self._geom_boxes(window, (w, h), geoms))
+        found = self._geom_boxes(window, (w, h), geoms)
+        if not found:
+            return False
+        tall = [box for box, is_tall in found if is_tall]
+        boxes = _merge([box for box, _ in found], MERGE_AREA)
         cx, cy, view_h = window
         px = view_h / h
         x0, y1 = cx - view_h * w / h / 2, cy + view_h / 2
@@ -428,7 +438,7 @@ class FrameRenderer:
         mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
                                mujoco.mjtCatBit.mjCAT_ALL, self.scene)
         places, x, y, shelf = [], 0, 0, 0
-        for (b0, b1, a0, a1), _ in boxes:
+        for b0, b1, a0, a1 in boxes:
             bw, bh = a1 - a0, b1 - b0
             if x + bw > self.width:  # next shelf of the framebuffer
                 x, y, shelf = 0, y + shelf, 0
@@ -436,21 +446,21 @@ class FrameRenderer:
             x, shelf = x + bw, max(shelf, bh)
             centre = np.array([x0 + (a0 + a1) / 2 * px, y1 - (b0 + b1) / 2 * px, Z_WATER])
             self._add(mujoco.mjtGeom.mjGEOM_BOX, WATER_RGBA, centre, np.array([bw * px, bh * px, 0.05]))
-        for ((b0, b1, a0, a1), _), (x, y) in zip(boxes, places, strict=True):
+        for (b0, b1, a0, a1), (x, y) in zip(boxes, places, strict=True):
             # The box's part of the view's frustum, so the camera and its headlight stay where they are.
             for cam in self.scene.camera:
                 cam.frustum_center = x0 + (a0 + a1) / 2 * px - cx
                 cam.frustum_bottom, cam.frustum_top = view_h / 2 - b1 * px, view_h / 2 - b0 * px
                 cam.frustum_width = 0.0
             mujoco.mjr_render(mujoco.MjrRect(x, y, a1 - a0, b1 - b0), self.scene, self._context)
-        water, any_tall = self._water_image[0, 0, 2], False
-        for ((b0, b1, a0, a1), tall), (x, y) in zip(boxes, places, strict=True):
+        for (b0, b1, a0, a1), (x, y) in zip(boxes, places, strict=True):
             patch = np.empty((b1 - b0, a1 - a0, 3), np.uint8)
             mujoco.mjr_readPixels(patch, None, mujoco.MjrRect(x, y, a1 - a0, b1 - b0), self._context)
-            image[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = patch = patch[::-1]
-            if tall:  # the geom's own pixels: where the patch is not water (its blue channel tells)
-                hidden[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = patch[..., 2] != water
-                any_tall = True
+            image[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = patch[::-1]
+        water = self._water_image[0, 0, 2]
+        for b0, b1, a0, a1 in tall:  # the tall geoms' own pixels: not water (the blue channel tells)
+            hidden[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = image[r0 + b0:r0 + b1, c0 + a0:c0 + a1, 2] != water
+        any_tall = bool(tall)
         return any_tall
 
     @staticmethod
@@ -459,8 +469,7 @@ class FrameRenderer:
         cx, cy, view_h = window
         r0, r1, c0, c1 = clip
         s = (r1 - r0) / view_h
-        points = np.asarray(points, float).reshape(-1, 2)
-        return np.stack([(points[:, 0] - cx) * s + (c0 + c1) / 2, (cy - points[:, 1]) * s + (r0 + r1) / 2], axis=1)
+        return (np.asarray(points, float).reshape(-1, 2) - (cx, cy)) * (s, -s) + ((c0 + c1) / 2, (r0 + r1) / 2)
 
     def _static_lines(self, window: tuple[float, float, float], clip: raster.Clip) -> list:
         """Segments of what does not move: map bounds, global path, movers' paths, scale bar."""
@@ -523,7 +532,7 @@ class FrameRenderer:
         echo = distance < SONAR_RANGE - 1e-6
         a = self._to_pixels(origin, window, clip)
         b = self._to_pixels(origin + heading * distance[:, None], window, clip)
-        colours = np.array([_range_colour(r) for r in distance])
+        colours = _range_colours(distance)
         colours[~echo] = NO_ECHO_RGBA
         starts = np.concatenate([s for s, *_ in segments] + [a])
         ends = np.concatenate([e for _, e, *_ in segments] + [b])
