@@ -46,7 +46,11 @@ def line_pixels(starts: np.ndarray, ends: np.ndarray, widths: np.ndarray, image_
 
     Like OpenGL's aliased wide lines: one sample per pixel along the major axis, `width` pixels across it.
     """
-    a, b, keep = _clip_segments(starts, ends, clip)
+    lo, hi = np.minimum(starts.min(axis=0), ends.min(axis=0)), np.maximum(starts.max(axis=0), ends.max(axis=0))
+    if lo[0] >= clip[2] and lo[1] >= clip[0] and hi[0] <= clip[3] and hi[1] <= clip[1]:
+        a, b, keep = starts, ends, np.ones(len(starts), bool)  # all inside: nothing to clip
+    else:
+        a, b, keep = _clip_segments(starts, ends, clip)
     if len(a) == 0:
         empty = np.zeros(0, np.intp)
         return empty, empty

@@ -220,6 +220,10 @@ def _merge(boxes: np.ndarray, merge_area: float) -> np.ndarray:
     always, others while their bounding box adds fewer than `merge_area` pixels (a pass of OpenGL costs
     about as much as shading that many). Greedy, the cheapest pair first."""
     boxes = np.asarray(boxes, float).reshape(-1, 4)
+    union = np.array([boxes[:, 0].min(), boxes[:, 1].max(), boxes[:, 2].min(), boxes[:, 3].max()])
+    areas = (boxes[:, 1] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 2])
+    if (union[1] - union[0]) * (union[3] - union[2]) - areas.sum() < merge_area:  # all in one pass
+        return union[None].astype(int)
     while len(boxes) > 1:
         lo = np.minimum(boxes[:, None, [0, 2]], boxes[None, :, [0, 2]])
         hi = np.maximum(boxes[:, None, [1, 3]], boxes[None, :, [1, 3]])
@@ -326,6 +330,10 @@ class FrameRenderer:
         self._static_mask = np.concatenate([~moving, site_shown & ~site_moving])
         self._mover_mask = np.concatenate([mover, np.zeros(m.nsite, bool)])
         self._mover_colours: list[np.ndarray] = []
+        self._moving_shapes = ~self._static_mask
+        self._static_shapes = np.flatnonzero(self._static_mask)
+        mujoco.mj_kinematics(self.model, self.data)
+        self._static_boxes = self._world_boxes(self._static_shapes)
         # The follow view leaves out the vehicle's own geoms: its marker covers the 1.33 m hull.
         self._follow_mask = self._static_mask | self._mover_mask
         self._darts: dict[tuple[float, int], tuple[np.ndarray, int, int]] = {}
@@ -384,30 +392,44 @@ class FrameRenderer:
         geom.category = mujoco.mjtCatBit.mjCAT_DECOR
         scene.ngeom += 1
 
-    def _geom_boxes(self, window: tuple[float, float, float], size: tuple[int, int], geoms: np.ndarray
-                    ) -> list[tuple[tuple[int, int, int, int], bool]]:
-        """Pixel boxes (row0, row1, col0, col1) around the model's geoms and visible sites selected by `geoms`
-        (a mask over geoms, then sites) in a view, and whether each stands above the decorations (its top
-        higher than the marker's)."""
-        cx, cy, view_h = window
-        w, h = size
-        s = h / view_h
+    def _world_boxes(self, shapes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """World bounding boxes seen from above, (lo (N, 2), hi (N, 2)), and tops [m] of the model's geoms
+        and sites (all, or the indices `shapes` into geoms then sites)."""
         d, m = self.data, self.model
         pos = np.concatenate([d.geom_xpos, d.site_xpos])
         mat = np.concatenate([d.geom_xmat, d.site_xmat]).reshape(-1, 3, 3)
         sizes = np.concatenate([m.geom_size, m.site_size])
         kind = np.concatenate([m.geom_type, m.site_type])
         bound = np.concatenate([m.geom_rbound, m.site_size.max(axis=1)])
+        if shapes is not None:
+            pos, mat, sizes, kind, bound = pos[shapes], mat[shapes], sizes[shapes], kind[shapes], bound[shapes]
         box = kind == mujoco.mjtGeom.mjGEOM_BOX
         half = np.where(box[:, None], np.einsum("gij,gj->gi", np.abs(mat[:, :2]), sizes), bound[:, None])
         half[kind == mujoco.mjtGeom.mjGEOM_PLANE] = np.inf
-        x0, y1 = cx - view_h * w / h / 2, cy + view_h / 2
-        c0 = np.clip(np.floor((pos[:, 0] - half[:, 0] - x0) * s) - 1, 0, w)
-        c1 = np.clip(np.ceil((pos[:, 0] + half[:, 0] - x0) * s) + 1, 0, w)
-        r0 = np.clip(np.floor((y1 - pos[:, 1] - half[:, 1]) * s) - 1, 0, h)
-        r1 = np.clip(np.ceil((y1 - pos[:, 1] + half[:, 1]) * s) + 1, 0, h)
-        show = geoms & (c0 < c1) & (r0 < r1)
         top = pos[:, 2] + np.where(box, np.einsum("gj,gj->g", np.abs(mat[:, 2]), sizes), bound)
+        return pos[:, :2] - half, pos[:, :2] + half, top
+
+    def _geom_boxes(self, window: tuple[float, float, float], size: tuple[int, int], geoms: np.ndarray
+                    ) -> list[tuple[tuple[int, int, int, int], bool]]:
+        """Pixel boxes (row0, row1, col0, col1) around the model's geoms and visible sites selected by `geoms`
+        (a mask over geoms, then sites) in a view, and whether each stands above the decorations (its top
+        higher than the marker's). Static shapes' world boxes are computed once."""
+        cx, cy, view_h = window
+        w, h = size
+        s = h / view_h
+        lo, hi, top = self._static_boxes
+        moving = np.flatnonzero(geoms & self._moving_shapes)
+        if len(moving):
+            mlo, mhi, mtop = self._world_boxes(moving)
+            lo, hi, top = np.concatenate([lo, mlo]), np.concatenate([hi, mhi]), np.concatenate([top, mtop])
+        x0, y1 = cx - view_h * w / h / 2, cy + view_h / 2
+        c0 = np.clip(np.floor((lo[:, 0] - x0) * s) - 1, 0, w)
+        c1 = np.clip(np.ceil((hi[:, 0] - x0) * s) + 1, 0, w)
+        r0 = np.clip(np.floor((y1 - hi[:, 1]) * s) - 1, 0, h)
+        r1 = np.clip(np.ceil((y1 - lo[:, 1]) * s) + 1, 0, h)
+        show = (c0 < c1) & (r0 < r1)
+        if len(self._static_boxes[0]):
+            show[:len(self._static_boxes[0])] &= geoms[self._static_shapes]
         return [((int(a), int(b), int(c), int(e)), bool(t)) for a, b, c, e, t in
                 zip(r0[show], r1[show], c0[show], c1[show], top[show] > Z_MARKER, strict=True)]
 
