@@ -83,6 +83,10 @@ GEOM_SLICES = (16, 6)
 marker, and the rasteriser pays per vertex."""
 EXTRA_GEOMS = 1000
 """Room in the scene for the patches of water under the model's geoms."""
+SHADE_DRIFT = 2.0
+"""The follow view's static geoms are drawn again when its camera has moved this far [m]: MuJoCo's headlight
+shades them by where the camera is, under one grey level per this distance (and pixels by at most half of
+one)."""
 MERGE_AREA = 40000
 """Boxes around geoms are drawn in one OpenGL pass when that adds fewer pixels than this (a pass costs about
 as much as shading them on a CPU rasteriser)."""
@@ -339,6 +343,7 @@ class FrameRenderer:
         self._darts: dict[tuple[float, int], tuple[np.ndarray, int, int]] = {}
         self._marker_colour = _fill(MARKER_RGBA, 1.0)
         self._layer, self._layer_key = None, None
+        self._follow_layer = None
         self._water_image = np.empty((self.height, self.width, 3), np.uint8)
         self._hidden = np.zeros((self.height, self.width), bool)  # pixels of geoms above the decorations
         self._water_image[:] = self._water_colour()
@@ -434,18 +439,23 @@ class FrameRenderer:
                 zip(r0[show], r1[show], c0[show], c1[show], top[show] > Z_MARKER, strict=True)]
 
     def _draw_geoms(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float],
-                    geoms: np.ndarray, hidden: np.ndarray) -> bool:
+                    geoms: np.ndarray, hidden: np.ndarray, background: bool = True) -> bool:
         """Water, and the model's geoms `geoms` (a mask) as MuJoCo draws them, into the part `clip` of `image`.
 
         Each box around the geoms is drawn by OpenGL on its own patch of water, in a viewport of its size
         (packed from the corner of the framebuffer), and read back: a software rasteriser pays for every
         pixel it clears or fills, and most of a view is open water. Marks in `hidden` (cleared in `clip`)
-        the pixels of geoms that stand above the decorations; returns whether there are any.
+        the pixels of geoms that stand above the decorations; returns whether there are any. Without
+        `background`, only the boxes are drawn (over what `image` and `hidden` already hold).
         """
         r0, r1, c0, c1 = clip
         w, h = c1 - c0, r1 - r0
-        np.copyto(image[r0:r1, c0:c1], self._water_image[:h, :w])
-        hidden[r0:r1, c0:c1] = False
+        if background:
+            if h <= self.height and w <= self.width:
+                np.copyto(image[r0:r1, c0:c1], self._water_image[:h, :w])
+            else:
+                image[r0:r1, c0:c1] = self._water_image[0, 0]
+            hidden[r0:r1, c0:c1] = False
         found = self._geom_boxes(window, (w, h), geoms)
         if not found:
             return False
@@ -484,6 +494,35 @@ class FrameRenderer:
             hidden[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = image[r0 + b0:r0 + b1, c0 + a0:c0 + a1, 2] != water
         any_tall = bool(tall)
         return any_tall
+
+    def _follow_geoms(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float]) -> bool:
+        """The follow view's water and geoms: the static ones cut from a layer drawn around the view (drawn
+        again when the camera has moved SHADE_DRIFT), the moving ones (movers) drawn over it by OpenGL.
+        Returns whether any geom stands above the decorations (marked in `self._hidden`)."""
+        r0, r1, c0, c1 = clip
+        w, h = c1 - c0, r1 - r0
+        cx, cy, view_h = window
+        px = view_h / h
+        layer = self._follow_layer
+        if (layer is None or layer[1] != px or abs(cx - layer[0][0]) > SHADE_DRIFT
+                or abs(cy - layer[0][1]) > SHADE_DRIFT):
+            margin = int(math.ceil(SHADE_DRIFT / px)) + 1
+            pixels = np.empty((h + 2 * margin, w + 2 * margin, 3), np.uint8)
+            hidden = np.zeros(pixels.shape[:2], bool)
+            tall = self._draw_geoms(pixels, (0, h + 2 * margin, 0, w + 2 * margin), (cx, cy, (h + 2 * margin) * px),
+                                    self._static_mask, hidden)
+            layer = self._follow_layer = ((cx, cy), px, pixels, hidden if tall else None, margin)
+        (lx, ly), _, pixels, hidden, margin = layer
+        dx, dy = margin + int(round((cx - lx) / px)), margin + int(round((ly - cy) / px))
+        image[r0:r1, c0:c1] = pixels[dy:dy + h, dx:dx + w]
+        if hidden is None:
+            self._hidden[r0:r1, c0:c1] = False
+        else:
+            self._hidden[r0:r1, c0:c1] = hidden[dy:dy + h, dx:dx + w]
+        moving = self._follow_mask & ~self._static_mask
+        if np.any(moving):
+            return self._draw_geoms(image, clip, window, moving, self._hidden, background=False) or hidden is not None
+        return hidden is not None
 
     @staticmethod
     def _to_pixels(points, window: tuple[float, float, float], clip: raster.Clip) -> np.ndarray:
@@ -687,7 +726,7 @@ class FrameRenderer:
             top = self.height - bottom - h
             clip = (top, top + h, left, left + w)
             if view.kind == "follow":
-                tall = self._draw_geoms(out, clip, window, self._follow_mask, self._hidden)
+                tall = self._follow_geoms(out, clip, window)
                 hidden = self._hidden if tall else None
                 self._draw_goals(out, clip, window, goal, subgoals, reached, hidden)
                 self._draw_moving(out, clip, view, window, state, trail, hidden,
