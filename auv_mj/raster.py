@@ -54,23 +54,26 @@ def line_pixels(starts: np.ndarray, ends: np.ndarray, widths: np.ndarray, image_
     if len(a) == 0:
         empty = np.zeros(0, np.intp)
         return empty, empty
-    widths = np.asarray(widths, np.intp)[keep]
     d = b - a
-    steps = np.maximum(np.ceil(np.abs(d).max(axis=1)).astype(np.intp), 1)
-    n = steps + 1
+    steps = np.maximum(np.ceil(np.abs(d).max(axis=1)), 1.0)
+    n = steps.astype(np.intp) + 1
     segment = np.repeat(np.arange(len(a)), n)
-    k = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
-    t = k / steps[segment]
-    cols = np.floor(a[segment, 0] + t * d[segment, 0]).astype(np.intp)
-    rows = np.floor(a[segment, 1] + t * d[segment, 1]).astype(np.intp)
+    k = np.arange(len(segment), dtype=float)
+    k -= np.repeat(np.cumsum(n) - n, n)
+    inc = d / steps[:, None]
+    cols = np.floor(np.repeat(a[:, 0], n) + k * np.repeat(inc[:, 0], n)).astype(np.intp)
+    rows = np.floor(np.repeat(a[:, 1], n) + k * np.repeat(inc[:, 1], n)).astype(np.intp)
+    widths = np.asarray(widths, np.intp)[keep]
     wide = int(widths.max())
     if wide > 1:
-        across = np.arange(wide)
-        offsets = across - ((widths - 1) // 2)[segment, None]
-        x_major = (np.abs(d[:, 0]) >= np.abs(d[:, 1]))[segment, None]
-        valid = (across < widths[segment, None]).ravel()
-        rows = (rows[:, None] + np.where(x_major, offsets, 0)).ravel()[valid]
-        cols = (cols[:, None] + np.where(x_major, 0, offsets)).ravel()[valid]
+        # Per segment, the offsets across it: along rows for mostly horizontal lines, else along columns.
+        offsets = np.arange(wide) - ((widths - 1) // 2)[:, None]
+        x_major = np.abs(d[:, 0]) >= np.abs(d[:, 1])
+        row_offsets = np.repeat(np.where(x_major[:, None], offsets, 0), n, axis=0)
+        col_offsets = np.repeat(np.where(x_major[:, None], 0, offsets), n, axis=0)
+        valid = np.repeat(np.arange(wide) < widths[:, None], n, axis=0).ravel()
+        rows = (rows[:, None] + row_offsets).ravel()[valid]
+        cols = (cols[:, None] + col_offsets).ravel()[valid]
         segment = np.repeat(segment, wide)[valid]
     inside = (rows >= clip[0]) & (rows < clip[1]) & (cols >= clip[2]) & (cols < clip[3])
     return rows[inside] * image_width + cols[inside], np.flatnonzero(keep)[segment[inside]]
@@ -87,12 +90,19 @@ def lines(image: np.ndarray, starts: np.ndarray, ends: np.ndarray, colours: np.n
     if hidden is not None:
         shown = ~hidden.reshape(-1)[flat]
         flat, segment = flat[shown], segment[shown]
-    pixels = image.reshape(-1, 3)
-    colour, alpha = colours[segment], alphas[segment, None]
-    if np.all(alphas >= 1.0):
-        pixels[flat] = colour
-    else:
-        pixels[flat] = (pixels[flat] * (1.0 - alpha) + colour * alpha + 0.5).astype(np.uint8)
+    # Channel by channel through the flat bytes: 1-D gathers and scatters are what numpy does fastest.
+    data, base = image.reshape(-1), flat * 3
+    colours, alphas = np.asarray(colours, float), np.asarray(alphas, float)
+    translucent = alphas < 1.0
+    blend = translucent[segment] if np.any(translucent) else None
+    if blend is not None:
+        alpha = alphas[segment[blend]]
+    for channel in range(3):
+        values = colours[:, channel].astype(np.uint8)[segment]
+        if blend is not None:
+            under = data[base[blend] + channel]
+            values[blend] = under * (1.0 - alpha) + colours[segment[blend], channel] * alpha + 0.5
+        data[base + channel] = values
 
 
 def _box(lo: np.ndarray, hi: np.ndarray, clip: Clip) -> Clip | None:

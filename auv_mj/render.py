@@ -344,7 +344,9 @@ class FrameRenderer:
         self._marker_colour = _fill(MARKER_RGBA, 1.0)
         self._layer, self._layer_key = None, None
         self._follow_layer = None
-        self._water_image = np.empty((self.height, self.width, 3), np.uint8)
+        # Water as large as a view with the follow layer's margin, to copy from.
+        margin = 2 * (int(math.ceil(SHADE_DRIFT * self.height / self.follow_view)) + 1)
+        self._water_image = np.empty((self.height + margin, self.width + margin, 3), np.uint8)
         self._hidden = np.zeros((self.height, self.width), bool)  # pixels of geoms above the decorations
         self._water_image[:] = self._water_colour()
         self._font = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_NORMAL, self.width, self.height)
@@ -451,7 +453,7 @@ class FrameRenderer:
         r0, r1, c0, c1 = clip
         w, h = c1 - c0, r1 - r0
         if background:
-            if h <= self.height and w <= self.width:
+            if h <= self._water_image.shape[0] and w <= self._water_image.shape[1]:
                 np.copyto(image[r0:r1, c0:c1], self._water_image[:h, :w])
             else:
                 image[r0:r1, c0:c1] = self._water_image[0, 0]
