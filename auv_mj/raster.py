@@ -246,6 +246,7 @@ class BitmapFont:
                 self.cells[c] = on[::-1, x:x + self.widths[ord(c)]]
                 x += self.widths[ord(c)]
         self._lines: dict[str, np.ndarray] = {}
+        self._blocks: dict[str, np.ndarray] = {}
 
     def width(self, text: str) -> int:
         """Width [px] of one line of text."""
@@ -285,20 +286,37 @@ class BitmapFont:
         else:
             self._column(image, gridpos, viewport, 0, text, (255, 255, 255))
 
+    def _block(self, text: str) -> np.ndarray:
+        """The mask of a column of text as `mjr_overlay` lays it out in its box (box-sized, top row first;
+        cached: the labels never change)."""
+        block = self._blocks.get(text)
+        if block is None:
+            pad, rows = OVERLAY_PAD, text.split("\n")
+            masks = [self.mask(r) for r in rows]
+            block = np.zeros((pad + len(rows) * self.height + (len(rows) - 1) * pad,
+                              pad + max(m.shape[1] for m in masks) + 8), bool)
+            for i, mask in enumerate(masks):  # line i's cells start i line pitches below the box's top
+                top = i * (pad + self.height)
+                block[top:top + self.height, 3:3 + mask.shape[1]] = mask
+            if len(self._blocks) > 256:
+                self._blocks.clear()
+            self._blocks[text] = block
+        return block
+
     def _column(self, image: np.ndarray, gridpos: int, viewport, skip: int, text: str, colour) -> int:
-        pad, rows = OVERLAY_PAD, text.split("\n")
-        width = pad + max(self.width(r) for r in rows) + 8
-        height = pad + len(rows) * self.height + (len(rows) - 1) * pad
+        pad, block = OVERLAY_PAD, self._block(text)
+        height, width = block.shape
         vl, vb, vw, vh = viewport
         top = gridpos in (mujoco.mjtGridPos.mjGRID_TOPLEFT, mujoco.mjtGridPos.mjGRID_TOPRIGHT)
         left_side = gridpos in (mujoco.mjtGridPos.mjGRID_TOPLEFT, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT)
         left = vl + skip + pad if left_side else vl + vw - skip - 1 - pad - width
         bottom = vb + vh - 1 - pad - height if top else vb + pad
         h, w = image.shape[:2]
-        r0, r1 = max(h - bottom - height, 0), min(h - bottom, h)
+        row = h - bottom - height
+        r0, r1 = max(row, 0), min(row + height, h)
         c0, c1 = max(left, 0), min(left + width, w)
         if r0 < r1 and c0 < c1:
-            darken(image[r0:r1, c0:c1], 0.5)
-        for i, row in enumerate(rows):
-            self.text(image, row, left + 3, bottom + height - self.height - i * (pad + self.height), colour)
+            region = image[r0:r1, c0:c1]
+            darken(region, 0.5)
+            region[block[r0 - row:r1 - row, c0 - left:c1 - left]] = colour
         return width - 2

@@ -83,10 +83,10 @@ GEOM_SLICES = (16, 6)
 marker, and the rasteriser pays per vertex."""
 EXTRA_GEOMS = 1000
 """Room in the scene for the patches of water under the model's geoms."""
-SHADE_DRIFT = 2.0
+SHADE_DRIFT = 4.0
 """The follow view's static geoms are drawn again when its camera has moved this far [m]: MuJoCo's headlight
-shades them by where the camera is, under one grey level per this distance (and pixels by at most half of
-one)."""
+shades them by where the camera is, by about one grey level over this distance (and they may sit half a
+pixel off)."""
 MERGE_AREA = 40000
 """Boxes around geoms are drawn in one OpenGL pass when that adds fewer pixels than this (a pass costs about
 as much as shading them on a CPU rasteriser)."""
