@@ -344,6 +344,7 @@ class FrameRenderer:
         self._marker_colour = _fill(MARKER_RGBA, 1.0)
         self._layer, self._layer_key = None, None
         self._follow_layer = None
+        self._inset_key, self._inset_pixels = None, None
         # Water as large as a view with the follow layer's margin, to copy from.
         margin = 2 * (int(math.ceil(SHADE_DRIFT * self.height / self.follow_view)) + 1)
         self._water_image = np.empty((self.height + margin, self.width + margin, 3), np.uint8)
@@ -577,44 +578,70 @@ class FrameRenderer:
                              _opacity(GOAL_RGBA[3]))
             raster.fill_disc(image, centre, max(1.5 * px, 0.5) / px, _fill(GOAL_RGBA, 0.8), clip, hidden)
 
-    def _draw_moving(self, image: np.ndarray, clip: raster.Clip, view: View, window: tuple[float, float, float],
-                     state: Snapshot, trail: np.ndarray, hidden: np.ndarray | None, segments: list,
-                     movers: bool) -> None:
-        """What moves, over `segments` (static lines still to draw): the trail, the sonar beams and their
-        hits, the moving obstacles (`movers`: where OpenGL did not draw them) and the vehicle marker."""
+    def _moving_plan(self, view: View, window: tuple[float, float, float], clip: raster.Clip, state: Snapshot,
+                     trail: np.ndarray, snap: bool) -> dict[str, np.ndarray]:
+        """Where what moves lands in pixels: trail and beam segments, beam-hit squares, the marker and the
+        movers. With `snap`, points sit on pixel centres, so that an unchanged plan draws the same pixels
+        (the overview repaints only when its plan changes)."""
         follow = view.kind == "follow"
         points = np.concatenate([trail.reshape(-1, 2), state.pose[None, :2]])
-        starts, ends = _in_view(points, window, (clip[3] - clip[2]) / (clip[1] - clip[0]))
-        segments.append((self._to_pixels(starts, window, clip), self._to_pixels(ends, window, clip),
-                         TRAIL_RGBA, 2))
-        # Sonar beams from the bow to their hit points.
+        trail_a, trail_b = _in_view(points, window, (clip[3] - clip[2]) / (clip[1] - clip[0]))
         d = self.data
         origin = d.site_xpos[self._sonar_sites, :2]
         heading = d.site_xmat[self._sonar_sites].reshape(-1, 3, 3)[:, :2, 2]
         distance = np.asarray(state.sonar, float)
         echo = distance < SONAR_RANGE - 1e-6
-        a = self._to_pixels(origin, window, clip)
-        b = self._to_pixels(origin + heading * distance[:, None], window, clip)
-        colours = _range_colours(distance)
-        colours[~echo] = NO_ECHO_RGBA
-        starts = np.concatenate([s for s, *_ in segments] + [a])
-        ends = np.concatenate([e for _, e, *_ in segments] + [b])
-        rgba = np.concatenate([np.broadcast_to(np.asarray(c, float), (len(s), 4)) for s, _, c, _ in segments]
-                              + [colours])
-        widths = np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments]
-                                + [np.where(echo, 2 if follow else 1, 1)])
-        raster.lines(image, starts, ends, np.floor(rgba[:, :3] * 255), widths, _opacity(rgba[:, 3]), clip, hidden)
-        raster.fill_squares(image, b[echo], 5, np.floor(np.minimum(colours[echo, :3] * 1.5, 1.0) * 255), clip,
-                            hidden)
-        if movers:
+        n = len(trail_a)
+        ends = self._to_pixels(np.concatenate([trail_a, trail_b, origin, origin + heading * distance[:, None]]),
+                               window, clip)
+        if snap:
+            ends = np.floor(ends) + 0.5
+        starts, ends = np.concatenate([ends[:n], ends[2 * n:2 * n + 9]]), np.concatenate([ends[n:2 * n], ends[-9:]])
+        if snap and n:  # a trail that stays within a pixel adds nothing to draw (or to the plan)
+            moved = np.any(starts[:n] != ends[:n], axis=1)
+            moved[-1] = True
+            keep = np.concatenate([moved, np.ones(9, bool)])
+            starts, ends, n = starts[keep], ends[keep], int(moved.sum())
+        beams = _range_colours(distance)
+        beams[~echo] = NO_ECHO_RGBA
+        colours = np.concatenate([np.broadcast_to(np.floor(np.asarray(TRAIL_RGBA[:3]) * 255), (n, 3)),
+                                  np.floor(beams[:, :3] * 255)])
+        alphas = np.concatenate([np.ones(n), _opacity(beams[:, 3])])
+        widths = np.concatenate([np.full(n, 2), np.where(echo, 2 if follow else 1, 1)])
+        length = max(MARKER_LENGTH * window[2], 1.4) * (clip[1] - clip[0]) / window[2]
+        marker = np.array([*np.round(self._to_pixels(state.pose[:2], window, clip)[0]), round(length, 1),
+                           round(math.degrees(state.pose[2]) * 2) % 720])
+        plan = {"starts": starts, "ends": ends, "colours": colours, "alphas": alphas, "widths": widths,
+                "squares": ends[-9:][echo], "square_colours": np.floor(np.minimum(beams[echo, :3] * 1.5, 1.0) * 255),
+                "marker": marker}
+        if snap and self._mover_geoms:
+            movers = np.concatenate(self._mover_geoms)
+            plan["movers"] = np.concatenate([np.round(self._to_pixels(d.geom_xpos[movers, :2], window, clip), 1),
+                                             np.round(d.geom_xmat[movers][:, [0, 3]], 2)], axis=1)
+        return plan
+
+    def _draw_plan(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float], plan: dict,
+                   hidden: np.ndarray | None, segments: list | None = None) -> None:
+        """Draws a `_moving_plan` over `segments` (static lines in pixels, still to draw), then the movers
+        (when the plan has them: where OpenGL did not draw them) and the vehicle marker."""
+        starts, ends, colours, alphas, widths = (plan[k] for k in ("starts", "ends", "colours", "alphas", "widths"))
+        if segments:
+            starts = np.concatenate([s for s, *_ in segments] + [starts])
+            ends = np.concatenate([e for _, e, *_ in segments] + [ends])
+            rgba = np.concatenate([np.broadcast_to(np.asarray(c, float), (len(s), 4)) for s, _, c, _ in segments])
+            colours = np.concatenate([np.floor(rgba[:, :3] * 255), colours])
+            alphas = np.concatenate([_opacity(rgba[:, 3]), alphas])
+            widths = np.concatenate([np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments]), widths])
+        raster.lines(image, starts, ends, colours, widths, alphas, clip, hidden)
+        raster.fill_squares(image, plan["squares"], 5, plan["square_colours"], clip, hidden)
+        if "movers" in plan:
             for geoms, colour in zip(self._mover_geoms, self._mover_colours, strict=True):
                 for g in geoms:
                     self._fill_geom(image, clip, g, window, colour)
         # The vehicle: a dart pointing along its heading, MARKER_LENGTH of the view tall.
-        length = max(MARKER_LENGTH * window[2], 1.4) * (clip[1] - clip[0]) / window[2]
-        mask, row, col = self._dart(length, float(state.pose[2]))
-        centre = np.round(self._to_pixels(state.pose[:2], window, clip)[0]).astype(int)
-        raster.stamp(image, mask, row + centre[1], col + centre[0], self._marker_colour, clip, hidden)
+        col, row, length, half_degrees = plan["marker"]
+        mask, r, c = self._dart(float(length), math.radians(half_degrees / 2))
+        raster.stamp(image, mask, r + int(row), c + int(col), self._marker_colour, clip, hidden)
 
     def _dart(self, length: float, heading: float) -> tuple[np.ndarray, int, int]:
         """The vehicle marker `length` pixels long pointing along `heading`, as a mask around (0, 0), cached
@@ -731,17 +758,24 @@ class FrameRenderer:
                 tall = self._follow_geoms(out, clip, window)
                 hidden = self._hidden if tall else None
                 self._draw_goals(out, clip, window, goal, subgoals, reached, hidden)
-                self._draw_moving(out, clip, view, window, state, trail, hidden,
-                                  self._static_lines(window, clip), movers=False)
+                plan = self._moving_plan(view, window, clip, state, trail, snap=False)
+                self._draw_plan(out, clip, window, plan, hidden, self._static_lines(window, clip))
             else:
                 layer, layer_hidden = self._overview_layer(view, window, goal, subgoals, reached)
                 b = (layer.shape[0] - h) // 2
-                out[top - b:top + h + b, left - b:left + w + b] = layer
-                hidden = None
-                if layer_hidden is not None:
-                    self._hidden[top - b:top + h + b, left - b:left + w + b] = layer_hidden
-                    hidden = self._hidden
-                self._draw_moving(out, clip, view, window, state, trail, hidden, [], movers=True)
+                region = (slice(top - b, top + h + b), slice(left - b, left + w + b))
+                plan = self._moving_plan(view, window, clip, state, trail, snap=True)
+                key = (self._layer_key, tuple(v.tobytes() for v in plan.values()))
+                if key == self._inset_key:  # nothing moved by a pixel: the last overview again
+                    out[region] = self._inset_pixels
+                else:
+                    out[region] = layer
+                    hidden = None
+                    if layer_hidden is not None:
+                        self._hidden[region] = layer_hidden
+                        hidden = self._hidden
+                    self._draw_plan(out, clip, window, plan, hidden)
+                    self._inset_key, self._inset_pixels = key, out[region].copy()
             self._labels(out, view, window)
         if self.height >= OVERLAY_MIN_HEIGHT:
             self._overlay(out, state, event, reached, len(subgoals))
