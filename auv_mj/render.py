@@ -344,6 +344,12 @@ class FrameRenderer:
         self._marker_colour = _fill(MARKER_RGBA, 1.0)
         self._layer, self._layer_key = None, None
         self._follow_layer = None
+        a = self.arena
+        corners = (np.array([a.bounds[:2], a.bounds[[2, 1]], a.bounds[2:], a.bounds[[0, 3]], a.bounds[:2]])
+                   if np.all(np.isfinite(a.bounds)) else np.zeros((1, 2)))
+        paths = np.asarray(a.mover_paths, float).reshape(-1, 2, 2)
+        self._fixed_lines = ((corners[:-1], corners[1:], BOUNDS_RGBA, 2),
+                             (paths[:, 0], paths[:, 1], MOVER_PATH_RGBA, 1))
         self._inset_key, self._inset_pixels = None, None
         # Water as large as a view with the follow layer's margin, to copy from.
         margin = 2 * (int(math.ceil(SHADE_DRIFT * self.height / self.follow_view)) + 1)
@@ -535,29 +541,27 @@ class FrameRenderer:
         s = (r1 - r0) / view_h
         return (np.asarray(points, float).reshape(-1, 2) - (cx, cy)) * (s, -s) + ((c0 + c1) / 2, (r0 + r1) / 2)
 
-    def _static_lines(self, window: tuple[float, float, float], clip: raster.Clip) -> list:
-        """Segments of what does not move: map bounds, global path, movers' paths, scale bar."""
+    def _static_lines(self, window: tuple[float, float, float], clip: raster.Clip) -> tuple[np.ndarray, ...]:
+        """Segments of what does not move, in pixels: map bounds, global path (what the view shows),
+        movers' paths, scale bar; as (starts, ends, colours, widths, opacities)."""
         r0, r1, c0, c1 = clip
         w, h = c1 - c0, r1 - r0
-        view_w, a = window[2] * w / h, self.arena
-        segments = []
-        if np.all(np.isfinite(a.bounds)):
-            corners = np.array([a.bounds[:2], a.bounds[[2, 1]], a.bounds[2:], a.bounds[[0, 3]], a.bounds[:2]])
-            segments.append((corners[:-1], corners[1:], BOUNDS_RGBA, 2))
-        if len(a.path) > 1:
-            segments.append((*_in_view(a.path, window, w / h), PATH_RGBA, 2))
-        if len(a.mover_paths):
-            paths = np.asarray(a.mover_paths, float).reshape(-1, 2, 2)
-            segments.append((paths[:, 0], paths[:, 1], MOVER_PATH_RGBA, 1))
-        segments = [(self._to_pixels(s, window, clip), self._to_pixels(e, window, clip), c, wd)
-                    for s, e, c, wd in segments]
+        bounds, movers = self._fixed_lines
+        path = _in_view(self.arena.path, window, w / h) if len(self.arena.path) > 1 else (np.zeros((0, 2)),) * 2
+        groups = (bounds, (*path, PATH_RGBA, 2), movers)
+        ends = self._to_pixels(np.concatenate([g[i] for i in (0, 1) for g in groups]), window, clip)
+        n = sum(len(g[0]) for g in groups)
         # Scale bar in the bottom-left corner, above its label.
-        bar, line_h = scale_bar_length(view_w) * h / window[2], self._context.charHeight
+        bar, line_h = scale_bar_length(window[2] * w / h) * h / window[2], self._context.charHeight
         x, y = c0 + 0.6 * line_h, r1 - 1.8 * line_h
-        segments.append((np.array([[x, y]]), np.array([[x + bar, y]]), SCALE_RGBA, 3))
-        segments.append((np.array([[x, y - 0.3 * line_h], [x + bar, y - 0.3 * line_h]]),
-                         np.array([[x, y + 0.3 * line_h], [x + bar, y + 0.3 * line_h]]), SCALE_RGBA, 2))
-        return segments
+        tick = 0.3 * line_h
+        bar_starts = np.array([[x, y], [x, y - tick], [x + bar, y - tick]])
+        bar_ends = np.array([[x + bar, y], [x, y + tick], [x + bar, y + tick]])
+        rgba = np.concatenate([np.broadcast_to(np.asarray(g[2], float), (len(g[0]), 4)) for g in groups]
+                              + [np.broadcast_to(np.asarray(SCALE_RGBA, float), (3, 4))])
+        widths = np.concatenate([np.full(len(g[0]), g[3]) for g in groups] + [np.array([3, 2, 2])])
+        return (np.concatenate([ends[:n], bar_starts]), np.concatenate([ends[n:], bar_ends]),
+                np.floor(rgba[:, :3] * 255), widths, _opacity(rgba[:, 3]))
 
     def _draw_goals(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float],
                     goal: np.ndarray, subgoals: np.ndarray, reached: int, hidden: np.ndarray | None) -> None:
@@ -621,17 +625,14 @@ class FrameRenderer:
         return plan
 
     def _draw_plan(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float], plan: dict,
-                   hidden: np.ndarray | None, segments: list | None = None) -> None:
-        """Draws a `_moving_plan` over `segments` (static lines in pixels, still to draw), then the movers
+                   hidden: np.ndarray | None, static: tuple[np.ndarray, ...] | None = None) -> None:
+        """Draws a `_moving_plan` over `static` (`_static_lines` still to draw), then the movers
         (when the plan has them: where OpenGL did not draw them) and the vehicle marker."""
         starts, ends, colours, alphas, widths = (plan[k] for k in ("starts", "ends", "colours", "alphas", "widths"))
-        if segments:
-            starts = np.concatenate([s for s, *_ in segments] + [starts])
-            ends = np.concatenate([e for _, e, *_ in segments] + [ends])
-            rgba = np.concatenate([np.broadcast_to(np.asarray(c, float), (len(s), 4)) for s, _, c, _ in segments])
-            colours = np.concatenate([np.floor(rgba[:, :3] * 255), colours])
-            alphas = np.concatenate([_opacity(rgba[:, 3]), alphas])
-            widths = np.concatenate([np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments]), widths])
+        if static is not None:
+            starts, ends = np.concatenate([static[0], starts]), np.concatenate([static[1], ends])
+            colours, widths = np.concatenate([static[2], colours]), np.concatenate([static[3], widths])
+            alphas = np.concatenate([static[4], alphas])
         raster.lines(image, starts, ends, colours, widths, alphas, clip, hidden)
         raster.fill_squares(image, plan["squares"], 5, plan["square_colours"], clip, hidden)
         if "movers" in plan:
@@ -722,11 +723,8 @@ class FrameRenderer:
             self.data.qpos[:], self.data.mocap_pos[:] = qpos, mocap
             mujoco.mj_kinematics(self.model, self.data)
         self._draw_goals(layer, clip, window, goal, subgoals, reached, hidden)
-        segments = self._static_lines(window, clip)
-        starts, ends = np.concatenate([s for s, *_ in segments]), np.concatenate([e for _, e, *_ in segments])
-        rgba = np.concatenate([np.broadcast_to(np.asarray(c, float), (len(s), 4)) for s, _, c, _ in segments])
-        widths = np.concatenate([np.full(len(s), wd) for s, _, _, wd in segments])
-        raster.lines(layer, starts, ends, np.floor(rgba[:, :3] * 255), widths, _opacity(rgba[:, 3]), clip, hidden)
+        starts, ends, colours, widths, alphas = self._static_lines(window, clip)
+        raster.lines(layer, starts, ends, colours, widths, alphas, clip, hidden)
         self._layer, self._layer_key = (layer, hidden if tall else None), key
         return self._layer
 
