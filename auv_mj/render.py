@@ -625,8 +625,10 @@ class FrameRenderer:
         return plan
 
     def _draw_plan(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float], plan: dict,
-                   hidden: np.ndarray | None, static: tuple[np.ndarray, ...] | None = None) -> None:
-        """Draws a `_moving_plan` over `static` (`_static_lines` still to draw), then the movers
+                   hidden: np.ndarray | None, static: tuple[np.ndarray, ...] | None = None,
+                   goals: tuple | None = None) -> None:
+        """Draws a `_moving_plan` over `static` (`_static_lines` still to draw), the `goals` (goal, sub-goals,
+        reached) over the lines as MuJoCo blends its translucent discs over them, then the movers
         (when the plan has them: where OpenGL did not draw them) and the vehicle marker."""
         starts, ends, colours, alphas, widths = (plan[k] for k in ("starts", "ends", "colours", "alphas", "widths"))
         if static is not None:
@@ -634,6 +636,8 @@ class FrameRenderer:
             colours, widths = np.concatenate([static[2], colours]), np.concatenate([static[3], widths])
             alphas = np.concatenate([static[4], alphas])
         raster.lines(image, starts, ends, colours, widths, alphas, clip, hidden)
+        if goals is not None:
+            self._draw_goals(image, clip, window, *goals, hidden)
         raster.fill_squares(image, plan["squares"], 5, plan["square_colours"], clip, hidden)
         if "movers" in plan:
             for geoms, colour in zip(self._mover_geoms, self._mover_colours, strict=True):
@@ -755,9 +759,9 @@ class FrameRenderer:
             if view.kind == "follow":
                 tall = self._follow_geoms(out, clip, window)
                 hidden = self._hidden if tall else None
-                self._draw_goals(out, clip, window, goal, subgoals, reached, hidden)
                 plan = self._moving_plan(view, window, clip, state, trail, snap=False)
-                self._draw_plan(out, clip, window, plan, hidden, self._static_lines(window, clip))
+                self._draw_plan(out, clip, window, plan, hidden, self._static_lines(window, clip),
+                                (goal, subgoals, reached))
             else:
                 layer, layer_hidden = self._overview_layer(view, window, goal, subgoals, reached)
                 b = (layer.shape[0] - h) // 2
