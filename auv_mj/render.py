@@ -81,8 +81,8 @@ TIME_TOLERANCE = 1e-6
 GEOM_SLICES = (16, 6)
 """Slices and stacks of round geoms (MuJoCo's defaults 28 and 16): the hull is a few pixels long under its
 marker, and the rasteriser pays per vertex."""
-EXTRA_GEOMS = 1000
-"""Room in the scene for the patches of water under the model's geoms."""
+EXTRA_GEOMS = 100
+"""Room in the scene beyond the model and the patches of water (decorations MuJoCo adds itself)."""
 SHADE_DRIFT = 4.0
 """The follow view's static geoms are drawn again when its camera has moved this far [m]: MuJoCo's headlight
 shades them by where the camera is, by about one grey level over this distance (and they may sit half a
@@ -112,8 +112,10 @@ SCALE_RGBA = (1.0, 1.0, 1.0, 1.0)
 SCALE_FRACTION = 0.2
 """The scale bar is the 1-2-5 length nearest below this fraction of the view's width."""
 
-# Heights of the decorations above the water (all drawn from straight above, so only the order matters).
-Z_WATER, Z_PATH, Z_GOAL, Z_TRAIL, Z_BEAM, Z_MARKER = -2.0, 0.3, 0.2, 0.6, 0.9, 1.5
+Z_WATER = -2.0
+"""Height [m] of the patches of water OpenGL draws under the model's geoms (below every geom)."""
+DECORATION_HEIGHT = 1.5
+"""Geoms whose top is higher than this [m] hide the decorations (beams end at obstacles' sides, not on top)."""
 
 
 # --- one frame -------------------------------------------------------------------------------------
@@ -308,7 +310,8 @@ class FrameRenderer:
         self._context = mujoco.MjrContext(self.model, getattr(mujoco.mjtFontScale,
                                                               f"mjFONTSCALE_{_font_scale(self.height)}"))
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
-        self.scene = mujoco.MjvScene(self.model, self.model.ngeom + EXTRA_GEOMS)
+        # Room for the model (geoms, sites) and a patch of water per OpenGL pass (at most one per shape).
+        self.scene = mujoco.MjvScene(self.model, 2 * (self.model.ngeom + self.model.nsite) + EXTRA_GEOMS)
         for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
                      mujoco.mjtRndFlag.mjRND_SKYBOX, mujoco.mjtRndFlag.mjRND_FOG):
             self.scene.flags[flag] = 0
@@ -319,38 +322,19 @@ class FrameRenderer:
         self.camera.azimuth, self.camera.elevation = 90.0, -90.0  # +x right, +y up
         self.camera.orthographic = 1
         self._eye = np.eye(3).ravel()
-        # The model's geoms: all, those that never move (the overview's cached layer; obstacles are mocap
-        # bodies too, but only the arena's movers move), the movers'.
-        m = self.model
-        movers = [m.body(n).id for n in self.arena.mover_names]
-        moving_roots = {int(m.body_rootid[b]) for b in range(1, m.nbody) if m.body_dofnum[b]} | set(movers)
-        moving = np.isin(m.body_rootid[m.geom_bodyid], list(moving_roots)) | np.isin(m.geom_bodyid, movers)
-        self._mover_geoms = [np.flatnonzero(m.geom_bodyid == m.body(n).id) for n in self.arena.mover_names]
-        self._mover_geoms = [g for g in self._mover_geoms if len(g)]
-        mover = np.isin(np.arange(m.ngeom), np.concatenate([[], *self._mover_geoms]).astype(int))
-        # Masks over the geoms, then the sites (the goal area's site is drawn, as MuJoCo would draw it).
-        site_moving = np.isin(m.body_rootid[m.site_bodyid], list(moving_roots))
-        site_shown = (self.option.sitegroup[np.clip(m.site_group, 0, 5)] > 0) & (m.site_rgba[:, 3] > 0)
-        self._static_mask = np.concatenate([~moving, site_shown & ~site_moving])
-        self._mover_mask = np.concatenate([mover, np.zeros(m.nsite, bool)])
-        self._mover_colours: list[np.ndarray] = []
-        self._moving_shapes = ~self._static_mask
-        self._static_shapes = np.flatnonzero(self._static_mask)
-        mujoco.mj_kinematics(self.model, self.data)
-        self._static_boxes = self._world_boxes(self._static_shapes)
-        # The follow view leaves out the vehicle's own geoms: its marker covers the 1.33 m hull.
-        self._follow_mask = self._static_mask | self._mover_mask
+        self._classify_shapes()
+        # Caches: marker masks, the overview's arena layer, the follow view's static layer, the last overview.
         self._darts: dict[tuple[float, int], tuple[np.ndarray, int, int]] = {}
-        self._marker_colour = _fill(MARKER_RGBA, 1.0)
         self._layer, self._layer_key = None, None
         self._follow_layer = None
-        a = self.arena
+        self._inset_key, self._inset_pixels = None, None
+        self._marker_colour = _fill(MARKER_RGBA, 1.0)
+        a = self.arena  # map bounds and movers' paths in world coordinates, drawn in every view
         corners = (np.array([a.bounds[:2], a.bounds[[2, 1]], a.bounds[2:], a.bounds[[0, 3]], a.bounds[:2]])
                    if np.all(np.isfinite(a.bounds)) else np.zeros((1, 2)))
         paths = np.asarray(a.mover_paths, float).reshape(-1, 2, 2)
         self._fixed_lines = ((corners[:-1], corners[1:], BOUNDS_RGBA, 2),
                              (paths[:, 0], paths[:, 1], MOVER_PATH_RGBA, 1))
-        self._inset_key, self._inset_pixels = None, None
         # Water as large as a view with the follow layer's margin, to copy from.
         margin = 2 * (int(math.ceil(SHADE_DRIFT * self.height / self.follow_view)) + 1)
         self._water_image = np.empty((self.height + margin, self.width + margin, 3), np.uint8)
@@ -358,7 +342,28 @@ class FrameRenderer:
         self._water_image[:] = self._water_colour()
         self._font = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_NORMAL, self.width, self.height)
         self._font_big = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_BIG, self.width, self.height)
-        self._trail_bounds = np.full(4, np.nan)  # bounding box of the trail (open-water overview)
+
+    def _classify_shapes(self) -> None:
+        """Masks over the model's shapes (its geoms, then its sites) OpenGL draws: those that never move (the
+        arena: cached layers), the movers' (drawn each frame), and the follow view's (all but the vehicle's
+        own, which its marker covers). Obstacles are mocap bodies too, but only the arena's movers move;
+        visible sites (the goal area's) are drawn as MuJoCo draws them."""
+        m = self.model
+        movers = [m.body(n).id for n in self.arena.mover_names]
+        moving_roots = {int(m.body_rootid[b]) for b in range(1, m.nbody) if m.body_dofnum[b]} | set(movers)
+        moving = np.isin(m.body_rootid[m.geom_bodyid], list(moving_roots)) | np.isin(m.geom_bodyid, movers)
+        self._mover_geoms = [g for g in (np.flatnonzero(m.geom_bodyid == b) for b in movers) if len(g)]
+        mover = np.isin(np.arange(m.ngeom), np.concatenate([[], *self._mover_geoms]).astype(int))
+        site_moving = np.isin(m.body_rootid[m.site_bodyid], list(moving_roots))
+        site_shown = (self.option.sitegroup[np.clip(m.site_group, 0, 5)] > 0) & (m.site_rgba[:, 3] > 0)
+        self._static_mask = np.concatenate([~moving, site_shown & ~site_moving])
+        self._mover_mask = np.concatenate([mover, np.zeros(m.nsite, bool)])
+        self._follow_mask = self._static_mask | self._mover_mask
+        self._moving_shapes = ~self._static_mask
+        self._static_shapes = np.flatnonzero(self._static_mask)
+        self._mover_colours: list[np.ndarray] = []
+        mujoco.mj_kinematics(self.model, self.data)
+        self._static_boxes = self._world_boxes(self._static_shapes)
 
     def _water_colour(self) -> np.ndarray:
         """The colour OpenGL gives the patches of water (numpy paints the rest of the sea with it)."""
@@ -427,7 +432,7 @@ class FrameRenderer:
                     ) -> list[tuple[tuple[int, int, int, int], bool]]:
         """Pixel boxes (row0, row1, col0, col1) around the model's geoms and visible sites selected by `geoms`
         (a mask over geoms, then sites) in a view, and whether each stands above the decorations (its top
-        higher than the marker's). Static shapes' world boxes are computed once."""
+        higher than DECORATION_HEIGHT). Static shapes' world boxes are computed once."""
         cx, cy, view_h = window
         w, h = size
         s = h / view_h
@@ -445,7 +450,7 @@ class FrameRenderer:
         if len(self._static_boxes[0]):
             show[:len(self._static_boxes[0])] &= geoms[self._static_shapes]
         return [((int(a), int(b), int(c), int(e)), bool(t)) for a, b, c, e, t in
-                zip(r0[show], r1[show], c0[show], c1[show], top[show] > Z_MARKER, strict=True)]
+                zip(r0[show], r1[show], c0[show], c1[show], top[show] > DECORATION_HEIGHT, strict=True)]
 
     def _draw_geoms(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float],
                     geoms: np.ndarray, hidden: np.ndarray, background: bool = True) -> bool:
