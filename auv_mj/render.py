@@ -283,8 +283,10 @@ class FrameRenderer:
         self.model = copy.copy(physics.model.ptr)
         self.data = mujoco.MjData(self.model)
         vis = self.model.vis
-        vis.global_.offwidth = max(vis.global_.offwidth, self.width)
-        vis.global_.offheight = max(vis.global_.offheight, self.height)
+        # The framebuffer holds the follow view's static layer: the frame and a margin of SHADE_DRIFT.
+        margin = 2 * (int(math.ceil(SHADE_DRIFT * self.height / self.follow_view)) + 1)
+        vis.global_.offwidth = max(vis.global_.offwidth, self.width + margin)
+        vis.global_.offheight = max(vis.global_.offheight, self.height + margin)
         vis.global_.orthographic = 1
         vis.quality.offsamples = samples
         vis.quality.numquads = 1  # boxes seen from above need no subdivided faces
@@ -336,7 +338,6 @@ class FrameRenderer:
         self._fixed_lines = ((corners[:-1], corners[1:], BOUNDS_RGBA, 2),
                              (paths[:, 0], paths[:, 1], MOVER_PATH_RGBA, 1))
         # Water as large as a view with the follow layer's margin, to copy from.
-        margin = 2 * (int(math.ceil(SHADE_DRIFT * self.height / self.follow_view)) + 1)
         self._water_image = np.empty((self.height + margin, self.width + margin, 3), np.uint8)
         self._hidden = np.zeros((self.height, self.width), bool)  # pixels of geoms above the decorations
         self._water_image[:] = self._water_colour()
@@ -483,31 +484,38 @@ class FrameRenderer:
         self.model.vis.global_.fovy = view_h  # orthographic: the view height in metres
         mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
                                mujoco.mjtCatBit.mjCAT_ALL, self.scene)
-        places, x, y, shelf = [], 0, 0, 0
+        for b0, b1, a0, a1 in boxes:
+            centre = np.array([x0 + (a0 + a1) / 2 * px, y1 - (b0 + b1) / 2 * px, Z_WATER])
+            self._add(mujoco.mjtGeom.mjGEOM_BOX, WATER_RGBA, centre, np.array([(a1 - a0) * px, (b1 - b0) * px, 0.05]))
+        buffer_w, buffer_h = self.model.vis.global_.offwidth, self.model.vis.global_.offheight
+        pending, x, y, shelf = [], 0, 0, 0
         for b0, b1, a0, a1 in boxes:
             bw, bh = a1 - a0, b1 - b0
-            if x + bw > self.width:  # next shelf of the framebuffer
+            if x + bw > buffer_w:  # next shelf of the framebuffer
                 x, y, shelf = 0, y + shelf, 0
-            places.append((x, y))
-            x, shelf = x + bw, max(shelf, bh)
-            centre = np.array([x0 + (a0 + a1) / 2 * px, y1 - (b0 + b1) / 2 * px, Z_WATER])
-            self._add(mujoco.mjtGeom.mjGEOM_BOX, WATER_RGBA, centre, np.array([bw * px, bh * px, 0.05]))
-        for (b0, b1, a0, a1), (x, y) in zip(boxes, places, strict=True):
+            if y + bh > buffer_h:  # the framebuffer is full: read back what it holds, start again
+                self._read_patches(image, clip, pending)
+                pending, x, y, shelf = [], 0, 0, 0
             # The box's part of the view's frustum, so the camera and its headlight stay where they are.
             for cam in self.scene.camera:
                 cam.frustum_center = x0 + (a0 + a1) / 2 * px - cx
                 cam.frustum_bottom, cam.frustum_top = view_h / 2 - b1 * px, view_h / 2 - b0 * px
                 cam.frustum_width = 0.0
-            mujoco.mjr_render(mujoco.MjrRect(x, y, a1 - a0, b1 - b0), self.scene, self._context)
-        for (b0, b1, a0, a1), (x, y) in zip(boxes, places, strict=True):
-            patch = np.empty((b1 - b0, a1 - a0, 3), np.uint8)
-            mujoco.mjr_readPixels(patch, None, mujoco.MjrRect(x, y, a1 - a0, b1 - b0), self._context)
-            image[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = patch[::-1]
+            mujoco.mjr_render(mujoco.MjrRect(x, y, bw, bh), self.scene, self._context)
+            pending.append(((b0, b1, a0, a1), (x, y)))
+            x, shelf = x + bw, max(shelf, bh)
+        self._read_patches(image, clip, pending)
         water = self._water_image[0, 0, 2]
         for b0, b1, a0, a1 in tall:  # the tall geoms' own pixels: not water (the blue channel tells)
             hidden[r0 + b0:r0 + b1, c0 + a0:c0 + a1] = image[r0 + b0:r0 + b1, c0 + a0:c0 + a1, 2] != water
-        any_tall = bool(tall)
-        return any_tall
+        return bool(tall)
+
+    def _read_patches(self, image: np.ndarray, clip: raster.Clip, patches: list) -> None:
+        """Reads back boxes drawn at places of the framebuffer into their part of `clip` in `image`."""
+        for (b0, b1, a0, a1), (x, y) in patches:
+            patch = np.empty((b1 - b0, a1 - a0, 3), np.uint8)
+            mujoco.mjr_readPixels(patch, None, mujoco.MjrRect(x, y, a1 - a0, b1 - b0), self._context)
+            image[clip[0] + b0:clip[0] + b1, clip[2] + a0:clip[2] + a1] = patch[::-1]
 
     def _follow_geoms(self, image: np.ndarray, clip: raster.Clip, window: tuple[float, float, float]) -> bool:
         """The follow view's water and geoms: the static ones cut from a layer drawn around the view (drawn
