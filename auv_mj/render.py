@@ -9,14 +9,19 @@ north up) and/or an overview of the whole arena (full frame, or as picture-in-pi
 `--camera both`); the model's own geoms (walls, obstacles, moving obstacles where the physics puts
 them) drawn by MuJoCo; the water, the map bounds, the global path, the goal area and sub-goals, the
 trajectory trail, the nine sonar beams from the bow to their hit points coloured by range, and the vehicle
-as a scaled-up dart marker (the 1.33 m hull would be a few pixels); and a text overlay.
+as a scaled-up dart marker (the 1.33 m hull would be a few pixels); and a text overlay (laid out as
+MuJoCo's `mjr_overlay`).
 
-How: OpenGL here is usually a CPU rasteriser (Mesa llvmpipe), which pays for every pixel it fills. So
-MuJoCo draws only the boxes around the model's geoms, each on a patch of water, and only those boxes are
-read back; the open water, the decorations and the text (MuJoCo's bitmap fonts, read back once) are drawn
-in numpy (`auv_mj.raster`), touching only their own pixels; geoms taller than the decorations are put
-back over them. The overview's arena (water, static geoms, bounds, paths, goals) is cached as an image
-and drawn again only when its window or the goals change; what moves is drawn over it each frame.
+How: OpenGL here is usually a CPU rasteriser (Mesa llvmpipe), which pays for every pixel it clears or
+fills, and numpy pays for the pixels it touches. So OpenGL draws only boxes around the model's geoms, each
+on a patch of water in a viewport of its own (the view's frustum cut to the box, so the camera and its
+headlight do not move), and only those are read back; the open water, the decorations and the text
+(MuJoCo's bitmap fonts, read back once) are drawn in numpy (`auv_mj.raster`); geoms taller than the
+decorations hide them, as before. Only what changed is drawn again: the follow view's static geoms come
+from a layer redrawn when the camera has moved SHADE_DRIFT, the overview's arena (water, static geoms,
+bounds, paths, goals) from a layer redrawn when its window or the goals change, and the overview is
+repainted only when what moves in it moves by a pixel. The vehicle's own geoms are left out of the
+follow view: its marker covers the hull.
 
 Timing: a video frame every `speedup / fps` simulation seconds. By default one frame per control step
 (speedup = fps x control period: 15x real time for the 0.5 s planner at 30 fps); a smaller speedup
@@ -776,25 +781,33 @@ class FrameRenderer:
                 self._draw_plan(out, clip, window, plan, hidden, self._static_lines(window, clip),
                                 (goal, subgoals, reached))
             else:
-                layer, layer_hidden = self._overview_layer(view, window, goal, subgoals, reached)
-                b = (layer.shape[0] - h) // 2
-                region = (slice(top - b, top + h + b), slice(left - b, left + w + b))
-                plan = self._moving_plan(view, window, clip, state, trail, snap=True)
-                key = (self._layer_key, tuple(v.tobytes() for v in plan.values()))
-                if key == self._inset_key:  # nothing moved by a pixel: the last overview again
-                    out[region] = self._inset_pixels
-                else:
-                    out[region] = layer
-                    hidden = None
-                    if layer_hidden is not None:
-                        self._hidden[region] = layer_hidden
-                        hidden = self._hidden
-                    self._draw_plan(out, clip, window, plan, hidden)
-                    self._inset_key, self._inset_pixels = key, out[region].copy()
+                self._draw_overview(out, clip, view, window, state, trail, goal, subgoals, reached)
             self._labels(out, view, window)
         if self.height >= OVERLAY_MIN_HEIGHT:
             self._overlay(out, state, event, reached, len(subgoals))
         return out
+
+    def _draw_overview(self, out: np.ndarray, clip: raster.Clip, view: View, window: tuple[float, float, float],
+                       state: Snapshot, trail: np.ndarray, goal: np.ndarray, subgoals: np.ndarray,
+                       reached: int) -> None:
+        """The overview: its cached arena layer with what moves drawn over it, or, when nothing moved by a
+        pixel, the last overview again."""
+        top, bottom, left, right = clip
+        layer, layer_hidden = self._overview_layer(view, window, goal, subgoals, reached)
+        b = (layer.shape[0] - (bottom - top)) // 2
+        region = (slice(top - b, bottom + b), slice(left - b, right + b))
+        plan = self._moving_plan(view, window, clip, state, trail, snap=True)
+        key = (self._layer_key, tuple(v.tobytes() for v in plan.values()))
+        if key == self._inset_key:
+            out[region] = self._inset_pixels
+            return
+        out[region] = layer
+        hidden = None
+        if layer_hidden is not None:
+            self._hidden[region] = layer_hidden
+            hidden = self._hidden
+        self._draw_plan(out, clip, window, plan, hidden)
+        self._inset_key, self._inset_pixels = key, out[region].copy()
 
     def _overlay(self, image: np.ndarray, state: Snapshot, event: str, reached: int, goals: int) -> None:
         u, v, r = state.velocity
