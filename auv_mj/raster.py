@@ -1,4 +1,4 @@
-"""Vectorised numpy drawing into (H, W, 3) uint8 images: lines, convex polygons, discs and bitmap text.
+"""Vectorised numpy drawing into (H, W, 3) uint8 images: lines, squares, convex polygons, discs, bitmap text.
 
 The episode renderer (`auv_mj.render`) reads back only MuJoCo's geoms from OpenGL and draws its
 decorations with these: a CPU rasteriser (Mesa llvmpipe) pays for every pixel of a full-screen quad,
@@ -126,23 +126,11 @@ def _blend(image: np.ndarray, box: Clip, mask: np.ndarray, colour, alpha: float,
         region[mask] = (region[mask] * (1.0 - alpha) + np.asarray(colour, float) * alpha + 0.5).astype(np.uint8)
 
 
-def fill_polygon(image: np.ndarray, vertices: np.ndarray, colour, clip: Clip, hidden: np.ndarray | None = None,
-                 alpha: float = 1.0) -> None:
+def fill_polygon(image: np.ndarray, vertices: np.ndarray, colour, clip: Clip, hidden: np.ndarray | None = None
+                 ) -> None:
     """Fills a convex polygon (K, 2) of either winding: the pixels whose centres lie inside it."""
-    vertices = np.asarray(vertices, float)
-    box = _box(vertices.min(axis=0), vertices.max(axis=0), clip)
-    if box is None:
-        return
-    r0, r1, c0, c1 = box
-    x = np.arange(c0, c1) + 0.5
-    y = (np.arange(r0, r1) + 0.5)[:, None]
-    nxt = np.roll(vertices, -1, axis=0)
-    edges = nxt - vertices
-    sign = 1.0 if np.sum(vertices[:, 0] * nxt[:, 1] - nxt[:, 0] * vertices[:, 1]) >= 0 else -1.0
-    mask = np.ones((r1 - r0, c1 - c0), bool)
-    for (vx, vy), (ex, ey) in zip(vertices, edges, strict=True):
-        mask &= sign * (ex * (y - vy) - ey * (x - vx)) >= 0
-    _blend(image, box, mask, colour, alpha, hidden)
+    mask, row, col = polygon_mask(vertices)
+    stamp(image, mask, row, col, colour, clip, hidden)
 
 
 def fill_disc(image: np.ndarray, centre, radius: float, colour, clip: Clip, hidden: np.ndarray | None = None,
