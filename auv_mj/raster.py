@@ -274,26 +274,25 @@ class BitmapFont:
         else:
             self._column(image, gridpos, viewport, 0, text, (255, 255, 255))
 
-    def _block(self, text: str) -> np.ndarray:
-        """The mask of a column of text as `mjr_overlay` lays it out in its box (box-sized, top row first;
-        cached: the labels never change)."""
+    def _block(self, text: str) -> tuple[np.ndarray, np.ndarray, int, int]:
+        """The lit pixels (rows, columns) of a column of text as `mjr_overlay` lays it out in its box, and
+        the box's height and width (cached: the labels never change)."""
         block = self._blocks.get(text)
         if block is None:
-            pad, rows = OVERLAY_PAD, text.split("\n")
-            masks = [self.mask(r) for r in rows]
-            block = np.zeros((pad + len(rows) * self.height + (len(rows) - 1) * pad,
-                              pad + max(m.shape[1] for m in masks) + 8), bool)
-            for i, mask in enumerate(masks):  # line i's cells start i line pitches below the box's top
-                top = i * (pad + self.height)
-                block[top:top + self.height, 3:3 + mask.shape[1]] = mask
+            pad, lines = OVERLAY_PAD, text.split("\n")
+            masks = [self.mask(line) for line in lines]
+            lit = [np.nonzero(mask) for mask in masks]  # line i starts i line pitches below the box's top
+            rows = np.concatenate([r + i * (pad + self.height) for i, (r, _) in enumerate(lit)])
+            cols = np.concatenate([c + 3 for _, c in lit])
+            block = (rows, cols, pad + len(lines) * self.height + (len(lines) - 1) * pad,
+                     pad + max(m.shape[1] for m in masks) + 8)
             if len(self._blocks) > 256:
                 self._blocks.clear()
             self._blocks[text] = block
         return block
 
     def _column(self, image: np.ndarray, gridpos: int, viewport, skip: int, text: str, colour) -> int:
-        pad, block = OVERLAY_PAD, self._block(text)
-        height, width = block.shape
+        pad, (rows, cols, height, width) = OVERLAY_PAD, self._block(text)
         vl, vb, vw, vh = viewport
         top = gridpos in (mujoco.mjtGridPos.mjGRID_TOPLEFT, mujoco.mjtGridPos.mjGRID_TOPRIGHT)
         left_side = gridpos in (mujoco.mjtGridPos.mjGRID_TOPLEFT, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT)
@@ -304,7 +303,10 @@ class BitmapFont:
         r0, r1 = max(row, 0), min(row + height, h)
         c0, c1 = max(left, 0), min(left + width, w)
         if r0 < r1 and c0 < c1:
-            region = image[r0:r1, c0:c1]
-            darken(region, 0.5)
-            region[block[r0 - row:r1 - row, c0 - left:c1 - left]] = colour
+            darken(image[r0:r1, c0:c1], 0.5)
+            rows, cols = rows + row, cols + left
+            if row < 0 or left < 0 or row + height > h or left + width > w:
+                inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
+                rows, cols = rows[inside], cols[inside]
+            image[rows, cols] = colour
         return width - 2
