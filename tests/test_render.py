@@ -150,3 +150,52 @@ def test_missing_gl_libraries_name_the_packages(tmp_path):
     assert result.returncode == 2
     assert "libegl1" in result.stderr and "libosmesa6" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_numpy_text_matches_mujoco_overlay():
+    """The overlay drawn in numpy (glyph cells read back once) is pixel for pixel MuJoCo's mjr_overlay."""
+    import mujoco
+
+    from auv_mj.raster import BitmapFont
+
+    env = suite.load("auv", "obstacles", task_kwargs={"random": 0})
+    env.reset()
+    width, height = 640, 360
+    with render.FrameRenderer(env.physics, width, height, "follow") as renderer:
+        ctx, full = renderer._context, mujoco.MjrRect(0, 0, width, height)
+        font = BitmapFont(ctx, mujoco.mjtFont.mjFONT_NORMAL, width, height)
+        text, values = "time\nspeed", "   12.5 s   step 25\n 1.00 m/s   cmd 1.00"
+        mujoco.mjr_rectangle(full, 0.2, 0.4, 0.6, 1.0)
+        mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_TOPLEFT, full, text, values, ctx)
+        mujoco.mjr_overlay(mujoco.mjtFont.mjFONT_NORMAL, mujoco.mjtGridPos.mjGRID_BOTTOMRIGHT, full, "100 m", "",
+                           ctx)
+        expected = np.empty((height, width, 3), np.uint8)
+        mujoco.mjr_readPixels(expected, None, full, ctx)
+        expected = expected[::-1]
+        mujoco.mjr_rectangle(full, 0.2, 0.4, 0.6, 1.0)
+        ours = np.empty((height, width, 3), np.uint8)
+        mujoco.mjr_readPixels(ours, None, full, ctx)
+        ours = ours[::-1].copy()
+        font.overlay(ours, mujoco.mjtGridPos.mjGRID_TOPLEFT, (0, 0, width, height), text, values)
+        font.overlay(ours, mujoco.mjtGridPos.mjGRID_BOTTOMRIGHT, (0, 0, width, height), "100 m")
+    assert np.array_equal(ours, expected), np.argwhere(np.any(ours != expected, axis=2))[:5]
+
+
+def test_raster_lines_squares_and_polygons_cover_their_pixels():
+    """numpy drawing: a wide line covers its pixels except hidden ones, in its opacity; a square and a
+    polygon cover the pixels whose centres they contain."""
+    from auv_mj import raster
+
+    image = np.zeros((20, 30, 3), np.uint8)
+    hidden = np.zeros((20, 30), bool)
+    hidden[:, 10] = True
+    clip = (0, 20, 0, 30)
+    raster.lines(image, np.array([[2.5, 5.5], [3.5, 15.5]]), np.array([[20.5, 5.5], [3.5, 15.5]]),
+                 np.array([[255, 0, 0], [0, 255, 0]]), np.array([2, 1]), np.array([1.0, 0.5]), clip, hidden)
+    red = np.all(image == (255, 0, 0), axis=2)
+    assert red[5:7, 2:21].sum() == 2 * 19 - 2 and not red[:, 10].any() and red.sum() == 2 * 19 - 2
+    assert tuple(image[15, 3]) == (0, 128, 0)  # a one-pixel segment, half opaque over black
+    raster.fill_squares(image, np.array([[25.0, 10.0]]), 5, np.array([[0, 0, 255]]), clip)
+    assert np.all(image[7:12, 22:27] == (0, 0, 255)) and tuple(image[10, 27]) != (0, 0, 255)
+    mask, row, col = raster.polygon_mask(np.array([[1.0, 1.0], [5.0, 1.0], [5.0, 4.0], [1.0, 4.0]]))
+    assert (row, col) == (1, 1) and mask.sum() == 12 and mask[:3, :4].all()
