@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
-from agents.ddpg import DDPG, DDPGConfig, _shown, critic_loss, soft_update
-from agents.networks import Actor, Critic
+from agents.ddpg import DDPG, DDPGConfig, _shown, soft_update
+from agents.networks import Actor, Adam, Critic, DensePass, ParameterVector
 from agents.replay import Batch
 
 MAX_POLICY_DELAY = 1000
@@ -84,8 +84,9 @@ class TD3(DDPG):
         super().__init__(obs_dim, act_dim, config)
         self.critic2 = Critic(obs_dim, act_dim, config.hidden_sizes).to(self.device)
         self.critic2_target = copy.deepcopy(self.critic2).requires_grad_(False)
-        params = [*self.critic.parameters(), *self.critic2.parameters()]
-        self.critic_opt = torch.optim.Adam(params, lr=config.critic_lr, fused=True)
+        self.vectors.update({name: ParameterVector(getattr(self, name)) for name in ("critic2", "critic2_target")})
+        self.critic2_pass = DensePass(self.critic2.net, self.vectors["critic2"].grads)
+        self.critic_opt = Adam([self.vectors["critic"], self.vectors["critic2"]], lr=config.critic_lr)
 
     @property
     def actor_updates(self) -> int:
@@ -96,19 +97,28 @@ class TD3(DDPG):
         """DDPG's modules and the second critic with its target."""
         return {**super().modules(), "critic2": self.critic2, "critic2_target": self.critic2_target}
 
+    @torch.no_grad()
     def critic_step(self, obs: torch.Tensor, batch: Batch, next_obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Both critics towards the twin target with a smoothed target action; (summed loss, mean target)."""
+        """Both critics towards the twin target with a smoothed target action; (summed loss, mean target).
+
+        As DDPG's `critic_step`, each critic's gradient of `critic_loss` is written out, and one Adam step
+        moves both.
+        """
         cfg = self.config
         next_actions = smoothed_target_action(self.actor_target, next_obs, cfg.target_noise, cfg.noise_clip)
         target = twin_td_target((self.critic_target, self.critic2_target), next_obs, next_actions,
                                 batch.rewards, batch.terminated, cfg.gamma)
-        q_loss = critic_loss(self.critic, obs, batch.actions, target) + \
-            critic_loss(self.critic2, obs, batch.actions, target)
-        self.critic_opt.zero_grad(set_to_none=True)
-        q_loss.backward()
+        inputs = torch.cat([obs, batch.actions], dim=-1)
+        q_loss = torch.zeros((), device=self.device)
+        for dense in (self.critic_pass, self.critic2_pass):
+            activations = dense.forward(inputs)
+            error = activations[-1].squeeze(-1) - target
+            dense.backward(activations, (error * (2.0 / error.numel())).unsqueeze(-1))
+            q_loss = q_loss + error.square().mean()
         self.critic_opt.step()
-        return q_loss.detach(), target.mean()
+        return q_loss, target.mean()
 
+    @torch.no_grad()
     def _step(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """A critic step; every `policy_delay`-th step also an actor step (against Q_1) and the target updates."""
         obs, next_obs = self.obs_norm(batch.obs), self.obs_norm(batch.next_obs)
@@ -117,6 +127,6 @@ class TD3(DDPG):
         pi_loss = torch.zeros((), device=self.device)
         if self.num_updates % self.config.policy_delay == 0:
             pi_loss = self.actor_step(obs)  # also moves the actor's target (Eq. 19)
-            soft_update(self.critic_target, self.critic, self.config.tau)
-            soft_update(self.critic2_target, self.critic2, self.config.tau)
+            for name in ("critic", "critic2"):
+                soft_update(self.vectors[f"{name}_target"], self.vectors[name], self.config.tau)
         return q_loss, pi_loss, q_target
