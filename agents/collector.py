@@ -27,6 +27,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+import torch
 
 from agents.ddpg import DDPG, DDPGConfig, epsilon_at
 from agents.her import policy_input
@@ -57,70 +58,86 @@ def env_action(spec: dict[str, Any], action: np.ndarray, dtype: Any) -> np.ndarr
     return (low + (action + 1.0) * 0.5 * (high - low)).astype(dtype)
 
 
-def _numpy(module_or_optimizer: Any) -> dict[str, Any]:
-    """A state dict with its tensors as numpy arrays (they pickle lighter through a pipe)."""
-    import torch
+class SharedSlots:
+    """Named float32 slots of one tensor in shared memory, which the learner and its collectors all map.
 
-    def convert(value: Any) -> Any:
-        if isinstance(value, torch.Tensor):
-            return value.detach().cpu().numpy()
-        if isinstance(value, dict):
-            return {k: convert(v) for k, v in value.items()}
-        if isinstance(value, list):
-            return [convert(v) for v in value]
-        return value
+    Weights, optimiser moments and batches cross between the processes here, as in-place copies, and only
+    small orders and the round's transitions go through the pipes: pickling the actor's state through a
+    pipe each round cost more than the round's actor steps. Each side writes a slot before the pipe message
+    that hands it over and reads it after the message, so nothing depends on timing.
+    """
 
-    return convert(module_or_optimizer.state_dict())
+    def __init__(self, sizes: dict[str, int], tensor: torch.Tensor | None = None):
+        self.sizes = dict(sizes)
+        total = sum(self.sizes.values())
+        self.tensor = torch.zeros(total).share_memory_() if tensor is None else tensor
+        self.slots: dict[str, torch.Tensor] = {}
+        offset = 0
+        for name, size in self.sizes.items():
+            self.slots[name] = self.tensor[offset:offset + size]
+            offset += size
 
+    def __getitem__(self, name: str) -> torch.Tensor:
+        return self.slots[name]
 
-def _torch(state: Any) -> Any:
-    """The inverse of `_numpy`."""
-    import torch
-
-    if isinstance(state, np.ndarray):
-        return torch.from_numpy(state)
-    if isinstance(state, dict):
-        return {k: _torch(v) for k, v in state.items()}
-    if isinstance(state, list):
-        return [_torch(v) for v in state]
-    return state
+    def __reduce__(self):  # to a collector process: the sizes and the shared tensor (a handle, not a copy)
+        return SharedSlots, (self.sizes, self.tensor)
 
 
-def actor_state(agent: DDPG) -> dict[str, Any]:
-    """What the actor learner owns: actor, its target and its optimiser, as numpy state dicts."""
-    return {"actor": _numpy(agent.actor), "actor_target": _numpy(agent.actor_target),
-            "actor_opt": _numpy(agent.actor_opt)}
+def shared_layout(agent: DDPG, count: int) -> dict[str, int]:
+    """The slots `Collectors` exchanges through: the normaliser's mean and std, the critic, the actor and
+    its target and Adam moments, the actor's step count, the behaviour actor of collectors 1.., and the
+    normalised observations of a round's actor steps."""
+    actor, critic, config = agent.vectors["actor"].data.numel(), agent.vectors["critic"].data.numel(), agent.config
+    rows = count * max(1, round(config.train_every * config.updates_per_step)) * config.batch_size
+    return {"normaliser": 2 * agent.obs_dim, "critic": critic, "actor": actor, "actor_target": actor,
+            "exp_avg": actor, "exp_avg_sq": actor, "actor_steps": 1, "behaviour": actor if count > 1 else 0,
+            "obs": rows * agent.obs_dim}
 
 
-def load_actor_state(agent: DDPG, state: dict[str, Any]) -> None:
-    """Loads what `actor_state` returned into `agent`."""
-    agent.actor.load_state_dict(_torch(state["actor"]))
-    agent.actor_target.load_state_dict(_torch(state["actor_target"]))
-    agent.actor_opt.load_state_dict(_torch(state["actor_opt"]))
+def write_actor(agent: DDPG, shared: SharedSlots) -> None:
+    """What the actor learner owns, into `shared`: the actor, its target, Adam's moments and step count."""
+    with torch.no_grad():
+        shared["actor"].copy_(agent.vectors["actor"].data)
+        shared["actor_target"].copy_(agent.vectors["actor_target"].data)
+        shared["exp_avg"].copy_(agent.actor_opt.exp_avg[0])
+        shared["exp_avg_sq"].copy_(agent.actor_opt.exp_avg_sq[0])
+        shared["actor_steps"].fill_(agent.actor_opt.steps)
+
+
+def read_actor(agent: DDPG, shared: SharedSlots) -> None:
+    """The inverse of `write_actor`."""
+    with torch.no_grad():
+        agent.vectors["actor"].data.copy_(shared["actor"])
+        agent.vectors["actor_target"].data.copy_(shared["actor_target"])
+        agent.actor_opt.exp_avg[0].copy_(shared["exp_avg"])
+        agent.actor_opt.exp_avg_sq[0].copy_(shared["exp_avg_sq"])
+        for counter in agent.actor_opt.step_counts:
+            counter.copy_(shared["actor_steps"][0])
 
 
 def _collect(conn, env_fn: Callable[[], gym.Env], spec: dict[str, Any], config: DDPGConfig, index: int,
-             count: int, first_episode: int, owned: dict[str, Any] | None) -> None:
+             count: int, first_episode: int, shared: SharedSlots) -> None:
     """A collector process: steps its env for each round the learner asks for, until told to stop (None).
 
-    Collector 0 also learns the actor (`owned`: its starting actor, target and optimiser state): after its
-    steps of a round it does the round's actor steps against the critic the learner sent, and sends back
-    the actor, its target and optimiser state with its transitions.
+    Collector 0 also learns the actor: after its steps of a round it does the round's actor steps against
+    the critic the learner put in `shared`, and puts the actor, its target and Adam's state back there.
     """
-    import torch
-
     torch.set_num_threads(1)
     try:
         env = env_fn()
         agent = DDPG(spec["obs_dim"], spec["act_dim"], config)
-        if owned is not None:
-            load_actor_state(agent, owned)
+        obs_dim = agent.obs_dim
+        if index == 0:
+            read_actor(agent, shared)
         episode, obs = first_episode + index, None
         while (order := conn.recv()) is not None:
-            actor, normaliser, critic, obs_batches, steps, env_steps, episodes = order
-            if owned is None:
-                agent.actor.load_state_dict(_torch(actor))
-            agent.obs_norm.load_state_dict(_torch(normaliser))
+            steps, env_steps, episodes, actor_updates = order
+            with torch.no_grad():
+                if index > 0:
+                    agent.vectors["actor"].data.copy_(shared["behaviour"])
+                agent.obs_norm.mean.copy_(shared["normaliser"][:obs_dim])
+                agent.obs_norm.std.copy_(shared["normaliser"][obs_dim:])
             agent.rng = np.random.default_rng([config.seed, ROUND_STREAM, index, env_steps])
             transitions = []
             for step in range(steps):
@@ -135,14 +152,15 @@ def _collect(conn, env_fn: Callable[[], gym.Env], spec: dict[str, Any], config: 
                 transitions.append((obs, x, action, float(reward), next_obs, bool(terminated), bool(truncated),
                                     info))
                 obs = None if terminated or truncated else next_obs
-            learned = None
-            if owned is not None:
-                losses = []
-                if obs_batches is not None:
-                    agent.critic.load_state_dict(_torch(critic))
-                    losses = [agent.actor_step(torch.from_numpy(part)).item() for part in obs_batches]
-                learned = {**actor_state(agent), "actor_loss": float(np.mean(losses)) if losses else None}
-            conn.send((transitions, learned))
+            actor_loss = None
+            if index == 0 and actor_updates:
+                with torch.no_grad():
+                    agent.vectors["critic"].data.copy_(shared["critic"])
+                rows = shared["obs"][:actor_updates * config.batch_size * obs_dim].view(-1, obs_dim)
+                losses = torch.stack([agent.actor_step(part) for part in rows.split(config.batch_size)])
+                actor_loss = float(losses.mean())
+                write_actor(agent, shared)
+            conn.send((transitions, actor_loss))
         env.close()
     except KeyboardInterrupt:
         pass
@@ -153,11 +171,11 @@ def _collect(conn, env_fn: Callable[[], gym.Env], spec: dict[str, Any], config: 
 class Collectors:
     """N collector processes, each with its own environment from `env_fn`; collector 0 also learns the actor.
 
-    `start_round(agent, steps, env_steps, episodes, obs_batches)` hands the collectors the normaliser and the
-    actor, and collector 0 the critic and the normalised observations of its actor steps (None before
-    learning starts); `finish_round()` returns each collector's transitions (obs, flat obs, action, reward,
-    next obs, terminated, truncated, info), in collector order, and loads the actor that collector 0 learnt
-    into `agent`, returning its mean actor loss (None if it took no step).
+    `start_round(steps, env_steps, episodes, actor_obs)` hands the collectors the normaliser and the actor,
+    and collector 0 the critic and the normalised observations of its actor steps (`actor_obs`, a multiple
+    of batch_size rows; None before learning starts); `finish_round()` returns each collector's transitions
+    (obs, flat obs, action, reward, next obs, terminated, truncated, info), in collector order, and loads
+    the actor that collector 0 learnt into `agent`, returning its mean actor loss (None if it took no step).
     """
 
     def __init__(self, env_fn: Callable[[], gym.Env], spec: dict[str, Any], agent: DDPG, count: int,
@@ -166,27 +184,35 @@ class Collectors:
             raise ValueError(f"collectors must be >= 1, got {count}")
         context = multiprocessing.get_context("spawn")  # no forked copy of torch or MuJoCo state
         self.count, self.agent, self.conns, self.processes = count, agent, [], []
+        self.shared = SharedSlots(shared_layout(agent, count))
+        write_actor(agent, self.shared)
         for index in range(count):
             here, there = context.Pipe()
-            owned = actor_state(agent) if index == 0 else None
             process = context.Process(target=_collect, name=f"collector-{index}", daemon=True,
-                                      args=(there, env_fn, spec, agent.config, index, count, first_episode, owned))
+                                      args=(there, env_fn, spec, agent.config, index, count, first_episode,
+                                            self.shared))
             process.start()
             there.close()
             self.conns.append(here)
             self.processes.append(process)
         self._open = False
 
-    def start_round(self, steps: int, env_steps: int, episodes: int,
-                    obs_batches: list[np.ndarray] | None = None) -> None:
+    def start_round(self, steps: int, env_steps: int, episodes: int, actor_obs: torch.Tensor | None = None) -> None:
         """Starts a round of `steps` env steps in all (split as evenly as possible, the first ones more)."""
-        actor = _numpy(self.agent.actor) if self.count > 1 else None
-        normaliser = _numpy(self.agent.obs_norm)
-        critic = _numpy(self.agent.critic) if obs_batches is not None else None
+        agent, shared = self.agent, self.shared
+        actor_updates = 0
+        with torch.no_grad():
+            shared["normaliser"][:agent.obs_dim].copy_(agent.obs_norm.mean)
+            shared["normaliser"][agent.obs_dim:].copy_(agent.obs_norm.std)
+            if self.count > 1:
+                shared["behaviour"].copy_(agent.vectors["actor"].data)
+            if actor_obs is not None:
+                shared["critic"].copy_(agent.vectors["critic"].data)
+                shared["obs"][:actor_obs.numel()].copy_(actor_obs.reshape(-1))
+                actor_updates = len(actor_obs) // agent.config.batch_size
         base, extra = divmod(steps, self.count)
         for index, conn in enumerate(self.conns):
-            conn.send((actor, normaliser, critic if index == 0 else None, obs_batches if index == 0 else None,
-                       base + (index < extra), env_steps, episodes))
+            conn.send((base + (index < extra), env_steps, episodes, actor_updates if index == 0 else 0))
         self._open = True
 
     def finish_round(self) -> tuple[list[list[tuple]], float | None]:
@@ -203,9 +229,8 @@ class Collectors:
             if isinstance(result, BaseException):
                 raise RuntimeError(f"collector process {index} failed: {result!r}") from result
             results.append(result)
-        learned = results[0][1]
-        load_actor_state(self.agent, learned)
-        return [transitions for transitions, _ in results], learned["actor_loss"]
+        read_actor(self.agent, self.shared)
+        return [transitions for transitions, _ in results], results[0][1]
 
     def close(self) -> None:
         """Stops the processes; the transitions of an unfinished round are dropped."""

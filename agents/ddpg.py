@@ -225,8 +225,9 @@ class DDPG:
         shape = (*obs.shape[:-1], self.act_dim)
         if explore and self.rng.random() < self.epsilon:
             return self.rng.uniform(-1.0, 1.0, shape).astype(np.float32)
-        x = self.obs_norm(torch.as_tensor(obs, device=self.device))
-        action = self.actor(x).cpu().numpy()
+        x = self.obs_norm(torch.as_tensor(obs, device=self.device)).reshape(-1, self.obs_dim)
+        # self.actor(x), the same arithmetic without the module calls (a third of an exploring env step's cost)
+        action = self.actor_pass.forward(x)[-1].tanh_().reshape(shape).cpu().numpy()
         if explore and self.config.noise_std > 0:
             action = np.clip(action + self.config.noise_std * self.rng.standard_normal(shape), -1.0, 1.0)
         return action.astype(np.float32, copy=False)

@@ -346,7 +346,7 @@ def _owed_updates(config: DDPGConfig, before: int, after: int) -> int:
     return rounds * _updates_per_round(config)
 
 
-def _critic_round(run: _Run, n_updates: int) -> tuple[Any, list[np.ndarray] | None]:
+def _critic_round(run: _Run, n_updates: int) -> tuple[Any, torch.Tensor | None]:
     """Samples the round's batch; returns a thunk doing its `n_updates` critic steps and the normalised
     observations of the matching actor steps (None when there is nothing to learn yet)."""
     agent, config = run.agent, run.agent.config
@@ -373,7 +373,7 @@ def _critic_round(run: _Run, n_updates: int) -> tuple[Any, list[np.ndarray] | No
         q_loss, q_target = (sums / n_updates).tolist()
         return {"critic_loss": q_loss, "q_target": q_target}
 
-    return critic_steps, [obs[part].numpy() for part in parts]
+    return critic_steps, obs
 
 
 def _train_with_collectors(run: _Run, env_fn: Callable[[], gym.Env], count: int, total_steps: int | None,
