@@ -33,6 +33,13 @@ from agents.ddpg import DDPG, DDPGConfig, epsilon_at
 from agents.her import policy_input
 from auv_mj.seeds import train_seed
 
+LEARNER_SHARE: dict[int, float] = {1: 0.375}
+"""Per number of collector processes, the fraction of each round's env steps the learner steps itself.
+
+With one collector on two cores: collector 0's actor steps cost about the learner's critic steps, and the
+learner also stores and samples, so without a share of its own the learner waits for the collector
+about a third of each round. A fixed fraction (not one set by timing) keeps a run deterministic. With
+more collectors than spare cores, the learner steps none."""
 ROUND_STREAM = 2
 """Tag of the per-round exploration streams in SeedSequence([seed, ROUND_STREAM, collector, env steps])."""
 
@@ -116,6 +123,39 @@ def read_actor(agent: DDPG, shared: SharedSlots) -> None:
             counter.copy_(shared["actor_steps"][0])
 
 
+class Stepper:
+    """One environment of a run's rounds, stepped with the behaviour actor: stream `index` of `count`.
+
+    Stream i resets episodes first_episode + i, + i + count, ... and explores with the draws of
+    SeedSequence([seed, ROUND_STREAM, i, env steps at the round's start]), so its transitions depend on
+    the round's actor and normaliser and nothing else. `agent` acts (its actor and normaliser are set
+    by whoever owns the stepper before each round).
+    """
+
+    def __init__(self, env: gym.Env, spec: dict[str, Any], agent: DDPG, index: int, count: int,
+                 first_episode: int):
+        self.env, self.spec, self.agent, self.index, self.count = env, spec, agent, index, count
+        self.episode, self.obs = first_episode + index, None
+
+    def run(self, steps: int, env_steps: int, episodes: int) -> list[tuple]:
+        """`steps` transitions (obs, flat obs, action, reward, next obs, terminated, truncated, info)."""
+        agent, config, env, spec = self.agent, self.agent.config, self.env, self.spec
+        agent.rng = np.random.default_rng([config.seed, ROUND_STREAM, self.index, env_steps])
+        transitions = []
+        for step in range(steps):
+            if self.obs is None:
+                self.obs, _ = env.reset(seed=episode_seed(config.seed, self.episode))
+                self.episode += self.count
+            obs = self.obs
+            x = flat_observation(spec, obs)
+            agent.epsilon = epsilon_at(config, env_steps + step * self.count + self.index, episodes)
+            action = agent.act(x, explore=True)
+            next_obs, reward, terminated, truncated, info = env.step(env_action(spec, action, env.action_space.dtype))
+            transitions.append((obs, x, action, float(reward), next_obs, bool(terminated), bool(truncated), info))
+            self.obs = None if terminated or truncated else next_obs
+        return transitions
+
+
 def _collect(conn, env_fn: Callable[[], gym.Env], spec: dict[str, Any], config: DDPGConfig, index: int,
              count: int, first_episode: int, shared: SharedSlots) -> None:
     """A collector process: steps its env for each round the learner asks for, until told to stop (None).
@@ -125,12 +165,11 @@ def _collect(conn, env_fn: Callable[[], gym.Env], spec: dict[str, Any], config: 
     """
     torch.set_num_threads(1)
     try:
-        env = env_fn()
         agent = DDPG(spec["obs_dim"], spec["act_dim"], config)
+        stepper = Stepper(env_fn(), spec, agent, index, count, first_episode)
         obs_dim = agent.obs_dim
         if index == 0:
             read_actor(agent, shared)
-        episode, obs = first_episode + index, None
         while (order := conn.recv()) is not None:
             steps, env_steps, episodes, actor_updates = order
             with torch.no_grad():
@@ -138,20 +177,7 @@ def _collect(conn, env_fn: Callable[[], gym.Env], spec: dict[str, Any], config: 
                     agent.vectors["actor"].data.copy_(shared["behaviour"])
                 agent.obs_norm.mean.copy_(shared["normaliser"][:obs_dim])
                 agent.obs_norm.std.copy_(shared["normaliser"][obs_dim:])
-            agent.rng = np.random.default_rng([config.seed, ROUND_STREAM, index, env_steps])
-            transitions = []
-            for step in range(steps):
-                if obs is None:
-                    obs, _ = env.reset(seed=episode_seed(config.seed, episode))
-                    episode += count
-                x = flat_observation(spec, obs)
-                agent.epsilon = epsilon_at(config, env_steps + step * count + index, episodes)
-                action = agent.act(x, explore=True)
-                next_obs, reward, terminated, truncated, info = env.step(
-                    env_action(spec, action, env.action_space.dtype))
-                transitions.append((obs, x, action, float(reward), next_obs, bool(terminated), bool(truncated),
-                                    info))
-                obs = None if terminated or truncated else next_obs
+            transitions = stepper.run(steps, env_steps, episodes)
             actor_loss = None
             if index == 0 and actor_updates:
                 with torch.no_grad():
@@ -161,7 +187,7 @@ def _collect(conn, env_fn: Callable[[], gym.Env], spec: dict[str, Any], config: 
                 actor_loss = float(losses.mean())
                 write_actor(agent, shared)
             conn.send((transitions, actor_loss))
-        env.close()
+        stepper.env.close()
     except KeyboardInterrupt:
         pass
     except BaseException as exc:  # noqa: BLE001  (handed to the learner, which raises it)
@@ -169,36 +195,48 @@ def _collect(conn, env_fn: Callable[[], gym.Env], spec: dict[str, Any], config: 
 
 
 class Collectors:
-    """N collector processes, each with its own environment from `env_fn`; collector 0 also learns the actor.
+    """N collector processes, each with its own environment from `env_fn`, and optionally a share of the
+    env steps stepped here, in the learner's process, with `local_env` (`LEARNER_SHARE`).
 
     `start_round(steps, env_steps, episodes, actor_obs)` hands the collectors the normaliser and the actor,
     and collector 0 the critic and the normalised observations of its actor steps (`actor_obs`, a multiple
-    of batch_size rows; None before learning starts); `finish_round()` returns each collector's transitions
-    (obs, flat obs, action, reward, next obs, terminated, truncated, info), in collector order, and loads
-    the actor that collector 0 learnt into `agent`, returning its mean actor loss (None if it took no step).
+    of batch_size rows; None before learning starts). `step_local()` steps the learner's share of the round
+    (call it while the collectors work); `finish_round()` returns the round's transitions (obs, flat obs,
+    action, reward, next obs, terminated, truncated, info) per stream, the collectors' in order and then
+    the learner's, and loads the actor that collector 0 learnt into `agent`, returning its mean actor loss
+    (None if it took no step).
     """
 
     def __init__(self, env_fn: Callable[[], gym.Env], spec: dict[str, Any], agent: DDPG, count: int,
-                 first_episode: int = 0):
+                 first_episode: int = 0, local_env: gym.Env | None = None):
         if count < 1:
             raise ValueError(f"collectors must be >= 1, got {count}")
         context = multiprocessing.get_context("spawn")  # no forked copy of torch or MuJoCo state
         self.count, self.agent, self.conns, self.processes = count, agent, [], []
+        self.local: Stepper | None = None
+        if local_env is not None and LEARNER_SHARE.get(count, 0.0) > 0:
+            acting = DDPG(spec["obs_dim"], spec["act_dim"], agent.config)  # acts with the round's actor
+            self.local = Stepper(local_env, spec, acting, count, count + 1, first_episode)
+        self.streams = count + (self.local is not None)
+        """Environments stepped per round: the collectors' and the learner's own."""
         self.shared = SharedSlots(shared_layout(agent, count))
         write_actor(agent, self.shared)
         for index in range(count):
             here, there = context.Pipe()
             process = context.Process(target=_collect, name=f"collector-{index}", daemon=True,
-                                      args=(there, env_fn, spec, agent.config, index, count, first_episode,
+                                      args=(there, env_fn, spec, agent.config, index, self.streams, first_episode,
                                             self.shared))
             process.start()
             there.close()
             self.conns.append(here)
             self.processes.append(process)
         self._open = False
+        self._local_order: tuple[int, int, int] = (0, 0, 0)
+        self._local_transitions: list[tuple] = []
 
     def start_round(self, steps: int, env_steps: int, episodes: int, actor_obs: torch.Tensor | None = None) -> None:
-        """Starts a round of `steps` env steps in all (split as evenly as possible, the first ones more)."""
+        """Starts a round of `steps` env steps: the learner's share (`LEARNER_SHARE`) and the rest split
+        across the collectors as evenly as possible, the first ones more."""
         agent, shared = self.agent, self.shared
         actor_updates = 0
         with torch.no_grad():
@@ -210,14 +248,28 @@ class Collectors:
                 shared["critic"].copy_(agent.vectors["critic"].data)
                 shared["obs"][:actor_obs.numel()].copy_(actor_obs.reshape(-1))
                 actor_updates = len(actor_obs) // agent.config.batch_size
-        base, extra = divmod(steps, self.count)
+            if self.local is not None:  # the round's actor and normaliser, before collector 0's actor moves it
+                self.local.agent.vectors["actor"].data.copy_(agent.vectors["actor"].data)
+                self.local.agent.obs_norm.mean.copy_(agent.obs_norm.mean)
+                self.local.agent.obs_norm.std.copy_(agent.obs_norm.std)
+        local = round(steps * LEARNER_SHARE[self.count]) if self.local is not None else 0
+        base, extra = divmod(steps - local, self.count)
         for index, conn in enumerate(self.conns):
             conn.send((base + (index < extra), env_steps, episodes, actor_updates if index == 0 else 0))
+        self._local_order = (local, env_steps, episodes)
+        self._local_transitions = []
         self._open = True
 
+    def step_local(self) -> None:
+        """Steps the learner's own share of the round in this process (nothing if it has none)."""
+        if self.local is not None and self._local_order[0]:
+            self._local_transitions = self.local.run(*self._local_order)
+            self._local_order = (0, *self._local_order[1:])
+
     def finish_round(self) -> tuple[list[list[tuple]], float | None]:
-        """Each collector's transitions of the round and collector 0's mean actor loss; raises what a
+        """Each stream's transitions of the round and collector 0's mean actor loss; raises what a
         collector raised, or if one died."""
+        self.step_local()
         results = []
         self._open = False
         for index, conn in enumerate(self.conns):
@@ -230,7 +282,10 @@ class Collectors:
                 raise RuntimeError(f"collector process {index} failed: {result!r}") from result
             results.append(result)
         read_actor(self.agent, self.shared)
-        return [transitions for transitions, _ in results], results[0][1]
+        rounds = [transitions for transitions, _ in results]
+        if self.local is not None:
+            rounds.append(self._local_transitions)
+        return rounds, results[0][1]
 
     def close(self) -> None:
         """Stops the processes; the transitions of an unfinished round are dropped."""

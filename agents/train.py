@@ -376,37 +376,53 @@ def _critic_round(run: _Run, n_updates: int) -> tuple[Any, torch.Tensor | None]:
     return critic_steps, obs
 
 
-def _train_with_collectors(run: _Run, env_fn: Callable[[], gym.Env], count: int, total_steps: int | None,
-                           episodes: int | None, checkpoint_every: int, bar: Any) -> None:
-    """The lock-step rounds of `agents.collector`: `count` collector processes step their environments
-    (and the first one learns the actor) while this process learns the critic, each round on the batch
-    sampled at its start from the transitions of the rounds before."""
+def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env], count: int,
+                           total_steps: int | None, episodes: int | None, checkpoint_every: int, bar: Any) -> None:
+    """The lock-step rounds of `agents.collector`: `count` collector processes (and this one, for its share)
+    step their environments, and collector 0 learns the actor, while this process learns the critic.
+
+    The rounds are pipelined so that neither side waits on the other's bookkeeping: while round k is
+    stepped, this process does the critic steps owed by round k - 1 and samples the batch of round k + 1
+    from the transitions stored so far (through round k - 1); once round k's transitions arrive it starts
+    round k + 1 at once, then stores them.
+    """
     config, counters = run.agent.config, run.counters
     by_steps = total_steps is not None
-    open_episodes: list[list[tuple]] = [[] for _ in range(count)]
-    """Per collector, the transitions of its episode in progress (HER stores an episode when it ends)."""
-    running = [[0.0, 0] for _ in range(count)]
-    """Per collector, return and length of its episode in progress."""
+    with Collectors(env_fn, run.spec, run.agent, count, first_episode=counters["episodes"], local_env=env) as pool:
+        open_episodes: list[list[tuple]] = [[] for _ in range(pool.streams)]
+        """Per stream, the transitions of its episode in progress (HER stores an episode when it ends)."""
+        running = [[0.0, 0] for _ in range(pool.streams)]
+        """Per stream, return and length of its episode in progress."""
 
-    def round_steps() -> int:
-        steps = config.train_every * count
-        return min(steps, total_steps - counters["env_steps"]) if by_steps else steps
+        def round_steps(env_steps: int) -> int:
+            steps = config.train_every * count
+            return min(steps, total_steps - env_steps) if by_steps else steps
 
-    def finished() -> bool:
-        return (by_steps and counters["env_steps"] >= total_steps) or (
-            episodes is not None and counters["episodes"] >= episodes)
+        def finished() -> bool:
+            return (by_steps and counters["env_steps"] >= total_steps) or (
+                episodes is not None and counters["episodes"] >= episodes)
 
-    critic_steps, owed = None, 0
-    with Collectors(env_fn, run.spec, run.agent, count, first_episode=counters["episodes"]) as pool:
-        if not finished():
-            pool.start_round(round_steps(), counters["env_steps"], counters["episodes"])
-        while not finished():
+        if finished():
+            return
+        critic_steps, owed = None, 0
+        submitted = counters["env_steps"] + round_steps(counters["env_steps"])
+        """Env steps once the round in flight is stored."""
+        pool.start_round(submitted - counters["env_steps"], counters["env_steps"], counters["episodes"])
+        while True:
             metrics = critic_steps() if critic_steps else {}  # while the collectors step and learn the actor
-            before, save = counters["env_steps"], False
+            pool.step_local()
+            before = counters["env_steps"]
+            owed = _owed_updates(config, before, submitted)  # by the round in flight, done in the next one
+            following = round_steps(submitted)
+            critic_steps, actor_obs = _critic_round(run, owed) if following else (None, None)
             rounds, actor_loss = pool.finish_round()
+            if following:
+                pool.start_round(following, submitted, counters["episodes"], actor_obs)
+                submitted += following
             if run.writer is not None and metrics:
                 for key, value in {**metrics, "actor_loss": actor_loss}.items():
                     run.writer.add_scalar(f"train/{key}", value, before)
+            save = False
             for index, transitions in enumerate(rounds):
                 for obs, x, action, reward, next_obs, terminated, truncated, info in transitions:
                     run.agent.obs_norm.update(x)
@@ -436,13 +452,10 @@ def _train_with_collectors(run: _Run, env_fn: Callable[[], gym.Env], count: int,
             if run.successes:
                 bar.set_postfix(success=f"{np.mean(run.successes):.2f}", ret=f"{np.mean(run.returns):.2f}",
                                 eps=f"{run.agent.epsilon:.2f}", refresh=False)
-            owed = _owed_updates(config, before, counters["env_steps"])
-            if finished():
-                break
-            critic_steps, actor_obs = _critic_round(run, owed)
-            pool.start_round(round_steps(), counters["env_steps"], counters["episodes"], actor_obs)
             if save:
                 _save(run)
+            if finished() or not following:
+                break
     _update(run, owed)  # the last round's gradient steps, here: the collectors are done
     if run.her:  # episodes cut at the end are stored, not logged, as the serial loop does
         for transitions in open_episodes:
@@ -531,7 +544,7 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
     interrupted = False
     try:
         if collectors:
-            _train_with_collectors(run, env_fn, collectors, total_steps, episodes, checkpoint_every, bar)
+            _train_with_collectors(run, env, env_fn, collectors, total_steps, episodes, checkpoint_every, bar)
         else:
             _train_serial(run, env, total_steps, episodes, checkpoint_every, bar)
     except KeyboardInterrupt:
