@@ -40,6 +40,9 @@ With one collector on two cores: collector 0's actor steps cost about the learne
 learner also stores and samples, so without a share of its own the learner waits for the collector
 about a third of each round. A fixed fraction (not one set by timing) keeps a run deterministic. With
 more collectors than spare cores, the learner steps none."""
+CATCH_UP = 2
+"""A round takes at most this many times its own gradient steps: `agents.train` catches up on steps owed
+while nothing could be sampled yet. The batch slot of `shared_layout` is sized for it."""
 ROUND_STREAM = 2
 """Tag of the per-round exploration streams in SeedSequence([seed, ROUND_STREAM, collector, env steps])."""
 
@@ -96,7 +99,7 @@ def shared_layout(agent: DDPG, count: int) -> dict[str, int]:
     its target and Adam moments, the actor's step count, the behaviour actor of collectors 1.., and the
     normalised observations of a round's actor steps."""
     actor, critic, config = agent.vectors["actor"].data.numel(), agent.vectors["critic"].data.numel(), agent.config
-    rows = count * max(1, round(config.train_every * config.updates_per_step)) * config.batch_size
+    rows = CATCH_UP * count * max(1, round(config.train_every * config.updates_per_step)) * config.batch_size
     return {"normaliser": 2 * agent.obs_dim, "critic": critic, "actor": actor, "actor_target": actor,
             "exp_avg": actor, "exp_avg_sq": actor, "actor_steps": 1, "behaviour": actor if count > 1 else 0,
             "obs": rows * agent.obs_dim}

@@ -48,7 +48,7 @@ from agents.checkpoint import (
     save_checkpoint,
     save_replay,
 )
-from agents.collector import Collectors, env_action, episode_seed, flat_observation
+from agents.collector import CATCH_UP, Collectors, env_action, episode_seed, flat_observation
 from agents.ddpg import DDPG, DDPGConfig, epsilon_at
 from agents.her import HerReplayBuffer
 from agents.replay import Batch, ReplayBuffer
@@ -62,6 +62,7 @@ LOG_NAME = "progress.csv"
 LOG_FIELDS = ("episode", "steps", "length", "return", "success", "wall_time")
 WINDOW = 100
 """Episodes in the running success rate and return shown on the progress bar."""
+
 
 
 @dataclasses.dataclass
@@ -186,7 +187,8 @@ class _Run:
     spec: dict[str, Any]
     run_dir: Path
     counters: dict[str, Any]
-    """env_steps, episodes, gradient_steps and wall_time, totals over resumes."""
+    """env_steps, episodes, gradient_steps and wall_time, totals over resumes, and the gradient steps owed
+    (`_learn`)."""
     log_file: Any
     writer: Any
     returns: deque
@@ -234,7 +236,7 @@ def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir:
         agent = learner(spec["obs_dim"], spec["act_dim"], config)
         if init is not None:
             _initialise_from(agent, Path(init), spec)
-        counters = {"env_steps": 0, "episodes": 0, "gradient_steps": 0, "wall_time": 0.0}
+        counters = {"env_steps": 0, "episodes": 0, "gradient_steps": 0, "owed_updates": 0, "wall_time": 0.0}
     torch.set_num_threads(agent.config.torch_threads)
     buffer = _make_buffer(agent_name, spec, env, agent.config)
     if resume:
@@ -263,22 +265,28 @@ def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir:
 
 
 def _learn(run: _Run) -> None:
-    """round(train_every * updates_per_step) gradient steps on one batched sample (Algorithm 1, l. 12-16)."""
+    """round(train_every * updates_per_step) gradient steps on one batched sample (Algorithm 1, l. 12-16).
+
+    Steps owed while nothing can be sampled yet (HER samples whole episodes, and the first may end after
+    learning_starts) are kept in the counters and taken in the next rounds, at most CATCH_UP times a
+    round's own each, so that a run takes the update-to-data ratio of its config, serially or with
+    collectors."""
     config, counters = run.agent.config, run.counters
     if counters["env_steps"] % config.train_every or counters["env_steps"] < config.learning_starts:
         return
-    _update(run, _updates_per_round(config))
+    counters["owed_updates"] = counters.get("owed_updates", 0) + _updates_per_round(config)
+    counters["owed_updates"] -= _update(run, min(counters["owed_updates"], CATCH_UP * _updates_per_round(config)))
 
 
 def _updates_per_round(config: DDPGConfig) -> int:
     return max(1, round(config.train_every * config.updates_per_step))
 
 
-def _update(run: _Run, n_updates: int) -> None:
-    """`n_updates` gradient steps on one batched sample, if the buffer has anything to sample."""
+def _update(run: _Run, n_updates: int) -> int:
+    """`n_updates` gradient steps on one batched sample, if the buffer has anything to sample; how many."""
     config, counters = run.agent.config, run.counters
     if not n_updates or not (run.buffer.num_samplable if run.her else len(run.buffer)):
-        return
+        return 0
     t0 = time.perf_counter()
     metrics = run.agent.update_many(run.buffer.sample(config.batch_size * n_updates), n_updates)
     run.update_time += time.perf_counter() - t0
@@ -286,6 +294,7 @@ def _update(run: _Run, n_updates: int) -> None:
     if run.writer is not None:
         for key, value in metrics.items():
             run.writer.add_scalar(f"train/{key}", value, counters["env_steps"])
+    return n_updates
 
 
 def _collect_episode(run: _Run, env: gym.Env, total_steps: int | None) -> tuple[float, int, bool, dict]:
@@ -404,7 +413,7 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
 
         if finished():
             return
-        critic_steps, owed = None, 0
+        critic_steps = None
         submitted = counters["env_steps"] + round_steps(counters["env_steps"])
         """Env steps once the round in flight is stored."""
         pool.start_round(submitted - counters["env_steps"], counters["env_steps"], counters["episodes"])
@@ -412,9 +421,15 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
             metrics = critic_steps() if critic_steps else {}  # while the collectors step and learn the actor
             pool.step_local()
             before = counters["env_steps"]
-            owed = _owed_updates(config, before, submitted)  # by the round in flight, done in the next one
+            # The round in flight owes the serial loop's gradient steps; the next round takes them (and any
+            # still owed from before anything could be sampled, as `_learn` does, CATCH_UP rounds' worth).
+            counters["owed_updates"] = counters.get("owed_updates", 0) + _owed_updates(config, before, submitted)
             following = round_steps(submitted)
-            critic_steps, actor_obs = _critic_round(run, owed) if following else (None, None)
+            critic_steps, actor_obs = None, None
+            if following:
+                most = CATCH_UP * _updates_per_round(config) * count
+                critic_steps, actor_obs = _critic_round(run, min(counters["owed_updates"], most))
+                counters["owed_updates"] -= len(actor_obs) // config.batch_size if actor_obs is not None else 0
             rounds, actor_loss = pool.finish_round()
             if following:
                 pool.start_round(following, submitted, counters["episodes"], actor_obs)
@@ -456,7 +471,8 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
                 _save(run)
             if finished() or not following:
                 break
-    _update(run, owed)  # the last round's gradient steps, here: the collectors are done
+    # the last round's gradient steps, here: the collectors are done
+    counters["owed_updates"] = counters.get("owed_updates", 0) - _update(run, counters.get("owed_updates", 0))
     if run.her:  # episodes cut at the end are stored, not logged, as the serial loop does
         for transitions in open_episodes:
             for transition in transitions:
