@@ -1,19 +1,25 @@
 """Environments stepped, and the actor learnt, in collector processes while the learner learns the critic.
 
-`agents.train.train(..., collectors=N)` uses the second core (and more) in lock-step rounds. In a round
-every collector process steps its own environment `train_every` times with the actor and normaliser of
-the round's start (exploring as `DDPG.act`); collector 0 then does the round's actor steps (Eq. 16)
-against the critic of the round's start, while the learner does the round's critic steps (Eq. 17-18) on
-the same batch, with the actor target of the round's start. Then the learner stores the round's
-transitions, collector by collector and step by step, logs the episodes that ended, samples the next
-round's batch and starts the next round. Nothing depends on timing, so a run is deterministic given its
-seed and N (the same seed and N give the same run).
+`agents.train.train(..., collectors=N)` uses the second core (and more) in lock-step rounds of
+train_every * N env steps. In a round the collector processes step their own environments with the actor
+and normaliser of the round's start (exploring as `DDPG.act`), and with one collector the learner steps a
+share of the round in an environment of its own too (`LEARNER_SHARE`); collector 0 then does the round's
+actor steps (Eq. 16) against the critic of the round's start, while the learner does the round's critic
+steps (Eq. 17-18) on the same batch, with the actor target of the round's start. The learner samples the
+next round's batch before the round's transitions arrive, starts the next round as soon as they do, then
+stores them, stream by stream and step by step, and logs the episodes that ended. Nothing depends on
+timing, so a run is deterministic given its seed and N (the same seed and N give the same run).
+
+Weights, Adam moments and batches cross between the processes through one tensor in shared memory
+(`SharedSlots`); the pipes carry only orders and the round's transitions.
 
 It is not the run of the serial loop (N = 0), where every gradient step sees the critic and actor of the
 step before: here the actor climbs a critic up to one round (train_every gradient steps) old, the critic's
-TD targets use an actor target up to one round old, the actor collects with weights one round behind, and
-exploration draws come from a stream per (seed, collector, round). The update-to-data ratio is the serial
-one: round(train_every * updates_per_step) gradient steps per `train_every` env steps.
+TD targets use an actor target up to one round old, the actor collects with weights one round behind, a
+round's batch comes from the transitions of the rounds before the one before it, and exploration draws
+come from a stream per (seed, stream, round). The update-to-data ratio is the serial one:
+round(train_every * updates_per_step) gradient steps per train_every env steps, with the steps owed before
+anything could be sampled taken later, as the serial loop does (`agents.train._learn`).
 
 This module sees environments only through the factory it is given (`env_fn`, picklable: it is sent to the
 collector processes), never a task.

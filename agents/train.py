@@ -471,8 +471,9 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
                 _save(run)
             if finished() or not following:
                 break
-    # the last round's gradient steps, here: the collectors are done
-    counters["owed_updates"] = counters.get("owed_updates", 0) - _update(run, counters.get("owed_updates", 0))
+    # the last round's gradient steps, here (the collectors are done), as many as `_learn` would take
+    owed = counters.get("owed_updates", 0)
+    counters["owed_updates"] = owed - _update(run, min(owed, CATCH_UP * _updates_per_round(config) * count))
     if run.her:  # episodes cut at the end are stored, not logged, as the serial loop does
         for transitions in open_episodes:
             for transition in transitions:

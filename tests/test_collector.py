@@ -11,7 +11,7 @@ import torch
 from test_agents import FAST, evaluate, make_env
 
 from agents.checkpoint import read_checkpoint, read_replay
-from agents.collector import Collectors
+from agents.collector import LEARNER_SHARE, Collectors, episode_seed
 from agents.ddpg import DDPG, DDPGConfig
 from agents.policy import Policy
 from agents.train import _owed_updates, env_spec, train
@@ -74,3 +74,34 @@ def test_a_failing_collector_is_reported():
             pool.finish_round()
     with pytest.raises(ValueError, match="collectors must be >= 0"):
         train(make_env, "her-ddpg", FAST, total_steps=10, collectors=-1)
+
+
+def test_steps_owed_before_anything_can_be_sampled_are_taken_later(tmp_path):
+    # HER samples whole episodes: with learning_starts below the first episode's end, both loops owe steps at
+    # first and take them later, so both take exactly the serial schedule's gradient steps.
+    config = DDPGConfig(hidden_sizes=(32, 32), learning_starts=8, train_every=4, buffer_size=2000, seed=5)
+    schedule = sum(_owed_updates(config, s, s + 1) for s in range(400))
+    runs = {count: train(make_env, "her-ddpg", config, total_steps=400, run_dir=tmp_path / f"c{count}",
+                         progress=False, tensorboard=False, collectors=count) for count in (0, 1)}
+    first_end = int((runs[0].run_dir / "progress.csv").read_text().splitlines()[1].split(",")[1])
+    assert first_end > config.learning_starts  # the serial loop owed steps before its first episode ended
+    for result in runs.values():
+        assert result.gradient_steps == schedule, (result.gradient_steps, schedule)
+
+
+def test_the_learner_steps_its_share_of_a_round_as_a_stream_of_its_own():
+    env = make_env()
+    spec = env_spec(env)
+    agent = DDPG(spec["obs_dim"], spec["act_dim"], FAST)
+    with Collectors(make_env, spec, agent, 1, local_env=make_env()) as pool:
+        assert pool.streams == 2
+        pool.start_round(16, 0, 0)
+        rounds, actor_loss = pool.finish_round()
+    local = round(16 * LEARNER_SHARE[1])
+    assert [len(r) for r in rounds] == [16 - local, local] and actor_loss is None
+    # The learner's stream is stream 1 of 2: it resets episode 1 first (collector 0 resets episode 0).
+    first_obs = rounds[1][0][0]
+    expected, _ = make_env().reset(seed=episode_seed(FAST.seed, 1))
+    np.testing.assert_array_equal(first_obs["desired_goal"], expected["desired_goal"])
+    with Collectors(make_env, spec, agent, 2, local_env=make_env()) as pool:
+        assert pool.streams == 2  # with more collectors than spare cores the learner steps none

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
+import tempfile
 import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
@@ -25,10 +27,11 @@ import torch
 import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from agents.ddpg import DDPG, DDPGConfig
 from agents.replay import Batch
-from agents.train import env_spec
+from agents.train import env_spec, train
 from auv_mj import glbackend, native, render
 from auv_mj.arena import load
 from auv_mj.cli.options import bounded_int, check_output, seed_int, usage_error
+from auv_mj.cli.train import make_env_fn
 from auv_mj.physics import AUVPhysics
 from tasks import suite
 from tasks.guidance import line_of_sight
@@ -314,6 +317,37 @@ def training_section(settings: BenchSettings) -> list[Measurement]:
         times.append((time.perf_counter() - start) / n)
     updates = 1.0 / float(np.median(times))
     return [Measurement("DDPG gradient steps/s (batch 64, 2x256)", updates, "updates/s", "one torch thread")]
+
+
+CORE_STEPS = 8000
+"""Env steps of each timed training run of the "cores" section."""
+
+
+@section("cores")
+def cores_section(settings: BenchSettings) -> list[Measurement]:
+    """Training env steps/s of `auv-mj train her-ddpg --task goal` (Table 4's config) serially and with one
+    collector process (`--collectors 1`), the two runs alternating in every repeat, each timed whole (the
+    collector's start included); and each run's gradient steps per env step, which must agree."""
+    steps = max(2400, settings.calls(CORE_STEPS))
+    config = DDPGConfig(learning_starts=min(DDPGConfig().learning_starts, steps // 4), seed=settings.seed)
+    env_fn = make_env_fn("auv_mj/Goal-v0")
+    rates = np.empty((settings.repeats, 2))
+    ratios = np.empty((settings.repeats, 2))
+    with tempfile.TemporaryDirectory(prefix="auv-mj-bench-") as scratch:
+        for i in range(settings.repeats):
+            for j, count in enumerate((0, 1)):
+                result = train(env_fn, "her-ddpg", config, total_steps=steps, run_dir=Path(scratch) / f"{i}-{count}",
+                               progress=False, tensorboard=False, collectors=count)
+                rates[i, j] = result.env_steps_per_s
+                ratios[i, j] = result.gradient_steps / result.env_steps
+    note = f"goal, {steps} steps per run, {os.cpu_count()} CPUs"
+    return [Measurement("train env steps/s, serial", float(np.median(rates[:, 0])), "steps/s", note),
+            Measurement("train env steps/s, --collectors 1", float(np.median(rates[:, 1])), "steps/s", note),
+            Measurement("--collectors 1 / serial", float(np.median(rates[:, 1] / rates[:, 0])), "x",
+                        "median of the repeats' ratios"),
+            Measurement("gradient steps per env step, serial", float(np.median(ratios[:, 0])), "updates/step"),
+            Measurement("gradient steps per env step, --collectors 1", float(np.median(ratios[:, 1])),
+                        "updates/step")]
 
 
 def run_sections(names: Sequence[str], settings: BenchSettings,
