@@ -101,11 +101,17 @@ def test_training_speed_ratio_from_peer_logs(tmp_path):
     assert "| auv-mj HER-DDPG | auv-mj-her-ddpg-seed0 | 56 | 2800 |" in report
     assert "= **3.00**" in report
 
+    _write_log(tmp_path / "auv-mj-collectors1-seed0.csv", np.r_[np.zeros(10), np.ones(30)], 1.0)
     _write_log(tmp_path / "sb3-ddpg-her-seed0.csv", np.zeros(40), 6.0)
     lines = []
     training_speed(lines, tmp_path)
-    assert "never reached the target in 240 s" in "\n".join(lines)
-    assert "> **4.29**" in "\n".join(lines)
+    report = "\n".join(lines)
+    # A peer that never reaches the target gets no time ratio: that would be a learning figure read as speed.
+    assert "SB3 DDPG+HER in 0 of 1 runs" in report and "no time ratio is drawn" in report
+    assert "wall-clock to the target =" not in report
+    # 100 steps per episode: 50, 100 and 16.7 env steps/s
+    assert "auv-mj / SB3 = **3.00** in one process each, and **6.00** with a collector" in report
+    assert "**2.00** over our serial loop" in report
 
 
 def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp_path):

@@ -45,6 +45,13 @@ def test_fig8_reads_sweep_run_directories_and_tests_the_claim(tmp_path):
     lines = []
     fig8(lines, close, tmp_path / "figures")
     assert "**not shown: the difference is within the spread of the seeds" in "\n".join(lines)
+    # The same logs made on the paper's observation: their own heading, figure and command.
+    lines = []
+    fig8(lines, close, tmp_path / "figures", observation="paper")
+    report = "\n".join(lines)
+    assert report.startswith("## Fig. 8: HER-DDPG vs plain DDPG on `goal`, on the paper's absolute observation")
+    assert (tmp_path / "figures" / "fig8_paper_observation.png").is_file()
+    assert """--task-kwargs '{"observation": "paper"}'""" in report and "--paper-runs OUT" in report
 
 
 def test_confidence_interval_of_the_mean():
@@ -72,7 +79,7 @@ def test_peer_report_gives_throughput_and_time_to_target_side_by_side(tmp_path):
     training_speed(lines, tmp_path)
     report = "\n".join(lines)
     # 100 steps per episode: 50 vs 12.5 env steps/s; both reach 90 % at episode 28: 56 s vs 224 s
-    assert "auv-mj 50, SB3 12 env steps/s, auv-mj / SB3 = **4.00**" in report
+    assert "auv-mj HER-DDPG 50, SB3 DDPG+HER 12 env steps/s; auv-mj / SB3 = **4.00**" in report
     assert "SB3 / auv-mj wall-clock to the target = **4.00**" in report
 
 
