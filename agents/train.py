@@ -12,8 +12,9 @@ round(train_every * updates_per_step) gradient steps on one batched sample. Epis
 `terminated` (goal, collision: no bootstrap) or `truncated` (time limit: bootstrap).
 
 `collectors=N` (N >= 1) uses more cores: the environments are stepped, and the actor learnt, in N collector
-processes while this process learns the critic, in lock-step rounds (`agents.collector`); a run is then
-deterministic given its seed and N, and the update-to-data ratio is the serial one.
+processes while this process learns the critic (and, with one collector, steps a share of the environment
+steps itself), in lock-step rounds (`agents.collector`); a run is then deterministic given its seed and N,
+and the update-to-data ratio is the serial one.
 
 A run directory holds `checkpoint.pt` (atomic, see agents.checkpoint), `replay-<steps>.npz`,
 `progress.csv` (one row per episode), `config.json` and TensorBoard scalars in `tb/`. `resume=True`
@@ -62,7 +63,6 @@ LOG_NAME = "progress.csv"
 LOG_FIELDS = ("episode", "steps", "length", "return", "success", "wall_time")
 WINDOW = 100
 """Episodes in the running success rate and return shown on the progress bar."""
-
 
 
 @dataclasses.dataclass
