@@ -219,8 +219,8 @@ def training_speed(lines: list[str], runs: Path) -> None:
     lines += ["## Training speed: auv-mj vs the Stable-Baselines3 peer", "",
               f"Each run alone on the machine, one after another (`--collectors 1` uses both cores, the others one); "
               f"time to {TARGET:.0%} success over a {WINDOW}-episode window.", "",
-              "| trainer | run | wall s to target | env steps to target | env steps | wall s | env steps/s |",
-              "| --- | --- | --- | --- | --- | --- | --- |"]
+              "| trainer | run | wall s to target | env steps to target | env steps | wall s | env steps/s | "
+              f"final success (last {WINDOW}) |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     groups = {label: sorted(runs.glob(pattern)) for label, pattern in PEER_GROUPS.items()}
     ours, peer = "auv-mj HER-DDPG", "SB3 DDPG+HER"
     if not (groups[ours] and groups[peer]):
@@ -236,8 +236,9 @@ def training_speed(lines: list[str], runs: Path) -> None:
             total_steps, total_wall = int(data["steps"][-1]), float(data["wall_time"][-1])
             times.append(wall)
             speeds.append(total_steps / total_wall)
+            final = float(np.mean(np.asarray(data["success"], dtype=float)[-WINDOW:]))
             lines.append(f"| {label} | {f.stem} | {_fmt(wall, 0)} | {steps if steps >= 0 else 'never'} | "
-                         f"{total_steps} | {total_wall:.0f} | {total_steps / total_wall:.0f} |")
+                         f"{total_steps} | {total_wall:.0f} | {total_steps / total_wall:.0f} | {final:.2f} |")
         if files:
             rates[label] = float(np.median(speeds))
             to_target[label] = times
