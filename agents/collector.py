@@ -35,7 +35,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from agents.ddpg import DDPG, DDPGConfig, epsilon_at
+from agents.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
 from agents.her import policy_input
 from auv_mj.seeds import train_seed
 
@@ -105,7 +105,7 @@ def shared_layout(agent: DDPG, count: int) -> dict[str, int]:
     its target and Adam moments, the actor's step count, the behaviour actor of collectors 1.., and the
     normalised observations of a round's actor steps."""
     actor, critic, config = agent.vectors["actor"].data.numel(), agent.vectors["critic"].data.numel(), agent.config
-    rows = CATCH_UP * count * max(1, round(config.train_every * config.updates_per_step)) * config.batch_size
+    rows = CATCH_UP * count * updates_per_round(config) * config.batch_size
     return {"normaliser": 2 * agent.obs_dim, "critic": critic, "actor": actor, "actor_target": actor,
             "exp_avg": actor, "exp_avg_sq": actor, "actor_steps": 1, "behaviour": actor if count > 1 else 0,
             "obs": rows * agent.obs_dim}

@@ -141,6 +141,11 @@ def field_docs(cls: type) -> dict[str, str]:
     return docs
 
 
+def updates_per_round(config: DDPGConfig) -> int:
+    """Gradient steps a round of `train_every` env steps takes: round(train_every * updates_per_step), >= 1."""
+    return max(1, round(config.train_every * config.updates_per_step))
+
+
 def epsilon_at(config: DDPGConfig, steps: int, episodes: int) -> float:
     """Exploration epsilon after `steps` env steps / `episodes` episodes: linear decay, then constant."""
     progress = steps if config.epsilon_unit == "steps" else episodes

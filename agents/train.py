@@ -50,7 +50,7 @@ from agents.checkpoint import (
     save_replay,
 )
 from agents.collector import CATCH_UP, Collectors, env_action, episode_seed, flat_observation
-from agents.ddpg import DDPG, DDPGConfig, epsilon_at
+from agents.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
 from agents.her import HerReplayBuffer
 from agents.replay import Batch, ReplayBuffer
 from auv_mj.console import progress_bar
@@ -274,12 +274,8 @@ def _learn(run: _Run) -> None:
     config, counters = run.agent.config, run.counters
     if counters["env_steps"] % config.train_every or counters["env_steps"] < config.learning_starts:
         return
-    counters["owed_updates"] = counters.get("owed_updates", 0) + _updates_per_round(config)
-    counters["owed_updates"] -= _update(run, min(counters["owed_updates"], CATCH_UP * _updates_per_round(config)))
-
-
-def _updates_per_round(config: DDPGConfig) -> int:
-    return max(1, round(config.train_every * config.updates_per_step))
+    counters["owed_updates"] = counters.get("owed_updates", 0) + updates_per_round(config)
+    counters["owed_updates"] -= _update(run, min(counters["owed_updates"], CATCH_UP * updates_per_round(config)))
 
 
 def _update(run: _Run, n_updates: int) -> int:
@@ -352,7 +348,7 @@ def _owed_updates(config: DDPGConfig, before: int, after: int) -> int:
     at every multiple of train_every reached, from learning_starts on."""
     first = max(before + 1, config.learning_starts)
     rounds = max(0, after // config.train_every - (first - 1) // config.train_every)
-    return rounds * _updates_per_round(config)
+    return rounds * updates_per_round(config)
 
 
 def _critic_round(run: _Run, n_updates: int) -> tuple[Any, torch.Tensor | None]:
@@ -427,7 +423,7 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
             following = round_steps(submitted)
             critic_steps, actor_obs = None, None
             if following:
-                most = CATCH_UP * _updates_per_round(config) * count
+                most = CATCH_UP * updates_per_round(config) * count
                 critic_steps, actor_obs = _critic_round(run, min(counters["owed_updates"], most))
                 counters["owed_updates"] -= len(actor_obs) // config.batch_size if actor_obs is not None else 0
             rounds, actor_loss = pool.finish_round()
@@ -473,7 +469,7 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
                 break
     # the last round's gradient steps, here (the collectors are done), as many as `_learn` would take
     owed = counters.get("owed_updates", 0)
-    counters["owed_updates"] = owed - _update(run, min(owed, CATCH_UP * _updates_per_round(config) * count))
+    counters["owed_updates"] = owed - _update(run, min(owed, CATCH_UP * updates_per_round(config) * count))
     if run.her:  # episodes cut at the end are stored, not logged, as the serial loop does
         for transitions in open_episodes:
             for transition in transitions:
