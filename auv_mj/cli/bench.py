@@ -319,8 +319,10 @@ def training_section(settings: BenchSettings) -> list[Measurement]:
     return [Measurement("DDPG gradient steps/s (batch 64, 2x256)", updates, "updates/s", "one torch thread")]
 
 
-CORE_STEPS = 8000
-"""Env steps of each timed training run of the "cores" section."""
+CORE_STEPS = 20_000
+"""Env steps of each timed training run of the "cores" section (the collector's start, 2-3 s, is timed too)."""
+CORE_REPEATS = 3
+"""At most this many repeats of the "cores" section (one is two training runs of about a minute)."""
 
 
 @section("cores")
@@ -331,16 +333,17 @@ def cores_section(settings: BenchSettings) -> list[Measurement]:
     steps = max(2400, settings.calls(CORE_STEPS))
     config = DDPGConfig(learning_starts=min(DDPGConfig().learning_starts, steps // 4), seed=settings.seed)
     env_fn = make_env_fn("auv_mj/Goal-v0")
-    rates = np.empty((settings.repeats, 2))
-    ratios = np.empty((settings.repeats, 2))
+    repeats = min(settings.repeats, CORE_REPEATS)
+    rates = np.empty((repeats, 2))
+    ratios = np.empty((repeats, 2))
     with tempfile.TemporaryDirectory(prefix="auv-mj-bench-") as scratch:
-        for i in range(settings.repeats):
+        for i in range(repeats):
             for j, count in enumerate((0, 1)):
                 result = train(env_fn, "her-ddpg", config, total_steps=steps, run_dir=Path(scratch) / f"{i}-{count}",
                                progress=False, tensorboard=False, collectors=count)
                 rates[i, j] = result.env_steps_per_s
                 ratios[i, j] = result.gradient_steps / result.env_steps
-    note = f"goal, {steps} steps per run, {os.cpu_count()} CPUs"
+    note = f"goal, {steps} steps per run, {repeats} repeats, {os.cpu_count()} CPUs"
     return [Measurement("train env steps/s, serial", float(np.median(rates[:, 0])), "steps/s", note),
             Measurement("train env steps/s, --collectors 1", float(np.median(rates[:, 1])), "steps/s", note),
             Measurement("--collectors 1 / serial", float(np.median(rates[:, 1] / rates[:, 0])), "x",
