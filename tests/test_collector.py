@@ -105,3 +105,12 @@ def test_the_learner_steps_its_share_of_a_round_as_a_stream_of_its_own():
     np.testing.assert_array_equal(first_obs["desired_goal"], expected["desired_goal"])
     with Collectors(make_env, spec, agent, 2, local_env=make_env()) as pool:
         assert pool.streams == 2  # with more collectors than spare cores the learner steps none
+
+
+def test_a_run_by_episodes_stops_at_its_episode_count(tmp_path):
+    result = train(make_env, "her-ddpg", FAST, episodes=12, run_dir=tmp_path / "run", progress=False,
+                   tensorboard=False, collectors=1)
+    assert result.episodes == 12
+    rows = (result.run_dir / "progress.csv").read_text().splitlines()[1:]
+    assert [int(r.split(",")[0]) for r in rows] == list(range(1, 13))
+    assert result.gradient_steps > 0
