@@ -21,8 +21,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from auv_mj import arena as arena_lib
 from auv_mj import inputs
+from auv_mj.arenas import arena as arena_lib
 
 VEHICLE_BODY = "auv"
 CIRCLE_SEGMENTS = 32
@@ -94,7 +94,7 @@ class ArenaGeometry:
 
 
 def arena_geometry(physics, task=None) -> ArenaGeometry:
-    """The arena of `physics` (composed per `auv_mj.arena`) with the task's goals, path and movers if any.
+    """The arena of `physics` (composed per `auv_mj.arenas.arena`) with the task's goals, path and movers if any.
 
     Call it after the environment's reset: tasks draw their route (goals, path, movers) there.
     """

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import dm_env
 import numpy as np
 
-from auv_mj.sonar import BEAM_ANGLES, SONAR_RANGE
+from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 from tasks import options as checks
 from tasks.planning import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
 from tasks.planning import SONAR_SLICE, TARGET_SPEED, speed_action, speed_command

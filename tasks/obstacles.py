@@ -6,13 +6,13 @@ obstacles (static, Table 7, Fig. 10): scenario "a" and "b" are the arenas `model
 obstacles_table7_{a,b}.xml` (Table 7's start, target and obstacle count; our polygons). "random" (default,
 training; `arena="random"` says the same) draws a fresh layout every episode (`random_layout`): a random
 start, heading and goal as the `goal` task does, then boxes of the open-water generator
-`auv_mj.procedural.random_boxes` (CLUTTER: sizes, counts and spacing) near the straight route. The boxes
+`auv_mj.arenas.procedural.random_boxes` (CLUTTER: sizes, counts and spacing) near the straight route. The boxes
 are mocap bodies, so they move between episodes without recompiling; unused ones are parked below the
 sonar plane.
 
 moving_obstacles (Table 8, Fig. 11): scenario "a" (two obstacles at 0.1 m/s crossing the route
 horizontally) and "b" (four at 0.2 m/s crossing vertically) are `models/arenas/moving_table8_{a,b}.xml`.
-"random" draws movers on ping-pong paths across the route (`auv_mj.procedural.random_crossers`, CLUTTER).
+"random" draws movers on ping-pong paths across the route (`auv_mj.arenas.procedural.random_crossers`, CLUTTER).
 Movers are moved on the executor's 10 Hz tick.
 
 `auv-mj tunnel --random SEED --task obstacles` writes the layout of a random episode as an arena file.
@@ -27,9 +27,9 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
-from auv_mj import arena, procedural
+from auv_mj.arenas import arena, procedural
+from auv_mj.arenas.tunnels import mover_name
 from auv_mj.assets import model_path
-from auv_mj.tunnels import mover_name
 from tasks import options, planning
 from tasks.registry import SUITE
 

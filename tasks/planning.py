@@ -50,7 +50,7 @@ errors count in the metrics: on routes of several goals (paths, tunnels) only on
 the first one, so that the drive to the path is left out, as the paper does for Tables 10-11.
 
 Conditions. `conditions="ideal"` (default) is the paper's world; "ocean" or a mapping of effects
-(`auv_mj.ocean`) adds a current (moved on at every executor tick), lagged actuators (`Physics.load` compiles
+(`auv_mj.sim.ocean`) adds a current (moved on at every executor tick), lagged actuators (`Physics.load` compiles
 them), a noisy, delayed sonar with dropouts (what the observation and r_avoid see; the metrics
 "safety_violation" and "min_sonar_range" keep the true ranges) and a vehicle scaled per episode that the
 executor does not know about. The ocean's seed is drawn from the task's RandomState after the route, so a
@@ -73,11 +73,12 @@ from dm_control.suite import base
 from dm_control.utils import rewards
 from dm_env import specs
 
-from auv_mj import arena, arena_check, ocean
-from auv_mj.arena import SAFETY_DISTANCE
+from auv_mj.arenas import arena, arena_check
+from auv_mj.arenas.arena import SAFETY_DISTANCE
 from auv_mj.geometry import wrap_angle
-from auv_mj.physics import AUVPhysics
-from auv_mj.sonar import SONAR_NAMES, SONAR_RANGE, fence_ranges
+from auv_mj.sim import ocean
+from auv_mj.sim.physics import AUVPhysics
+from auv_mj.sim.sonar import SONAR_NAMES, SONAR_RANGE, fence_ranges
 from tasks import options
 from tasks.actions import checked_action
 from tasks.splane import EXECUTOR_DT, SPlaneController
@@ -339,8 +340,8 @@ class Physics(AUVPhysics):
 
     @classmethod
     def load(cls, arena_source: str | Path | ET.Element | None, conditions=None) -> Physics:
-        """The vehicle in `arena_source` (an arena MJCF path or ElementTree root; see `auv_mj.arena`), compiled
-        for the task option `conditions` (`auv_mj.ocean.conditions`: lagged actuators where they ask for it)."""
+        """The vehicle in `arena_source` (an arena MJCF path or ElementTree root; see `auv_mj.arenas.arena`), compiled
+        for the task option `conditions` (`auv_mj.sim.ocean.conditions`: lagged actuators where they ask for it)."""
         xml, source = arena.compose_xml(arena_source, thruster_lag=ocean.conditions(conditions).thruster_lag)
         return cls.from_xml_string(xml, source=source)
 
@@ -447,7 +448,7 @@ class PlanningTask(base.Task):
                  conditions="ideal", collision_penalty: float = 0.0):
         """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); `reward` one of
         REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
-        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`);
+        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.sim.ocean.conditions`);
         `collision_penalty`: subtracted from the "paper" and "progress" rewards on a collision or on leaving
         the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY]."""
         self.reward_kind = options.choice("reward", reward, REWARDS)
@@ -706,7 +707,7 @@ class PlanningTask(base.Task):
 
     def map_fence(self, physics: Physics) -> np.ndarray:
         """The map's edge as the nine beams would read it were it a wall, from where the sonars are now
-        (`auv_mj.sonar.fence_ranges`): what a protection domain with a geofence adds to the echoes. SONAR_RANGE on
+        (`auv_mj.sim.sonar.fence_ranges`): what a protection domain with a geofence adds to the echoes. SONAR_RANGE on
         every beam in an arena without `arena_bounds`."""
         if self._bounds is None:
             return np.full(len(SONAR_NAMES), SONAR_RANGE)

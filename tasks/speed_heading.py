@@ -34,7 +34,7 @@ of random size, direction and timing; "none" applies nothing. `last_info["phase"
 disturbance to have started ("none" before the first), so that the per-phase MAE of Table 9 covers each
 disturbance and the recovery from it; `run_executor` computes it.
 
-Conditions: "ideal" (default) is the paper's world; "ocean" or a mapping of effects (`auv_mj.ocean`) adds
+Conditions: "ideal" (default) is the paper's world; "ocean" or a mapping of effects (`auv_mj.sim.ocean`) adds
 a current (moved on every step, beside the disturbances above), lagged actuators and a vehicle scaled per
 episode that the executor does not know about.
 """
@@ -54,11 +54,12 @@ from dm_control.suite import base
 from dm_control.utils import rewards
 from dm_env import specs
 
-from auv_mj import arena, ocean
+from auv_mj.arenas import arena
 from auv_mj.episode import phase_mae as _phase_mae
 from auv_mj.episode import record_episode
 from auv_mj.geometry import wrap_angle
-from auv_mj.vehicle import vehicle_facts
+from auv_mj.sim import ocean
+from auv_mj.sim.vehicle import vehicle_facts
 from tasks import options
 from tasks.actions import checked_action
 from tasks.registry import SUITE
@@ -366,7 +367,7 @@ class SpeedHeading(base.Task):
         """`command`: "paper", "random" or (V, psi); `disturbances`: "paper", "random", "none";
         `reward`: "suite" ([0, 1]) or "paper" (Eq. 30); `observation`: "paper" (Eq. 27) or "integral"
         (Eq. 27 and the error integrals of `ErrorIntegral`); `random`: seed, RandomState or None;
-        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.ocean.conditions`; the
+        `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.sim.ocean.conditions`; the
         sonar's play no part here); `residual`: 0 (the action is the command, Eq. 28-29) or the span of the
         agent's correction to the S-plane's command, in (0, MAX_RESIDUAL]; `gains`: 0 or the octaves by which
         a gain-scheduling action moves the S-plane's gains, in (0, MAX_GAIN_OCTAVES] (module docstring);

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from auv_mj.geometry import wrap_angle
-from auv_mj.vehicle import vehicle_facts
+from auv_mj.sim.vehicle import vehicle_facts
 
 EXECUTOR_DT = 0.1
 """Executor period [s]: the controller is called at 10 Hz (cross-team contract)."""

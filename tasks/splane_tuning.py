@@ -2,7 +2,7 @@
 
 The cost and the search behind the defaults of `tasks.splane.SPlaneGains` (see that module's docstring).
 `--conditions ocean` re-tunes them where the water is not ideal (lagged thrusters, current, a scaled vehicle;
-`auv_mj.ocean`): the same scenarios, each run on OCEAN_TUNING_EPISODES ocean draws of training seeds (never a
+`auv_mj.sim.ocean`): the same scenarios, each run on OCEAN_TUNING_EPISODES ocean draws of training seeds (never a
 validation or test seed), starting from the nominal optimum as a practitioner would. Its optimum is
 `tasks.splane.OCEAN_GAINS`, the strongest classical executor the learned ones are compared with (issue 17).
 """
@@ -15,7 +15,7 @@ from dataclasses import asdict, replace
 
 import numpy as np
 
-from auv_mj import arena
+from auv_mj.arenas import arena
 from auv_mj.geometry import wrap_angle
 from auv_mj.seeds import train_seed
 from tasks.speed_heading import phase_mae, rollout

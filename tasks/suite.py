@@ -44,7 +44,7 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     """The environment of `task_name` in `domain_name` ("auv"), as `dm_control.suite.load`.
 
     `task_kwargs` go to the task's factory (e.g. {"random": 0, "reward": "paper", "scenario": "a"}; every
-    task takes "conditions": "ideal" (default), "ocean" or a mapping of effects, see `auv_mj.ocean`);
+    task takes "conditions": "ideal" (default), "ocean" or a mapping of effects, see `auv_mj.sim.ocean`);
     `environment_kwargs` to `control.Environment`. Raises ValueError naming the valid choices, or the option
     the task refuses (`tasks.options`).
     """

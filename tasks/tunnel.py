@@ -1,7 +1,7 @@
 """tunnel: inspect a tunnel along its known global path past unknown obstacles (Sec. 4.3, Table 12).
 
 The arena (default `models/arenas/tunnel_inspection.xml`; any arena file or ElementTree root via
-`arena=...`, see `auv_mj.arena` and `auv-mj tunnel`) gives the start site, the global path (sites
+`arena=...`, see `auv_mj.arenas.arena` and `auv-mj tunnel`) gives the start site, the global path (sites
 path_0..path_N on the tunnel axis), the known and unknown obstacles, the movers and `arena_bounds`, the
 map (leaving it ends the episode). The global path, discretised to SUBGOAL_SPACING, is the sequence of
 virtual sub-goals (SUBGOAL_RADIUS, Table 1; passed ones die too, see `planning`), beginning after the
@@ -9,7 +9,7 @@ path point nearest the start; a `goal` site off the path's end is appended as th
 vehicle starts at rest on the start site's heading; last_info["cross_track_error"] is the distance to
 the global path (Fig. 17).
 
-`arena="random"` draws a fresh procedural tunnel (`auv_mj.procedural`, RANDOM_TUNNELS) for every
+`arena="random"` draws a fresh procedural tunnel (`auv_mj.arenas.procedural`, RANDOM_TUNNELS) for every
 episode from the task's `random` and recompiles the physics in place before the episode starts; the
 episode's time limit is then `route_time_limit` of that tunnel (the environment's own limit is the
 longest such tunnel's). `random_arena(seed)` is the arena of the first episode of a task seeded `seed`
@@ -23,8 +23,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from auv_mj import procedural
-from auv_mj.arena import arena_info, compose_xml
+from auv_mj.arenas import procedural
+from auv_mj.arenas.arena import arena_info, compose_xml
 from auv_mj.assets import model_path
 from tasks import planning
 from tasks.registry import SUITE

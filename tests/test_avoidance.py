@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from auv_mj.episode import episode_metrics, record_episode
-from auv_mj.sonar import SONAR_RANGE
+from auv_mj.sim.sonar import SONAR_RANGE
 from tasks import suite
 from tasks.avoidance import RepulsiveField, with_repulsion
 from tasks.guidance import line_of_sight
@@ -175,8 +175,8 @@ def test_a_field_with_a_fence_reads_the_map_edge_as_echoes_and_one_without_ignor
 
 def test_a_planning_task_measures_its_map_edge_from_the_bow_of_the_vehicle():
     """`map_fence` against the fence computed here from the pose, the bow offset and the arena's bounds."""
-    from auv_mj import arena
-    from auv_mj.sonar import fence_ranges
+    from auv_mj.arenas import arena
+    from auv_mj.sim.sonar import fence_ranges
     from tasks.avoidance import map_fence
 
     env = suite.load("auv", "obstacles", task_kwargs={"random": 4})

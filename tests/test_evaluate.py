@@ -273,7 +273,7 @@ def test_the_general_two_layer_system_runs_on_the_best_learned_executor_and_the_
 
 def test_the_general_planner_slows_to_the_reference_speed_whenever_an_echo_is_close_ahead():
     from auv_mj.episode import record_episode
-    from auv_mj.sonar import BEAM_ANGLES
+    from auv_mj.sim.sonar import BEAM_ANGLES
     from tasks.avoidance import PROTECTIONS, SLOW_CONE
 
     assert policies.GENERAL["planner-general"].protection == "speed-aware"

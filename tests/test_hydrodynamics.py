@@ -425,7 +425,7 @@ def test_other_mujoco_models_are_unaffected():
     np.testing.assert_array_equal(vehicle.data.qvel, alone.data.qvel)
 
 
-# --- the C step (auv_mj.native) against the Python loop ----------------------------------------------------
+# --- the C step (auv_mj.sim.native) against the Python loop ----------------------------------------------------
 
 @pytest.mark.parametrize("cross_flow", [{}, {"Y_vr": -40.0, "Y_rv": -6.0, "N_vr": 3.0, "N_rv": -20.0}],
                          ids=["REMUS", "with cross-flow terms"])

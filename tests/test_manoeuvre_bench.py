@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from auv_mj import SONAR_RANGE, cli
-from auv_mj.arena import load
+from auv_mj.arenas.arena import load
 from auv_mj.cli import bench
-from auv_mj.manoeuvre import channel_arena, zigzag
+from auv_mj.sim.manoeuvre import channel_arena, zigzag
 
 BOW = 0.665
 

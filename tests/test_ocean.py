@@ -1,4 +1,4 @@
-"""Ocean conditions (auv_mj/ocean.py) and the `conditions` option of every task, against closed forms.
+"""Ocean conditions (auv_mj/sim/ocean.py) and the `conditions` option of every task, against closed forms.
 
 The current against an independent ODE lives in test_hydrodynamics.py; here: the Gauss-Markov statistics,
 the thruster lag against the exact first-order response (and the lagged vehicle against the scipy
@@ -18,12 +18,14 @@ import numpy as np
 import pytest
 from vehicle_reference import ReferenceAUV, read_numerics
 
-from auv_mj import arena, cli, ocean
+from auv_mj import cli
+from auv_mj.arenas import arena
 from auv_mj.cli import policies
 from auv_mj.episode import record_episode
-from auv_mj.hydrodynamics import HydroCoefficients
-from auv_mj.sonar import SONAR_RANGE
-from auv_mj.vehicle import vehicle_facts
+from auv_mj.sim import ocean
+from auv_mj.sim.hydrodynamics import HydroCoefficients
+from auv_mj.sim.sonar import SONAR_RANGE
+from auv_mj.sim.vehicle import vehicle_facts
 from tasks import planning, suite
 from tasks.gym_adapter import GYM_IDS
 from tasks.splane import SPlaneGains

@@ -22,11 +22,11 @@ def test_models_are_found_from_an_installed_wheel(tmp_path):
     assert "auv_mj/cli/__init__.py" in names and "auv_mj/cli/evaluate.py" in names  # the app ships too
     assert "agents/checkpoints/planner_general.pt" in names
     assert "auv_mj_models/arenas/validation/l_bend.xml" in names
-    assert "auv_mj/hydro_kernel.c" in names  # the C step's source, built on first use
+    assert "auv_mj/sim/hydro_kernel.c" in names  # the C step's source, built on first use
     probe = ("import auv_mj, tasks; from auv_mj import AUVPhysics, model_path; "
              "p = AUVPhysics.from_xml_path(model_path('auv.xml')); "
              "print(auv_mj.__file__); print(model_path('arenas/tunnel_inspection.xml')); print(p.sonar()[4]); "
-             "p.step(10); print(auv_mj.native.kernel() is not None)")
+             "p.step(10); print(auv_mj.sim.native.kernel() is not None)")
     run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, cwd=tmp_path,
                          env={"PYTHONPATH": str(site), "PATH": "/usr/bin:/bin", "MUJOCO_GL": "egl",
                               "AUV_MJ_CACHE": str(tmp_path / "cache")})

@@ -1,4 +1,4 @@
-"""Procedural arenas (`auv_mj.procedural`): deterministic per seed, valid (`check-arena`), feasible
+"""Procedural arenas (`auv_mj.arenas.procedural`): deterministic per seed, valid (`check-arena`), feasible
 (`los-avoid` gets through), and exposed on the tunnel task (`arena="random"`), in Gymnasium and by
 `auv-mj tunnel --random`."""
 
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import shapely
 
-from auv_mj import arena, arena_check, procedural, tunnels
+from auv_mj.arenas import arena, arena_check, procedural, tunnels
 from auv_mj.episode import episode_metrics, record_episode
 from tasks import obstacles, planning, suite, tunnel
 from tasks.guidance import los_avoid

@@ -156,7 +156,7 @@ def test_numpy_text_matches_mujoco_overlay():
     """The overlay drawn in numpy (glyph cells read back once) is pixel for pixel MuJoCo's mjr_overlay."""
     import mujoco
 
-    from auv_mj.raster import BitmapFont
+    from auv_mj.render.raster import BitmapFont
 
     env = suite.load("auv", "obstacles", task_kwargs={"random": 0})
     env.reset()
@@ -184,7 +184,7 @@ def test_numpy_text_matches_mujoco_overlay():
 def test_raster_lines_squares_and_polygons_cover_their_pixels():
     """numpy drawing: a wide line covers its pixels except hidden ones, in its opacity; a square and a
     polygon cover the pixels whose centres they contain."""
-    from auv_mj import raster
+    from auv_mj.render import raster
 
     image = np.zeros((20, 30, 3), np.uint8)
     hidden = np.zeros((20, 30), bool)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from auv_mj import SONAR_RANGE, AUVPhysics, model_path
-from auv_mj.arena import load
-from auv_mj.sonar import BEAM_ANGLES, SampleAndHold
+from auv_mj.arenas.arena import load
+from auv_mj.sim.sonar import BEAM_ANGLES, SampleAndHold
 
 BOW = 0.665  # sonar sites sit at the nose of the 1.33 m hull (models/auv.xml)
 HALF_THICKNESS = 0.25
@@ -127,7 +127,7 @@ def test_sonar_follows_the_vehicle_after_steps_and_holds_at_2_hz():
                                   (-60.0, -39.0, -2.3)])
 def test_the_fence_reads_what_the_sonar_would_if_the_map_edge_were_walls(pose):
     """`fence_ranges` against MuJoCo's own rangefinders in a room whose inner faces are the map's bounds."""
-    from auv_mj.sonar import fence_ranges
+    from auv_mj.sim.sonar import fence_ranges
 
     bounds = (-70.0, -45.0, 55.0, 40.0)
     x_min, y_min, x_max, y_max = bounds
@@ -140,7 +140,7 @@ def test_the_fence_reads_what_the_sonar_would_if_the_map_edge_were_walls(pose):
 
 
 def test_the_fence_is_at_most_the_sonar_range_and_zero_outside_the_map():
-    from auv_mj.sonar import fence_ranges
+    from auv_mj.sim.sonar import fence_ranges
 
     bounds = (0.0, 0.0, 600.0, 600.0)
     np.testing.assert_array_equal(fence_ranges((300.0, 300.0), 0.3, bounds), SONAR_RANGE)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from auv_mj.geometry import wrap_angle
-from auv_mj.vehicle import vehicle_facts
+from auv_mj.sim.vehicle import vehicle_facts
 from tasks.splane import EXECUTOR_DT, SPlaneController, SPlaneGains, s_plane
 from tasks.splane_tuning import step_response
 

@@ -16,9 +16,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from auv_mj.arena import arena_info
+from auv_mj.arenas.arena import arena_info
 from auv_mj.geometry import wrap_angle
-from auv_mj.sonar import SONAR_RANGE
+from auv_mj.sim.sonar import SONAR_RANGE
 from tasks import obstacles, planning, suite, tunnel
 from tasks.actions import ActionClipped
 from tasks.registry import SUITE

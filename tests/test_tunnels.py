@@ -1,4 +1,4 @@
-"""Tunnel arenas (`auv_mj.tunnels`) and the arena checker (`auv_mj.arena_check`)."""
+"""Tunnel arenas (`auv_mj.arenas.tunnels`) and the arena checker (`auv_mj.arenas.arena_check`)."""
 
 from __future__ import annotations
 
@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 import shapely
 
-from auv_mj import arena, arena_check, cli, tunnels
+from auv_mj import cli
+from auv_mj.arenas import arena, arena_check, tunnels
 from auv_mj.assets import model_path
-from auv_mj.vehicle import vehicle_facts
+from auv_mj.sim.vehicle import vehicle_facts
 
 HULL_HALF_LENGTH = vehicle_facts().hull_half_length
 

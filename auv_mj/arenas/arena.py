@@ -24,8 +24,8 @@ import numpy as np
 
 from auv_mj import inputs
 from auv_mj.assets import model_path
-from auv_mj.ocean import lag_actuators
-from auv_mj.physics import AUVPhysics
+from auv_mj.sim.ocean import lag_actuators
+from auv_mj.sim.physics import AUVPhysics
 
 SAFETY_DISTANCE = 5.0
 """d_s: the minimum distance between the vehicle and any obstacle or wall [m] (Table 1, Eq. 24)."""
@@ -68,7 +68,7 @@ def compose_xml(arena: str | Path | ET.Element | None = None,
                 vehicle: str | Path | ET.Element | None = None, thruster_lag: bool = False) -> tuple[str, str]:
     """MJCF text of the vehicle with the arena's sections merged in, and a name for error messages.
 
-    `thruster_lag` compiles the vehicle's actuators with their first-order lag (`auv_mj.ocean`).
+    `thruster_lag` compiles the vehicle's actuators with their first-order lag (`auv_mj.sim.ocean`).
     """
     vroot, vname = _read_xml(vehicle if vehicle is not None else model_path("auv.xml"), "vehicle")
     vroot = copy.deepcopy(vroot)

@@ -1,10 +1,10 @@
 """`auv-mj check-arena`: is an arena MJCF usable, and what does it look like from above?
 
-Loads an arena through `auv_mj.arena.load` and checks the convention of `auv_mj.arena` with MuJoCo's
+Loads an arena through `auv_mj.arenas.arena.load` and checks the convention of `auv_mj.arenas.arena` with MuJoCo's
 own queries: `mj_geomDistance` between the hull, posed along the global path, and every static geom
 (the d_s = 5 m of Table 1), and `mj_ray` along each path segment (does the path leave free space?).
 Unknown obstacles (`unknown*`) may stand on the path; for them it checks instead that water joins the
-start to the goal keeping d_s from every static geom (`auv_mj.tunnels.free_route`, on the geoms'
+start to the goal keeping d_s from every static geom (`auv_mj.arenas.tunnels.free_route`, on the geoms'
 outlines seen from above).
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 import shapely
 
 from auv_mj import inputs
-from auv_mj.arena import (
+from auv_mj.arenas.arena import (
     MAX_EXTENT,
     MAX_MOVER_SPEED,
     MOVER_PREFIX,
@@ -33,8 +33,15 @@ from auv_mj.arena import (
     arena_info,
     load,
 )
-from auv_mj.physics import AUVPhysics
-from auv_mj.tunnels import ROUTE_MARGIN, SAFETY_DISTANCE, crossings, route_blocker, route_clearance, segment_lines
+from auv_mj.arenas.tunnels import (
+    ROUTE_MARGIN,
+    SAFETY_DISTANCE,
+    crossings,
+    route_blocker,
+    route_clearance,
+    segment_lines,
+)
+from auv_mj.sim.physics import AUVPhysics
 
 CHECK_STEP = 1.0
 """Distance between the poses at which the path's clearance is measured [m]."""

@@ -2,7 +2,7 @@
 
 Tunnels (`random_tunnel`, Sec. 4.3's task on maps never seen in training). A centreline of straights
 and circular bends, `TunnelSpec.width` wide and `TunnelSpec.length` long, is laid out by
-`auv_mj.tunnels.layout_tunnel` (the geometry of `auv-mj tunnel`), placed anywhere in
+`auv_mj.arenas.tunnels.layout_tunnel` (the geometry of `auv-mj tunnel`), placed anywhere in
 +-`TunnelSpec.placement` m, turned any way and run in either direction, so that nothing about a map is
 in its absolute coordinates. Inside it stand unknown obstacles (`unknown_*`, boxes the global path
 runs through or past) and movers crossing the axis or moving along it (`mover_*`).
@@ -25,7 +25,7 @@ How a tunnel is kept feasible, by construction:
   from the start and the goal;
 and by checks, redrawing (at most `TunnelSpec.tries` times, deterministically) when one fails:
 - `layout_tunnel` validates the walls (no folds or crossings; the path d_s from every wall);
-- `auv_mj.tunnels.check_unknown` asks Shapely for water joining start and goal that keeps d_s from every
+- `auv_mj.arenas.tunnels.check_unknown` asks Shapely for water joining start and goal that keeps d_s from every
   wall, unknown obstacle and along-axis mover track, with the hull turned any way.
 Every arena passes `auv-mj check-arena`, and the classical planner `los-avoid` gets through (measured
 with `auv-mj eval --task tunnel --arena random`; see README).
@@ -44,9 +44,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from auv_mj.arena import MAX_EXTENT, MAX_MOVER_SPEED
-from auv_mj.seeds import SEEDS, seed_split  # noqa: F401  (re-exported: the arenas' seed ranges)
-from auv_mj.tunnels import (
+from auv_mj.arenas.arena import MAX_EXTENT, MAX_MOVER_SPEED
+from auv_mj.arenas.tunnels import (
     MAX_MOVER_RADIUS,
     MAX_OBSTACLE_SIZE,
     MAX_TUNNEL_LENGTH,
@@ -62,6 +61,7 @@ from auv_mj.tunnels import (
     route_clearance,
     tunnel_element,
 )
+from auv_mj.seeds import SEEDS, seed_split  # noqa: F401  (re-exported: the arenas' seed ranges)
 
 LANE = 2.0
 """Room to steer [m] on either side of the lane past an obstacle, beyond d_s from both sides of it."""
@@ -99,7 +99,7 @@ ISLAND_CHANCE = 0.4
 
 def passing_gap() -> float:
     """Least gap [m] beside an unknown obstacle or a mover's track along the axis: d_s to both sides of
-    a hull turned any way (`auv_mj.tunnels.route_clearance`), and LANE to spare on either side."""
+    a hull turned any way (`auv_mj.arenas.tunnels.route_clearance`), and LANE to spare on either side."""
     return 2.0 * (route_clearance() + LANE)
 
 
@@ -197,7 +197,7 @@ class ProceduralTunnel:
         return float(np.sum(np.hypot(*np.diff(self.centreline, axis=0).T)))
 
     def element(self, name: str | None = None, command: str | None = None) -> ET.Element:
-        """The arena MJCF element (`auv_mj.tunnels.tunnel_element`)."""
+        """The arena MJCF element (`auv_mj.arenas.tunnels.tunnel_element`)."""
         name = name or (f"random_tunnel_{self.seed}" if self.seed is not None else "random_tunnel")
         return tunnel_element(self.layout, (), self.movers, WALL_THICKNESS, name, command, self.unknown)
 
@@ -469,7 +469,7 @@ class Box:
     yaw: float
 
     def obstacle(self, spec: ClutterSpec, name: str = "") -> Obstacle:
-        """As an `auv_mj.tunnels.Obstacle` (angle in degrees)."""
+        """As an `auv_mj.arenas.tunnels.Obstacle` (angle in degrees)."""
         hx, hy = spec.sizes[self.size]
         return Obstacle(float(self.centre[0]), float(self.centre[1]), 2 * hx, 2 * hy, math.degrees(self.yaw),
                         name)

@@ -1,10 +1,10 @@
 """Tunnel arenas from a centreline: two walls of long boxes, end caps and the global path (Sec. 4.3).
 
 `build_tunnel` turns a tunnel axis (the known global route of Sec. 4.3) and a width into an arena
-MJCF element that follows the convention of `auv_mj.arena`. The path logic (reading, smoothing,
+MJCF element that follows the convention of `auv_mj.arenas.arena`. The path logic (reading, smoothing,
 offsetting, simplifying, validating: `layout_tunnel`) is kept apart from geom creation
 (`tunnel_element`), as in dm_control's corridor arenas. `auv-mj tunnel` is the command line, and the
-procedural arenas of `auv_mj.procedural` are laid out by the same functions.
+procedural arenas of `auv_mj.arenas.procedural` are laid out by the same functions.
 
 Shapely 2 (GEOS, vectorised) does the polyline geometry: resampling, Douglas-Peucker simplification
 of the walls, crossings (an STRtree query), exact distances, and the free-water test `free_route`.
@@ -29,9 +29,9 @@ import numpy as np
 import shapely
 
 from auv_mj import inputs
-from auv_mj.arena import MAX_EXTENT, MAX_MOVER_SPEED, SAFETY_DISTANCE, UNKNOWN_OBSTACLE_PREFIX
+from auv_mj.arenas.arena import MAX_EXTENT, MAX_MOVER_SPEED, SAFETY_DISTANCE, UNKNOWN_OBSTACLE_PREFIX
 from auv_mj.geometry import wrap_angle
-from auv_mj.vehicle import vehicle_facts
+from auv_mj.sim.vehicle import vehicle_facts
 
 
 def min_width() -> float:
@@ -107,7 +107,7 @@ WALL_RGBA = "0.45 0.47 0.5 1"
 OBSTACLE_RGBA = "0.6 0.4 0.25 1"
 MOVER_RGBA = "0.85 0.2 0.2 1"
 PATH_RGBA = "0.1 0.6 1 0.5"
-HEADER = ("Tunnel arena made by auv-mj tunnel (auv_mj/tunnels.py), arena convention of auv_mj/arena.py; "
+HEADER = ("Tunnel arena made by auv-mj tunnel (auv_mj/arenas/tunnels.py), arena convention of auv_mj/arenas/arena.py; "
           "the command that made it is the text tunnel_command")
 
 
@@ -940,7 +940,7 @@ def tunnel_element(layout: TunnelLayout, obstacles: Sequence[Obstacle] = (),
                    unknown: Sequence[Obstacle] = ()) -> ET.Element:
     """The arena MJCF element of a laid-out tunnel (angles in radians, as the vehicle's compiler).
 
-    `unknown` obstacles are boxes `unknown_*` that the global path does not avoid (see `auv_mj.arena`).
+    `unknown` obstacles are boxes `unknown_*` that the global path does not avoid (see `auv_mj.arenas.arena`).
     `command`, the command line that made it, is kept as `<text name="tunnel_command">`.
     """
     root = ET.Element("mujoco", model=_xml_text(name))

@@ -28,11 +28,13 @@ import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from agents.ddpg import DDPG, DDPGConfig
 from agents.replay import Batch
 from agents.train import env_spec, train
-from auv_mj import glbackend, native, render
-from auv_mj.arena import load
+from auv_mj import render
+from auv_mj.arenas.arena import load
 from auv_mj.cli.options import bounded_int, check_output, seed_int, usage_error
 from auv_mj.cli.train import make_env_fn
-from auv_mj.physics import AUVPhysics
+from auv_mj.render import glbackend
+from auv_mj.sim import native
+from auv_mj.sim.physics import AUVPhysics
 from tasks import suite
 from tasks.guidance import line_of_sight
 
@@ -279,7 +281,8 @@ def render_section(settings: BenchSettings) -> list[Measurement]:
         return [Measurement("rendering unavailable", float("nan"), "", str(e))]
     env = suite.load("auv", "obstacles", task_kwargs={"random": settings.seed})
     measurements = []
-    for size, r in render.benchmark(env, line_of_sight(env), frames=max(10, settings.calls(60))).items():
+    timings = render.time_against_bare_renderer(env, line_of_sight(env), frames=max(10, settings.calls(60)))
+    for size, r in timings.items():
         measurements.append(Measurement(f"render {size} ours", r["ours_fps"], "frames/s"))
         measurements.append(Measurement(f"render {size} bare mujoco.Renderer (limit)", r["bare_fps"], "frames/s"))
         measurements.append(Measurement(f"render {size} ours / bare", r["ratio"], "x"))

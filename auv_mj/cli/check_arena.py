@@ -1,11 +1,11 @@
-"""`auv-mj check-arena`: check an arena MJCF and write a top-down PNG preview (`auv_mj.arena_check`)."""
+"""`auv-mj check-arena`: check an arena MJCF and write a top-down PNG preview (`auv_mj.arenas.arena_check`)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from auv_mj.arena_check import check_arena
+from auv_mj.arenas.arena_check import check_arena
 from auv_mj.cli.options import check_output, usage_error
 
 

@@ -16,10 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj import glbackend, render
+from auv_mj import render
 from auv_mj.cli import plots, policies
 from auv_mj.cli.options import add_episode_options, check_output, fps, pixels, task_kwargs, usage_error
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, episode_metrics, record_episode
+from auv_mj.render import glbackend
 
 TASK = "tunnel"
 SYSTEM = "two-layer"

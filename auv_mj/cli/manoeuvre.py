@@ -1,4 +1,4 @@
-"""`auv-mj manoeuvre`: a scripted zig-zag manoeuvre in a channel (`auv_mj.manoeuvre`); prints the track."""
+"""`auv-mj manoeuvre`: a scripted zig-zag manoeuvre in a channel (`auv_mj.sim.manoeuvre`); prints the track."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import time
 
 import numpy as np
 
-from auv_mj.arena import load
+from auv_mj.arenas.arena import load
 from auv_mj.cli.options import bounded_float
-from auv_mj.manoeuvre import (
+from auv_mj.sim.manoeuvre import (
     APPROACH_TIME,
     CHANNEL_HALF_WIDTH,
     SURGE_FORCE,
@@ -19,7 +19,7 @@ from auv_mj.manoeuvre import (
     channel_arena,
     zigzag,
 )
-from auv_mj.vehicle import vehicle_facts
+from auv_mj.sim.vehicle import vehicle_facts
 
 MAX_DURATION = 3600.0
 """Longest simulated manoeuvre [s]."""

@@ -43,7 +43,7 @@ import torch
 from agents.baselines import uniform_random
 from agents.checkpoint import read_checkpoint
 from agents.policy import Policy
-from auv_mj import arena
+from auv_mj.arenas import arena
 from tasks import suite
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
 from tasks.guidance import classical, is_goal_task, line_of_sight, los_avoid, with_guidance

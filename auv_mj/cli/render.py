@@ -7,7 +7,6 @@ import sys
 import time
 from pathlib import Path
 
-from auv_mj import glbackend
 from auv_mj.cli import policies
 from auv_mj.cli.options import (
     add_episode_options,
@@ -27,6 +26,7 @@ from auv_mj.render import (
     DEFAULT_SIZE,
     FOLLOW_VIEW,
     benchmark,
+    glbackend,
     iter_frames,
     write_video,
 )

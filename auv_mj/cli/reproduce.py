@@ -3,7 +3,7 @@
 Covers Table 9 (executor vs S-plane under disturbances), Tables 10-11 (line and curve following),
 Fig. 8 (HER-DDPG vs DDPG learning curves, from the training logs in `--runs`), the named scenarios
 of Tables 6-8 and 12, the issue's planner targets on random layouts, and the same under ocean conditions
-(`auv_mj.ocean`: current, thruster lag, sonar noise, model uncertainty) beside the ideal ones. Every number
+(`auv_mj.sim.ocean`: current, thruster lag, sonar noise, model uncertainty) beside the ideal ones. Every number
 is printed with the command that reproduces it; `--sections` runs a subset.
 """
 
@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj import ocean, seeds
+from auv_mj import seeds
 from auv_mj.cli import evaluate, plots, policies
 from auv_mj.cli.options import check_output, positive_int, usage_error
 from auv_mj.episode import episode_metrics, record_episode
+from auv_mj.sim import ocean
 
 PAPER_TABLE9 = {  # Table 9: MAE of speed [m/s] and heading [rad] per disturbance phase
     "splane": {"instantaneous": (0.0089, 0.0080), "constant": (0.0460, 0.0028), "periodic": (0.0421, 0.0448)},
@@ -436,7 +437,7 @@ def ocean_conditions(lines: list[str], episodes: int) -> None:
     """The same planners, executors and baselines under ocean conditions beside ideal ones, and what breaks."""
     c = ocean.OCEAN
     lines += ["## Ocean conditions", "",
-              "`conditions=\"ocean\"` (`auv_mj/ocean.py`, README \"Ocean conditions\"): a Gauss-Markov current of "
+              "`conditions=\"ocean\"` (`auv_mj/sim/ocean.py`, README \"Ocean conditions\"): a Gauss-Markov current of "
               f"{c.current.mean_speed} m/s mean (spread {c.current.speed_sigma} m/s, at most "
               f"{c.current.speed_bounds[1]} m/s, direction random per episode), thrust and yaw moment lagged "
               "(0.4 s and 0.2 s, MuJoCo filterexact), sonar noise of "

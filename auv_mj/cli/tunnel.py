@@ -1,5 +1,5 @@
-"""`auv-mj tunnel`: build a tunnel arena MJCF from a centreline CSV/JSON (`auv_mj.tunnels`), or write
-the procedural arena of a random episode (`--random SEED`, `auv_mj.procedural`).
+"""`auv-mj tunnel`: build a tunnel arena MJCF from a centreline CSV/JSON (`auv_mj.arenas.tunnels`), or write
+the procedural arena of a random episode (`--random SEED`, `auv_mj.arenas.procedural`).
 
 Every option is checked by type and range as it is parsed, the output path before any work, and a built
 arena by `auv-mj check-arena`'s own checks before it is written (atomically): a refused spec is a usage
@@ -15,10 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj import procedural
-from auv_mj.arena_check import check_arena
-from auv_mj.cli.options import bounded_float, bounded_int, check_output, seed_int, usage_error
-from auv_mj.tunnels import (
+from auv_mj.arenas import procedural
+from auv_mj.arenas.arena_check import check_arena
+from auv_mj.arenas.tunnels import (
     BOUNDS_MARGIN,
     END_CLEARANCE,
     MAX_END_CLEARANCE,
@@ -43,6 +42,7 @@ from auv_mj.tunnels import (
     save,
     tunnel_element,
 )
+from auv_mj.cli.options import bounded_float, bounded_int, check_output, seed_int, usage_error
 from tasks import obstacles, tunnel
 
 RANDOM_TASKS = ("tunnel", "obstacles", "moving_obstacles")

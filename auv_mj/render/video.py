@@ -2,7 +2,7 @@
 
 `auv-mj render --task goal --policy splane -o goal.mp4` runs one episode and writes an H.264 MP4
 (GIF with --gif, or when no ffmpeg is found). Off-screen OpenGL through EGL or OSMesa
-(`auv_mj.glbackend`); no display is needed.
+(`auv_mj.render.glbackend`); no display is needed.
 
 What a frame shows: a follow camera (orthographic, looking straight down, FOLLOW_VIEW metres tall,
 north up) and/or an overview of the whole arena (full frame, or as picture-in-picture with
@@ -16,7 +16,7 @@ How: OpenGL here is usually a CPU rasteriser (Mesa llvmpipe), which pays for eve
 fills, and numpy pays for the pixels it touches. So OpenGL draws only boxes around the model's geoms, each
 on a patch of water in a viewport of its own (the view's frustum cut to the box, so the camera and its
 headlight do not move), and only those are read back; the open water, the decorations and the text
-(MuJoCo's bitmap fonts, read back once) are drawn in numpy (`auv_mj.raster`); geoms taller than the
+(MuJoCo's bitmap fonts, read back once) are drawn in numpy (`auv_mj.render.raster`); geoms taller than the
 decorations hide them, as before. Only what changed is drawn again: the follow view's static geoms come
 from a layer redrawn when the camera has moved SHADE_DRIFT, the overview's arena (water, static geoms,
 bounds, paths, goals) from a layer redrawn when its window or the goals change, and the overview is
@@ -47,11 +47,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from auv_mj import glbackend, raster
 from auv_mj.console import progress_bar
 from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions
 from auv_mj.geometry import wrap_angle
-from auv_mj.sonar import SONAR_RANGE
+from auv_mj.render import glbackend, raster
+from auv_mj.sim.sonar import SONAR_RANGE
 
 DEFAULT_FPS = 30
 DEFAULT_SIZE = (1280, 720)
@@ -1036,8 +1036,8 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEF
 # --- benchmark ---------------------------------------------------------------------------------------
 
 
-def benchmark(env, policy, sizes: tuple[tuple[int, int], ...] = ((1280, 720), (640, 360)), frames: int = 60,
-              repeats: int = 5) -> dict[str, dict[str, float]]:
+def time_against_bare_renderer(env, policy, sizes: tuple[tuple[int, int], ...] = ((1280, 720), (640, 360)),
+                               frames: int = 60, repeats: int = 5) -> dict[str, dict[str, float]]:
     """Frames/s of FrameRenderer (camera "both") vs a bare `mujoco.Renderer` of the same scene and size.
 
     Both draw the same recorded states of `env` run by `policy` (`auv-mj bench` uses the obstacles task

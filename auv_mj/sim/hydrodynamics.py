@@ -24,7 +24,7 @@ For a constant, irrotational V_c, nu_c_dot = (r v_c, -r u_c, 0), so M_A nu_r_dot
 M_A r (v_c, -u_c, 0), and with M_A dR^T/dt qdot = M_A r (v, -u, 0) the added-mass terms combine into
 M_A r (v_r, -u_r, 0): the whole velocity force above is the still-water one evaluated at (u_r, v_r, r).
 So the hook only replaces nu by nu_r (r_r = r), and the added mass stays implicit in the joint-space
-inertia. A time-varying current (`auv_mj.ocean`) is held constant between its updates.
+inertia. A time-varying current (`auv_mj.sim.ocean`) is held constant between its updates.
 """
 
 from __future__ import annotations
@@ -39,8 +39,8 @@ import mujoco
 import numpy as np
 
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
-from auv_mj.native import NativeKernel
-from auv_mj.native import kernel as native_kernel
+from auv_mj.sim.native import NativeKernel
+from auv_mj.sim.native import kernel as native_kernel
 
 NUMERIC_PREFIX = "hydro_"
 REQUIRED = ("X_udot", "Y_vdot", "Y_rdot", "N_rdot", "X_uu", "Y_vv", "Y_vr", "Y_rv", "Y_rr",
@@ -268,7 +268,7 @@ class Hydrodynamics:
         K_vv = max(0, |Y_vv| |v_r| - m_v / dt) stops one step of sway drag from reversing v_r: large
         timesteps stay stable at any sway speed.
 
-        This is the simulator's hot loop. By default it runs in C (`auv_mj.native`, one call per `advance`,
+        This is the simulator's hot loop. By default it runs in C (`auv_mj.sim.native`, one call per `advance`,
         none into MuJoCo from Python); with `native=False`, or where no C compiler is found, in Python. The
         two compute the same floating-point values, operation for operation (tests/test_hydrodynamics.py
         compares their trajectories bit for bit). The Python loop is written for CPython: the arrays are

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from auv_mj.physics import AUVPhysics
+from auv_mj.sim.physics import AUVPhysics
 
 CHANNEL_HALF_WIDTH = 12.0
 """Distance [m] from the start line to each channel wall."""

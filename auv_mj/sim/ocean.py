@@ -8,7 +8,7 @@ vehicle meets in coastal water:
 - current (`CurrentModel`): a first-order Gauss-Markov speed and direction about a mean (Fossen 2011,
   Handbook of Marine Craft Hydrodynamics and Motion Control, Sec. 8.3), saturated to bounds; the mean
   direction is drawn per episode. It is written to `model.opt.wind[:2]`, which the hydrodynamics read as
-  the current (`auv_mj.hydrodynamics`: the water forces act on the velocity relative to the water).
+  the current (`auv_mj.sim.hydrodynamics`: the water forces act on the velocity relative to the water).
 - thruster lag (`thruster_lag`): a first-order lag on tau_u and tau_r, MuJoCo's own actuator dynamics
   (dyntype="filterexact"); the time constants are the actuators' `dynprm` in the vehicle MJCF, and the
   lagged actuators are compiled only when the lag is on (`lag_actuators`), so that an ideal model is the
@@ -17,7 +17,7 @@ vehicle meets in coastal water:
   (no echo: SONAR_RANGE) and a latency of whole pings.
 - model uncertainty (`ModelUncertainty`): each episode scales every hydrodynamic coefficient and the
   rigid-body mass and inertia within bounds. Controllers are not told: they read the nominal vehicle from
-  the shipped MJCF (`auv_mj.vehicle`).
+  the shipped MJCF (`auv_mj.sim.vehicle`).
 
 `conditions(spec)` turns a task option ("ideal", "ocean", a `Conditions`, or a mapping that overrides
 effects of a base preset) into a validated `Conditions`; an `Ocean` applies one to a physics episode by
@@ -36,9 +36,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from auv_mj.hydrodynamics import OPTIONAL, REQUIRED
-from auv_mj.sonar import SONAR_RANGE
-from auv_mj.vehicle import ACTUATORS
+from auv_mj.sim.hydrodynamics import OPTIONAL, REQUIRED
+from auv_mj.sim.sonar import SONAR_RANGE
+from auv_mj.sim.vehicle import ACTUATORS
 
 PRESETS = ("ideal", "ocean")
 """Names a `conditions` option may take besides a mapping."""
@@ -456,7 +456,7 @@ class Ocean:
         if has_thruster_lag(physics.model.ptr) != lag:
             raise ValueError(f"conditions {self.conditions.name!r} {'need' if lag else 'do not want'} the lagged "
                              f"actuators, but the physics has {'none' if lag else 'them'}: compile it with "
-                             f"thruster_lag={lag} (`auv_mj.arena.load`)")
+                             f"thruster_lag={lag} (`auv_mj.arenas.arena.load`)")
 
     def start(self, physics, random: np.random.RandomState, beams: int = 0) -> None:
         """Draws this episode's ocean from one seed of `random` and applies it to `physics` (at rest, t = 0).

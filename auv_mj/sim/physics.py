@@ -13,11 +13,11 @@ import numpy as np
 from dm_control.mujoco import engine
 from dm_control.rl.control import PhysicsError
 
-from auv_mj.disturbances import Disturbance
-from auv_mj.hydrodynamics import Hydrodynamics, coefficients_from_xml
 from auv_mj.inputs import MAX_XML_BYTES, read_text, source_name
-from auv_mj.sonar import SONAR_NAMES, clip_ranges
-from auv_mj.vehicle import check_vehicle
+from auv_mj.sim.disturbances import Disturbance
+from auv_mj.sim.hydrodynamics import Hydrodynamics, coefficients_from_xml
+from auv_mj.sim.sonar import SONAR_NAMES, clip_ranges
+from auv_mj.sim.vehicle import check_vehicle
 
 SUPPORTED_INTEGRATORS = (mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
 SENSOR_DISABLE_BIT = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
@@ -41,8 +41,8 @@ class AUVPhysics(engine.Physics):
     MuJoCo's own passive forces are applied, without a process-global callback: other MuJoCo
     models in the same process are unaffected, and each physics carries its own coefficients.
     Sensors are not evaluated on physics sub-steps; `sonar()` evaluates the rangefinders on demand.
-    The ocean current is `model.opt.wind[:2]` (see `auv_mj.hydrodynamics`); `scale_vehicle` departs from
-    the MJCF's vehicle for model uncertainty (`auv_mj.ocean`).
+    The ocean current is `model.opt.wind[:2]` (see `auv_mj.sim.hydrodynamics`); `scale_vehicle` departs from
+    the MJCF's vehicle for model uncertainty (`auv_mj.sim.ocean`).
     """
 
     _hydro: Hydrodynamics | None = None

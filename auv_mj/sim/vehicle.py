@@ -44,7 +44,7 @@ MAX_HULL_SIZE = 100.0
 """Largest hull radius or half length [m]."""
 AXIS_TOLERANCE = 1e-6
 LAG_DYNAMICS = (int(mujoco.mjtDyn.mjDYN_FILTER), int(mujoco.mjtDyn.mjDYN_FILTEREXACT))
-"""Actuator dynamics a vehicle may have: a first-order lag (thruster lag, `auv_mj.ocean`), whose force
+"""Actuator dynamics a vehicle may have: a first-order lag (thruster lag, `auv_mj.sim.ocean`), whose force
 settles to the control."""
 MAX_LAG = 60.0
 """Longest actuator time constant (dynprm) [s]."""
