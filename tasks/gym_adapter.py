@@ -339,9 +339,16 @@ class PlanningMix(gymnasium.Env):
         return self.active.task_name
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Draws the episode's task from `seed`, then resets that task with the same seed."""
+        """Draws the episode's task from `seed`, then resets that task with the same seed.
+
+        Without a seed both the task and its episode seed come from the mixture's own generator, so that
+        `reset(seed=s)` then `reset()` gives the same second episode every time (Gymnasium's `check_env`):
+        the drawn task's own RandomState may have been left anywhere by earlier episodes.
+        """
         super().reset(seed=seed)
         self.active = self.envs[int(self.np_random.choice(len(self.envs), p=self.weights))]
+        if seed is None:
+            seed = int(self.np_random.integers(checks.SEED_RANGE[0], checks.SEED_RANGE[1] + 1))
         return self.active.reset(seed=seed, options=options)
 
     def step(self, action):

@@ -34,8 +34,9 @@ def test_registered_ids_cover_the_suite():
         assert gymnasium.spec(env_id).entry_point == gym_adapter.ENTRY_POINT
 
 
-@pytest.mark.parametrize("env_id", AVAILABLE_IDS)
+@pytest.mark.parametrize("env_id", sorted(i for i in gymnasium.registry if i.startswith("auv_mj/")))
 def test_env_checker_passes(env_id):
+    """Every registered id, the Planning-v0 mixture included (its unseeded resets once were not repeatable)."""
     env = gymnasium.make(env_id, task_kwargs=SHORT)
     check_env(env.unwrapped, skip_render_check=True)
     env.close()
