@@ -56,6 +56,29 @@ def test_unwritable_outputs_are_refused_before_the_first_episode(tmp_path):
     _refused(_run("reproduce", "--out", blocker / "r.md", timeout=60), "--out")
 
 
+
+def test_an_output_no_one_can_create_is_refused_before_the_first_episode():
+    """Root may write anywhere by its permissions, yet /proc holds no new folders: the check tries."""
+    done = _run("eval", "--policy", "splane", "--task", "goal", "--episodes", "1000", "--json", "/proc/nope/x.json",
+                timeout=60)
+    _refused(done, "--json /proc/nope/x.json cannot be written")
+    assert len(done.stderr.strip().splitlines()) == 1 and "eval goal" not in done.stderr
+
+
+def test_checking_an_output_leaves_nothing_behind(tmp_path):
+    from auv_mj.cli.options import check_output, check_output_folder
+
+    existing = tmp_path / "kept.json"
+    existing.write_text("old")
+    assert check_output("auv-mj test", existing, "--json") == existing
+    assert existing.read_text() == "old"  # opened for appending, not truncated
+    assert check_output("auv-mj test", tmp_path / "a" / "b" / "c.json", "--json") is not None
+    assert check_output_folder("auv-mj test", tmp_path / "d" / "e", "--record-failures") is not None
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.json"]
+    with pytest.raises(SystemExit) as refused:
+        check_output_folder("auv-mj test", existing, "--record-failures")
+    assert refused.value.code == 2
+
 def _strict(text: str):
     def refuse(name):
         raise ValueError(f"non-standard JSON constant {name}")

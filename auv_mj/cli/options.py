@@ -9,6 +9,7 @@ status 2 and one line on stderr naming the option, never a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -119,9 +120,9 @@ def add_episode_options(parser: argparse.ArgumentParser, *, task: str | None = "
                              "`random` draws a fresh arena per episode where the task can")
     parser.add_argument("--seed", type=seed_int, default=0, help=seed_help)
     if with_policy:
-        parser.add_argument("--policy", default=policy, required=policy_required,
-                            help="checkpoint path, shipped policy (planner, planner-raw, executor, two-layer, "
-                                 "los-executor) or baseline (splane, los-avoid, random)")
+        from auv_mj.cli.policies import policy_help  # the registry's names (imported only by episode commands)
+
+        parser.add_argument("--policy", default=policy, required=policy_required, help=policy_help())
 
 
 def task_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -145,21 +146,66 @@ def usage_error(args: argparse.Namespace | str, message: str) -> NoReturn:
 def check_output(args: argparse.Namespace, path: str | Path | None, option: str) -> Path | None:
     """Refuses (exit 2) an output file that cannot be written, before any work is done.
 
-    The file's folder must exist or be creatable, and be writable; an existing folder in the file's place
-    is refused too. Nothing is created here.
+    The check is done by trying: the missing folders are made and the file opened for writing (appended to,
+    so an existing file keeps its content), then whatever was made is removed again. Asking for permissions
+    instead (`os.access`) says yes to root on paths no one can create (`/proc/nope/x.json`). A folder in the
+    file's place and a regular file where a folder should be are refused by name.
     """
     if path is None:
         return None
     path = Path(path)
     if path.is_dir():
         usage_error(args, f"{option} {path} is a folder, not a file")
+    _check_parent(args, path, option)
+    _try_writing(args, path, option, folder=False)
+    return path
+
+
+def check_output_folder(args: argparse.Namespace, path: str | Path | None, option: str) -> Path | None:
+    """Refuses (exit 2) an output folder in which files cannot be written, before any work is done.
+
+    As `check_output`: the folder (and its missing parents) is made, a file written in it and removed, and
+    then whatever was made is removed again.
+    """
+    if path is None:
+        return None
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        usage_error(args, f"{option} {path} is a file, not a folder")
+    _check_parent(args, path, option)
+    _try_writing(args, path, option, folder=True)
+    return path
+
+
+def _check_parent(args: argparse.Namespace, path: Path, option: str) -> None:
+    """Refuses a path whose nearest existing ancestor is not a folder (a file where a folder should be)."""
     parent = path.parent
-    while not parent.exists():
-        if parent == parent.parent:
-            break
+    while not parent.exists() and parent != parent.parent:
         parent = parent.parent
     if not parent.is_dir():
         usage_error(args, f"{option} {path}: {parent} is not a folder")
-    if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        usage_error(args, f"{option} {path} cannot be written (no write permission in {parent})")
-    return path
+
+
+def _try_writing(args: argparse.Namespace, path: Path, option: str, folder: bool) -> None:
+    """Makes the missing folders down to `path` (itself too if `folder`), writes a file there (a probe in
+    the folder, or the file itself), then removes what it made; an OSError on the way is a usage error."""
+    folder_path = path if folder else path.parent
+    made = []
+    for ancestor in reversed([folder_path, *folder_path.parents]):
+        if not ancestor.exists():
+            made.append(ancestor)
+    probe = folder_path / f".auv-mj-write-test-{os.getpid()}" if folder else path
+    existed = probe.exists()
+    try:
+        folder_path.mkdir(parents=True, exist_ok=True)
+        with open(probe, "a"):
+            pass
+    except OSError as e:
+        where = f" ({e.filename})" if e.filename and str(e.filename) != str(path) else ""
+        usage_error(args, f"{option} {path} cannot be written: {e.strerror or e}{where}")
+    finally:
+        with contextlib.suppress(OSError):  # leave the file system as it was; the folders are empty again
+            if not existed and probe.exists():
+                probe.unlink()
+            for made_folder in reversed(made):
+                made_folder.rmdir()
