@@ -1,0 +1,169 @@
+"""Occupancy grids of the planning plane and shortest paths on them (LaValle, *Planning Algorithms*, Ch. 5-6).
+
+The map of the mapping planners (`tasks.map_planner`: filled from the sonar online, or from the true geoms for
+the oracle) and the certificate of the hard arenas (`auv_mj.arenas.traps`): an arena is feasible when a path
+from its start to its goal keeps HARD_CLEARANCE from every footprint on this grid.
+
+A grid is `Grid(origin, cell, shape)`: cell (i, j) covers x in origin_x + [i, i + 1) cell, y likewise. The
+search is Dijkstra's algorithm (scipy's compiled `csgraph.dijkstra`) on the 8-connected graph of the cells
+whose clearance is at least `hard`, each edge weighted by its length times the mean of its two cells' costs,
+so that a path keeps to the middle of a gap when it can (`cost_field`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+CELL = 2.0
+"""Cell size [m]: a fifth of the narrowest gap the hard tier leaves (hull width + 2 d_s, about 10.2 m)."""
+HARD_CLEARANCE = 2.5
+"""Least clearance [m] of a planned cell centre from an occupied cell centre: the hull's half length
+(0.665 m) plus the rasterisation error of a footprint (half a cell diagonal, 1.4 m) and some to spare."""
+SOFT_CLEARANCE = 12.0
+"""Below this clearance [m] a cell costs more (`cost_field`): paths keep d_s = 5 m and more where there is
+room, and the middle of a gap where there is not."""
+SOFT_WEIGHT = 4.0
+"""Extra cost of a cell at HARD_CLEARANCE over a free one (quadratic in between)."""
+_STEPS = ((1, 0), (0, 1), (1, 1), (1, -1))
+"""The four edge directions of the 8-connected grid (the graph is undirected)."""
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A regular grid over a rectangle of the plane."""
+
+    origin: np.ndarray
+    """World (x, y) [m] of the corner of cell (0, 0)."""
+    cell: float
+    """Cell size [m]."""
+    shape: tuple[int, int]
+    """(nx, ny) cells."""
+
+    @classmethod
+    def covering(cls, bounds, cell: float = CELL, margin: float = 0.0) -> Grid:
+        """The grid covering `bounds` (x_min, y_min, x_max, y_max) [m] grown by `margin`."""
+        low = np.array(bounds[:2], dtype=float) - margin
+        high = np.array(bounds[2:], dtype=float) + margin
+        if not np.all(high > low):
+            raise ValueError(f"grid bounds {tuple(bounds)}: x_max and y_max must exceed x_min and y_min")
+        shape = tuple(int(v) for v in np.ceil((high - low) / cell))
+        return cls(low, float(cell), shape)
+
+    def index(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Cell indices (i, j) of world points (n, 2) and whether each lies on the grid."""
+        cells = np.floor((np.asarray(points, dtype=float).reshape(-1, 2) - self.origin) / self.cell).astype(int)
+        inside = (cells[:, 0] >= 0) & (cells[:, 1] >= 0) & (cells[:, 0] < self.shape[0]) & (cells[:, 1] < self.shape[1])
+        return cells[:, 0], cells[:, 1], inside
+
+    def centre(self, i, j) -> np.ndarray:
+        """World (x, y) [m] of the centres of cells (i, j)."""
+        return self.origin + (np.column_stack([i, j]) + 0.5) * self.cell
+
+    def nearest(self, point) -> tuple[int, int]:
+        """The cell holding `point`, clipped onto the grid."""
+        i, j, _ = self.index(point)
+        return int(np.clip(i[0], 0, self.shape[0] - 1)), int(np.clip(j[0], 0, self.shape[1] - 1))
+
+
+def rasterise(grid: Grid, polygons, occupied: np.ndarray | None = None) -> np.ndarray:
+    """Cells (nx, ny) bool whose centre lies within half a cell diagonal of a convex polygon (k, 2) [m] of
+    `polygons`, or-ed into `occupied` if given. Half a diagonal: a wall thinner than a cell still closes."""
+    occupied = np.zeros(grid.shape, bool) if occupied is None else occupied
+    slack = grid.cell * math.sqrt(0.5)
+    for polygon in polygons:
+        polygon = np.asarray(polygon, dtype=float)
+        x, y = polygon[:, 0], polygon[:, 1]
+        if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:  # clockwise: make it counter-clockwise
+            polygon = polygon[::-1]
+        low = np.floor((polygon.min(axis=0) - slack - grid.origin) / grid.cell).astype(int)
+        high = np.ceil((polygon.max(axis=0) + slack - grid.origin) / grid.cell).astype(int)
+        low, high = np.maximum(low, 0), np.minimum(high, grid.shape)
+        if np.any(high <= low):
+            continue
+        ii, jj = np.meshgrid(np.arange(low[0], high[0]), np.arange(low[1], high[1]), indexing="ij")
+        centres = grid.origin + (np.stack([ii, jj], axis=-1) + 0.5) * grid.cell
+        inside = np.ones(ii.shape, bool)
+        for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True):
+            edge = b - a
+            length = math.hypot(*edge)
+            if length < 1e-12:
+                continue
+            outward = ((centres[..., 0] - a[0]) * edge[1] - (centres[..., 1] - a[1]) * edge[0]) / length
+            inside &= outward <= slack
+        occupied[ii[inside], jj[inside]] = True
+    return occupied
+
+
+def clearance(grid: Grid, occupied: np.ndarray) -> np.ndarray:
+    """Distance [m] from each cell centre to the nearest occupied cell centre (inf on an empty grid)."""
+    if not occupied.any():
+        return np.full(grid.shape, np.inf)
+    return ndimage.distance_transform_edt(~occupied) * grid.cell
+
+
+def cost_field(free_distance: np.ndarray, hard: float = HARD_CLEARANCE, soft: float = SOFT_CLEARANCE,
+               weight: float = SOFT_WEIGHT) -> np.ndarray:
+    """Cost per metre of each cell: inf nearer than `hard` [m] to an obstacle, 1 beyond `soft`, and
+    1 + weight ((soft - d) / (soft - hard))^2 in between."""
+    near = np.clip((soft - free_distance) / (soft - hard), 0.0, 1.0)
+    return np.where(free_distance < hard, np.inf, 1.0 + weight * near ** 2)
+
+
+def shortest_path(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float = 0.0,
+                  window: float | None = None) -> np.ndarray | None:
+    """The cheapest 8-connected path (m, 2) [m] of cell centres from `start`'s cell to a cell within
+    `goal_radius` of `goal` (its nearest passable cell if none), or None when there is none.
+
+    A start cell below the hard clearance (the vehicle near an echo) is passable; `window` [m] keeps the
+    search inside the bounding box of start and goal grown by that much (the whole grid when None).
+    """
+    start_cell = grid.nearest(start)
+    lo, hi = np.zeros(2, int), np.array(grid.shape)
+    if window is not None:
+        ends = np.array([start, goal], dtype=float)[:, :2]
+        lo = np.maximum(np.floor((ends.min(axis=0) - window - grid.origin) / grid.cell).astype(int), 0)
+        hi = np.minimum(np.ceil((ends.max(axis=0) + window - grid.origin) / grid.cell).astype(int), grid.shape)
+    local = cost[lo[0]:hi[0], lo[1]:hi[1]].copy()
+    si, sj = start_cell[0] - lo[0], start_cell[1] - lo[1]
+    local[si, sj] = min(local[si, sj], 1.0 + SOFT_WEIGHT)
+    nx, ny = local.shape
+    ids = np.arange(nx * ny).reshape(nx, ny)
+    rows, cols, weights = [], [], []
+    for di, dj in _STEPS:
+        a = (slice(0, nx - di), slice(max(0, -dj), ny - max(0, dj)))
+        b = (slice(di, nx), slice(max(0, dj), ny - max(0, -dj)) if dj >= 0 else slice(0, ny + dj))
+        ok = np.isfinite(local[a]) & np.isfinite(local[b])
+        rows.append(ids[a][ok])
+        cols.append(ids[b][ok])
+        weights.append(math.hypot(di, dj) * grid.cell * 0.5 * (local[a][ok] + local[b][ok]))
+    graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                       shape=(nx * ny, nx * ny)).tocsr()
+    source = int(ids[si, sj])
+    distance, previous = dijkstra(graph, directed=False, indices=source, return_predecessors=True)
+    centres = grid.centre(*np.divmod(np.arange(nx * ny), ny)) + lo * grid.cell
+    near_goal = np.hypot(*(centres - np.asarray(goal, dtype=float)[:2]).T)
+    targets = np.flatnonzero((near_goal <= max(goal_radius, grid.cell)) & np.isfinite(distance))
+    if targets.size == 0:
+        reachable = np.flatnonzero(np.isfinite(distance) & (near_goal <= max(goal_radius, grid.cell) + 4 * grid.cell))
+        if reachable.size == 0:
+            return None
+        targets = reachable[[int(np.argmin(near_goal[reachable]))]]
+    node = int(targets[np.argmin(distance[targets])])
+    path = [node]
+    while node != source:
+        node = int(previous[node])
+        if node < 0:
+            return None
+        path.append(node)
+    return centres[np.array(path[::-1])]
+
+
+def path_length(path: np.ndarray) -> float:
+    """Length [m] of a polyline (m, 2)."""
+    return float(np.sum(np.hypot(*np.diff(np.asarray(path, dtype=float), axis=0).T))) if len(path) > 1 else 0.0

@@ -1,0 +1,309 @@
+"""The classical planners of the benchmark (issue 30): `los_fast`, `map_replan` and `oracle`.
+
+Each is `factory(env) -> policy(time_step) -> action` on a planning task's suite environment, on the sensors
+and the speed envelope of the learned planners: the nine sonar ranges of the observation, the vehicle's pose
+(what line of sight already reads, `env.physics.pose()`), the task's route (its goals) and the map's edge
+(the geofence). Every one cruises at the top speed MAX_SPEED = 2 m/s inside the speed-aware protection domain
+(`tasks.avoidance.PROTECTIONS["speed-aware"]`) with the geofence, as `planner-general` is deployed.
+
+- `los_fast`: line of sight along the route at 2 m/s under that domain: `planner-general`'s zero action.
+- `map_replan`: the mapping local planner of an AUV stack (Choset et al., *Principles of Robot Motion*, Ch. 2
+  and 5; LaValle, *Planning Algorithms*, Ch. 5-6). An occupancy grid of CELL metres is filled online from the
+  sonar rays (unknown space free: log-odds counts, HIT and MISS); whenever the map changes near the planned
+  path, at most every REPLAN_STEPS planner steps, Dijkstra's algorithm searches it again
+  (`auv_mj.arenas.grid.shortest_path`: cells nearer than INFLATION to an echo are closed, cells within
+  SOFT_CLEARANCE cost more) to the goal, or on a route of many goals (a tunnel's path) to the route point
+  ROUTE_HORIZON metres on; line of sight then follows the path, aiming LOOKAHEAD metres along it.
+- `oracle`: the same search and follower on the true map: every geom's footprint, unknown obstacles included,
+  and the movers where they are (swept over MOVER_HORIZON seconds at their measured velocity), replanned every
+  ORACLE_REPLAN_STEPS. It is no competitor: it certifies that an arena is feasible and gives the reference time
+  of the time-efficiency score (oracle time / own time on a success, 0 on a failure; SPL, Anderson et al. 2018).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import dm_env
+import mujoco
+import numpy as np
+
+from auv_mj.arenas import arena, grid
+from auv_mj.episode import VEHICLE_BODY, arena_geometry, geom_footprint
+from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
+from tasks.avoidance import PROTECTIONS, map_fence, with_repulsion
+from tasks.guidance import los_heading
+from tasks.planning import MAX_SPEED, SONAR_SLICE, TARGET_SPEED, speed_action
+
+Policy = Callable[[dm_env.TimeStep], np.ndarray]
+
+TOP_SPEED_ACTION = speed_action(MAX_SPEED)
+"""The speed action a0 of the top cruise speed, 2 m/s (Table 3, forward only)."""
+PROTECTION = PROTECTIONS["speed-aware"]
+"""The protection domain every planner here runs inside, with the geofence (what `planner-general` runs with)."""
+CELL = grid.CELL
+"""Cell size of the occupancy grid [m] (2 m: a fifth of the narrowest gap of the hard tier)."""
+INFLATION = grid.HARD_CLEARANCE
+"""Hard inflation [m]: a planned cell centre keeps this far from an echo's cell (hull half length 0.665 m plus
+the 1.4 m of rasterisation, to spare); the protection domain keeps d_s = 5 m beyond it."""
+SOFT_CLEARANCE = grid.SOFT_CLEARANCE
+"""Cells nearer than this [m] to an echo cost more: paths keep hull + d_s and more where there is room."""
+HIT, MISS, OCCUPIED, SATURATION = 2, 1, 2, 6
+"""Log-odds counts of a cell: +HIT for an echo in it, -MISS for a beam through it, occupied at >= OCCUPIED,
+clipped to [-SATURATION, SATURATION]. One echo marks a cell; two clear passes free it (a mover gone)."""
+REPLAN_STEPS = 4
+"""Least planner steps (2 s) between two searches when the map changed near the path ..."""
+REPLAN_PERIOD = 40
+"""... and a search every this many steps (20 s) regardless."""
+OFF_PATH = 10.0
+"""A vehicle this far [m] from its planned path (pushed off by the protection domain) plans again."""
+LOOKAHEAD = 14.0
+"""Line of sight aims at the path's point this far [m] ahead of the vehicle's nearest one (pure pursuit)."""
+ROUTE_HORIZON = 80.0
+"""On a route of many goals the search goes to the route point this far [m] along it from the current goal."""
+ROUTE_TARGET_RADIUS = 4.0
+"""Radius [m] of such an intermediate target (the route's last goal keeps the task's radius)."""
+WINDOW = 120.0
+"""The search stays within the bounding box of vehicle and target grown by this [m]."""
+ORACLE_REPLAN_STEPS = 4
+"""The oracle searches again every this many steps (2 s) when the arena has movers."""
+MOVER_HORIZON = 6.0
+"""The oracle closes each mover's footprint swept over this many seconds [s] at its measured velocity."""
+APPROACH = 30.0
+"""Within this distance [m] of a small final goal (radius under APPROACH_RADIUS) the planners slow to the
+target speed, 1 m/s, halving the turn radius (19 m at 2 m/s): a point inside the turning circle is reached,
+not orbited."""
+APPROACH_RADIUS = 5.0
+"""Goals at least this wide [m] (the 12.5 m target areas) are reached at full speed."""
+SONAR_OFFSET = 0.665
+"""The sonars' origin ahead of the vehicle's centre [m] (the `sonar_site_*` of the vehicle MJCF)."""
+_RAY_STEP = CELL / 2
+"""Spacing [m] of the points a beam marks free."""
+
+
+def los_fast(env) -> Policy:
+    """Line of sight along the route at 2 m/s inside the speed-aware domain with the geofence."""
+
+    def policy(time_step: dm_env.TimeStep) -> np.ndarray:
+        return np.array([TOP_SPEED_ACTION, los_heading(time_step.observation["desired_goal"], env.physics.pose())])
+
+    return with_repulsion(policy, PROTECTION, map_fence(env))
+
+
+def _bounds(env) -> tuple[float, float, float, float]:
+    """The episode's map (`arena_bounds`), or the box round its start and goals grown by SONAR_RANGE."""
+    info = arena.arena_info(env.physics)
+    if info.bounds is not None:
+        return tuple(float(b) for b in info.bounds)
+    points = np.vstack([env.physics.pose()[:2], env.task.goals])
+    low, high = points.min(axis=0) - SONAR_RANGE, points.max(axis=0) + SONAR_RANGE
+    return (*low, *high)
+
+
+class GridFollower:
+    """A search on an occupancy grid, replanned when it must, followed by line of sight (module docstring).
+
+    Subclasses fill `self.occupied` (`start`, `update`) and say when the map changed near the path.
+    """
+
+    replan_steps = REPLAN_STEPS
+
+    def __init__(self, env):
+        self.env = env
+        self.grid: grid.Grid | None = None
+
+    def reset(self) -> None:
+        """Forgets the map and the path (the next step starts a new episode)."""
+        self.grid = None
+
+    def start(self) -> None:
+        """A new episode: an empty map over the episode's bounds."""
+        self.grid = grid.Grid.covering(_bounds(self.env), CELL, margin=CELL)
+        self.occupied = np.zeros(self.grid.shape, bool)
+        self.path: np.ndarray | None = None
+        self.progress = 0
+        self.since_plan = 0
+        self.target_key = None
+
+    def update(self, time_step: dm_env.TimeStep, pose: np.ndarray) -> bool:
+        """Brings the map up to date; whether it changed near the path."""
+        raise NotImplementedError
+
+    def target(self) -> tuple[np.ndarray, float, int]:
+        """The search's target, its radius [m] and a key that changes when the target does."""
+        task = self.env.task
+        goals, index = task.goals, task.goal_index
+        if len(goals) == 1:
+            return goals[0], task.goal_radius, index
+        walked, k = 0.0, index
+        while k < len(goals) - 1 and walked < ROUTE_HORIZON:
+            walked += float(np.hypot(*(goals[k + 1] - goals[k])))
+            k += 1
+        radius = task.goal_radius if k == len(goals) - 1 else ROUTE_TARGET_RADIUS
+        return goals[k], radius, k
+
+    def plan(self, pose: np.ndarray, goal: np.ndarray, radius: float) -> None:
+        """Searches the map from the vehicle to the target; keeps the old path when none is found."""
+        cost = grid.cost_field(grid.clearance(self.grid, self.occupied), INFLATION, SOFT_CLEARANCE)
+        path = grid.shortest_path(self.grid, cost, pose[:2], goal, radius, WINDOW)
+        if path is None:
+            path = grid.shortest_path(self.grid, cost, pose[:2], goal, radius)
+        self.since_plan = 0
+        if path is not None:
+            path[-1] = goal if np.hypot(*(path[-1] - goal)) <= radius else path[-1]
+            self.path, self.progress = np.vstack([pose[:2], path]), 0
+
+    def carrot(self, pose: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, float]:
+        """The point LOOKAHEAD along the path past the vehicle's nearest one, and the vehicle's distance to
+        the path [m]."""
+        if self.path is None:
+            return goal, 0.0
+        ahead = self.path[self.progress:]
+        gaps = np.hypot(*(ahead - pose[:2]).T)
+        nearest = int(np.argmin(gaps[: max(1, int(4 * LOOKAHEAD / CELL))]))
+        self.progress += nearest
+        steps = np.hypot(*np.diff(self.path[self.progress:], axis=0).T)
+        along = np.concatenate([[0.0], np.cumsum(steps)])
+        k = int(np.searchsorted(along, LOOKAHEAD))
+        point = self.path[self.progress + k] if k < len(along) else self.path[-1]
+        return point, float(gaps[nearest])
+
+    def __call__(self, time_step: dm_env.TimeStep) -> np.ndarray:
+        pose = np.array(self.env.physics.pose(), dtype=float)
+        if self.grid is None or time_step.first():
+            self.start()
+        changed = self.update(time_step, pose)
+        goal, radius, key = self.target()
+        self.since_plan += 1
+        if (self.path is None or key != self.target_key or self.since_plan >= REPLAN_PERIOD
+                or (changed and self.since_plan >= self.replan_steps)):
+            self.target_key = key
+            self.plan(pose, goal, radius)
+        point, off = self.carrot(pose, goal)
+        if off > OFF_PATH and self.since_plan >= self.replan_steps:
+            self.plan(pose, goal, radius)
+            point, _ = self.carrot(pose, goal)
+        return np.array([approach_speed(self.env.task, pose), los_heading(point, pose)])
+
+
+def approach_speed(task, pose: np.ndarray) -> float:
+    """TOP_SPEED_ACTION, or the target speed's action within APPROACH of a final goal narrower than
+    APPROACH_RADIUS."""
+    goals = task.goals
+    if task.goal_radius < APPROACH_RADIUS and np.hypot(*(goals[-1] - pose[:2])) < APPROACH:
+        return speed_action(TARGET_SPEED)
+    return TOP_SPEED_ACTION
+
+
+class SonarMap(GridFollower):
+    """`map_replan`'s map: log-odds counts of the sonar's echoes and clear beams, unknown space free."""
+
+    def start(self) -> None:
+        super().start()
+        self.odds = np.zeros(self.grid.shape, np.int8)
+
+    def update(self, time_step: dm_env.TimeStep, pose: np.ndarray) -> bool:
+        """Marks the nine beams: cells along each beam short of its range clear, its echo's cell hit."""
+        ranges = np.asarray(time_step.observation["observation"])[SONAR_SLICE] * SONAR_RANGE
+        x, y, psi = pose
+        origin = np.array([x, y]) + SONAR_OFFSET * np.array([math.cos(psi), math.sin(psi)])
+        directions = np.column_stack([np.cos(psi + BEAM_ANGLES), np.sin(psi + BEAM_ANGLES)])
+        samples = np.arange(0.0, SONAR_RANGE, _RAY_STEP)
+        clear = samples[None, :] < (ranges[:, None] - CELL)
+        points = origin + samples[None, :, None] * directions[:, None, :]
+        odds = self.odds.astype(np.int16)
+        i, j, inside = self.grid.index(points[clear])
+        cells = np.unique(np.ravel_multi_index((i[inside], j[inside]), self.grid.shape))
+        odds.flat[cells] -= MISS
+        hit = ranges < SONAR_RANGE - 1e-6
+        i, j, inside = self.grid.index(origin + ranges[hit, None] * directions[hit])
+        cells = np.unique(np.ravel_multi_index((i[inside], j[inside]), self.grid.shape))
+        odds.flat[cells] += HIT
+        self.odds = np.clip(odds, -SATURATION, SATURATION).astype(np.int8)
+        occupied = self.odds >= OCCUPIED
+        new = occupied & ~self.occupied
+        self.occupied = occupied
+        if not new.any() or self.path is None:
+            return bool(new.any())
+        fresh = self.grid.centre(*np.nonzero(new))
+        near = np.min(np.hypot(*(fresh[:, None, :] - self.path[None, self.progress::2, :]).transpose(2, 0, 1)))
+        return bool(near < SOFT_CLEARANCE + CELL)
+
+
+class TrueMap(GridFollower):
+    """The oracle's map: every geom's footprint at t = 0, and the movers' where they are now."""
+
+    replan_steps = ORACLE_REPLAN_STEPS
+
+    def start(self) -> None:
+        super().start()
+        physics = self.env.physics
+        model, data = physics.model.ptr, physics.data.ptr
+        movers = set(arena_geometry(physics, self.env.task).mover_names)
+        vehicle = model.body(VEHICLE_BODY).id
+        self.static = np.zeros(self.grid.shape, bool)
+        self.moving: list[int] = []
+        for g in range(model.ngeom):
+            body = int(model.geom_bodyid[g])
+            root = body
+            while int(model.body_parentid[root]) != 0:
+                root = int(model.body_parentid[root])
+            if root == vehicle or model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE:
+                continue
+            if abs(data.geom_xpos[g][2]) > model.geom_rbound[g] > 0:
+                continue  # parked below the plane (an unused obstacle of a random arena)
+            if model.body(root).name in movers:
+                self.moving.append(g)
+                continue
+            outline = geom_footprint(model, data, g)
+            if outline is not None:
+                grid.rasterise(self.grid, [outline], self.static)
+        self.occupied = self.static.copy()
+        self.last_seen: tuple[float, np.ndarray] | None = None
+
+    def update(self, time_step: dm_env.TimeStep, pose: np.ndarray) -> bool:
+        """The movers' footprints now, swept MOVER_HORIZON ahead at their velocity since the last look."""
+        if not self.moving:
+            return False
+        if self.since_plan + 1 < self.replan_steps and self.path is not None:
+            return False
+        physics = self.env.physics
+        model, data = physics.model.ptr, physics.data.ptr
+        now, centres = float(physics.time()), data.geom_xpos[self.moving][:, :2].copy()
+        velocity = np.zeros_like(centres)
+        if self.last_seen is not None and now > self.last_seen[0]:
+            velocity = (centres - self.last_seen[1]) / (now - self.last_seen[0])
+        self.last_seen = (now, centres)
+        occupied = self.static.copy()
+        for k, g in enumerate(self.moving):
+            outline = geom_footprint(model, data, g)
+            if outline is None:
+                continue
+            for dt in np.linspace(0.0, MOVER_HORIZON, 4):
+                grid.rasterise(self.grid, [outline + velocity[k] * dt], occupied)
+        self.occupied = occupied
+        return True
+
+
+def map_replan(env) -> Policy:
+    """The mapping local planner (module docstring) inside the speed-aware domain with the geofence."""
+    follower = SonarMap(env)
+    return with_repulsion(_resettable(follower), PROTECTION, map_fence(env))
+
+
+def oracle(env) -> Policy:
+    """The planner on the true map (module docstring) inside the speed-aware domain with the geofence."""
+    follower = TrueMap(env)
+    return with_repulsion(_resettable(follower), PROTECTION, map_fence(env))
+
+
+def _resettable(follower: GridFollower) -> Policy:
+    """`follower` as a plain function with its `reset` (what `with_repulsion` passes on)."""
+
+    def policy(time_step: dm_env.TimeStep) -> np.ndarray:
+        return follower(time_step)
+
+    policy.reset = follower.reset
+    policy.follower = follower
+    return policy
