@@ -322,14 +322,36 @@ def load_agent(path: str | Path, device: str | None = None, config: DDPGConfig |
     if pending:
         agent.obs_norm.load_pending_state(pending)
     try:
-        agent.rng.bit_generator.state = meta["agent_rng"]
+        agent.rng.bit_generator.state = _generator_state(meta.get("agent_rng"), agent.rng.bit_generator)
         if "torch_rng" in tensors:
             torch.set_rng_state(tensors["torch_rng"])
-    except (KeyError, TypeError, ValueError, RuntimeError) as exc:
+    except (KeyError, TypeError, ValueError, RuntimeError, OverflowError) as exc:
         raise ValueError(f"checkpoint {path}: its random generator states (agent_rng, torch_rng) are not "
                          f"restorable: {' '.join(str(exc).split())}") from None
     agent.num_updates = int(meta.get("num_updates", 0))
     return agent, meta
+
+
+def _generator_state(state, generator: np.random.BitGenerator) -> dict:
+    """`agent_rng` as a state `generator` (PCG64) takes, or ValueError naming what is wrong with it: NumPy's
+    setter alone accepts floats, bools, unknown keys and an even PCG64 increment, and restores a generator
+    that no run ever had."""
+    keys = {"bit_generator", "state", "has_uint32", "uinteger"}
+    if not isinstance(state, Mapping) or set(state) != keys:
+        raise ValueError(f"agent_rng must be a dict of {sorted(keys)}, got {str(state)[:80]}")
+    kind = type(generator).__name__
+    if state["bit_generator"] != kind:
+        raise ValueError(f"agent_rng.bit_generator must be {kind!r}, got {str(state['bit_generator'])[:40]!r}")
+    inner = state["state"]
+    if kind == "PCG64" and not (isinstance(inner, Mapping) and set(inner) == {"state", "inc"}
+                                and _whole(inner["state"], 0, 2**128 - 1)
+                                and _whole(inner["inc"], 0, 2**128 - 1) and inner["inc"] % 2):
+        raise ValueError(f"agent_rng.state must be {{'state', 'inc'}}: whole numbers below 2**128, inc odd, "
+                         f"got {str(inner)[:80]}")
+    if not (_whole(state["has_uint32"], 0, 1) and _whole(state["uinteger"], 0, 2**32 - 1)):
+        raise ValueError(f"agent_rng.has_uint32 must be 0 or 1 and uinteger a whole number below 2**32, got "
+                         f"{str(state['has_uint32'])[:20]} and {str(state['uinteger'])[:20]}")
+    return dict(state)
 
 
 def save_replay(path: str | Path, state: Mapping[str, np.ndarray]) -> None:

@@ -143,11 +143,14 @@ def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, ar
     `procedural.TunnelSpec` fields) set.
 
     A file or element is refused (ValueError naming it and its problems) unless `auv-mj check-arena` finds it
-    usable. time_limit defaults to `route_time_limit` of the start-to-goal path length (per episode when
-    random).
+    usable, and an `arena_spec` that gives no tunnel (`procedural.check_feasible`) is refused naming its
+    conflicting fields. time_limit defaults to `route_time_limit` of the start-to-goal path length (per
+    episode when random).
     """
     if isinstance(arena, str) and arena == RANDOM:
         spec = tunnel_spec(arena_spec)
+        if arena_spec is not None:  # refused here, before any episode, not in the first reset
+            procedural.check_feasible(spec)
         task = Tunnel(arena_spec=spec, route_time_limit=time_limit is None, random=random, **task_kwargs)
         physics = planning.Physics.load(planning.open_water_arena(),  # replaced at every reset
                                         task_kwargs.get("conditions"))

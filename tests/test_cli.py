@@ -79,6 +79,14 @@ def test_checking_an_output_leaves_nothing_behind(tmp_path):
         check_output_folder("auv-mj test", existing, "--record-failures")
     assert refused.value.code == 2
 
+
+def test_an_infeasible_arena_spec_is_a_usage_error_before_any_episode():
+    done = _run("eval", "--policy", "splane", "--task", "tunnel", "--arena", "random", "--episodes", "5",
+                "--task-kwargs", '{"arena_spec": {"length": 200, "obstacles": 5, "tries": 5}}', timeout=120)
+    _refused(done, "arena_spec: length=[200, 200], obstacles=[5, 5]", "conflict")
+    assert len(done.stderr.strip().splitlines()) == 1 and "None" not in done.stderr
+    assert "eval tunnel" not in done.stderr  # no progress bar: no episode ran
+
 def _strict(text: str):
     def refuse(name):
         raise ValueError(f"non-standard JSON constant {name}")

@@ -31,8 +31,9 @@ from hypothesis import strategies as st
 from agents.checkpoint import load_agent, read_checkpoint, save_checkpoint
 from agents.ddpg import DDPG, DDPGConfig
 from agents.policy import Policy
-from auv_mj import AUVPhysics, arena_check, model_path
+from auv_mj import AUVPhysics, model_path
 from auv_mj import cli as auv_mj_cli
+from auv_mj.arenas import arena_check
 from tasks import suite
 from tasks.gym_adapter import GYM_IDS, MIX_ID, AUVGymEnv
 

@@ -125,6 +125,21 @@ def test_a_tunnel_that_cannot_be_drawn_says_so():
     impossible = dataclasses.replace(SHORT, obstacles=(9, 9), tries=3)
     with pytest.raises(RuntimeError, match="no feasible tunnel in 3 draws"):
         procedural.random_tunnel(1, impossible)
+    with pytest.raises(RuntimeError, match="from a running random stream") as drawn:
+        procedural.random_tunnel(np.random.RandomState(1), impossible)  # a task's stream has no seed to name
+    assert "None" not in str(drawn.value) and set(drawn.value.fields) == {"length", "obstacles", "movers"}
+
+
+@pytest.mark.parametrize(("options", "named"), [
+    ({"length": 200, "obstacles": 5}, ["length=[200, 200]", "obstacles=[5, 5]"]),
+    ({"width": 12, "obstacles": 3}, ["width=[12, 12]", "obstacles=[3, 3]", "passing gap"]),
+])
+def test_an_infeasible_arena_spec_is_refused_when_the_task_is_made_naming_the_fields(options, named):
+    with pytest.raises(ValueError, match="arena_spec: .* conflict") as refused:
+        suite.load("auv", "tunnel", task_kwargs={"arena": "random", "arena_spec": {**options, "tries": 5}})
+    for words in named:
+        assert words in str(refused.value)
+    assert "None" not in str(refused.value)
 
 
 # --- the tunnel task ------------------------------------------------------------------------------

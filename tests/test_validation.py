@@ -27,8 +27,9 @@ from agents import policy as policy_module
 from agents.checkpoint import load_agent, read_checkpoint, save_checkpoint
 from agents.ddpg import DDPG, DDPGConfig
 from agents.policy import Policy
-from auv_mj import AUVPhysics, arena_check, inputs, model_path, tunnels
+from auv_mj import AUVPhysics, inputs, model_path
 from auv_mj import cli as auv_mj_cli
+from auv_mj.arenas import arena_check, tunnels
 from auv_mj.cli.options import json_object
 from tasks import suite
 from tasks.actions import ActionClipped
@@ -74,6 +75,12 @@ ARENA_CASES = {
     "NaN start orientation": ('euler="0 0 0"', 'euler="0 0 nan"', "orientation is not a finite angle"),
     "geom size 1e308": ('size="5 2 3"', 'size="1e308 2 3"', "obstacle_rock (size 1e+308"),
     "5000 nested bodies": ("<worldbody>", "<worldbody>" + "<body>" * 5000 + "</body>" * 5000, "nested deeper"),
+    "wall off the sonar plane": ('name="wall_north" type="box" pos="50 15.5 0"', 'name="wall_north" type="box" '
+                                 'pos="50 15.5 10"', "wall_north: pos z spans 7.00..13.00 m"),
+    "transparent wall": ('size="56 0.5 3"/>\n    <geom name="wall_west"',
+                         'size="56 0.5 3" rgba="1 1 1 0"/>\n    <geom name="wall_west"', "wall_south: rgba alpha is 0"),
+    "mover body not mocap": ('<body name="mover_diver" mocap="true"', '<body name="mover_diver"',
+                             'body mover_diver: named as a mover but not mocap="true"'),
 }
 
 
@@ -299,6 +306,22 @@ def test_checkpoint_metadata_is_checked_before_any_network_is_built(case, small_
         assert str(path) in one_line(error.value) and message in str(error.value)
 
 
+@pytest.mark.parametrize(("garbage", "field"), [
+    (lambda state: state["state"].update(state=1.5), "agent_rng.state"),
+    (lambda state: state["state"].update(inc=2), "agent_rng.state"),  # PCG64's increment is odd
+    (lambda state: state["state"].update(state=-5), "agent_rng.state"),
+    (lambda state: state.update(extra=1), "agent_rng must be a dict"),
+    (lambda state: state.update(bit_generator="MT19937"), "agent_rng.bit_generator"),
+    (lambda state: state.update(has_uint32=True), "agent_rng.has_uint32"),
+])
+def test_a_checkpoint_whose_generator_state_is_garbage_is_refused_naming_agent_rng(garbage, field, small_checkpoint,
+                                                                                    tmp_path):
+    path = _mutated(small_checkpoint, tmp_path, lambda t, m: garbage(m["agent_rng"]))
+    with pytest.raises(ValueError) as error:
+        load_agent(path)
+    assert str(path) in one_line(error.value) and field in str(error.value)
+
+
 def test_the_small_checkpoint_itself_loads(small_checkpoint):
     action = Policy.load(small_checkpoint)(np.zeros(4))
     assert action.shape == (2,) and np.all(np.abs(action) <= 1.0)
@@ -329,6 +352,10 @@ def test_tunnel_specs_are_bounded_unique_and_inside(kwargs, message):
 
 
 def test_obstacle_and_mover_fields_are_range_checked():
+    with pytest.raises(ValueError, match="mover hull: name 'hull' reuses a name of the vehicle model"):
+        tunnels.MovingObstacle(0, 0, 1, 1, speed=0.1, radius=1, name="hull")
+    with pytest.raises(ValueError, match="merge tolerance must be above 0 m, got 0"):
+        tunnels.build_tunnel(LINE, width=30.0, merge_tolerance=0.0)
     with pytest.raises(ValueError, match=r"speed 1e\+300 must be in \[0, 10\] m/s"):
         tunnels.MovingObstacle(0, 0, 1, 1, speed=1e300, radius=1)
     with pytest.raises(ValueError, match="name"):

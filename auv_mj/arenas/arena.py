@@ -16,6 +16,7 @@ Names of the vehicle model (`auv`, `hull`, `x`, `sonar_*`, ...) may not be reuse
 from __future__ import annotations
 
 import copy
+import functools
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -62,6 +63,14 @@ def _read_xml(source: str | Path | ET.Element, what: str) -> tuple[ET.Element, s
     if not isinstance(source, (str, Path)):
         raise ValueError(f"{what} must be a file path or an ElementTree element, got {type(source).__name__}")
     return inputs.read_xml(source, what), inputs.source_name(source)
+
+
+@functools.lru_cache(maxsize=1)
+def vehicle_names() -> frozenset[str]:
+    """Every name in the vehicle model (`models/auv.xml`: `auv`, `hull`, `x`, `sonar_1`, ...), which an arena and
+    the obstacles and movers an author names may not reuse."""
+    root = inputs.read_xml(model_path("auv.xml"), "vehicle")
+    return frozenset(el.get("name") for el in root.iter() if el.get("name"))
 
 
 def compose_xml(arena: str | Path | ET.Element | None = None,

@@ -186,7 +186,8 @@ def _check_numerics(model: mujoco.MjModel, report: ArenaReport) -> bool:
         if not body.startswith(MOVER_PREFIX):
             continue
         if model.body_mocapid[i] < 0:
-            report.warnings.append(f"body {body} is not a mocap body, so it is not a moving obstacle")
+            report.problems.append(f'body {body}: named as a mover but not mocap="true", so it would never move '
+                                   f"(name a fixed body otherwise, or make it a mocap body)")
         elif body not in numerics:
             report.problems.append(f'mover body {body} has no <numeric name="{body}" '
                                    'data="x0 y0 x1 y1 speed">: it would never move')
@@ -284,16 +285,18 @@ def _check_extent(model: mujoco.MjModel, physics: AUVPhysics, report: ArenaRepor
 
 
 def _check_geoms(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], report: ArenaReport) -> None:
-    """Static geoms named by the convention, reaching the plane z = 0, and visible to the sonar."""
+    """Static geoms named by the convention (a warning), reaching the plane z = 0 and visible to the sonar
+    (problems: a geom the sonar and the hull cannot meet is a wall that is not there)."""
     data = physics.data.ptr
-    notes = []
+    notes, problems = [], []
     for g in static:
         name = model.geom(g).name
         if not name.startswith(STATIC_PREFIXES):
             notes.append(f"static {_name(model, g)}: the convention names walls wall*, obstacles obstacle* "
                          f"and unknown obstacles {UNKNOWN_OBSTACLE_PREFIX}*")
         if model.geom_rgba[g, 3] == 0:
-            notes.append(f"{_name(model, g)} is fully transparent: the sonar (mj_ray) does not see it")
+            problems.append(f"{_name(model, g)}: rgba alpha is 0 (fully transparent), and the sonar (mj_ray) "
+                            "does not see such a geom: give it an alpha above 0")
         if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE:
             continue
         centre, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
@@ -301,9 +304,10 @@ def _check_geoms(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], 
         z = data.geom_xpos[g, 2] + rot[2] @ centre
         reach = np.abs(rot[2]) @ half
         if not z - reach <= 0 <= z + reach:
-            notes.append(f"{_name(model, g)} spans z {z - reach:.2f}..{z + reach:.2f} m, not the vehicle's "
-                         "plane z = 0: neither the vehicle nor the sonar meets it")
+            problems.append(f"{_name(model, g)}: pos z spans {z - reach:.2f}..{z + reach:.2f} m, not the vehicle's "
+                            "plane z = 0: neither the hull nor the sonar meets it")
     _add(report.warnings, notes)
+    _add(report.problems, problems)
 
 
 def _footprint_axis(model: mujoco.MjModel, data: mujoco.MjData,

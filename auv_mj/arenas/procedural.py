@@ -38,6 +38,7 @@ and test ranges that are never crossed.
 
 from __future__ import annotations
 
+import functools
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -203,7 +204,23 @@ class ProceduralTunnel:
 
 
 class _Redraw(Exception):
-    """This draw failed a check: draw again."""
+    """This draw failed a check: draw again. `fields` are the TunnelSpec fields that the failure weighs on."""
+
+    def __init__(self, message: str, fields: tuple[str, ...] = ("width", "length")):
+        super().__init__(message)
+        self.fields = fields
+
+
+class InfeasibleSpec(RuntimeError):
+    """A TunnelSpec gave no feasible tunnel in `tries` draws; `fields` are the ones that conflict."""
+
+    def __init__(self, message: str, fields: tuple[str, ...]):
+        super().__init__(message)
+        self.fields = fields
+
+
+PROBE_SEED = 0
+"""The seed `check_feasible` draws a spec's trial tunnel from."""
 
 
 def as_random(random: int | np.random.RandomState | None) -> tuple[np.random.RandomState, int | None]:
@@ -219,13 +236,31 @@ def as_random(random: int | np.random.RandomState | None) -> tuple[np.random.Ran
 def random_tunnel(random: int | np.random.RandomState | None, spec: TunnelSpec) -> ProceduralTunnel:
     """A random tunnel of `spec`, drawn from `random` (a seed or a task's RandomState; see module doc)."""
     random, seed = as_random(random)
-    reason = ""
+    failure = _Redraw("")
     for draw in range(1, spec.tries + 1):
         try:
             return _draw_tunnel(random, spec, seed, draw)
         except _Redraw as e:
-            reason = str(e)
-    raise RuntimeError(f"no feasible tunnel in {spec.tries} draws (seed {seed}); the last failed: {reason}")
+            failure = e
+    origin = f"seed {seed}" if seed is not None else "from a running random stream"
+    raise InfeasibleSpec(f"no feasible tunnel in {spec.tries} draws ({origin}); the last failed: {failure} "
+                         f"(weighs on {', '.join(failure.fields)})", failure.fields)
+
+
+@functools.lru_cache(maxsize=64)
+def check_feasible(spec: TunnelSpec) -> None:
+    """Refuses (ValueError naming the conflicting fields and their values) a spec that gives no tunnel from
+    PROBE_SEED in `spec.tries` draws, so that a task can refuse it before its first episode rather than
+    fail in a reset. Cached: a spec is drawn once per process."""
+    try:
+        random_tunnel(PROBE_SEED, spec)
+    except InfeasibleSpec as e:
+        values = ", ".join(f"{name}={_shown_field(getattr(spec, name))}" for name in e.fields)
+        raise ValueError(f"arena_spec: {values} conflict: {' '.join(str(e).split())}") from None
+
+
+def _shown_field(value) -> str:
+    return f"[{value[0]:g}, {value[1]:g}]" if isinstance(value, tuple) else f"{value:g}"
 
 
 def _draw_tunnel(random: np.random.RandomState, spec: TunnelSpec, seed: int | None, draw: int) -> ProceduralTunnel:
@@ -247,13 +282,13 @@ def _draw_tunnel(random: np.random.RandomState, spec: TunnelSpec, seed: int | No
     try:
         layout = layout_tunnel(world, width)
     except ValueError as e:
-        raise _Redraw(str(e)) from None
+        raise _Redraw(str(e), ("width", "length")) from None
     axis = _Axis(world)
     unknown, movers, tracks = _place(random, spec, axis, straights, width)
     try:  # the along-axis movers' tracks, as boxes, must leave a way past as the obstacles do
         check_unknown(layout, [*unknown, *tracks], source=source)
     except ValueError as e:
-        raise _Redraw(str(e)) from None
+        raise _Redraw(str(e), ("width", "obstacles", "obstacle_length", "movers", "along_length")) from None
     return ProceduralTunnel(seed, world, width, tuple(unknown), tuple(movers), layout, draw)
 
 
@@ -315,7 +350,7 @@ def _check_separation(points: np.ndarray, width: float, least_radius: float) -> 
     far = np.abs(s[:, None] - s[None]) >= math.pi * least_radius
     gap = np.hypot(*(dense[:, None] - dense[None]).transpose(2, 0, 1))
     if np.any(far & (gap < width + 2 * WALL_THICKNESS + SEPARATION)):
-        raise _Redraw("the centreline comes back alongside itself")
+        raise _Redraw("the centreline comes back alongside itself", ("width", "length"))
 
 
 class _Axis:
@@ -364,7 +399,8 @@ def _place(random: np.random.RandomState, spec: TunnelSpec, axis: _Axis, stretch
                   for a, b, radius in stretches if not straight_only or math.isinf(radius)]
         usable = [(a, b, radius) for a, b, radius in usable if b > a]
         if not usable:
-            raise _Redraw("no straight long enough for an obstacle or a mover")
+            raise _Redraw("no straight long enough for an obstacle or a mover",
+                          ("length", "obstacle_length", "along_length"))
         sizes = np.array([b - a for a, b, _ in usable])
         for _ in range(20):
             a, b, radius = usable[random.choice(len(usable), p=sizes / sizes.sum())]
@@ -372,7 +408,7 @@ def _place(random: np.random.RandomState, spec: TunnelSpec, axis: _Axis, stretch
             if all(s + span / 2 + SPACING <= lo or s - span / 2 - SPACING >= hi for lo, hi in taken):
                 taken.append((s - span / 2, s + span / 2))
                 return s, radius
-        raise _Redraw("no room for every obstacle and mover")
+        raise _Redraw("no room for every obstacle and mover", ("length", "obstacles", "movers"))
 
     unknown = []
     for k in range(random.randint(spec.obstacles[0], spec.obstacles[1] + 1)):
@@ -391,6 +427,9 @@ def _place(random: np.random.RandomState, spec: TunnelSpec, axis: _Axis, stretch
             tip = random.uniform(min(reach, -path_clearance()), reach)  # within d_s of the path if it can
             lateral = width / 2 + WALL_THICKNESS / 2 + tip  # from inside the wall to the tip
             centre = side * (width / 2 + WALL_THICKNESS / 2 - lateral / 2)
+        if lateral <= 0:
+            raise _Redraw(f"a {width:.1f} m wide tunnel leaves no {gap:.2f} m passing gap beside an obstacle",
+                          ("width", "obstacles"))
         x, y = point + centre * normal
         unknown.append(Obstacle(float(x), float(y), float(along), float(lateral), math.degrees(angle), f"{k}"))
 

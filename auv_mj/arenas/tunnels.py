@@ -29,7 +29,13 @@ import numpy as np
 import shapely
 
 from auv_mj import inputs
-from auv_mj.arenas.arena import MAX_EXTENT, MAX_MOVER_SPEED, SAFETY_DISTANCE, UNKNOWN_OBSTACLE_PREFIX
+from auv_mj.arenas.arena import (
+    MAX_EXTENT,
+    MAX_MOVER_SPEED,
+    SAFETY_DISTANCE,
+    UNKNOWN_OBSTACLE_PREFIX,
+    vehicle_names,
+)
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim.vehicle import vehicle_facts
 
@@ -235,6 +241,9 @@ def _check_name(name, what: str) -> None:
             or not name.isascii():
         raise ValueError(f"{what}: name {name!r:.80} may hold only letters, digits and _ "
                          f"(at most {MAX_NAME_LENGTH})")
+    if name in vehicle_names():
+        raise ValueError(f"{what}: name {name!r} reuses a name of the vehicle model (auv, hull, x, y, yaw, sonar_*, "
+                         "...): name it otherwise")
 
 
 def _is_number(cell: str) -> bool:
@@ -523,6 +532,8 @@ def check_parameters(source: str, *, width, smooth, path_spacing, wall_thickness
     _check_numbers(source, checks)
     if not wall_thickness > 0:
         raise ValueError(f"{source}: wall thickness must be above 0 m, got {wall_thickness:g}")
+    if not merge_tolerance > 0:  # 0 keeps every vertex of the offset curves: a box per polyline point
+        raise ValueError(f"{source}: merge tolerance must be above 0 m, got {merge_tolerance:g}")
 
 
 def check_extent(line: Centreline, widths: np.ndarray, smooth: int, closed: bool,

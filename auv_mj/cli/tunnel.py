@@ -87,7 +87,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"tunnel length past start and goal [m] (default {END_CLEARANCE:g})")
     parser.add_argument("--margin", type=bounded_float(0.0, MAX_MARGIN, "m"), default=BOUNDS_MARGIN,
                         help="arena_bounds margin [m]")
-    parser.add_argument("--tolerance", type=bounded_float(0.0, MAX_MERGE_TOLERANCE, "m"), default=MERGE_TOLERANCE,
+    parser.add_argument("--tolerance", type=bounded_float(0.0, MAX_MERGE_TOLERANCE, "m", low_open=True),
+                        default=MERGE_TOLERANCE,
                         help=f"wall merging tolerance [m] (default {MERGE_TOLERANCE:g})")
     parser.add_argument("--name", type=model_name, default=None, help="model name (default: the output's stem)")
     group = parser.add_argument_group(
