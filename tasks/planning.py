@@ -415,6 +415,65 @@ def route_time_limit(length: float) -> float:
     return 10.0 * math.ceil((2.0 * length / TARGET_SPEED + 60.0) / 10.0)
 
 
+ARENA_SCENARIO = "arena"
+"""The scenario (or layout) of an open-water task run on a user's arena (`arena=PATH`): its sites, walls,
+obstacles and movers instead of a random or a named layout."""
+RANDOM_ARENA = "random"
+"""`arena="random"`, the `--arena random` of every command: the task's own random layouts."""
+
+
+def arena_scenario(arena_option, choice: str, value: str, default: str = "random") -> str:
+    """The scenario an open-water task runs with its `arena` option and its `choice` option (scenario or layout)
+    set to `value`: ARENA_SCENARIO for an arena file or element, which may not come with another `choice`; `value`
+    for None or "random" (read as `choice`="random")."""
+    if arena_option is None:
+        if value == ARENA_SCENARIO:
+            raise ValueError(f"{choice}={ARENA_SCENARIO!r} is set by arena=PATH (an arena MJCF file); give the arena")
+        return value
+    if isinstance(arena_option, str) and arena_option == RANDOM_ARENA:
+        if value != default:
+            raise ValueError(f"arena='random' draws a {default} {choice}; it cannot go with {choice}={value!r}")
+        return default
+    options.arena_source(arena_option)
+    if value not in (default, ARENA_SCENARIO):
+        raise ValueError(f"arena={arena_option!r:.80} and {choice}={value!r} conflict: a user's arena gives the "
+                         f"start, the goal and the obstacles itself; leave {choice} out")
+    return ARENA_SCENARIO
+
+
+def arena_route(info: arena.ArenaInfo, radius: float, waypoints: bool = False) -> Route:
+    """A user's open-water arena as a route (`docs/arenas.md`): from its `start` site on that site's heading to
+    its `goal` site, past its movers on their paths. With `waypoints` its `path_*` sites, in order, are targets
+    before the goal (those within `radius` of the start are not: `path_0` is usually the start itself)."""
+    goals = info.goal[None]
+    if waypoints and len(info.path):
+        targets = info.path[goal_distance(info.path, info.start) > radius]
+        if len(targets) and goal_distance(targets[-1], info.goal) <= 1e-6:
+            targets = targets[:-1]
+        goals = np.vstack([targets, goals])
+    return Route(start=info.start, heading=info.start_heading, goals=goals, movers=info.movers)
+
+
+def open_water_physics(arena_option, conditions, default: ET.Element) -> tuple[Physics, bool]:
+    """The physics of an open-water task and whether it is a user's arena: `arena_option` (a file or element,
+    refused unless `auv-mj check-arena --no-path` finds it usable) or the task's own `default` arena."""
+    if arena_option is None or (isinstance(arena_option, str) and arena_option == RANDOM_ARENA):
+        return Physics.load(default, conditions), False
+    return load_arena(arena_option, need_path=False, conditions=conditions), True
+
+
+def arena_time_limit(time_limit: float | None, default: float, physics: Physics, user_arena: bool) -> float:
+    """An open-water task's time limit [s]: `time_limit` if given; on a user's arena the longer of `default`
+    and `route_time_limit` of the straight legs from its start through its path sites to its goal."""
+    if time_limit is not None:
+        return time_limit
+    if not user_arena:
+        return default
+    info = arena.arena_info(physics)
+    return max(default, route_time_limit(path_length(np.vstack([info.start, info.path.reshape(-1, 2),
+                                                                    info.goal]))))
+
+
 # --- the task -----------------------------------------------------------------------------------------
 
 

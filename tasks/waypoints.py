@@ -10,6 +10,11 @@ the next one current (event "subgoal", r_following +4); reaching the last is suc
   (425, 350);
 - "d": the river waterway search traversal of Fig. 9d, a meandering waterway from (25, 375) to (425, 25).
 Named layouts start facing their first target.
+
+`arena=PATH` (`--arena PATH`) runs the task on a user's arena: an MJCF file (or an ElementTree root) whose
+`path_0`, `path_1`, ... sites are the targets in order, then its `goal` site (`docs/arenas.md`); path sites within
+the goal radius of the `start` site are not targets. It is refused unless `auv-mj check-arena --no-path` finds it
+usable; its time limit is the longer of the default and `planning.route_time_limit` of the route.
 """
 
 from __future__ import annotations
@@ -42,13 +47,16 @@ class Waypoints(planning.PlanningTask):
     """Reach a sequence of target areas in order; the map is open water."""
 
     def __init__(self, layout: str = "random", **kwargs):
-        """`layout` is "random" or a key of LAYOUTS; other kwargs go to `PlanningTask`."""
-        options.choice("layout", layout, ("random", *LAYOUTS))
+        """`layout` is "random", a key of LAYOUTS or planning.ARENA_SCENARIO (the arena's own sites; the factory
+        sets it for `arena=PATH`); other kwargs go to `PlanningTask`."""
+        options.choice("layout", layout, ("random", *LAYOUTS, planning.ARENA_SCENARIO))
         super().__init__(**kwargs)
         self.layout = layout
 
     def route(self, physics, info) -> planning.Route:
-        """A random chain of targets, or a named layout."""
+        """A random chain of targets, a named layout, or the user's arena's path sites and goal."""
+        if self.layout == planning.ARENA_SCENARIO:
+            return planning.arena_route(info, self.goal_radius, waypoints=True)
         if self.layout == "random":
             start = planning.random_point(self.random, info.bounds)
             targets = [start]
@@ -64,8 +72,11 @@ class Waypoints(planning.PlanningTask):
 
 
 @SUITE.add("benchmarking", "goal", "planning", "waypoints")
-def waypoints(time_limit=_DEFAULT_TIME_LIMIT, random=None, environment_kwargs=None, **task_kwargs):
-    """Reach target areas in turn (Table 6 (b)-(d); task_kwargs layout="random"|"b1"|"b2"|"c"|"d")."""
-    physics = planning.Physics.load(planning.open_water_arena(), task_kwargs.get("conditions"))
-    task = Waypoints(random=random, **task_kwargs)
+def waypoints(time_limit=None, random=None, environment_kwargs=None, layout="random", arena=None, **task_kwargs):
+    """Reach target areas in turn (Table 6 (b)-(d); layout="random"|"b1"|"b2"|"c"|"d"), or a user's arena's path
+    sites (`arena=PATH`, see the module docstring); time_limit defaults to _DEFAULT_TIME_LIMIT."""
+    layout = planning.arena_scenario(arena, "layout", layout)
+    task = Waypoints(layout=layout, random=random, **task_kwargs)
+    physics, user = planning.open_water_physics(arena, task_kwargs.get("conditions"), planning.open_water_arena())
+    time_limit = planning.arena_time_limit(time_limit, _DEFAULT_TIME_LIMIT, physics, user)
     return planning.environment(physics, task, time_limit, environment_kwargs)
