@@ -17,6 +17,11 @@ Movers are moved on the executor's 10 Hz tick.
 
 `auv-mj tunnel --random SEED --task obstacles` writes the layout of a random episode as an arena file.
 
+`tier="hard"` (with the random scenario; issue 30) draws each episode's arena from `auv_mj.arenas.traps`
+instead: concave traps (cups, wedges, long walls with a gap at one end) in series and dense clutter across a
+longer route, with movers at up to 1 m/s crossing and head-on on moving_obstacles; each arena is certified
+feasible on the oracle's grid and compiled per episode. `tier="standard"` (default) is the layouts above.
+
 `arena=PATH` (`--arena PATH`) runs either task on a user's arena: an MJCF file (or an ElementTree root) with
 `start` and `goal` sites, walls, obstacles and movers on their paths (`docs/arenas.md`; `auv-mj arena` builds one
 from a list of shapes), refused unless `auv-mj check-arena --no-path` finds it usable. The episode is the named
@@ -33,7 +38,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
-from auv_mj.arenas import arena, procedural
+from auv_mj.arenas import arena, procedural, traps
 from auv_mj.arenas.tunnels import mover_name
 from auv_mj.assets import model_path
 from tasks import options, planning
@@ -94,19 +99,50 @@ def _mocap_id(physics, body: str) -> int:
     return int(model.body_mocapid[model.body(body).id])
 
 
+def _tier(tier: str, scenario: str) -> str:
+    """The `tier` option: "standard" (today's layouts) or "hard" (`auv_mj.arenas.traps`, random scenario only)."""
+    options.choice("tier", tier, traps.TIERS)
+    if tier == "hard" and scenario != "random":
+        raise ValueError(f"tier=\"hard\" applies to arena=\"random\" (scenario=\"random\"), not scenario={scenario!r}")
+    return tier
+
+
+def _draw_hard(task: planning.PlanningTask, physics, spec: traps.HardSpec) -> None:
+    """Draws the episode's hard arena from the task's `random` and recompiles the physics around it."""
+    task.layout = traps.random_hard_layout(task.random, planning.MAP_BOUNDS, spec, task.goal_radius)
+    xml, source = arena.compose_xml(task.layout.element(), thruster_lag=task.ocean.conditions.thruster_lag)
+    physics.reload_from_xml_string(xml, source=source)
+
+
+def _hard_route(task: planning.PlanningTask, info) -> planning.Route:
+    """The hard arena's start, goal and movers."""
+    layout = task.layout
+    return planning.Route(start=layout.start, heading=layout.heading, goals=layout.goal[None], movers=info.movers)
+
+
 class Obstacles(planning.PlanningTask):
     """Reach a target area past static obstacles seen only by the sonar."""
 
-    def __init__(self, scenario: str = "random", **kwargs):
+    def __init__(self, scenario: str = "random", tier: str = "standard", **kwargs):
         """`scenario` is "random", a key of SCENARIOS or planning.ARENA_SCENARIO (a user's arena, set by the
         factory for `arena=PATH`); other kwargs go to `PlanningTask`."""
         options.choice("scenario", scenario, ("random", *SCENARIOS, planning.ARENA_SCENARIO))
         super().__init__(**kwargs)
         self.scenario = scenario
+        self.tier = _tier(tier, scenario)
+        """"standard" or "hard" (`tier`: a hard arena of `auv_mj.arenas.traps` per episode)."""
+
+    def initialize_episode(self, physics) -> None:
+        """With tier="hard", draws the episode's hard arena (HARD_OBSTACLES) and recompiles the physics first."""
+        if self.tier == "hard":
+            _draw_hard(self, physics, traps.HARD_OBSTACLES)
+        super().initialize_episode(physics)
 
     def route(self, physics, info) -> planning.Route:
         """The arena's start and goal (and movers, on a user's arena), or a random route with random obstacles
         placed along it."""
+        if self.tier == "hard":
+            return _hard_route(self, info)
         if self.scenario == planning.ARENA_SCENARIO:
             return planning.arena_route(info, self.goal_radius)
         if self.scenario != "random":
@@ -123,15 +159,25 @@ class Obstacles(planning.PlanningTask):
 class MovingObstacles(planning.PlanningTask):
     """Reach a target area past obstacles moving on ping-pong paths, seen only by the sonar."""
 
-    def __init__(self, scenario: str = "random", **kwargs):
+    def __init__(self, scenario: str = "random", tier: str = "standard", **kwargs):
         """`scenario` is "random", a key of MOVING_SCENARIOS or planning.ARENA_SCENARIO (a user's arena, set by the
         factory for `arena=PATH`); other kwargs go to `PlanningTask`."""
         options.choice("scenario", scenario, ("random", *MOVING_SCENARIOS, planning.ARENA_SCENARIO))
         super().__init__(**kwargs)
         self.scenario = scenario
+        self.tier = _tier(tier, scenario)
+        """"standard" or "hard" (`tier`: a hard arena of `auv_mj.arenas.traps` per episode)."""
+
+    def initialize_episode(self, physics) -> None:
+        """With tier="hard", draws the episode's hard arena (HARD_MOVING) and recompiles the physics first."""
+        if self.tier == "hard":
+            _draw_hard(self, physics, traps.HARD_MOVING)
+        super().initialize_episode(physics)
 
     def route(self, physics, info) -> planning.Route:
         """The arena's start, goal and movers, or a random route with random movers crossing it."""
+        if self.tier == "hard":
+            return _hard_route(self, info)
         if self.scenario != "random":
             return planning.arena_route(info, self.goal_radius)
         layout = random_layout(self.random, moving=True, bounds=info.bounds)
