@@ -12,7 +12,9 @@ the global path (Fig. 17).
 `arena="random"` draws a fresh procedural tunnel (`auv_mj.arenas.procedural`, RANDOM_TUNNELS) for every
 episode from the task's `random` and recompiles the physics in place before the episode starts; the
 episode's time limit is then `route_time_limit` of that tunnel (the environment's own limit is the
-longest such tunnel's). `random_arena(seed)` is the arena of the first episode of a task seeded `seed`
+longest such tunnel's). With `tier="hard"` (issue 30) the tunnels are wide (60-100 m) and hold cups, wedges and walls
+across the axis on their straights, and faster movers (`auv_mj.arenas.traps.random_hard_tunnel`), each certified on
+the oracle's grid. `random_arena(seed)` is the arena of the first episode of a task seeded `seed`
 (what `auv-mj tunnel --random SEED` writes). Train, validate and test on the ranges of `auv_mj.seeds`.
 """
 
@@ -23,9 +25,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from auv_mj.arenas import procedural
+from auv_mj.arenas import procedural, traps
 from auv_mj.arenas.arena import arena_info, compose_xml
 from auv_mj.assets import model_path
+from tasks import options as checks
 from tasks import planning
 from tasks.registry import SUITE
 
@@ -46,8 +49,12 @@ RANDOM_TUNNELS = procedural.TunnelSpec(turn_radius=least_turn_radius())
 1-2 movers (see `procedural.TunnelSpec`)."""
 
 
-def random_arena(random, spec: procedural.TunnelSpec = RANDOM_TUNNELS) -> procedural.ProceduralTunnel:
-    """The procedural tunnel drawn from `random` (a seed: the arena of that episode seed)."""
+def random_arena(random, spec: procedural.TunnelSpec = RANDOM_TUNNELS,
+                 tier: str = "standard") -> procedural.ProceduralTunnel:
+    """The procedural tunnel drawn from `random` (a seed: the arena of that episode seed); with tier="hard" a
+    wide one holding traps (`auv_mj.arenas.traps.random_hard_tunnel`, issue 30)."""
+    if checks.choice("tier", tier, traps.TIERS) == "hard":
+        return traps.random_hard_tunnel(random, spec)
     return procedural.random_tunnel(random, spec)
 
 
@@ -99,12 +106,15 @@ class Tunnel(planning.PlanningTask):
     """Follow a tunnel's global path of virtual sub-goals, avoiding walls and unknown obstacles."""
 
     def __init__(self, arena_spec: procedural.TunnelSpec | None = None, route_time_limit: bool = True,
-                 **kwargs):
+                 tier: str = "standard", **kwargs):
         """`arena_spec`: draw a procedural tunnel of it per episode, ending the episode at its
-        `route_limit` if `route_time_limit`; kwargs go to `PlanningTask` (goal_radius defaults to
-        SUBGOAL_RADIUS)."""
+        `route_limit` if `route_time_limit`; `tier` "standard" or "hard" (`random_arena`, with arena="random"
+        only); kwargs go to `PlanningTask` (goal_radius defaults to SUBGOAL_RADIUS)."""
         kwargs.setdefault("goal_radius", planning.SUBGOAL_RADIUS)
         super().__init__(**kwargs)
+        self.tier = checks.choice("tier", tier, traps.TIERS)
+        if self.tier == "hard" and arena_spec is None:
+            raise ValueError('tier="hard" applies to arena="random" only')
         self.arena_spec = arena_spec
         self.route_time_limit = route_time_limit
         self.arena: procedural.ProceduralTunnel | None = None
@@ -114,7 +124,7 @@ class Tunnel(planning.PlanningTask):
     def initialize_episode(self, physics: planning.Physics) -> None:
         """With `arena_spec`, draws the episode's tunnel and recompiles the physics around it first."""
         if self.arena_spec is not None:
-            self.arena = random_arena(self.random, self.arena_spec)
+            self.arena = random_arena(self.random, self.arena_spec, self.tier)
             xml, source = compose_xml(self.arena.element(), thruster_lag=self.ocean.conditions.thruster_lag)
             physics.reload_from_xml_string(xml, source=source)
         super().initialize_episode(physics)
