@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.arenas import procedural
+from auv_mj.arenas import procedural, traps
 from auv_mj.arenas.arena_check import check_arena
 from auv_mj.arenas.tunnels import (
     BOUNDS_MARGIN,
@@ -43,7 +43,7 @@ from auv_mj.arenas.tunnels import (
     tunnel_element,
 )
 from auv_mj.cli.options import bounded_float, bounded_int, check_output, seed_int, usage_error
-from tasks import obstacles, tunnel
+from tasks import obstacles, planning, tunnel
 
 RANDOM_TASKS = ("tunnel", "obstacles", "moving_obstacles")
 """Tasks whose random arenas `--random` writes."""
@@ -105,6 +105,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                             help="number of unknown obstacles in the tunnel")
     group.add_argument("--movers", type=bounded_int(0, procedural.MAX_COUNT), metavar="N",
                             help="number of movers in the tunnel")
+    group.add_argument("--tier", default="standard", choices=traps.TIERS,
+                       help="the task's `tier` option: today's distribution (standard, default) or the hard tier of "
+                            "certified trap arenas (issue 30, auv_mj/arenas/traps.py)")
 
 
 def _command_line() -> str | None:
@@ -192,18 +195,29 @@ def _run_random(args: argparse.Namespace) -> int:
         fixed = [f"--{n}" for n in ("width", "length", "obstacles", "movers") if getattr(args, n) is not None]
         if fixed:
             usage_error(args, f"{', '.join(fixed)} apply to --task tunnel only")
+    if args.tier == "hard":
+        fixed = [f"--{n}" for n in ("width", "length", "obstacles", "movers") if getattr(args, n) is not None]
+        if fixed:
+            usage_error(args, f"--tier hard draws its own arena: {', '.join(fixed)} cannot go with it")
     name = args.name or (Path(args.output).stem if args.output else f"random_{args.task}_{args.random}")
     output = Path(args.output) if args.output else Path(f"{name}.xml")
     check_output(args, output, "-o")
     if args.task == "tunnel":
         spec = _spec(args)
         try:
-            arena = tunnel.random_arena(args.random, spec)
+            arena = tunnel.random_arena(args.random, spec, args.tier)
         except RuntimeError as e:  # the options leave no feasible tunnel: refuse them
             usage_error(args, " ".join(str(e).split()))
         element = arena.element(name, _command_line())
         what = (f"a {arena.width:.1f} m wide tunnel over {arena.length:.0f} m, {len(arena.unknown)} unknown "
                 f"obstacles, {len(arena.movers)} movers")
+    elif args.tier == "hard":  # the first episode's arena of the task seeded SEED with tier="hard"
+        spec = traps.HARD_MOVING if args.task == "moving_obstacles" else traps.HARD_OBSTACLES
+        layout = traps.random_hard_layout(np.random.RandomState(args.random), planning.MAP_BOUNDS, spec,
+                                          planning.GOAL_RADIUS)
+        element = layout.element(name, _command_line())
+        what = (f"open water, traps {', '.join(layout.kinds)}: {len(layout.obstacles)} unknown boxes, "
+                f"{len(layout.movers)} movers, start to goal {np.hypot(*(layout.goal - layout.start)):.0f} m")
     else:
         layout = obstacles.random_layout(np.random.RandomState(args.random), moving=args.task == "moving_obstacles")
         element = layout.element(name, _command_line())
