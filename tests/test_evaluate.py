@@ -232,7 +232,7 @@ def test_executors_by_name_on_planning_tasks():
     assert retuned["return"] != splane["return"] and retuned["path_length"] != splane["path_length"]
     with pytest.raises(ValueError, match="executor 'warp': not one of"):
         evaluate.run_episode("splane", "path_line", 0, {"executor": "warp"}, max_steps=5)
-    with pytest.raises(ValueError, match="runs the learned executor; leave 'executor' out"):
+    with pytest.raises(ValueError, match="runs the learned executor 'executor'; leave 'executor' out"):
         evaluate.run_episode("two-layer", "goal", 0, {"executor": "splane"}, max_steps=5)
 
 
@@ -276,7 +276,7 @@ def test_the_general_planner_slows_to_the_reference_speed_whenever_an_echo_is_cl
     from auv_mj.sim.sonar import BEAM_ANGLES
     from tasks.avoidance import PROTECTIONS, SLOW_CONE
 
-    assert policies.GENERAL["planner-general"].protection == "speed-aware"
+    assert policies.POLICIES["planner-general"].protection == "speed-aware"
     field = PROTECTIONS["speed-aware"]
     env, policy = policies.env_and_policy("planner-general", "obstacles", 3, {})  # a random layout
     record = record_episode(env, policy)

@@ -18,6 +18,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("manoeuvre", "auv_mj.cli.manoeuvre", "a scripted zig-zag manoeuvre: prints the track and the sonar"),
     ("bench", "auv_mj.cli.bench", "measure physics, sonar and task speed as ratios against their limits"),
     ("tunnel", "auv_mj.cli.tunnel", "build a tunnel arena MJCF from a centreline CSV/JSON"),
+    ("arena", "auv_mj.cli.arena", "build an open-water arena MJCF from a JSON/CSV list of shapes"),
     ("check-arena", "auv_mj.cli.check_arena", "check an arena MJCF and write a top-down PNG preview"),
     ("train", "auv_mj.cli.train", "train an agent (ddpg, her-ddpg, executor) on a task"),
     ("sweep", "auv_mj.cli.sweep", "training over seeds and hyper-parameters on Ray Tune, with a results table"),
@@ -25,6 +26,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("render", "auv_mj.cli.render", "render an episode to MP4/GIF off-screen"),
     ("plot", "auv_mj.cli.plot", "trajectory, tracking-error and learning-curve plots (PNG)"),
     ("reproduce", "auv_mj.cli.reproduce", "regenerate the reproduction report against the paper's numbers"),
+    ("policies", "auv_mj.cli.list_policies", "the registered policies: what each is, where it runs, on what"),
 )
 
 

@@ -1,41 +1,32 @@
-"""Names -> policies for every command that runs episodes: checkpoints, the shipped policies, baselines.
+"""The policy registry: every name `--policy` takes, as one table of `PolicySpec`s (dm_control's `@SUITE.add`,
+MuJoCo Playground's registry).
 
-The one place where tasks and agents meet (the app layer):
-- a checkpoint path: a trained `agents.policy.Policy`;
-- `planner`: the shipped HER-DDPG planner (`planner.pt`; `planner_tunnel.pt` on the tunnel task), with
-  the protection domain of Sec. 3.2.2 active (`tasks.avoidance`), on the task's default S-plane executor;
-  `planner-raw`: the same without the protection domain;
-- `executor`: the shipped DDPG execution layer (speed_heading);
-- `ocean-executor`: the shipped execution layer trained in ocean water (speed_heading): TD3 scheduling the
-  S-plane's gains every step from the errors and the last commands (issue 17, `executor_ocean.pt`);
-- `splane-ocean`: the classical baseline with the S-plane gains re-tuned in ocean conditions
-  (`tasks.splane.OCEAN_GAINS`);
-- `two-layer`: the shipped planner (protection domain active) on the shipped learned executor (Sec. 4.3);
-- `los-executor`: line-of-sight guidance on the shipped learned executor (the execution layer alone);
-- `splane`: the classical baseline (line of sight + S-plane, or S-plane alone on speed_heading);
-- `los-avoid`: line of sight along the route with the protection domain, on the S-plane executor: the
-  classical local planner;
-- `random`: uniform actions.
-- `planner-general`, `two-layer-general`: the planner trained on the distribution of arenas
-  (`planner_general.pt`, issue 15): a residual planner on line of sight along the route (`tasks.guidance`):
-  it sets the speed and corrects the line-of-sight heading from the body-frame goal, its motion and the
-  sonar, with the speed-aware protection domain in the loop (`tasks.avoidance.PROTECTIONS`); no map
-  coordinates. On the S-plane / on the best learned executor, `ocean-executor` (issue 17).
-- `planner-e2e`, `two-layer-e2e`: the first planner trained on that distribution, end to end (HER-DDPG, no
-  line of sight under it; `planner_e2e.pt`), kept for comparison; on the S-plane / the paper's executor.
-`planner=PATH`, `planner-raw=PATH` and `two-layer=PATH` run the planner checkpoint PATH in place of the
-shipped one (to compare or choose candidates, e.g. on validation seeds).
+The one place where tasks and agents meet (the app layer). A spec holds what a name means: how its policy is built,
+its shipped checkpoint, the executor it runs on, its protection domain (Sec. 3.2.2), the tasks it runs on and a
+one-line description. Everything else derives from `POLICIES`: the names, the `--policy` help of every command, the
+README's policy table (`auv-mj policies --markdown`), `resolve_tasks`, `make_env` and `make_policy`.
 
-On the planning tasks the executor under any planner is chosen by name in the task options,
-`--task-kwargs '{"executor": NAME}'` with NAME one of EXECUTORS (or a speed_heading checkpoint path), e.g. the
-general planner on the learned ocean executor:
+Adding a policy is one entry: `register("my-planner", PolicySpec("what it is", build=...))`, in this file or in a
+module imported by it.
+
+Besides the names:
+- a checkpoint path runs that trained `agents.policy.Policy`, with the protection domain it trained with;
+- `NAME=PATH` runs the checkpoint PATH in place of the shipped one, for a spec with `accepts_path` (`planner`,
+  `planner-raw`, `two-layer`), to compare or choose candidates on validation seeds;
+- `RESOLVERS` turn other forms of name into specs (e.g. a module's factory, `MODULE:FACTORY`).
+
+On the planning tasks the executor under any planner without an executor of its own is chosen in the task
+options, `--task-kwargs '{"executor": NAME}'`, NAME one of EXECUTORS (or a speed_heading checkpoint path), e.g.
+the general planner on the learned ocean executor:
 `--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any
 
 import numpy as np
 import torch
@@ -46,26 +37,78 @@ from agents.policy import Policy
 from auv_mj.arenas import arena
 from tasks import suite
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
-from tasks.guidance import classical, is_goal_task, line_of_sight, los_avoid, with_guidance
+from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from tasks.splane import OCEAN_GAINS, SPlaneController
 
-SHIPPED = {"planner": "planner.pt", "planner-tunnel": "planner_tunnel.pt", "planner-general": "planner_general.pt",
-           "planner-e2e": "planner_e2e.pt", "executor": "executor.pt", "ocean-executor": "executor_ocean.pt"}
-"""Shipped checkpoints: name -> file in `agents/checkpoints/`."""
-PLANNER_FOR_TASK = {"tunnel": "planner-tunnel"}
-"""Tasks with a planner of their own (trained on that task, as the paper trains per environment)."""
-BASELINES = ("splane", "splane-ocean", "los-avoid", "random")
-EXECUTOR_TASKS = ("speed_heading",)
-LEARNED_EXECUTOR_POLICIES = ("two-layer", "los-executor")
-EXECUTOR_POLICIES = ("executor", "ocean-executor")
-"""Policies of the speed_heading task alone."""
-EXECUTORS = ("splane", "splane-ocean", "executor", "ocean-executor")
-"""Executor names a planning task's `executor` option takes on the command line."""
-PLANNERS = ("planner", "planner-raw", "two-layer", "los-executor", "los-avoid")
-NAMES = ("planner", "planner-raw", "executor", "ocean-executor", "two-layer", "planner-general",
-         "two-layer-general", "planner-e2e", "two-layer-e2e", "los-executor", *BASELINES)
-"""Every policy name `--policy` takes besides a checkpoint path."""
+ActingPolicy = Callable[[Any], np.ndarray]
+"""`policy(time_step) -> action`, what every command runs."""
+
+RUNS_ON = ("planning", "executor", "any")
+"""What a spec's `tasks` may be: the suite's tasks tagged "planning", those tagged "executor", or every task."""
+
+
+@dataclass(frozen=True)
+class Deployment:
+    """What a spec's `build` gets: the environment of the episode, its task and seed, and the checkpoint that
+    the name resolved to (the shipped one, NAME=PATH's PATH or a checkpoint path; None for a classical policy)."""
+
+    env: Any
+    task: str | None
+    seed: int
+    checkpoint: Path | None
+    spec: PolicySpec
+
+
+@dataclass(frozen=True)
+class PolicySpec:
+    """One named policy. Only `description` and `build` are required; the rest say how it is deployed."""
+
+    description: str
+    """One line for `--help` and the README's policy table."""
+    build: Callable[[Deployment], ActingPolicy]
+    """Makes the acting policy for one episode's environment."""
+    family: str = "classical"
+    """"learned", "classical" or "reference" (random, oracle): the column of the README's table."""
+    tasks: str = "any"
+    """The tasks it runs on, one of RUNS_ON."""
+    checkpoint: str | None = None
+    """Its shipped checkpoint: a file in `agents/checkpoints/`."""
+    checkpoint_on: dict[str, str] = field(default_factory=dict)
+    """Task -> another shipped checkpoint on that task (the paper trains a planner per environment)."""
+    executor: str | None = None
+    """The executor it always runs on, on a planning task (one of EXECUTORS); None: the task's S-plane, or the one
+    the task options name."""
+    default_executor: str | None = None
+    """The executor it runs on unless the task options name one."""
+    protection: bool | str | None = None
+    """Its protection domain (Sec. 3.2.2, `tasks.avoidance.PROTECTIONS`). A checkpoint's: None, the one it trained
+    with; False, none; True, its own or else the paper's; a name, that one. Any other policy's: a name (or True,
+    the paper's) puts its actions through that domain, with the map's geofence where the domain reads it."""
+    accepts_path: bool = False
+    """Whether `NAME=PATH` runs checkpoint PATH in its place."""
+
+    def __post_init__(self):
+        if self.tasks not in RUNS_ON:
+            raise ValueError(f"PolicySpec.tasks {self.tasks!r}: not one of {RUNS_ON}")
+
+
+POLICIES: dict[str, PolicySpec] = {}
+"""Name -> spec: every name `--policy` takes besides checkpoint paths and RESOLVERS' forms."""
+
+RESOLVERS: list[Callable[[str], tuple[PolicySpec, Path | None] | None]] = []
+"""Turn a name that is no registered name into (spec, checkpoint), or None if the name is not of their form."""
+
+
+def register(name: str, spec: PolicySpec) -> PolicySpec:
+    """Adds `spec` under `name`; a name is registered once."""
+    if name in POLICIES:
+        raise ValueError(f"policy {name!r} is registered twice")
+    POLICIES[name] = spec
+    return spec
+
+
+# --- checkpoints and executors ----------------------------------------------------------------------------------
 
 
 def _checkpoint_dir() -> Path:
@@ -75,9 +118,13 @@ def _checkpoint_dir() -> Path:
     return Path(agents.__file__).resolve().parent / "checkpoints"
 
 
-def shipped_checkpoint(name: str) -> Path:
-    """Path of a shipped checkpoint, with a clear error when it is missing."""
-    path = _checkpoint_dir() / SHIPPED[name]
+def shipped_checkpoint(name: str, task: str | None = None) -> Path:
+    """Path of policy `name`'s shipped checkpoint (on `task`), with a clear error when it is missing."""
+    spec = POLICIES[name]
+    file = spec.checkpoint_on.get(task, spec.checkpoint) if task is not None else spec.checkpoint
+    if file is None:
+        raise ValueError(f"policy {name!r} has no checkpoint")
+    path = _checkpoint_dir() / file
     if not path.is_file():
         raise FileNotFoundError(f"the shipped {name} checkpoint {path} is missing; train one with "
                                 f"`auv-mj train` (see README) or pass a checkpoint path")
@@ -112,100 +159,32 @@ def learned_executor(path: Path | None = None) -> LearnedExecutor:
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
 
+EXECUTORS: dict[str, Callable[[], Any]] = {
+    "splane": SPlaneController,
+    "splane-ocean": lambda: SPlaneController(OCEAN_GAINS),
+    "executor": lambda: learned_executor(shipped_checkpoint("executor")),
+    "ocean-executor": lambda: learned_executor(shipped_checkpoint("ocean-executor")),
+}
+"""Executor names a planning task's `executor` option takes on the command line -> the executor."""
+
+
 def named_executor(name: str):
     """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path) as `executor(command, state)`."""
-    if name == "splane":
-        return SPlaneController()
-    if name == "splane-ocean":
-        return SPlaneController(OCEAN_GAINS)
-    if name in EXECUTOR_POLICIES:
-        return learned_executor(shipped_checkpoint(name))
+    if name in EXECUTORS:
+        return EXECUTORS[name]()
     if Path(name).is_file():
         return learned_executor(Path(name))
     raise ValueError(f"task_kwargs executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
 
 
-class General(NamedTuple):
-    """A planner trained on the distribution of arenas, as a named policy."""
-
-    system: str
-    """"planner" (on the task's S-plane executor, or the one the task options name) or "two-layer"."""
-    checkpoint: str
-    """Its SHIPPED checkpoint."""
-    executor: str = "executor"
-    """The learned executor of its two-layer system (one of EXECUTOR_POLICIES)."""
-    protection: str | None = None
-    """The protection domain it is deployed with (`tasks.avoidance.PROTECTIONS`); None: the one it trained with."""
+# --- building policies ------------------------------------------------------------------------------------------
 
 
-GENERAL = {"planner-general": General("planner", "planner-general", protection="speed-aware"),
-           "two-layer-general": General("two-layer", "planner-general", "ocean-executor", "speed-aware"),
-           "planner-e2e": General("planner", "planner-e2e"), "two-layer-e2e": General("two-layer", "planner-e2e")}
-"""Names of the planners trained on the distribution of arenas. The residual planner trained with the paper's
-domain in the loop and runs with the speed-aware one, as chosen on validation (docs/runs/planner-speed-aware)."""
-
-
-def split_name(policy_name: str) -> tuple[str, Path | None]:
-    """("two-layer", PATH) for "two-layer=PATH" (also planner, planner-raw) and for the general planner's
-    names; (name, None) otherwise."""
-    if policy_name in GENERAL:
-        general = GENERAL[policy_name]
-        return general.system, shipped_checkpoint(general.checkpoint)
-    base, sep, path = policy_name.partition("=")
-    if sep and base in ("planner", "planner-raw", "two-layer"):
-        if not Path(path).is_file():
-            raise FileNotFoundError(f"policy {policy_name!r}: no checkpoint at {path}")
-        return base, Path(path)
-    return policy_name, None
-
-
-def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
-    """The suite environment for one episode; `two-layer` plugs in the learned executor, and a checkpoint
-    gets the observation it was trained on (read from its metadata)."""
-    task_kwargs["random"] = seed
-    executor = task_kwargs.get("executor")
-    if split_name(policy_name)[0] in LEARNED_EXECUTOR_POLICIES and task_name not in EXECUTOR_TASKS:
-        if executor is not None:
-            raise ValueError(f"policy {policy_name!r} runs the learned executor; leave 'executor' out of "
-                             f"task_kwargs (or use a planner policy with it)")
-        task_kwargs["executor"] = named_executor(GENERAL[policy_name].executor if policy_name in GENERAL
-                                                 else "executor")
-    elif isinstance(executor, str):
-        task_kwargs["executor"] = named_executor(executor)
-    elif policy_name == "splane-ocean" and task_name not in EXECUTOR_TASKS:
-        task_kwargs["executor"] = named_executor("splane-ocean")
-    checkpoint = _checkpoint_path(policy_name, task_name)
-    if checkpoint is not None and "observation" not in task_kwargs:
-        meta = read_checkpoint(checkpoint)[1]
-        if task_name in EXECUTOR_TASKS:  # the executor's observation (residual, gains, base) it was trained with
-            trained = meta.get("run_info", {}).get("task_kwargs", {})
-            memory = executor_options(int(meta["obs_dim"]), trained)
-            task_kwargs.update({k: v for k, v in memory.items() if k not in task_kwargs})
-        elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
-            task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
-    return suite.load("auv", task_name, task_kwargs=task_kwargs)
-
-
-def _checkpoint_path(policy_name: str, task_name: str | None = None) -> Path | None:
-    """The checkpoint behind `policy_name` (on `task_name`), or None for a baseline."""
-    base, path = split_name(policy_name)
-    if path is not None:
-        return path
-    if policy_name in EXECUTOR_POLICIES:
-        return shipped_checkpoint(policy_name)
-    if policy_name in ("planner", "planner-raw", "two-layer") and task_name not in EXECUTOR_TASKS:
-        return shipped_checkpoint(PLANNER_FOR_TASK.get(task_name, "planner"))
-    path = Path(policy_name)
-    return path if path.is_file() else None
-
-
-def _checkpoint_policy(path: Path, env, protection: bool | str | None = None):
+def checkpoint_policy(path: Path, env, protection: bool | str | None = None) -> ActingPolicy:
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
     (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, and a
-    residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`). `protection`
-    False runs it without a domain, True with its own (the paper's if it was trained with none), a name of
-    `tasks.avoidance.PROTECTIONS` with that one.
-    ValueError naming the file if its observation or action sizes do not fit the task."""
+    residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`). `protection` as
+    `PolicySpec.protection`. ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = Policy.load(path)
     sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
     actions = tuple(env.action_spec().shape)
@@ -225,45 +204,153 @@ def _checkpoint_policy(path: Path, env, protection: bool | str | None = None):
     env_kwargs = policy.metadata.get("run_info", {}).get("env_kwargs", {}) or {}
     if float(env_kwargs.get("residual", 0.0)) > 0:  # a residual planner acts through line of sight
         act = with_guidance(act, env, float(env_kwargs["residual"]))
-    field = protection_field(env_kwargs.get("protection", False))
+    field_ = protection_field(env_kwargs.get("protection", False))
     if isinstance(protection, str):
-        field = protection_field(protection)
+        field_ = protection_field(protection)
     elif protection is not None:
-        field = (field or PROTECTIONS["paper"]) if protection else None
-    return with_repulsion(act, field, map_fence(env)) if field is not None else act
+        field_ = (field_ or PROTECTIONS["paper"]) if protection else None
+    return with_repulsion(act, field_, map_fence(env)) if field_ is not None else act
 
 
-def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None):
-    """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the planner)."""
-    planner = PLANNER_FOR_TASK.get(task, "planner")
-    base, path = split_name(policy_name)
+def _from_checkpoint(deployment: Deployment) -> ActingPolicy:
+    """A learned spec's build: its checkpoint under its protection domain."""
+    return checkpoint_policy(deployment.checkpoint, deployment.env, deployment.spec.protection)
+
+
+def _splane_ocean(deployment: Deployment) -> ActingPolicy:
+    """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading."""
+    env = deployment.env
+    return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
+
+
+def _learned(description: str, checkpoint: str, **kwargs: Any) -> PolicySpec:
+    return PolicySpec(description, _from_checkpoint, family="learned", checkpoint=checkpoint, **kwargs)
+
+
+PAPER_PLANNER = {"checkpoint": "planner.pt", "checkpoint_on": {"tunnel": "planner_tunnel.pt"}, "tasks": "planning",
+                 "accepts_path": True}
+"""The paper's HER-DDPG planner: one checkpoint per environment (`planner_tunnel.pt` on the tunnel task)."""
+
+register("planner", _learned("the paper's HER-DDPG planner with its protection domain (Sec. 3.2.2), on the task's "
+                             "executor", protection=True, **PAPER_PLANNER))
+register("planner-raw", _learned("the paper's planner without the protection domain", protection=False,
+                                 **PAPER_PLANNER))
+register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3)",
+                               protection=True, executor="executor", **PAPER_PLANNER))
+register("planner-general", _learned(
+    "residual planner trained on the distribution of arenas, over line of sight along the route, with the "
+    "speed-aware protection domain and the geofence (issue 15)", "planner_general.pt", tasks="planning",
+    protection="speed-aware"))
+register("two-layer-general", _learned("planner-general on the learned ocean executor", "planner_general.pt",
+                                       tasks="planning", protection="speed-aware", executor="ocean-executor"))
+register("planner-e2e", _learned("the first planner trained on the distribution of arenas, end to end (kept for "
+                                 "comparison)", "planner_e2e.pt", tasks="planning", protection=True))
+register("two-layer-e2e", _learned("planner-e2e on the paper's learned executor", "planner_e2e.pt",
+                                   tasks="planning", protection=True, executor="executor"))
+register("executor", _learned("the paper's DDPG execution layer (speed_heading)", "executor.pt", tasks="executor"))
+register("ocean-executor", _learned("TD3 scheduling the S-plane's gains every step, trained in ocean water "
+                                    "(speed_heading, issue 17)", "executor_ocean.pt", tasks="executor"))
+register("los-executor", PolicySpec("line of sight on the learned DDPG executor: the execution layer alone",
+                                    lambda d: line_of_sight(d.env), tasks="planning", executor="executor"))
+register("splane", PolicySpec("the classical baseline: line of sight + the S-plane (Eq. 32), or the S-plane alone "
+                              "on speed_heading", lambda d: classical(d.env)))
+register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
+                                    "(`tasks.splane.OCEAN_GAINS`)", _splane_ocean, default_executor="splane-ocean"))
+register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
+                                 "local planner", lambda d: line_of_sight(d.env), tasks="planning",
+                                 protection="paper"))
+register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference"))
+
+CHECKPOINT = PolicySpec("a trained checkpoint (`auv-mj train`), with the protection domain it trained with",
+                        _from_checkpoint, family="learned")
+"""The spec of a checkpoint path given as the name."""
+
+
+# --- names -> specs ---------------------------------------------------------------------------------------------
+
+
+def resolve(policy_name: str) -> tuple[PolicySpec, Path | None]:
+    """(spec, checkpoint) of a `--policy` value: a registered name, NAME=PATH, a checkpoint path or a RESOLVERS
+    form. The checkpoint is PATH or the checkpoint file; None where the spec's own (shipped) one applies.
+    ValueError naming the valid names for an unknown one; FileNotFoundError for NAME=PATH with no file."""
+    if not isinstance(policy_name, str) or not policy_name:
+        raise ValueError(f"policy name must be a non-empty string, got {policy_name!r}")
+    if policy_name in POLICIES:
+        return POLICIES[policy_name], None
+    base, sep, path = policy_name.partition("=")
+    if sep and base in POLICIES and POLICIES[base].accepts_path:
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"policy {policy_name!r}: no checkpoint at {path}")
+        return POLICIES[base], Path(path)
+    for resolver in RESOLVERS:
+        found = resolver(policy_name)
+        if found is not None:
+            return found
+    if Path(policy_name).is_file():
+        return CHECKPOINT, Path(policy_name)
+    raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of {list(POLICIES)}")
+
+
+def split_name(policy_name: str) -> tuple[PolicySpec, Path | None]:
+    """`resolve`, under its older name."""
+    return resolve(policy_name)
+
+
+def _checkpoint_of(spec: PolicySpec, path: Path | None, task: str | None) -> Path | None:
+    """The checkpoint a resolved name runs on `task`: PATH, else the spec's shipped one, else None."""
     if path is not None:
-        deployed = GENERAL[policy_name].protection if policy_name in GENERAL else None
-        return _checkpoint_policy(path, env, protection=deployed or base != "planner-raw")
-    if policy_name == "random":
-        return uniform_random(env, seed)
-    if policy_name == "splane":
-        return classical(env)
-    if policy_name == "splane-ocean":  # on a planning task its executor was set by make_env
-        return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
-    if policy_name == "los-executor":
-        return line_of_sight(env)
-    if policy_name == "los-avoid":
-        return los_avoid(env)
-    if policy_name in ("planner", "two-layer"):
-        return _checkpoint_policy(shipped_checkpoint(planner), env, protection=True)
-    if policy_name == "planner-raw":
-        return _checkpoint_policy(shipped_checkpoint(planner), env, protection=False)
-    if policy_name in EXECUTOR_POLICIES:
-        return _checkpoint_policy(shipped_checkpoint(policy_name), env)
-    path = Path(policy_name)
-    if not path.is_file():
-        raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of {list(NAMES)}")
-    return _checkpoint_policy(path, env)
+        return path
+    if spec.checkpoint is None:
+        return None
+    name = next(n for n, s in POLICIES.items() if s is spec)
+    return shipped_checkpoint(name, task)
+
+
+def executor_tasks() -> tuple[str, ...]:
+    """The suite's execution-layer tasks (tagged "executor"): the tasks with no executor option."""
+    return tuple(t for _, t in suite.tasks_by_tag("executor"))
+
+
+def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
+    """The suite environment for one episode; a spec with an executor plugs it in, and a checkpoint gets the
+    observation it was trained on (read from its metadata)."""
+    spec, path = resolve(policy_name)
+    task_kwargs["random"] = seed
+    executor = task_kwargs.get("executor")
+    planning = task_name not in executor_tasks()
+    if spec.executor is not None and planning:
+        if executor is not None:
+            raise ValueError(f"policy {policy_name!r} runs the learned executor {spec.executor!r}; leave 'executor' "
+                             f"out of task_kwargs (or use a planner policy with it)")
+        task_kwargs["executor"] = named_executor(spec.executor)
+    elif isinstance(executor, str):
+        task_kwargs["executor"] = named_executor(executor)
+    elif spec.default_executor is not None and planning:
+        task_kwargs["executor"] = named_executor(spec.default_executor)
+    checkpoint = _checkpoint_of(spec, path, task_name)
+    if checkpoint is not None and "observation" not in task_kwargs:
+        meta = read_checkpoint(checkpoint)[1]
+        if not planning:  # the executor's observation (residual, gains, base) it was trained with
+            trained = meta.get("run_info", {}).get("task_kwargs", {})
+            memory = executor_options(int(meta["obs_dim"]), trained)
+            task_kwargs.update({k: v for k, v in memory.items() if k not in task_kwargs})
+        elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
+            task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
+    return suite.load("auv", task_name, task_kwargs=task_kwargs)
+
+
+def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> ActingPolicy:
+    """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the checkpoint)."""
+    spec, path = resolve(policy_name)
+    checkpoint = _checkpoint_of(spec, path, task)
+    act = spec.build(Deployment(env, task, seed, checkpoint, spec))
+    if checkpoint is None and spec.protection:  # a classical policy deployed inside a protection domain
+        act = with_repulsion(act, protection_field(spec.protection), map_fence(env))
+    return act
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
-    """A task name, a tag or 'all' -> task names the policy can run (planners skip speed_heading)."""
+    """A task name, a tag or 'all' -> the task names the policy runs on (`PolicySpec.tasks`)."""
     names = [task for domain, task in suite.ALL_TASKS if domain == "auv"]
     if spec == "all":
         chosen = names
@@ -273,10 +360,10 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
         chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
         if not chosen:
             raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
-    if split_name(policy_name)[0] in PLANNERS:
-        chosen = [t for t in chosen if t not in EXECUTOR_TASKS]
-    elif policy_name in EXECUTOR_POLICIES:
-        chosen = [t for t in chosen if t in EXECUTOR_TASKS]
+    runs_on = resolve(policy_name)[0].tasks
+    if runs_on != "any":
+        tagged = {t for _, t in suite.tasks_by_tag(runs_on)}
+        chosen = [t for t in chosen if t in tagged]
     if not chosen:
         raise ValueError(f"policy {policy_name!r} cannot run any task of {spec!r}")
     return chosen
@@ -297,3 +384,26 @@ def env_and_policy(policy_name: str, task_name: str, seed: int, task_kwargs: dic
     except TypeError as e:  # an option the task does not take
         raise ValueError(f"task_kwargs {task_kwargs} do not fit task {task_name!r}: {e}") from None
     return env, make_policy(policy_name, env, seed, task_name)
+
+
+# --- tables derived from the registry ---------------------------------------------------------------------------
+
+
+def policy_help() -> str:
+    """The `--policy` help of every command, from the registry."""
+    paths = ", ".join(f"{n}=PATH" for n, s in POLICIES.items() if s.accepts_path)
+    return (f"a registered policy ({', '.join(POLICIES)}; `auv-mj policies` describes each), a checkpoint path, "
+            f"or {paths} (a candidate checkpoint in the shipped one's place)")
+
+
+def markdown_table() -> str:
+    """The README's policy table: name, family, tasks, executor, protection domain, description."""
+    lines = ["| policy | family | runs on | executor | protection | what it is |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for name, spec in POLICIES.items():
+        tasks = {"any": "every task", "planning": "planning tasks", "executor": "speed_heading"}[spec.tasks]
+        executor = spec.executor or spec.default_executor or ("task's" if spec.tasks != "executor" else "-")
+        protection = {None: "as trained" if spec.checkpoint else "-", True: "paper's (or its own)",
+                      False: "none"}.get(spec.protection, spec.protection)
+        lines.append(f"| `{name}` | {spec.family} | {tasks} | {executor} | {protection} | {spec.description} |")
+    return "\n".join(lines)

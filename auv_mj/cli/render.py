@@ -19,15 +19,15 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.episode import EpisodeRecorder, outcome
-from auv_mj.render import (
+from auv_mj.render import glbackend
+from auv_mj.render.video import (
     CAMERAS,
     DEFAULT_FPS,
     DEFAULT_HOLD_END,
     DEFAULT_SIZE,
     FOLLOW_VIEW,
-    benchmark,
-    glbackend,
     iter_frames,
+    time_against_bare_renderer,
     write_video,
 )
 from tasks.guidance import line_of_sight
@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
         glbackend.require()
         if args.bench:
             env, _ = policies.env_and_policy("splane", "obstacles", args.seed)
-            for size, r in benchmark(env, line_of_sight(env)).items():
+            for size, r in time_against_bare_renderer(env, line_of_sight(env)).items():
                 print(f"{size}: ours {r['ours_fps']:.1f} frames/s, bare mujoco.Renderer {r['bare_fps']:.1f} "
                       f"frames/s, ratio {r['ratio']:.2f}")
             return 0

@@ -1,0 +1,25 @@
+"""`auv-mj policies`: the policy registry (`auv_mj.cli.policies.POLICIES`) as a table."""
+
+from __future__ import annotations
+
+import argparse
+
+from auv_mj.cli import policies
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """--markdown prints the README's table."""
+    parser.add_argument("--markdown", action="store_true", help="print the table as Markdown (the README's)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Prints every registered policy with its family, tasks, executor, protection domain and description."""
+    if args.markdown:
+        print(policies.markdown_table())
+        return 0
+    width = max(map(len, policies.POLICIES))
+    for name, spec in policies.POLICIES.items():
+        print(f"{name:{width}s}  [{spec.family}, {spec.tasks}] {spec.description}")
+    print(f"\nAlso: a checkpoint path, or NAME=PATH for "
+          f"{', '.join(n for n, s in policies.POLICIES.items() if s.accepts_path)}.")
+    return 0
