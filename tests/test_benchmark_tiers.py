@@ -1,0 +1,119 @@
+"""The hard tier and the classical planners of the benchmark (issue 30): determinism, certificates, traps."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+
+from auv_mj.arenas import grid, traps
+from auv_mj.arenas.tunnels import MovingObstacle, Obstacle
+from auv_mj.episode import episode_metrics, record_episode
+from tasks import obstacles, planning
+from tasks.guidance import los_avoid
+from tasks.map_planner import map_replan, oracle
+from tasks.tunnel import RANDOM_TUNNELS
+
+BOUNDS = planning.MAP_BOUNDS
+SEEDS = (20_000, 20_001, 20_002)
+"""Validation seeds (`auv_mj.seeds.VALIDATION`)."""
+
+
+def _polygons(boxes) -> list:
+    return [shapely.polygons(b.corners()) for b in boxes]
+
+
+@pytest.mark.parametrize("spec", [traps.HARD_OBSTACLES, traps.HARD_MOVING], ids=["obstacles", "moving"])
+def test_hard_layout_is_deterministic_and_certified(spec):
+    for seed in SEEDS:
+        first = traps.random_hard_layout(seed, BOUNDS, spec)
+        again = traps.random_hard_layout(seed, BOUNDS, spec)
+        assert first.obstacles == again.obstacles and first.movers == again.movers
+        np.testing.assert_array_equal(first.start, again.start)
+        np.testing.assert_array_equal(first.goal, again.goal)
+        assert first.obstacles, "a hard arena holds at least one trap"
+        path = traps.certify([b.corners() for b in first.obstacles], first.start, first.goal, BOUNDS, 12.5)
+        assert path is not None
+        # Independently of the grid: the certificate's path keeps clear of every box (Shapely, exact).
+        line = shapely.LineString(path)
+        least = min(line.distance(p) for p in _polygons(first.obstacles))
+        assert least >= traps.CERTIFY_CLEARANCE - grid.CELL * math.sqrt(2)
+        assert np.hypot(*(path[-1] - first.goal)) <= 12.5 + grid.CELL
+        union = shapely.union_all(_polygons(first.obstacles))
+        for point in (first.start, first.goal):
+            assert union.distance(shapely.Point(point)) >= traps.END_CLEARANCE
+        for mover in first.movers:
+            track = shapely.LineString([(mover.x0, mover.y0), (mover.x1, mover.y1)]).buffer(mover.radius)
+            assert track.distance(union) >= traps.DENSE_GAP
+            assert mover.speed <= 1.0
+
+
+def test_hard_traps_keep_their_gaps():
+    """Obstacles of different traps, and the boxes of a clutter field, are DENSE_GAP apart (hull + 2 d_s)."""
+    for seed in range(20_010, 20_016):
+        layout = traps.random_hard_layout(seed, BOUNDS, traps.HARD_OBSTACLES)
+        groups: dict[str, list] = {}
+        for box in layout.obstacles:
+            trap, _, part = box.name.partition("_")
+            key = f"{trap}_{part}" if part.isdigit() else trap  # each clutter box is a group of its own
+            groups.setdefault(key, []).append(shapely.polygons(box.corners()))
+        keys = sorted(groups)
+        for i, a in enumerate(keys):
+            for b in keys[i + 1:]:
+                gap = min(p.distance(q) for p in groups[a] for q in groups[b])
+                assert gap >= traps.DENSE_GAP - 1e-9, (seed, a, b, gap)
+
+
+def test_hard_tunnel_is_deterministic_and_holds_traps():
+    first = traps.random_hard_tunnel(20_000, RANDOM_TUNNELS)
+    again = traps.random_hard_tunnel(20_000, RANDOM_TUNNELS)
+    assert first.unknown == again.unknown and first.movers == again.movers
+    assert 60.0 <= first.width <= 100.0
+    assert any(o.name.startswith("trap") for o in first.unknown)
+
+
+def _known_arena(boxes, start, goal, time_limit: float, movers: tuple[MovingObstacle, ...] = ()):
+    """A planning environment on a hand-made arena (the `obstacles` task's route: its start and goal sites)."""
+    layout = traps.HardLayout(None, np.array(start, float), 0.0, np.array(goal, float), BOUNDS, tuple(boxes),
+                              movers, ())
+    physics = planning.Physics.load(layout.element("known"))
+    task = obstacles.Obstacles(scenario="a")
+    return planning.environment(physics, task, time_limit)
+
+
+CUP = traps.cup(np.random.RandomState(0), (np.array([260.0, 300.0]), 0.0),
+                traps.HardSpec(cup_width=(50.0, 50.0), cup_depth=(40.0, 40.0)), "cup")
+"""A cup 50 m wide and 40 m deep open towards a start 160 m before it on the straight route to the goal."""
+
+
+def test_map_replan_gets_out_of_a_cup_that_los_avoid_stalls_in():
+    env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 500.0)
+    stalled = episode_metrics(record_episode(env, los_avoid(env)))
+    assert not stalled["success"]
+    env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 500.0)
+    escaped = episode_metrics(record_episode(env, map_replan(env)))
+    assert escaped["success"] and escaped["outcome"] == "goal"
+
+
+def test_oracle_finds_its_way_round_a_long_wall():
+    """A wall 200 m across the route, ending 30 m past it with a hook: the oracle goes round the open end,
+    on a path at most a quarter longer than the certificate's."""
+    wall = traps.wall(np.random.RandomState(3), (np.array([300.0, 300.0]), 0.0),
+                      traps.HardSpec(wall_length=(200.0, 200.0), wall_open_end=(30.0, 30.0), hook_chance=1.0), "w")
+    start, goal = (120.0, 300.0), (480.0, 300.0)
+    certificate = traps.certify([b.corners() for b in wall], np.array(start), np.array(goal), BOUNDS, 12.5)
+    env = _known_arena(wall, start, goal, 600.0)
+    metrics = episode_metrics(record_episode(env, oracle(env)))
+    assert metrics["success"]
+    assert metrics["path_length"] <= 1.25 * grid.path_length(certificate) + planning.GOAL_RADIUS
+
+
+def test_known_arena_boxes_are_where_they_were_put():
+    """The hand-made arena holds the cup's three walls as unknown obstacles (so the tests above test them)."""
+    env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 10.0)
+    env.reset()
+    names = [env.physics.model.geom(i).name for i in range(env.physics.model.ngeom)]
+    assert sum(name.startswith("unknown_cup") for name in names) == 3
+    assert all(isinstance(b, Obstacle) for b in CUP)
