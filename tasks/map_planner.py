@@ -82,13 +82,18 @@ _RAY_STEP = CELL / 2
 """Spacing [m] of the points a beam marks free."""
 
 
-def los_fast(env) -> Policy:
-    """Line of sight along the route at 2 m/s inside the speed-aware domain with the geofence."""
+def fast_line_of_sight(env) -> Policy:
+    """Line of sight along the route at 2 m/s (no protection domain: `los_fast` adds it)."""
 
     def policy(time_step: dm_env.TimeStep) -> np.ndarray:
         return np.array([TOP_SPEED_ACTION, los_heading(time_step.observation["desired_goal"], env.physics.pose())])
 
-    return with_repulsion(policy, PROTECTION, map_fence(env))
+    return policy
+
+
+def los_fast(env) -> Policy:
+    """Line of sight along the route at 2 m/s inside the speed-aware domain with the geofence."""
+    return with_repulsion(fast_line_of_sight(env), PROTECTION, map_fence(env))
 
 
 def _bounds(env) -> tuple[float, float, float, float]:
@@ -286,16 +291,24 @@ class TrueMap(GridFollower):
         return True
 
 
+def sonar_map_planner(env) -> Policy:
+    """The mapping local planner's search and follower (no protection domain: `map_replan` adds it)."""
+    return _resettable(SonarMap(env))
+
+
+def true_map_planner(env) -> Policy:
+    """The oracle's search and follower on the true map (no protection domain: `oracle` adds it)."""
+    return _resettable(TrueMap(env))
+
+
 def map_replan(env) -> Policy:
     """The mapping local planner (module docstring) inside the speed-aware domain with the geofence."""
-    follower = SonarMap(env)
-    return with_repulsion(_resettable(follower), PROTECTION, map_fence(env))
+    return with_repulsion(sonar_map_planner(env), PROTECTION, map_fence(env))
 
 
 def oracle(env) -> Policy:
     """The planner on the true map (module docstring) inside the speed-aware domain with the geofence."""
-    follower = TrueMap(env)
-    return with_repulsion(_resettable(follower), PROTECTION, map_fence(env))
+    return with_repulsion(true_map_planner(env), PROTECTION, map_fence(env))
 
 
 def _resettable(follower: GridFollower) -> Policy:

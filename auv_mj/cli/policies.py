@@ -38,6 +38,7 @@ from auv_mj.arenas import arena
 from tasks import suite
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
 from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
+from tasks.map_planner import fast_line_of_sight, sonar_map_planner, true_map_planner
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from tasks.splane import OCEAN_GAINS, SPlaneController
 
@@ -259,6 +260,16 @@ register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tune
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner", lambda d: line_of_sight(d.env), tasks="planning",
                                  protection="paper"))
+register("los-fast", PolicySpec("line of sight along the route at 2 m/s inside the speed-aware protection domain and "
+                                "the geofence: planner-general's zero action (issue 30)",
+                                lambda d: fast_line_of_sight(d.env), tasks="planning", protection="speed-aware"))
+register("map-replan", PolicySpec("the mapping local planner: a sonar occupancy grid searched again as it changes, "
+                                  "followed by line of sight at 2 m/s (speed-aware domain; `tasks.map_planner`)",
+                                  lambda d: sonar_map_planner(d.env), tasks="planning", protection="speed-aware"))
+register("oracle", PolicySpec("plans on the true map (every geom, movers where they are) and follows the plan as "
+                              "map-replan does: certifies arenas, the reference of time efficiency",
+                              lambda d: true_map_planner(d.env), family="reference", tasks="planning",
+                              protection="speed-aware"))
 register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference"))
 
 CHECKPOINT = PolicySpec("a trained checkpoint (`auv-mj train`), with the protection domain it trained with",
