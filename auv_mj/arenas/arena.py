@@ -8,7 +8,8 @@ The arena convention (what a task reads; see README "Authoring an arena"):
 - sites `start` (its z-euler is the initial heading) and `goal`;
 - sites `path_0`, `path_1`, ... : the global path, in order (the tunnel's central axis);
 - mocap bodies `mover_*` are moving obstacles; `<numeric name="mover_<name>" data="x0 y0 x1 y1 speed"/>`
-  moves the body from (x0, y0) to (x1, y1) at `speed` m/s, then back (ping-pong);
+  moves the body from (x0, y0) to (x1, y1) at `speed` m/s, then back (ping-pong); more waypoints,
+  `data="x0 y0 x1 y1 ... xn yn speed"` (up to MAX_MOVER_WAYPOINTS), take it along that polyline and back;
 - `<numeric name="arena_bounds" data="xmin ymin xmax ymax"/>` is the map: leaving it ends an episode.
 Names of the vehicle model (`auv`, `hull`, `x`, `sonar_*`, ...) may not be reused.
 """
@@ -37,6 +38,8 @@ MAX_EXTENT = 100_000.0
 """Largest |coordinate| and size [m] anything in an arena may have (100 km; the paper's maps are 600 m)."""
 MAX_MOVER_SPEED = 10.0
 """Fastest moving obstacle [m/s]: five times the vehicle's top commanded speed (Table 3)."""
+MAX_MOVER_WAYPOINTS = 100
+"""Most waypoints of one mover's path."""
 ARENA_ELEMENTS = {
     "asset": {"texture", "material", "mesh", "hfield"},
     "default": {"default", "geom", "site", "mesh", "material", "camera", "light"},
@@ -149,15 +152,25 @@ def load(arena: str | Path | ET.Element | None = None, vehicle=None, thruster_la
 
 @dataclass(frozen=True)
 class Mover:
-    """A moving obstacle: mocap body `body` ping-ponging from `start` to `end` at `speed` m/s."""
+    """A moving obstacle: mocap body `body` ping-ponging from `start` to `end` at `speed` m/s, through the
+    waypoints `via` ((k, 2), in order) when given."""
 
     body: str
     start: np.ndarray
     end: np.ndarray
     speed: float
+    via: np.ndarray | None = None
+
+    @property
+    def waypoints(self) -> np.ndarray:
+        """The whole path (n, 2) [m]: start, the waypoints between, end."""
+        middle = np.zeros((0, 2)) if self.via is None else np.asarray(self.via, dtype=float).reshape(-1, 2)
+        return np.vstack([self.start, middle, self.end])
 
     def position(self, time: float) -> np.ndarray:
         """(x, y) at simulation time `time`."""
+        if self.via is not None and len(self.via):
+            return self._along_polyline(time)
         delta = self.end - self.start
         length = float(np.hypot(*delta))
         if length == 0 or self.speed == 0:
@@ -165,6 +178,16 @@ class Mover:
         travelled = (self.speed * time) % (2 * length)
         s = travelled if travelled <= length else 2 * length - travelled
         return self.start + delta * (s / length)
+
+    def _along_polyline(self, time: float) -> np.ndarray:
+        points = self.waypoints
+        arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+        length = float(arc[-1])
+        if length == 0 or self.speed == 0:
+            return self.start.copy()
+        travelled = (self.speed * time) % (2 * length)
+        s = travelled if travelled <= length else 2 * length - travelled
+        return np.array([np.interp(s, arc, points[:, 0]), np.interp(s, arc, points[:, 1])])
 
 
 @dataclass(frozen=True)
@@ -207,8 +230,13 @@ def arena_info(physics: AUVPhysics) -> ArenaInfo:
         name = model.body(i).name
         if name.startswith(MOVER_PREFIX) and model.body_mocapid[i] >= 0:
             if name in numerics:
-                x0, y0, x1, y1, speed = numeric(name)
-                movers.append(Mover(name, np.array([x0, y0]), np.array([x1, y1]), float(speed)))
+                values = numeric(name)
+                points = values[:-1].reshape(-1, 2) if len(values) % 2 else np.zeros((0, 2))
+                if len(points) < 2:  # check-arena names the count; read no path
+                    points = np.vstack([model.body_pos[i][:2]] * 2)
+                via = points[1:-1] if len(points) > 2 else None
+                speed = float(values[-1]) if len(values) else 0.0
+                movers.append(Mover(name, points[0].copy(), points[-1].copy(), speed, via))
             else:
                 pos = model.body_pos[i][:2].copy()
                 movers.append(Mover(name, pos, pos, 0.0))

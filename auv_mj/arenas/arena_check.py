@@ -26,6 +26,7 @@ from auv_mj import inputs
 from auv_mj.arenas.arena import (
     MAX_EXTENT,
     MAX_MOVER_SPEED,
+    MAX_MOVER_WAYPOINTS,
     MOVER_PREFIX,
     PATH_SITE_PREFIX,
     UNKNOWN_OBSTACLE_PREFIX,
@@ -191,9 +192,9 @@ def _check_numerics(model: mujoco.MjModel, report: ArenaReport) -> bool:
         elif body not in numerics:
             report.problems.append(f'mover body {body} has no <numeric name="{body}" '
                                    'data="x0 y0 x1 y1 speed">: it would never move')
-        elif len(values(body)) != 5:
+        elif len(values(body)) < 5 or len(values(body)) % 2 == 0 or len(values(body)) > 2 * MAX_MOVER_WAYPOINTS + 1:
             report.problems.append(f'<numeric name="{body}"> has {len(values(body))} values; '
-                                   "expected x0 y0 x1 y1 speed")
+                                   f"expected x0 y0 x1 y1 [... xn yn] speed (2 to {MAX_MOVER_WAYPOINTS} waypoints)")
             readable = False
     return readable
 
@@ -239,7 +240,8 @@ def _check_sites(model: mujoco.MjModel, info: ArenaInfo, report: ArenaReport, ne
     if not (xmin < xmax and ymin < ymax):
         report.problems.append(f"arena_bounds {_xy4(info.bounds)} is empty (needs xmin < xmax, ymin < ymax)")
         return placed
-    points += [(f"{m.body} {end}", p) for m in info.movers for end, p in (("start", m.start), ("end", m.end))]
+    points += [(f"{m.body} {_waypoint_label(k, len(m.waypoints))}", p) for m in info.movers
+               for k, p in enumerate(m.waypoints)]
     outside = [f"{name} ({_xy(p)}) is outside arena_bounds {_xy4(info.bounds)}" for name, p in points
                if p is not None and np.all(np.isfinite(p)) and not (xmin <= p[0] <= xmax and ymin <= p[1] <= ymax)]
     _add(report.problems, outside)
@@ -250,9 +252,9 @@ def _check_movers_numbers(info: ArenaInfo, report: ArenaReport) -> bool:
     """Each mover's path ends are finite and its speed is in [0, MAX_MOVER_SPEED]; False if any is not."""
     bad = []
     for mover in info.movers:
-        if not np.all(np.abs(np.concatenate([mover.start, mover.end])) <= MAX_EXTENT):
-            bad.append(f"{mover.body}: its path ends ({_xy(mover.start)}) and ({_xy(mover.end)}) must be finite "
-                       f"within +-{MAX_EXTENT:g} m")
+        if not np.all(np.abs(mover.waypoints) <= MAX_EXTENT):
+            bad.append(f"{mover.body}: its path ends ({_xy(mover.start)}) and ({_xy(mover.end)}) and waypoints must "
+                       f"be finite within +-{MAX_EXTENT:g} m")
         if not 0.0 <= mover.speed <= MAX_MOVER_SPEED:
             bad.append(f"{mover.body}: speed {mover.speed:g} m/s is not in [0, {MAX_MOVER_SPEED:g}] m/s")
     _add(report.problems, bad)
@@ -531,7 +533,9 @@ def _check_movers(physics: AUVPhysics, info: ArenaInfo, static: list[int], repor
         body = model.body(mover.body).id
         mocap = model.body_mocapid[body]
         geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body]
-        for label, xy in (("start", mover.start), ("end", mover.end)):
+        waypoints = mover.waypoints
+        for k, xy in enumerate(waypoints):
+            label = _waypoint_label(k, len(waypoints))
             _hide_movers(model, data)
             data.mocap_pos[mocap] = [xy[0], xy[1], 0.0]
             if info.start is not None:
@@ -546,14 +550,21 @@ def _check_movers(physics: AUVPhysics, info: ArenaInfo, static: list[int], repor
                 if label == "start" and info.start is not None and gap < SAFETY_DISTANCE:
                     report.problems.append(f"{mover.body} starts {gap:.2f} m from the vehicle's start, "
                                            f"closer than d_s = {SAFETY_DISTANCE:g} m")
-        delta = mover.end - mover.start
-        length = float(np.hypot(*delta))
-        if length > 0:
-            _hide_movers(model, data)
-            hit = mujoco.mj_ray(model, data, np.array([*mover.start, 0.0]), np.array([*delta / length, 0.0]),
-                                None, 1, auv, geomid)
-            if 0 <= hit < length:
-                report.warnings.append(f"{mover.body} moves through {_name(model, int(geomid[0]))}")
+        for a, b in zip(waypoints[:-1], waypoints[1:], strict=True):
+            delta = b - a
+            length = float(np.hypot(*delta))
+            if length > 0:
+                _hide_movers(model, data)
+                hit = mujoco.mj_ray(model, data, np.array([*a, 0.0]), np.array([*delta / length, 0.0]),
+                                    None, 1, auv, geomid)
+                if 0 <= hit < length:
+                    report.warnings.append(f"{mover.body} moves through {_name(model, int(geomid[0]))}")
+                    break
+
+
+def _waypoint_label(k: int, count: int) -> str:
+    """start, waypoint 1, ..., end: the points of a mover's path as messages name them."""
+    return "start" if k == 0 else "end" if k == count - 1 else f"waypoint {k}"
 
 
 def _summary(model: mujoco.MjModel, info: ArenaInfo, static: list[int], least) -> str:
@@ -644,9 +655,12 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
             ax.annotate(name, outline.mean(axis=0), fontsize=7, ha="center", va="bottom",
                         xytext=(0, 6), textcoords="offset points")
     for mover in movers.values():
-        if not (_drawable([mover.start, mover.end]) and math.isfinite(mover.speed)):
+        if not (_drawable(mover.waypoints) and math.isfinite(mover.speed)):
             continue
-        ax.annotate("", mover.end, mover.start, zorder=3,
+        track = mover.waypoints
+        if len(track) > 2:
+            ax.plot(*track[:-1].T, "--", color="#d9342b", lw=1.0, zorder=3)
+        ax.annotate("", track[-1], track[-2], zorder=3,
                     arrowprops={"arrowstyle": "->", "color": "#d9342b", "ls": "--"})
         ax.annotate(f"{mover.body} ({mover.speed:g} m/s)", mover.start, fontsize=7, color="#d9342b",
                     xytext=(0, 8), textcoords="offset points", ha="center")

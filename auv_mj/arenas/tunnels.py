@@ -1037,15 +1037,16 @@ def _xml_text(text: str) -> str:
                    or ("\U00010000" <= c <= "\U0010ffff") else "?" for c in str(text))
 
 
-def save(element: ET.Element, path: str | Path) -> Path:
-    """Writes an arena element as indented MJCF, atomically: a file there is either the old one or the new one."""
+def save(element: ET.Element, path: str | Path, header: str = HEADER) -> Path:
+    """Writes an arena element as indented MJCF, atomically: a file there is either the old one or the new one;
+    `header` is its first comment (what made it)."""
     path = Path(path)
     element = copy.deepcopy(element)
     ET.indent(element)
     text = ET.tostring(element, encoding="unicode")
     temporary = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
-        temporary.write_text(f"<!-- {HEADER} -->\n{text}\n")
+        temporary.write_text(f"<!-- {header} -->\n{text}\n")
         os.replace(temporary, path)
     finally:
         temporary.unlink(missing_ok=True)
