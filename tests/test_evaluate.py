@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from auv_mj.cli import evaluate, policies
-from auv_mj.cli.reproduce import episodes_to, training_speed
+from auv_mj.cli.report.fig8 import episodes_to
+from auv_mj.cli.report.training_speed import training_speed
 
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 

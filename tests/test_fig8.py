@@ -6,10 +6,11 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy import stats
 
 from auv_mj.cli import plots
-from auv_mj.cli.reproduce import fig8, fig8_logs, mean_ci
+from auv_mj.cli.report.fig8 import fig8, fig8_logs, mean_ci
 
 
 def _run_dir(root: Path, name: str, first_success: int, episodes: int = 120) -> None:
@@ -68,7 +69,7 @@ def test_confidence_interval_of_the_mean():
 
 
 def test_peer_report_gives_throughput_and_time_to_target_side_by_side(tmp_path):
-    from auv_mj.cli.reproduce import training_speed
+    from auv_mj.cli.report.training_speed import training_speed
 
     for name, seconds in (("auv-mj-her-ddpg-seed11", 2.0), ("sb3-ddpg-her-seed11", 8.0)):
         _run_dir(tmp_path, name, 10, episodes=40)
@@ -110,8 +111,9 @@ def _summary(success: float, collisions: float, time: float | None) -> dict:
             "min_clearance": 2.0, "outcomes": {"goal": int(200 * success), "collision": int(200 * collisions)}}
 
 
-def test_the_benchmark_section_judges_each_set_by_the_issue_15_bar(monkeypatch):
-    from auv_mj.cli import evaluate, reproduce
+def test_the_heldout_section_judges_each_set_by_the_issue_15_bar(monkeypatch):
+    from auv_mj.cli import evaluate
+    from auv_mj.cli.report import heldout
 
     figures = {  # (policy, task) -> summary; los-avoid is slower everywhere
         ("two-layer-general", "tunnel"): _summary(0.97, 0.005, 400.0),  # met
@@ -134,8 +136,17 @@ def test_the_benchmark_section_judges_each_set_by_the_issue_15_bar(monkeypatch):
     monkeypatch.setattr(evaluate, "evaluate", fake_evaluate)
     monkeypatch.setattr(evaluate, "run_episode", fake_episode)
     lines: list[str] = []
-    reproduce.benchmark(lines, workers=2)
+    heldout.heldout(lines, workers=2)
     report = "\n".join(lines)
-    assert {c[2:] for c in calls} == {(reproduce.BENCHMARK_EPISODES, 10_000, 2)}
+    assert {c[2:] for c in calls} == {(heldout.HELDOUT_EPISODES, 10_000, 2)}
     assert "random tunnels: **met**; random obstacles: **NOT met**; random moving obstacles: **NOT met**" in report
     assert "Scenarios: **NOT met: obstacles b**." in report
+
+
+def test_report_sections_are_registered_once_each_in_report_order():
+    from auv_mj.cli.report import SECTIONS, section
+
+    assert list(SECTIONS)[:3] == ["table9", "tracking", "fig8"] and "heldout" in SECTIONS
+    assert "benchmark" not in SECTIONS  # `auv-mj benchmark` is the benchmark; this section is the held-out bar
+    with pytest.raises(ValueError, match="registered twice"):
+        section("table9")(lambda lines, settings: None)

@@ -44,7 +44,7 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
-from auv_mj.cli.reproduce import episodes_to
+from auv_mj.cli.report.fig8 import episodes_to
 from auv_mj.cli.train import add_config_options, config_overrides, make_env_fn, task_env_id
 
 TARGET = 0.9

@@ -1,0 +1,44 @@
+"""The named scenarios of Tables 6-8 and 12."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from auv_mj.cli import plots, policies
+from auv_mj.cli.report.common import SCENARIOS, fmt
+from auv_mj.cli.report.registry import ReportSettings, section
+from auv_mj.episode import episode_metrics, record_episode
+
+SCENARIO_POLICIES = ("two-layer", "planner", "splane")
+
+
+def scenarios(lines: list[str], figures: Path) -> None:
+    """The named scenarios of Tables 6-8 and 12 with each policy (one deterministic episode each)."""
+    lines += ["## Scenarios of Tables 6-8 and 12", "",
+              "One episode per scenario (start, goal and obstacles from the table; obstacle shapes ours). "
+              "`two-layer` = HER-DDPG planner on the DDPG executor (Sec. 4.3); `planner` = HER-DDPG on the "
+              "S-plane executor; `splane` = line-of-sight guidance on S-plane (no avoidance).", "",
+              "| scenario | paper | policy | outcome | min clearance [m] | path length [m] | time [s] |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
+    for label, table, task, kwargs in SCENARIOS:
+        records = []
+        for name in SCENARIO_POLICIES:
+            env, policy = policies.env_and_policy(name, task, 0, kwargs)
+            record = record_episode(env, policy, task=task, policy_name=name)
+            records.append(record)
+            m = episode_metrics(record)
+            lines.append(f"| {label} | {table} | {name} | {m['outcome']} | {fmt(m['min_clearance'], 1)} | "
+                         f"{m['path_length']:.0f} | {record.time[-1]:.0f} |")
+        name = label.replace(" ", "_")
+        plots.plot_trajectory(records, figures / f"{name}.png", labels=list(SCENARIO_POLICIES),
+                              title=f"{label} ({table})")
+    lines += ["", "Figures: " + ", ".join(f"[{label}](figures/{label.replace(' ', '_')}.png)"
+                                         for label, *_ in SCENARIOS), "",
+              "Command: e.g. `auv-mj render --task tunnel --policy two-layer -o tunnel.mp4` or "
+              "`auv-mj eval --policy two-layer --task tunnel --episodes 1`.", ""]
+
+
+@section("scenarios")
+def scenarios_section(lines: list[str], settings: ReportSettings) -> None:
+    """The scenarios, their figures in the report's figures folder."""
+    scenarios(lines, settings.figures)
