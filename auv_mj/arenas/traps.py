@@ -71,27 +71,30 @@ MAX_TUNNEL_TRAP_DEPTH = 35.0
 class HardSpec:
     """What hard open-water arenas are drawn from (ranges (low, high); counts inclusive)."""
 
-    goal_distance: tuple[float, float] = (320.0, 480.0)
+    goal_distance: tuple[float, float] = (350.0, 500.0)
     """Start to goal [m]: room for traps in series."""
     traps: tuple[int, int] = (2, 3)
     """Traps along the route (fewer when they do not fit)."""
     kinds: tuple[str, ...] = ("cup", "wedge", "wall", "clutter")
     """Trap kinds, drawn uniformly."""
-    cup_width: tuple[float, float] = (25.0, 60.0)
-    """Inner width of a cup [m]."""
-    cup_depth: tuple[float, float] = (20.0, 45.0)
-    """Inner depth of a cup [m]."""
-    wedge_arm: tuple[float, float] = (35.0, 75.0)
-    """Length of a wedge's arms [m]."""
-    wedge_opening: tuple[float, float] = (math.radians(50.0), math.radians(110.0))
+    cup_width: tuple[float, float] = (60.0, 100.0)
+    """Inner width of a cup [m]: its mouth is wider than twice the protection domain's reach d0 = 30 m
+    (`tasks.avoidance.RepulsiveField.influence`), so a reactive planner is not turned away at the mouth but
+    meets the back wall inside, where a local minimum of the field lies."""
+    cup_depth: tuple[float, float] = (35.0, 70.0)
+    """Inner depth of a cup [m]: more than d0, so that the back wall's echoes do not reach the mouth."""
+    wedge_arm: tuple[float, float] = (60.0, 110.0)
+    """Length of a wedge's arms [m] (more than twice d0, as a cup's mouth)."""
+    wedge_opening: tuple[float, float] = (math.radians(40.0), math.radians(100.0))
     """Angle between a wedge's arms [rad]."""
-    wall_length: tuple[float, float] = (140.0, 280.0)
+    wall_length: tuple[float, float] = (200.0, 340.0)
     """Length of a long wall [m] ..."""
-    wall_open_end: tuple[float, float] = (20.0, 70.0)
-    """... which ends this far [m] past the route on its open side."""
+    wall_open_end: tuple[float, float] = (40.0, 100.0)
+    """... which ends this far [m] past the route on its open side (beyond d0 from it)."""
     hook_chance: float = 0.5
-    """Chance that a long wall has a hook (HOOK long) turned back towards the start at its open end."""
-    hook: tuple[float, float] = (15.0, 35.0)
+    """Chance that a long wall has a hook turned back towards the start at its open end."""
+    hook: tuple[float, float] = (20.0, 50.0)
+    """Length of the hook [m]."""
     tilt: float = math.radians(25.0)
     """A trap is turned up to this far from square to the route [rad]."""
     clutter_count: tuple[int, int] = (10, 18)
