@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # One entry point that sets up a fresh machine and runs a job:
 #   bash scripts/run.sh demo    the main job: the end-to-end tunnel demo (video + table)
-#   bash scripts/run.sh test    the test suite (ruff + pytest)
+#   bash scripts/run.sh test    the test suite (ruff, import-linter, pytest)
+#   bash scripts/run.sh link    (optional) link this checkout's auv-mj into ~/.local/bin
 # The first run creates .venv (override with AUV_MJ_VENV) and installs the CPU build of PyTorch and auv-mj.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,20 +17,17 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   "$venv/bin/python" -m pip install --quiet -e ".[test]"
   touch "$stamp"
 fi
-# Put `auv-mj` on PATH: a link in the first writable folder of ~/.local/bin, /usr/local/bin that PATH lists,
-# unless PATH already finds this checkout's command or another auv-mj that is not a link of ours.
-target="$(cd "$venv/bin" && pwd)/auv-mj"
-found="$(command -v auv-mj || true)"
-if [ -z "$found" ] || { [ -L "$found" ] && [ "$(readlink -f "$found")" != "$(readlink -f "$target")" ]; }; then
-  linked=""
-  for dir in "$HOME/.local/bin" /usr/local/bin; do
-    case ":$PATH:" in *":$dir:"*) ;; *) continue ;; esac
-    if [ -d "$dir" ] && [ -w "$dir" ]; then
-      ln -sf "$target" "$dir/auv-mj" && linked="$dir" && echo "auv-mj: linked into $dir (on your PATH)" >&2
-      break
-    fi
-  done
-  [ -n "$linked" ] || echo "auv-mj: run '. $venv/bin/activate' to put auv-mj on your PATH" >&2
+# Nothing outside this checkout changes: `auv-mj` lives in $venv/bin. `bash scripts/run.sh link` puts a link to it
+# in ~/.local/bin (opt-in, for one checkout you use every day).
+if [ "${1:-}" = "link" ]; then
+  mkdir -p "$HOME/.local/bin"
+  ln -sf "$(cd "$venv/bin" && pwd)/auv-mj" "$HOME/.local/bin/auv-mj"
+  echo "auv-mj: linked $HOME/.local/bin/auv-mj -> $(cd "$venv/bin" && pwd)/auv-mj" >&2
+  case ":$PATH:" in *":$HOME/.local/bin:"*) ;; *) echo "auv-mj: add $HOME/.local/bin to your PATH" >&2 ;; esac
+  exit 0
+fi
+if [ "$(command -v auv-mj || true)" != "$(cd "$venv/bin" && pwd)/auv-mj" ]; then
+  echo "auv-mj: run '. $venv/bin/activate' to put this checkout's auv-mj on your PATH" >&2
 fi
 export MUJOCO_GL="${MUJOCO_GL:-egl}" PYTHONUNBUFFERED=1
 job="${1:-}"
@@ -40,5 +38,5 @@ case "$job" in
     "$venv/bin/ruff" check .
     "$venv/bin/lint-imports" --no-cache
     exec "$venv/bin/python" -m pytest -q -n 2 "$@" ;;
-  *) echo "usage: bash scripts/run.sh demo|test [args...]" >&2; exit 2 ;;
+  *) echo "usage: bash scripts/run.sh demo|test|link [args...]" >&2; exit 2 ;;
 esac

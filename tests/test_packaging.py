@@ -35,3 +35,28 @@ def test_models_are_found_from_an_installed_wheel(tmp_path):
     assert Path(module).is_relative_to(site) and Path(arena).is_relative_to(site)
     assert float(echo) == 120.0
     assert compiled == "True" and list((tmp_path / "cache").glob("hydro_kernel-*.so"))
+
+
+def test_run_script_changes_nothing_outside_its_checkout(tmp_path):
+    """`scripts/run.sh` links nothing into HOME or a PATH folder unless asked (`link`), and says how to activate.
+    Run on a copy of the script in a checkout whose (stand-in) venv is set up, so nothing is installed."""
+    checkout, home, bin_dir = tmp_path / "checkout", tmp_path / "home", tmp_path / "bin"
+    for folder in (checkout / "scripts", checkout / ".venv" / "bin", home, bin_dir):
+        folder.mkdir(parents=True)
+    (checkout / "pyproject.toml").write_text((ROOT / "pyproject.toml").read_text())
+    script = checkout / "scripts" / "run.sh"
+    script.write_text((ROOT / "scripts" / "run.sh").read_text())
+    command = checkout / ".venv" / "bin" / "auv-mj"
+    command.write_text("#!/bin/sh\necho ran auv-mj \"$@\"\n")
+    command.chmod(0o755)
+    (checkout / ".venv" / ".auv-mj-installed").touch()  # after pyproject.toml: set up, nothing to install
+    env = {"HOME": str(home), "PATH": f"{home}/.local/bin:{bin_dir}:/usr/bin:/bin"}
+    done = subprocess.run(["bash", str(script), "nothing"], capture_output=True, text=True, env=env, timeout=60)
+    assert done.returncode == 2 and "usage" in done.stderr
+    assert "setting up" not in done.stderr and "activate" in done.stderr
+    demo = subprocess.run(["bash", str(script), "demo", "--x"], capture_output=True, text=True, env=env, timeout=60)
+    assert demo.returncode == 0 and demo.stdout.strip() == "ran auv-mj demo --x"
+    assert not (home / ".local").exists() and not list(bin_dir.iterdir())
+    linked = subprocess.run(["bash", str(script), "link"], capture_output=True, text=True, env=env, timeout=60)
+    assert linked.returncode == 0, linked.stderr
+    assert (home / ".local" / "bin" / "auv-mj").resolve() == command.resolve()
