@@ -19,7 +19,7 @@ The ids are registered when this module is imported (`tasks/__init__.py` imports
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import gymnasium
@@ -62,6 +62,38 @@ def _box(spec) -> spaces.Box:
     return spaces.Box(-np.inf, np.inf, shape=tuple(spec.shape), dtype=np.float64)
 
 
+def is_goal_env(env) -> bool:
+    """Whether a suite environment is goal-conditioned (its observation holds GOAL_KEYS)."""
+    return all(key in env.observation_spec() for key in GOAL_KEYS)
+
+
+def gym_spaces(env) -> tuple[spaces.Space, spaces.Box, Callable[[Mapping[str, np.ndarray]], Any]]:
+    """The Gymnasium view of a suite (dm_env) environment: (observation space, action space, the map from a
+    dm_env observation to the Gymnasium one).
+
+    A goal task's observation is the GoalEnv Dict of GOAL_KEYS, any other task's the flat float64 vector of its
+    observation entries in spec order; actions are a float32 Box of the action spec's bounds. `AUVGymEnv` and
+    outside policies trained on its ids (`--policy model.zip`) read observations through this one map.
+    """
+    obs_spec = env.observation_spec()
+    if is_goal_env(env):
+        observation_space = spaces.Dict({key: _box(obs_spec[key]) for key in GOAL_KEYS})
+
+        def observe(observation):
+            return {key: np.array(observation[key], dtype=np.float64) for key in GOAL_KEYS}
+    else:
+        keys = tuple(obs_spec)
+        size = sum(int(np.prod(obs_spec[key].shape)) for key in keys)
+        observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+
+        def observe(observation):
+            return np.concatenate([np.asarray(observation[key], dtype=np.float64).ravel() for key in keys])
+    action_spec = env.action_spec()
+    low, high = (np.broadcast_to(np.asarray(bound, dtype=np.float32), action_spec.shape).copy()
+                 for bound in (action_spec.minimum, action_spec.maximum))
+    return observation_space, spaces.Box(low, high, dtype=np.float32), observe
+
+
 class AUVGymEnv(gymnasium.Env):
     """Gymnasium adapter over the suite task `task_name` (GoalEnv convention for goal tasks)."""
 
@@ -102,25 +134,14 @@ class AUVGymEnv(gymnasium.Env):
         environment_kwargs = checks.environment_kwargs(environment_kwargs)
         self._env = suite.load(DOMAIN, task_name, task_kwargs=task_kwargs,
                                environment_kwargs=environment_kwargs)
-        obs_spec = self._env.observation_spec()
-        self.is_goal_task = all(key in obs_spec for key in GOAL_KEYS)
+        self.is_goal_task = is_goal_env(self._env)
         if self.is_goal_task and "reward" not in task_kwargs:
             task_kwargs["reward"] = GOAL_TASK_REWARD
             self._env = suite.load(DOMAIN, task_name, task_kwargs=task_kwargs,
                                    environment_kwargs=environment_kwargs)
         self.task_kwargs = task_kwargs
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self._env.control_timestep())}
-        if self.is_goal_task:
-            self._obs_keys = GOAL_KEYS
-            self.observation_space = spaces.Dict({key: _box(obs_spec[key]) for key in GOAL_KEYS})
-        else:
-            self._obs_keys = tuple(obs_spec)
-            size = sum(int(np.prod(obs_spec[key].shape)) for key in self._obs_keys)
-            self.observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
-        action_spec = self._env.action_spec()
-        low, high = (np.broadcast_to(np.asarray(bound, dtype=np.float32), action_spec.shape).copy()
-                     for bound in (action_spec.minimum, action_spec.maximum))
-        self.action_space = spaces.Box(low, high, dtype=np.float32)
+        self.observation_space, self.action_space, self._observation = gym_spaces(self._env)
         self._camera = None
         self._camera_model = None
         self._needs_reset = True
@@ -254,12 +275,6 @@ class AUVGymEnv(gymnasium.Env):
         if method is None:
             raise AttributeError(f"task {self.task_name!r} is not goal-conditioned: it has no {name}()")
         return method
-
-    def _observation(self, observation: Mapping[str, np.ndarray]):
-        if self.is_goal_task:
-            return {key: np.array(observation[key], dtype=np.float64) for key in GOAL_KEYS}
-        return np.concatenate([np.asarray(observation[key], dtype=np.float64).ravel()
-                               for key in self._obs_keys])
 
     def _info(self) -> dict:
         info = dict(getattr(self.task, "last_info", None) or {})
