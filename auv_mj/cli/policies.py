@@ -418,3 +418,6 @@ def markdown_table() -> str:
                       False: "none"}.get(spec.protection, spec.protection)
         lines.append(f"| `{name}` | {spec.family} | {tasks} | {executor} | {protection} | {spec.description} |")
     return "\n".join(lines)
+
+
+from auv_mj.cli import outside  # noqa: E402, F401  (registers the MODULE:FACTORY and PATH.zip forms in RESOLVERS)
