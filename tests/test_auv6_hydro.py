@@ -129,7 +129,7 @@ def test_random_full_range_controls_stay_finite_and_bounded(timestep):
 
 def neutral_xml() -> str:
     """The shipped vehicle with B = W: released at rest, it pitches about a fixed depth."""
-    shipped = 'name="hydro_B" data="308.0"'
+    shipped = 'name="hydro_B" data="302.34"'
     text = VEHICLE6_XML.read_text()
     assert shipped in text
     return text.replace(shipped, f'name="hydro_B" data="{read_rigid_body()[0] * 9.81!r}"')

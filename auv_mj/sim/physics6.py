@@ -9,9 +9,10 @@ sensors of `auv_mj.sim.sensors3d`; a timestep within TIMESTEP_RANGE and the Eule
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import mujoco
@@ -21,6 +22,7 @@ from dm_control.rl.control import PhysicsError
 
 from auv_mj.inputs import MAX_XML_BYTES, read_text, source_name
 from auv_mj.sim.hydro6 import ACTUATORS, Hydro6, slew, spec_from_xml
+from auv_mj.sim.sensors3d import sonar_fan
 
 SUPPORTED_INTEGRATORS = (mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
 SENSOR_DISABLE_BIT = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
@@ -96,6 +98,8 @@ class AUV6Physics(engine.Physics):
         self.source = source
         _check_contract(model, source)
         self._hydro = Hydro6(model, spec, source)
+        body = self._hydro.body
+        self._nominal = (spec, (float(model.body_mass[body]), model.body_inertia[body].copy()))
         self.fin_rate = spec.fin_rate
         self._fin_limits = model.actuator_ctrlrange[1:3].copy()
         self._fin_lagged = bool(all(int(model.actuator_dyntype[i]) == FIN_LAG for i in (1, 2)))
@@ -187,6 +191,29 @@ class AUV6Physics(engine.Physics):
             raise ValueError(f"control must be finite, got {dict(zip(ACTUATORS, control.tolist(), strict=False))}")
         super().set_control(control)
 
+    def scale_vehicle(self, coefficients: Mapping[str, float] | None = None, mass: float = 1.0) -> None:
+        """Scales the vehicle from its MJCF values (model uncertainty): each named `hydro_*` coefficient by its
+        factor, the mass, inertia and buoyancy by `mass` (so that trim stays); `scale_vehicle()` restores it."""
+        coefficients = dict(coefficients or {})
+        nominal_spec, (body_mass, body_inertia) = self._nominal
+        known = {f.name for f in dataclasses.fields(nominal_spec.coefficients)}
+        unknown = sorted(set(coefficients) - known)
+        if unknown:
+            raise ValueError(f"scale_vehicle: unknown 6-DOF coefficient(s) {unknown}")
+        if not (math.isfinite(mass) and mass > 0):
+            raise ValueError(f"scale_vehicle: the mass factor must be positive, got {mass}")
+        c = nominal_spec.coefficients
+        values = {k: getattr(c, k) * float(coefficients.get(k, 1.0)) for k in known}
+        values["B"] = c.B * mass * float(coefficients.get("B", 1.0))
+        spec = dataclasses.replace(nominal_spec, coefficients=dataclasses.replace(c, **values))
+        model = self.model.ptr
+        body = self._hydro.body
+        model.body_mass[body] = body_mass * mass
+        model.body_inertia[body] = body_inertia * mass
+        mujoco.mj_setConst(model, mujoco.MjData(model))
+        self._hydro = Hydro6(model, spec, self.source)
+        self._bound, self._step_ready = None, False
+
     def reset_fins(self, rudder: float = 0.0, stern: float = 0.0) -> None:
         """Puts the fins at these angles [rad] (an episode start)."""
         self.fins[:] = rudder, stern
@@ -222,6 +249,15 @@ class AUV6Physics(engine.Physics):
         """nu_r: the body velocity relative to the water (the current `model.opt.wind`)."""
         return self._hydro.body_velocity(self.data.ptr, self.model.ptr.opt.wind)
 
+    def pose(self) -> np.ndarray:
+        """(x, y, psi): the planar read-out (the episode recorder and the planar tools read it)."""
+        x, y, _ = self.position()
+        return np.array([x, y, self.heading()])
+
+    def sonar(self) -> np.ndarray:
+        """The 27 ranges of the 3-D sonar fan [m] at the current state (`auv_mj.sim.sensors3d`)."""
+        return sonar_fan(self)
+
     def speed(self) -> float:
         """Speed over ground [m/s]."""
         return float(np.linalg.norm(self.data.qvel[self._dof:self._dof + 3]))
@@ -241,7 +277,7 @@ class AUV6Physics(engine.Physics):
     def copy(self, share_model: bool = False) -> AUV6Physics:
         """A copy of this physics with the same vehicle, fins and disturbance."""
         new = super().copy(share_model=share_model)
-        new._hydro, new.source, new.fin_rate = self._hydro, self.source, self.fin_rate
+        new._hydro, new.source, new.fin_rate, new._nominal = self._hydro, self.source, self.fin_rate, self._nominal
         new._fin_limits, new._fin_lagged = self._fin_limits, self._fin_lagged
         new.fins, new.disturbance = self.fins.copy(), self.disturbance
         new._qpos, new._dof = self._qpos, self._dof

@@ -1,0 +1,144 @@
+"""The 6-DOF vehicle's sensors (issue 32): a 3-D sonar fan, an altimeter, depth from pressure, a DVL and an IMU.
+
+- Sonar fan: the planar vehicle's nine beams (Sec. 2.2, -90..+90 deg in azimuth) in each of three elevations
+  (FAN_ELEVATIONS), 27 ranges cast from the `sonar` site by one `mj_multiRay` call; no echo reads SONAR_RANGE.
+  Beams are ordered elevation by elevation (down, level, up), each starboard to port.
+- Altimeter: one beam straight down the body's -z axis from the `altimeter` site, up to ALTIMETER_RANGE.
+- Depth from pressure: the `pressure_port` framepos sensor gives the port's height; the gauge reads the
+  hydrostatic pressure p = RHO_WATER g (surface - z) [Pa] (`pressure`), and `depth` inverts it, as a vehicle's
+  depth cell does.
+- DVL: MuJoCo's `velocimeter` at the `dvl` site, the velocity over ground in the body frame (bottom lock).
+- IMU: MuJoCo's `gyro` and `accelerometer` at the `imu` site, and the `attitude` framequat (an AHRS).
+
+`Sensors3D` samples each at its rate (SAMPLE_RATES_HZ) and holds the sample in between, as `SampleAndHold`
+does for the planar sonar; noise and dropouts are added by `auv_mj.sim.ocean3d` under ocean conditions.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE, SONAR_RATE_HZ
+
+FAN_AZIMUTHS = BEAM_ANGLES
+"""Beam azimuths in the body frame [rad], the planar S1..S9: starboard (-90 deg) to port (+90 deg)."""
+FAN_ELEVATIONS = np.radians([-30.0, 0.0, 30.0])
+"""Beam elevations [rad]: a row looking down, the planar row, a row looking up."""
+FAN_BEAMS = len(FAN_AZIMUTHS) * len(FAN_ELEVATIONS)
+ALTIMETER_RANGE = 50.0
+"""Farthest seabed the altimeter sees [m] (a 200 kHz class echo sounder); beyond, it reads this."""
+RHO_WATER = 1025.0
+"""Sea water density [kg/m^3] of the pressure-to-depth conversion."""
+GRAVITY = 9.81
+SURFACE_Z = 0.0
+"""Height of the sea surface in the world [m]: depth is SURFACE_Z - z."""
+SAMPLE_RATES_HZ = {"sonar": SONAR_RATE_HZ, "altimeter": 5.0, "depth": 10.0, "dvl": 10.0, "imu": 50.0}
+"""How often each sensor delivers a new sample [Hz]: the sonar as in the plane (Sec. 2.2), the others at rates
+of their common hardware."""
+SENSOR_NAMES = ("pressure_port", "dvl", "gyro", "accelerometer", "attitude")
+"""The MJCF sensors this module reads."""
+
+
+def fan_directions() -> np.ndarray:
+    """(27, 3) unit beam directions in the body frame (x forward, y port, z up), elevation-major."""
+    elevation, azimuth = np.meshgrid(FAN_ELEVATIONS, FAN_AZIMUTHS, indexing="ij")
+    return np.stack([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
+                     np.sin(elevation)], axis=-1).reshape(-1, 3)
+
+
+_FAN = fan_directions()
+
+
+def _rays(model: mujoco.MjModel, data: mujoco.MjData, origin: np.ndarray, directions: np.ndarray, body: int,
+          cutoff: float) -> np.ndarray:
+    """Ranges [m] along world `directions` from `origin`, ignoring `body`; cutoff where nothing is hit."""
+    n = len(directions)
+    geoms = np.zeros(n, dtype=np.int32)
+    dist = np.zeros(n)
+    mujoco.mj_multiRay(model, data, np.ascontiguousarray(origin, dtype=float),
+                       np.ascontiguousarray(directions, dtype=float).ravel(), None, 1, body, geoms, dist, None, n,
+                       cutoff)
+    return np.where((dist < 0) | (dist > cutoff), cutoff, dist)
+
+
+def sonar_fan(physics) -> np.ndarray:
+    """The 27 fan ranges [m] at the current state (module docstring)."""
+    model, data = physics.model.ptr, physics.data.ptr
+    site = model.site("sonar").id
+    rotation = data.site_xmat[site].reshape(3, 3)
+    body = int(model.site_bodyid[site])
+    return _rays(model, data, data.site_xpos[site], _FAN @ rotation.T, body, SONAR_RANGE)
+
+
+def altimeter(physics) -> float:
+    """Range straight down the body's -z axis to the nearest geom [m], ALTIMETER_RANGE when none is in range."""
+    model, data = physics.model.ptr, physics.data.ptr
+    site = model.site("altimeter").id
+    down = -data.site_xmat[site].reshape(3, 3)[:, 2]
+    return float(_rays(model, data, data.site_xpos[site], down[None, :], int(model.site_bodyid[site]),
+                       ALTIMETER_RANGE)[0])
+
+
+def pressure(physics) -> float:
+    """Gauge pressure at the pressure port [Pa]: RHO_WATER g (SURFACE_Z - z) (the sensors must be evaluated)."""
+    z = physics.named.data.sensordata["pressure_port"][2]
+    return RHO_WATER * GRAVITY * (SURFACE_Z - float(z))
+
+
+def depth_from_pressure(p: float) -> float:
+    """Depth [m] of a gauge pressure `p` [Pa]."""
+    return p / (RHO_WATER * GRAVITY)
+
+
+class Sensors3D:
+    """Samples the 6-DOF vehicle's sensors at SAMPLE_RATES_HZ and holds each sample until the next.
+
+    `read(physics)` returns {"sonar": (27,), "altimeter": (), "depth": (), "dvl": (3,), "gyro": (3,),
+    "accelerometer": (3,), "attitude": (4,)}; `noise`, if given, is called as noise(name, value) -> value on
+    each new sample (ocean conditions).
+    """
+
+    def __init__(self, rates: dict[str, float] | None = None, noise=None):
+        self.rates = dict(SAMPLE_RATES_HZ if rates is None else rates)
+        for name, rate in self.rates.items():
+            if not (math.isfinite(rate) and rate > 0):
+                raise ValueError(f"sensor {name}: the sample rate must be positive [Hz], got {rate!r}")
+        self.noise = noise
+        self.reset()
+
+    def reset(self) -> None:
+        """Forgets every held sample; the next read samples all sensors afresh."""
+        self._due = dict.fromkeys(self.rates, -math.inf)
+        self._held: dict[str, np.ndarray] = {}
+
+    def read(self, physics) -> dict[str, np.ndarray]:
+        """The held samples, refreshing those that are due at the physics' time."""
+        time = physics.time()
+        due = [name for name, at in self._due.items() if time >= at - 1e-9]
+        if due:
+            physics.evaluate_sensors()
+            named = physics.named.data.sensordata
+            for name in due:
+                period = 1.0 / self.rates[name]
+                self._due[name] = (math.floor(time / period + 1e-9) + 1) * period
+                if name == "sonar":
+                    value = sonar_fan(physics)
+                elif name == "altimeter":
+                    value = np.array(altimeter(physics))
+                elif name == "depth":
+                    value = np.array(depth_from_pressure(pressure(physics)))
+                elif name == "dvl":
+                    value = named["dvl"].copy()
+                else:  # imu
+                    self._held["gyro"] = self._noisy("gyro", named["gyro"].copy())
+                    self._held["accelerometer"] = self._noisy("accelerometer", named["accelerometer"].copy())
+                    self._held["attitude"] = named["attitude"].copy()
+                    continue
+                self._held[name] = self._noisy(name, value)
+        return {k: v.copy() for k, v in self._held.items()}
+
+    def _noisy(self, name: str, value: np.ndarray) -> np.ndarray:
+        return value if self.noise is None else np.asarray(self.noise(name, value), dtype=float)
