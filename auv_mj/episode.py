@@ -409,8 +409,9 @@ def record_episode(env, policy: Policy, max_steps: int | None = None, task: str 
 
 OUTCOMES = ("goal", "collision", "left_map", "timeout")
 """How an episode ends, exactly one of these: the task's terminal event, or the time (step) limit."""
-TRACKING_KEYS = ("speed_error", "heading_error", "cross_track_error")
-"""Per-step tracking errors a task may report in last_info: e_V [m/s], e_psi [rad], cross-track [m]."""
+TRACKING_KEYS = ("speed_error", "heading_error", "cross_track_error", "depth_error")
+"""Per-step tracking errors a task may report in last_info: e_V [m/s], e_psi [rad], cross-track [m], depth [m]
+(the 6-DOF depth_heading: mae_depth)."""
 
 
 def outcome(events: np.ndarray | list[str]) -> str:

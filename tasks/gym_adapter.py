@@ -55,6 +55,12 @@ GYM_IDS = {
     "auv_mj/SpeedHeading-v0": "speed_heading",
 }
 """Gymnasium id -> suite task name."""
+GYM_IDS_3D = {
+    "auv_mj/DepthHeading-v0": "depth_heading",
+    "auv_mj/Goal3D-v0": "goal3d",
+    "auv_mj/Tunnel3D-v0": "tunnel3d",
+}
+"""Gymnasium id -> task name of the 6-DOF domain "auv3d" (`tasks.auv3d`): flat Box observations."""
 
 
 def _box(spec) -> spaces.Box:
@@ -132,12 +138,13 @@ class AUVGymEnv(gymnasium.Env):
         self.render_distance = checks.number("render_distance", render_distance, 0.0, MAX_RENDER_DISTANCE, "m",
                                               low_open=True)
         environment_kwargs = checks.environment_kwargs(environment_kwargs)
-        self._env = suite.load(DOMAIN, task_name, task_kwargs=task_kwargs,
+        self._domain = suite.domain_of(task_name) if isinstance(task_name, str) else DOMAIN
+        self._env = suite.load(self._domain, task_name, task_kwargs=task_kwargs,
                                environment_kwargs=environment_kwargs)
         self.is_goal_task = is_goal_env(self._env)
         if self.is_goal_task and "reward" not in task_kwargs:
             task_kwargs["reward"] = GOAL_TASK_REWARD
-            self._env = suite.load(DOMAIN, task_name, task_kwargs=task_kwargs,
+            self._env = suite.load(self._domain, task_name, task_kwargs=task_kwargs,
                                    environment_kwargs=environment_kwargs)
         self.task_kwargs = task_kwargs
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self._env.control_timestep())}
@@ -384,7 +391,7 @@ class PlanningMix(gymnasium.Env):
 
 def register_envs() -> None:
     """Registers the `auv_mj/*-v0` ids (GYM_IDS, and MIX_ID) with Gymnasium; idempotent."""
-    for env_id, task_name in GYM_IDS.items():
+    for env_id, task_name in {**GYM_IDS, **GYM_IDS_3D}.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs={"task_name": task_name})
     if MIX_ID not in gymnasium.registry:

@@ -1,8 +1,10 @@
 """The auv-mj task suite, dm_control style: `load("auv", "goal")`, `ALL_TASKS`, tags.
 
-Every task lives in the one domain "auv" and is registered in `tasks.registry.SUITE` by its module:
+Every planar task lives in the domain "auv" and is registered in `tasks.registry.SUITE` by its module:
 goal, waypoints, obstacles, moving_obstacles, tunnel, path_line, path_curve (planning, one step per
-0.5 s planner decision) and speed_heading (execution, one step per 0.1 s executor tick).
+0.5 s planner decision) and speed_heading (execution, one step per 0.1 s executor tick). The 6-DOF vehicle's
+tasks (depth_heading, goal3d, tunnel3d) are the domain "auv3d" (`tasks.auv3d.SUITE3D`): `load("auv3d", ...)`;
+ALL_TASKS, BENCHMARKING and `tasks_by_tag` stay the planar domain's, `TASKS_3D` and `domain_of` cover both.
 
 `python -m tasks.suite [--steps N]` prints each task's environment steps per second under random actions.
 """
@@ -17,6 +19,8 @@ import numpy as np
 from dm_control.rl import control
 
 from tasks import goal, obstacles, path_following, speed_heading, tunnel, waypoints  # noqa: F401 (registers)
+from tasks.auv3d import DOMAIN as DOMAIN_3D
+from tasks.auv3d import SUITE3D
 from tasks.registry import SUITE
 
 DOMAIN = "auv"
@@ -26,8 +30,19 @@ ALL_TASKS = tuple((DOMAIN, name) for name in SUITE)
 """Every (domain, task) pair."""
 BENCHMARKING = tuple((DOMAIN, name) for name in SUITE.tagged("benchmarking"))
 """The (domain, task) pairs tagged "benchmarking"."""
-TASKS_BY_DOMAIN = {DOMAIN: tuple(SUITE)}
+TASKS_BY_DOMAIN = {DOMAIN: tuple(SUITE), DOMAIN_3D: tuple(SUITE3D)}
 """Domain -> its task names."""
+TASKS_3D = tuple((DOMAIN_3D, name) for name in SUITE3D)
+"""Every (domain, task) pair of the 6-DOF domain "auv3d"."""
+_REGISTRIES = {DOMAIN: SUITE, DOMAIN_3D: SUITE3D}
+
+
+def domain_of(task_name: str) -> str:
+    """The domain of a task name ("auv" or "auv3d"); ValueError naming the valid tasks for an unknown one."""
+    for domain, registry in _REGISTRIES.items():
+        if task_name in registry:
+            return domain
+    raise ValueError(f"task {task_name!r} does not exist; valid tasks: {', '.join([*SUITE, *SUITE3D])}")
 TAGS = tuple(sorted(SUITE.tags()))
 """Every tag in use."""
 
@@ -48,11 +63,12 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     `environment_kwargs` to `control.Environment`. Raises ValueError naming the valid choices, or the option
     the task refuses (`tasks.options`).
     """
-    if domain_name != DOMAIN:
-        raise ValueError(f"domain {domain_name!r} does not exist; valid domains: {DOMAIN}")
-    if not isinstance(task_name, str) or task_name not in SUITE:
+    if domain_name not in _REGISTRIES:
+        raise ValueError(f"domain {domain_name!r} does not exist; valid domains: {', '.join(_REGISTRIES)}")
+    registry = _REGISTRIES[domain_name]
+    if not isinstance(task_name, str) or task_name not in registry:
         raise ValueError(f"task {task_name!r} does not exist in domain {domain_name!r}; "
-                         f"valid tasks: {', '.join(SUITE)}")
+                         f"valid tasks: {', '.join(registry)}")
     if task_kwargs is not None and not isinstance(task_kwargs, dict):
         raise ValueError(f"task_kwargs must be a dict of task options, got {type(task_kwargs).__name__}")
     task_kwargs = dict(task_kwargs or {})
@@ -61,7 +77,7 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     if environment_kwargs is not None:
         task_kwargs["environment_kwargs"] = environment_kwargs
     try:
-        env = SUITE[task_name](**task_kwargs)
+        env = registry[task_name](**task_kwargs)
     except TypeError as e:  # an option the task does not take: a bad option, as any other
         unknown = re.search(r"keyword argument '([^']*)'", str(e))
         if unknown is None:

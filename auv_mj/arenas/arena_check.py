@@ -92,6 +92,11 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
     """
     name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
     report = ArenaReport(name)
+    from auv_mj.arenas import tubes  # a 3-D tube arena (issue 32) is checked for the 6-DOF vehicle
+
+    if tubes.is_tube_arena(source):
+        report.summary, report.problems = tubes.tube_report(source)
+        return report
     try:
         physics = load(source)
     except ValueError as e:

@@ -271,3 +271,49 @@ def tube_from_arena(root: ET.Element) -> Tube | None:
     except ValueError:
         raise ValueError("tube_centreline must hold x y z triples and tube_radius one number") from None
     return Tube(line, radius, stave)
+
+
+def is_tube_arena(source: str | Path | ET.Element) -> bool:
+    """Whether an arena (file or element) describes a tube (holds a `tube_centreline` numeric)."""
+    if isinstance(source, ET.Element):
+        root = source
+    else:
+        try:
+            root = ET.fromstring(read_text(Path(source), "arena MJCF", 50_000_000))
+        except (OSError, ValueError, ET.ParseError):
+            return False
+    return any(n.get("name") == "tube_centreline" for n in root.iter("numeric"))
+
+
+def tube_report(source: str | Path | ET.Element) -> tuple[str, list[str]]:
+    """(summary, problems) of a tube arena: `check_tube` on its numerics, the staves it should hold, and the
+    6-DOF vehicle compiled inside it, placed at the start, free of contacts."""
+    from auv_mj.arenas.arena3d import compose_xml
+    from auv_mj.inputs import parse_xml
+    from auv_mj.sim.physics6 import AUV6Physics, set_pose
+
+    if isinstance(source, ET.Element):
+        root = source
+    else:
+        root = parse_xml(read_text(Path(source), "arena MJCF", 50_000_000), str(source), "arena MJCF")
+    try:
+        tube = tube_from_arena(root)
+    except ValueError as e:
+        return "a tube arena", [str(e)]
+    problems = check_tube(tube)
+    staves = sum(1 for g in root.iter("geom") if (g.get("name") or "").startswith("wall_"))
+    expected = N_STAVES * (len(tube.centreline) - 1)
+    if staves != expected:
+        problems.append(f"{staves} wall staves where the centreline needs {expected}")
+    try:
+        xml, name = compose_xml(root)
+        physics = AUV6Physics.from_xml_string(xml, source=name)
+        set_pose(physics, tube.centreline[0], yaw=tube.start_heading())
+        physics.forward()
+        if physics.data.ncon:
+            problems.append("the vehicle touches the wall at the start")
+    except ValueError as e:
+        problems.append(str(e))
+    summary = (f"a tube of {tube.length():.0f} m, inner radius {tube.radius:g} m, depth "
+               f"{-tube.centreline[:, 2].max():.1f} to {-tube.centreline[:, 2].min():.1f} m, {staves} staves")
+    return summary, problems

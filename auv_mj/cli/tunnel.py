@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.arenas import procedural, traps
+from auv_mj.arenas import procedural, traps, tubes
 from auv_mj.arenas.arena_check import check_arena
 from auv_mj.arenas.tunnels import (
     BOUNDS_MARGIN,
@@ -91,6 +91,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=MERGE_TOLERANCE,
                         help=f"wall merging tolerance [m] (default {MERGE_TOLERANCE:g})")
     parser.add_argument("--name", type=model_name, default=None, help="model name (default: the output's stem)")
+    parser.add_argument("--tube", action="store_true",
+                        help="the centreline has x,y,z columns (z up, below 0): write a 3-D tube arena for the 6-DOF "
+                             "vehicle (auv_mj/arenas/tubes.py) of inner diameter --width (default "
+                             f"{2 * tubes.TUBE_RADIUS:g} m)")
     group = parser.add_argument_group(
         "procedural arenas", "--random SEED writes the arena of the first episode of `--arena random --seed "
         "SEED` (the same arena as `auv-mj eval` draws), unless an option below changes the distribution")
@@ -120,6 +124,8 @@ def run(args: argparse.Namespace) -> int:
     """`auv-mj tunnel`: writes the arena and prints what it holds."""
     if args.random is not None:
         return _run_random(args)
+    if args.tube:
+        return _run_tube(args)
     if args.centreline is None:
         usage_error(args, "give a centreline file, or --random SEED")
     fixed = [f"--{name}" for name in ("length", "obstacles", "movers") if getattr(args, name) is not None]
@@ -163,6 +169,39 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, {unknown_text}"
           f"{len(movers)} movers, {len(layout.path)} path sites over {length:.0f} m; "
           f"check it with: auv-mj check-arena {output}")
+    return 0
+
+
+def _run_tube(args: argparse.Namespace) -> int:
+    """`auv-mj tunnel --tube CENTRELINE`: a 3-D tube along an x, y, z centreline, checked before it is written."""
+    if args.centreline is None:
+        usage_error(args, "--tube needs a centreline CSV of x,y,z rows")
+    planar = [option for option, value in (("--obstacle", args.obstacle), ("--unknown", args.unknown),
+                                           ("--mover", args.mover), ("--closed", args.closed),
+                                           ("--smooth", args.smooth)) if value]
+    if planar:
+        usage_error(args, f"{', '.join(planar)} are planar tunnel options, not for --tube")
+    output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
+    check_output(args, output, "-o")
+    if output.resolve() == Path(args.centreline).resolve():
+        usage_error(args, f"-o {output} would overwrite the centreline")
+    try:
+        line = tubes.read_centreline(args.centreline)
+        tube = tubes.Tube(line, 0.5 * args.width if args.width else tubes.TUBE_RADIUS)
+        problems = tubes.check_tube(tube)
+        if problems:
+            raise ValueError(f"{args.centreline}: the tube would not be a usable arena: {problems[0]}"
+                             + (f" (and {len(problems) - 1} more problems)" if len(problems) > 1 else ""))
+        element = tubes.tube_arena(tube, args.name or output.stem)
+    except ValueError as e:
+        usage_error(args, " ".join(str(e).split()))
+    try:
+        save(element, output)
+    except OSError as e:
+        print(f"{args.prog}: error: cannot write {output}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    print(f"wrote {output}: a tube of {tube.length():.0f} m, inner radius {tube.radius:g} m, "
+          f"{tubes.N_STAVES * (len(line) - 1)} staves; check it with: auv-mj check-arena {output}")
     return 0
 
 
