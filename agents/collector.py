@@ -116,9 +116,10 @@ def write_actor(agent: DDPG, shared: SharedSlots) -> None:
     with torch.no_grad():
         shared["actor"].copy_(agent.vectors["actor"].data)
         shared["actor_target"].copy_(agent.vectors["actor_target"].data)
-        shared["exp_avg"].copy_(agent.actor_opt.exp_avg[0])
-        shared["exp_avg_sq"].copy_(agent.actor_opt.exp_avg_sq[0])
-        shared["actor_steps"].fill_(agent.actor_opt.steps)
+        moments = agent.actor_opt.moments(agent.vectors["actor"])
+        for name in ("exp_avg", "exp_avg_sq"):
+            shared[name].copy_(moments[name])
+        shared["actor_steps"].copy_(moments["step"].reshape(1))
 
 
 def read_actor(agent: DDPG, shared: SharedSlots) -> None:
@@ -126,10 +127,10 @@ def read_actor(agent: DDPG, shared: SharedSlots) -> None:
     with torch.no_grad():
         agent.vectors["actor"].data.copy_(shared["actor"])
         agent.vectors["actor_target"].data.copy_(shared["actor_target"])
-        agent.actor_opt.exp_avg[0].copy_(shared["exp_avg"])
-        agent.actor_opt.exp_avg_sq[0].copy_(shared["exp_avg_sq"])
-        for counter in agent.actor_opt.step_counts:
-            counter.copy_(shared["actor_steps"][0])
+        moments = agent.actor_opt.moments(agent.vectors["actor"])
+        for name in ("exp_avg", "exp_avg_sq"):
+            moments[name].copy_(shared[name])
+        moments["step"].copy_(shared["actor_steps"][0])
 
 
 class Stepper:

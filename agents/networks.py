@@ -111,49 +111,70 @@ class Critic(nn.Module):
 
 
 class ParameterVector:
-    """The parameters of some modules as views into one contiguous vector, and a gradient vector alike.
+    """The parameters of some modules as views into one flat leaf tensor `flat`, their gradients as views into
+    `flat.grad`.
 
-    At Table 4's sizes (2 x 256, batch 64) a call per tensor costs more than its arithmetic, so Adam's step
-    and the soft target update (Eq. 19) act on the one vector in a few calls. The modules keep their
-    `nn.Parameter`s (state dicts, `load_state_dict` and plain forward passes are unchanged); only their
-    storage moves. Build it after the modules are on their device: `.to()` would re-point the parameters.
+    At Table 4's sizes (2 x 256, batch 64) a call per tensor costs more than its arithmetic: Adam's step on the
+    six tensors of a network costs three times its step on one vector. So the optimiser (`VectorAdam`) and the
+    soft target update (Eq. 19) act on the one vector in one call each. The modules keep their `nn.Parameter`s
+    (state dicts, `load_state_dict` and forward passes are unchanged); only their storage moves. Each
+    parameter's `.grad` is its view of `grad`, and `loss.backward()` accumulates into an existing `.grad` in
+    place (the gradient layout contract of `torch.autograd.backward`), so after it `grad` holds the whole
+    gradient. Clear it with `zero_grad` (setting a `.grad` to None would cut it from `grad`). Build the vector
+    after the modules are on their device: `.to()` would re-point the parameters.
     """
 
     def __init__(self, *modules: nn.Module):
         self.params = [p for module in modules for p in module.parameters()]
-        self.data = torch.cat([p.detach().reshape(-1) for p in self.params])
-        self.grad = torch.zeros_like(self.data)
-        self.grads: list[torch.Tensor] = []
-        """Per parameter, the view of `grad` holding its gradient."""
+        trained = any(p.requires_grad for p in self.params)
+        self.flat = nn.Parameter(torch.cat([p.detach().reshape(-1) for p in self.params]), requires_grad=trained)
+        """The leaf tensor an optimiser steps."""
+        self.data = self.flat.data
+        """The parameters' values, one vector."""
+        self.grad = torch.zeros_like(self.data) if trained else None
+        """The parameters' gradients, one vector (None for a vector that is not trained: a target network)."""
+        self.flat.grad = self.grad
         offset = 0
         for p in self.params:
             size = p.numel()
             p.data = self.data[offset:offset + size].view_as(p)
-            self.grads.append(self.grad[offset:offset + size].view_as(p))
+            if trained:
+                p.grad = self.grad[offset:offset + size].view_as(p)
             offset += size
 
-    def views(self, params: Sequence[nn.Parameter]) -> list[torch.Tensor]:
-        """The gradient views of `params` (some of this vector's parameters), in their order."""
-        index = {id(p): k for k, p in enumerate(self.params)}
-        return [self.grads[index[id(p)]] for p in params]
+    def zero_grad(self) -> None:
+        """Zeroes the gradient vector in place (every parameter's `.grad` stays its view of it)."""
+        if self.grad is not None:
+            self.grad.zero_()
+
+    def split(self, vector: torch.Tensor) -> list[torch.Tensor]:
+        """A vector laid out like `data` (an optimiser moment), as views shaped like the parameters."""
+        sizes = [p.numel() for p in self.params]
+        return [part.view_as(p) for part, p in zip(vector.split(sizes), self.params, strict=True)]
 
 
 class DensePass:
-    """Forward and backward passes of an `mlp` written out by hand, on its weights' storage.
+    """Forward and backward passes of an `mlp` written out by hand, on its weights' storage: the fast path
+    behind the autograd reference.
 
-    Autograd records and replays a graph of small operations each step; for the two tanh layers of Sec. 4
-    the gradients are a handful of matrix products (dL/dW = delta^T h, dL/dh = delta W, tanh' = 1 - tanh^2),
-    so writing them down halves a gradient step. `tests/test_agents.py` checks them against autograd.
-    Gradients go to `grads` (views of a `ParameterVector`'s gradient, weight then bias per layer).
+    The gradients of `agents.ddpg`'s losses are defined by autograd (`loss.backward()`, the "autograd" path).
+    For the two tanh layers of Sec. 4 they are also a handful of matrix products (dL/dW = delta^T h,
+    dL/dh = delta W, tanh' = 1 - tanh^2), and at Table 4's sizes on a CPU, writing them down gives about 1.4x
+    autograd's gradient steps per second (`auv-mj bench --sections training` reports both), because autograd
+    records and replays a graph of small operations each step. `tests/test_networks.py` holds every step of
+    this path to the autograd one. Gradients go to the `.grad` of the net's parameters, which must be views of
+    a `ParameterVector`'s gradient (weight then bias per layer).
     """
 
-    def __init__(self, net: nn.Sequential, grads: Sequence[torch.Tensor] | None = None):
+    def __init__(self, net: nn.Sequential):
         linears = [m for m in net if isinstance(m, nn.Linear)]
         if len(linears) * 2 - 1 != len(net) or not all(isinstance(m, nn.Tanh) for m in list(net)[1::2]):
             raise ValueError("DensePass needs an `mlp`: Linear layers with tanh between them")
         self.weights = [m.weight.detach() for m in linears]
         self.biases = [m.bias.detach() for m in linears]
-        self.grads = list(grads) if grads is not None else None
+        self.grads = [g for m in linears for g in (m.weight.grad, m.bias.grad)]
+        if any(g is None for g in self.grads):
+            raise ValueError("DensePass needs the net's parameters in a trained ParameterVector (their .grad views)")
 
     def forward(self, x: torch.Tensor) -> list[torch.Tensor]:
         """[x, h_1, ..., h_L, output]: the input, each tanh layer's output and the last linear output."""
@@ -168,8 +189,9 @@ class DensePass:
                  input_columns: slice | None = None) -> torch.Tensor | None:
         """Back-propagates dL/d(output) through the layers of `forward`'s `activations`.
 
-        `weights` writes dL/dW and dL/db into `grads`; `input_columns` returns dL/dx of those input columns
-        (the action part of the critic's [s, a], for the actor's step), else None.
+        `weights` writes dL/dW and dL/db into the parameters' gradients (overwriting them); `input_columns`
+        returns dL/dx of those input columns (the action part of the critic's [s, a], for the actor's step),
+        else None.
         """
         delta = grad_output
         for layer in range(len(self.weights) - 1, -1, -1):
@@ -185,80 +207,84 @@ class DensePass:
         return None
 
 
-class Adam:
-    """Adam (Kingma and Ba 2015) on `ParameterVector`s: torch.optim.Adam(fused=True)'s kernel, called once on
-    the whole vectors instead of through the optimiser's per-tensor bookkeeping.
+class VectorAdam(torch.optim.Adam):
+    """torch.optim.Adam(fused=True) (Kingma and Ba 2015) stepping `ParameterVector`s, one tensor per vector.
 
-    `state_dict` has torch.optim.Adam's per-tensor layout (a state per parameter, in order), so checkpoints
-    read and write as they did with torch's optimiser, and `load_state_dict` takes either.
+    Its state dict has the per-parameter layout of torch.optim.Adam on the modules' own parameters (a state
+    per parameter, in order, none before the first step), so checkpoints read and write as they did before
+    the parameters moved into vectors. The state exists from the start (zero moments, step 0), so that the
+    collectors (`agents.collector`) can copy it through shared memory before the first step.
     """
 
     def __init__(self, vectors: Sequence[ParameterVector], lr: float, betas: tuple[float, float] = (0.9, 0.999),
                  eps: float = 1e-8):
-        self.vectors, self.lr, self.betas, self.eps = list(vectors), lr, betas, eps
-        self.exp_avg = [torch.zeros_like(v.data) for v in self.vectors]
-        self.exp_avg_sq = [torch.zeros_like(v.data) for v in self.vectors]
-        self.step_counts = [torch.zeros((), dtype=torch.float32, device=v.data.device) for v in self.vectors]
-        """Steps taken, one float32 tensor per vector as the fused kernel wants them (all equal)."""
+        self.vectors = list(vectors)
+        super().__init__([v.flat for v in self.vectors], lr=lr, betas=betas, eps=eps, fused=True)
+        for v in self.vectors:
+            self.state[v.flat] = {"step": torch.zeros((), dtype=torch.float32, device=v.data.device),
+                                  "exp_avg": torch.zeros_like(v.data), "exp_avg_sq": torch.zeros_like(v.data)}
 
     @property
     def steps(self) -> int:
         """Adam steps taken."""
-        return int(self.step_counts[0])
+        return int(self.state[self.vectors[0].flat]["step"])
 
-    @torch.no_grad()
-    def step(self) -> None:
-        """One Adam step of every vector along its `grad`."""
-        torch._foreach_add_(self.step_counts, 1)
-        torch._fused_adam_([v.data for v in self.vectors], [v.grad for v in self.vectors], self.exp_avg,
-                           self.exp_avg_sq, [], self.step_counts, lr=self.lr, beta1=self.betas[0],
-                           beta2=self.betas[1], weight_decay=0.0, eps=self.eps, amsgrad=False, maximize=False)
+    def moments(self, vector: ParameterVector) -> dict[str, torch.Tensor]:
+        """The live state of `vector`: its step count and its first and second moments (exp_avg, exp_avg_sq)."""
+        return self.state[vector.flat]
 
-    def _views(self, moments: list[torch.Tensor]) -> list[torch.Tensor]:
-        out = []
-        for vector, moment in zip(self.vectors, moments, strict=True):
-            offset = 0
-            for p in vector.params:
-                out.append(moment[offset:offset + p.numel()].view_as(p))
-                offset += p.numel()
-        return out
+    def zero_grad(self, set_to_none: bool = False) -> None:
+        """Zeroes the vectors' gradients in place; `set_to_none` is refused (it would cut the views)."""
+        if set_to_none:
+            raise ValueError("VectorAdam.zero_grad(set_to_none=True) would detach the parameters' gradient views")
+        for v in self.vectors:
+            v.zero_grad()
+
+    def _parameter_count(self) -> int:
+        return sum(len(v.params) for v in self.vectors)
 
     def state_dict(self) -> dict:
-        """torch.optim.Adam's state dict: per parameter index its step, exp_avg and exp_avg_sq (none before
-        the first step), and one param group."""
-        count = sum(len(v.params) for v in self.vectors)
-        state = {}
+        """torch.optim.Adam's state dict over the modules' parameters: per parameter index its step, exp_avg
+        and exp_avg_sq (none before the first step), and one param group."""
+        state: dict[int, dict[str, torch.Tensor]] = {}
         if self.steps:
-            step = torch.tensor(float(self.steps), dtype=torch.float32)
-            state = {k: {"step": step.clone(), "exp_avg": m.clone(), "exp_avg_sq": s.clone()}
-                     for k, (m, s) in enumerate(zip(self._views(self.exp_avg), self._views(self.exp_avg_sq),
-                                                    strict=True))}
-        group = {"lr": self.lr, "betas": self.betas, "eps": self.eps, "weight_decay": 0.0, "amsgrad": False,
-                 "params": list(range(count))}
+            for v in self.vectors:
+                moments = self.moments(v)
+                for exp_avg, exp_avg_sq in zip(v.split(moments["exp_avg"]), v.split(moments["exp_avg_sq"]),
+                                               strict=True):
+                    state[len(state)] = {"step": moments["step"].detach().clone().cpu(),
+                                         "exp_avg": exp_avg.clone(), "exp_avg_sq": exp_avg_sq.clone()}
+        group = {key: value for key, value in self.param_groups[0].items() if key != "params"}
+        group["params"] = list(range(self._parameter_count()))
         return {"state": state, "param_groups": [group]}
 
     @torch.no_grad()
     def load_state_dict(self, state_dict: Mapping) -> None:
-        """Restores `state_dict` (ours or torch.optim.Adam's over the same parameters); ValueError if it does
-        not fit. The learning rate and betas stay this optimiser's (they come from the config)."""
+        """Restores `state_dict` (ours, or torch.optim.Adam's over the same parameters, as in checkpoints
+        written before `VectorAdam`); ValueError if it does not fit. The learning rate and betas stay this
+        optimiser's (they come from the config)."""
         state = state_dict["state"]
-        count = sum(len(v.params) for v in self.vectors)
+        count = self._parameter_count()
         if not state:
-            for moment in (*self.exp_avg, *self.exp_avg_sq, *self.step_counts):
-                moment.zero_()
+            for v in self.vectors:
+                for value in self.moments(v).values():
+                    value.zero_()
             return
         if sorted(int(k) for k in state) != list(range(count)):
             raise ValueError(f"Adam state has entries {sorted(state)[:8]}..., this optimiser has {count} parameters")
         steps = {float(state[k]["step"]) for k in state}
         if len(steps) != 1:
             raise ValueError(f"Adam state has different step counts per parameter: {sorted(steps)[:4]}")
-        for name, moments in (("exp_avg", self.exp_avg), ("exp_avg_sq", self.exp_avg_sq)):
-            for k, view in enumerate(self._views(moments)):
-                value = torch.as_tensor(state[k][name])
-                if tuple(value.shape) != tuple(view.shape):
-                    raise ValueError(f"Adam state {k}.{name} has shape {tuple(value.shape)}, the parameter "
-                                     f"{tuple(view.shape)}")
-                view.copy_(value)
-        step = steps.pop()
-        for counter in self.step_counts:
-            counter.fill_(step)
+        step, index = steps.pop(), 0
+        for v in self.vectors:
+            moments = self.moments(v)
+            views = {name: v.split(moments[name]) for name in ("exp_avg", "exp_avg_sq")}
+            for k in range(index, index + len(v.params)):
+                for name, parts in views.items():
+                    value, view = torch.as_tensor(state[k][name]), parts[k - index]
+                    if tuple(value.shape) != tuple(view.shape):
+                        raise ValueError(f"Adam state {k}.{name} has shape {tuple(value.shape)}, the parameter "
+                                         f"{tuple(view.shape)}")
+                    view.copy_(value)
+            index += len(v.params)
+            moments["step"].fill_(step)

@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
-from agents.ddpg import DDPG, DDPGConfig, _shown, soft_update
-from agents.networks import Actor, Adam, Critic, DensePass, ParameterVector
+from agents.ddpg import DDPG, DDPGConfig, _shown, critic_loss, dense_critic_backward, soft_update
+from agents.networks import Actor, Critic, DensePass, ParameterVector, VectorAdam
 from agents.replay import Batch
 
 MAX_POLICY_DELAY = 1000
@@ -85,8 +85,8 @@ class TD3(DDPG):
         self.critic2 = Critic(obs_dim, act_dim, config.hidden_sizes).to(self.device)
         self.critic2_target = copy.deepcopy(self.critic2).requires_grad_(False)
         self.vectors.update({name: ParameterVector(getattr(self, name)) for name in ("critic2", "critic2_target")})
-        self.critic2_pass = DensePass(self.critic2.net, self.vectors["critic2"].grads)
-        self.critic_opt = Adam([self.vectors["critic"], self.vectors["critic2"]], lr=config.critic_lr)
+        self.critic_opt = VectorAdam([self.vectors["critic"], self.vectors["critic2"]], lr=config.critic_lr)
+        self.critic2_pass = DensePass(self.critic2.net) if config.gradients == "dense" else None
 
     @property
     def actor_updates(self) -> int:
@@ -97,31 +97,27 @@ class TD3(DDPG):
         """DDPG's modules and the second critic with its target."""
         return {**super().modules(), "critic2": self.critic2, "critic2_target": self.critic2_target}
 
-    @torch.no_grad()
     def critic_step(self, obs: torch.Tensor, batch: Batch, next_obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Both critics towards the twin target with a smoothed target action; (summed loss, mean target).
-
-        As DDPG's `critic_step`, each critic's gradient of `critic_loss` is written out, and one Adam step
-        moves both.
-        """
+        """Both critics towards the twin target with a smoothed target action, one Adam step moving both;
+        (summed loss, mean target)."""
         cfg = self.config
         next_actions = smoothed_target_action(self.actor_target, next_obs, cfg.target_noise, cfg.noise_clip)
         target = twin_td_target((self.critic_target, self.critic2_target), next_obs, next_actions,
                                 batch.rewards, batch.terminated, cfg.gamma)
-        inputs = torch.cat([obs, batch.actions], dim=-1)
-        q_loss = torch.zeros((), device=self.device)
-        for dense in (self.critic_pass, self.critic2_pass):
-            activations = dense.forward(inputs)
-            error = activations[-1].squeeze(-1) - target
-            dense.backward(activations, (error * (2.0 / error.numel())).unsqueeze(-1))
-            q_loss = q_loss + error.square().mean()
+        self.critic_opt.zero_grad()
+        if self.critic_pass is None:
+            loss = sum(critic_loss(critic, obs, batch.actions, target) for critic in (self.critic, self.critic2))
+            loss.backward()
+        else:
+            loss = sum(dense_critic_backward(dense, obs, batch.actions, target)
+                       for dense in (self.critic_pass, self.critic2_pass))
         self.critic_opt.step()
-        return q_loss, target.mean()
+        return loss.detach(), target.mean()
 
-    @torch.no_grad()
     def _step(self, batch: Batch) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """A critic step; every `policy_delay`-th step also an actor step (against Q_1) and the target updates."""
-        obs, next_obs = self.obs_norm(batch.obs), self.obs_norm(batch.next_obs)
+        with torch.no_grad():
+            obs, next_obs = self.obs_norm(batch.obs), self.obs_norm(batch.next_obs)
         q_loss, q_target = self.critic_step(obs, batch, next_obs)
         self.num_updates += 1
         pi_loss = torch.zeros((), device=self.device)

@@ -1,32 +1,44 @@
-"""The fast gradient path of agents.networks against autograd and torch.optim.Adam, taken as the reference.
+"""The gradient steps of agents.ddpg and agents.td3: autograd's, against the numbers of the code before it and
+against torch.optim.Adam on plain modules; the hand-written "dense" path, against autograd's.
 
-`DensePass` writes the backward pass of the tanh MLPs of Sec. 4 by hand, `ParameterVector` moves the
-parameters into one vector and `Adam` steps that vector with torch's fused kernel. Each is checked against
-what PyTorch computes on a separate copy of the same networks: autograd's gradients of the losses of
-`agents.ddpg` (Eq. 16-18) and torch.optim.Adam's step.
+`ParameterVector` moves each network's parameters into one vector, `VectorAdam` is torch.optim.Adam(fused=True)
+on those vectors, and `DensePass` writes the tanh MLP's backward pass out by hand (`DDPGConfig.gradients`).
+
+tests/data/autograd_reference_d7f506e.npz and tests/data/adam_state_d7f506e.pt were written at commit d7f506e,
+before the gradient steps went through autograd (they were then the hand-written passes and a private-call
+Adam), by the steps the tests below repeat: `reference_steps` (DDPG and TD3 agents of the sizes and seeds
+there, updated on `random_batch` batches of the seeds there, their flat parameters and gradient vectors after
+the first and the third step) and, for the checkpoint, DDPG(6, 2, hidden (16, 16), batch 8, tau 0.05, seed 7)
+after `update_many(random_batch(24, 6, 2, seed=20), 3)`, saved by `save_checkpoint`, loaded by `load_agent`,
+then `update_many(random_batch(16, 6, 2, seed=21), 2)`: the `resumed_*` arrays.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
-from agents.checkpoint import load_agent, save_checkpoint
+from agents.checkpoint import agent_tensors, load_agent, read_checkpoint, save_checkpoint
 from agents.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, soft_update, td_target
-from agents.networks import Adam, Critic, DensePass, ParameterVector, mlp
+from agents.networks import Critic, DensePass, ParameterVector, VectorAdam, mlp
 from agents.replay import Batch
 from agents.td3 import TD3, TD3Config, smoothed_target_action, twin_td_target
 
 torch.set_num_threads(1)
 
+DATA = Path(__file__).parent / "data"
+REFERENCE = DATA / "autograd_reference_d7f506e.npz"
+OLD_CHECKPOINT = DATA / "adam_state_d7f506e.pt"
+SHIPPED = sorted((Path(__file__).parents[1] / "agents" / "checkpoints").glob("*.pt"))
+FLOAT32 = {"rtol": 1e-5, "atol": 1e-6}
+"""float32 rounding: the paths sum the same products in different orders."""
+PATHS = ("autograd", "dense")
 CONFIG = DDPGConfig(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=4)
-ROUNDING = {"rtol": 4e-7, "atol": 1e-8}
-"""A few float32 ulps: the fused kernel takes vectorised or scalar paths by an element's position in its
-tensor, so one vector and many tensors round some elements differently."""
 
 
 def random_batch(n: int, obs_dim: int, act_dim: int, seed: int = 0) -> Batch:
@@ -44,14 +56,85 @@ def grads(module: torch.nn.Module) -> torch.Tensor:
     return torch.cat([p.grad.reshape(-1) for p in module.parameters()])
 
 
+def reference_steps(gradients: str) -> dict[str, np.ndarray]:
+    """The arrays of REFERENCE, recomputed on the `gradients` path (the steps the module docstring names)."""
+    out: dict[str, np.ndarray] = {}
+
+    def record(prefix: str, agent: DDPG, names: tuple[str, ...], grad_names: tuple[str, ...] = ()) -> None:
+        out.update({f"{prefix}_{n}": flat(getattr(agent, n)).numpy().copy() for n in names})
+        out.update({f"{prefix}_{n}_grad": agent.vectors[n].grad.numpy().copy() for n in grad_names})
+
+    agent = DDPG(6, 2, dataclasses.replace(CONFIG, action_l2=0.7, gradients=gradients))
+    record("ddpg_init", agent, ("actor", "critic"))
+    for step in range(3):
+        agent.update(random_batch(16, 6, 2, seed=step))
+        if step == 0:
+            record("ddpg_step1", agent, ("actor", "critic", "actor_target", "critic_target"), ("critic", "actor"))
+    record("ddpg_step3", agent, ("actor", "critic", "actor_target", "critic_target"), ("critic", "actor"))
+
+    agent = TD3(5, 2, TD3Config(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=2, gradients=gradients))
+    record("td3_init", agent, ("actor", "critic", "critic2"))
+    torch.manual_seed(9)  # the smoothing noise
+    for step in range(3):  # policy_delay 2: the actor and the targets move at step 2
+        agent.update(random_batch(16, 5, 2, seed=10 + step))
+        if step == 0:
+            record("td3_step1", agent, ("critic", "critic2", "critic_target", "critic2_target"), ("critic", "critic2"))
+    record("td3_step3", agent, ("actor", "critic", "critic2", "actor_target", "critic_target", "critic2_target"))
+    return out
+
+
+@pytest.mark.parametrize("gradients", PATHS)
+def test_gradient_steps_reproduce_the_hand_written_path_of_d7f506e(gradients):
+    with np.load(REFERENCE) as data:
+        want = {k: data[k] for k in data.files if not k.startswith("resumed_")}
+    got = reference_steps(gradients)
+    assert sorted(got) == sorted(want)
+    for key in sorted(want):
+        rounding = {"rtol": 0, "atol": 0} if "_init_" in key else FLOAT32  # the same initial weights
+        np.testing.assert_allclose(got[key], want[key], **rounding, err_msg=key)
+    # The steps moved the networks well beyond rounding, so the comparison above has something to compare.
+    assert np.abs(want["ddpg_step3_critic"] - want["ddpg_init_critic"]).max() > 1e-3
+    assert np.abs(want["td3_step3_actor"] - want["td3_init_actor"]).max() > 1e-3
+
+
+@pytest.mark.parametrize("gradients", PATHS)
+def test_a_checkpoint_with_the_adam_state_of_d7f506e_resumes(gradients):
+    saved, _ = read_checkpoint(OLD_CHECKPOINT)
+    agent, _ = load_agent(OLD_CHECKPOINT, config=dataclasses.replace(
+        DDPGConfig(hidden_sizes=(16, 16), batch_size=8, tau=0.05, seed=7), gradients=gradients))
+    assert agent.actor_opt.steps == agent.critic_opt.steps == 3
+    # The per-parameter Adam state of the file is what the vectors' optimisers hold and write back.
+    optimiser_state = {k: v for k, v in agent_tensors(agent).items() if "_opt.state." in k}
+    assert sorted(optimiser_state) == sorted(k for k in saved if "_opt.state." in k)
+    for key, value in optimiser_state.items():
+        torch.testing.assert_close(value, saved[key], rtol=0, atol=0, msg=key)
+    agent.update_many(random_batch(16, 6, 2, seed=21), 2)
+    with np.load(REFERENCE) as data:
+        for name in ("actor", "critic", "actor_target", "critic_target"):
+            np.testing.assert_allclose(flat(getattr(agent, name)).numpy(), data[f"resumed_{name}"], **FLOAT32,
+                                       err_msg=name)
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
+def test_shipped_checkpoints_load_with_their_adam_state(path):
+    saved, meta = read_checkpoint(path)
+    agent, _ = load_agent(path)
+    tensors = agent_tensors(agent)
+    for key, value in saved.items():
+        if key != "torch_rng":
+            torch.testing.assert_close(tensors[key], value, rtol=0, atol=0, msg=key)
+    assert agent.actor_opt.steps == int(saved["actor_opt.state.0.step"]) > 0
+    assert agent.num_updates == meta["num_updates"]
+
+
 @pytest.mark.parametrize("sizes", [(5, (7,), 3), (6, (16, 8), 1), (4, (9, 9, 9), 2)])
 def test_dense_pass_matches_the_module_and_autograd(sizes):
     torch.manual_seed(0)
     n_in, hidden, n_out = sizes
     net = mlp(n_in, hidden, n_out)
     reference = copy.deepcopy(net)
-    vector = ParameterVector(net)
-    dense = DensePass(net, vector.grads)
+    ParameterVector(net)
+    dense = DensePass(net)
     x = torch.randn(11, n_in, requires_grad=True)
     activations = dense.forward(x.detach())
     torch.testing.assert_close(activations[-1], reference(x), rtol=0, atol=0)  # the same addmm calls
@@ -60,103 +143,125 @@ def test_dense_pass_matches_the_module_and_autograd(sizes):
     columns = slice(n_in - 2, None)
     grad_x = dense.backward(activations, upstream, input_columns=columns)
     torch.testing.assert_close(grad_x, x.grad[:, columns])
-    for p, grad in zip(reference.parameters(), vector.grads, strict=True):
-        torch.testing.assert_close(grad, p.grad)
+    for p, ref in zip(net.parameters(), reference.parameters(), strict=True):
+        torch.testing.assert_close(p.grad, ref.grad)
     assert dense.backward(activations, upstream, weights=False) is None
+    with pytest.raises(ValueError, match="needs the net's parameters in a trained ParameterVector"):
+        DensePass(mlp(n_in, hidden, n_out))
+    with pytest.raises(ValueError, match="Linear layers with tanh between them"):
+        DensePass(torch.nn.Sequential(torch.nn.Linear(3, 4), torch.nn.ReLU(), torch.nn.Linear(4, 1)))
 
 
-def test_parameter_vector_shares_the_module_storage():
+def test_parameter_vector_shares_the_module_storage_and_gathers_autograd_gradients():
+    torch.manual_seed(2)
     net = mlp(3, (4,), 2)
+    reference = copy.deepcopy(net)
     vector = ParameterVector(net)
+    x = torch.randn(5, 3)
+    for _ in range(2):  # accumulates, as autograd does into .grad
+        net(x).square().sum().backward()
+        reference(x).square().sum().backward()
+    torch.testing.assert_close(vector.grad, grads(reference))
+    vector.zero_grad()
+    assert not vector.grad.any() and all(not p.grad.any() for p in net.parameters())
     with torch.no_grad():
         vector.data.fill_(0.5)
     assert all(bool((p == 0.5).all()) for p in net.parameters())
     net.load_state_dict({k: torch.full_like(v, -1.0) for k, v in net.state_dict().items()})
     assert bool((vector.data == -1.0).all())  # load_state_dict copies into the vector's storage
     assert vector.data.numel() == sum(p.numel() for p in net.parameters())
+    target = ParameterVector(copy.deepcopy(net).requires_grad_(False))
+    assert target.grad is None and not target.flat.requires_grad
 
 
-def test_adam_is_torch_fused_adam_and_keeps_its_state_layout():
+def test_vector_adam_is_torch_adam_and_keeps_its_per_parameter_state_layout():
     torch.manual_seed(1)
     nets = [mlp(3, (5,), 2), mlp(2, (4,), 1)]
     reference = copy.deepcopy(nets)
     vectors = [ParameterVector(net) for net in nets]
-    ours = Adam(vectors, lr=3e-3)
-    theirs = torch.optim.Adam([p for net in reference for p in net.parameters()], lr=3e-3, fused=True)
+    ours = VectorAdam(vectors, lr=3e-3)
+    assert ours.state_dict()["state"] == {}  # none before the first step, as torch.optim.Adam
+    params = [p for net in reference for p in net.parameters()]
+    theirs = torch.optim.Adam(params, lr=3e-3)  # the default, per-tensor implementation
     for _ in range(5):
-        grads = [torch.randn_like(p) for net in reference for p in net.parameters()]
-        for p, g in zip([p for net in reference for p in net.parameters()], grads, strict=True):
+        gradients = [torch.randn_like(p) for p in params]
+        for p, g in zip(params, gradients, strict=True):
             p.grad = g.clone()
-        for view, g in zip([v for vector in vectors for v in vector.grads], grads, strict=True):
-            view.copy_(g)
+        for p, g in zip([p for net in nets for p in net.parameters()], gradients, strict=True):
+            p.grad.copy_(g)  # the vectors' gradient views
         ours.step()
         theirs.step()
     for net, ref in zip(nets, reference, strict=True):
-        torch.testing.assert_close(flat(net), flat(ref), **ROUNDING)
+        torch.testing.assert_close(flat(net), flat(ref), **FLOAT32)
     state, torch_state = ours.state_dict(), theirs.state_dict()
     assert sorted(state["state"]) == sorted(torch_state["state"]) == list(range(8))
+    assert state["param_groups"][0]["params"] == list(range(8)) and state["param_groups"][0]["lr"] == 3e-3
     for k, entry in torch_state["state"].items():
         for name in ("exp_avg", "exp_avg_sq", "step"):
-            torch.testing.assert_close(state["state"][k][name], entry[name], **ROUNDING)
-    fresh = Adam([ParameterVector(copy.deepcopy(net)) for net in nets], lr=3e-3)
+            torch.testing.assert_close(state["state"][k][name], entry[name], **FLOAT32)
+    fresh = VectorAdam([ParameterVector(copy.deepcopy(net)) for net in nets], lr=3e-3)
     fresh.load_state_dict(torch_state)  # torch's own state dict loads
     assert fresh.steps == 5
-    for a, b in zip(fresh.exp_avg_sq, ours.exp_avg_sq, strict=True):
-        torch.testing.assert_close(a, b, **ROUNDING)
+    for a, b in zip(fresh.vectors, ours.vectors, strict=True):
+        for name in ("exp_avg", "exp_avg_sq", "step"):
+            torch.testing.assert_close(fresh.moments(a)[name], ours.moments(b)[name], **FLOAT32)
+    fresh.load_state_dict({"state": {}})  # an optimiser that never stepped
+    assert fresh.steps == 0 and not fresh.moments(fresh.vectors[1])["exp_avg_sq"].any()
     bad = copy.deepcopy(torch_state)
     bad["state"][3]["exp_avg"] = torch.zeros(7)
     with pytest.raises(ValueError, match="Adam state 3.exp_avg has shape"):
         fresh.load_state_dict(bad)
+    bad["state"][3]["exp_avg"] = torch_state["state"][3]["exp_avg"]
+    bad["state"][3]["step"] = torch.tensor(4.0)
+    with pytest.raises(ValueError, match="different step counts per parameter"):
+        fresh.load_state_dict(bad)
     bad["state"].pop(3)
     with pytest.raises(ValueError, match="this optimiser has 8 parameters"):
         fresh.load_state_dict(bad)
+    with pytest.raises(ValueError, match="set_to_none=True"):
+        ours.zero_grad(set_to_none=True)
 
 
-def reference_critic_step(agent: DDPG, obs, batch, next_obs) -> dict[str, torch.nn.Module]:
-    """The critic step by autograd and torch.optim.Adam(fused=True) on copies of `agent`'s networks."""
-    nets = {name: copy.deepcopy(getattr(agent, name)) for name in ("actor", "critic", "actor_target", "critic_target")}
-    target = td_target(nets["critic_target"], nets["actor_target"], batch.rewards, next_obs, batch.terminated,
-                       agent.config.gamma)
-    optimizer = torch.optim.Adam(nets["critic"].parameters(), lr=agent.config.critic_lr, fused=True)
-    critic_loss(nets["critic"], obs, batch.actions, target).backward()
-    optimizer.step()
-    soft_update(nets["critic_target"], nets["critic"], agent.config.tau)
-    return nets
-
-
+@pytest.mark.parametrize("gradients", PATHS)
 @pytest.mark.parametrize("action_l2", [0.0, 0.7])
-def test_ddpg_steps_equal_autograd_and_torch_adam(action_l2):
-    config = dataclasses.replace(CONFIG, action_l2=action_l2)
+def test_ddpg_steps_equal_torch_adam_on_plain_modules(gradients, action_l2):
+    config = dataclasses.replace(CONFIG, action_l2=action_l2, gradients=gradients)
     agent = DDPG(6, 2, config)
     data = agent._to_tensors(random_batch(16, 6, 2))
     obs, next_obs = data.obs, data.next_obs
-    expected = reference_critic_step(agent, obs, data, next_obs)
-    loss, _ = agent.critic_step(obs, data, next_obs)
-    # The gradient itself (Adam would hide a wrong scale), then the step.
-    torch.testing.assert_close(agent.vectors["critic"].grad, grads(expected["critic"]))
-    for name in ("critic", "critic_target"):
-        torch.testing.assert_close(flat(getattr(agent, name)), flat(expected[name]))
-    want_loss = critic_loss(expected["critic"], obs, data.actions, td_target(
-        expected["critic_target"], expected["actor_target"], data.rewards, next_obs, data.terminated, config.gamma))
-    assert loss.item() != pytest.approx(want_loss.item())  # the returned loss is the one before the step
-
-    actor, actor_target = copy.deepcopy(agent.actor), copy.deepcopy(agent.actor_target)
-    critic = copy.deepcopy(agent.critic).requires_grad_(False)
-    optimizer = torch.optim.Adam(actor.parameters(), lr=config.actor_lr, fused=True)
-    reference_loss = actor_loss(actor, critic, obs, action_l2)
-    reference_loss.backward()
+    nets = {name: copy.deepcopy(getattr(agent, name)) for name in ("actor", "critic", "actor_target", "critic_target")}
+    target = td_target(nets["critic_target"], nets["actor_target"], data.rewards, next_obs, data.terminated,
+                       config.gamma)
+    optimizer = torch.optim.Adam(nets["critic"].parameters(), lr=config.critic_lr)
+    want_loss = critic_loss(nets["critic"], obs, data.actions, target)
+    want_loss.backward()
     optimizer.step()
-    soft_update(actor_target, actor, config.tau)
+    soft_update(nets["critic_target"], nets["critic"], config.tau)
+    loss, _ = agent.critic_step(obs, data, next_obs)
+    torch.testing.assert_close(loss, want_loss.detach())  # the loss before the step
+    # The gradient itself (Adam would hide a wrong scale), then the step.
+    torch.testing.assert_close(agent.vectors["critic"].grad, grads(nets["critic"]))
+    for name in ("critic", "critic_target"):
+        torch.testing.assert_close(flat(getattr(agent, name)), flat(nets[name]), **FLOAT32)
+
+    critic = nets["critic"].requires_grad_(False)
+    optimizer = torch.optim.Adam(nets["actor"].parameters(), lr=config.actor_lr)
+    want_loss = actor_loss(nets["actor"], critic, obs, action_l2)
+    want_loss.backward()
+    optimizer.step()
+    soft_update(nets["actor_target"], nets["actor"], config.tau)
+    critic_before = flat(agent.critic).clone()
     loss = agent.actor_step(obs)
-    torch.testing.assert_close(loss, reference_loss.detach())
-    torch.testing.assert_close(agent.vectors["actor"].grad, grads(actor))
-    torch.testing.assert_close(flat(agent.actor), flat(actor))
-    torch.testing.assert_close(flat(agent.actor_target), flat(actor_target))
-    torch.testing.assert_close(flat(agent.critic), flat(critic), rtol=0, atol=0)  # the critic does not move
+    torch.testing.assert_close(loss, want_loss.detach())
+    torch.testing.assert_close(agent.vectors["actor"].grad, grads(nets["actor"]))
+    for name in ("actor", "actor_target"):
+        torch.testing.assert_close(flat(getattr(agent, name)), flat(nets[name]), **FLOAT32)
+    torch.testing.assert_close(flat(agent.critic), critic_before, rtol=0, atol=0)  # the critic does not move
 
 
-def test_td3_critic_step_equals_autograd_on_both_critics():
-    config = TD3Config(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=2)
+@pytest.mark.parametrize("gradients", PATHS)
+def test_td3_critic_step_equals_torch_adam_on_both_critics(gradients):
+    config = TD3Config(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=2, gradients=gradients)
     agent = TD3(5, 2, config)
     data = agent._to_tensors(random_batch(16, 5, 2, seed=3))
     critics = [copy.deepcopy(agent.critic), copy.deepcopy(agent.critic2)]
@@ -164,15 +269,41 @@ def test_td3_critic_step_equals_autograd_on_both_critics():
     torch.manual_seed(9)
     next_actions = smoothed_target_action(agent.actor_target, data.next_obs, config.target_noise, config.noise_clip)
     target = twin_td_target(targets, data.next_obs, next_actions, data.rewards, data.terminated, config.gamma)
-    optimizer = torch.optim.Adam([p for c in critics for p in c.parameters()], lr=config.critic_lr, fused=True)
-    sum(critic_loss(c, data.obs, data.actions, target) for c in critics).backward()
+    optimizer = torch.optim.Adam([p for c in critics for p in c.parameters()], lr=config.critic_lr)
+    want_loss = sum(critic_loss(c, data.obs, data.actions, target) for c in critics)
+    want_loss.backward()
     optimizer.step()
     torch.manual_seed(9)  # the same smoothing noise
-    agent.critic_step(data.obs, data, data.next_obs)
-    torch.testing.assert_close(agent.vectors["critic"].grad, grads(critics[0]))
-    torch.testing.assert_close(agent.vectors["critic2"].grad, grads(critics[1]))
-    torch.testing.assert_close(flat(agent.critic), flat(critics[0]))
-    torch.testing.assert_close(flat(agent.critic2), flat(critics[1]))
+    loss, _ = agent.critic_step(data.obs, data, data.next_obs)
+    torch.testing.assert_close(loss, want_loss.detach())
+    for name, reference in zip(("critic", "critic2"), critics, strict=True):
+        torch.testing.assert_close(agent.vectors[name].grad, grads(reference))
+        torch.testing.assert_close(flat(getattr(agent, name)), flat(reference), **FLOAT32)
+
+
+def test_config_names_its_gradient_path():
+    assert DDPGConfig().gradients == TD3Config().gradients == "dense"
+    for bad in ("fast", None, 1):
+        with pytest.raises(ValueError, match="DDPGConfig.gradients must be one of \\('dense', 'autograd'\\)"):
+            DDPGConfig(gradients=bad)
+    assert DDPG(3, 1, DDPGConfig(gradients="autograd")).critic_pass is None
+
+
+@pytest.mark.parametrize("learner, config_class", [(DDPG, DDPGConfig), (TD3, TD3Config)])
+def test_dense_path_follows_the_autograd_reference_over_many_steps(learner, config_class):
+    """At Table 4's widths and batch, twenty steps on the two paths stay together to float rounding."""
+    agents = [learner(9, 2, config_class(gradients=path, seed=3, action_l2=0.5)) for path in PATHS]
+    torch.manual_seed(5)
+    rng_state = torch.get_rng_state()
+    for agent in agents:
+        torch.set_rng_state(rng_state)  # the same TD3 smoothing noise on both paths
+        metrics = agent.update_many(random_batch(20 * 64, 9, 2, seed=8), 20)
+        assert np.isfinite(list(metrics.values())).all()
+    autograd, dense = agents
+    for name in autograd.vectors:
+        torch.testing.assert_close(dense.vectors[name].data, autograd.vectors[name].data, rtol=1e-4, atol=1e-5,
+                                   msg=name)
+        assert not torch.equal(autograd.vectors[name].data, learner(9, 2, config_class(seed=3)).vectors[name].data)
 
 
 def test_checkpoint_round_trips_the_vectors_and_resumes_their_steps(tmp_path):
@@ -183,11 +314,11 @@ def test_checkpoint_round_trips_the_vectors_and_resumes_their_steps(tmp_path):
         "kind": "box", "obs_dim": 6, "act_dim": 2, "obs_shape": [6], "action_low": [-1, -1], "action_high": [1, 1]}})
     loaded, _ = load_agent(tmp_path / "a.pt")
     assert loaded.actor_opt.steps == loaded.critic_opt.steps == 2
-    for a, b in ((agent, loaded),):
-        a.update_many(batch, 2)
-        b.update_many(batch, 2)
-        for name in ("actor", "critic", "actor_target", "critic_target"):
-            torch.testing.assert_close(flat(getattr(a, name)), flat(getattr(b, name)), rtol=0, atol=0)
-    # The loaded agent's fast path moves the loaded modules (its passes see the loaded storage).
+    agent.update_many(batch, 2)
+    loaded.update_many(batch, 2)
+    for name in ("actor", "critic", "actor_target", "critic_target"):
+        torch.testing.assert_close(flat(getattr(agent, name)), flat(getattr(loaded, name)), rtol=0, atol=0)
+    # The loaded agent's passes and optimisers move the loaded modules (they see the loaded storage).
     assert isinstance(loaded.critic, Critic)
     assert loaded.critic_pass.weights[0].data_ptr() == loaded.critic.net[0].weight.data_ptr()
+    assert loaded.critic_opt.param_groups[0]["params"][0].data_ptr() == loaded.critic.net[0].weight.data_ptr()

@@ -25,8 +25,9 @@ import numpy as np
 import torch
 
 import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
-from agents.ddpg import DDPG, DDPGConfig
+from agents.ddpg import DDPG, GRADIENT_PATHS, DDPGConfig
 from agents.replay import Batch
+from agents.td3 import TD3, TD3Config
 from agents.train import env_spec, train
 from auv_mj import render
 from auv_mj.arenas.arena import load
@@ -290,36 +291,46 @@ def render_section(settings: BenchSettings) -> list[Measurement]:
 
 
 TRAINING_UPDATES = 200
-"""Gradient steps timed per repeat in the "training" section."""
+"""Gradient steps timed per repeat and agent in the "training" section."""
+DENSE_MIN_SPEEDUP = 1.3
+"""The hand-written "dense" gradient path (`DDPGConfig.gradients`) stays only while it is at least this much
+faster than autograd's (issue 29); the "training" section reports the ratio."""
 
 
 @section("training")
 def training_section(settings: BenchSettings) -> list[Measurement]:
-    """DDPG gradient steps per second (Table 4 sizes: 2 x 256 tanh, batch 64, one torch thread) and the
-    planner task's env steps per second, timed apart, as the issue asks for training speed."""
+    """Gradient steps per second of DDPG and TD3 at Table 4's sizes (2 x 256 tanh, batch 64, one torch thread,
+    the planner task's observation) on both gradient paths of `DDPGConfig.gradients`, "dense" (what training
+    uses) and "autograd" (the reference), the four agents taking turns in every repeat; and per learner the
+    median of the repeats' dense / autograd ratios."""
     torch.set_num_threads(1)
     rng = np.random.default_rng(settings.seed)
-    config = DDPGConfig()
     spec = env_spec(gymnasium.make("auv_mj/Goal-v0"))  # the planner's sizes, read from the task
     obs_dim, act_dim = spec["obs_dim"], spec["act_dim"]
-    agent = DDPG(obs_dim, act_dim, config)
     n = settings.calls(TRAINING_UPDATES)
-
-    def batch(size: int) -> Batch:
-        return Batch(rng.standard_normal((size, obs_dim), dtype=np.float32),
-                     rng.uniform(-1, 1, (size, act_dim)).astype(np.float32),
-                     rng.standard_normal(size, dtype=np.float32),
-                     rng.standard_normal((size, obs_dim), dtype=np.float32),
-                     np.zeros(size, dtype=np.float32))
-
-    data = batch(n * config.batch_size)
-    times = []
-    for _ in range(settings.repeats):
-        start = time.perf_counter()
-        agent.update_many(data, n)
-        times.append((time.perf_counter() - start) / n)
-    updates = 1.0 / float(np.median(times))
-    return [Measurement("DDPG gradient steps/s (batch 64, 2x256)", updates, "updates/s", "one torch thread")]
+    size = n * DDPGConfig().batch_size
+    data = Batch(rng.standard_normal((size, obs_dim), dtype=np.float32),
+                 rng.uniform(-1, 1, (size, act_dim)).astype(np.float32), rng.standard_normal(size, dtype=np.float32),
+                 rng.standard_normal((size, obs_dim), dtype=np.float32), np.zeros(size, dtype=np.float32))
+    learners = {"DDPG": (DDPG, DDPGConfig), "TD3": (TD3, TD3Config)}
+    agents = {(name, path): learner(obs_dim, act_dim, config_class(gradients=path))
+              for name, (learner, config_class) in learners.items() for path in GRADIENT_PATHS}
+    times: dict[tuple[str, str], list[float]] = {key: [] for key in agents}
+    for repeat in range(settings.repeats):
+        for key in (list(agents) if repeat % 2 == 0 else list(agents)[::-1]):
+            start = time.perf_counter()
+            agents[key].update_many(data, n)
+            times[key].append((time.perf_counter() - start) / n)
+    measurements = []
+    for name in learners:
+        dense, autograd = (np.array(times[(name, path)]) for path in ("dense", "autograd"))
+        measurements += [
+            Measurement(f"{name} gradient steps/s, dense (batch 64, 2x256)", 1.0 / float(np.median(dense)),
+                        "updates/s", "one torch thread"),
+            Measurement(f"{name} gradient steps/s, autograd", 1.0 / float(np.median(autograd)), "updates/s"),
+            Measurement(f"{name} dense / autograd", float(np.median(autograd / dense)), "x",
+                        f"dense stays while >= {DENSE_MIN_SPEEDUP}")]
+    return measurements
 
 
 CORE_STEPS = 20_000
