@@ -176,6 +176,13 @@ class GridFollower:
 
     def __call__(self, time_step: dm_env.TimeStep) -> np.ndarray:
         pose = np.array(self.env.physics.pose(), dtype=float)
+        point, _ = self.waypoint(time_step)
+        return np.array([approach_speed(self.env.task, pose), los_heading(point, pose)])
+
+    def waypoint(self, time_step: dm_env.TimeStep) -> tuple[np.ndarray, float]:
+        """Brings the map and the plan up to date; the point line of sight aims at, and the length [m] of the
+        planned path left from the vehicle to its end."""
+        pose = np.array(self.env.physics.pose(), dtype=float)
         if self.grid is None or time_step.first():
             self.start()
         changed = self.update(time_step, pose)
@@ -189,7 +196,10 @@ class GridFollower:
         if off > OFF_PATH and self.since_plan >= self.replan_steps:
             self.plan(pose, goal, radius)
             point, _ = self.carrot(pose, goal)
-        return np.array([approach_speed(self.env.task, pose), los_heading(point, pose)])
+        left = float(np.hypot(*(point - pose[:2])))
+        if self.path is not None:
+            left = max(left, grid.path_length(self.path[self.progress:]))
+        return point, left
 
 
 def approach_speed(task, pose: np.ndarray) -> float:

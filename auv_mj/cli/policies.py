@@ -35,6 +35,7 @@ from agents.baselines import uniform_random
 from agents.checkpoint import read_checkpoint
 from agents.policy import Policy
 from auv_mj.arenas import arena
+from auv_mj.cli.map_guided import map_guided
 from tasks import suite
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
 from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
@@ -260,6 +261,11 @@ register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tune
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner", lambda d: line_of_sight(d.env), tasks="planning",
                                  protection="paper"))
+register("planner-map", PolicySpec(
+    "planner-general steering along map-replan's planned path instead of the straight route: the learned planner "
+    "with the sonar map as its memory (issue 30, a first attempt; its ablation is map-replan)",
+    lambda d: map_guided(d.checkpoint, d.env, checkpoint_policy(d.checkpoint, d.env, "speed-aware")),
+    family="learned", tasks="planning", checkpoint="planner_general.pt", protection="speed-aware"))
 register("los-fast", PolicySpec("line of sight along the route at 2 m/s inside the speed-aware protection domain and "
                                 "the geofence: planner-general's zero action (issue 30)",
                                 lambda d: fast_line_of_sight(d.env), tasks="planning", protection="speed-aware"))
