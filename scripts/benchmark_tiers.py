@@ -78,6 +78,22 @@ def summary(rows: list[dict], reference: dict[int, float | None]) -> dict:
             "median_clearance": float(np.median(clearance)) if clearance else None}
 
 
+def markdown(result: dict) -> str:
+    """The cells of a result file as a markdown table, one row per task and policy."""
+    lines = ["| set | policy | episodes | success [95 % Wilson] | collisions | left map | timeouts | mean time [s] | "
+             "time efficiency | least / median clearance [m] |", "| --- " * 10 + "|"]
+    for task, cells in result.items():
+        for policy, cell in cells.items():
+            s = cell["summary"]
+            time_text = f"{s['mean_time']:.0f}" if s["mean_time"] is not None else "-"
+            clear = (f"{s['least_clearance']:.1f} / {s['median_clearance']:.1f}" if s["least_clearance"] is not None
+                     else "-")
+            lines.append(f"| {task} | `{policy}` | {s['episodes']} | {s['success']:.2f} [{s['wilson'][0]:.2f}, "
+                         f"{s['wilson'][1]:.2f}] | {s['collisions']} | {s['left_map']} | {s['timeouts']} | "
+                         f"{time_text} | {s['efficiency']:.2f} | {clear} |")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=20)
@@ -87,7 +103,11 @@ def main() -> None:
     parser.add_argument("--tier", default="hard")
     parser.add_argument("--conditions", default="ideal")
     parser.add_argument("--json", required=True)
+    parser.add_argument("--markdown", action="store_true", help="print the table of --json and run nothing")
     args = parser.parse_args()
+    if args.markdown:
+        print(markdown(json.loads(Path(args.json).read_text())))
+        return
     seeds = range(args.seed, args.seed + args.episodes)
     task_kwargs = {"arena": "random", "tier": args.tier, "conditions": args.conditions}
     out = Path(args.json)
