@@ -469,6 +469,9 @@ class Tunnel3D(Planning3D):
         return tubes.tube_arena(tube), tube.centreline[0], tube.start_heading(), tube.centreline[-1], tube.centreline
 
     def target(self, position: np.ndarray) -> np.ndarray:
+        """The line-of-sight look-ahead point LOOKAHEAD metres on along the centreline (the goal before a tube)."""
+        if len(self.path) < 2:
+            return self.goal
         _, heading, depth = _los(position, self.path, LOOKAHEAD)
         return np.array([position[0] + LOOKAHEAD * math.cos(heading), position[1] + LOOKAHEAD * math.sin(heading),
                          -depth])
