@@ -238,8 +238,9 @@ def test_open_water_layout_of_a_seed_is_the_tasks_first_episode_and_passes_check
     assert report.ok, report.lines()
 
 
-def test_open_water_tasks_refuse_an_arena_file():
-    with pytest.raises(ValueError, match="arena='x.xml'"):
+def test_open_water_tasks_take_an_arena_file_and_name_one_they_cannot_read():
+    """arena=PATH is a user's arena on the open-water tasks (tests/test_user_arenas.py); a missing one is named."""
+    with pytest.raises(ValueError, match="x.xml: cannot read arena"):
         suite.load("auv", "obstacles", task_kwargs={"arena": "x.xml"})
 
 

@@ -18,6 +18,10 @@ cluster (`auv_mj.cli.distributed`); each episode is seeded as in the serial loop
 taken over the episodes in index order, so the JSON is the serial one. An episode that produced no result
 (its worker died more than `--retries` times, or it raised) is listed under "failed" by task, episode
 index and seed; the summaries cover the finished episodes, and the exit status is 1.
+
+`--record-failures DIR` writes an MP4 and a trajectory PNG of every episode that did not reach the goal
+(`auv_mj.cli.failures`: each is run again, seeded as before, through the renderer), named
+`TASK_seedSEED_OUTCOME`; the folder is checked before the first episode.
 """
 
 from __future__ import annotations
@@ -30,13 +34,14 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli import distributed, policies
+from auv_mj.cli import distributed, failures, policies
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     MAX_RETRIES,
     add_episode_options,
     bounded_int,
     check_output,
+    check_output_folder,
     positive_int,
     task_kwargs,
     usage_error,
@@ -85,16 +90,17 @@ def summarise(episodes: list[dict]) -> dict:
 def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
              max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
              workers: int = 1, ray_address: str | None = None, retries: int = distributed.RETRIES,
-             episode_fn=None) -> dict:
+             episode_fn=None, on_episode=None) -> dict:
     """Evaluates `policy_name` on each task; returns {"policy", "seed", "tasks": {task: summary}}.
 
     `task_kwargs` go to every task (e.g. random commands on speed_heading); the seed is the episode's.
     With `workers` > 1 or a `ray_address` the episodes run in parallel (`evaluate_parallel`).
+    `on_episode(task, seed, metrics)` is called for every finished episode (e.g. to find the failures).
     """
     if workers > 1 or ray_address is not None:
         return evaluate_parallel(policy_name, task_names, episodes, seed, max_steps, progress, task_kwargs,
                                  workers=workers, ray_address=ray_address, retries=retries,
-                                 episode_fn=episode_fn)
+                                 episode_fn=episode_fn, on_episode=on_episode)
     task_kwargs = dict(task_kwargs or {})
     results = {}
     for task_name in task_names:
@@ -102,6 +108,8 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
         bar = progress_bar(total=episodes, desc=f"eval {task_name}", unit="ep", disable=not progress)
         for i in range(episodes):
             runs.append(run_episode(policy_name, task_name, seed + i, task_kwargs, max_steps))
+            if on_episode is not None:
+                on_episode(task_name, seed + i, runs[-1])
             bar.update(1)
             bar.set_postfix(success=f"{np.mean([r['success'] for r in runs]):.2f}")
         bar.close()
@@ -113,7 +121,7 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
 def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
                       max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
                       workers: int = 2, ray_address: str | None = None, retries: int = distributed.RETRIES,
-                      episode_fn=None) -> dict:
+                      episode_fn=None, on_episode=None) -> dict:
     """`evaluate` with the episodes of every task spread over `workers` local processes or a Ray cluster.
 
     Episode i of a task runs `episode_fn(policy_name, task, seed + i, task_kwargs, max_steps)` (by default
@@ -134,6 +142,8 @@ def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, se
                                "error": result.error})
             else:
                 finished[k] = result
+                if on_episode is not None:
+                    on_episode(jobs[k][1], jobs[k][2], result)
             bar.update(1)
             bar.set_postfix(success=f"{np.mean([r['success'] for r in finished.values()] or [0]):.2f}",
                             failed=len(failed))
@@ -154,8 +164,14 @@ TABLE_COLUMNS = ("success_rate", "collision_rate", "min_clearance", "path_length
                  "mae_speed", "mae_heading")
 
 
-def _cell(value) -> str:
-    return f"{'n/a':>15}" if value is None else f"{value:>15.3f}"
+def table_cell(value, width: int = 15, digits: int = 3) -> str:
+    """A right-aligned cell of a plain-text table: n/a for None, a string as it is, a number to `digits`
+    (a rounded -0.0, e.g. a clearance of -0.001 m at contact, shows as 0)."""
+    if value is None:
+        return f"{'n/a':>{width}}"
+    if isinstance(value, str):
+        return f"{value:>{width}}"
+    return f"{round(value, digits) + 0.0:>{width}.{digits}f}"
 
 
 def format_table(results: dict) -> str:
@@ -164,7 +180,7 @@ def format_table(results: dict) -> str:
     lines = [f"policy: {results['policy']}   episodes: {results['episodes']}   seed: {results['seed']}",
              header, "-" * len(header)]
     for task, summary in results["tasks"].items():
-        cells = "".join(_cell(summary.get(c)) for c in TABLE_COLUMNS)
+        cells = "".join(table_cell(summary.get(c)) for c in TABLE_COLUMNS)
         outcomes = ", ".join(f"{name} {n}" for name, n in summary["outcomes"].items() if n)
         lines.append(f"{task:<18}{cells}   {outcomes}")
     return "\n".join(lines)
@@ -204,12 +220,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "joins a running cluster (`ray start --head`)")
     parser.add_argument("--retries", type=bounded_int(0, MAX_RETRIES), default=distributed.RETRIES,
                         help="reruns of an episode whose worker process died, before it is reported failed")
+    parser.add_argument("--record-failures", type=Path, default=None, metavar="DIR",
+                        help="write an MP4 and a trajectory PNG of each episode that does not reach the goal "
+                             "here, named TASK_seedSEED_OUTCOME")
 
 
 def run(args: argparse.Namespace) -> int:
     """Runs the evaluation, prints the table, writes JSON/CSV (their paths checked first)."""
     check_output(args, args.json, "--json")
     check_output(args, args.csv, "--csv")
+    check_output_folder(args, args.record_failures, "--record-failures")
     if args.seed + args.episodes - 1 > SEED_LIMIT:
         usage_error(args, f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {SEED_LIMIT}")
     kwargs = task_kwargs(args)
@@ -230,10 +250,12 @@ def run(args: argparse.Namespace) -> int:
             policies.env_and_policy(args.policy, task_name, args.seed, kwargs)
     except (ValueError, FileNotFoundError) as e:
         usage_error(args, str(e))
+    ended: list[tuple[str, int, str]] = []
     try:
         results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps,
                            progress=not args.no_progress, task_kwargs=kwargs, workers=args.workers,
-                           ray_address=args.ray, retries=args.retries)
+                           ray_address=args.ray, retries=args.retries,
+                           on_episode=lambda task, seed, metrics: ended.append((task, seed, metrics["outcome"])))
     except (ValueError, FileNotFoundError) as e:
         print(f"{args.prog}: error: {e}", file=sys.stderr)
         return 1
@@ -242,6 +264,9 @@ def run(args: argparse.Namespace) -> int:
     for path in (args.json, args.csv):
         if path:
             print(f"wrote {path}")
+    if args.record_failures is not None:
+        written = failures.record_failures(args.policy, sorted(ended), args.record_failures, kwargs, args.max_steps)
+        print(f"recorded {len(written)} failed episode(s) in {args.record_failures}")
     for failure in results.get("failed", []):
         print(f"{args.prog}: episode {failure['episode']} of {failure['task']} (seed {failure['seed']}) failed: "
               f"{failure['error']}", file=sys.stderr)
