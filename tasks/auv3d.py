@@ -529,3 +529,19 @@ def los_policy(env, avoid: bool = False) -> Callable:
 
     return policy
 
+
+
+def is_3d(env) -> bool:
+    """Whether `env` is an environment of the "auv3d" domain (the 6-DOF vehicle)."""
+    return isinstance(getattr(env, "physics", None), AUV6Physics)
+
+
+def classical_3d(env, avoid: bool = False) -> Callable:
+    """The classical baseline of an auv3d environment: the S-plane depth-heading executor on depth_heading;
+    line of sight in 3-D on the classical executor on goal3d and tunnel3d, inside the protection domain on the
+    3-D fan if `avoid` (the app's `--policy splane` and `--policy los-avoid`)."""
+    if isinstance(env.task, DepthHeading):
+        if avoid:
+            raise ValueError("los-avoid is a planner: it runs on goal3d and tunnel3d, not on depth_heading")
+        return splane_policy(env)
+    return los_policy(env, avoid=avoid)

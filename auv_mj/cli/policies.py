@@ -37,6 +37,7 @@ from agents.policy import Policy
 from auv_mj.arenas import arena
 from auv_mj.cli.map_guided import map_guided
 from tasks import suite
+from tasks.auv3d import SUITE3D, classical_3d, is_3d
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
 from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
 from tasks.map_planner import fast_line_of_sight, sonar_map_planner, true_map_planner
@@ -255,12 +256,15 @@ register("ocean-executor", _learned("TD3 scheduling the S-plane's gains every st
 register("los-executor", PolicySpec("line of sight on the learned DDPG executor: the execution layer alone",
                                     lambda d: line_of_sight(d.env), tasks="planning", executor="executor"))
 register("splane", PolicySpec("the classical baseline: line of sight + the S-plane (Eq. 32), or the S-plane alone "
-                              "on speed_heading", lambda d: classical(d.env)))
+                              "on speed_heading (auv3d: the depth-heading S-plane, with 3-D line of sight on "
+                              "goal3d/tunnel3d)",
+                              lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env)))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
                                     "(`tasks.splane.OCEAN_GAINS`)", _splane_ocean, default_executor="splane-ocean"))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
-                                 "local planner", lambda d: line_of_sight(d.env), tasks="planning",
-                                 protection="paper"))
+                                 "local planner (auv3d: 3-D line of sight, the domain on the 3-D fan)",
+                                 lambda d: classical_3d(d.env, avoid=True) if is_3d(d.env) else line_of_sight(d.env),
+                                 tasks="planning", protection="paper"))
 register("planner-map", PolicySpec(
     "planner-general steering along map-replan's planned path instead of the straight route: the learned planner "
     "with the sonar map as its memory (issue 30, a first attempt; its ablation is map-replan)",
@@ -325,7 +329,7 @@ def _checkpoint_of(spec: PolicySpec, path: Path | None, task: str | None) -> Pat
 
 def executor_tasks() -> tuple[str, ...]:
     """The suite's execution-layer tasks (tagged "executor"): the tasks with no executor option."""
-    return tuple(t for _, t in suite.tasks_by_tag("executor"))
+    return tuple(t for _, t in suite.tasks_by_tag("executor")) + tuple(SUITE3D.tagged("executor"))
 
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
@@ -353,7 +357,7 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
             task_kwargs.update({k: v for k, v in memory.items() if k not in task_kwargs})
         elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
-    return suite.load("auv", task_name, task_kwargs=task_kwargs)
+    return suite.load(suite.domain_of(task_name), task_name, task_kwargs=task_kwargs)
 
 
 def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> ActingPolicy:
@@ -361,25 +365,27 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -
     spec, path = resolve(policy_name)
     checkpoint = _checkpoint_of(spec, path, task)
     act = spec.build(Deployment(env, task, seed, checkpoint, spec))
-    if checkpoint is None and spec.protection:  # a classical policy deployed inside a protection domain
+    if checkpoint is None and spec.protection and not is_3d(env):  # a classical policy inside a protection domain
+        # (an auv3d policy carries its own domain on the 3-D fan)
         act = with_repulsion(act, protection_field(spec.protection), map_fence(env))
     return act
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
     """A task name, a tag or 'all' -> the task names the policy runs on (`PolicySpec.tasks`)."""
-    names = [task for domain, task in suite.ALL_TASKS if domain == "auv"]
+    names = [task for _, task in (*suite.ALL_TASKS, *suite.TASKS_3D)]
     if spec == "all":
         chosen = names
     elif spec in names:
         chosen = [spec]
     else:
-        chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
+        chosen = ([t for d, t in suite.tasks_by_tag(spec) if d == "auv"] + list(SUITE3D.tagged(spec))
+                  if spec in suite.TAGS else [])
         if not chosen:
             raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
     runs_on = resolve(policy_name)[0].tasks
     if runs_on != "any":
-        tagged = {t for _, t in suite.tasks_by_tag(runs_on)}
+        tagged = {t for _, t in suite.tasks_by_tag(runs_on)} | set(SUITE3D.tagged(runs_on))
         chosen = [t for t in chosen if t in tagged]
     if not chosen:
         raise ValueError(f"policy {policy_name!r} cannot run any task of {spec!r}")
