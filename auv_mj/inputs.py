@@ -29,6 +29,17 @@ MAX_JSON_DEPTH = 32
 _READ_CHUNK = 1 << 16
 
 
+def shown(value: Any, limit: int = 60) -> str:
+    """`repr(value)` for a one-line message, cut to about `limit` characters (every layer's errors name the bad
+    value this way)."""
+    try:
+        text = repr(value)
+    except Exception:  # a value whose repr fails still gets named by its type
+        text = f"<{type(value).__name__}>"
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[:limit] + f"... ({type(value).__name__})"
+
+
 def source_name(path: str | Path) -> str:
     """How messages name a file: its path, quoted and escaped if it holds control characters (one line)."""
     text = str(path)

@@ -15,22 +15,14 @@ from typing import Any
 
 import numpy as np
 
+from auv_mj.inputs import shown
+
 MAX_TIME_LIMIT = 100_000.0
 """Longest episode a task accepts [s] (28 hours simulated; the paper's longest run is minutes)."""
 SEED_RANGE = (0, 2**32 - 1)
 """Integer seeds NumPy's RandomState takes."""
 ENVIRONMENT_OPTIONS = {"flat_observation": bool, "legacy_step": bool}
 """environment_kwargs a task passes on to `control.Environment` (it sets the time limit and step itself)."""
-
-
-def shown(value: Any, limit: int = 60) -> str:
-    """`repr(value)` for a one-line message, cut to about `limit` characters."""
-    try:
-        text = repr(value)
-    except Exception:  # a value whose repr fails still gets named by its type
-        text = f"<{type(value).__name__}>"
-    text = " ".join(text.split())
-    return text if len(text) <= limit else text[:limit] + f"... ({type(value).__name__})"
 
 
 def _refuse(option: str, what: str, value: Any) -> ValueError:

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from auv_mj.inputs import MAX_JSON_DEPTH, json_depth
+from auv_mj.inputs import MAX_JSON_DEPTH, json_depth, shown
 
 MAX_JSON_CHARS = 100_000
 """Longest `--task-kwargs` text accepted."""
@@ -26,11 +26,6 @@ MAX_JSON_CHARS = 100_000
 
 SEED_RANGE = (0, 2**31 - 1)
 """Seeds `--seed` takes; episode i of a run uses seed + i, which stays below NumPy's 2**32 limit."""
-
-
-def _shown(text: str, limit: int = 60) -> str:
-    """`text` as a quoted literal for a one-line message, cut to about `limit` characters."""
-    return repr(text) if len(text) <= limit else repr(text[:limit]) + f"... ({len(text)} characters)"
 
 
 def json_object(text: str) -> dict:
@@ -42,9 +37,9 @@ def json_object(text: str) -> dict:
     try:
         value = json.loads(text)
     except (json.JSONDecodeError, RecursionError) as e:
-        raise argparse.ArgumentTypeError(f"not valid JSON ({e}): {_shown(text)}") from None
+        raise argparse.ArgumentTypeError(f"not valid JSON ({e}): {shown(text)}") from None
     if not isinstance(value, dict):
-        raise argparse.ArgumentTypeError(f"must be a JSON object like '{{\"key\": 1}}', got {_shown(text)}")
+        raise argparse.ArgumentTypeError(f"must be a JSON object like '{{\"key\": 1}}', got {shown(text)}")
     return value
 
 
@@ -53,7 +48,7 @@ def positive_int(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {_shown(text)}") from None
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {shown(text)}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
     return value
@@ -68,7 +63,7 @@ def bounded_int(low: int, high: int) -> Callable[[str], int]:
         except ValueError:
             value = None
         if value is None or not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"must be a whole number in [{low}, {high}], got {_shown(text)}")
+            raise argparse.ArgumentTypeError(f"must be a whole number in [{low}, {high}], got {shown(text)}")
         return value
 
     return parse
@@ -85,7 +80,7 @@ def bounded_float(low: float, high: float, unit: str = "", *, low_open: bool = F
             value = math.nan
         inside = (low < value if low_open else low <= value) and value <= high
         if not inside:  # NaN fails both comparisons
-            raise argparse.ArgumentTypeError(f"must be a number in {interval}, got {_shown(text)}")
+            raise argparse.ArgumentTypeError(f"must be a number in {interval}, got {shown(text)}")
         return value
 
     return parse
