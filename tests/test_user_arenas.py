@@ -202,3 +202,14 @@ def test_a_users_open_water_arena_runs_on_goal_and_obstacles_through_the_cli(tmp
                       "--policy", "los-avoid", cwd=tmp_path)["tasks"]["obstacles"]
     assert obstacles["outcomes"]["goal"] == 1 and obstacles["min_clearance"] > 0
     assert obstacles["path_length"] > 200.0  # longer than the straight 200 m: it went round
+
+
+def test_the_docs_layouts_build_usable_arenas_and_the_csv_is_the_json(tmp_path):
+    text = (ROOT / "docs" / "arenas.md").read_text()
+    section = text.split("## Building an open-water arena", 1)[1]
+    (tmp_path / "harbour.json").write_text(section.split("```json\n", 1)[1].split("```", 1)[0])
+    (tmp_path / "harbour.csv").write_text(section.split("as CSV", 1)[1].split("```\n", 1)[1].split("```", 1)[0])
+    built = layout.read_layout(tmp_path / "harbour.json").element()
+    assert ET.tostring(layout.read_layout(tmp_path / "harbour.csv", name="harbour").element()) == ET.tostring(built)
+    report = arena_check.check_arena(built)  # with its path: the path's clearance is checked too
+    assert report.ok, report.lines()

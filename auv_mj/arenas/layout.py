@@ -401,7 +401,7 @@ CSV_ROWS = {
     "cylinder": "cylinder,NAME,x,y,radius[,role]", "polygon": "polygon,NAME,x1,y1,x2,y2,x3,y3[,...]",
     "mover": "mover,NAME,speed,radius,x1,y1,x2,y2[,...]",
 }
-"""The rows of a CSV layout, by their first cell (NAME may be empty)."""
+"""The rows of a CSV layout, by their first cell (NAME may be empty; `#` starts a comment)."""
 
 
 def _csv_layout(text: str, source: str) -> dict:
@@ -412,8 +412,8 @@ def _csv_layout(text: str, source: str) -> dict:
     except csv.Error as e:
         raise ValueError(f"{source}: not a CSV file: {e}") from None
     for lineno, cells in enumerate(table, start=1):
-        cells = [c.strip() for c in cells]
-        if not any(cells) or cells[0].startswith("#"):
+        cells = _before_comment([c.strip() for c in cells])
+        if not any(cells):
             continue
         kind, rest = cells[0].lower(), cells[1:]
         where = f"{source}: row {lineno}"
@@ -459,6 +459,15 @@ def _csv_layout(text: str, source: str) -> dict:
             data["shapes"].append({"type": "mover", "name": name, "speed": values[0], "radius": values[1],
                                    "waypoints": _pairs(values[2:])})
     return data
+
+
+def _before_comment(cells: list[str]) -> list[str]:
+    """The cells of a CSV row before a `#` comment (a whole-line one, or one after the values)."""
+    for i, cell in enumerate(cells):
+        if "#" in cell:
+            head = cell[:cell.index("#")].strip()
+            return cells[:i] + ([head] if head else [])
+    return cells
 
 
 def _pairs(values: Sequence[float]) -> list[list[float]]:
