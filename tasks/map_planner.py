@@ -6,7 +6,8 @@ and the speed envelope of the learned planners: the nine sonar ranges of the obs
 (the geofence). Every one cruises at the top speed MAX_SPEED = 2 m/s inside the speed-aware protection domain
 (`tasks.avoidance.PROTECTIONS["speed-aware"]`) with the geofence, as `planner-general` is deployed.
 
-- `los_fast`: line of sight along the route at 2 m/s under that domain: `planner-general`'s zero action.
+- `los_fast`: line of sight along the route at 2 m/s under that domain: `planner-general`'s zero action (but
+  for the approach to a small final goal, `approach_speed`, which every planner here shares).
 - `map_replan`: the mapping local planner of an AUV stack (Choset et al., *Principles of Robot Motion*, Ch. 2
   and 5; LaValle, *Planning Algorithms*, Ch. 5-6). An occupancy grid of CELL metres is filled online from the
   sonar rays (unknown space free: log-odds counts, HIT and MISS); whenever the map changes near the planned
@@ -83,10 +84,13 @@ _RAY_STEP = CELL / 2
 
 
 def fast_line_of_sight(env) -> Policy:
-    """Line of sight along the route at 2 m/s (no protection domain: `los_fast` adds it)."""
+    """Line of sight along the route at 2 m/s (no protection domain: `los_fast` adds it), slowing to 1 m/s
+    near a small final goal as every planner here does (`approach_speed`): without it, it circles a tunnel's
+    2 m final goal in wide water for ever. On open water (12.5 m goals) it is `planner-general`'s zero action."""
 
     def policy(time_step: dm_env.TimeStep) -> np.ndarray:
-        return np.array([TOP_SPEED_ACTION, los_heading(time_step.observation["desired_goal"], env.physics.pose())])
+        pose = env.physics.pose()
+        return np.array([approach_speed(env.task, pose), los_heading(time_step.observation["desired_goal"], pose)])
 
     return policy
 
