@@ -279,7 +279,11 @@ class DDPG:
         return Batch(*(torch.as_tensor(np.asarray(a, dtype=np.float32), device=self.device) for a in batch))
 
     def critic_step(self, obs: torch.Tensor, batch: Batch, next_obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """One critic step (Eq. 17-18) on normalised obs / next_obs, then its target (Eq. 19); (loss, mean target)."""
+        """One critic step (Eq. 17-18) on normalised obs / next_obs, then its target (Eq. 19); (loss, mean target).
+
+        The gradient is autograd's of `critic_loss`, or on the "dense" path (`DDPGConfig.gradients`) the same
+        written out by `dense_critic_backward`.
+        """
         cfg = self.config
         target = td_target(self.critic_target, self.actor_target, batch.rewards, next_obs, batch.terminated,
                            cfg.gamma)
@@ -296,8 +300,9 @@ class DDPG:
     def actor_step(self, obs: torch.Tensor) -> torch.Tensor:
         """One actor step (Eq. 16) on normalised obs against the current critic, then its target (Eq. 19).
 
-        The gradient flows through the critic to the action but only the actor's parameters receive it
-        (`backward(inputs=...)`): the critic stays as it is, and its weight gradients are never computed.
+        The gradient of `actor_loss` flows through the critic to the action but only the actor's parameters
+        receive it (`backward(inputs=...)`): the critic stays as it is, and its weight gradients are never
+        computed. The "dense" path writes the same gradient out (`dense_actor_backward`).
         """
         cfg = self.config
         self.actor_opt.zero_grad()

@@ -4,10 +4,13 @@ The normaliser follows the HER paper (Andrychowicz et al. 2017): inputs are stan
 statistics and clipped to [-NORM_CLIP, NORM_CLIP]; its statistics are module buffers, so they travel
 with every checkpoint.
 
-The gradient steps of `agents.ddpg` and `agents.td3` run on the same networks through a faster path: their
-parameters live in one `ParameterVector` per network, `DensePass` does the forward and backward passes by
-hand, and `Adam` steps the whole vector at once (a gradient step of Table 4's sizes costs about half of
-autograd's and torch.optim's). The modules' own `forward` is unchanged, for policies and tests.
+The gradient steps of `agents.ddpg` and `agents.td3` are defined by autograd: their losses are code and
+`loss.backward()` gives the gradients. Each network's parameters live in one `ParameterVector`, so that
+`VectorAdam` (torch.optim.Adam(fused=True) on the vectors) and the soft target updates take one call per
+network. Behind that reference, `DensePass` writes the tanh MLPs' backward passes out by hand: equal to
+autograd's gradients to float rounding (`tests/test_networks.py`), about 1.4x its gradient steps per second on
+a CPU at Table 4's sizes (`auv-mj bench --sections training` reports both), and what training uses unless
+`DDPGConfig.gradients` is "autograd". The modules' own `forward` is unchanged, for policies and tests.
 """
 
 from __future__ import annotations

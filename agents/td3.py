@@ -99,7 +99,12 @@ class TD3(DDPG):
 
     def critic_step(self, obs: torch.Tensor, batch: Batch, next_obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Both critics towards the twin target with a smoothed target action, one Adam step moving both;
-        (summed loss, mean target)."""
+        (summed loss, mean target). The gradients are autograd's of the summed `critic_loss`es, or on the
+        "dense" path each critic's written out by `dense_critic_backward`.
+
+        A vmap over the two critics (torch.func.stack_module_state and functional_call) was tried: on a CPU at
+        Table 4's sizes it is slower than the two calls, as is torch.compile of the losses (issue 29).
+        """
         cfg = self.config
         next_actions = smoothed_target_action(self.actor_target, next_obs, cfg.target_noise, cfg.noise_clip)
         target = twin_td_target((self.critic_target, self.critic2_target), next_obs, next_actions,
