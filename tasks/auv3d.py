@@ -41,6 +41,7 @@ from auv_mj.sim.sonar import SONAR_RANGE
 from tasks import options
 from tasks.actions import checked_action
 from tasks.auv3d_control import EXECUTOR_DT, DepthHeadingController, State3D
+from tasks.avoidance import RepulsiveField
 
 SUITE3D = containers.TaggedTasks()
 """Task name -> factory of the "auv3d" domain."""
@@ -102,6 +103,9 @@ WATER_DEPTH = 60.0
 COLLISION_REWARD, GOAL_REWARD, PROGRESS_WEIGHT, STEP_COST = -50.0, 50.0, 1.0, 0.01
 MIN_DEPTH = 1.0
 """Shallower than this [m] is broaching: an episode ends in "left_map"."""
+TUBE_INFLUENCE = 2.5
+"""d0 [m] of the protection domain inside a tube: the walls are always within the open-water domain's 30 m, so
+in a tube only echoes nearer than the wall at its nominal 3 m repel (those of a vehicle off the centreline)."""
 LOOKAHEAD = 8.0
 """Line-of-sight look-ahead [m] along a tube's centreline."""
 
@@ -477,6 +481,9 @@ class Tunnel3D(Planning3D):
                          -depth])
 
 
+TUBE_FIELD = RepulsiveField(influence=TUBE_INFLUENCE)
+
+
 def _los(position, path, lookahead):
     from tasks.auv3d_control import los_command
 
@@ -513,6 +520,7 @@ def los_policy(env, avoid: bool = False) -> Callable:
     from tasks.auv3d_control import protect_command
 
     task, physics = env.task, env.physics
+    field = TUBE_FIELD if isinstance(task, Tunnel3D) else None
 
     def policy(time_step) -> np.ndarray:
         position = physics.position()
@@ -522,7 +530,7 @@ def los_policy(env, avoid: bool = False) -> Callable:
             offset = task.goal - position
             command = (CRUISE_SPEED, math.atan2(offset[1], offset[0]), -float(task.goal[2]))
         if avoid:
-            command = protect_command(command, physics.heading(), task.sensors.read(physics)["sonar"])
+            command = protect_command(command, physics.heading(), task.sensors.read(physics)["sonar"], field)
         heading_offset = wrap_angle(command[1] - physics.heading()) / HEADING_RANGE
         depth_offset = (command[2] - physics.depth()) / DEPTH_RANGE
         return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_offset, depth_offset], -1.0, 1.0)

@@ -83,16 +83,19 @@ def test_classical_executor_holds_depth_heading_within_half_a_metre():
     assert np.ptp(record.info["depth_error"]) > 2.0  # the start's dive and the disturbances moved it
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_line_of_sight_gets_through_procedural_tubes(seed):
+@pytest.mark.parametrize("seed, avoid", [(0, False), (1, True)])
+def test_line_of_sight_gets_through_procedural_tubes_clear_of_the_wall(seed, avoid):
     env = auv3d.tunnel3d(random=seed)
-    policy = auv3d.los_policy(env)
+    policy = auv3d.los_policy(env, avoid=avoid)
     step = env.reset()
     tube = env.task.path
     assert np.ptp(tube[:, 2]) > 2.0  # it climbs or dives
+    clearance = []
     while not step.last():
         step = env.step(policy(step))
+        clearance.append(env.task.last_info["min_clearance"])
     assert env.task.last_info["event"] == "goal"
+    assert min(clearance) > 0.5
 
 
 def test_los_avoid_reaches_goal3d_over_the_seabed():
