@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -213,3 +214,17 @@ def test_the_docs_layouts_build_usable_arenas_and_the_csv_is_the_json(tmp_path):
     assert ET.tostring(layout.read_layout(tmp_path / "harbour.csv", name="harbour").element()) == ET.tostring(built)
     report = arena_check.check_arena(built)  # with its path: the path's clearance is checked too
     assert report.ok, report.lines()
+
+
+def test_a_users_arena_passes_gymnasiums_checker(corridor):
+    import gymnasium
+    from gymnasium.utils.env_checker import check_env
+
+    import tasks  # noqa: F401  (registers the ids)
+
+    env = gymnasium.make("auv_mj/MovingObstacles-v0", task_kwargs={"arena": str(corridor), "time_limit": 5.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the unbounded Box's infinity warning
+        check_env(env.unwrapped, skip_render_check=True)
+    observation, _ = env.reset(seed=3)
+    np.testing.assert_allclose(observation["achieved_goal"][:2], [5.0, 0.0])
