@@ -33,12 +33,14 @@ planar model: K = 2 |X_uu| |u_r| in surge, 2 |N_rr| |r| in yaw, and by symmetry 
 2 |M_qq| |q| in pitch; sway and heave stay explicit except K = max(0, |c| |v_r| - m / dt). So the held-planar
 6-DOF model and the planar model take the same steps.
 
-This is the Python reference. It is written for NumPy and CPython; it has no C kernel yet, so it costs
-several times a plain `mj_step` (`auv-mj bench --section physics6`).
+The stepper runs in C by default (`bind_native`, `hydro6_kernel.c`: one call per `AUV6Physics.step(n)`); this
+module's NumPy loop (`bind`) is the reference and the fallback (`AUV_MJ_NATIVE=0`, or no C compiler), several
+times slower (`auv-mj bench --section physics6`).
 """
 
 from __future__ import annotations
 
+import ctypes
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, fields
@@ -48,6 +50,7 @@ import mujoco
 import numpy as np
 
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
+from auv_mj.sim import native6
 
 NUMERIC_PREFIX = "hydro_"
 FIN_RATE_NUMERIC = "fin_rate"
@@ -346,6 +349,48 @@ class Hydro6:
                 if nstep:
                     step2(model, data)
                     step1(model, data)
+
+        return advance
+
+    def bind_native(self, model: mujoco.MjModel, data: mujoco.MjData, fins: np.ndarray, source: np.ndarray,
+                    source_index: int, limits: np.ndarray, rate: float) -> Callable[..., None] | None:
+        """`bind`'s stepper on the C loop (`auv_mj.sim.native6`), or None where it cannot be built.
+
+        The C loop slews the fin angles itself: `fins` (2,) is their state, updated in place, towards the
+        commands source[source_index], source[source_index + 1] (data.ctrl, or data.act when lagged), within
+        `limits` (2, 2) at `rate` [rad/s]; the `fins` callable `advance` is given is not called.
+        """
+        compiled = native6.kernel()
+        if compiled is None:
+            return None
+        c = self.coefficients
+        parameters = np.concatenate([self.added_mass_frd.ravel(), self.added_mass.ravel(),
+                                     [getattr(c, name) for name in native6.COEFFICIENTS], self._drag,
+                                     self._explicit.astype(float), self._mass_diagonal,
+                                     [rate, *np.asarray(limits, dtype=float).ravel()]])
+        indices = np.array([self.qpos_adr, self.dof_adr, *self._m_index, source_index],
+                           dtype=np.dtype(ctypes.c_long))
+        if (len(parameters), len(indices)) != compiled.sizes:
+            raise RuntimeError(f"hydro6_kernel.c expects {compiled.sizes} values, auv_mj gives "
+                               f"{(len(parameters), len(indices))}: the two are out of step")
+        vp = ctypes.c_void_p
+        wrench_now = np.zeros(6)
+        keep = (model, data, parameters, indices, wrench_now, fins, source)  # owners of every address below
+        head = (vp(model._address), vp(data._address), *compiled.functions, vp(parameters.ctypes.data),
+                vp(indices.ctypes.data), *(vp(a.ctypes.data) for a in (data.qpos, data.qvel, data.qfrc_passive,
+                                                                         data.M, model.opt.wind)))
+        tail = (vp(fins.ctypes.data), vp(source.ctypes.data))
+        wrench_at = vp(wrench_now.ctypes.data)
+        step, c_int, c_double = compiled.advance, ctypes.c_int, ctypes.c_double
+
+        def advance(nstep: int, dt: float, fins_step=None, wrench: Callable[[], np.ndarray] | None = None,
+                    _keep=keep) -> None:
+            if wrench is None:
+                step(*head, None, *tail, c_int(nstep), c_double(dt))
+                return
+            for _ in range(nstep if nstep > 0 else 1):
+                wrench_now[:] = wrench()
+                step(*head, wrench_at, *tail, c_int(1 if nstep else 0), c_double(dt))
 
         return advance
 

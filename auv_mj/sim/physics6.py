@@ -127,7 +127,12 @@ class AUV6Physics(engine.Physics):
 
     def _bind(self) -> tuple:
         model, data = self.model.ptr, self.data.ptr
-        self._bound = (model, data, self._hydro.bind(model, data), self._fin_step(data))
+        source = data.act if self._fin_lagged else data.ctrl
+        first = int(model.actuator_actadr[1]) if self._fin_lagged else 1
+        advance = self._hydro.bind_native(model, data, self.fins, source, first, self._fin_limits, self.fin_rate)
+        if advance is None:
+            advance = self._hydro.bind(model, data)
+        self._bound = (model, data, advance, self._fin_step(data))
         return self._bound
 
     def _fin_step(self, data: mujoco.MjData) -> Callable[[float], tuple[float, float]]:

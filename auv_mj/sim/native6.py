@@ -1,0 +1,74 @@
+"""The C 6-DOF hydrodynamic step (`hydro6_kernel.c`), built on first use as the planar kernel is (`native`).
+
+The library is compiled once per source, compiler and machine into the planar kernel's cache folder, under a
+temporary name and renamed. With no C compiler, or with `AUV_MJ_NATIVE=0`, `kernel()` returns None and the
+Python loop of `Hydro6.bind` runs (same physics, slower).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import platform
+import shutil
+import subprocess
+import tempfile
+import warnings
+from functools import cache
+from pathlib import Path
+
+from auv_mj.sim import native
+
+SOURCE = Path(__file__).with_name("hydro6_kernel.c")
+FLAGS = ("-O2", "-shared", "-fPIC")
+COEFFICIENTS = ("X_uu", "Y_vv", "Y_rr", "Z_ww", "Z_qq", "K_pp", "M_ww", "M_qq", "N_vv", "N_rr", "Y_uv", "Y_ur",
+                "Z_uw", "Z_uq", "M_uw", "M_uq", "N_uv", "N_ur", "Y_uudr", "N_uudr", "Z_uuds", "M_uuds", "B")
+"""The coefficients the C step reads after the two added-mass matrices, in the order of its enum."""
+
+
+class Kernel6:
+    """The loaded C step `advance` and MuJoCo's functions it calls."""
+
+    def __init__(self, library: ctypes.CDLL, mujoco_library: ctypes.CDLL):
+        self.advance = library.auv6_hydro_advance
+        self.advance.restype = None
+        self.sizes = (library.auv6_kernel_sizes(0), library.auv6_kernel_sizes(1))
+        self.functions = tuple(ctypes.cast(getattr(mujoco_library, name), ctypes.c_void_p)
+                               for name in native.MUJOCO_FUNCTIONS)
+
+
+def _build(compiler: str, target: Path) -> None:
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, temporary = tempfile.mkstemp(suffix=".so", dir=target.parent)
+    os.close(fd)
+    try:
+        result = subprocess.run([compiler, *FLAGS, "-o", temporary, str(SOURCE), "-lm"], capture_output=True,
+                                text=True, timeout=120)
+        if result.returncode != 0:
+            raise OSError(f"{compiler} failed on {SOURCE.name}: {result.stderr.strip()[:500]}")
+        os.replace(temporary, target)
+    finally:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+
+
+@cache
+def kernel() -> Kernel6 | None:
+    """The C step, compiled if needed; None (with one warning) when it cannot be built or loaded."""
+    if not native.enabled():
+        return None
+    compiler = shutil.which(os.environ.get("CC", "cc"))
+    try:
+        if compiler is None:
+            raise OSError(f"no C compiler found ({os.environ.get('CC', 'cc')!r}; set CC)")
+        key = hashlib.sha256(SOURCE.read_bytes() + "\0".join((compiler, *FLAGS, platform.machine(),
+                                                                 platform.system())).encode()).hexdigest()[:16]
+        target = native.cache_dir() / f"hydro6_kernel-{key}.so"
+        if not target.exists():
+            _build(compiler, target)
+        return Kernel6(ctypes.CDLL(str(target)), ctypes.CDLL(str(native.mujoco_library_path())))
+    except (OSError, subprocess.SubprocessError, AttributeError) as e:
+        warnings.warn(f"auv-mj: the C 6-DOF step is unavailable ({e}); the Python step runs instead. Set "
+                      "AUV_MJ_NATIVE=0 to choose it quietly.", RuntimeWarning, stacklevel=2)
+        return None
