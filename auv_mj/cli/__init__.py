@@ -23,6 +23,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("train", "auv_mj.cli.train", "train an agent (ddpg, her-ddpg, executor) on a task"),
     ("sweep", "auv_mj.cli.sweep", "training over seeds and hyper-parameters on Ray Tune, with a results table"),
     ("eval", "auv_mj.cli.evaluate", "suite-style evaluation of a policy on tasks"),
+    ("benchmark", "auv_mj.cli.benchmark", "the versioned held-out suite (suite v1): results JSON, leaderboard row"),
     ("render", "auv_mj.cli.render", "render an episode to MP4/GIF off-screen"),
     ("plot", "auv_mj.cli.plot", "trajectory, tracking-error and learning-curve plots (PNG)"),
     ("reproduce", "auv_mj.cli.reproduce", "regenerate the reproduction report against the paper's numbers"),
