@@ -416,7 +416,8 @@ def policy_help() -> str:
     """The `--policy` help of every command, from the registry."""
     paths = ", ".join(f"{n}=PATH" for n, s in POLICIES.items() if s.accepts_path)
     return (f"a registered policy ({', '.join(POLICIES)}; `auv-mj policies` describes each), a checkpoint path, "
-            f"or {paths} (a candidate checkpoint in the shipped one's place)")
+            f"{paths} (a candidate checkpoint in the shipped one's place), MODULE:FACTORY (your factory(env) -> "
+            f"policy(time_step) -> action) or PATH.zip (a Stable-Baselines3 model)")
 
 
 def markdown_table() -> str:
