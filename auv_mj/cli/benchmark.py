@@ -348,8 +348,7 @@ def _choices(values: tuple[str, ...], option: str):
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj benchmark`."""
-    parser.add_argument("--policy", required=True, help=policies.policy_help() +
-                        "; or MODULE:FACTORY, or a Stable-Baselines3 PATH.zip")
+    parser.add_argument("--policy", required=True, help=policies.policy_help())
     parser.add_argument("--tier", type=_choices(TIERS, "--tier"), default=TIERS, help="tiers, e.g. standard,hard")
     parser.add_argument("--water", type=_choices(WATERS, "--water"), default=WATERS, help="waters, e.g. ideal,ocean")
     parser.add_argument("--episodes", type=bounded_int(1, SEED_BLOCK), default=None,
