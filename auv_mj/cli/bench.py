@@ -29,13 +29,14 @@ from agents.ddpg import DDPG, GRADIENT_PATHS, DDPGConfig
 from agents.replay import Batch
 from agents.td3 import TD3, TD3Config
 from agents.train import env_spec, train
-from auv_mj import render
+from auv_mj import model_path, render
 from auv_mj.arenas.arena import load
 from auv_mj.cli.options import bounded_int, check_output, seed_int, usage_error
 from auv_mj.cli.train import make_env_fn
 from auv_mj.render import glbackend
-from auv_mj.sim import native
+from auv_mj.sim import native, native6
 from auv_mj.sim.physics import AUVPhysics
+from auv_mj.sim.physics6 import AUV6Physics, set_pose
 from tasks import suite
 from tasks.guidance import line_of_sight
 
@@ -159,6 +160,49 @@ def physics_section(settings: BenchSettings) -> list[Measurement]:
         Measurement("Python loop / plain mj_step", median_ratio(times, 4, 0), "x", "native=False"),
         Measurement("simulated / wall-clock time", physics.timestep() / (median[1] * 1e-6), "x",
                     f"AUVPhysics.step({SUB_STEPS})"),
+    ]
+
+
+@section("physics6")
+def physics6_section(settings: BenchSettings) -> list[Measurement]:
+    """AUV6Physics.step (the 6-DOF water forces of `auv_mj.sim.hydro6` in the step) against plain mj_step of the
+    same compiled model (issue 32: at most 1.5x), and its NumPy reference loop."""
+    physics = AUV6Physics.from_xml_path(model_path("auv6.xml"))
+    set_pose(physics, (0.0, 0.0, -20.0), nu=(1.5, 0.0, 0.0, 0.0, 0.0, 0.0))
+    physics.set_control([10.0, 0.1, 0.05])
+    physics.step(1000)  # a moving, turning, diving vehicle
+    model = physics.model.ptr
+    plain = mujoco.MjData(model)
+    plain.ctrl[:] = physics.data.ctrl
+
+    def plain_steps() -> None:
+        mujoco.mj_step(model, plain, SUB_STEPS)
+        plain.qvel[:] = 0.0  # without drag and buoyancy it would only fall faster
+
+    def hydro_steps() -> None:
+        physics.step(SUB_STEPS)
+
+    python_data = mujoco.MjData(model)
+    mujoco.mju_copy(python_data.qvel, physics.data.qvel)
+    mujoco.mju_copy(python_data.qpos, physics.data.qpos)
+    python_data.ctrl[:] = physics.data.ctrl
+    mujoco.mj_step1(model, python_data)
+    python_advance = physics.hydrodynamics.bind(model, python_data)
+    fins = tuple(float(f) for f in physics.fins)
+
+    def python_steps() -> None:
+        python_advance(SUB_STEPS, model.opt.timestep, lambda dt: fins)
+
+    calls = settings.calls(400)
+    times = interleaved_times([plain_steps, hydro_steps, python_steps], [calls] * 3, settings.repeats) / SUB_STEPS
+    median = np.median(times, axis=0) * 1e6
+    loop = "C loop" if native6.kernel() is not None else "Python loop: no C compiler"
+    return [
+        Measurement("mj_step (plain, same 6-DOF model)", median[0], "us/step", "the limit"),
+        Measurement(f"AUV6Physics.step({SUB_STEPS})", median[1], "us/step", loop),
+        Measurement(f"6-DOF NumPy loop, {SUB_STEPS} steps per call", median[2], "us/step", "the reference"),
+        Measurement("6-DOF step / plain mj_step", median_ratio(times, 1, 0), "x", loop),
+        Measurement("6-DOF NumPy loop / plain mj_step", median_ratio(times, 2, 0), "x", "the reference"),
     ]
 
 

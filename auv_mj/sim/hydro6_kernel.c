@@ -127,21 +127,16 @@ void auv6_hydro_advance(const void *model, void *data, mj_function factor, mj_fu
             }
             A[7 * i] += extra;
         }
-        double J[36];
-        for (int i = 0; i < 6; ++i) {
-            for (int j = 0; j < 6; ++j) {
-                /* (J^T A J)_ij = sum_kl J_ki A_kl J_lj, J_ki = R^T for k, i < 3 i.e. R[i][k]. */
-                double s = 0.0;
-                for (int kk = 0; kk < 6; ++kk) {
-                    const double jki = (kk < 3 && i < 3) ? R[3 * i + kk] : ((kk >= 3 && i >= 3 && kk == i) ? 1.0 : 0.0);
-                    if (jki == 0.0) continue;
-                    for (int l = 0; l < 6; ++l) {
-                        const double jlj = (l < 3 && j < 3) ? R[3 * j + l] : ((l >= 3 && j >= 3 && l == j) ? 1.0 : 0.0);
-                        if (jlj != 0.0) s += jki * A[6 * kk + l] * jlj;
-                    }
-                }
-                J[6 * i + j] = s;
-            }
+        double J[36]; /* only the lower triangle is read */
+        for (int i = 0; i < 3; ++i) {
+            double RA[3]; /* row i of R A11 */
+            for (int l = 0; l < 3; ++l) RA[l] = R[3 * i] * A[l] + R[3 * i + 1] * A[6 + l] + R[3 * i + 2] * A[12 + l];
+            for (int j = 0; j <= i; ++j) J[6 * i + j] = RA[0] * R[3 * j] + RA[1] * R[3 * j + 1] + RA[2] * R[3 * j + 2];
+        }
+        for (int i = 3; i < 6; ++i) {
+            for (int j = 0; j < 3; ++j) /* A21 R^T */
+                J[6 * i + j] = A[6 * i] * R[3 * j] + A[6 * i + 1] * R[3 * j + 1] + A[6 * i + 2] * R[3 * j + 2];
+            for (int j = 3; j <= i; ++j) J[6 * i + j] = A[6 * i + j];
         }
         int e = 0;
         for (int i = 0; i < 6; ++i)

@@ -132,7 +132,8 @@ class AUV6Physics(engine.Physics):
         advance = self._hydro.bind_native(model, data, self.fins, source, first, self._fin_limits, self.fin_rate)
         if advance is None:
             advance = self._hydro.bind(model, data)
-        self._bound = (model, data, advance, self._fin_step(data))
+        self._bound = (model, data, advance, self._fin_step(data), memoryview(data.ctrl), memoryview(data.qvel),
+                       memoryview(data.warning.number))
         return self._bound
 
     def _fin_step(self, data: mujoco.MjData) -> Callable[[float], tuple[float, float]]:
@@ -153,11 +154,12 @@ class AUV6Physics(engine.Physics):
     def step(self, nstep: int = 1) -> None:
         """Advances `nstep` semi-implicit Euler steps with the water's forces; raises PhysicsError on a MuJoCo
         warning or a non-finite state. After a direct change of qpos or qvel, call `forward()` first."""
-        model, data, advance, fins = self._bound or self._bind()
-        if not np.all(np.isfinite(data.ctrl)):
+        model, data, advance, fins, ctrl, qvel, warnings = self._bound or self._bind()
+        if not math.isfinite(sum(ctrl)):  # one sum per call: a NaN or inf anywhere makes it non-finite
             raise ValueError(f"control must be finite, got {data.ctrl.tolist()}; the physics state was not changed")
-        warnings_before = data.warning.number.copy()
+        warnings_before = warnings.tobytes()
         start = data.time
+        timestep = model.opt.timestep
         if not self._step_ready:
             mujoco.mj_step1(model, data)
         wrench = None
@@ -166,11 +168,10 @@ class AUV6Physics(engine.Physics):
 
             def wrench():
                 return np.asarray(disturbance(data.time), dtype=float)
-        advance(nstep, model.opt.timestep, fins, wrench)
+        advance(nstep, timestep, fins, wrench)
         self._step_ready = True
-        bad = not math.isfinite(float(np.sum(data.qvel)))
-        rewound = data.time < start + (nstep - 0.5) * model.opt.timestep  # MuJoCo reset an unstable state
-        if bad or rewound or np.any(data.warning.number != warnings_before):
+        rewound = data.time < start + (nstep - 0.5) * timestep  # MuJoCo reset an unstable state
+        if rewound or not math.isfinite(sum(qvel)) or warnings.tobytes() != warnings_before:
             message = f"Physics state is invalid ({self.source}): the 6-DOF step diverged or MuJoCo reset it"
             if self._warnings_cause_exception:
                 raise PhysicsError(message)
@@ -181,7 +182,7 @@ class AUV6Physics(engine.Physics):
         if self._hydro is None:
             super().forward()
             return
-        model, data, advance, fins = self._bound or self._bind()
+        model, data, advance, fins, *_ = self._bound or self._bind()
         with self.check_invalid_state():
             mujoco.mj_forward(model, data)
             advance(0, 0.0, fins)
