@@ -78,6 +78,22 @@ def summary(rows: list[dict], reference: dict[int, float | None]) -> dict:
             "median_clearance": float(np.median(clearance)) if clearance else None}
 
 
+def merged(results: list[dict]) -> dict:
+    """Result files pooled: each cell's episodes of every file (a seed once), summaries recomputed."""
+    pooled: dict = {}
+    for result in results:
+        for task, cells in result.items():
+            for policy, cell in cells.items():
+                rows = pooled.setdefault(task, {}).setdefault(policy, {"rows": []})["rows"]
+                seen = {r["seed"] for r in rows}
+                rows += [r for r in cell["rows"] if r["seed"] not in seen]
+    for cells in pooled.values():
+        reference = {r["seed"]: r["time_to_goal"] for r in cells.get("oracle", {}).get("rows", [])}
+        for cell in cells.values():
+            cell["summary"] = summary(cell["rows"], reference)
+    return pooled
+
+
 def markdown(result: dict) -> str:
     """The cells of a result file as a markdown table, one row per task and policy."""
     lines = ["| set | policy | episodes | success [95 % Wilson] | collisions | left map | timeouts | mean time [s] | "
@@ -103,10 +119,12 @@ def main() -> None:
     parser.add_argument("--tier", default="hard")
     parser.add_argument("--conditions", default="ideal")
     parser.add_argument("--json", required=True)
-    parser.add_argument("--markdown", action="store_true", help="print the table of --json and run nothing")
+    parser.add_argument("--markdown", action="store_true",
+                        help="print the table of --json (several files, comma-separated: their episodes pooled) "
+                             "and run nothing")
     args = parser.parse_args()
     if args.markdown:
-        print(markdown(json.loads(Path(args.json).read_text())))
+        print(markdown(merged([json.loads(Path(name).read_text()) for name in args.json.split(",")])))
         return
     seeds = range(args.seed, args.seed + args.episodes)
     task_kwargs = {"arena": "random", "tier": args.tier, "conditions": args.conditions}
