@@ -117,3 +117,18 @@ def test_known_arena_boxes_are_where_they_were_put():
     names = [env.physics.model.geom(i).name for i in range(env.physics.model.ngeom)]
     assert sum(name.startswith("unknown_cup") for name in names) == 3
     assert all(isinstance(b, Obstacle) for b in CUP)
+
+
+def test_tunnel_command_writes_the_hard_arena_of_a_seed(tmp_path):
+    """`auv-mj tunnel --random SEED --tier hard` writes the first episode's arena of the task seeded SEED."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "hard.xml"
+    done = subprocess.run([sys.executable, "-m", "auv_mj.cli", "tunnel", "--random", "20000", "--tier", "hard",
+                           "-o", str(out)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    text = out.read_text()
+    expected = traps.random_hard_tunnel(20_000, RANDOM_TUNNELS)
+    traps_in_file = text.count('name="unknown_trap')
+    assert traps_in_file == sum(o.name.startswith("trap") for o in expected.unknown) > 0
