@@ -1,0 +1,93 @@
+"""Videos and plots of 6-DOF episodes (issue 32): `python -m auv_mj.cli.render3d --task tunnel3d --policy splane`.
+
+Runs one episode of an auv3d task with a registered policy (`auv_mj.cli.policies`), writes the three-panel
+video of `auv_mj.render.video3d` (chase | top-down | side) and, with --plots PREFIX, two figures:
+PREFIX_depth.png (depth against time, with the command where the task has one) and PREFIX_track.png (the
+3-D track, with the tube's centreline or the goal). Not yet an `auv-mj` subcommand.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from auv_mj.cli.policies import env_and_policy
+from auv_mj.episode import EpisodeRecorder
+from auv_mj.render.video import write_video
+from auv_mj.render.video3d import PANEL_SIZE, Track3D, iter_frames_3d
+from tasks import suite
+
+DPI = 100
+
+
+def plot_depth(track: dict[str, np.ndarray], path: str | Path, title: str = "") -> Path:
+    """Depth [m] against time [s], the depth command dashed where there is one; depth grows downwards."""
+    fig = Figure(figsize=(8, 4), dpi=DPI)
+    ax = fig.add_subplot()
+    ax.plot(track["time"], -track["position"][:, 2], label="depth")
+    if np.any(np.isfinite(track["depth_command"])):
+        ax.plot(track["time"], track["depth_command"], "--", label="command")
+    ax.invert_yaxis()
+    ax.set(xlabel="time [s]", ylabel="depth [m]", title=title)
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    return Path(path)
+
+
+def plot_track(track: dict[str, np.ndarray], path: str | Path, centreline: np.ndarray | None = None,
+               goal: np.ndarray | None = None, title: str = "") -> Path:
+    """The 3-D track (x, y, depth), with a tube's centreline and the goal if given."""
+    fig = Figure(figsize=(7, 6), dpi=DPI)
+    ax = fig.add_subplot(projection="3d")
+    p = track["position"]
+    ax.plot(p[:, 0], p[:, 1], -p[:, 2], label="vehicle")
+    if centreline is not None and len(centreline) >= 2:
+        ax.plot(centreline[:, 0], centreline[:, 1], -centreline[:, 2], "--", label="tube centreline")
+    if goal is not None:
+        ax.scatter([goal[0]], [goal[1]], [-goal[2]], color="tab:red", label="goal")
+    ax.invert_zaxis()
+    ax.set(xlabel="x [m]", ylabel="y [m]", zlabel="depth [m]", title=title)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path)
+    return Path(path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m auv_mj.cli.render3d", description=__doc__.splitlines()[0])
+    parser.add_argument("--task", default="tunnel3d", choices=[name for _, name in suite.TASKS_3D])
+    parser.add_argument("--policy", default="splane")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--max-steps", type=int, default=None)
+    parser.add_argument("-o", "--output", default=None, help="video to write (.mp4 or .gif); none if omitted")
+    parser.add_argument("--plots", default=None, metavar="PREFIX", help="write PREFIX_depth.png, PREFIX_track.png")
+    args = parser.parse_args(argv)
+    if args.output is None and args.plots is None:
+        parser.error("give -o VIDEO and/or --plots PREFIX")
+    env, policy = env_and_policy(args.policy, args.task, args.seed)
+    track = Track3D()
+    frames = iter_frames_3d(env, policy, max_steps=args.max_steps, size=PANEL_SIZE, track=track)
+    if args.output:
+        written = write_video(frames, args.output, fps=round(1.0 / env.control_timestep()))
+        print(f"wrote {written}")
+    else:  # the same episode loop, nothing drawn
+        recorder = EpisodeRecorder(env)
+        for _ in recorder.run(policy, args.max_steps):
+            track.add(env)
+    if args.plots:
+        arrays = track.arrays()
+        title = f"{args.task}, {args.policy}, seed {args.seed}"
+        print(f"wrote {plot_depth(arrays, f'{args.plots}_depth.png', title)}")
+        path = getattr(env.task, "path", None)
+        goal = getattr(env.task, "goal", None)
+        print(f"wrote {plot_track(arrays, f'{args.plots}_track.png', path, goal, title)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
