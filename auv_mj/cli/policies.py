@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -183,12 +184,25 @@ def named_executor(name: str):
 # --- building policies ------------------------------------------------------------------------------------------
 
 
+@lru_cache(maxsize=16)
+def _loaded(path: str, mtime_ns: int, size: int) -> Policy:
+    return Policy.load(path)
+
+
+def loaded_policy(path: Path) -> Policy:
+    """`Policy.load(path)`, once per version of the file in a process. A Policy is stateless (the actor in eval
+    mode, no exploration noise), so the episodes of an evaluation share it; reading a checkpoint (critic and
+    optimiser state included) otherwise costs about as much as building the episode's environment."""
+    stat = Path(path).stat()
+    return _loaded(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
+
+
 def checkpoint_policy(path: Path, env, protection: bool | str | None = None) -> ActingPolicy:
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
     (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, and a
     residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`). `protection` as
     `PolicySpec.protection`. ValueError naming the file if its observation or action sizes do not fit the task."""
-    policy = Policy.load(path)
+    policy = loaded_policy(path)
     sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
     actions = tuple(env.action_spec().shape)
     try:
