@@ -1,0 +1,85 @@
+"""The README and docs/ stay true to the code: the policy table is the registry's, the layout names every part of
+the core and only paths that exist, and every relative link (and its #anchor) resolves."""
+
+import re
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+PAGES = [README, *sorted((ROOT / "docs").glob("*.md"))]
+LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
+"""A Markdown link's target: `[text](target)`."""
+
+
+def _block(name: str) -> str:
+    """The README's text between `<!-- name -->` and `<!-- /name -->`."""
+    text = README.read_text()
+    match = re.search(rf"<!-- {name} -->\n(.*?)\n<!-- /{name} -->", text, re.S)
+    assert match, f"README.md has no <!-- {name} --> ... <!-- /{name} --> block"
+    return match.group(1)
+
+
+def _slug(heading: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces as hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def _anchors(page: Path) -> set[str]:
+    text = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)  # a `# comment` in a code block is no heading
+    return {_slug(line.lstrip("#")) for line in text.splitlines() if re.match(r"#{1,6} ", line)}
+
+
+def test_the_readme_policy_table_is_the_registry_s():
+    """The README's copy is `auv-mj policies --markdown`; refresh it from there when a policy is registered."""
+    from auv_mj.cli.policies import POLICIES, markdown_table
+
+    block = _block("policies")
+    assert block == markdown_table(), "README's policy table is stale: paste `auv-mj policies --markdown` over it"
+    listed = re.findall(r"^\| `([^`]+)` \|", block, re.M)
+    assert listed == list(POLICIES)
+
+
+def test_auv_mj_policies_markdown_prints_the_table(capsys):
+    from auv_mj.cli import main
+    from auv_mj.cli.policies import markdown_table
+
+    assert main(["policies", "--markdown"]) in (0, None)
+    assert capsys.readouterr().out.strip() == markdown_table()
+
+
+def test_the_layout_names_every_part_of_the_core_and_every_layer():
+    block = _block("layout")
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]
+    core = {m.strip() for m in config["contracts"][0]["layers"][-1].split(":")}
+    for module in sorted(core):
+        name = module.split(".", 1)[1]
+        assert (f"`auv_mj/{name}/`" in block or f"`auv_mj/{name}.py`" in block or f"`{name}`" in block), \
+            f"the README's layout does not name {module}"
+    for folder in ("auv_mj/cli/", "agents/", "tasks/", "auv_mj/cli/report/", "models/"):
+        assert f"`{folder}`" in block, folder
+
+
+def test_the_layout_names_only_paths_that_exist():
+    paths = re.findall(r"`((?:auv_mj|agents|tasks|models|tests|docs)/[\w/.-]*)`", _block("layout"))
+    assert len(paths) >= 8
+    missing = [p for p in paths if not (ROOT / p).exists()]
+    assert not missing, f"the README's layout names paths that do not exist: {missing}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_relative_links_and_anchors_resolve(page):
+    text = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)
+    broken = []
+    for target in LINK.findall(text):
+        if re.match(r"[a-z]+:", target):
+            continue  # http(s), mailto: outside the repository
+        path, _, anchor = target.partition("#")
+        linked = (page.parent / path).resolve() if path else page
+        if not linked.exists():
+            broken.append(target)
+        elif anchor and linked.suffix == ".md" and anchor not in _anchors(linked):
+            broken.append(target)
+    assert not broken, f"{page.name}: links that do not resolve: {broken}"
