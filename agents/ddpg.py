@@ -21,13 +21,11 @@ import numpy as np
 import torch
 from torch import nn
 
-from agents.networks import Actor, Critic, DensePass, Normalizer, ParameterVector, VectorAdam
+from agents.networks import Actor, Critic, Normalizer, ParameterVector, VectorAdam
 from agents.replay import Batch
 
 EPSILON_UNITS = ("steps", "episodes")
 """What epsilon_decay counts."""
-GRADIENT_PATHS = ("dense", "autograd")
-"""How a gradient step computes its gradients (`DDPGConfig.gradients`)."""
 
 
 @dataclass(frozen=True)
@@ -76,10 +74,6 @@ class DDPGConfig:
     """Seed of network initialisation, exploration, replay sampling and environment resets (ours)."""
     torch_threads: int = 1
     """torch.set_num_threads for training; small MLPs are fastest on one thread (ours)."""
-    gradients: str = "dense"
-    """"autograd" (loss.backward() of critic_loss / actor_loss, the reference) or "dense" (the same gradients
-    written out for the tanh MLPs, `agents.networks.DensePass`: equal to float rounding, about 1.4x the
-    gradient steps/s on a CPU at Table 4's sizes) (ours; speed)."""
 
     def __post_init__(self):
         check_config(self)
@@ -113,8 +107,6 @@ def check_config(config: DDPGConfig) -> None:
             raise ValueError(f"DDPGConfig.{name} must be {what} in {interval}, got {_shown(value)}")
     if config.epsilon_unit not in EPSILON_UNITS:
         raise ValueError(f"DDPGConfig.epsilon_unit must be one of {EPSILON_UNITS}, got {_shown(config.epsilon_unit)}")
-    if config.gradients not in GRADIENT_PATHS:
-        raise ValueError(f"DDPGConfig.gradients must be one of {GRADIENT_PATHS}, got {_shown(config.gradients)}")
     sizes = config.hidden_sizes
     if not (isinstance(sizes, tuple) and 1 <= len(sizes) <= MAX_HIDDEN_LAYERS
             and all(isinstance(w, (int, np.integer)) and not isinstance(w, bool) and 1 <= w <= MAX_HIDDEN_WIDTH
@@ -185,37 +177,6 @@ def actor_loss(actor: Actor, critic: Critic, obs: torch.Tensor, action_l2: float
 
 
 @torch.no_grad()
-def dense_critic_backward(critic: DensePass, obs: torch.Tensor, actions: torch.Tensor,
-                          target: torch.Tensor) -> torch.Tensor:
-    """`critic_loss` (Eq. 17-18) with its gradient written out into the critic's gradient vector: dL/dQ =
-    2 (Q - Q_Target) / m, back through the critic. The "dense" path; autograd's is the reference."""
-    activations = critic.forward(torch.cat([obs, actions], dim=-1))
-    error = activations[-1].squeeze(-1) - target
-    critic.backward(activations, (error * (2.0 / error.numel())).unsqueeze(-1))
-    return error.square().mean()
-
-
-@torch.no_grad()
-def dense_actor_backward(actor: DensePass, critic: DensePass, obs: torch.Tensor,
-                         action_l2: float = 0.0) -> torch.Tensor:
-    """`actor_loss` (Eq. 16) with its gradient written out into the actor's gradient vector: dL/dQ = -1 / m
-    back through the (fixed) critic to the action, through the actor's tanh output, then through the actor.
-    The "dense" path; autograd's is the reference."""
-    activations = actor.forward(obs)
-    action = activations[-1].tanh()
-    critic_activations = critic.forward(torch.cat([obs, action], dim=-1))
-    q = critic_activations[-1]
-    grad_action = critic.backward(critic_activations, torch.full_like(q, -1.0 / q.numel()), weights=False,
-                                  input_columns=slice(obs.shape[-1], None))
-    loss = -q.mean()
-    if action_l2:
-        loss = loss + action_l2 * action.square().mean()
-        grad_action = grad_action + action * (2.0 * action_l2 / action.numel())
-    actor.backward(activations, grad_action - grad_action * action * action)
-    return loss
-
-
-@torch.no_grad()
 def soft_update(target: nn.Module | ParameterVector, source: nn.Module | ParameterVector, tau: float) -> None:
     """theta' <- tau * theta + (1 - tau) * theta' (Eq. 19), of modules or, in one call, of parameter vectors."""
     if isinstance(target, ParameterVector) and isinstance(source, ParameterVector):
@@ -246,8 +207,6 @@ class DDPG:
                         for name in ("actor", "critic", "actor_target", "critic_target")}
         self.actor_opt = VectorAdam([self.vectors["actor"]], lr=config.actor_lr)
         self.critic_opt = VectorAdam([self.vectors["critic"]], lr=config.critic_lr)
-        self.actor_pass = DensePass(self.actor.net) if config.gradients == "dense" else None
-        self.critic_pass = DensePass(self.critic.net) if config.gradients == "dense" else None
         self.rng = np.random.default_rng(config.seed)
         self.epsilon = config.epsilon_start
         """Current exploration epsilon, set by the training loop from `epsilon_at`."""
@@ -279,20 +238,13 @@ class DDPG:
         return Batch(*(torch.as_tensor(np.asarray(a, dtype=np.float32), device=self.device) for a in batch))
 
     def critic_step(self, obs: torch.Tensor, batch: Batch, next_obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """One critic step (Eq. 17-18) on normalised obs / next_obs, then its target (Eq. 19); (loss, mean target).
-
-        The gradient is autograd's of `critic_loss`, or on the "dense" path (`DDPGConfig.gradients`) the same
-        written out by `dense_critic_backward`.
-        """
+        """One critic step (Eq. 17-18) on normalised obs / next_obs, then its target (Eq. 19); (loss, mean target)."""
         cfg = self.config
         target = td_target(self.critic_target, self.actor_target, batch.rewards, next_obs, batch.terminated,
                            cfg.gamma)
+        loss = critic_loss(self.critic, obs, batch.actions, target)
         self.critic_opt.zero_grad()
-        if self.critic_pass is None:
-            loss = critic_loss(self.critic, obs, batch.actions, target)
-            loss.backward()
-        else:
-            loss = dense_critic_backward(self.critic_pass, obs, batch.actions, target)
+        loss.backward()
         self.critic_opt.step()
         soft_update(self.vectors["critic_target"], self.vectors["critic"], cfg.tau)
         return loss.detach(), target.mean()
@@ -302,15 +254,12 @@ class DDPG:
 
         The gradient of `actor_loss` flows through the critic to the action but only the actor's parameters
         receive it (`backward(inputs=...)`): the critic stays as it is, and its weight gradients are never
-        computed. The "dense" path writes the same gradient out (`dense_actor_backward`).
+        computed.
         """
         cfg = self.config
+        loss = actor_loss(self.actor, self.critic, obs, cfg.action_l2)
         self.actor_opt.zero_grad()
-        if self.actor_pass is None:
-            loss = actor_loss(self.actor, self.critic, obs, cfg.action_l2)
-            loss.backward(inputs=self.vectors["actor"].params)
-        else:
-            loss = dense_actor_backward(self.actor_pass, self.critic_pass, obs, cfg.action_l2)
+        loss.backward(inputs=self.vectors["actor"].params)
         self.actor_opt.step()
         soft_update(self.vectors["actor_target"], self.vectors["actor"], cfg.tau)
         return loss.detach()

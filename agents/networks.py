@@ -4,13 +4,14 @@ The normaliser follows the HER paper (Andrychowicz et al. 2017): inputs are stan
 statistics and clipped to [-NORM_CLIP, NORM_CLIP]; its statistics are module buffers, so they travel
 with every checkpoint.
 
-The gradient steps of `agents.ddpg` and `agents.td3` are defined by autograd: their losses are code and
+The gradient steps of `agents.ddpg` and `agents.td3` are autograd's: their losses are code and
 `loss.backward()` gives the gradients. Each network's parameters live in one `ParameterVector`, so that
-`VectorAdam` (torch.optim.Adam(fused=True) on the vectors) and the soft target updates take one call per
-network. Behind that reference, `DensePass` writes the tanh MLPs' backward passes out by hand: equal to
-autograd's gradients to float rounding (`tests/test_networks.py`), about 1.4x its gradient steps per second on
-a CPU at Table 4's sizes (`auv-mj bench --sections training` reports both), and what training uses unless
-`DDPGConfig.gradients` is "autograd". The modules' own `forward` is unchanged, for policies and tests.
+`VectorAdam` (torch.optim.Adam(fused=True) on the vectors) and the soft target updates (Eq. 19) take one call
+per network: at Table 4's sizes on a CPU, Adam on the six tensors of a network costs about three times its step
+on one vector. The backward passes written out by hand that these steps used before (`DensePass`, until issue
+29) were only 1.2x (DDPG) and 1.1-1.2x (TD3) faster than autograd with this optimiser (`auv-mj bench --sections
+training` and alternating in-process timings), below the 1.3x that would have kept them. The modules' own
+`forward` is unchanged, for policies and tests.
 """
 
 from __future__ import annotations
@@ -154,60 +155,6 @@ class ParameterVector:
         """A vector laid out like `data` (an optimiser moment), as views shaped like the parameters."""
         sizes = [p.numel() for p in self.params]
         return [part.view_as(p) for part, p in zip(vector.split(sizes), self.params, strict=True)]
-
-
-class DensePass:
-    """Forward and backward passes of an `mlp` written out by hand, on its weights' storage: the fast path
-    behind the autograd reference.
-
-    The gradients of `agents.ddpg`'s losses are defined by autograd (`loss.backward()`, the "autograd" path).
-    For the two tanh layers of Sec. 4 they are also a handful of matrix products (dL/dW = delta^T h,
-    dL/dh = delta W, tanh' = 1 - tanh^2), and at Table 4's sizes on a CPU, writing them down gives about 1.4x
-    autograd's gradient steps per second (`auv-mj bench --sections training` reports both), because autograd
-    records and replays a graph of small operations each step. `tests/test_networks.py` holds every step of
-    this path to the autograd one. Gradients go to the `.grad` of the net's parameters, which must be views of
-    a `ParameterVector`'s gradient (weight then bias per layer).
-    """
-
-    def __init__(self, net: nn.Sequential):
-        linears = [m for m in net if isinstance(m, nn.Linear)]
-        if len(linears) * 2 - 1 != len(net) or not all(isinstance(m, nn.Tanh) for m in list(net)[1::2]):
-            raise ValueError("DensePass needs an `mlp`: Linear layers with tanh between them")
-        self.weights = [m.weight.detach() for m in linears]
-        self.biases = [m.bias.detach() for m in linears]
-        self.grads = [g for m in linears for g in (m.weight.grad, m.bias.grad)]
-        if any(g is None for g in self.grads):
-            raise ValueError("DensePass needs the net's parameters in a trained ParameterVector (their .grad views)")
-
-    def forward(self, x: torch.Tensor) -> list[torch.Tensor]:
-        """[x, h_1, ..., h_L, output]: the input, each tanh layer's output and the last linear output."""
-        activations = [x]
-        last = len(self.weights) - 1
-        for layer, (weight, bias) in enumerate(zip(self.weights, self.biases, strict=True)):
-            z = torch.addmm(bias, activations[-1], weight.t())
-            activations.append(z.tanh_() if layer < last else z)
-        return activations
-
-    def backward(self, activations: Sequence[torch.Tensor], grad_output: torch.Tensor, weights: bool = True,
-                 input_columns: slice | None = None) -> torch.Tensor | None:
-        """Back-propagates dL/d(output) through the layers of `forward`'s `activations`.
-
-        `weights` writes dL/dW and dL/db into the parameters' gradients (overwriting them); `input_columns`
-        returns dL/dx of those input columns (the action part of the critic's [s, a], for the actor's step),
-        else None.
-        """
-        delta = grad_output
-        for layer in range(len(self.weights) - 1, -1, -1):
-            if weights:
-                torch.mm(delta.t(), activations[layer], out=self.grads[2 * layer])
-                torch.sum(delta, 0, out=self.grads[2 * layer + 1])
-            if layer > 0:
-                delta = delta.mm(self.weights[layer])
-                h = activations[layer]
-                delta = delta - delta * h * h  # through tanh: delta (1 - h^2)
-            elif input_columns is not None:
-                return delta.mm(self.weights[0][:, input_columns])
-        return None
 
 
 class VectorAdam(torch.optim.Adam):

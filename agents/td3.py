@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
-from agents.ddpg import DDPG, DDPGConfig, _shown, critic_loss, dense_critic_backward, soft_update
-from agents.networks import Actor, Critic, DensePass, ParameterVector, VectorAdam
+from agents.ddpg import DDPG, DDPGConfig, _shown, critic_loss, soft_update
+from agents.networks import Actor, Critic, ParameterVector, VectorAdam
 from agents.replay import Batch
 
 MAX_POLICY_DELAY = 1000
@@ -86,7 +86,6 @@ class TD3(DDPG):
         self.critic2_target = copy.deepcopy(self.critic2).requires_grad_(False)
         self.vectors.update({name: ParameterVector(getattr(self, name)) for name in ("critic2", "critic2_target")})
         self.critic_opt = VectorAdam([self.vectors["critic"], self.vectors["critic2"]], lr=config.critic_lr)
-        self.critic2_pass = DensePass(self.critic2.net) if config.gradients == "dense" else None
 
     @property
     def actor_updates(self) -> int:
@@ -99,8 +98,7 @@ class TD3(DDPG):
 
     def critic_step(self, obs: torch.Tensor, batch: Batch, next_obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Both critics towards the twin target with a smoothed target action, one Adam step moving both;
-        (summed loss, mean target). The gradients are autograd's of the summed `critic_loss`es, or on the
-        "dense" path each critic's written out by `dense_critic_backward`.
+        (summed loss, mean target).
 
         A vmap over the two critics (torch.func.stack_module_state and functional_call) was tried: on a CPU at
         Table 4's sizes it is slower than the two calls, as is torch.compile of the losses (issue 29).
@@ -109,13 +107,9 @@ class TD3(DDPG):
         next_actions = smoothed_target_action(self.actor_target, next_obs, cfg.target_noise, cfg.noise_clip)
         target = twin_td_target((self.critic_target, self.critic2_target), next_obs, next_actions,
                                 batch.rewards, batch.terminated, cfg.gamma)
+        loss = sum(critic_loss(critic, obs, batch.actions, target) for critic in (self.critic, self.critic2))
         self.critic_opt.zero_grad()
-        if self.critic_pass is None:
-            loss = sum(critic_loss(critic, obs, batch.actions, target) for critic in (self.critic, self.critic2))
-            loss.backward()
-        else:
-            loss = sum(dense_critic_backward(dense, obs, batch.actions, target)
-                       for dense in (self.critic_pass, self.critic2_pass))
+        loss.backward()
         self.critic_opt.step()
         return loss.detach(), target.mean()
 

@@ -1,8 +1,8 @@
-"""The gradient steps of agents.ddpg and agents.td3: autograd's, against the numbers of the code before it and
-against torch.optim.Adam on plain modules; the hand-written "dense" path, against autograd's.
+"""The gradient steps of agents.ddpg and agents.td3 (autograd's) against the numbers of the hand-written code
+before them and against torch.optim.Adam on plain modules.
 
-`ParameterVector` moves each network's parameters into one vector, `VectorAdam` is torch.optim.Adam(fused=True)
-on those vectors, and `DensePass` writes the tanh MLP's backward pass out by hand (`DDPGConfig.gradients`).
+`ParameterVector` moves each network's parameters into one vector and `VectorAdam` is torch.optim.Adam(fused=True)
+on those vectors.
 
 tests/data/autograd_reference_d7f506e.npz and tests/data/adam_state_d7f506e.pt were written at commit d7f506e,
 before the gradient steps went through autograd (they were then the hand-written passes and a private-call
@@ -25,7 +25,7 @@ import torch
 
 from agents.checkpoint import agent_tensors, load_agent, read_checkpoint, save_checkpoint
 from agents.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, soft_update, td_target
-from agents.networks import Critic, DensePass, ParameterVector, VectorAdam, mlp
+from agents.networks import Critic, ParameterVector, VectorAdam, mlp
 from agents.replay import Batch
 from agents.td3 import TD3, TD3Config, smoothed_target_action, twin_td_target
 
@@ -36,8 +36,7 @@ REFERENCE = DATA / "autograd_reference_d7f506e.npz"
 OLD_CHECKPOINT = DATA / "adam_state_d7f506e.pt"
 SHIPPED = sorted((Path(__file__).parents[1] / "agents" / "checkpoints").glob("*.pt"))
 FLOAT32 = {"rtol": 1e-5, "atol": 1e-6}
-"""float32 rounding: the paths sum the same products in different orders."""
-PATHS = ("autograd", "dense")
+"""float32 rounding: autograd and the hand-written passes summed the same products in different orders."""
 CONFIG = DDPGConfig(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=4)
 
 
@@ -56,15 +55,15 @@ def grads(module: torch.nn.Module) -> torch.Tensor:
     return torch.cat([p.grad.reshape(-1) for p in module.parameters()])
 
 
-def reference_steps(gradients: str) -> dict[str, np.ndarray]:
-    """The arrays of REFERENCE, recomputed on the `gradients` path (the steps the module docstring names)."""
+def reference_steps() -> dict[str, np.ndarray]:
+    """The arrays of REFERENCE, recomputed (the steps the module docstring names)."""
     out: dict[str, np.ndarray] = {}
 
     def record(prefix: str, agent: DDPG, names: tuple[str, ...], grad_names: tuple[str, ...] = ()) -> None:
         out.update({f"{prefix}_{n}": flat(getattr(agent, n)).numpy().copy() for n in names})
         out.update({f"{prefix}_{n}_grad": agent.vectors[n].grad.numpy().copy() for n in grad_names})
 
-    agent = DDPG(6, 2, dataclasses.replace(CONFIG, action_l2=0.7, gradients=gradients))
+    agent = DDPG(6, 2, dataclasses.replace(CONFIG, action_l2=0.7))
     record("ddpg_init", agent, ("actor", "critic"))
     for step in range(3):
         agent.update(random_batch(16, 6, 2, seed=step))
@@ -72,7 +71,7 @@ def reference_steps(gradients: str) -> dict[str, np.ndarray]:
             record("ddpg_step1", agent, ("actor", "critic", "actor_target", "critic_target"), ("critic", "actor"))
     record("ddpg_step3", agent, ("actor", "critic", "actor_target", "critic_target"), ("critic", "actor"))
 
-    agent = TD3(5, 2, TD3Config(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=2, gradients=gradients))
+    agent = TD3(5, 2, TD3Config(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=2))
     record("td3_init", agent, ("actor", "critic", "critic2"))
     torch.manual_seed(9)  # the smoothing noise
     for step in range(3):  # policy_delay 2: the actor and the targets move at step 2
@@ -83,11 +82,10 @@ def reference_steps(gradients: str) -> dict[str, np.ndarray]:
     return out
 
 
-@pytest.mark.parametrize("gradients", PATHS)
-def test_gradient_steps_reproduce_the_hand_written_path_of_d7f506e(gradients):
+def test_gradient_steps_reproduce_the_hand_written_path_of_d7f506e():
     with np.load(REFERENCE) as data:
         want = {k: data[k] for k in data.files if not k.startswith("resumed_")}
-    got = reference_steps(gradients)
+    got = reference_steps()
     assert sorted(got) == sorted(want)
     for key in sorted(want):
         rounding = {"rtol": 0, "atol": 0} if "_init_" in key else FLOAT32  # the same initial weights
@@ -97,11 +95,9 @@ def test_gradient_steps_reproduce_the_hand_written_path_of_d7f506e(gradients):
     assert np.abs(want["td3_step3_actor"] - want["td3_init_actor"]).max() > 1e-3
 
 
-@pytest.mark.parametrize("gradients", PATHS)
-def test_a_checkpoint_with_the_adam_state_of_d7f506e_resumes(gradients):
+def test_a_checkpoint_with_the_adam_state_of_d7f506e_resumes():
     saved, _ = read_checkpoint(OLD_CHECKPOINT)
-    agent, _ = load_agent(OLD_CHECKPOINT, config=dataclasses.replace(
-        DDPGConfig(hidden_sizes=(16, 16), batch_size=8, tau=0.05, seed=7), gradients=gradients))
+    agent, _ = load_agent(OLD_CHECKPOINT)
     assert agent.actor_opt.steps == agent.critic_opt.steps == 3
     # The per-parameter Adam state of the file is what the vectors' optimisers hold and write back.
     optimiser_state = {k: v for k, v in agent_tensors(agent).items() if "_opt.state." in k}
@@ -125,31 +121,6 @@ def test_shipped_checkpoints_load_with_their_adam_state(path):
             torch.testing.assert_close(tensors[key], value, rtol=0, atol=0, msg=key)
     assert agent.actor_opt.steps == int(saved["actor_opt.state.0.step"]) > 0
     assert agent.num_updates == meta["num_updates"]
-
-
-@pytest.mark.parametrize("sizes", [(5, (7,), 3), (6, (16, 8), 1), (4, (9, 9, 9), 2)])
-def test_dense_pass_matches_the_module_and_autograd(sizes):
-    torch.manual_seed(0)
-    n_in, hidden, n_out = sizes
-    net = mlp(n_in, hidden, n_out)
-    reference = copy.deepcopy(net)
-    ParameterVector(net)
-    dense = DensePass(net)
-    x = torch.randn(11, n_in, requires_grad=True)
-    activations = dense.forward(x.detach())
-    torch.testing.assert_close(activations[-1], reference(x), rtol=0, atol=0)  # the same addmm calls
-    upstream = torch.randn(11, n_out)
-    (reference(x) * upstream).sum().backward()
-    columns = slice(n_in - 2, None)
-    grad_x = dense.backward(activations, upstream, input_columns=columns)
-    torch.testing.assert_close(grad_x, x.grad[:, columns])
-    for p, ref in zip(net.parameters(), reference.parameters(), strict=True):
-        torch.testing.assert_close(p.grad, ref.grad)
-    assert dense.backward(activations, upstream, weights=False) is None
-    with pytest.raises(ValueError, match="needs the net's parameters in a trained ParameterVector"):
-        DensePass(mlp(n_in, hidden, n_out))
-    with pytest.raises(ValueError, match="Linear layers with tanh between them"):
-        DensePass(torch.nn.Sequential(torch.nn.Linear(3, 4), torch.nn.ReLU(), torch.nn.Linear(4, 1)))
 
 
 def test_parameter_vector_shares_the_module_storage_and_gathers_autograd_gradients():
@@ -222,10 +193,9 @@ def test_vector_adam_is_torch_adam_and_keeps_its_per_parameter_state_layout():
         ours.zero_grad(set_to_none=True)
 
 
-@pytest.mark.parametrize("gradients", PATHS)
 @pytest.mark.parametrize("action_l2", [0.0, 0.7])
-def test_ddpg_steps_equal_torch_adam_on_plain_modules(gradients, action_l2):
-    config = dataclasses.replace(CONFIG, action_l2=action_l2, gradients=gradients)
+def test_ddpg_steps_equal_torch_adam_on_plain_modules(action_l2):
+    config = dataclasses.replace(CONFIG, action_l2=action_l2)
     agent = DDPG(6, 2, config)
     data = agent._to_tensors(random_batch(16, 6, 2))
     obs, next_obs = data.obs, data.next_obs
@@ -259,9 +229,8 @@ def test_ddpg_steps_equal_torch_adam_on_plain_modules(gradients, action_l2):
     torch.testing.assert_close(flat(agent.critic), critic_before, rtol=0, atol=0)  # the critic does not move
 
 
-@pytest.mark.parametrize("gradients", PATHS)
-def test_td3_critic_step_equals_torch_adam_on_both_critics(gradients):
-    config = TD3Config(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=2, gradients=gradients)
+def test_td3_critic_step_equals_torch_adam_on_both_critics():
+    config = TD3Config(hidden_sizes=(32, 24), batch_size=16, tau=0.05, seed=2)
     agent = TD3(5, 2, config)
     data = agent._to_tensors(random_batch(16, 5, 2, seed=3))
     critics = [copy.deepcopy(agent.critic), copy.deepcopy(agent.critic2)]
@@ -281,31 +250,6 @@ def test_td3_critic_step_equals_torch_adam_on_both_critics(gradients):
         torch.testing.assert_close(flat(getattr(agent, name)), flat(reference), **FLOAT32)
 
 
-def test_config_names_its_gradient_path():
-    assert DDPGConfig().gradients == TD3Config().gradients == "dense"
-    for bad in ("fast", None, 1):
-        with pytest.raises(ValueError, match="DDPGConfig.gradients must be one of \\('dense', 'autograd'\\)"):
-            DDPGConfig(gradients=bad)
-    assert DDPG(3, 1, DDPGConfig(gradients="autograd")).critic_pass is None
-
-
-@pytest.mark.parametrize("learner, config_class", [(DDPG, DDPGConfig), (TD3, TD3Config)])
-def test_dense_path_follows_the_autograd_reference_over_many_steps(learner, config_class):
-    """At Table 4's widths and batch, twenty steps on the two paths stay together to float rounding."""
-    agents = [learner(9, 2, config_class(gradients=path, seed=3, action_l2=0.5)) for path in PATHS]
-    torch.manual_seed(5)
-    rng_state = torch.get_rng_state()
-    for agent in agents:
-        torch.set_rng_state(rng_state)  # the same TD3 smoothing noise on both paths
-        metrics = agent.update_many(random_batch(20 * 64, 9, 2, seed=8), 20)
-        assert np.isfinite(list(metrics.values())).all()
-    autograd, dense = agents
-    for name in autograd.vectors:
-        torch.testing.assert_close(dense.vectors[name].data, autograd.vectors[name].data, rtol=1e-4, atol=1e-5,
-                                   msg=name)
-        assert not torch.equal(autograd.vectors[name].data, learner(9, 2, config_class(seed=3)).vectors[name].data)
-
-
 def test_checkpoint_round_trips_the_vectors_and_resumes_their_steps(tmp_path):
     agent = DDPG(6, 2, CONFIG)
     batch = random_batch(32, 6, 2, seed=5)
@@ -318,7 +262,14 @@ def test_checkpoint_round_trips_the_vectors_and_resumes_their_steps(tmp_path):
     loaded.update_many(batch, 2)
     for name in ("actor", "critic", "actor_target", "critic_target"):
         torch.testing.assert_close(flat(getattr(agent, name)), flat(getattr(loaded, name)), rtol=0, atol=0)
-    # The loaded agent's passes and optimisers move the loaded modules (they see the loaded storage).
+    # The loaded agent's optimisers move the loaded modules (they see the loaded storage).
     assert isinstance(loaded.critic, Critic)
-    assert loaded.critic_pass.weights[0].data_ptr() == loaded.critic.net[0].weight.data_ptr()
     assert loaded.critic_opt.param_groups[0]["params"][0].data_ptr() == loaded.critic.net[0].weight.data_ptr()
+
+
+def test_agents_call_no_private_torch_functions():
+    sources = sorted((Path(__file__).parents[1] / "agents").glob("*.py"))
+    assert sources
+    for source in sources:
+        for number, line in enumerate(source.read_text().splitlines(), 1):
+            assert "torch._" not in line, f"{source.name}:{number} calls a private torch function: {line.strip()}"
