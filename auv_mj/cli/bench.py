@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
-from agents.ddpg import DDPG, GRADIENT_PATHS, DDPGConfig
+from agents.ddpg import DDPG, DDPGConfig
 from agents.replay import Batch
 from agents.td3 import TD3, TD3Config
 from agents.train import env_spec, train
@@ -335,18 +335,13 @@ def render_section(settings: BenchSettings) -> list[Measurement]:
 
 
 TRAINING_UPDATES = 200
-"""Gradient steps timed per repeat and agent in the "training" section."""
-DENSE_MIN_SPEEDUP = 1.3
-"""The hand-written "dense" gradient path (`DDPGConfig.gradients`) stays only while it is at least this much
-faster than autograd's (issue 29); the "training" section reports the ratio."""
+"""Gradient steps timed per repeat and learner in the "training" section."""
 
 
 @section("training")
 def training_section(settings: BenchSettings) -> list[Measurement]:
     """Gradient steps per second of DDPG and TD3 at Table 4's sizes (2 x 256 tanh, batch 64, one torch thread,
-    the planner task's observation) on both gradient paths of `DDPGConfig.gradients`, "dense" (what training
-    uses) and "autograd" (the reference), the four agents taking turns in every repeat; and per learner the
-    median of the repeats' dense / autograd ratios."""
+    the planner task's observation), the two learners taking turns in every repeat."""
     torch.set_num_threads(1)
     rng = np.random.default_rng(settings.seed)
     spec = env_spec(gymnasium.make("auv_mj/Goal-v0"))  # the planner's sizes, read from the task
@@ -356,25 +351,15 @@ def training_section(settings: BenchSettings) -> list[Measurement]:
     data = Batch(rng.standard_normal((size, obs_dim), dtype=np.float32),
                  rng.uniform(-1, 1, (size, act_dim)).astype(np.float32), rng.standard_normal(size, dtype=np.float32),
                  rng.standard_normal((size, obs_dim), dtype=np.float32), np.zeros(size, dtype=np.float32))
-    learners = {"DDPG": (DDPG, DDPGConfig), "TD3": (TD3, TD3Config)}
-    agents = {(name, path): learner(obs_dim, act_dim, config_class(gradients=path))
-              for name, (learner, config_class) in learners.items() for path in GRADIENT_PATHS}
-    times: dict[tuple[str, str], list[float]] = {key: [] for key in agents}
+    agents = {"DDPG": DDPG(obs_dim, act_dim, DDPGConfig()), "TD3": TD3(obs_dim, act_dim, TD3Config())}
+    times: dict[str, list[float]] = {name: [] for name in agents}
     for repeat in range(settings.repeats):
-        for key in (list(agents) if repeat % 2 == 0 else list(agents)[::-1]):
+        for name in (list(agents) if repeat % 2 == 0 else list(agents)[::-1]):
             start = time.perf_counter()
-            agents[key].update_many(data, n)
-            times[key].append((time.perf_counter() - start) / n)
-    measurements = []
-    for name in learners:
-        dense, autograd = (np.array(times[(name, path)]) for path in ("dense", "autograd"))
-        measurements += [
-            Measurement(f"{name} gradient steps/s, dense (batch 64, 2x256)", 1.0 / float(np.median(dense)),
-                        "updates/s", "one torch thread"),
-            Measurement(f"{name} gradient steps/s, autograd", 1.0 / float(np.median(autograd)), "updates/s"),
-            Measurement(f"{name} dense / autograd", float(np.median(autograd / dense)), "x",
-                        f"dense stays while >= {DENSE_MIN_SPEEDUP}")]
-    return measurements
+            agents[name].update_many(data, n)
+            times[name].append((time.perf_counter() - start) / n)
+    return [Measurement(f"{name} gradient steps/s (batch 64, 2x256)", 1.0 / float(np.median(times[name])),
+                        "updates/s", "one torch thread") for name in agents]
 
 
 CORE_STEPS = 20_000
