@@ -343,7 +343,7 @@ def _checkpoint_of(spec: PolicySpec, path: Path | None, task: str | None) -> Pat
 
 def executor_tasks() -> tuple[str, ...]:
     """The suite's execution-layer tasks (tagged "executor"): the tasks with no executor option."""
-    return tuple(t for _, t in suite.tasks_by_tag("executor")) + tuple(SUITE3D.tagged("executor"))
+    return tuple(t for _, t in suite.tasks_by_tag("executor"))
 
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
@@ -386,17 +386,23 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
-    """A task name, a tag or 'all' -> the task names the policy runs on (`PolicySpec.tasks`)."""
-    names = [task for _, task in (*suite.ALL_TASKS, *suite.TASKS_3D)]
+    """A task name, a tag or 'all' -> the task names the policy runs on (`PolicySpec.tasks`).
+
+    'all' and the tags are the planar domain's tasks; the 6-DOF tasks (domain auv3d) are chosen by name, or all
+    of them by 'auv3d', since only some policies (splane, los-avoid, random) know the 6-DOF vehicle."""
+    names = [task for _, task in suite.ALL_TASKS]
+    names_3d = [task for _, task in suite.TASKS_3D]
     if spec == "all":
         chosen = names
-    elif spec in names:
+    elif spec in names or spec in names_3d:
         chosen = [spec]
+    elif spec == "auv3d":
+        chosen = names_3d
     else:
-        chosen = ([t for d, t in suite.tasks_by_tag(spec) if d == "auv"] + list(SUITE3D.tagged(spec))
-                  if spec in suite.TAGS else [])
+        chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
         if not chosen:
-            raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {sorted(suite.TAGS)}")
+            raise ValueError(f"unknown task or tag {spec!r}; tasks: {names + names_3d}; tags: "
+                             f"{sorted(suite.TAGS)}; auv3d (the 6-DOF tasks)")
     runs_on = resolve(policy_name)[0].tasks
     if runs_on != "any":
         tagged = {t for _, t in suite.tasks_by_tag(runs_on)} | set(SUITE3D.tagged(runs_on))
