@@ -73,8 +73,12 @@ SETTLE_STEPS = 100
 SPEED_TOLERANCE, HEADING_TOLERANCE, DEPTH_TOLERANCE = 0.05, 0.05, 0.25
 """Errors [m/s, rad, m] within which the suite reward's terms are 1 and the command counts as met."""
 SPEED_MARGIN, HEADING_MARGIN, DEPTH_MARGIN = 0.5, 0.5, 3.0
-RANDOM_SPEED = (0.6, 1.8)
+RANDOM_SPEED = (1.0, 1.8)
+"""Speeds of the "random" commands [m/s]: below 1 m/s the stern planes cannot trim the buoyant REMUS."""
 RANDOM_DEPTH = (5.0, 40.0)
+"""Depths of the "random" commands [m]."""
+RANDOM_DEPTH_STEP = 5.0
+"""A new "random" depth command is the previous one plus up to this much either way [m]."""
 RANDOM_TURN = math.pi / 2
 COMMAND_HOLD_STEPS = (50, 250)
 MAX_COMMAND_DEPTH = 500.0
@@ -204,10 +208,12 @@ class DepthHeading(base.Task):
             while step < EPISODE_STEPS * 10:
                 step += int(self.random.randint(COMMAND_HOLD_STEPS[0], COMMAND_HOLD_STEPS[1] + 1))
                 _, _, psi, _ = self._schedule[-1]
+                depth = float(np.clip(depth + self.random.uniform(-RANDOM_DEPTH_STEP, RANDOM_DEPTH_STEP),
+                                      *RANDOM_DEPTH))
                 self._schedule.append((step, self.random.uniform(*RANDOM_SPEED),
-                                       wrap_angle(psi + self.random.uniform(-RANDOM_TURN, RANDOM_TURN)),
-                                       self.random.uniform(*RANDOM_DEPTH)))
-            start_depth = float(np.clip(depth + self.random.uniform(-5.0, 5.0), *RANDOM_DEPTH))
+                                       wrap_angle(psi + self.random.uniform(-RANDOM_TURN, RANDOM_TURN)), depth))
+            offset = self.random.uniform(-RANDOM_DEPTH_STEP, RANDOM_DEPTH_STEP)
+            start_depth = float(np.clip(self._schedule[0][3] + offset, *RANDOM_DEPTH))
             speed = self.random.uniform(0.0, 1.5)
         else:
             heading, start_depth, speed = 0.0, START_DEPTH, 0.0
