@@ -1,0 +1,128 @@
+"""`auv-mj benchmark`: the suite's definition is pinned to its version, its figures follow their definitions, and
+the command writes strict JSON, the leaderboard row and the comparison (end to end, on two episodes)."""
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from auv_mj import seeds
+from auv_mj.cli import benchmark
+from auv_mj.cli.evaluate import run_episode
+
+AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
+ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+
+
+def _run(*args, timeout=600):
+    return subprocess.run([*AUV_MJ, "benchmark", *map(str, args)], capture_output=True, text=True, timeout=timeout,
+                          env=ENV)
+
+
+def _strict(text: str) -> dict:
+    def refuse(constant):
+        raise ValueError(f"non-strict JSON constant {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_the_suite_definition_is_pinned_to_its_version():
+    """Changing what suite v1 measures must bump SUITE_VERSION and add the new fingerprint."""
+    assert benchmark.fingerprint() == benchmark.FINGERPRINTS[benchmark.SUITE_VERSION]
+    assert benchmark.SUITE_NAME == f"suite v{benchmark.SUITE_VERSION}"
+    changed = [benchmark.Cell("tunnel", "hard", "ocean", seeds.TEST.start, episodes=benchmark.EPISODES + 1)]
+    assert benchmark.fingerprint(changed) != benchmark.fingerprint(benchmark.SUITE_V1[-1:])
+
+
+def test_the_suite_covers_every_set_tier_and_water_on_held_out_seeds():
+    cells = benchmark.SUITE_V1
+    assert {(c.task, c.tier, c.water) for c in cells} == {
+        (t, tier, w) for t in ("obstacles", "moving_obstacles", "tunnel") for tier in benchmark.TIERS
+        for w in benchmark.WATERS}
+    assert len({c.name for c in cells}) == len(cells)
+    for cell in cells:
+        block = cell.seeds(benchmark.SEED_BLOCK)
+        assert block[0] in seeds.TEST and block[-1] in seeds.TEST
+        assert cell.task_kwargs == {"arena": "random", "tier": cell.tier, "conditions": cell.water}
+    firsts = {c.task: c.first_seed for c in cells}
+    starts = sorted(firsts.values())
+    assert all(b - a >= benchmark.SEED_BLOCK for a, b in zip(starts, starts[1:], strict=False))  # sets never share
+
+
+@pytest.mark.parametrize(("wins", "n"), [(0, 10), (5, 10), (10, 10), (37, 40), (1, 200)])
+def test_wilson_interval_matches_scipy(wins, n):
+    from scipy.stats import binomtest
+
+    expected = binomtest(wins, n).proportion_ci(0.95, method="wilson")
+    low, high = benchmark.wilson(wins, n)
+    assert low == pytest.approx(expected.low, abs=1e-4) and high == pytest.approx(expected.high, abs=1e-4)
+
+
+def test_time_efficiency_is_oracle_time_over_own_time_and_zero_on_failure():
+    rows = [{"seed": 1, "success": True, "time_to_goal": 100.0, "outcome": "goal"},
+            {"seed": 2, "success": False, "time_to_goal": None, "outcome": "collision"},
+            {"seed": 3, "success": True, "time_to_goal": 40.0, "outcome": "goal"},  # faster than the oracle: 1
+            {"seed": 4, "success": True, "time_to_goal": 80.0, "outcome": "goal"}]  # no oracle success: left out
+    rows = [{**r, "collision": r["outcome"] == "collision", "safety_violation": False, "min_clearance": 3.0,
+             "path_length": 1.0, "return": 0.0} for r in rows]
+    summary = benchmark.cell_summary(rows, {1: 60.0, 2: 50.0, 3: 50.0})
+    assert summary["time_efficiency"] == pytest.approx((0.6 + 0.0 + 1.0) / 3)
+    assert summary["time_efficiency_episodes"] == 3
+    assert summary["success_rate"] == 0.75 and summary["outcomes"]["collision"] == 1
+    assert benchmark.cell_summary(rows, None)["time_efficiency"] is None
+
+
+def test_a_reused_environment_gives_the_episodes_of_fresh_ones():
+    cell = benchmark.SUITE_V1[2]  # obstacles, hard, ideal
+    for seed in cell.seeds(2):
+        got = benchmark.run_cell_episode("los-fast", cell.task, seed, cell.task_kwargs, 60)
+        expected = run_episode("los-fast", cell.task, seed, cell.task_kwargs, 60)
+        assert {k: got[k] for k in got if k != "seed"} == {k: expected[k] for k in got if k != "seed"}
+
+
+def test_benchmark_on_two_episodes_writes_json_row_and_comparison(tmp_path):
+    board = tmp_path / "board.json"
+    first = tmp_path / "first"
+    done = _run("--policy", "los-fast", "--tier", "hard", "--water", "ideal", "--episodes", "2", "--max-steps", "40",
+                "--workers", "2", "--out", first, "--leaderboard", board, "--publish")
+    assert done.returncode == 0, done.stderr
+    results = _strict((first / "results.json").read_text())
+    assert results["suite"] == "suite v1" and results["suite_version"] == benchmark.SUITE_VERSION
+    assert results["fingerprint"] == benchmark.fingerprint()
+    assert list(results["cells"]) == ["obstacles/hard/ideal", "moving_obstacles/hard/ideal", "tunnel/hard/ideal"]
+    for name, cell in results["cells"].items():
+        summary = cell["summary"]
+        assert summary["episodes"] == 2 and sum(summary["outcomes"].values()) == 2
+        low, high = summary["success_ci95"]
+        assert 0.0 <= low <= summary["success_rate"] <= high <= 1.0
+        assert [e["seed"] for e in cell["episodes"]] == list(cell["seeds"]) == [cell["seeds"][0], cell["seeds"][0] + 1]
+        task = name.split("/")[0]
+        for episode in cell["episodes"]:  # the parallel run's episodes are the serial loop's
+            again = benchmark.run_cell_episode("los-fast", task, episode["seed"], cell["task_kwargs"], 40)
+            assert again == episode
+    row = (first / "leaderboard_row.md").read_text().splitlines()
+    assert row[0].startswith("| policy |") and row[2].startswith("| `los-fast` | suite v1 | 6 |")
+    assert row[2].count("|") == row[0].count("|")
+    assert "los-fast" in _strict(board.read_text())["policies"]
+    assert "`los-fast`" in board.with_suffix(".md").read_text()
+
+    second = tmp_path / "second"
+    done = _run("--policy", "los-avoid", "--tier", "hard", "--water", "ideal", "--episodes", "2", "--max-steps",
+                "40", "--out", second, "--leaderboard", board, "--no-progress")
+    assert done.returncode == 0, done.stderr
+    comparison = (second / "comparison.md").read_text()
+    assert "`los-fast` |" in comparison and "`los-avoid` (this run)" in comparison
+
+
+def test_refusals_come_before_any_episode(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    for args, words in ((["--policy", "los-fast", "--out", blocker / "out"], "--out"),
+                        (["--policy", "los-fast", "--tier", "medium", "--out", tmp_path / "o"], "--tier"),
+                        (["--policy", "no-such-policy", "--out", tmp_path / "o"], "unknown policy")):
+        done = _run(*args, timeout=120)
+        assert done.returncode == 2, done.stderr
+        assert words in done.stderr and "Traceback" not in done.stderr
+        assert "ep/s" not in done.stderr  # no progress bar: nothing ran
