@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from vehicle_reference import ReferenceAUV, read_numerics, read_rigid_body, vehicle_xml_with
 
-from auv_mj import AUVPhysics, model_path, native
+from auv_mj import AUVPhysics, model_path
+from auv_mj.sim import native
 
 COEFFICIENTS = read_numerics()
 MASS, IZ = read_rigid_body()
