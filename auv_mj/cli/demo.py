@@ -18,6 +18,7 @@ import numpy as np
 
 from auv_mj import render
 from auv_mj.cli import plots, policies
+from auv_mj.cli.evaluate import table_cell
 from auv_mj.cli.options import add_episode_options, check_output, fps, pixels, task_kwargs, usage_error
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, episode_metrics, record_episode
 from auv_mj.render import glbackend
@@ -46,22 +47,13 @@ def demo_row(record: EpisodeRecord) -> dict:
             "return": metrics["return"]}
 
 
-def _cell(value) -> str:
-    if value is None:
-        return f"{'n/a':>13}"
-    if isinstance(value, str):
-        return f"{value:>13}"
-    # round(x, 2) + 0.0 turns a rounded -0.0 (a clearance of -0.001 m at contact) into 0.00
-    return f"{round(value, 2) + 0.0:>13.2f}"
-
-
 def format_rows(rows: dict[str, dict]) -> str:
     """The demo's table: one row per policy."""
     columns = list(next(iter(rows.values())))
     header = f"{'policy':<12}" + "".join(f"{c:>13}" for c in columns)
     lines = [header, "-" * len(header)]
     for name, metrics in rows.items():
-        lines.append(f"{name:<12}" + "".join(_cell(metrics[c]) for c in columns))
+        lines.append(f"{name:<12}" + "".join(table_cell(metrics[c], 13, 2) for c in columns))
     return "\n".join(lines)
 
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_mj.cli.policies import RESOLVERS, ActingPolicy, Deployment, PolicySpec
+from auv_mj.cli.policy_spec import RESOLVERS, ActingPolicy, Deployment, PolicySpec
 
 FACTORY_FORM = re.compile(r"^(?P<module>[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*):(?P<factory>[A-Za-z_][\w]*)$")
 """`MODULE:FACTORY`: a dotted module path, a colon and an attribute name (as entry points write them)."""

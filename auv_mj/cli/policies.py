@@ -24,7 +24,6 @@ the general planner on the learned ocean executor:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -37,6 +36,15 @@ from agents.checkpoint import read_checkpoint
 from agents.policy import Policy
 from auv_mj.arenas import arena
 from auv_mj.cli.map_guided import map_guided
+from auv_mj.cli.policy_spec import (
+    POLICIES,
+    RESOLVERS,
+    RUNS_ON,  # noqa: F401  (re-exported)
+    ActingPolicy,
+    Deployment,
+    PolicySpec,
+    register,
+)
 from tasks import suite
 from tasks.auv3d import SUITE3D, classical_3d, is_3d
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
@@ -44,73 +52,6 @@ from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
 from tasks.map_planner import fast_line_of_sight, sonar_map_planner, true_map_planner
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from tasks.splane import OCEAN_GAINS, SPlaneController
-
-ActingPolicy = Callable[[Any], np.ndarray]
-"""`policy(time_step) -> action`, what every command runs."""
-
-RUNS_ON = ("planning", "executor", "any")
-"""What a spec's `tasks` may be: the suite's tasks tagged "planning", those tagged "executor", or every task."""
-
-
-@dataclass(frozen=True)
-class Deployment:
-    """What a spec's `build` gets: the environment of the episode, its task and seed, and the checkpoint that
-    the name resolved to (the shipped one, NAME=PATH's PATH or a checkpoint path; None for a classical policy)."""
-
-    env: Any
-    task: str | None
-    seed: int
-    checkpoint: Path | None
-    spec: PolicySpec
-
-
-@dataclass(frozen=True)
-class PolicySpec:
-    """One named policy. Only `description` and `build` are required; the rest say how it is deployed."""
-
-    description: str
-    """One line for `--help` and the README's policy table."""
-    build: Callable[[Deployment], ActingPolicy]
-    """Makes the acting policy for one episode's environment."""
-    family: str = "classical"
-    """"learned", "classical" or "reference" (random, oracle): the column of the README's table."""
-    tasks: str = "any"
-    """The tasks it runs on, one of RUNS_ON."""
-    checkpoint: str | None = None
-    """Its shipped checkpoint: a file in `agents/checkpoints/`."""
-    checkpoint_on: dict[str, str] = field(default_factory=dict)
-    """Task -> another shipped checkpoint on that task (the paper trains a planner per environment)."""
-    executor: str | None = None
-    """The executor it always runs on, on a planning task (one of EXECUTORS); None: the task's S-plane, or the one
-    the task options name."""
-    default_executor: str | None = None
-    """The executor it runs on unless the task options name one."""
-    protection: bool | str | None = None
-    """Its protection domain (Sec. 3.2.2, `tasks.avoidance.PROTECTIONS`). A checkpoint's: None, the one it trained
-    with; False, none; True, its own or else the paper's; a name, that one. Any other policy's: a name (or True,
-    the paper's) puts its actions through that domain, with the map's geofence where the domain reads it."""
-    accepts_path: bool = False
-    """Whether `NAME=PATH` runs checkpoint PATH in its place."""
-
-    def __post_init__(self):
-        if self.tasks not in RUNS_ON:
-            raise ValueError(f"PolicySpec.tasks {self.tasks!r}: not one of {RUNS_ON}")
-
-
-POLICIES: dict[str, PolicySpec] = {}
-"""Name -> spec: every name `--policy` takes besides checkpoint paths and RESOLVERS' forms."""
-
-RESOLVERS: list[Callable[[str], tuple[PolicySpec, Path | None] | None]] = []
-"""Turn a name that is no registered name into (spec, checkpoint), or None if the name is not of their form."""
-
-
-def register(name: str, spec: PolicySpec) -> PolicySpec:
-    """Adds `spec` under `name`; a name is registered once."""
-    if name in POLICIES:
-        raise ValueError(f"policy {name!r} is registered twice")
-    POLICIES[name] = spec
-    return spec
-
 
 # --- checkpoints and executors ----------------------------------------------------------------------------------
 
@@ -453,4 +394,4 @@ def markdown_table() -> str:
     return "\n".join(lines)
 
 
-from auv_mj.cli import outside  # noqa: E402, F401  (registers the MODULE:FACTORY and PATH.zip forms in RESOLVERS)
+from auv_mj.cli import outside  # noqa: E402, F401, I001  (registers MODULE:FACTORY and PATH.zip in RESOLVERS)
