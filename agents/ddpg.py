@@ -15,7 +15,7 @@ import ast
 import copy
 import inspect
 import textwrap
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 import torch
@@ -23,56 +23,63 @@ from torch import nn
 
 from agents.networks import Actor, Critic, Normalizer, ParameterVector, VectorAdam
 from agents.replay import Batch
+from auv_mj.inputs import shown
 
 EPSILON_UNITS = ("steps", "episodes")
 """What epsilon_decay counts."""
+
+
+def bounded(default: float, low: float, high: float, *, above: bool = False):
+    """A numeric config field with its inclusive range [low, high] (`above`: the value must also exceed low), the
+    one place a field's bounds are written; `check_config` reads them from the field's metadata."""
+    return field(default=default, metadata={"range": (low, high), "above": above})
 
 
 @dataclass(frozen=True)
 class DDPGConfig:
     """DDPG / HER-DDPG hyper-parameters; defaults from Table 4 unless marked as ours."""
 
-    actor_lr: float = 1e-3
+    actor_lr: float = bounded(1e-3, 0.0, 1.0, above=True)
     """Learning rate alpha_1 of the actor (Table 4)."""
-    critic_lr: float = 1e-3
+    critic_lr: float = bounded(1e-3, 0.0, 1.0, above=True)
     """Learning rate alpha_2 of the critic (Table 4)."""
-    gamma: float = 0.9
+    gamma: float = bounded(0.9, 0.0, 1.0)
     """Discount factor gamma of Eq. (14) and the critic target (Eq. 17) (Table 4)."""
-    epsilon_start: float = 1.0
+    epsilon_start: float = bounded(1.0, 0.0, 1.0)
     """Initial exploration epsilon_0: probability of a uniformly random action (Table 4)."""
-    epsilon_end: float = 0.01
+    epsilon_end: float = bounded(0.01, 0.0, 1.0)
     """Final exploration epsilon_end (Table 4)."""
-    epsilon_decay: int = 2000
+    epsilon_decay: int = bounded(2000, 0, 10**9)
     """Final exploration frame T: epsilon reaches epsilon_end after this many units (Table 4)."""
     epsilon_unit: str = "steps"
     """Unit of epsilon_decay, "steps" (DQN's frames, our reading) or "episodes" (ours)."""
-    noise_std: float = 0.1
+    noise_std: float = bounded(0.1, 0.0, 10.0)
     """Std of the Gaussian noise added to mu(s) on non-random exploratory actions (ours)."""
     hidden_sizes: tuple[int, ...] = (256, 256)
     """Widths of the tanh hidden layers of actor and critic (Sec. 4, Table 4)."""
-    buffer_size: int = 50_000
+    buffer_size: int = bounded(50_000, 1, 10**7)
     """Replay memory size (Table 4)."""
-    batch_size: int = 64
+    batch_size: int = bounded(64, 1, 65_536)
     """Minibatch size m (Table 4)."""
-    tau: float = 0.01
+    tau: float = bounded(0.01, 0.0, 1.0, above=True)
     """Soft target-update coefficient tau of Eq. (19) (Table 4)."""
-    max_episodes: int = 5000
+    max_episodes: int = bounded(5000, 1, 10**9)
     """Max episodes M, the default length of a training run (Table 4)."""
-    her_k: int = 4
+    her_k: int = bounded(4, 0, 64)
     """HER 'future' goals per real transition; relabel probability k / (k + 1) (her-ddpg only; ours)."""
-    train_every: int = 16
+    train_every: int = bounded(16, 1, 10**6)
     """Environment steps between rounds of gradient steps (ours; speed)."""
-    updates_per_step: float = 1.0
+    updates_per_step: float = bounded(1.0, 0.0, 1000.0, above=True)
     """Gradient steps per environment step; a round does round(train_every * this) of them (ours)."""
-    learning_starts: int = 1000
+    learning_starts: int = bounded(1000, 0, 10**9)
     """Warm-up environment steps before the first gradient step (ours)."""
-    action_l2: float = 0.0
+    action_l2: float = bounded(0.0, 0.0, 1000.0)
     """Weight of the mean squared pre-scaling action in the actor loss (HER paper uses 1.0; ours)."""
     device: str = "cpu"
     """Torch device of the networks, "cpu" or "cuda" (ours)."""
-    seed: int = 0
+    seed: int = bounded(0, 0, 2**32 - 1)
     """Seed of network initialisation, exploration, replay sampling and environment resets (ours)."""
-    torch_threads: int = 1
+    torch_threads: int = bounded(1, 1, 1024)
     """torch.set_num_threads for training; small MLPs are fastest on one thread (ours)."""
 
     def __post_init__(self):
@@ -81,52 +88,43 @@ class DDPGConfig:
 
 MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH = 8, 8192
 """Deepest and widest hidden layers a config may ask for."""
-CONFIG_RANGES: dict[str, tuple[type, float, float]] = {
-    "actor_lr": (float, 0.0, 1.0), "critic_lr": (float, 0.0, 1.0), "gamma": (float, 0.0, 1.0),
-    "epsilon_start": (float, 0.0, 1.0), "epsilon_end": (float, 0.0, 1.0), "epsilon_decay": (int, 0, 10**9),
-    "noise_std": (float, 0.0, 10.0), "buffer_size": (int, 1, 10**7), "batch_size": (int, 1, 65_536),
-    "tau": (float, 0.0, 1.0), "max_episodes": (int, 1, 10**9), "her_k": (int, 0, 64), "train_every": (int, 1, 10**6),
-    "updates_per_step": (float, 0.0, 1000.0), "learning_starts": (int, 0, 10**9), "action_l2": (float, 0.0, 1000.0),
-    "seed": (int, 0, 2**32 - 1), "torch_threads": (int, 1, 1024),
-}
-"""Type and inclusive range of each numeric DDPGConfig field (the learning rates, tau and updates_per_step
-must also be above 0); a bounded buffer and batch keep allocations bounded."""
-POSITIVE_FIELDS = ("actor_lr", "critic_lr", "tau", "updates_per_step")
+
+
+def check_numeric_fields(config) -> None:
+    """ValueError naming the first `bounded` field of `config` of the wrong type or out of its range."""
+    for f in fields(config):
+        if "range" not in f.metadata:
+            continue
+        (low, high), above, value = f.metadata["range"], f.metadata["above"], getattr(config, f.name)
+        whole = f.type in ("int", int)
+        number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+        if whole and not isinstance(value, (int, np.integer)):
+            number = False
+        if not number or not low <= value <= high or (above and not value > low):
+            interval = f"{'(' if above else '['}{low:g}, {high:g}]"
+            what = "a whole number" if whole else "a number"
+            raise ValueError(f"{type(config).__name__}.{f.name} must be {what} in {interval}, got {shown(value)}")
 
 
 def check_config(config: DDPGConfig) -> None:
-    """ValueError naming the first field of `config` of the wrong type or out of its CONFIG_RANGES range."""
-    for name, (kind, low, high) in CONFIG_RANGES.items():
-        value = getattr(config, name)
-        number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
-        if kind is int and not isinstance(value, (int, np.integer)):
-            number = False
-        if not number or not low <= value <= high or (name in POSITIVE_FIELDS and not value > 0):
-            interval = f"{'(' if name in POSITIVE_FIELDS else '['}{low:g}, {high:g}]"
-            what = "a whole number" if kind is int else "a number"
-            raise ValueError(f"DDPGConfig.{name} must be {what} in {interval}, got {_shown(value)}")
+    """ValueError naming the first field of `config` of the wrong type or out of its range."""
+    check_numeric_fields(config)
     if config.epsilon_unit not in EPSILON_UNITS:
-        raise ValueError(f"DDPGConfig.epsilon_unit must be one of {EPSILON_UNITS}, got {_shown(config.epsilon_unit)}")
+        raise ValueError(f"DDPGConfig.epsilon_unit must be one of {EPSILON_UNITS}, got {shown(config.epsilon_unit)}")
     sizes = config.hidden_sizes
     if not (isinstance(sizes, tuple) and 1 <= len(sizes) <= MAX_HIDDEN_LAYERS
             and all(isinstance(w, (int, np.integer)) and not isinstance(w, bool) and 1 <= w <= MAX_HIDDEN_WIDTH
                     for w in sizes)):
         raise ValueError(f"DDPGConfig.hidden_sizes must be 1 to {MAX_HIDDEN_LAYERS} whole numbers in "
-                         f"[1, {MAX_HIDDEN_WIDTH}], got {_shown(sizes)}")
+                         f"[1, {MAX_HIDDEN_WIDTH}], got {shown(sizes)}")
     if not isinstance(config.device, str):
         raise ValueError(f"DDPGConfig.device must be a torch device name like 'cpu' or 'cuda', "
-                         f"got {_shown(config.device)}")
+                         f"got {shown(config.device)}")
     try:
         torch.device(config.device)
     except (RuntimeError, ValueError):
         raise ValueError(f"DDPGConfig.device must be a torch device name like 'cpu' or 'cuda', "
-                         f"got {_shown(config.device)}") from None
-
-
-def _shown(value, limit: int = 60) -> str:
-    """repr(value) cut to about `limit` characters, for one-line messages."""
-    text = " ".join(repr(value).split())
-    return text if len(text) <= limit else text[:limit] + "..."
+                         f"got {shown(config.device)}") from None
 
 
 def field_docs(cls: type) -> dict[str, str]:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
-from agents.ddpg import DDPG, DDPGConfig, _shown, critic_loss, soft_update
+from agents.ddpg import DDPG, DDPGConfig, bounded, critic_loss, soft_update
 from agents.networks import Actor, Critic, ParameterVector, VectorAdam
 from agents.replay import Batch
 
@@ -36,23 +36,12 @@ MAX_POLICY_DELAY = 1000
 class TD3Config(DDPGConfig):
     """TD3 hyper-parameters: DDPG's (`DDPGConfig`, Table 4) and TD3's three of Fujimoto et al. (2018)."""
 
-    policy_delay: int = 2
+    policy_delay: int = bounded(2, 1, MAX_POLICY_DELAY)
     """Critic steps per actor (and target) step, d of TD3's Algorithm 1 (TD3 paper)."""
-    target_noise: float = 0.2
+    target_noise: float = bounded(0.2, 0.0, 10.0)
     """Std sigma~ of the Gaussian smoothing noise added to the target action mu'(s') (TD3 paper)."""
-    noise_clip: float = 0.5
+    noise_clip: float = bounded(0.5, 0.0, 10.0)
     """The smoothing noise is clipped to [-noise_clip, noise_clip] before it is added (TD3 paper)."""
-
-    def __post_init__(self):
-        super().__post_init__()
-        delay = self.policy_delay
-        if not (isinstance(delay, int) and not isinstance(delay, bool) and 1 <= delay <= MAX_POLICY_DELAY):
-            raise ValueError(f"TD3Config.policy_delay must be a whole number in [1, {MAX_POLICY_DELAY}], "
-                             f"got {_shown(delay)}")
-        for name in ("target_noise", "noise_clip"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 <= value <= 10.0):
-                raise ValueError(f"TD3Config.{name} must be a number in [0, 10], got {_shown(value)}")
 
 
 def smoothed_target_action(actor_target: Actor, next_obs: torch.Tensor, target_noise: float,

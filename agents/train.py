@@ -42,6 +42,7 @@ import torch
 from gymnasium import spaces
 
 from agents.checkpoint import (
+    AGENT_CLASSES,
     agent_classes,
     config_to_dict,
     load_agent,
@@ -56,7 +57,7 @@ from agents.replay import Batch, ReplayBuffer
 from auv_mj.console import progress_bar
 from auv_mj.goals import GOAL_KEYS
 
-AGENTS = ("ddpg", "her-ddpg", "executor", "td3")
+AGENTS = tuple(AGENT_CLASSES)
 """Agent names of `auv-mj train AGENT`: her-ddpg needs a goal task, executor a Box task; td3 takes either."""
 CHECKPOINT_NAME = "checkpoint.pt"
 LOG_NAME = "progress.csv"
