@@ -291,7 +291,7 @@ def markdown_row(results: dict, names: Sequence[str] | None = None, mark: str = 
     split = {value: pooled(results, [n for n in names if value in n.split("/")[1:]]) for value in TIERS + WATERS}
     low, high = total["ci95"]
     time = "-" if total["time_to_goal"] is None else f"{total['time_to_goal']:.0f}"
-    clearance = "-" if total["min_clearance"] is None else f"{total['min_clearance']:.1f}"
+    clearance = "-" if total["min_clearance"] is None else f"{round(total['min_clearance'], 1) + 0.0:.1f}"  # no -0.0
     return (f"| `{results['policy']}`{mark} | {results['suite']} | {total['episodes']} | {_rate(total['success'])} "
             f"[{low:.2f}, {high:.2f}] | " + " | ".join(_rate(split[v]["success"]) for v in TIERS + WATERS) +
             f" | {_rate(total['collision'])} | {_rate(total['timeout'])} | {time} | "
@@ -318,7 +318,9 @@ def leaderboard_markdown(board: dict) -> str:
     lines = [f"# Leaderboard, {SUITE_NAME} (fingerprint {fingerprint()})", "",
              "Made by `auv-mj benchmark --policy P --publish` (`auv_mj/cli/benchmark.py` defines the suite). "
              "Episodes: the total over the cells run; rates pooled over them; time efficiency against "
-             f"`{ORACLE}` on the same seeds.", "", ROW_HEADER]
+             f"`{ORACLE}` on the same seeds. Episodes per cell in these entries: "
+             f"{sorted({c['summary']['episodes'] for r in entries for c in r['cells'].values()})} (the suite's "
+             f"default is {EPISODES}).", "", ROW_HEADER]
     lines += [markdown_row(r) for r in entries]
     return "\n".join(lines) + "\n"
 
