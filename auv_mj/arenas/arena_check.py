@@ -42,6 +42,7 @@ from auv_mj.arenas.tunnels import (
     route_clearance,
     segment_lines,
 )
+from auv_mj.geometry import xy_text
 from auv_mj.sim.physics import AUVPhysics
 
 CHECK_STEP = 1.0
@@ -229,7 +230,7 @@ def _check_sites(model: mujoco.MjModel, info: ArenaInfo, report: ArenaReport, ne
     points = [("start", info.start), ("goal", info.goal)]
     points += [(f"{PATH_SITE_PREFIX}{k}", p) for k, p in zip(numbers, info.path, strict=False)]
     placed = _check_movers_numbers(info, report)
-    far = [f"{name} ({_xy(p)}) is not at finite coordinates within +-{MAX_EXTENT:g} m" for name, p in points
+    far = [f"{name} ({xy_text(p)}) is not at finite coordinates within +-{MAX_EXTENT:g} m" for name, p in points
            if p is not None and not np.all(np.abs(p) <= MAX_EXTENT)]
     _add(report.problems, far)
     if not math.isfinite(info.start_heading):
@@ -247,7 +248,7 @@ def _check_sites(model: mujoco.MjModel, info: ArenaInfo, report: ArenaReport, ne
         return placed
     points += [(f"{m.body} {_waypoint_label(k, len(m.waypoints))}", p) for m in info.movers
                for k, p in enumerate(m.waypoints)]
-    outside = [f"{name} ({_xy(p)}) is outside arena_bounds {_xy4(info.bounds)}" for name, p in points
+    outside = [f"{name} ({xy_text(p)}) is outside arena_bounds {_xy4(info.bounds)}" for name, p in points
                if p is not None and np.all(np.isfinite(p)) and not (xmin <= p[0] <= xmax and ymin <= p[1] <= ymax)]
     _add(report.problems, outside)
     return placed
@@ -258,8 +259,8 @@ def _check_movers_numbers(info: ArenaInfo, report: ArenaReport) -> bool:
     bad = []
     for mover in info.movers:
         if not np.all(np.abs(mover.waypoints) <= MAX_EXTENT):
-            bad.append(f"{mover.body}: its path ends ({_xy(mover.start)}) and ({_xy(mover.end)}) and waypoints must "
-                       f"be finite within +-{MAX_EXTENT:g} m")
+            bad.append(f"{mover.body}: its path ends ({xy_text(mover.start)}) and ({xy_text(mover.end)}) and "
+                       f"waypoints must be finite within +-{MAX_EXTENT:g} m")
         if not 0.0 <= mover.speed <= MAX_MOVER_SPEED:
             bad.append(f"{mover.body}: speed {mover.speed:g} m/s is not in [0, {MAX_MOVER_SPEED:g}] m/s")
     _add(report.problems, bad)
@@ -282,7 +283,7 @@ def _check_extent(model: mujoco.MjModel, physics: AUVPhysics, report: ArenaRepor
                 and abs(reach) <= MAX_EXTENT):
             absurd.add(g)
             lines.append(f"{_name(model, g)} (size {' '.join(f'{v:g}' for v in size)}, at "
-                         f"{_xy(centre)}) is beyond the largest arena extent, {MAX_EXTENT:g} m")
+                         f"{xy_text(centre)}) is beyond the largest arena extent, {MAX_EXTENT:g} m")
     _add(report.problems, lines)
     static = [g for g in range(model.ngeom) if model.geom_bodyid[g] == 0 and g not in absurd]
     if len(static) > MAX_STATIC_GEOMS:
@@ -346,7 +347,7 @@ def _check_walls(model: mujoco.MjModel, physics: AUVPhysics, static: list[int], 
         margin = WALL_JOIN_MARGIN * (half[i] + half[j])
         along_i, along_j = np.hypot(*(p - a0[i])), np.hypot(*(p - a0[j]))
         if min(along_i, length[i] - along_i) > margin and min(along_j, length[j] - along_j) > margin:
-            found.append(f"walls {_name(model, walls[i])} and {_name(model, walls[j])} cross at ({_xy(p)}), "
+            found.append(f"walls {_name(model, walls[i])} and {_name(model, walls[j])} cross at ({xy_text(p)}), "
                          "not end to end: the wall intersects itself")
     _add(report.problems, found)
 
@@ -430,11 +431,11 @@ def _check_poses(physics: AUVPhysics, data: mujoco.MjData, info: ArenaInfo, rout
                 continue
             gap = mujoco.mj_geomDistance(model, data, hull, g, SAFETY_DISTANCE, None)
             if gap < 0:
-                problems.append(f"{name} ({_xy(p)}) lies inside {_name(model, g)}: "
+                problems.append(f"{name} ({xy_text(p)}) lies inside {_name(model, g)}: "
                                 "the vehicle there would overlap it")
             elif name == "start" and gap < SAFETY_DISTANCE:
                 heading_deg = math.degrees(info.start_heading)
-                problems.append(f"the vehicle at start ({_xy(p)}, heading {heading_deg:.0f} deg) is "
+                problems.append(f"the vehicle at start ({xy_text(p)}, heading {heading_deg:.0f} deg) is "
                                 f"{gap:.2f} m from {_name(model, g)}, closer than "
                                 f"d_s = {SAFETY_DISTANCE:g} m")
     return list(dict.fromkeys(problems))
@@ -457,7 +458,7 @@ def _check_segments(physics: AUVPhysics, data: mujoco.MjData, route: list, stati
         crossed, hit = _first_hit(model, data, a, d / length, length, auv, set(static))
         if crossed >= 0:
             through.append(f"segment {segment} runs through {_name(model, crossed)} at "
-                           f"({_xy(a + d * hit / length)}): the path leaves free space")
+                           f"({xy_text(a + d * hit / length)}): the path leaves free space")
         for s in np.linspace(0.0, 1.0, max(2, math.ceil(length / CHECK_STEP) + 1)):
             p = a + s * d
             _pose(physics, data, p[0], p[1], math.atan2(d[1], d[0]))
@@ -502,7 +503,7 @@ def _close_runs(model: mujoco.MjModel, route: list, close: dict) -> list[str]:
             where = (f"segment {route[first][0]}-{route[first + 1][0]}" if first == last
                      else f"segments {route[first][0]} to {route[last + 1][0]}")
             what = ("runs into" if gap < 0 else f"passes {gap:.2f} m from")
-            lines.append(f"{where} {what} {_name(model, g)} at ({_xy(p)}), closer than "
+            lines.append(f"{where} {what} {_name(model, g)} at ({xy_text(p)}), closer than "
                          f"d_s = {SAFETY_DISTANCE:g} m")
     return lines
 
@@ -524,7 +525,7 @@ def _check_unknown(physics: AUVPhysics, info: ArenaInfo, static: list[int], repo
     if k == -1:
         report.problems.append(f"no way from start to goal {lane}, even without the unknown obstacles")
     elif k is not None:
-        where = _xy(model.geom_pos[unknown[k]])
+        where = xy_text(model.geom_pos[unknown[k]])
         report.problems.append(f"{_name(model, unknown[k])} at ({where}) closes the way: no way from start to "
                                f"goal {lane}")
 
@@ -549,7 +550,7 @@ def _check_movers(physics: AUVPhysics, info: ArenaInfo, static: list[int], repor
             for g in geoms:
                 for s in static:
                     if mujoco.mj_geomDistance(model, data, g, s, 1.0, None) < 0:
-                        report.problems.append(f"{mover.body} at its {label} ({_xy(xy)}) "
+                        report.problems.append(f"{mover.body} at its {label} ({xy_text(xy)}) "
                                                f"overlaps {_name(model, s)}")
                 gap = mujoco.mj_geomDistance(model, data, g, hull, SAFETY_DISTANCE + 1.0, None)
                 if label == "start" and info.start is not None and gap < SAFETY_DISTANCE:
@@ -583,10 +584,6 @@ def _summary(model: mujoco.MjModel, info: ArenaInfo, static: list[int], least) -
     if least is not None and least[1] is not None:
         text += f"; least clearance {least[0]:.2f} m (to {_name(model, least[1])}, segment {least[2]})"
     return text
-
-
-def _xy(p) -> str:
-    return f"{p[0]:.1f}, {p[1]:.1f}"
 
 
 def _xy4(b) -> str:

@@ -36,7 +36,7 @@ from auv_mj.arenas.arena import (
     UNKNOWN_OBSTACLE_PREFIX,
     vehicle_names,
 )
-from auv_mj.geometry import wrap_angle
+from auv_mj.geometry import wrap_angle, xy_text
 from auv_mj.sim.vehicle import vehicle_facts
 
 
@@ -543,7 +543,7 @@ def check_extent(line: Centreline, widths: np.ndarray, smooth: int, closed: bool
     source = line.source
     far = np.flatnonzero(np.any(np.abs(line.points) > MAX_EXTENT, axis=1))
     if len(far):
-        raise ValueError(f"{source}: {line.label(int(far[0]))} ({_xy(line.points[far[0]])}) is beyond "
+        raise ValueError(f"{source}: {line.label(int(far[0]))} ({xy_text(line.points[far[0]])}) is beyond "
                          f"+-{MAX_EXTENT:g} m")
     wide = np.flatnonzero(widths > MAX_WIDTH)
     if len(wide):
@@ -580,9 +580,9 @@ def check_inside(source: str, walls: Sequence[WallSegment], obstacles: Sequence[
     within the closed chains of wall faces (even-odd rule, so a closed tunnel's inner wall is a hole)."""
     a = np.array([w.a for w in walls])
     b = np.array([w.b for w in walls])
-    points = [(f"{obstacle_name(o, k)} at ({_xy([o.x, o.y])})", (o.x, o.y)) for k, o in enumerate(obstacles)]
-    points += [(f"{unknown_name(o, k)} at ({_xy([o.x, o.y])})", (o.x, o.y)) for k, o in enumerate(unknown)]
-    points += [(f"{mover_name(m, k)}'s track {end} ({_xy(p)})", p) for k, m in enumerate(movers)
+    points = [(f"{obstacle_name(o, k)} at ({xy_text([o.x, o.y])})", (o.x, o.y)) for k, o in enumerate(obstacles)]
+    points += [(f"{unknown_name(o, k)} at ({xy_text([o.x, o.y])})", (o.x, o.y)) for k, o in enumerate(unknown)]
+    points += [(f"{mover_name(m, k)}'s track {end} ({xy_text(p)})", p) for k, m in enumerate(movers)
                for end, p in (("start", (m.x0, m.y0)), ("end", (m.x1, m.y1)))]
     if not points:
         return
@@ -654,13 +654,13 @@ def _check_polyline(work: _Working) -> None:
     for i in np.flatnonzero(np.hypot(*(b - a).T) < 1e-9):
         j = (i + 1) % len(work.points)
         raise ValueError(f"{source}: {line.label(i)} and {line.label(j)} are the same point "
-                         f"({_xy(a[i])}); remove one")
+                         f"({xy_text(a[i])}); remove one")
     i, j, points = crossings(segment_lines(a, b))
     if len(i):
         i, j, n = i[0], j[0], len(work.points)
         raise ValueError(f"{source}: the centreline crosses itself: the segment {line.label(i)} - "
                          f"{line.label((i + 1) % n)} crosses {line.label(j)} - {line.label((j + 1) % n)} "
-                         f"at ({_xy(points[0])})")
+                         f"at ({xy_text(points[0])})")
 
 
 def _check_turns(work: _Working) -> None:
@@ -673,7 +673,7 @@ def _check_turns(work: _Working) -> None:
     if len(bad):
         k = (bad[0] + 1) % len(work.points)
         raise ValueError(f"{work.line.source}: the centreline turns {math.degrees(turn[bad[0]]):.0f} deg at "
-                         f"{work.near(work.src[k])} ({_xy(work.points[k])}); at most {MAX_TURN_DEG:g} deg "
+                         f"{work.near(work.src[k])} ({xy_text(work.points[k])}); at most {MAX_TURN_DEG:g} deg "
                          "at one point: add points or smooth it")
 
 
@@ -733,7 +733,7 @@ def _check_folds(work: _Working, points: np.ndarray, left: np.ndarray, right: np
             w = 2 * max(work.half.max(), 0)
             raise ValueError(
                 f"{work.line.source}: the {side} wall folds over itself near {work.near(src[i], src[j])} "
-                f"({_xy(points[i])}): the bend there is too tight for a {w:g} m wide tunnel (its radius "
+                f"({xy_text(points[i])}): the bend there is too tight for a {w:g} m wide tunnel (its radius "
                 f"must exceed half the width, {w / 2:g} m): widen the bend, add points, smooth it, or "
                 "narrow the tunnel")
 
@@ -762,7 +762,7 @@ def _check_walls(work: _Working, rings: list[_Ring]) -> None:
         what = {"left": "left wall", "right": "right wall", "cap_goal": "end cap at the goal",
                 "cap_start": "end cap at the start"}
         raise ValueError(
-            f"{work.line.source}: the tunnel walls cross at ({_xy(points[0])}): the {what[names[i]]} near "
+            f"{work.line.source}: the tunnel walls cross at ({xy_text(points[0])}): the {what[names[i]]} near "
             f"{work.near(*src[i])} crosses the {what[names[j]]} near {work.near(*src[j])} (the bend is "
             "too tight for the width, or the tunnel runs into itself)")
 
@@ -813,7 +813,7 @@ def _check_clearance(work: _Working, walls: list[WallSegment], obstacles: Sequen
     if distance[j] < path_clearance():
         p, near = nearest(faces[j])
         raise ValueError(
-            f"{source}: the global path near {near} ({_xy(p)}) passes {distance[j]:.2f} m from the wall "
+            f"{source}: the global path near {near} ({xy_text(p)}) passes {distance[j]:.2f} m from the wall "
             f"{walls[j].name}, closer than d_s + hull radius = {path_clearance():.2f} m (another part of the "
             "tunnel is too close)")
     boxes = shapely.polygons([o.corners() for o in obstacles]) if obstacles else np.array([])
@@ -822,8 +822,8 @@ def _check_clearance(work: _Working, walls: list[WallSegment], obstacles: Sequen
             obstacle = obstacles[k]
             p, near = nearest(boxes[k])
             raise ValueError(
-                f"{source}: {obstacle_name(obstacle, k)} at ({_xy([obstacle.x, obstacle.y])}) is {gap:.2f} m "
-                f"from the global path near {near} ({_xy(p)}), closer than d_s + hull radius = "
+                f"{source}: {obstacle_name(obstacle, k)} at ({xy_text([obstacle.x, obstacle.y])}) is {gap:.2f} m "
+                f"from the global path near {near} ({xy_text(p)}), closer than d_s + hull radius = "
                 f"{path_clearance():.2f} m: move it or route the centreline around it")
 
 
@@ -898,7 +898,7 @@ def check_unknown(layout: TunnelLayout, unknown: Sequence[Obstacle], obstacles: 
                          f"{gap:.2f} m wide): the tunnel is too narrow for unknown obstacles")
     if k is not None:
         o = unknown[k]
-        raise ValueError(f"{source}: {unknown_name(o, k)} at ({_xy([o.x, o.y])}) closes the tunnel: no way past "
+        raise ValueError(f"{source}: {unknown_name(o, k)} at ({xy_text([o.x, o.y])}) closes the tunnel: no way past "
                          f"it keeps d_s = {SAFETY_DISTANCE:g} m from everything with the hull turned any way "
                          f"and {margin:g} m to spare; leave a gap of at least {gap:.2f} m beside it")
 
@@ -919,10 +919,6 @@ def mover_name(mover: MovingObstacle, index: int) -> str:
     """Body (and geom) name of a moving obstacle: `mover_<name>` or `mover_<index>`."""
     name = mover.name or str(index)
     return name if name.startswith(MOVER_PREFIX) else MOVER_PREFIX + name
-
-
-def _xy(p) -> str:
-    return f"{p[0]:.1f}, {p[1]:.1f}"
 
 
 # --- geom creation --------------------------------------------------------------------------------
