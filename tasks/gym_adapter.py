@@ -28,6 +28,7 @@ from gymnasium import spaces
 
 from auv_mj.goals import GOAL_KEYS
 from tasks import options as checks
+from tasks import suite
 from tasks.actions import checked_action
 
 DOMAIN = "auv"
@@ -44,22 +45,17 @@ MAX_RENDER_SIZE = 4096
 MAX_RENDER_DISTANCE = 10_000.0
 """Highest render camera [m]."""
 ENTRY_POINT = "tasks.gym_adapter:AUVGymEnv"
-GYM_IDS = {
-    "auv_mj/Goal-v0": "goal",
-    "auv_mj/Waypoints-v0": "waypoints",
-    "auv_mj/Obstacles-v0": "obstacles",
-    "auv_mj/MovingObstacles-v0": "moving_obstacles",
-    "auv_mj/Tunnel-v0": "tunnel",
-    "auv_mj/PathLine-v0": "path_line",
-    "auv_mj/PathCurve-v0": "path_curve",
-    "auv_mj/SpeedHeading-v0": "speed_heading",
-}
-"""Gymnasium id -> suite task name."""
-GYM_IDS_3D = {
-    "auv_mj/DepthHeading-v0": "depth_heading",
-    "auv_mj/Goal3D-v0": "goal3d",
-    "auv_mj/Tunnel3D-v0": "tunnel3d",
-}
+
+
+def gym_id(task_name: str) -> str:
+    """The Gymnasium id of a suite task: its name in CamelCase, `auv_mj/<Name>-v0` (moving_obstacles ->
+    auv_mj/MovingObstacles-v0, goal3d -> auv_mj/Goal3D-v0)."""
+    return "auv_mj/" + "".join(part[:1].upper() + part[1:] for part in task_name.title().split("_")) + "-v0"
+
+
+GYM_IDS = {gym_id(name): name for _, name in suite.ALL_TASKS}
+"""Gymnasium id -> suite task name, one per task of the suite (derived from it)."""
+GYM_IDS_3D = {gym_id(name): name for _, name in suite.TASKS_3D}
 """Gymnasium id -> task name of the 6-DOF domain "auv3d" (`tasks.auv3d`): flat Box observations."""
 
 
