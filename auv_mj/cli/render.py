@@ -18,6 +18,7 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
+from auv_mj.cli.render3d import render_3d
 from auv_mj.episode import EpisodeRecorder, outcome
 from auv_mj.render import glbackend
 from auv_mj.render.video import (
@@ -30,6 +31,7 @@ from auv_mj.render.video import (
     time_against_bare_renderer,
     write_video,
 )
+from tasks import suite
 from tasks.guidance import line_of_sight
 
 
@@ -53,6 +55,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--gif", action="store_true", help="write an animated GIF instead of an MP4")
     parser.add_argument("--save-episode", type=Path, default=None, help="also save the episode record (.npz)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--plots", default=None, metavar="PREFIX",
+                        help="6-DOF (auv3d) tasks: also write PREFIX_depth.png and PREFIX_track.png")
     parser.add_argument("--bench", action="store_true",
                         help="measure frames/s at 1280x720 and 640x360 against a bare mujoco.Renderer; "
                              "no video")
@@ -75,6 +79,19 @@ def run(args: argparse.Namespace) -> int:
             for size, r in time_against_bare_renderer(env, line_of_sight(env)).items():
                 print(f"{size}: ours {r['ours_fps']:.1f} frames/s, bare mujoco.Renderer {r['bare_fps']:.1f} "
                       f"frames/s, ratio {r['ratio']:.2f}")
+            return 0
+        try:
+            domain = suite.domain_of(args.task)
+        except ValueError as e:
+            usage_error(args, str(e))
+        if domain == suite.DOMAIN_3D:  # a 6-DOF task: chase | top-down | side view
+            if args.output is None and args.plots is None:
+                usage_error(args, "give the video file with -o/--output (and/or --plots PREFIX)")
+            check_output(args, args.output, "--output")
+            if args.plots is not None:
+                check_output(args, f"{args.plots}_depth.png", "--plots")
+            env, policy = make_env_and_policy(args)
+            render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task} / {args.policy}")
             return 0
         if args.output is None:
             usage_error(args, "give the video file with -o/--output")

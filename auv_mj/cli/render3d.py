@@ -3,7 +3,7 @@
 Runs one episode of an auv3d task with a registered policy (`auv_mj.cli.policies`), writes the three-panel
 video of `auv_mj.render.video3d` (chase | top-down | side) and, with --plots PREFIX, two figures:
 PREFIX_depth.png (depth against time, with the command where the task has one) and PREFIX_track.png (the
-3-D track, with the tube's centreline or the goal). Not yet an `auv-mj` subcommand.
+3-D track, with the tube's centreline or the goal). `auv-mj render --task tunnel3d ...` runs it (`render_3d`).
 """
 
 from __future__ import annotations
@@ -70,24 +70,29 @@ def main(argv: list[str] | None = None) -> int:
     if args.output is None and args.plots is None:
         parser.error("give -o VIDEO and/or --plots PREFIX")
     env, policy = env_and_policy(args.policy, args.task, args.seed)
+    render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task}, {args.policy}, seed {args.seed}")
+    return 0
+
+
+def render_3d(env, policy, output: str | Path | None, plots: str | None, max_steps: int | None,
+              title: str) -> None:
+    """One episode of a 6-DOF task: the three-panel video to `output` and/or the depth and track figures
+    `plots`_depth.png, `plots`_track.png."""
     track = Track3D()
-    frames = iter_frames_3d(env, policy, max_steps=args.max_steps, size=PANEL_SIZE, track=track)
-    if args.output:
-        written = write_video(frames, args.output, fps=round(1.0 / env.control_timestep()))
+    frames = iter_frames_3d(env, policy, max_steps=max_steps, size=PANEL_SIZE, track=track)
+    if output:
+        written = write_video(frames, output, fps=round(1.0 / env.control_timestep()))
         print(f"wrote {written}")
     else:  # the same episode loop, nothing drawn
         recorder = EpisodeRecorder(env)
-        for _ in recorder.run(policy, args.max_steps):
+        for _ in recorder.run(policy, max_steps):
             track.add(env)
-    if args.plots:
+    if plots:
         arrays = track.arrays()
-        title = f"{args.task}, {args.policy}, seed {args.seed}"
-        print(f"wrote {plot_depth(arrays, f'{args.plots}_depth.png', title)}")
+        print(f"wrote {plot_depth(arrays, f'{plots}_depth.png', title)}")
         path = getattr(env.task, "path", None)
         goal = getattr(env.task, "goal", None)
-        print(f"wrote {plot_track(arrays, f'{args.plots}_track.png', path, goal, title)}")
-    return 0
-
+        print(f"wrote {plot_track(arrays, f'{plots}_track.png', path, goal, title)}")
 
 if __name__ == "__main__":
     raise SystemExit(main())
