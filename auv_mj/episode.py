@@ -450,7 +450,7 @@ def _tracked(record: EpisodeRecord) -> np.ndarray:
 
 
 def episode_metrics(record: EpisodeRecord) -> dict:
-    """The metrics of one episode, as `auv-mj eval` reports them (units in the README).
+    """The metrics of one episode, as `auv-mj eval` reports them (units in docs/evaluation.md).
 
     None stands for a figure that is undefined for this episode: time to goal without success, a
     clearance on a task that measures none, a tracking error where the task reports none or before

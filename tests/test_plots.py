@@ -135,3 +135,16 @@ def test_plot_learning_cli(tmp_path):
                               str(tmp_path / "none*.csv"), "-o", str(out)], capture_output=True, text=True,
                              timeout=120)
     assert missing.returncode != 0 and "no training logs match" in missing.stderr
+
+
+def test_plot_trajectory_reads_saved_episodes_without_a_task(moving_record, tmp_path):
+    """`auv-mj plot trajectory EPISODE.npz -o PNG` needs no --task (it reads the episode)."""
+    import subprocess
+    import sys
+
+    episode = moving_record.save(tmp_path / "episode.npz")
+    done = subprocess.run([sys.executable, "-m", "auv_mj.cli", "plot", "trajectory", str(episode), "-o",
+                           str(tmp_path / "t.png")], capture_output=True, text=True, timeout=300,
+                          env={"PATH": "/usr/bin:/bin", "MUJOCO_GL": "egl"})
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "t.png").stat().st_size > 1000

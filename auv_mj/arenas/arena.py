@@ -1,6 +1,6 @@
 """Arenas: MJCF files of walls, obstacles and path sites, composed with the vehicle into one model.
 
-The arena convention (what a task reads; see README "Authoring an arena"):
+The arena convention (what a task reads; see docs/arenas.md):
 - static geoms in `<worldbody>` are walls and obstacles; the sonar sees every geom but the vehicle's;
   names start with `wall` (tunnel walls, map boundary), `obstacle` (anything else in the water), or
   `unknown` (an obstacle the global path does not know of, Table 12's unknown obstacle: the path may

@@ -3,8 +3,8 @@
 Loads the shipped HER-DDPG planner and DDPG executor, drives the full MuJoCo dynamics through the
 `tunnel` task (Table 12), prints an evaluation table beside the paper's planner on the S-plane executor, the
 general planner and the strongest classical planner (`map-replan`, COMPARED), and writes `demo/tunnel.mp4`,
-`demo/tunnel_trajectory.png` and `demo/tunnel_episode.npz`. `--task`, `--task-kwargs`, `--arena` run the same demo elsewhere (files named
-after the task), e.g. on a tunnel you authored: `auv-mj demo --arena my_tunnel.xml`.
+`demo/tunnel_trajectory.png` and `demo/tunnel_episode.npz`. `--task`, `--task-kwargs`, `--arena` run the same
+demo elsewhere (files named after the task), e.g. on a tunnel you authored: `auv-mj demo --arena my_tunnel.xml`.
 """
 
 from __future__ import annotations

@@ -29,8 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         p.add_argument("inputs", nargs="*", type=Path,
                        help="episode .npz files (auv-mj render --save-episode)" +
                             (" or a tracking CSV" if kind == "tracking" else ""))
-        add_episode_options(p, task=None, task_help="run an episode of this suite task instead of reading inputs")
-        p.set_defaults(task=None)
+        add_episode_options(p, task=None, task_required=False,
+                            task_help="run an episode of this suite task instead of reading inputs")
         p.add_argument("--max-steps", type=positive_int, default=None)
         if kind == "trajectory":
             p.add_argument("--labels", nargs="*", default=None, help="one legend label per input")

@@ -35,7 +35,8 @@ def ocean_conditions(lines: list[str], episodes: int) -> None:
     """The same planners, executors and baselines under ocean conditions beside ideal ones, and what breaks."""
     c = ocean.OCEAN
     lines += ["## Ocean conditions", "",
-              "`conditions=\"ocean\"` (`auv_mj/sim/ocean.py`, README \"Ocean conditions\"): a Gauss-Markov current of "
+              "`conditions=\"ocean\"` (`auv_mj/sim/ocean.py`, docs/physics.md \"Ocean conditions\"): a Gauss-Markov "
+              "current of "
               f"{c.current.mean_speed} m/s mean (spread {c.current.speed_sigma} m/s, at most "
               f"{c.current.speed_bounds[1]} m/s, direction random per episode), thrust and yaw moment lagged "
               "(0.4 s and 0.2 s, MuJoCo filterexact), sonar noise of "
