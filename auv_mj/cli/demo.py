@@ -53,10 +53,11 @@ def demo_row(record: EpisodeRecord) -> dict:
 def format_rows(rows: dict[str, dict]) -> str:
     """The demo's table: one row per policy."""
     columns = list(next(iter(rows.values())))
-    header = f"{'policy':<12}" + "".join(f"{c:>13}" for c in columns)
+    width = max(12, *(len(name) + 1 for name in rows))
+    header = f"{'policy':<{width}}" + "".join(f"{c:>13}" for c in columns)
     lines = [header, "-" * len(header)]
     for name, metrics in rows.items():
-        lines.append(f"{name:<12}" + "".join(table_cell(metrics[c], 13, 2) for c in columns))
+        lines.append(f"{name:<{width}}" + "".join(table_cell(metrics[c], 13, 2) for c in columns))
     return "\n".join(lines)
 
 
