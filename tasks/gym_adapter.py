@@ -53,7 +53,7 @@ def gym_id(task_name: str) -> str:
     return "auv_mj/" + "".join(part[:1].upper() + part[1:] for part in task_name.title().split("_")) + "-v0"
 
 
-GYM_IDS = {gym_id(name): name for _, name in suite.ALL_TASKS}
+GYM_IDS = {gym_id(name): name for _, name in suite.PLANAR_TASKS}
 """Gymnasium id -> suite task name, one per task of the suite (derived from it)."""
 GYM_IDS_3D = {gym_id(name): name for _, name in suite.TASKS_3D}
 """Gymnasium id -> task name of the 6-DOF domain "auv3d" (`tasks.auv3d`): flat Box observations."""

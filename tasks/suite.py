@@ -4,7 +4,8 @@ Every planar task lives in the domain "auv" and is registered in `tasks.registry
 goal, waypoints, obstacles, moving_obstacles, tunnel, path_line, path_curve (planning, one step per
 0.5 s planner decision) and speed_heading (execution, one step per 0.1 s executor tick). The 6-DOF vehicle's
 tasks (depth_heading, goal3d, tunnel3d) are the domain "auv3d" (`tasks.auv3d.SUITE3D`): `load("auv3d", ...)`;
-ALL_TASKS, BENCHMARKING and `tasks_by_tag` stay the planar domain's, `TASKS_3D` and `domain_of` cover both.
+`ALL_TASKS` and `domain_of` cover both domains; `PLANAR_TASKS`, BENCHMARKING and `tasks_by_tag` are the planar
+domain's, `TASKS_3D` the 6-DOF one's.
 
 `python -m tasks.suite [--steps N]` prints each task's environment steps per second under random actions.
 """
@@ -26,14 +27,16 @@ from tasks.registry import SUITE
 DOMAIN = "auv"
 """The suite's only domain."""
 
-ALL_TASKS = tuple((DOMAIN, name) for name in SUITE)
-"""Every (domain, task) pair."""
+PLANAR_TASKS = tuple((DOMAIN, name) for name in SUITE)
+"""Every (domain, task) pair of the planar domain "auv" (the paper's)."""
 BENCHMARKING = tuple((DOMAIN, name) for name in SUITE.tagged("benchmarking"))
 """The (domain, task) pairs tagged "benchmarking"."""
 TASKS_BY_DOMAIN = {DOMAIN: tuple(SUITE), DOMAIN_3D: tuple(SUITE3D)}
 """Domain -> its task names."""
 TASKS_3D = tuple((DOMAIN_3D, name) for name in SUITE3D)
 """Every (domain, task) pair of the 6-DOF domain "auv3d"."""
+ALL_TASKS = PLANAR_TASKS + TASKS_3D
+"""Every (domain, task) pair of both domains, as dm_control's `suite.ALL_TASKS`."""
 _REGISTRIES = {DOMAIN: SUITE, DOMAIN_3D: SUITE3D}
 
 

@@ -15,7 +15,7 @@ from tasks.gym_adapter import GYM_IDS, AUVGymEnv
 
 pytestmark = pytest.mark.filterwarnings("ignore:.*Box observation space m.* value is .*infinity")
 
-TASK_NAMES = {name for _, name in suite.ALL_TASKS}
+TASK_NAMES = {name for _, name in suite.PLANAR_TASKS}
 AVAILABLE_IDS = [env_id for env_id, task in GYM_IDS.items() if task in TASK_NAMES]
 GOAL_IDS = [env_id for env_id in AVAILABLE_IDS if env_id != "auv_mj/SpeedHeading-v0"]
 SHORT = {"time_limit": 5.0}

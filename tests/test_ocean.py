@@ -352,7 +352,7 @@ def ocean_effects(env) -> dict[str, bool]:
             "model_uncertainty": physics.hydrodynamics.coefficients != NOMINAL}
 
 
-@pytest.mark.parametrize("domain, name", suite.ALL_TASKS)
+@pytest.mark.parametrize("domain, name", suite.PLANAR_TASKS)
 def test_every_task_takes_the_conditions_option(domain, name):
     for conditions, on in (("ideal", False), ("ocean", True)):
         env = suite.load(domain, name, task_kwargs={"random": 1, "conditions": conditions})

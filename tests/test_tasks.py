@@ -98,12 +98,15 @@ def place(env, x: float, y: float, psi: float) -> np.ndarray:
 
 
 def test_suite_lists_every_task_and_rejects_unknown_names():
-    names = {name for _, name in suite.ALL_TASKS}
+    names = {name for _, name in suite.PLANAR_TASKS}
     assert {"goal", "waypoints", "obstacles", "moving_obstacles", "tunnel", "path_line", "path_curve",
             "speed_heading"} <= names
-    assert all(domain == "auv" for domain, _ in suite.ALL_TASKS)
+    assert all(domain == "auv" for domain, _ in suite.PLANAR_TASKS)
+    assert set(suite.ALL_TASKS) == set(suite.PLANAR_TASKS) | {("auv3d", n) for n in ("depth_heading", "goal3d",
+                                                                                      "tunnel3d")}
+    assert all(suite.domain_of(name) == domain for domain, name in suite.ALL_TASKS)
     assert set(suite.TASKS_BY_DOMAIN["auv"]) == names
-    assert set(suite.BENCHMARKING) <= set(suite.ALL_TASKS)
+    assert set(suite.BENCHMARKING) <= set(suite.PLANAR_TASKS)
     assert {name for _, name in suite.tasks_by_tag("planning")} == set(PLANNING_TASKS)
     assert "tracking" in suite.TAGS and ("auv", "tunnel") in suite.tasks_by_tag("tracking")
     with pytest.raises(ValueError, match="valid domains: auv"):

@@ -272,7 +272,7 @@ OCEAN_STEPS = 25
 def tasks_section(settings: BenchSettings) -> list[Measurement]:
     """Environment steps per second of every suite task, and how many times faster than real time."""
     measurements = []
-    for domain, name in suite.ALL_TASKS:
+    for domain, name in suite.PLANAR_TASKS:
         env = suite.load(domain, name)
         rates = [suite.steps_per_second(name, settings.calls(TASK_STEPS), settings.seed)
                  for _ in range(max(1, settings.repeats // 3))]

@@ -331,7 +331,7 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
 
     'all' and the tags are the planar domain's tasks; the 6-DOF tasks (domain auv3d) are chosen by name, or all
     of them by 'auv3d', since only some policies (splane, los-avoid, random) know the 6-DOF vehicle."""
-    names = [task for _, task in suite.ALL_TASKS]
+    names = [task for _, task in suite.PLANAR_TASKS]
     names_3d = [task for _, task in suite.TASKS_3D]
     if spec == "all":
         chosen = names
