@@ -68,20 +68,34 @@ def mujoco_library_path() -> Path:
     return found[0]
 
 
-def build(compiler: str, target: Path) -> None:
-    """Compiles SOURCE into the shared library `target`, atomically (a temporary name, then a rename)."""
+def build(compiler: str, target: Path, source: Path = SOURCE, flags: tuple[str, ...] = FLAGS) -> None:
+    """Compiles `source` into the shared library `target`, atomically (a temporary name, then a rename)."""
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, temporary = tempfile.mkstemp(suffix=".so", dir=target.parent)
     os.close(fd)
     try:
-        result = subprocess.run([compiler, *FLAGS, "-o", temporary, str(SOURCE), "-lm"],
+        result = subprocess.run([compiler, *flags, "-o", temporary, str(source), "-lm"],
                                 capture_output=True, text=True, timeout=120)
         if result.returncode != 0:
-            raise OSError(f"{compiler} failed on {SOURCE.name}: {result.stderr.strip()[:500]}")
+            raise OSError(f"{compiler} failed on {source.name}: {result.stderr.strip()[:500]}")
         os.replace(temporary, target)
     finally:
         if os.path.exists(temporary):
             os.unlink(temporary)
+
+
+def compiled(source: Path = SOURCE, flags: tuple[str, ...] = FLAGS) -> Path:
+    """The shared library of the C file `source` in the cache, built first if it is not there; it is keyed by the
+    source, the compiler, the flags and the platform. OSError when there is no compiler or the build fails."""
+    compiler = shutil.which(os.environ.get("CC", "cc"))
+    if compiler is None:
+        raise OSError(f"no C compiler found ({os.environ.get('CC', 'cc')!r}; set CC)")
+    key = hashlib.sha256(source.read_bytes() + "\0".join((compiler, *flags, platform.machine(),
+                                                            platform.system())).encode()).hexdigest()[:16]
+    target = cache_dir() / f"{source.stem}-{key}.so"
+    if not target.exists():
+        build(compiler, target, source, flags)
+    return target
 
 
 @cache
@@ -89,16 +103,8 @@ def kernel() -> NativeKernel | None:
     """The C step, compiled if needed; None (with one warning) when it cannot be built or loaded."""
     if not enabled():
         return None
-    compiler = shutil.which(os.environ.get("CC", "cc"))
     try:
-        if compiler is None:
-            raise OSError(f"no C compiler found ({os.environ.get('CC', 'cc')!r}; set CC)")
-        key = hashlib.sha256(SOURCE.read_bytes() + "\0".join((compiler, *FLAGS, platform.machine(),
-                                                                 platform.system())).encode()).hexdigest()[:16]
-        target = cache_dir() / f"hydro_kernel-{key}.so"
-        if not target.exists():
-            build(compiler, target)
-        return NativeKernel(ctypes.CDLL(str(target)), ctypes.CDLL(str(mujoco_library_path())))
+        return NativeKernel(ctypes.CDLL(str(compiled())), ctypes.CDLL(str(mujoco_library_path())))
     except (OSError, subprocess.SubprocessError, AttributeError) as e:
         warnings.warn(f"auv-mj: the C hydrodynamic step is unavailable ({e}); the Python step runs instead "
                       "(same results, about 1.5x slower). Set AUV_MJ_NATIVE=0 to choose it quietly.",

@@ -8,12 +8,7 @@ Python loop of `Hydro6.bind` runs (same physics, slower).
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import os
-import platform
-import shutil
 import subprocess
-import tempfile
 import warnings
 from functools import cache
 from pathlib import Path
@@ -38,36 +33,14 @@ class Kernel6:
                                for name in native.MUJOCO_FUNCTIONS)
 
 
-def _build(compiler: str, target: Path) -> None:
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, temporary = tempfile.mkstemp(suffix=".so", dir=target.parent)
-    os.close(fd)
-    try:
-        result = subprocess.run([compiler, *FLAGS, "-o", temporary, str(SOURCE), "-lm"], capture_output=True,
-                                text=True, timeout=120)
-        if result.returncode != 0:
-            raise OSError(f"{compiler} failed on {SOURCE.name}: {result.stderr.strip()[:500]}")
-        os.replace(temporary, target)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-
-
 @cache
 def kernel() -> Kernel6 | None:
     """The C step, compiled if needed; None (with one warning) when it cannot be built or loaded."""
     if not native.enabled():
         return None
-    compiler = shutil.which(os.environ.get("CC", "cc"))
     try:
-        if compiler is None:
-            raise OSError(f"no C compiler found ({os.environ.get('CC', 'cc')!r}; set CC)")
-        key = hashlib.sha256(SOURCE.read_bytes() + "\0".join((compiler, *FLAGS, platform.machine(),
-                                                                 platform.system())).encode()).hexdigest()[:16]
-        target = native.cache_dir() / f"hydro6_kernel-{key}.so"
-        if not target.exists():
-            _build(compiler, target)
-        return Kernel6(ctypes.CDLL(str(target)), ctypes.CDLL(str(native.mujoco_library_path())))
+        library = native.compiled(SOURCE, FLAGS)
+        return Kernel6(ctypes.CDLL(str(library)), ctypes.CDLL(str(native.mujoco_library_path())))
     except (OSError, subprocess.SubprocessError, AttributeError) as e:
         warnings.warn(f"auv-mj: the C 6-DOF step is unavailable ({e}); the Python step runs instead. Set "
                       "AUV_MJ_NATIVE=0 to choose it quietly.", RuntimeWarning, stacklevel=2)
