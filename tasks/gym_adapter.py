@@ -104,7 +104,7 @@ class AUVGymEnv(gymnasium.Env):
     def __init__(self, task_name: str, task_kwargs: Mapping[str, Any] | None = None,
                  environment_kwargs: Mapping[str, Any] | None = None, render_mode: str | None = None,
                  render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE,
-                 protection: bool | str = False, residual: float = 0.0):
+                 protection: bool | str = False, residual: float = 0.0, guide: str = "route"):
         """`task_kwargs` go to the task factory (not "random": seed through `reset(seed=...)`).
 
         `protection=True` or "paper" (planning tasks) puts the protection domain of Sec. 3.2.2
@@ -113,6 +113,10 @@ class AUVGymEnv(gymnasium.Env):
         loop; "speed-aware" puts in the speed-aware domain (`tasks.avoidance.PROTECTIONS`).
         `residual` > 0 (planning tasks) makes the action a residual planner's, a correction of that span to
         line of sight (`tasks.guidance.guided_action`), applied before the protection domain.
+        `guide="map"` (planning tasks) puts the virtual goal along the sonar map's planned path in the
+        observation in place of the task's (`tasks.map_planner.MapGuide`: the map is the planner's memory), and
+        pays the reward on that path's length left (`tasks.map_planner.path_reward`); "route" (the default)
+        leaves the task's goal and reward.
         """
         from tasks import suite  # imported here so that registering the ids stays light
 
@@ -155,6 +159,16 @@ class AUVGymEnv(gymnasium.Env):
         self.residual = checks.number("residual", residual, 0.0, MAX_RESIDUAL)
         if self.residual and not self.is_goal_task:
             raise ValueError(f"residual (a correction to line of sight) is for the planning tasks, not {task_name!r}")
+        from tasks.map_planner import GUIDES, MapGuide
+
+        if guide not in GUIDES:
+            raise ValueError(f"guide must be one of {list(GUIDES)}, got {checks.shown(guide)}")
+        if guide != "route" and not self.is_goal_task:
+            raise ValueError(f"guide={guide!r} (a goal along the map's path) is for the planning tasks, not "
+                             f"{task_name!r}")
+        self.guide = guide
+        self._guide = MapGuide(self._env) if guide == "map" else None
+        self._left = 0.0
         self._last_observation = None
 
     @property
@@ -164,9 +178,10 @@ class AUVGymEnv(gymnasium.Env):
 
     @property
     def goal_dependent_actions(self) -> bool:
-        """Whether what an action does depends on the desired goal (a residual planner): hindsight
-        relabelling would then store transitions that did not happen."""
-        return self.residual > 0
+        """Whether what an action does depends on the desired goal (a residual planner), or the reward is not
+        the task's goal-conditioned one (guide="map"): hindsight relabelling would then store transitions that
+        did not happen."""
+        return self.residual > 0 or self._guide is not None
 
     # --- the wrapped dm_control objects ------------------------------------------------------------
 
@@ -196,8 +211,12 @@ class AUVGymEnv(gymnasium.Env):
             self.task.random.seed(seed)
         time_step = self._env.reset()
         self._needs_reset = False
-        self._last_observation = time_step.observation
-        return self._observation(time_step.observation), self._info()
+        observation = time_step.observation
+        if self._guide is not None:
+            self._guide.reset()
+            observation, self._left = self._guide(time_step)
+        self._last_observation = observation
+        return self._observation(observation), self._info()
 
     def step(self, action):
         """One task step; `terminated` on a LAST step with discount 0, `truncated` at the time limit.
@@ -220,12 +239,18 @@ class AUVGymEnv(gymnasium.Env):
                 fence = self.task.map_fence(self.physics) if self._field.fence else None
                 action = protect(action, self._last_observation["observation"], self._field, fence)
         time_step = self._env.step(action)
-        self._last_observation = time_step.observation
+        observation, reward = time_step.observation, float(time_step.reward)
+        if self._guide is not None:
+            from tasks.map_planner import path_reward
+
+            before = self._left
+            observation, self._left = self._guide(time_step)
+            reward = path_reward(before, self._left, self.task.last_info)
+        self._last_observation = observation
         terminated = bool(time_step.last() and time_step.discount == 0.0)
         truncated = bool(time_step.last() and not terminated)
         self._needs_reset = time_step.last()
-        return (self._observation(time_step.observation), float(time_step.reward), terminated, truncated,
-                self._info())
+        return self._observation(observation), reward, terminated, truncated, self._info()
 
     def compute_reward(self, achieved_goal, desired_goal, info):
         """The task's vectorised reward for (batches of) goals; `info` as from `step` (or a batch of them)."""
@@ -305,7 +330,7 @@ class PlanningMix(gymnasium.Env):
     def __init__(self, tasks: tuple[str, ...] = MIX_TASKS, weights: tuple[float, ...] | None = None,
                  task_kwargs: Mapping[str, Any] | None = None,
                  per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool | str = False,
-                 residual: float = 0.0):
+                 residual: float = 0.0, guide: str = "route"):
         if isinstance(tasks, str) or not isinstance(tasks, (list, tuple)) or not all(isinstance(t, str) for t in tasks):
             raise ValueError(f"tasks: a list of planning task names, got {checks.shown(tasks)}")
         tasks = tuple(tasks)
@@ -327,7 +352,7 @@ class PlanningMix(gymnasium.Env):
             raise ValueError(f"per_task_kwargs: {sorted(unknown)} not among the tasks {tasks}")
         self.tasks, self.weights = tasks, weights / weights.sum()
         self.envs = [AUVGymEnv(name, {**dict(task_kwargs or {}), **dict((per_task_kwargs or {}).get(name, {}))},
-                               protection=protection, residual=residual) for name in tasks]
+                               protection=protection, residual=residual, guide=guide) for name in tasks]
         first = self.envs[0]
         for name, env in zip(tasks, self.envs, strict=True):
             if not env.is_goal_task:

@@ -35,7 +35,7 @@ from auv_mj.episode import VEHICLE_BODY, arena_geometry, geom_footprint
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 from tasks.avoidance import PROTECTIONS, map_fence, with_repulsion
 from tasks.guidance import los_heading
-from tasks.planning import MAX_SPEED, SONAR_SLICE, TARGET_SPEED, speed_action
+from tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE, TARGET_SPEED, speed_action
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
 
@@ -334,3 +334,76 @@ def _resettable(follower: GridFollower) -> Policy:
     policy.reset = follower.reset
     policy.follower = follower
     return policy
+
+
+GUIDES = ("route", "map")
+"""What a residual planner's goal input is: "route", the task's own goal (the straight route), or "map", the
+virtual goal along `map_replan`'s planned path (`MapGuide`)."""
+
+
+class MapGuide:
+    """The sonar map's planned path as a planner's goal: the memory of a map-guided residual planner (issue 30).
+
+    Each step it brings `SonarMap` up to date (the map, and the search when it must run again, as `map_replan`)
+    and puts a virtual goal in the observation in place of the task's: on the bearing of the path's look-ahead
+    point, as far away as the planned path is long, so that the body-frame goal the planner reads (distance and
+    bearing, `tasks.planning.RELATIVE_FIELDS`) keeps the range it has on the straight route. Line of sight,
+    which a residual planner corrects (`tasks.guidance`), then aims along the path: with the learned output
+    zeroed the planner is `map_replan`'s follower at the zero action's speed.
+    """
+
+    def __init__(self, env):
+        self.env = env
+        self.follower = SonarMap(env)
+
+    def reset(self) -> None:
+        """Forgets the map (the next step starts a new episode)."""
+        self.follower.reset()
+
+    def __call__(self, time_step: dm_env.TimeStep) -> tuple[dict, float]:
+        """The observation with the virtual goal in it, and the planned path's length left [m]."""
+        point, left = self.follower.waypoint(time_step)
+        pose = np.array(self.env.physics.pose(), dtype=float)
+        bearing = math.atan2(point[1] - pose[1], point[0] - pose[0])
+        observation = dict(time_step.observation)
+        desired = np.asarray(observation["desired_goal"], dtype=float).copy()
+        desired[:2] = pose[:2] + left * np.array([math.cos(bearing), math.sin(bearing)])
+        if desired.size == 4:
+            desired[2:] = (math.cos(bearing), math.sin(bearing))
+        observation["observation"] = self.env.task.relabel_observation(observation["observation"],
+                                                                       observation["achieved_goal"], desired)
+        observation["desired_goal"] = desired
+        return observation, left
+
+
+PATH_STEP = 1.5 * MAX_SPEED * PLANNER_DT
+"""Largest path progress [m] one planner step is paid for under guide="map" (`path_reward`): 1.5 times what
+the top speed covers in a planner step (1.5 m). The path's length also jumps when the map changes (a wall
+found ahead, the target moving on along a route); the cap keeps such a jump from paying or costing more than
+one step can."""
+
+
+def path_reward(left_before: float, left: float, info: dict) -> float:
+    """The reward of a map-guided planner's step (guide="map"): reward="progress" on the planned path's length
+    left instead of the straight distance (PROGRESS_GAIN per metre, capped at PATH_STEP), +4 (Eq. 23) on reaching
+    a goal, and the task's goal-independent part (Eqs. 24-25: avoidance, the per-step cost, any collision
+    penalty). In a trap the straight distance rewards the way into the cup; the path's length, the way round."""
+    gained = min(max(left_before - left, -PATH_STEP), PATH_STEP)
+    reached = FOLLOW_REACHED if info.get("event") in ("goal", "subgoal") else 0.0
+    return float(PROGRESS_GAIN * gained + reached + info["goal_independent_reward"])
+
+
+def map_guided(env, policy: Policy) -> Policy:
+    """`policy` (a residual planner acting on its time step's goal) fed `MapGuide`'s virtual goal."""
+    guide = MapGuide(env)
+
+    def act(time_step: dm_env.TimeStep) -> np.ndarray:
+        observation, _ = guide(time_step)
+        return policy(time_step._replace(observation=observation))
+
+    def reset() -> None:
+        guide.reset()
+        getattr(policy, "reset", lambda: None)()
+
+    act.reset = reset
+    return act

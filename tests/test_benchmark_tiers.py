@@ -132,3 +132,56 @@ def test_tunnel_command_writes_the_hard_arena_of_a_seed(tmp_path):
     expected = traps.random_hard_tunnel(20_000, RANDOM_TUNNELS)
     traps_in_file = text.count('name="unknown_trap')
     assert traps_in_file == sum(o.name.startswith("trap") for o in expected.unknown) > 0
+
+
+def _zero_residual_on_the_map(env):
+    """A residual planner whose learned output is zero, at top speed, on `MapGuide`'s virtual goal, inside the
+    speed-aware domain: the skeleton of a map-guided learned planner."""
+    from tasks.avoidance import map_fence, with_repulsion
+    from tasks.guidance import with_guidance
+    from tasks.map_planner import PROTECTION, TOP_SPEED_ACTION, map_guided
+
+    zero = with_guidance(lambda time_step: np.array([TOP_SPEED_ACTION, 0.0]), env, 1.0)
+    return with_repulsion(map_guided(env, zero), PROTECTION, map_fence(env))
+
+
+def test_map_guide_gets_a_residual_planner_out_of_a_cup():
+    """The map is the memory: line of sight on the virtual goal along the sonar map's path leaves the cup that
+    line of sight on the straight route (`los_avoid`, above) stalls in."""
+    env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 500.0)
+    metrics = episode_metrics(record_episode(env, _zero_residual_on_the_map(env)))
+    assert metrics["success"] and metrics["outcome"] == "goal"
+
+
+def test_map_guide_goal_lies_along_the_planned_path():
+    """The virtual goal is on the bearing of the follower's look-ahead point, as far as the path left is long,
+    and the observation's goal features are the task's own for that goal (distance, body-frame bearing)."""
+    from tasks.map_planner import MapGuide
+
+    env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 500.0)
+    guide, drive = MapGuide(env), _zero_residual_on_the_map(env)
+    time_step, detour = env.reset(), 0.0
+    while not time_step.last():
+        observation, left = guide(time_step)
+        pose = np.array(env.physics.pose())
+        point, _ = guide.follower.carrot(pose, env.task.goals[0])
+        desired = observation["desired_goal"]
+        assert np.hypot(*(desired[:2] - pose[:2])) == pytest.approx(left, rel=1e-9)
+        bearing = math.atan2(desired[1] - pose[1], desired[0] - pose[0])
+        assert math.cos(bearing - math.atan2(point[1] - pose[1], point[0] - pose[0])) == pytest.approx(1.0)
+        np.testing.assert_allclose(observation["observation"][:3],
+                                   planning.relative_goal(observation["achieved_goal"], desired), atol=1e-12)
+        detour = max(detour, left - np.hypot(*(env.task.goals[0] - pose[:2])))
+        time_step = env.step(drive(time_step))
+    assert detour > 10.0, "once the cup's back wall is in the map, the path goes round it"
+
+
+def test_path_reward_pays_path_progress_capped():
+    from tasks.map_planner import PATH_STEP, path_reward
+
+    info = {"goal_independent_reward": -0.05, "event": ""}
+    assert path_reward(100.0, 99.0, info) == pytest.approx(planning.PROGRESS_GAIN * 1.0 - 0.05)
+    assert path_reward(100.0, 150.0, info) == pytest.approx(-planning.PROGRESS_GAIN * PATH_STEP - 0.05)
+    assert path_reward(100.0, 0.0, info) == pytest.approx(planning.PROGRESS_GAIN * PATH_STEP - 0.05)
+    reached = path_reward(1.0, 0.5, {**info, "event": "goal"})
+    assert reached == pytest.approx(planning.PROGRESS_GAIN * 0.5 + planning.FOLLOW_REACHED - 0.05)

@@ -234,3 +234,27 @@ def test_protection_in_the_loop_bends_the_heading_as_the_planner_policy_does(pro
         np.testing.assert_allclose(obs["observation"], bare_obs["observation"], atol=1e-12)
         if terminated or truncated:
             break
+
+
+def test_guide_option_is_checked_and_puts_the_map_goal_in_the_observation():
+    from tasks.map_planner import PATH_STEP
+    from tasks.planning import PROGRESS_GAIN
+
+    with pytest.raises(ValueError, match="guide must be one of"):
+        AUVGymEnv("obstacles", guide="maps")
+    with pytest.raises(ValueError, match="for the planning tasks"):
+        AUVGymEnv("speed_heading", guide="map")
+    env = AUVGymEnv("obstacles", {"arena": "random", "tier": "hard"}, protection="speed-aware", residual=1.0,
+                    guide="map")
+    assert env.goal_dependent_actions  # its reward is not the task's compute_reward: no hindsight relabelling
+    observation, _ = env.reset(seed=20_000)
+    goal = np.asarray(env.task.goals[-1])
+    straight = np.hypot(*(goal - observation["achieved_goal"][:2]))
+    assert np.hypot(*(observation["desired_goal"][:2] - observation["achieved_goal"][:2])) >= straight - 1e-6
+    rewards = []
+    for _ in range(40):
+        observation, reward, terminated, truncated, info = env.step(np.zeros(2))
+        rewards.append(reward - info["goal_independent_reward"])
+        assert not (terminated or truncated)
+    assert max(abs(r) for r in rewards) <= PROGRESS_GAIN * PATH_STEP + 1e-9  # path progress, capped, no goal reached
+    assert sum(rewards) > 0  # line of sight along the path gains on it

@@ -14,6 +14,9 @@ AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 RECORDED = json.loads((ROOT / "tests" / "data" / "policy_outcomes_d7f506e.json").read_text())
 """Outcome and path length of 60-step episodes of each name that existed before the registry, recorded at
 d7f506e (the parallel tables of names) with `evaluate.run_episode(name, task, seed, {}, 60)`."""
+RENAMED = {"planner-general": "planner-route", "two-layer-general": "two-layer-route"}
+"""Names whose policy moved to another name since (issue 30 shipped a new general planner; the old one, on the
+same checkpoint file, is `planner-route`)."""
 
 
 @pytest.mark.parametrize("command", ["eval", "render", "plot trajectory", "plot tracking", "demo"])
@@ -37,6 +40,7 @@ def test_names_behave_as_before_the_registry():
     """The shipped names give the outcomes and path lengths recorded before the registry (one seed each)."""
     for key, recorded in RECORDED.items():
         name, task, seed = key.split("|")
+        name = RENAMED.get(name, name)
         if seed != "10000":
             continue
         metrics = evaluate.run_episode(name, task, int(seed), {}, 60)

@@ -35,7 +35,6 @@ from agents.baselines import uniform_random
 from agents.checkpoint import read_checkpoint
 from agents.policy import Policy
 from auv_mj.arenas import arena
-from auv_mj.cli.map_guided import map_guided
 from auv_mj.cli.policy_spec import (
     POLICIES,
     RESOLVERS,
@@ -49,7 +48,7 @@ from tasks import suite
 from tasks.auv3d import SUITE3D, classical_3d, is_3d
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
 from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
-from tasks.map_planner import fast_line_of_sight, sonar_map_planner, true_map_planner
+from tasks.map_planner import fast_line_of_sight, map_guided, sonar_map_planner, true_map_planner
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from tasks.splane import OCEAN_GAINS, SPlaneController
 
@@ -138,11 +137,15 @@ def loaded_policy(path: Path) -> Policy:
     return _loaded(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
 
 
-def checkpoint_policy(path: Path, env, protection: bool | str | None = None) -> ActingPolicy:
+def checkpoint_policy(path: Path, env, protection: bool | str | None = None, guide: str | None = None,
+                      zeroed: bool = False) -> ActingPolicy:
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
-    (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, and a
-    residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`). `protection` as
-    `PolicySpec.protection`. ValueError naming the file if its observation or action sizes do not fit the task."""
+    (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, a
+    residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`), and a map-guided
+    one (`"guide": "map"`) on the virtual goal along the sonar map's path (`tasks.map_planner.MapGuide`).
+    `protection` as `PolicySpec.protection`; `guide` overrides the checkpoint's. `zeroed`: the network's output
+    replaced by zeros, the rest as deployed (the ablation row: what the system is without what it learned).
+    ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = loaded_policy(path)
     sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
     actions = tuple(env.action_spec().shape)
@@ -155,6 +158,8 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None) -> 
 
     def act(time_step):
         observation = time_step.observation
+        if zeroed:
+            return np.zeros(actions)
         if set(observation) == {"observation"}:
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
@@ -162,6 +167,8 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None) -> 
     env_kwargs = policy.metadata.get("run_info", {}).get("env_kwargs", {}) or {}
     if float(env_kwargs.get("residual", 0.0)) > 0:  # a residual planner acts through line of sight
         act = with_guidance(act, env, float(env_kwargs["residual"]))
+    if (guide or env_kwargs.get("guide", "route")) == "map":
+        act = map_guided(env, act)
     field_ = protection_field(env_kwargs.get("protection", False))
     if isinstance(protection, str):
         field_ = protection_field(protection)
@@ -195,12 +202,25 @@ register("planner-raw", _learned("the paper's planner without the protection dom
                                  **PAPER_PLANNER))
 register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3)",
                                protection=True, executor="executor", **PAPER_PLANNER))
+GENERAL_DEPLOYMENT = {"tasks": "planning", "protection": "speed-aware"}
+"""How the general planners are deployed: on every planning task, inside the speed-aware domain with the geofence."""
+
 register("planner-general", _learned(
-    "residual planner trained on the distribution of arenas, over line of sight along the route, with the "
-    "speed-aware protection domain and the geofence (issue 15)", "planner_general.pt", tasks="planning",
-    protection="speed-aware"))
+    "the general planner: a residual planner over line of sight along the sonar map's planned path (the map is its "
+    "memory), trained on the hard tier, speed-aware domain and geofence (issue 30)", "planner_general.pt",
+    **GENERAL_DEPLOYMENT))
 register("two-layer-general", _learned("planner-general on the learned ocean executor", "planner_general.pt",
-                                       tasks="planning", protection="speed-aware", executor="ocean-executor"))
+                                       executor="ocean-executor", **GENERAL_DEPLOYMENT))
+register("planner-general-zeroed", PolicySpec(
+    "planner-general with its learned output zeroed, the rest as deployed: its classical skeleton (the ablation)",
+    lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", zeroed=True), family="reference",
+    checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT))
+register("planner-route", _learned(
+    "the general planner of issue 15, kept for comparison: a residual planner over line of sight along the route "
+    "(no memory), trained on the standard arenas, speed-aware domain and geofence", "planner_route.pt",
+    **GENERAL_DEPLOYMENT))
+register("two-layer-route", _learned("planner-route on the learned ocean executor", "planner_route.pt",
+                                     executor="ocean-executor", **GENERAL_DEPLOYMENT))
 register("planner-e2e", _learned("the first planner trained on the distribution of arenas, end to end (kept for "
                                  "comparison)", "planner_e2e.pt", tasks="planning", protection=True))
 register("two-layer-e2e", _learned("planner-e2e on the paper's learned executor", "planner_e2e.pt",
@@ -221,12 +241,11 @@ register("los-avoid", PolicySpec("line of sight along the route with the paper's
                                  lambda d: classical_3d(d.env, avoid=True) if is_3d(d.env) else line_of_sight(d.env),
                                  tasks="planning", protection="paper"))
 register("planner-map", PolicySpec(
-    "planner-general steering along map-replan's planned path instead of the straight route: the learned planner "
-    "with the sonar map as its memory (issue 30, a first attempt; its ablation is map-replan)",
-    lambda d: map_guided(d.checkpoint, d.env, checkpoint_policy(d.checkpoint, d.env, "speed-aware")),
-    family="learned", tasks="planning", checkpoint="planner_general.pt", protection="speed-aware"))
+    "planner-route on the sonar map's path without training on it (`guide=\"map\"`): what planner-general's "
+    "training on the map adds over it", lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", guide="map"),
+    family="learned", checkpoint="planner_route.pt", **GENERAL_DEPLOYMENT))
 register("los-fast", PolicySpec("line of sight along the route at 2 m/s inside the speed-aware protection domain and "
-                                "the geofence: planner-general's zero action (issue 30)",
+                                "the geofence: planner-route's zero action at top speed (issue 30)",
                                 lambda d: fast_line_of_sight(d.env), tasks="planning", protection="speed-aware"))
 register("map-replan", PolicySpec("the mapping local planner: a sonar occupancy grid searched again as it changes, "
                                   "followed by line of sight at 2 m/s (speed-aware domain; `tasks.map_planner`)",
