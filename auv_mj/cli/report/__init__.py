@@ -17,6 +17,7 @@ from auv_mj.cli.report import (  # noqa: F401, I001
     heldout,
     ocean,
     executors,
+    tiers,
 )
 from auv_mj.cli.report.registry import SECTIONS, ReportSettings, section
 

@@ -1,0 +1,122 @@
+"""The benchmark section (issue 30): suite v1's cells, every published policy, the ablation and the targets.
+
+The figures are those of the published leaderboard (`docs/benchmark/leaderboard.json`, made by `auv-mj benchmark
+--policy P --publish`, one run per policy); this section lays them out per cell and checks the issue's targets on
+them, so that regenerating it costs nothing and re-measuring is one command per policy (printed below the table).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from auv_mj.cli.benchmark import LEADERBOARD, ORACLE, SUITE_V1
+from auv_mj.cli.report.common import fmt
+from auv_mj.cli.report.registry import ReportSettings, section
+
+LEARNED = "planner-general"
+"""The learned planner the targets are about."""
+ABLATION = "planner-general-zeroed"
+"""The same system with its learned output zeroed."""
+COMPETITORS = ("map-replan", "los-fast", "los-avoid")
+"""The non-oracle classical planners it must match in success and beat in time efficiency on the hard tier."""
+SPEED_BASELINE = "los-fast"
+"""The standard tier's time target is against this one."""
+HARD_SUCCESS, HARD_COLLISIONS, OCEAN_SUCCESS = 0.95, 0.01, 0.90
+"""Hard tier: success floor and collision ceiling in ideal water; success floor in ocean water."""
+STANDARD_SUCCESS, STANDARD_TIME = 0.99, 0.95
+"""Standard tier: success floor, and mean time at most this fraction of SPEED_BASELINE's."""
+ORDER = (ORACLE, LEARNED, ABLATION, "planner-route", "two-layer-general", "planner-map", *COMPETITORS)
+"""The order of the table's rows within a cell (policies not published are left out, others follow)."""
+
+
+def _row(cell: str, name: str, s: dict) -> str:
+    outcomes = s.get("outcomes", {})
+    low, high = s.get("success_ci95", [None, None])
+    clearance = f"{fmt(s.get('min_clearance'), 1)} / {fmt(s.get('median_min_clearance'), 1)}"
+    return (f"| {cell} | `{name}` | {s['episodes']} | {fmt(s['success_rate'], 2)} [{fmt(low, 2)}, {fmt(high, 2)}] | "
+            f"{outcomes.get('collision', 0)} | {outcomes.get('timeout', 0)} | {fmt(s.get('time_to_goal'), 0)} | "
+            f"{fmt(s.get('time_efficiency'), 2)} | {clearance} |")
+
+
+def verdicts(board: dict) -> list[str]:
+    """The issue's targets for LEARNED, one line per cell it applies to: what was measured and met / NOT met."""
+    out = []
+    for cell in SUITE_V1:
+        get = {name: r["cells"][cell.name]["summary"] for name, r in board.items() if cell.name in r["cells"]}
+        ours = get.get(LEARNED)
+        if ours is None:
+            continue
+        success, efficiency = ours["success_rate"], ours.get("time_efficiency") or 0.0
+        if cell.tier == "hard" and cell.water == "ideal":
+            others = {n: get[n] for n in COMPETITORS if n in get}
+            met = (success >= HARD_SUCCESS and ours["collision_rate"] <= HARD_COLLISIONS
+                   and all(success >= o["success_rate"] for o in others.values())
+                   and all(efficiency > (o.get("time_efficiency") or 0.0) for o in others.values()))
+            against = ", ".join(f"{n} {fmt(o['success_rate'], 2)} / {fmt(o.get('time_efficiency'), 2)}"
+                                for n, o in others.items())
+            text = (f"success {fmt(success, 2)} (>= {HARD_SUCCESS} and each classical planner's), time efficiency "
+                    f"{fmt(efficiency, 2)} (above each), collisions {fmt(ours['collision_rate'], 3)} (<= "
+                    f"{HARD_COLLISIONS}); classical success / efficiency: {against}")
+        elif cell.tier == "hard":
+            met, text = success >= OCEAN_SUCCESS, f"success {fmt(success, 2)} (>= {OCEAN_SUCCESS})"
+        elif cell.water == "ideal" and SPEED_BASELINE in get:
+            base = get[SPEED_BASELINE]
+            ratio = (ours["time_to_goal"] / base["time_to_goal"]) if ours.get("time_to_goal") and \
+                base.get("time_to_goal") else None
+            met = (success >= STANDARD_SUCCESS and success >= base["success_rate"]
+                   and ratio is not None and ratio <= STANDARD_TIME)
+            text = (f"success {fmt(success, 2)} (>= {STANDARD_SUCCESS} and {SPEED_BASELINE}'s "
+                    f"{fmt(base['success_rate'], 2)}), mean time {fmt(ratio, 3)} x {SPEED_BASELINE}'s (<= "
+                    f"{STANDARD_TIME})")
+        else:
+            continue
+        out.append(f"- {cell.name}: {text}: **{'met' if met else 'NOT met'}**")
+    return out
+
+
+def ablation(board: dict) -> list[str]:
+    """LEARNED against ABLATION per cell: what the learned output adds in success and time efficiency."""
+    if LEARNED not in board or ABLATION not in board:
+        return [f"(`{ABLATION}` is not published: no ablation)"]
+    lines = ["| cell | success: learned / zeroed | time efficiency: learned / zeroed | mean time [s]: learned / "
+             "zeroed |", "| --- | --- | --- | --- |"]
+    for cell in SUITE_V1:
+        pair = [board[n]["cells"].get(cell.name, {}).get("summary") for n in (LEARNED, ABLATION)]
+        if None in pair:
+            continue
+        a, b = pair
+        lines.append(f"| {cell.name} | {fmt(a['success_rate'], 2)} / {fmt(b['success_rate'], 2)} | "
+                     f"{fmt(a.get('time_efficiency'), 2)} / {fmt(b.get('time_efficiency'), 2)} | "
+                     f"{fmt(a.get('time_to_goal'), 0)} / {fmt(b.get('time_to_goal'), 0)} |")
+    return lines
+
+
+def tiers(lines: list[str], leaderboard: Path = LEADERBOARD) -> None:
+    """The section's Markdown (module docstring)."""
+    board = json.loads(Path(leaderboard).read_text())["policies"]
+    names = [n for n in ORDER if n in board] + [n for n in board if n not in ORDER]
+    episodes = sorted({r.get("episodes_per_cell") for r in board.values()}, key=str)
+    lines += ["## Benchmark: the standard and hard tiers (suite v1)", "",
+              f"Every published policy on every cell of suite v1 (task / tier / water; `auv_mj/cli/benchmark.py`), "
+              f"held-out test seeds, episodes per cell: {episodes}. Time efficiency is the oracle's time on the same "
+              "seed over the policy's, capped at 1, 0 on a failure (SPL); clearances are the least distance from "
+              "hull to any geom over an episode, least and median over the cell.", "",
+              "| cell | policy | episodes | success [95 % Wilson] | collisions | timeouts | mean time [s] | "
+              "time efficiency | least / median clearance [m] |", "| --- " * 9 + "|"]
+    for cell in SUITE_V1:
+        for name in names:
+            summary = board[name]["cells"].get(cell.name, {}).get("summary")
+            if summary is not None:
+                lines.append(_row(cell.name, name, summary))
+    lines += ["", f"### Ablation: `{LEARNED}` against its learned output zeroed (`{ABLATION}`)", "", *ablation(board),
+              "", f"### Targets (`{LEARNED}`, issue 30)", "", *verdicts(board), "",
+              "Commands: `auv-mj benchmark --policy P --episodes N --workers 2 --out runs/benchmark/P --publish` for "
+              "each P above (the oracle first: it is the reference of time efficiency), then `auv-mj reproduce "
+              "--sections benchmark`.", ""]
+
+
+@section("benchmark")
+def benchmark_section(lines: list[str], settings: ReportSettings) -> None:
+    """Suite v1 from the published leaderboard."""
+    tiers(lines)

@@ -1,0 +1,56 @@
+"""The report's benchmark section (issue 30): its targets are checked on the figures, not assumed."""
+
+from __future__ import annotations
+
+import json
+
+from auv_mj.cli.report import tiers
+
+
+def _summary(success: float, efficiency: float, time: float, collisions: float = 0.0) -> dict:
+    return {"episodes": 100, "success_rate": success, "success_ci95": [success - 0.05, min(1.0, success + 0.05)],
+            "collision_rate": collisions, "outcomes": {"collision": int(100 * collisions)}, "time_to_goal": time,
+            "time_efficiency": efficiency, "min_clearance": 1.0, "median_min_clearance": 9.0}
+
+
+def _board(cells: dict[str, dict[str, dict]]) -> dict:
+    """{policy: {cell: summary}} -> the leaderboard's "policies" shape."""
+    return {name: {"episodes_per_cell": 100, "cells": {c: {"summary": s} for c, s in by_cell.items()}}
+            for name, by_cell in cells.items()}
+
+
+HARD = "obstacles/hard/ideal"
+STANDARD = "obstacles/standard/ideal"
+
+
+def test_hard_tier_target_needs_success_and_a_higher_efficiency_than_every_classical_planner():
+    board = _board({"planner-general": {HARD: _summary(0.99, 0.90, 250)},
+                    "map-replan": {HARD: _summary(0.99, 0.88, 255)}, "los-fast": {HARD: _summary(0.6, 0.5, 280)}})
+    (line,) = tiers.verdicts(board)
+    assert line.startswith(f"- {HARD}:") and line.endswith("**met**")
+    board["map-replan"]["cells"][HARD]["summary"] = _summary(0.99, 0.91, 245)  # now more efficient than ours
+    assert tiers.verdicts(board)[0].endswith("**NOT met**")
+    board["map-replan"]["cells"][HARD]["summary"] = _summary(0.99, 0.88, 255)
+    board["planner-general"]["cells"][HARD]["summary"] = _summary(0.99, 0.90, 250, collisions=0.02)
+    assert tiers.verdicts(board)[0].endswith("**NOT met**")
+
+
+def test_standard_tier_target_is_a_time_ratio_to_los_fast():
+    board = _board({"planner-general": {STANDARD: _summary(1.0, 0.99, 94)},
+                    "los-fast": {STANDARD: _summary(1.0, 0.95, 100)}})
+    (line,) = tiers.verdicts(board)
+    assert "0.940 x los-fast" in line and line.endswith("**met**")
+    board["planner-general"]["cells"][STANDARD]["summary"] = _summary(1.0, 0.99, 96)
+    assert tiers.verdicts(board)[0].endswith("**NOT met**")
+
+
+def test_section_lays_out_every_published_cell_and_the_ablation(tmp_path):
+    board = _board({"oracle": {HARD: _summary(1.0, 1.0, 220)}, "planner-general": {HARD: _summary(0.99, 0.9, 250)},
+                    "planner-general-zeroed": {HARD: _summary(0.97, 0.5, 420)}})
+    path = tmp_path / "leaderboard.json"
+    path.write_text(json.dumps({"policies": board}))
+    lines: list[str] = []
+    tiers.tiers(lines, path)
+    text = "\n".join(lines)
+    assert text.count(f"| {HARD} | `") == 3  # a row per published policy
+    assert f"| {HARD} | 0.99 / 0.97 | 0.90 / 0.50 | 250 / 420 |" in text
