@@ -60,9 +60,18 @@ def geom_footprint(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> np.
         end = half @ basis * size[0]
         return np.concatenate([centre + axis - end, centre - axis + end])
     elif kind == mujoco.mjtGeom.mjGEOM_MESH:
-        # The bounding box of the mesh as a stand-in; arenas use boxes and cylinders.
-        local = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * model.geom_aabb[geom][3:5]
-        centre = centre + rot @ model.geom_aabb[geom][:2]
+        # MuJoCo collides a mesh by its convex hull: the footprint is the hull of its vertices seen from above
+        # (a concave `polygon` of `auv-mj arena` is several such meshes, one per triangle).
+        import shapely
+
+        mesh = int(model.geom_dataid[geom])
+        start = int(model.mesh_vertadr[mesh])
+        vertices = model.mesh_vert[start:start + int(model.mesh_vertnum[mesh])].astype(float)
+        world = data.geom_xpos[geom][:2] + vertices @ data.geom_xmat[geom].reshape(3, 3)[:2, :].T
+        hull = shapely.convex_hull(shapely.multipoints(world))
+        if hull.geom_type != "Polygon":
+            return None
+        return np.asarray(hull.exterior.coords)[:-1]
     else:
         return None
     return centre + local @ rot.T

@@ -228,3 +228,22 @@ def test_a_users_arena_passes_gymnasiums_checker(corridor):
         check_env(env.unwrapped, skip_render_check=True)
     observation, _ = env.reset(seed=3)
     np.testing.assert_allclose(observation["achieved_goal"][:2], [5.0, 0.0])
+
+
+def test_a_concave_polygon_has_its_exact_footprint():
+    """A concave `polygon` is several convex meshes: their footprints (what the oracle, the clearance and the
+    figures read) union to the polygon itself, by the shoelace formula and vertex for vertex."""
+    from auv_mj.episode import geom_footprint
+
+    layout_ = json.loads((ROOT / "models" / "arenas" / "traps" / "u_polygon.json").read_text())
+    (shape,) = layout_["shapes"]
+    corners = np.array(shape["points"], float)
+    x, y = corners.T
+    area = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    env = suite.load("auv", "obstacles", task_kwargs={"arena": str(ROOT / "models/arenas/traps/u_polygon.xml")})
+    env.reset()
+    model, data = env.physics.model.ptr, env.physics.data.ptr
+    meshes = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH]
+    union = shapely.union_all([shapely.Polygon(geom_footprint(model, data, g)) for g in meshes])
+    assert union.area == pytest.approx(area, rel=1e-6)
+    assert union.symmetric_difference(shapely.Polygon(corners)).area < 1e-3
