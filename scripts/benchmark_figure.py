@@ -11,7 +11,7 @@ from auv_mj.cli.plots import plot_gallery
 from auv_mj.cli.policies import env_and_policy
 from auv_mj.episode import record_episode
 
-POLICIES = ("los-avoid", "los-fast", "planner-general", "map-replan", "oracle")
+POLICIES = ("los-avoid", "los-fast", "planner-route", "map-replan", "planner-general", "oracle")
 
 
 def main() -> None:
@@ -29,8 +29,8 @@ def main() -> None:
             # the gallery labels a track "TASK SEED": name it by its policy
             records.append(record_episode(env, act, task=policy, policy_name=policy, seed=seed))
         panels.append(records)
-        titles.append(f"{args.task} hard, seed {seed}: " + ", ".join(
-            f"{r.policy} {'ok' if r.succeeded else 'fail'}" for r in records))
+        failed = [r.policy for r in records if not r.succeeded]
+        titles.append(f"{args.task} hard, seed {seed}\nfailed: {', '.join(failed) or 'none'}")
     print(plot_gallery(panels, args.out, titles, cols=len(panels), panel_size=(620, 560)))
 
 
