@@ -12,28 +12,18 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from pathlib import Path
 
 import numpy as np
 
+from auv_mj.cli.benchmark import wilson
 from auv_mj.cli.policies import env_and_policy
 from auv_mj.episode import episode_metrics, record_episode
 from tasks import map_planner, suite
 
 POLICIES = ("oracle", "planner-general", "two-layer-general", "los-avoid", "los-fast", "map-replan")
 TASKS = ("obstacles", "moving_obstacles", "tunnel")
-
-
-def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """The 95 % Wilson score interval of a success rate."""
-    if n == 0:
-        return (0.0, 1.0)
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (max(0.0, centre - half), min(1.0, centre + half))
 
 
 CLASSICAL = {"los-fast": map_planner.los_fast, "map-replan": map_planner.map_replan, "oracle": map_planner.oracle}
