@@ -166,9 +166,7 @@ class AUVGymEnv(gymnasium.Env):
         if guide != "route" and not self.is_goal_task:
             raise ValueError(f"guide={guide!r} (a goal along the map's path) is for the planning tasks, not "
                              f"{task_name!r}")
-        self.guide = guide
         self._guide = MapGuide(self._env) if guide == "map" else None
-        self._left = 0.0
         self._last_observation = None
 
     @property
@@ -214,7 +212,7 @@ class AUVGymEnv(gymnasium.Env):
         observation = time_step.observation
         if self._guide is not None:
             self._guide.reset()
-            observation, self._left = self._guide(time_step)
+            observation, _ = self._guide(time_step)
         self._last_observation = observation
         return self._observation(observation), self._info()
 
@@ -241,11 +239,8 @@ class AUVGymEnv(gymnasium.Env):
         time_step = self._env.step(action)
         observation, reward = time_step.observation, float(time_step.reward)
         if self._guide is not None:
-            from tasks.map_planner import path_reward
-
-            before = self._left
-            observation, self._left = self._guide(time_step)
-            reward = path_reward(before, self._left, self.task.last_info)
+            observation, _ = self._guide(time_step)
+            reward = self._guide.reward(self.task.last_info)
         self._last_observation = observation
         terminated = bool(time_step.last() and time_step.discount == 0.0)
         truncated = bool(time_step.last() and not terminated)

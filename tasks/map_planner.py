@@ -355,14 +355,21 @@ class MapGuide:
     def __init__(self, env):
         self.env = env
         self.follower = SonarMap(env)
+        self.left = self.left_before = 0.0
+        """The planned path's length left [m] at the last call, and at the call before."""
 
     def reset(self) -> None:
         """Forgets the map (the next step starts a new episode)."""
         self.follower.reset()
 
+    def reward(self, info: dict) -> float:
+        """`path_reward` of the step between the last two calls (`info`: the task's `last_info` of that step)."""
+        return path_reward(self.left_before, self.left, info)
+
     def __call__(self, time_step: dm_env.TimeStep) -> tuple[dict, float]:
         """The observation with the virtual goal in it, and the planned path's length left [m]."""
         point, left = self.follower.waypoint(time_step)
+        self.left_before, self.left = (left if time_step.first() else self.left), left
         pose = np.array(self.env.physics.pose(), dtype=float)
         bearing = math.atan2(point[1] - pose[1], point[0] - pose[0])
         observation = dict(time_step.observation)
