@@ -73,6 +73,10 @@ class DDPGConfig:
     """Gradient steps per environment step; a round does round(train_every * this) of them (ours)."""
     learning_starts: int = bounded(1000, 0, 10**9)
     """Warm-up environment steps before the first gradient step (ours)."""
+    actor_burn_in: int = bounded(0, 0, 10**9)
+    """Gradient steps at the start of a run in which only the critic learns (ours, after the burn-in of residual
+    policy learning, Silver et al. 2018): a fine-tuned or zero-headed residual actor is not moved by a critic
+    that has not yet learned its own returns."""
     action_l2: float = bounded(0.0, 0.0, 1000.0)
     """Weight of the mean squared pre-scaling action in the actor loss (HER paper uses 1.0; ours)."""
     device: str = "cpu"
@@ -210,6 +214,16 @@ class DDPG:
         """Current exploration epsilon, set by the training loop from `epsilon_at`."""
         self.num_updates = 0
 
+    def zero_actor_head(self) -> None:
+        """Sets the actor's (and its target's) output layer to zero: mu(s) = 0 everywhere, so that a residual
+        policy starts as exactly its classical skeleton (Silver et al. 2018); the hidden layers keep their
+        weights, so the gradient still reaches the head."""
+        with torch.no_grad():
+            for actor in (self.actor, self.actor_target):
+                head = [m for m in actor.modules() if isinstance(m, nn.Linear)][-1]
+                head.weight.zero_()
+                head.bias.zero_()
+
     def modules(self) -> dict[str, nn.Module]:
         """The agent's modules by checkpoint prefix."""
         return {"obs_norm": self.obs_norm, "actor": self.actor, "critic": self.critic,
@@ -266,7 +280,8 @@ class DDPG:
         with torch.no_grad():
             obs, next_obs = self.obs_norm(batch.obs), self.obs_norm(batch.next_obs)
         q_loss, q_target = self.critic_step(obs, batch, next_obs)
-        pi_loss = self.actor_step(obs)
+        burnt_in = self.num_updates >= self.config.actor_burn_in
+        pi_loss = self.actor_step(obs) if burnt_in else torch.zeros((), device=self.device)
         self.num_updates += 1
         return q_loss, pi_loss, q_target
 

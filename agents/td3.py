@@ -109,7 +109,7 @@ class TD3(DDPG):
         q_loss, q_target = self.critic_step(obs, batch, next_obs)
         self.num_updates += 1
         pi_loss = torch.zeros((), device=self.device)
-        if self.num_updates % self.config.policy_delay == 0:
+        if self.num_updates % self.config.policy_delay == 0 and self.num_updates > self.config.actor_burn_in:
             pi_loss = self.actor_step(obs)  # also moves the actor's target (Eq. 19)
             for name in ("critic", "critic2"):
                 soft_update(self.vectors[f"{name}_target"], self.vectors[name], self.config.tau)

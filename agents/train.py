@@ -210,7 +210,7 @@ class _Run:
 
 def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir: Path, resume: bool,
               init: str | Path | None, tensorboard: bool, run_info: Mapping[str, Any] | None,
-              collectors: int = 0) -> _Run:
+              collectors: int = 0, zero_actor_head: bool = False) -> _Run:
     """Builds the agent and buffer of a new run, or restores them (and the counters) from `run_dir`."""
     spec = env_spec(env)
     spec["env_id"] = getattr(env.spec, "id", None)
@@ -237,6 +237,8 @@ def _open_run(env: gym.Env, agent_name: str, config: DDPGConfig | None, run_dir:
         agent = learner(spec["obs_dim"], spec["act_dim"], config)
         if init is not None:
             _initialise_from(agent, Path(init), spec)
+        if zero_actor_head:
+            agent.zero_actor_head()
         counters = {"env_steps": 0, "episodes": 0, "gradient_steps": 0, "owed_updates": 0, "wall_time": 0.0}
     torch.set_num_threads(agent.config.torch_threads)
     buffer = _make_buffer(agent_name, spec, env, agent.config)
@@ -525,13 +527,15 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
           total_steps: int | None = None, episodes: int | None = None, run_dir: str | Path | None = None,
           resume: bool = False, init: str | Path | None = None, checkpoint_every: int = 100,
           progress: bool = True, tensorboard: bool = True, run_info: Mapping[str, Any] | None = None,
-          collectors: int = 0) -> TrainResult:
+          collectors: int = 0, zero_actor_head: bool = False) -> TrainResult:
     """Trains `agent_name` on env_fn() until `total_steps` env steps or `episodes` episodes (totals).
 
     With neither given, trains for config.max_episodes (Table 4). `resume=True` continues the run in
     `run_dir` (its config unless `config` is given; the network sizes and replay size must match).
     `init` starts a new run from another checkpoint's networks and normaliser (fine-tuning, e.g. the
     `goal` planner on `obstacles`), with fresh counters, replay buffer and random streams.
+    `zero_actor_head` (a new run) then sets the actor's output layer to zero: a residual planner starts as
+    exactly its classical skeleton (Silver et al. 2018; with `actor_burn_in`, the critic learns it first).
     Checkpoints every `checkpoint_every` episodes and at the end (also on Ctrl-C). `run_info` (JSON-able:
     the task and its options, say) is kept in every checkpoint's metadata; a resumed run keeps its own.
     `collectors` >= 1 steps that many environments in collector processes while this process learns
@@ -547,7 +551,10 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
                          "collector processes); use collectors=0")
     env = env_fn()
     run_dir = Path(run_dir) if run_dir is not None else Path("runs") / f"{agent_name}-{time.strftime('%Y%m%d-%H%M%S')}"
-    run = _open_run(env, agent_name, config, run_dir, resume, init, tensorboard, run_info, collectors)
+    if zero_actor_head and resume:
+        raise ValueError("zero_actor_head starts a new run; a resumed run keeps its actor")
+    run = _open_run(env, agent_name, config, run_dir, resume, init, tensorboard, run_info, collectors,
+                    zero_actor_head)
     if total_steps is None and episodes is None:
         episodes = run.agent.config.max_episodes
     counters = run.counters

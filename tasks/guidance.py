@@ -8,6 +8,12 @@ sight: `guided_action` reads its action a = (a0, a1) as the speed a0 (as any pla
 to line of sight's heading offset, offset = clip(h_LOS + residual * a1, -1, 1). A zero action is line of
 sight at the cruise speed, exactly; with the protection domain on top, `los-avoid`. The correction depends
 on the goal, so hindsight relabelling cannot reuse such transitions (train them with `ddpg`).
+
+With `speed="top"` (issue 30) the speed is a correction too: V action = clip(base + a0, -1, 1), the base the
+classical planners' speed (`approach_speed`: the top cruise speed, 2 m/s, slowing to the target speed near a
+small final goal); with `speed="fixed"` the speed is that base and a0 is unused (the planner steers only). A
+zero action is then exactly the classical planner it corrects: on the map's virtual goal
+(`tasks.map_planner.MapGuide`) inside the speed-aware domain, `map-replan`.
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ import numpy as np
 
 from auv_mj.geometry import wrap_angle
 from tasks.avoidance import with_repulsion
-from tasks.planning import ACTION_HEADING_RANGE, TARGET_SPEED, speed_action
+from tasks.planning import ACTION_HEADING_RANGE, MAX_SPEED, TARGET_SPEED, speed_action
 from tasks.speed_heading import executor_policy
 from tasks.splane import SPlaneController
 
@@ -30,6 +36,19 @@ CRUISE_ACTION = speed_action(TARGET_SPEED)
 MAX_RESIDUAL = 2.0
 """Largest heading correction span of a residual planner (normalised heading offsets: 2 overrides any
 line-of-sight offset)."""
+TOP_SPEED_ACTION = speed_action(MAX_SPEED)
+"""The speed action a0 of the top cruise speed, 2 m/s (Table 3, forward only)."""
+APPROACH = 30.0
+"""Within this distance [m] of a small final goal (radius under APPROACH_RADIUS) the classical planners slow to
+the target speed, 1 m/s, halving the turn radius (19 m at 2 m/s): a point inside the turning circle is reached,
+not orbited."""
+APPROACH_RADIUS = 5.0
+"""Goals at least this wide [m] (the 12.5 m target areas) are reached at full speed."""
+SPEED_GAINS = {"absolute": None, "top": 1.0, "fixed": 0.0}
+"""What a residual planner's speed action a0 is (module docstring), by name: "absolute", the speed itself (as any
+planner's); "top", a correction of this gain to `approach_speed`; "fixed", unused (the speed is
+`approach_speed`)."""
+SPEEDS = tuple(SPEED_GAINS)
 
 
 def los_heading(goal, pose) -> float:
@@ -49,20 +68,48 @@ def line_of_sight(env) -> Policy:
     return policy
 
 
-def guided_action(action, goal, pose, residual: float) -> np.ndarray:
-    """A residual planner's action as the task's: speed a0 kept, heading clip(h_LOS + residual * a1, -1, 1)
-    (module docstring); `goal` the desired goal, `pose` the vehicle's (x, y, psi)."""
+def approach_speed(task, pose) -> float:
+    """TOP_SPEED_ACTION, or the target speed's action within APPROACH of a final goal narrower than
+    APPROACH_RADIUS: the classical planners' speed (`tasks.map_planner`)."""
+    goals = task.goals
+    if task.goal_radius < APPROACH_RADIUS and np.hypot(*(goals[-1] - np.asarray(pose)[:2])) < APPROACH:
+        return speed_action(TARGET_SPEED)
+    return TOP_SPEED_ACTION
+
+
+def guided_action(action, goal, pose, residual: float, base_speed: float | None = None,
+                  speed_gain: float = 1.0) -> np.ndarray:
+    """A residual planner's action as the task's: heading clip(h_LOS + residual * a1, -1, 1), and speed a0
+    kept, or with `base_speed` (a speed action) clip(base_speed + speed_gain * a0, -1, 1) (module docstring);
+    `goal` the desired goal, `pose` the vehicle's (x, y, psi)."""
     action = np.array(action, dtype=float)
     action[1] = np.clip(los_heading(goal, pose) + residual * action[1], -1.0, 1.0)
+    if base_speed is not None:
+        action[0] = np.clip(base_speed + speed_gain * action[0], -1.0, 1.0)
     return action
 
 
-def with_guidance(policy: Policy, env, residual: float) -> Policy:
-    """`policy`, a residual planner's, acting in `env` through `guided_action`."""
+def speed_action_of(speed: str, action, goal, pose, residual: float, task) -> np.ndarray:
+    """`guided_action` under the named `speed` (SPEED_GAINS) in `task` (whose goals set `approach_speed`)."""
+    gain = SPEED_GAINS[speed]
+    base = None if gain is None else approach_speed(task, pose)
+    return guided_action(action, goal, pose, residual, base, 1.0 if gain is None else gain)
+
+
+def checked_speed(speed) -> str:
+    """`speed` if it is one of SPEEDS; ValueError naming it otherwise."""
+    if not isinstance(speed, str) or speed not in SPEEDS:
+        raise ValueError(f"speed must be one of {list(SPEEDS)}, got {speed!r}")
+    return speed
+
+
+def with_guidance(policy: Policy, env, residual: float, speed: str = "absolute") -> Policy:
+    """`policy`, a residual planner's, acting in `env` through `guided_action`; `speed` one of SPEEDS."""
+    speed = checked_speed(speed)
 
     def act(time_step: dm_env.TimeStep) -> np.ndarray:
-        return guided_action(policy(time_step), time_step.observation["desired_goal"], env.physics.pose(),
-                             residual)
+        return speed_action_of(speed, policy(time_step), time_step.observation["desired_goal"], env.physics.pose(),
+                               residual, env.task)
 
     return act
 

@@ -104,7 +104,8 @@ class AUVGymEnv(gymnasium.Env):
     def __init__(self, task_name: str, task_kwargs: Mapping[str, Any] | None = None,
                  environment_kwargs: Mapping[str, Any] | None = None, render_mode: str | None = None,
                  render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE,
-                 protection: bool | str = False, residual: float = 0.0, guide: str = "route"):
+                 protection: bool | str = False, residual: float = 0.0, guide: str = "route",
+                 speed: str = "absolute"):
         """`task_kwargs` go to the task factory (not "random": seed through `reset(seed=...)`).
 
         `protection=True` or "paper" (planning tasks) puts the protection domain of Sec. 3.2.2
@@ -112,7 +113,10 @@ class AUVGymEnv(gymnasium.Env):
         the task sees it, as the `planner` policies are run, so that a planner can be trained with it in the
         loop; "speed-aware" puts in the speed-aware domain (`tasks.avoidance.PROTECTIONS`).
         `residual` > 0 (planning tasks) makes the action a residual planner's, a correction of that span to
-        line of sight (`tasks.guidance.guided_action`), applied before the protection domain.
+        line of sight (`tasks.guidance.guided_action`), applied before the protection domain; with
+        `speed="top"` its speed action is a correction to the classical planners' speed too
+        (`tasks.guidance.approach_speed`), and with "fixed" that speed itself (the planner steers only), so
+        that a zero action is the classical planner itself.
         `guide="map"` (planning tasks) puts the virtual goal along the sonar map's planned path in the
         observation in place of the task's (`tasks.map_planner.MapGuide`: the map is the planner's memory), and
         pays the reward on that path's length left (`tasks.map_planner.path_reward`); "route" (the default)
@@ -159,6 +163,12 @@ class AUVGymEnv(gymnasium.Env):
         self.residual = checks.number("residual", residual, 0.0, MAX_RESIDUAL)
         if self.residual and not self.is_goal_task:
             raise ValueError(f"residual (a correction to line of sight) is for the planning tasks, not {task_name!r}")
+        from tasks.guidance import checked_speed
+
+        self.speed = checked_speed(speed)
+        if self.speed != "absolute" and not self.residual:
+            raise ValueError(f"speed={speed!r} (a correction to the classical planners' speed) is a residual "
+                             "planner's option: set residual > 0 too")
         from tasks.map_planner import GUIDES, MapGuide
 
         if guide not in GUIDES:
@@ -227,12 +237,12 @@ class AUVGymEnv(gymnasium.Env):
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
         if self.residual or self.protection:  # the layers on top read a valid action (checked once)
             from tasks.avoidance import protect
-            from tasks.guidance import guided_action
+            from tasks.guidance import speed_action_of
 
             action = checked_action(action, self._env.action_spec(), self.task)
             if self.residual:
-                action = guided_action(action, self._last_observation["desired_goal"], self.physics.pose(),
-                                       self.residual)
+                action = speed_action_of(self.speed, action, self._last_observation["desired_goal"],
+                                         self.physics.pose(), self.residual, self.task)
             if self.protection:
                 fence = self.task.map_fence(self.physics) if self._field.fence else None
                 action = protect(action, self._last_observation["observation"], self._field, fence)
@@ -325,7 +335,7 @@ class PlanningMix(gymnasium.Env):
     def __init__(self, tasks: tuple[str, ...] = MIX_TASKS, weights: tuple[float, ...] | None = None,
                  task_kwargs: Mapping[str, Any] | None = None,
                  per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool | str = False,
-                 residual: float = 0.0, guide: str = "route"):
+                 residual: float = 0.0, guide: str = "route", speed: str = "absolute"):
         if isinstance(tasks, str) or not isinstance(tasks, (list, tuple)) or not all(isinstance(t, str) for t in tasks):
             raise ValueError(f"tasks: a list of planning task names, got {checks.shown(tasks)}")
         tasks = tuple(tasks)
@@ -347,7 +357,8 @@ class PlanningMix(gymnasium.Env):
             raise ValueError(f"per_task_kwargs: {sorted(unknown)} not among the tasks {tasks}")
         self.tasks, self.weights = tasks, weights / weights.sum()
         self.envs = [AUVGymEnv(name, {**dict(task_kwargs or {}), **dict((per_task_kwargs or {}).get(name, {}))},
-                               protection=protection, residual=residual, guide=guide) for name in tasks]
+                               protection=protection, residual=residual, guide=guide, speed=speed)
+                     for name in tasks]
         first = self.envs[0]
         for name, env in zip(tasks, self.envs, strict=True):
             if not env.is_goal_task:

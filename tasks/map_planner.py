@@ -34,13 +34,11 @@ from auv_mj.arenas import arena, grid
 from auv_mj.episode import VEHICLE_BODY, arena_geometry, geom_footprint
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 from tasks.avoidance import PROTECTIONS, map_fence, with_repulsion
-from tasks.guidance import los_heading
-from tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE, TARGET_SPEED, speed_action
+from tasks.guidance import approach_speed, los_heading
+from tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
 
-TOP_SPEED_ACTION = speed_action(MAX_SPEED)
-"""The speed action a0 of the top cruise speed, 2 m/s (Table 3, forward only)."""
 PROTECTION = PROTECTIONS["speed-aware"]
 """The protection domain every planner here runs inside, with the geofence (what `planner-general` runs with)."""
 CELL = grid.CELL
@@ -71,12 +69,6 @@ ORACLE_REPLAN_STEPS = 4
 """The oracle searches again every this many steps (2 s) when the arena has movers."""
 MOVER_HORIZON = 6.0
 """The oracle closes each mover's footprint swept over this many seconds [s] at its measured velocity."""
-APPROACH = 30.0
-"""Within this distance [m] of a small final goal (radius under APPROACH_RADIUS) the planners slow to the
-target speed, 1 m/s, halving the turn radius (19 m at 2 m/s): a point inside the turning circle is reached,
-not orbited."""
-APPROACH_RADIUS = 5.0
-"""Goals at least this wide [m] (the 12.5 m target areas) are reached at full speed."""
 SONAR_OFFSET = 0.665
 """The sonars' origin ahead of the vehicle's centre [m] (the `sonar_site_*` of the vehicle MJCF)."""
 _RAY_STEP = CELL / 2
@@ -204,15 +196,6 @@ class GridFollower:
         if self.path is not None:
             left = max(left, grid.path_length(self.path[self.progress:]))
         return point, left
-
-
-def approach_speed(task, pose: np.ndarray) -> float:
-    """TOP_SPEED_ACTION, or the target speed's action within APPROACH of a final goal narrower than
-    APPROACH_RADIUS."""
-    goals = task.goals
-    if task.goal_radius < APPROACH_RADIUS and np.hypot(*(goals[-1] - pose[:2])) < APPROACH:
-        return speed_action(TARGET_SPEED)
-    return TOP_SPEED_ACTION
 
 
 class SonarMap(GridFollower):

@@ -89,6 +89,32 @@ def test_a_bad_planner_residual_is_refused_by_name(residual):
         AUVGymEnv("speed_heading", residual=0.5)
 
 
+def test_a_top_speed_residual_corrects_the_classical_speed_and_bad_speeds_are_refused():
+    """speed="top": the speed action is clip(base + a0, -1, 1) about the classical planners' speed; "fixed":
+    the base itself."""
+    from tasks.guidance import TOP_SPEED_ACTION, approach_speed, guided_action
+    from tasks.gym_adapter import AUVGymEnv
+    from tasks.planning import TARGET_SPEED, speed_action
+
+    goal, pose = np.array([10.0, 10.0]), np.array([0.0, 0.0, 0.0])
+    np.testing.assert_allclose(guided_action([-0.25, 0.4], goal, pose, 0.5, TOP_SPEED_ACTION),
+                               [TOP_SPEED_ACTION - 0.25, 0.7])
+    np.testing.assert_allclose(guided_action([0.6, 0.0], goal, pose, 0.5, TOP_SPEED_ACTION)[0], 1.0)  # clipped
+    np.testing.assert_allclose(guided_action([-0.6, 0.0], goal, pose, 0.5, speed_action(TARGET_SPEED))[0],
+                               speed_action(TARGET_SPEED) - 0.6)
+    np.testing.assert_allclose(guided_action([-0.6, 0.4], goal, pose, 0.5, TOP_SPEED_ACTION, speed_gain=0.0),
+                               [TOP_SPEED_ACTION, 0.7])  # speed="fixed": the planner steers only
+    env = AUVGymEnv("tunnel", {"arena": "random"}, residual=1.0, speed="top")
+    env.reset(seed=1)
+    task, far = env.task, np.array([*env.task.goals[-1] - 500.0, 0.0])
+    assert approach_speed(task, far) == TOP_SPEED_ACTION  # the tunnel's 2 m goal: slow only near it
+    assert approach_speed(task, np.array([*task.goals[-1] + 1.0, 0.0])) == speed_action(TARGET_SPEED)
+    with pytest.raises(ValueError, match="speed must be one of"):
+        AUVGymEnv("obstacles", residual=1.0, speed="fast")
+    with pytest.raises(ValueError, match="set residual > 0"):
+        AUVGymEnv("obstacles", speed="top")
+
+
 # --- the speed-aware protection domain (issue 15) ----------------------------------------------------------
 
 

@@ -11,7 +11,7 @@ import shapely
 from auv_mj.arenas import grid, traps
 from auv_mj.arenas.tunnels import MovingObstacle, Obstacle
 from auv_mj.episode import episode_metrics, record_episode
-from tasks import obstacles, planning
+from tasks import obstacles, planning, suite
 from tasks.guidance import los_avoid
 from tasks.map_planner import map_replan, oracle
 from tasks.tunnel import RANDOM_TUNNELS
@@ -138,8 +138,8 @@ def _zero_residual_on_the_map(env):
     """A residual planner whose learned output is zero, at top speed, on `MapGuide`'s virtual goal, inside the
     speed-aware domain: the skeleton of a map-guided learned planner."""
     from tasks.avoidance import map_fence, with_repulsion
-    from tasks.guidance import with_guidance
-    from tasks.map_planner import PROTECTION, TOP_SPEED_ACTION, map_guided
+    from tasks.guidance import TOP_SPEED_ACTION, with_guidance
+    from tasks.map_planner import PROTECTION, map_guided
 
     zero = with_guidance(lambda time_step: np.array([TOP_SPEED_ACTION, 0.0]), env, 1.0)
     return with_repulsion(map_guided(env, zero), PROTECTION, map_fence(env))
@@ -151,6 +151,29 @@ def test_map_guide_gets_a_residual_planner_out_of_a_cup():
     env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 500.0)
     metrics = episode_metrics(record_episode(env, _zero_residual_on_the_map(env)))
     assert metrics["success"] and metrics["outcome"] == "goal"
+
+
+@pytest.mark.parametrize("speed", ["top", "fixed"])
+def test_a_zero_top_speed_residual_on_the_map_is_map_replan_exactly(speed):
+    """speed="top" or "fixed": with its learned output zeroed, a map-guided residual planner is `map-replan`, action for
+    action along map-replan's own run (the ablation row of such a planner is map-replan itself)."""
+    from tasks.avoidance import map_fence, with_repulsion
+    from tasks.guidance import with_guidance
+    from tasks.map_planner import PROTECTION, map_guided
+
+    env = suite.load("auv", "obstacles", task_kwargs={"arena": "random", "tier": "hard", "random": 20_003})
+    classical = map_replan(env)
+    zeroed = with_repulsion(map_guided(env, with_guidance(lambda time_step: np.zeros(2), env, 1.0, speed)),
+                            PROTECTION, map_fence(env))
+    time_step, turned = env.reset(), 0.0
+    for _ in range(250):
+        expected, got = classical(time_step), zeroed(time_step)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
+        turned = max(turned, abs(float(expected[1])))
+        time_step = env.step(expected)
+        if time_step.last():
+            break
+    assert turned > 0.3  # the run steers round obstacles: the comparison is not of straight lines
 
 
 def test_map_guide_goal_lies_along_the_planned_path():

@@ -124,6 +124,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
     parser.add_argument("--init", type=Path, metavar="CHECKPOINT",
                         help="start a new run from this checkpoint's networks (fine-tuning)")
+    parser.add_argument("--zero-actor-head", action="store_true",
+                        help="a new run's actor output layer starts at zero: a residual planner starts as its "
+                             "classical skeleton (with --actor-burn-in, the critic learns it first)")
     parser.add_argument("--seed", type=seed_int, help="run seed (default 0, or the checkpoint's)")
     parser.add_argument("--device", help="torch device, cpu or cuda (default cpu, or the checkpoint's)")
     parser.add_argument("--checkpoint-every", type=positive_int, default=100, help="episodes between checkpoints")
@@ -215,7 +218,9 @@ def run(args: argparse.Namespace) -> int:
                        run_dir=run_dir, resume=args.resume, init=args.init,
                        checkpoint_every=args.checkpoint_every, progress=not args.no_progress,
                        tensorboard=not args.no_tensorboard, collectors=args.collectors,
-                       run_info={"task": args.task, "task_kwargs": kwargs or {}, "env_kwargs": env_kwargs or {}})
+                       zero_actor_head=args.zero_actor_head,
+                       run_info={"task": args.task, "task_kwargs": kwargs or {}, "env_kwargs": env_kwargs or {},
+                                 "zero_actor_head": args.zero_actor_head})
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(f"{result.episodes} episodes, {result.env_steps} steps, {result.gradient_steps} gradient steps; "
