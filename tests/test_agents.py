@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -273,6 +274,65 @@ def test_ddpg_update_functions_follow_eq_17_to_19():
     soft_update(agent.actor_target, agent.actor, 1.0)
     for new, online in zip(agent.actor_target.parameters(), agent.actor.parameters(), strict=True):
         torch.testing.assert_close(new, online)
+
+
+@pytest.mark.parametrize("agent_name", ["ddpg", "td3"])
+def test_zero_actor_head_and_critic_burn_in(agent_name):
+    """A zero-headed actor outputs 0 (a residual planner's classical skeleton) and, during `actor_burn_in`
+    gradient steps, stays so while the critic learns; after it, the actor moves (Silver et al. 2018)."""
+    from agents.td3 import TD3, TD3Config
+
+    learner, config = (DDPG, dataclasses.replace(FAST, actor_burn_in=4)) if agent_name == "ddpg" else \
+        (TD3, TD3Config(hidden_sizes=(64, 64), actor_burn_in=4))
+    torch.manual_seed(0)
+    agent = learner(4, 2, config)
+    agent.zero_actor_head()
+    obs = torch.randn(16, 4)
+    for actor in (agent.actor, agent.actor_target):
+        torch.testing.assert_close(actor(obs), torch.zeros(16, 2), rtol=0, atol=0)
+    rng = np.random.default_rng(0)
+    batch = Batch(rng.normal(size=(64, 4)), rng.uniform(-1, 1, (64, 2)), rng.normal(size=64),
+                  rng.normal(size=(64, 4)), np.zeros(64))
+    critic = [p.clone() for p in agent.critic.parameters()]
+    for _ in range(4):
+        agent.update(batch)
+    torch.testing.assert_close(agent.actor(obs), torch.zeros(16, 2), rtol=0, atol=0)
+    assert any(not torch.equal(a, b) for a, b in zip(critic, agent.critic.parameters(), strict=True))
+    for _ in range(4):
+        agent.update(batch)
+    assert agent.actor(obs).abs().max() > 0
+
+
+def test_zero_actor_head_is_for_a_new_run(tmp_path):
+    kwargs = dict(progress=False, tensorboard=False)
+    run = train(make_env, "ddpg", FAST, total_steps=0, run_dir=tmp_path / "run", zero_actor_head=True, **kwargs)
+    agent, _ = load_agent(run.checkpoint)
+    torch.testing.assert_close(agent.actor(torch.randn(3, agent.obs_dim)), torch.zeros(3, agent.act_dim))
+    with pytest.raises(ValueError, match="zero_actor_head starts a new run"):
+        train(make_env, "ddpg", FAST, total_steps=0, run_dir=tmp_path / "run", resume=True, zero_actor_head=True,
+              **kwargs)
+
+
+def test_a_deployed_policy_is_its_network_in_float64():
+    """`Policy` (the shipped executor) computes tanh(W3 tanh(W2 tanh(W1 x_n + b1) + b2) + b3) on the clipped
+    standardised input x_n in float64 (numpy's arithmetic here, to 1e-12), rescaled to the action bounds."""
+    from agents.checkpoint import read_checkpoint
+    from agents.networks import NORM_CLIP
+
+    path = Path(__file__).resolve().parents[1] / "agents" / "checkpoints" / "executor.pt"
+    policy = Policy.load(path)
+    tensors, _ = read_checkpoint(path)
+    weights = {k: v.double().numpy() for k, v in tensors.items()}
+    obs = np.random.default_rng(0).normal(size=(7, policy.obs_dim)).astype(np.float32)
+    x = np.clip((obs.astype(np.float64) - weights["obs_norm.mean"]) / weights["obs_norm.std"], -NORM_CLIP, NORM_CLIP)
+    layers = sorted({k.split(".")[2] for k in weights if k.startswith("actor.net.")}, key=int)
+    for n, layer in enumerate(layers):
+        x = x @ weights[f"actor.net.{layer}.weight"].T + weights[f"actor.net.{layer}.bias"]
+        x = np.tanh(x) if n < len(layers) - 1 else x
+    expected = policy.low + (np.tanh(x) + 1.0) * 0.5 * (policy.high - policy.low)
+    got = policy(obs)
+    assert got.dtype == np.float64
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
 
 
 def test_epsilon_schedule_table_4():
