@@ -18,12 +18,15 @@ class Policy:
     """Maps an observation (goal dict or flat array, single or batched) to an action in the env's bounds.
 
     Only the normaliser and the actor are loaded; no exploration noise, so equal inputs give equal
-    actions.
+    actions. They run in float64: a float32 forward pass rounds differently on different CPUs (AVX2 against
+    AVX-512 kernels), and a closed loop grows that last bit into metres (0.9 m in 60 steps of `two-layer`), so
+    that an evaluation was the same only on the same kind of machine. In float64 the kernels still differ in
+    the last bit, about 1e-16, which the same growth (1e5 in that episode) leaves far below a test's 1e-9.
     """
 
     def __init__(self, actor: Actor, obs_norm: Normalizer, metadata: Mapping[str, Any],
                  device: str = "cpu"):
-        self.actor, self.obs_norm = actor.eval(), obs_norm.eval()
+        self.actor, self.obs_norm = actor.double().eval(), obs_norm.double().eval()
         self.metadata = dict(metadata)
         self.device = torch.device(device)
         spec = self.metadata["spec"]
@@ -65,6 +68,6 @@ class Policy:
     @torch.no_grad()
     def __call__(self, obs: np.ndarray | Mapping[str, np.ndarray]) -> np.ndarray:
         """mu(s), rescaled from [-1, 1] to the action bounds the policy was trained with."""
-        x = torch.as_tensor(self.flat_obs(obs), device=self.device)
+        x = torch.as_tensor(np.asarray(self.flat_obs(obs), np.float64), device=self.device)
         a = self.actor(self.obs_norm(x)).cpu().numpy()
         return self.low + (a + 1.0) * 0.5 * (self.high - self.low)
