@@ -17,26 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli.benchmark import oracle_times
+from auv_mj.cli.benchmark import bootstrap_mean, oracle_times, paired_efficiency
 
 
-def _score(episode: dict, reference: dict[int, float]) -> float:
-    return min(1.0, reference[episode["seed"]] / episode["time_to_goal"]) if episode["success"] else 0.0
-
-
-def paired(a: dict, b: dict, oracle: dict, tier: str | None, water: str | None) -> np.ndarray:
-    """The per-seed differences of time efficiency, A - B."""
-    references = oracle_times(oracle)
-    diffs = []
-    for name, cell in a["cells"].items():
-        if name not in b["cells"] or (tier and cell["tier"] != tier) or (water and cell["water"] != water):
-            continue
-        ref = references.get(name, {})
-        other = {e["seed"]: e for e in b["cells"][name]["episodes"]}
-
-        diffs += [_score(e, ref) - _score(other[e["seed"]], ref) for e in cell["episodes"] if e["seed"] in ref
-                  and e["seed"] in other]
-    return np.array(diffs)
+def paired(a: dict, b: dict, oracle: dict, tier: str | None, water: str | None, cell_name: str | None = None
+           ) -> np.ndarray:
+    """The per-seed differences of time efficiency, A - B, over the cells of --tier / --water (or one cell)."""
+    names = [n for n, c in a["cells"].items() if (not tier or c["tier"] == tier) and (not water or c["water"] == water)
+             and (cell_name is None or n == cell_name)]
+    return paired_efficiency(a, b, oracle_times(oracle), names)
 
 
 def main() -> None:
@@ -52,11 +41,18 @@ def main() -> None:
     d = paired(a, b, oracle, args.tier, args.water)
     if d.size == 0:
         raise SystemExit("no seeds in common (check --tier / --water and the files)")
-    rng = np.random.default_rng(0)
-    means = rng.choice(d, (args.resamples, d.size)).mean(axis=1)
-    low, high = np.percentile(means, [2.5, 97.5])
-    print(f"{a['policy']} - {b['policy']}: {d.size} seeds, mean {d.mean():+.3f} [{low:+.3f}, {high:+.3f}] "
-          f"(95 % bootstrap); {a['policy']} faster on {(d > 0).sum()}, {b['policy']} on {(d < 0).sum()}")
+    print(f"{a['policy']} - {b['policy']}: {_line(d, args.resamples, a['policy'], b['policy'])}")
+    for name in a["cells"]:
+        cell = paired(a, b, oracle, args.tier, args.water, name)
+        if cell.size:
+            print(f"  {name}: {_line(cell, args.resamples, a['policy'], b['policy'])}")
+
+
+def _line(d: np.ndarray, resamples: int, a: str, b: str) -> str:
+    """The mean of the differences `d`, its 95 % bootstrap interval, and who was faster how often."""
+    mean, low, high = bootstrap_mean(d, resamples)
+    return (f"{d.size} seeds, mean {mean:+.3f} [{low:+.3f}, {high:+.3f}] (95 % bootstrap); {a} faster on "
+            f"{(d > 0).sum()}, {b} on {(d < 0).sum()}")
 
 
 if __name__ == "__main__":

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
 from auv_mj.cli.report import tiers
 
 
@@ -33,6 +35,28 @@ def test_hard_tier_target_needs_success_and_a_higher_efficiency_than_every_class
     board["map-replan"]["cells"][HARD]["summary"] = _summary(0.99, 0.88, 255)
     board["planner-general"]["cells"][HARD]["summary"] = _summary(0.99, 0.90, 250, collisions=0.02)
     assert tiers.verdicts(board)[0].endswith("**NOT met**")
+
+
+def _with_episodes(times) -> dict:
+    """A hard cell's entry with its episodes (seeds 0..n-1 at these times, all reached)."""
+    episodes = [{"seed": k, "success": True, "time_to_goal": float(t)} for k, t in enumerate(times)]
+    return {"summary": _summary(1.0, 0.0, float(np.mean(times))), "episodes": episodes}
+
+
+def test_a_higher_efficiency_is_judged_paired_by_seed():
+    """Ahead of a planner by a margin inside the seed-to-seed noise is not "higher": the paired 95 % bootstrap
+    interval of the difference must clear 0 (`tiers.ahead`)."""
+    rng = np.random.default_rng(0)
+    oracle = 200.0 + 50.0 * rng.random(60)
+    theirs = oracle * (1.15 + 0.1 * rng.random(60))
+    noisy = theirs * (1.0 + 0.08 * rng.standard_normal(60))  # now faster, now slower, by 8 %
+    board = {name: {"cells": {HARD: _with_episodes(times)}}
+             for name, times in (("oracle", oracle), ("map-replan", theirs), ("planner-general", noisy))}
+    higher, how = tiers.ahead(board, HARD, "map-replan")
+    assert not higher and "[-0." in how and how.split("]")[0].split(", ")[1].startswith("+")
+    board["planner-general"]["cells"][HARD] = _with_episodes(theirs * 0.95)  # 5 % faster on every seed
+    higher, how = tiers.ahead(board, HARD, "map-replan")
+    assert higher and how.startswith("map-replan +0.0")
 
 
 def test_standard_tier_target_is_a_time_ratio_to_los_fast():

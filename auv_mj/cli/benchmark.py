@@ -214,6 +214,37 @@ def oracle_times(results: dict | None) -> dict[str, dict[int, float]]:
             for name, cell in results.get("cells", {}).items()}
 
 
+def episode_efficiency(episode: dict, reference: dict[int, float]) -> float:
+    """One episode's time efficiency (SPL's form, Anderson et al. 2018): the oracle's time on its seed over its
+    own, capped at 1, on a success; 0 on a failure. `reference`: the oracle's times by seed (the seed in it)."""
+    return min(1.0, reference[episode["seed"]] / episode["time_to_goal"]) if episode["success"] else 0.0
+
+
+def paired_efficiency(a: dict, b: dict, references: dict[str, dict[int, float]],
+                      cells: Sequence[str] | None = None) -> np.ndarray:
+    """Per-seed differences of time efficiency, A - B, over the cells both results dicts hold (`cells` only, if
+    given) and the seeds both ran that the oracle reached the goal on (`references`, as `oracle_times`)."""
+    diffs: list[float] = []
+    for name, cell in a.get("cells", {}).items():
+        if name not in b.get("cells", {}) or (cells is not None and name not in cells):
+            continue
+        ref = references.get(name, {})
+        other = {e["seed"]: e for e in b["cells"][name].get("episodes", [])}
+        diffs += [episode_efficiency(e, ref) - episode_efficiency(other[e["seed"]], ref)
+                  for e in cell.get("episodes", []) if e["seed"] in ref and e["seed"] in other]
+    return np.array(diffs)
+
+
+def bootstrap_mean(values: np.ndarray, resamples: int = 5000, seed: int = 0) -> tuple[float, float, float]:
+    """The mean of `values` and its 95 % percentile-bootstrap interval (`resamples` resamples, seeded)."""
+    values = np.asarray(values, dtype=float)
+    if values.size == 0:
+        raise ValueError("bootstrap_mean: no values")
+    means = np.random.default_rng(seed).choice(values, (resamples, values.size)).mean(axis=1)
+    low, high = np.percentile(means, [2.5, 97.5])
+    return float(values.mean()), float(low), float(high)
+
+
 def cell_summary(rows: list[dict], reference: dict[int, float] | None) -> dict:
     """A cell's figures (module docstring) from its episode rows; `reference` the oracle's times by seed."""
     summary = summarise(rows) if rows else {"episodes": 0, "outcomes": {}}
@@ -221,8 +252,7 @@ def cell_summary(rows: list[dict], reference: dict[int, float] | None) -> dict:
     summary["success_ci95"] = list(wilson(wins, len(rows)))
     summary["timeout_rate"] = summary["outcomes"].get("timeout", 0) / len(rows) if rows else None
     scored = [r for r in rows if reference and r["seed"] in reference]
-    summary["time_efficiency"] = float(np.mean(
-        [min(1.0, reference[r["seed"]] / r["time_to_goal"]) if r["success"] else 0.0 for r in scored])) \
+    summary["time_efficiency"] = float(np.mean([episode_efficiency(r, reference) for r in scored])) \
         if scored else None
     summary["time_efficiency_episodes"] = len(scored)
     return summary

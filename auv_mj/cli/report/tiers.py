@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from auv_mj.cli.benchmark import LEADERBOARD, ORACLE, SUITE_V1
+from auv_mj.cli.benchmark import LEADERBOARD, ORACLE, SUITE_V1, bootstrap_mean, oracle_times, paired_efficiency
 from auv_mj.cli.report.common import fmt
 from auv_mj.cli.report.registry import ReportSettings, section
 
@@ -39,8 +39,24 @@ def _row(cell: str, name: str, s: dict) -> str:
             f"{fmt(s.get('time_efficiency'), 2)} | {clearance} |")
 
 
+def ahead(board: dict, cell: str, other: str) -> tuple[bool, str]:
+    """Whether LEARNED's time efficiency on `cell` is higher than `other`'s, and how that was judged: paired by seed
+    where both entries keep their episodes and the oracle is published (the 95 % bootstrap interval of the mean
+    difference above 0), else on the point estimates."""
+    ours, theirs = board[LEARNED], board[other]
+    references = oracle_times(board.get(ORACLE))
+    d = paired_efficiency(ours, theirs, references, [cell]) if references else None
+    if d is None or d.size == 0:
+        a = ours["cells"][cell]["summary"].get("time_efficiency") or 0.0
+        b = theirs["cells"][cell]["summary"].get("time_efficiency") or 0.0
+        return a > b, f"{other} {fmt(b, 2)} (unpaired)"
+    mean, low, high = bootstrap_mean(d)
+    return low > 0, f"{other} {mean:+.3f} [{low:+.3f}, {high:+.3f}]"
+
+
 def verdicts(board: dict) -> list[str]:
-    """The issue's targets for LEARNED, one line per cell it applies to: what was measured and met / NOT met."""
+    """The issue's targets for LEARNED, one line per cell it applies to: what was measured and met / NOT met.
+    "A higher time efficiency" is judged paired by seed (`ahead`): a difference inside the noise is not higher."""
     out = []
     for cell in SUITE_V1:
         get = {name: r["cells"][cell.name]["summary"] for name, r in board.items() if cell.name in r["cells"]}
@@ -50,14 +66,16 @@ def verdicts(board: dict) -> list[str]:
         success, efficiency = ours["success_rate"], ours.get("time_efficiency") or 0.0
         if cell.tier == "hard" and cell.water == "ideal":
             others = {n: get[n] for n in COMPETITORS if n in get}
+            judged = {n: ahead(board, cell.name, n) for n in others}
             met = (success >= HARD_SUCCESS and ours["collision_rate"] <= HARD_COLLISIONS
                    and all(success >= o["success_rate"] for o in others.values())
-                   and all(efficiency > (o.get("time_efficiency") or 0.0) for o in others.values()))
+                   and all(higher for higher, _ in judged.values()))
             against = ", ".join(f"{n} {fmt(o['success_rate'], 2)} / {fmt(o.get('time_efficiency'), 2)}"
                                 for n, o in others.items())
             text = (f"success {fmt(success, 2)} (>= {HARD_SUCCESS} and each classical planner's), time efficiency "
-                    f"{fmt(efficiency, 2)} (above each), collisions {fmt(ours['collision_rate'], 3)} (<= "
-                    f"{HARD_COLLISIONS}); classical success / efficiency: {against}")
+                    f"{fmt(efficiency, 2)} (above each; paired difference, 95 % bootstrap: "
+                    f"{', '.join(how for _, how in judged.values())}), collisions {fmt(ours['collision_rate'], 3)} "
+                    f"(<= {HARD_COLLISIONS}); classical success / efficiency: {against}")
         elif cell.tier == "hard":
             met, text = success >= OCEAN_SUCCESS, f"success {fmt(success, 2)} (>= {OCEAN_SUCCESS})"
         elif cell.water == "ideal" and SPEED_BASELINE in get:
