@@ -138,12 +138,13 @@ def loaded_policy(path: Path) -> Policy:
 
 
 def checkpoint_policy(path: Path, env, protection: bool | str | None = None, guide: str | None = None,
-                      zeroed: bool = False) -> ActingPolicy:
+                      zeroed: bool = False, speed: str | None = None) -> ActingPolicy:
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
     (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, a
-    residual planner (`"residual": R`) through line of sight (`tasks.guidance.guided_action`), and a map-guided
-    one (`"guide": "map"`) on the virtual goal along the sonar map's path (`tasks.map_planner.MapGuide`).
-    `protection` as `PolicySpec.protection`; `guide` overrides the checkpoint's. `zeroed`: the network's output
+    residual planner (`"residual": R`, `"speed"`) through line of sight (`tasks.guidance.guided_action`), and a
+    map-guided one (`"guide": "map"`) on the virtual goal along the sonar map's path (`tasks.map_planner.MapGuide`).
+    `protection` as `PolicySpec.protection`; `guide` and `speed` (`tasks.guidance.SPEEDS`) override the
+    checkpoint's. `zeroed`: the network's output
     replaced by zeros, the rest as deployed (the ablation row: what the system is without what it learned).
     ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = loaded_policy(path)
@@ -166,7 +167,7 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
 
     env_kwargs = policy.metadata.get("run_info", {}).get("env_kwargs", {}) or {}
     if float(env_kwargs.get("residual", 0.0)) > 0:  # a residual planner acts through line of sight
-        act = with_guidance(act, env, float(env_kwargs["residual"]))
+        act = with_guidance(act, env, float(env_kwargs["residual"]), speed or env_kwargs.get("speed", "absolute"))
     if (guide or env_kwargs.get("guide", "route")) == "map":
         act = map_guided(env, act)
     field_ = protection_field(env_kwargs.get("protection", False))
@@ -204,17 +205,32 @@ register("two-layer", _learned("the paper's planner (protection domain) on the l
                                protection=True, executor="executor", **PAPER_PLANNER))
 GENERAL_DEPLOYMENT = {"tasks": "planning", "protection": "speed-aware"}
 """How the general planners are deployed: on every planning task, inside the speed-aware domain with the geofence."""
+GENERAL_SPEED = "fixed"
+"""The speed `planner-general` runs at (`tasks.guidance.SPEEDS`): the classical planners' (2 m/s, slowing near a
+small final goal), its network steering only. Chosen on validation seeds over the speed it learned ("absolute",
+`planner-general-speed`): paired time efficiency +0.020 [+0.008, +0.033] over 230 validation episodes
+(docs/runs/planner-top/selection.md)."""
 
-register("planner-general", _learned(
-    "the general planner: a residual planner over line of sight along the sonar map's planned path (the map is its "
-    "memory), trained on the hard tier, speed-aware domain and geofence (issue 30)", "planner_general.pt",
-    **GENERAL_DEPLOYMENT))
-register("two-layer-general", _learned("planner-general on the learned ocean executor", "planner_general.pt",
-                                       executor="ocean-executor", **GENERAL_DEPLOYMENT))
+
+def _general(speed: str, zeroed: bool = False) -> Callable[[Deployment], ActingPolicy]:
+    """The build of planner_general.pt at `speed`, its output zeroed if `zeroed`."""
+    return lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", zeroed=zeroed, speed=speed)
+
+
+register("planner-general", PolicySpec(
+    "the general planner: a residual planner steering along the sonar map's planned path (the map is its memory) at "
+    "the classical planners' speed, trained on the hard tier, speed-aware domain and geofence (issue 30)",
+    _general(GENERAL_SPEED), family="learned", checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT))
+register("two-layer-general", PolicySpec("planner-general on the learned ocean executor", _general(GENERAL_SPEED),
+                                         family="learned", checkpoint="planner_general.pt",
+                                         executor="ocean-executor", **GENERAL_DEPLOYMENT))
 register("planner-general-zeroed", PolicySpec(
-    "planner-general with its learned output zeroed, the rest as deployed: its classical skeleton (the ablation)",
-    lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", zeroed=True), family="reference",
+    "planner-general with its learned output zeroed, the rest as deployed: its classical skeleton, which is "
+    "map-replan exactly (the ablation)", _general(GENERAL_SPEED, zeroed=True), family="reference",
     checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT))
+register("planner-general-speed", PolicySpec(
+    "planner-general at the speed it learned (its network's speed action; the deployment of the previous release)",
+    _general("absolute"), family="learned", checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT))
 register("planner-route", _learned(
     "the general planner of issue 15, kept for comparison: a residual planner over line of sight along the route "
     "(no memory), trained on the standard arenas, speed-aware domain and geofence", "planner_route.pt",
