@@ -220,9 +220,8 @@ class DDPG:
         weights, so the gradient still reaches the head."""
         with torch.no_grad():
             for actor in (self.actor, self.actor_target):
-                head = [m for m in actor.modules() if isinstance(m, nn.Linear)][-1]
-                head.weight.zero_()
-                head.bias.zero_()
+                actor.net[-1].weight.zero_()
+                actor.net[-1].bias.zero_()
 
     def modules(self) -> dict[str, nn.Module]:
         """The agent's modules by checkpoint prefix."""

@@ -44,11 +44,12 @@ the target speed, 1 m/s, halving the turn radius (19 m at 2 m/s): a point inside
 not orbited."""
 APPROACH_RADIUS = 5.0
 """Goals at least this wide [m] (the 12.5 m target areas) are reached at full speed."""
-SPEED_GAINS = {"absolute": None, "top": 1.0, "fixed": 0.0}
-"""What a residual planner's speed action a0 is (module docstring), by name: "absolute", the speed itself (as any
-planner's); "top", a correction of this gain to `approach_speed`; "fixed", unused (the speed is
-`approach_speed`)."""
-SPEEDS = tuple(SPEED_GAINS)
+SPEED_GAINS = {"top": 1.0, "fixed": 0.0}
+"""The gain of a residual planner's speed action a0 on `approach_speed` (module docstring): "top", a correction;
+"fixed", unused (the speed is `approach_speed`)."""
+SPEEDS = ("absolute", *SPEED_GAINS)
+"""What a residual planner's speed action a0 is: "absolute", the speed itself (as any planner's), or one of
+SPEED_GAINS."""
 
 
 def los_heading(goal, pose) -> float:
@@ -77,23 +78,15 @@ def approach_speed(task, pose) -> float:
     return TOP_SPEED_ACTION
 
 
-def guided_action(action, goal, pose, residual: float, base_speed: float | None = None,
-                  speed_gain: float = 1.0) -> np.ndarray:
-    """A residual planner's action as the task's: heading clip(h_LOS + residual * a1, -1, 1), and speed a0
-    kept, or with `base_speed` (a speed action) clip(base_speed + speed_gain * a0, -1, 1) (module docstring);
-    `goal` the desired goal, `pose` the vehicle's (x, y, psi)."""
+def guided_action(action, goal, pose, residual: float, speed: str = "absolute", task=None) -> np.ndarray:
+    """A residual planner's action as the task's: heading clip(h_LOS + residual * a1, -1, 1), and speed a0 kept
+    ("absolute") or clip(approach_speed + SPEED_GAINS[speed] * a0, -1, 1) in `task` (module docstring); `goal`
+    the desired goal, `pose` the vehicle's (x, y, psi)."""
     action = np.array(action, dtype=float)
     action[1] = np.clip(los_heading(goal, pose) + residual * action[1], -1.0, 1.0)
-    if base_speed is not None:
-        action[0] = np.clip(base_speed + speed_gain * action[0], -1.0, 1.0)
+    if speed != "absolute":
+        action[0] = np.clip(approach_speed(task, pose) + SPEED_GAINS[speed] * action[0], -1.0, 1.0)
     return action
-
-
-def speed_action_of(speed: str, action, goal, pose, residual: float, task) -> np.ndarray:
-    """`guided_action` under the named `speed` (SPEED_GAINS) in `task` (whose goals set `approach_speed`)."""
-    gain = SPEED_GAINS[speed]
-    base = None if gain is None else approach_speed(task, pose)
-    return guided_action(action, goal, pose, residual, base, 1.0 if gain is None else gain)
 
 
 def checked_speed(speed) -> str:
@@ -108,8 +101,8 @@ def with_guidance(policy: Policy, env, residual: float, speed: str = "absolute")
     speed = checked_speed(speed)
 
     def act(time_step: dm_env.TimeStep) -> np.ndarray:
-        return speed_action_of(speed, policy(time_step), time_step.observation["desired_goal"], env.physics.pose(),
-                               residual, env.task)
+        return guided_action(policy(time_step), time_step.observation["desired_goal"], env.physics.pose(), residual,
+                             speed, env.task)
 
     return act
 

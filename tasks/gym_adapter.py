@@ -237,12 +237,12 @@ class AUVGymEnv(gymnasium.Env):
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
         if self.residual or self.protection:  # the layers on top read a valid action (checked once)
             from tasks.avoidance import protect
-            from tasks.guidance import speed_action_of
+            from tasks.guidance import guided_action
 
             action = checked_action(action, self._env.action_spec(), self.task)
             if self.residual:
-                action = speed_action_of(self.speed, action, self._last_observation["desired_goal"],
-                                         self.physics.pose(), self.residual, self.task)
+                action = guided_action(action, self._last_observation["desired_goal"], self.physics.pose(),
+                                       self.residual, self.speed, self.task)
             if self.protection:
                 fence = self.task.map_fence(self.physics) if self._field.fence else None
                 action = protect(action, self._last_observation["observation"], self._field, fence)

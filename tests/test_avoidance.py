@@ -92,17 +92,21 @@ def test_a_bad_planner_residual_is_refused_by_name(residual):
 def test_a_top_speed_residual_corrects_the_classical_speed_and_bad_speeds_are_refused():
     """speed="top": the speed action is clip(base + a0, -1, 1) about the classical planners' speed; "fixed":
     the base itself."""
+    from types import SimpleNamespace
+
     from tasks.guidance import TOP_SPEED_ACTION, approach_speed, guided_action
     from tasks.gym_adapter import AUVGymEnv
     from tasks.planning import TARGET_SPEED, speed_action
 
     goal, pose = np.array([10.0, 10.0]), np.array([0.0, 0.0, 0.0])
-    np.testing.assert_allclose(guided_action([-0.25, 0.4], goal, pose, 0.5, TOP_SPEED_ACTION),
+    open_water = SimpleNamespace(goals=np.array([[500.0, 500.0]]), goal_radius=12.5)  # top speed all the way
+    near_small = SimpleNamespace(goals=np.array([[10.0, 10.0]]), goal_radius=2.0)  # within 30 m of a 2 m goal
+    np.testing.assert_allclose(guided_action([-0.25, 0.4], goal, pose, 0.5, "top", open_water),
                                [TOP_SPEED_ACTION - 0.25, 0.7])
-    np.testing.assert_allclose(guided_action([0.6, 0.0], goal, pose, 0.5, TOP_SPEED_ACTION)[0], 1.0)  # clipped
-    np.testing.assert_allclose(guided_action([-0.6, 0.0], goal, pose, 0.5, speed_action(TARGET_SPEED))[0],
+    np.testing.assert_allclose(guided_action([0.6, 0.0], goal, pose, 0.5, "top", open_water)[0], 1.0)  # clipped
+    np.testing.assert_allclose(guided_action([-0.6, 0.0], goal, pose, 0.5, "top", near_small)[0],
                                speed_action(TARGET_SPEED) - 0.6)
-    np.testing.assert_allclose(guided_action([-0.6, 0.4], goal, pose, 0.5, TOP_SPEED_ACTION, speed_gain=0.0),
+    np.testing.assert_allclose(guided_action([-0.6, 0.4], goal, pose, 0.5, "fixed", open_water),
                                [TOP_SPEED_ACTION, 0.7])  # speed="fixed": the planner steers only
     env = AUVGymEnv("tunnel", {"arena": "random"}, residual=1.0, speed="top")
     env.reset(seed=1)

@@ -134,14 +134,14 @@ def test_tunnel_command_writes_the_hard_arena_of_a_seed(tmp_path):
     assert traps_in_file == sum(o.name.startswith("trap") for o in expected.unknown) > 0
 
 
-def _zero_residual_on_the_map(env):
-    """A residual planner whose learned output is zero, at top speed, on `MapGuide`'s virtual goal, inside the
-    speed-aware domain: the skeleton of a map-guided learned planner."""
+def _zero_residual_on_the_map(env, speed: str = "fixed"):
+    """A residual planner whose learned output is zero, at the classical speed (`speed`, "top" or "fixed"), on
+    `MapGuide`'s virtual goal, inside the speed-aware domain: the skeleton of a map-guided learned planner."""
     from tasks.avoidance import map_fence, with_repulsion
-    from tasks.guidance import TOP_SPEED_ACTION, with_guidance
+    from tasks.guidance import with_guidance
     from tasks.map_planner import PROTECTION, map_guided
 
-    zero = with_guidance(lambda time_step: np.array([TOP_SPEED_ACTION, 0.0]), env, 1.0)
+    zero = with_guidance(lambda time_step: np.zeros(2), env, 1.0, speed)
     return with_repulsion(map_guided(env, zero), PROTECTION, map_fence(env))
 
 
@@ -157,14 +157,8 @@ def test_map_guide_gets_a_residual_planner_out_of_a_cup():
 def test_a_zero_top_speed_residual_on_the_map_is_map_replan_exactly(speed):
     """speed="top" or "fixed": with its learned output zeroed, a map-guided residual planner is `map-replan`, action for
     action along map-replan's own run (the ablation row of such a planner is map-replan itself)."""
-    from tasks.avoidance import map_fence, with_repulsion
-    from tasks.guidance import with_guidance
-    from tasks.map_planner import PROTECTION, map_guided
-
     env = suite.load("auv", "obstacles", task_kwargs={"arena": "random", "tier": "hard", "random": 20_003})
-    classical = map_replan(env)
-    zeroed = with_repulsion(map_guided(env, with_guidance(lambda time_step: np.zeros(2), env, 1.0, speed)),
-                            PROTECTION, map_fence(env))
+    classical, zeroed = map_replan(env), _zero_residual_on_the_map(env, speed)
     time_step, turned = env.reset(), 0.0
     for _ in range(250):
         expected, got = classical(time_step), zeroed(time_step)

@@ -144,8 +144,8 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
     residual planner (`"residual": R`, `"speed"`) through line of sight (`tasks.guidance.guided_action`), and a
     map-guided one (`"guide": "map"`) on the virtual goal along the sonar map's path (`tasks.map_planner.MapGuide`).
     `protection` as `PolicySpec.protection`; `guide` and `speed` (`tasks.guidance.SPEEDS`) override the
-    checkpoint's. `zeroed`: the network's output
-    replaced by zeros, the rest as deployed (the ablation row: what the system is without what it learned).
+    checkpoint's. `zeroed`: the network's output replaced by zeros, the rest as deployed (the ablation row: what
+    the system is without what it learned).
     ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = loaded_policy(path)
     sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
