@@ -267,7 +267,9 @@ def check_checkpoint(tensors: Mapping[str, Any], meta: Mapping[str, Any], path: 
                              "(or its training diverged)")
 
 
-def _load_module(module: nn.Module, tensors: Mapping[str, torch.Tensor], prefix: str, path: Path) -> None:
+def load_module(module: nn.Module, tensors: Mapping[str, torch.Tensor], prefix: str, path: Path) -> None:
+    """Loads the tensors under `prefix.` into `module`, strictly; ValueError naming the file and the module where
+    the checkpoint does not fit the architecture."""
     state = {k[len(prefix) + 1:]: v for k, v in tensors.items() if k.startswith(prefix + ".")}
     try:
         module.load_state_dict(state, strict=True)
@@ -315,7 +317,7 @@ def load_agent(path: str | Path, device: str | None = None, config: DDPGConfig |
                          f"got a {type(config).__name__}")
     agent = learner(int(meta["obs_dim"]), int(meta["act_dim"]), config)
     for prefix, module in agent.modules().items():
-        _load_module(module, tensors, prefix, path)
+        load_module(module, tensors, prefix, path)
     for prefix, opt in agent.optimizers().items():
         _load_optimizer(opt, tensors, prefix, path)
     pending = {k.split(".", 1)[1]: v for k, v in tensors.items() if k.startswith("obs_norm_pending.")}

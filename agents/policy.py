@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from agents.checkpoint import read_checkpoint
+from agents.checkpoint import load_module, read_checkpoint
 from agents.her import policy_input
 from agents.networks import Actor, Normalizer
 
@@ -44,12 +44,7 @@ class Policy:
         actor = Actor(obs_dim, act_dim, tuple(meta["config"]["hidden_sizes"]))
         obs_norm = Normalizer(obs_dim)
         for prefix, module in (("actor", actor), ("obs_norm", obs_norm)):
-            state = {k[len(prefix) + 1:]: v for k, v in tensors.items() if k.startswith(prefix + ".")}
-            try:
-                module.load_state_dict(state, strict=True)
-            except RuntimeError as exc:
-                raise ValueError(f"checkpoint {path} does not fit the architecture of {prefix!r}: "
-                                 f"{' '.join(str(exc).split())}") from None
+            load_module(module, tensors, prefix, path)
         return cls(actor.to(device), obs_norm.to(device), meta, device)
 
     def flat_obs(self, obs: np.ndarray | Mapping[str, np.ndarray]) -> np.ndarray:

@@ -42,6 +42,7 @@ from tasks import options
 from tasks.actions import checked_action
 from tasks.auv3d_control import EXECUTOR_DT, DepthHeadingController, State3D
 from tasks.avoidance import RepulsiveField
+from tasks.clock import ExecutorClock
 
 SUITE3D = containers.TaggedTasks()
 """Task name -> factory of the "auv3d" domain."""
@@ -114,46 +115,17 @@ LOOKAHEAD = 8.0
 """Line-of-sight look-ahead [m] along a tube's centreline."""
 
 
-class Physics3D(AUV6Physics):
-    """AUV6Physics with the executor's clock: `set_tick(callback)` calls it every EXECUTOR_DT while stepping."""
+class Physics3D(ExecutorClock, AUV6Physics):
+    """AUV6Physics with the executor's clock (`tasks.clock.ExecutorClock`): `set_tick(callback)` calls it every
+    EXECUTOR_DT while stepping."""
 
-    _tick: Callable | None = None
-    _tick_steps = 1
-    _steps_to_tick = 0
+    TICK_PERIOD = EXECUTOR_DT
 
     @classmethod
     def load(cls, arena=None, conditions=None) -> Physics3D:
         """The vehicle in `arena` (`auv_mj.arenas.arena3d.compose_xml`), lagged where `conditions` ask for it."""
         xml, source = arena3d.compose_xml(arena, thruster_lag=ocean3d.conditions(conditions).thruster_lag)
         return cls.from_xml_string(xml, source=source)
-
-    def set_tick(self, callback: Callable | None, period: float = EXECUTOR_DT) -> None:
-        self._tick = callback
-        self._tick_steps = control.compute_n_steps(period, self.timestep())
-        self._steps_to_tick = 0
-
-    def step(self, nstep: int = 1) -> None:
-        tick = self._tick
-        if tick is None:
-            super().step(nstep)
-            return
-        while nstep > 0:
-            if self._steps_to_tick == 0:
-                tick(self)
-                self._steps_to_tick = self._tick_steps
-            n = min(nstep, self._steps_to_tick)
-            super().step(n)
-            nstep -= n
-            self._steps_to_tick -= n
-
-    def reset(self, keyframe_id=None) -> None:
-        super().reset(keyframe_id)
-        self._steps_to_tick = 0
-
-    def copy(self, share_model: bool = False) -> Physics3D:
-        new = super().copy(share_model=share_model)
-        new._tick, new._tick_steps, new._steps_to_tick = self._tick, self._tick_steps, self._steps_to_tick
-        return new
 
 
 def read_state(physics: AUV6Physics, sensed: dict[str, np.ndarray]) -> State3D:

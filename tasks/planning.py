@@ -81,6 +81,7 @@ from auv_mj.sim.physics import AUVPhysics
 from auv_mj.sim.sonar import SONAR_NAMES, SONAR_RANGE, fence_ranges
 from tasks import options
 from tasks.actions import checked_action
+from tasks.clock import ExecutorClock
 from tasks.splane import EXECUTOR_DT, SPlaneController
 
 PLANNER_DT = 0.5
@@ -327,16 +328,12 @@ def open_water_arena(bounds: Sequence[float] = MAP_BOUNDS) -> ET.Element:
     return root
 
 
-class Physics(AUVPhysics):
-    """AUVPhysics that calls a low-level controller (`set_tick`) every `period` seconds while it steps.
-
-    This is the executor layer's clock: the callback sets the controls and moves the obstacles, and
-    `step(n)` stays one call, so `control.Environment` keeps owning sub-steps and time limits.
+class Physics(ExecutorClock, AUVPhysics):
+    """AUVPhysics with the executor layer's clock (`tasks.clock.ExecutorClock`): `set_tick(callback)` calls the
+    low-level controller every EXECUTOR_DT while it steps; the callback sets the controls and moves the obstacles.
     """
 
-    _tick: Callable[[Physics], None] | None = None
-    _tick_steps = 1
-    _steps_to_tick = 0
+    TICK_PERIOD = EXECUTOR_DT
 
     @classmethod
     def load(cls, arena_source: str | Path | ET.Element | None, conditions=None) -> Physics:
@@ -344,38 +341,6 @@ class Physics(AUVPhysics):
         for the task option `conditions` (`auv_mj.sim.ocean.conditions`: lagged actuators where they ask for it)."""
         xml, source = arena.compose_xml(arena_source, thruster_lag=ocean.conditions(conditions).thruster_lag)
         return cls.from_xml_string(xml, source=source)
-
-    def set_tick(self, callback: Callable[[Physics], None] | None, period: float = EXECUTOR_DT) -> None:
-        """Calls `callback(physics)` before the first step and then every `period` s of stepping."""
-        self._tick = callback
-        self._tick_steps = control.compute_n_steps(period, self.timestep())
-        self._steps_to_tick = 0
-
-    def step(self, nstep: int = 1) -> None:
-        """Advances `nstep` physics steps, calling the tick callback whenever one is due."""
-        tick = self._tick
-        if tick is None:
-            super().step(nstep)
-            return
-        while nstep > 0:
-            if self._steps_to_tick == 0:
-                tick(self)
-                self._steps_to_tick = self._tick_steps
-            n = min(nstep, self._steps_to_tick)
-            super().step(n)
-            nstep -= n
-            self._steps_to_tick -= n
-
-    def reset(self, keyframe_id=None) -> None:
-        """Resets the simulation; the next step begins with a tick."""
-        super().reset(keyframe_id)
-        self._steps_to_tick = 0
-
-    def copy(self, share_model: bool = False) -> Physics:
-        """A copy with the same tick callback and clock."""
-        new = super().copy(share_model=share_model)
-        new._tick, new._tick_steps, new._steps_to_tick = self._tick, self._tick_steps, self._steps_to_tick
-        return new
 
 
 def environment(physics: Physics, task: PlanningTask, time_limit: float,

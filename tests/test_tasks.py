@@ -514,3 +514,32 @@ def test_a_collision_penalty_is_subtracted_on_the_collision_step_only(reward):
     assert rewards[40.0][-1] == pytest.approx(rewards[0.0][-1] - 40.0)
     with pytest.raises(ValueError, match="collision_penalty"):
         suite.load("auv", "goal", task_kwargs={"collision_penalty": -1.0})
+
+
+@pytest.mark.parametrize("load", [lambda: planning.Physics.load(planning.open_water_arena()),
+                                  lambda: __import__("tasks.auv3d", fromlist=["Physics3D"]).Physics3D.load()],
+                         ids=["planar", "6dof"])
+def test_the_executor_clock_ticks_before_the_first_step_and_then_every_period(load):
+    """`tasks.clock.ExecutorClock`: over n physics steps of dt, a period of k steps ticks ceil(n / k) times, in
+    whatever chunks `step` is called, a copy keeps the clock and a reset starts it at a tick."""
+    physics = load()
+    ticks: list[float] = []
+    physics.set_tick(lambda p: ticks.append(p.data.time))
+    k = round(physics.TICK_PERIOD / physics.timestep())
+    assert k >= 2
+    for chunk in (1, 3, k, 2 * k + 1, 5):
+        physics.step(chunk)
+    n = 1 + 3 + k + 2 * k + 1 + 5
+    assert len(ticks) == math.ceil(n / k)
+    np.testing.assert_allclose(np.diff(ticks), physics.TICK_PERIOD, atol=1e-9)
+    twin = physics.copy()
+    before = len(ticks)
+    twin.step(k)
+    physics.step(k)
+    assert len(ticks) == before + 2  # one tick each: the copy shares the callback and where the clock stood
+    physics.reset()
+    physics.step(1)
+    assert len(ticks) == before + 3
+    physics.set_tick(None)
+    physics.step(3 * k)
+    assert len(ticks) == before + 3
