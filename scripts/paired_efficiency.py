@@ -7,6 +7,10 @@ policy was the faster on.
 
     python scripts/paired_efficiency.py runs/hard100/planner-general/results.json \
         runs/hard100/map-replan/results.json --oracle runs/hard100/oracle/results.json --tier hard --water ideal
+    python scripts/paired_efficiency.py planner-general map-replan --tier hard     # the published leaderboard's
+
+A or B (and --oracle) is a results file or the name of a policy published on the leaderboard
+(`docs/benchmark/leaderboard.json`); --oracle defaults to the leaderboard's `oracle`.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli.benchmark import bootstrap_mean, oracle_times, paired_efficiency
+from auv_mj.cli.benchmark import LEADERBOARD, ORACLE, bootstrap_mean, oracle_times, paired_efficiency
 
 
 def paired(a: dict, b: dict, oracle: dict, tier: str | None, water: str | None, cell_name: str | None = None
@@ -30,14 +34,14 @@ def paired(a: dict, b: dict, oracle: dict, tier: str | None, water: str | None, 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("a", type=Path)
-    parser.add_argument("b", type=Path)
-    parser.add_argument("--oracle", type=Path, required=True)
+    parser.add_argument("a")
+    parser.add_argument("b")
+    parser.add_argument("--oracle", default=ORACLE)
     parser.add_argument("--tier")
     parser.add_argument("--water")
     parser.add_argument("--resamples", type=int, default=5000)
     args = parser.parse_args()
-    a, b, oracle = (json.loads(p.read_text()) for p in (args.a, args.b, args.oracle))
+    a, b, oracle = (results(name) for name in (args.a, args.b, args.oracle))
     d = paired(a, b, oracle, args.tier, args.water)
     if d.size == 0:
         raise SystemExit("no seeds in common (check --tier / --water and the files)")
@@ -46,6 +50,16 @@ def main() -> None:
         cell = paired(a, b, oracle, args.tier, args.water, name)
         if cell.size:
             print(f"  {name}: {_line(cell, args.resamples, a['policy'], b['policy'])}")
+
+
+def results(name: str) -> dict:
+    """A results dict: the file `name`, else the leaderboard's entry of the policy `name`."""
+    if Path(name).is_file():
+        return json.loads(Path(name).read_text())
+    board = json.loads(LEADERBOARD.read_text())["policies"]
+    if name not in board:
+        raise SystemExit(f"{name!r} is neither a results file nor a policy on the leaderboard ({sorted(board)})")
+    return board[name]
 
 
 def _line(d: np.ndarray, resamples: int, a: str, b: str) -> str:

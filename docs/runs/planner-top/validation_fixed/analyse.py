@@ -1,0 +1,57 @@
+"""Validation of the fixed-speed fine-tuning runs (fx0, fx1; issue 30): each candidate's time efficiency per set and
+its paired difference, with a 95 % bootstrap interval, against `map-replan` and the shipped `planner-general` on
+the same validation seeds. The candidates' episodes are the JSON files beside this script
+(`scripts/benchmark_tiers.py --seed 20000 --policies CHECKPOINT`); the references are those of `../validation_230/`.
+
+    python docs/runs/planner-top/validation_fixed/analyse.py
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from auv_mj.cli.benchmark import bootstrap_mean, episode_efficiency
+
+HERE = Path(__file__).parent
+REFERENCE = HERE.parent / "validation_230"
+CANDIDATES = ("fixed0_snaps_ep40", "fixed0_snaps_ep70", "fixed0_snaps_final", "fixed1_snaps_ep41",
+              "fixed1_snaps_ep71", "fixed1_snaps_final")
+
+
+def load(folder: Path, pattern: str) -> dict:
+    """Task -> policy -> cell of the result files matching `pattern`, their rows pooled."""
+    merged: dict = {}
+    for path in sorted(folder.glob(pattern)):
+        for task, cells in json.loads(path.read_text()).items():
+            for policy, cell in cells.items():
+                merged.setdefault(task, {}).setdefault(policy, []).extend(cell["rows"])
+    return merged
+
+
+def main() -> None:
+    ref = {**load(REFERENCE, "open_ref.json"), **load(REFERENCE, "tunnel_ref.json")}
+    shipped = {**load(REFERENCE, "open_pg.json"), **load(REFERENCE, "tunnel_pg.json")}
+    oracle = {t: {r["seed"]: r["time_to_goal"] for r in ref[t]["oracle"] if r["success"]} for t in ref}
+
+    def scores(rows: list[dict], task: str) -> dict[int, float]:
+        return {r["seed"]: episode_efficiency(r, oracle[task]) for r in rows if r["seed"] in oracle[task]}
+
+    bases = {"map-replan": {t: scores(ref[t]["map-replan"], t) for t in ref},
+             "planner-general": {t: scores(shipped[t]["planner-general"], t) for t in shipped}}
+    for name in CANDIDATES:
+        cells = load(HERE, f"*_{name}.json")
+        mine = {t: scores(next(iter(c.values())), t) for t, c in cells.items()}
+        failures = sum(not r["success"] for c in cells.values() for rows in c.values() for r in rows)
+        parts = [f"{t} {np.mean(list(s.values())):.3f} ({len(s)})" for t, s in mine.items()]
+        for base, theirs in bases.items():
+            d = np.array([e - theirs[t][s] for t, es in mine.items() for s, e in es.items() if s in theirs[t]])
+            mean, low, high = bootstrap_mean(d)
+            parts.append(f"minus {base} {mean:+.3f} [{low:+.3f}, {high:+.3f}]")
+        print(f"{name}: " + ", ".join(parts) + f", failures {failures}")
+
+
+if __name__ == "__main__":
+    main()
