@@ -114,7 +114,7 @@ def tiers(lines: list[str], leaderboard: Path = LEADERBOARD) -> None:
     """The section's Markdown (module docstring)."""
     board = json.loads(Path(leaderboard).read_text())["policies"]
     names = [n for n in ORDER if n in board] + [n for n in board if n not in ORDER]
-    episodes = sorted({r.get("episodes_per_cell") for r in board.values()}, key=str)
+    episodes = sorted({c["summary"].get("episodes", 0) for r in board.values() for c in r["cells"].values()})
     lines += ["## Benchmark: the standard and hard tiers (suite v1)", "",
               f"Every published policy on every cell of suite v1 (task / tier / water; `auv_mj/cli/benchmark.py`), "
               f"held-out test seeds, episodes per cell: {episodes}. Time efficiency is the oracle's time on the same "
