@@ -17,10 +17,11 @@ from dm_control.rl import control
 class ExecutorClock:
     """Mixin of a dm_control `Physics` (put it first among the bases) that calls a tick callback while stepping.
 
-    `TICK_PERIOD` [s] is the default period of `set_tick`; a subclass sets its executor's.
+    `TICK_PERIOD` [s], the default period of `set_tick`, is the subclass's: its executor's EXECUTOR_DT, which lives
+    beside that executor.
     """
 
-    TICK_PERIOD = 0.1
+    TICK_PERIOD: float
     _tick: Callable | None = None
     _tick_steps = 1
     _steps_to_tick = 0
