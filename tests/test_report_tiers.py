@@ -77,4 +77,25 @@ def test_section_lays_out_every_published_cell_and_the_ablation(tmp_path):
     tiers.tiers(lines, path)
     text = "\n".join(lines)
     assert text.count(f"| {HARD} | `") == 3  # a row per published policy
-    assert f"| {HARD} | 0.99 / 0.97 | 0.90 / 0.50 | 250 / 420 |" in text
+    assert f"| {HARD} | 0.99 / 0.97 | 0.90 / 0.50 | 250 / 420 | n/a | n/a |" in text  # no episodes kept: unpaired
+
+
+def test_the_ablation_is_paired_by_seed_per_cell_and_pooled():
+    """The ablation row pairs the learned system with its zeroed self seed by seed: the mean difference of time
+    efficiency with its bootstrap interval, and the goals only one of them reached, per cell and pooled."""
+    oracle = np.full(10, 100.0)
+    learned = np.full(10, 125.0)  # 0.80 on every seed
+    zeroed = np.full(10, 100.0)  # 1.00 on every seed
+    board = {"oracle": {"cells": {HARD: _with_episodes(oracle), STANDARD: _with_episodes(oracle)}},
+             "planner-general": {"cells": {HARD: _with_episodes(learned), STANDARD: _with_episodes(oracle)}},
+             "planner-general-zeroed": {"cells": {HARD: _with_episodes(zeroed), STANDARD: _with_episodes(oracle)}}}
+    board["planner-general-zeroed"]["cells"][HARD]["episodes"][3]["success"] = False  # zeroed fails one seed
+    lines = tiers.ablation(board)
+    (hard,) = [line for line in lines if line.startswith(f"| {HARD} |")]
+    # nine seeds at 0.80 - 1.00 and one at 0.80 - 0: the mean is (9 * -0.2 + 0.8) / 10 = -0.1
+    assert "| -0.100 [" in hard and hard.endswith("(10) | 1 / 0 |")
+    (standard,) = [line for line in lines if line.startswith(f"| {STANDARD} |")]
+    assert "+0.000 [+0.000, +0.000] (10) | 0 / 0 |" in standard
+    (pooled,) = [line for line in lines if line.startswith("| pooled: all |")]
+    assert "-0.050 [" in pooled and pooled.endswith("(20) | 1 / 0 |")
+    assert tiers.goals_apart(board["planner-general"], {"cells": {HARD: {"summary": {}}}}, [HARD]) is None

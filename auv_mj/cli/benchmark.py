@@ -210,7 +210,7 @@ def oracle_times(results: dict | None) -> dict[str, dict[int, float]]:
     """{cell: {seed: the oracle's time to the goal}} of an oracle results dict (its successes only)."""
     if not results:
         return {}
-    return {name: {int(e["seed"]): float(e["time_to_goal"]) for e in cell["episodes"] if e["success"]}
+    return {name: {int(e["seed"]): float(e["time_to_goal"]) for e in cell.get("episodes", []) if e["success"]}
             for name, cell in results.get("cells", {}).items()}
 
 

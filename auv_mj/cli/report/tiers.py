@@ -8,6 +8,7 @@ them, so that regenerating it costs nothing and re-measuring is one command per 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 from auv_mj.cli.benchmark import LEADERBOARD, ORACLE, SUITE_V1, bootstrap_mean, oracle_times, paired_efficiency
@@ -93,20 +94,59 @@ def verdicts(board: dict) -> list[str]:
     return out
 
 
+def goals_apart(a: dict, b: dict, cells: Sequence[str]) -> tuple[int, int] | None:
+    """Seeds on which only A reached the goal, and only B, over `cells` (the discordant pairs of a paired success
+    comparison); None where either entry does not keep its episodes."""
+    only_a = only_b = 0
+    for name in cells:
+        ours = {e["seed"]: e["success"] for e in a["cells"].get(name, {}).get("episodes", [])}
+        theirs = {e["seed"]: e["success"] for e in b["cells"].get(name, {}).get("episodes", [])}
+        if not ours or not theirs:
+            return None
+        only_a += sum(ours[k] and not theirs[k] for k in ours if k in theirs)
+        only_b += sum(theirs[k] and not ours[k] for k in ours if k in theirs)
+    return only_a, only_b
+
+
+def _paired(board: dict, cells: Sequence[str]) -> str:
+    """LEARNED minus ABLATION over `cells`: paired time efficiency (mean [95 % bootstrap]) and goals apart."""
+    references = oracle_times(board.get(ORACLE))
+    d = paired_efficiency(board[LEARNED], board[ABLATION], references, cells) if references else None
+    apart = goals_apart(board[LEARNED], board[ABLATION], cells)
+    if d is None or d.size == 0:
+        efficiency = "n/a"
+    else:
+        mean, low, high = bootstrap_mean(d)
+        efficiency = f"{mean:+.3f} [{low:+.3f}, {high:+.3f}] ({d.size})"
+    return f"{efficiency} | {'n/a' if apart is None else f'{apart[0]} / {apart[1]}'}"
+
+
 def ablation(board: dict) -> list[str]:
-    """LEARNED against ABLATION per cell: what the learned output adds in success and time efficiency."""
+    """LEARNED against ABLATION per cell, then pooled per tier and water and over the suite: what the learned output
+    adds in success and time efficiency, paired by seed where the episodes are kept."""
     if LEARNED not in board or ABLATION not in board:
         return [f"(`{ABLATION}` is not published: no ablation)"]
     lines = ["| cell | success: learned / zeroed | time efficiency: learned / zeroed | mean time [s]: learned / "
-             "zeroed |", "| --- | --- | --- | --- |"]
+             "zeroed | time efficiency, learned minus zeroed, paired [95 % bootstrap] (seeds) | goals only learned "
+             "/ only zeroed |", "| --- | --- | --- | --- | --- | --- |"]
+    both = []
     for cell in SUITE_V1:
         pair = [board[n]["cells"].get(cell.name, {}).get("summary") for n in (LEARNED, ABLATION)]
         if None in pair:
             continue
+        both.append(cell)
         a, b = pair
         lines.append(f"| {cell.name} | {fmt(a['success_rate'], 2)} / {fmt(b['success_rate'], 2)} | "
                      f"{fmt(a.get('time_efficiency'), 2)} / {fmt(b.get('time_efficiency'), 2)} | "
-                     f"{fmt(a.get('time_to_goal'), 0)} / {fmt(b.get('time_to_goal'), 0)} |")
+                     f"{fmt(a.get('time_to_goal'), 0)} / {fmt(b.get('time_to_goal'), 0)} | "
+                     f"{_paired(board, [cell.name])} |")
+    groups = {}
+    for cell in both:
+        groups.setdefault(f"{cell.tier}, {cell.water}", []).append(cell.name)
+    if len(both) > 1:
+        groups["all"] = [cell.name for cell in both]
+    for label, names in groups.items():
+        lines.append(f"| pooled: {label} | | | | {_paired(board, names)} |")
     return lines
 
 
