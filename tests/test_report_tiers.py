@@ -93,9 +93,22 @@ def test_the_ablation_is_paired_by_seed_per_cell_and_pooled():
     lines = tiers.ablation(board)
     (hard,) = [line for line in lines if line.startswith(f"| {HARD} |")]
     # nine seeds at 0.80 - 1.00 and one at 0.80 - 0: the mean is (9 * -0.2 + 0.8) / 10 = -0.1
-    assert "| -0.100 [" in hard and hard.endswith("(10) | 1 / 0 |")
+    assert "| -0.100 [" in hard and hard.endswith("(10) | 1 / 0 (exact McNemar p 1.00) |")
     (standard,) = [line for line in lines if line.startswith(f"| {STANDARD} |")]
-    assert "+0.000 [+0.000, +0.000] (10) | 0 / 0 |" in standard
+    assert "+0.000 [+0.000, +0.000] (10) | 0 / 0 (exact McNemar p 1.00) |" in standard
     (pooled,) = [line for line in lines if line.startswith("| pooled: all |")]
-    assert "-0.050 [" in pooled and pooled.endswith("(20) | 1 / 0 |")
+    assert "-0.050 [" in pooled and pooled.endswith("(20) | 1 / 0 (exact McNemar p 1.00) |")
     assert tiers.goals_apart(board["planner-general"], {"cells": {HARD: {"summary": {}}}}, [HARD]) is None
+
+
+def test_the_exact_mcnemar_p_value_is_the_two_sided_binomial_test_of_the_discordant_pairs():
+    """Checked against scipy's binomial test, an independent implementation, and the closed forms at the edges."""
+    from scipy.stats import binomtest
+
+    from auv_mj.cli.benchmark import exact_mcnemar
+
+    for only_a, only_b in [(7, 2), (2, 7), (11, 6), (0, 5), (10, 0), (3, 3), (1, 0), (25, 12)]:
+        expected = binomtest(only_a, only_a + only_b, 0.5).pvalue
+        assert abs(exact_mcnemar(only_a, only_b) - expected) < 1e-12
+    assert exact_mcnemar(0, 0) == 1.0  # no discordant pair: no evidence either way
+    assert abs(exact_mcnemar(6, 0) - 2 / 2 ** 6) < 1e-15  # the one most extreme outcome on each side

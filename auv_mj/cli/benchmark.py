@@ -235,6 +235,14 @@ def paired_efficiency(a: dict, b: dict, references: dict[str, dict[int, float]],
     return np.array(diffs)
 
 
+def exact_mcnemar(only_a: int, only_b: int) -> float:
+    """The two-sided exact McNemar p-value of a paired success comparison: the binomial test of `only_a` against
+    `only_b` discordant pairs (seeds only one side reached the goal on) at 1/2 (McNemar 1947, exact form)."""
+    n = only_a + only_b
+    tail = sum(math.comb(n, k) for k in range(min(only_a, only_b) + 1)) / 2 ** n
+    return min(1.0, 2.0 * tail)
+
+
 def bootstrap_mean(values: np.ndarray, resamples: int = 5000, seed: int = 0) -> tuple[float, float, float]:
     """The mean of `values` and its 95 % percentile-bootstrap interval (`resamples` resamples, seeded)."""
     values = np.asarray(values, dtype=float)

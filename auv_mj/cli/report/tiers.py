@@ -11,7 +11,15 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from auv_mj.cli.benchmark import LEADERBOARD, ORACLE, SUITE_V1, bootstrap_mean, oracle_times, paired_efficiency
+from auv_mj.cli.benchmark import (
+    LEADERBOARD,
+    ORACLE,
+    SUITE_V1,
+    bootstrap_mean,
+    exact_mcnemar,
+    oracle_times,
+    paired_efficiency,
+)
 from auv_mj.cli.report.common import fmt
 from auv_mj.cli.report.registry import ReportSettings, section
 
@@ -40,6 +48,11 @@ def _row(cell: str, name: str, s: dict) -> str:
             f"{fmt(s.get('time_efficiency'), 2)} | {clearance} |")
 
 
+def _interval(mean: float, low: float, high: float) -> str:
+    """A paired difference as the report writes it: mean [95 % interval]."""
+    return f"{mean:+.3f} [{low:+.3f}, {high:+.3f}]"
+
+
 def ahead(board: dict, cell: str, other: str) -> tuple[bool, str]:
     """Whether LEARNED's time efficiency on `cell` is higher than `other`'s, and how that was judged: paired by seed
     where both entries keep their episodes and the oracle is published (the 95 % bootstrap interval of the mean
@@ -52,7 +65,7 @@ def ahead(board: dict, cell: str, other: str) -> tuple[bool, str]:
         b = theirs["cells"][cell]["summary"].get("time_efficiency") or 0.0
         return a > b, f"{other} {fmt(b, 2)} (unpaired)"
     mean, low, high = bootstrap_mean(d)
-    return low > 0, f"{other} {mean:+.3f} [{low:+.3f}, {high:+.3f}]"
+    return low > 0, f"{other} {_interval(mean, low, high)}"
 
 
 def verdicts(board: dict) -> list[str]:
@@ -109,16 +122,17 @@ def goals_apart(a: dict, b: dict, cells: Sequence[str]) -> tuple[int, int] | Non
 
 
 def _paired(board: dict, cells: Sequence[str]) -> str:
-    """LEARNED minus ABLATION over `cells`: paired time efficiency (mean [95 % bootstrap]) and goals apart."""
+    """LEARNED minus ABLATION over `cells`: paired time efficiency (mean [95 % bootstrap]) and goals apart, with the
+    exact McNemar p-value of the difference in success."""
     references = oracle_times(board.get(ORACLE))
     d = paired_efficiency(board[LEARNED], board[ABLATION], references, cells) if references else None
     apart = goals_apart(board[LEARNED], board[ABLATION], cells)
     if d is None or d.size == 0:
         efficiency = "n/a"
     else:
-        mean, low, high = bootstrap_mean(d)
-        efficiency = f"{mean:+.3f} [{low:+.3f}, {high:+.3f}] ({d.size})"
-    return f"{efficiency} | {'n/a' if apart is None else f'{apart[0]} / {apart[1]}'}"
+        efficiency = f"{_interval(*bootstrap_mean(d))} ({d.size})"
+    goals = "n/a" if apart is None else f"{apart[0]} / {apart[1]} (exact McNemar p {exact_mcnemar(*apart):.2f})"
+    return f"{efficiency} | {goals}"
 
 
 def ablation(board: dict) -> list[str]:
