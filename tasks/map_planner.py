@@ -102,6 +102,21 @@ def _bounds(env) -> tuple[float, float, float, float]:
     return (*low, *high)
 
 
+def route_target(task) -> tuple[np.ndarray, float, int]:
+    """A planning task's target for a planner that looks ahead along its route: the goal itself, or on a route
+    of many goals (a tunnel's path) the route point ROUTE_HORIZON metres on from the current goal; its radius
+    [m] (ROUTE_TARGET_RADIUS short of the route's end) and its index on the route."""
+    goals, index = task.goals, task.goal_index
+    if len(goals) == 1:
+        return goals[0], task.goal_radius, index
+    walked, k = 0.0, index
+    while k < len(goals) - 1 and walked < ROUTE_HORIZON:
+        walked += float(np.hypot(*(goals[k + 1] - goals[k])))
+        k += 1
+    radius = task.goal_radius if k == len(goals) - 1 else ROUTE_TARGET_RADIUS
+    return goals[k], radius, k
+
+
 class GridFollower:
     """A search on an occupancy grid, replanned when it must, followed by line of sight (module docstring).
 
@@ -132,17 +147,8 @@ class GridFollower:
         raise NotImplementedError
 
     def target(self) -> tuple[np.ndarray, float, int]:
-        """The search's target, its radius [m] and a key that changes when the target does."""
-        task = self.env.task
-        goals, index = task.goals, task.goal_index
-        if len(goals) == 1:
-            return goals[0], task.goal_radius, index
-        walked, k = 0.0, index
-        while k < len(goals) - 1 and walked < ROUTE_HORIZON:
-            walked += float(np.hypot(*(goals[k + 1] - goals[k])))
-            k += 1
-        radius = task.goal_radius if k == len(goals) - 1 else ROUTE_TARGET_RADIUS
-        return goals[k], radius, k
+        """The search's target, its radius [m] and a key that changes when the target does (`route_target`)."""
+        return route_target(self.env.task)
 
     def plan(self, pose: np.ndarray, goal: np.ndarray, radius: float) -> None:
         """Searches the map from the vehicle to the target; keeps the old path when none is found."""

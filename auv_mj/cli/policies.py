@@ -47,6 +47,7 @@ from auv_mj.cli.policy_spec import (
 from tasks import suite
 from tasks.auv3d import SUITE3D, classical_3d, is_3d
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
+from tasks.bug import bug_planner
 from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
 from tasks.map_planner import fast_line_of_sight, map_guided, sonar_map_planner, true_map_planner
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
@@ -266,6 +267,9 @@ register("los-fast", PolicySpec("line of sight along the route at 2 m/s inside t
 register("map-replan", PolicySpec("the mapping local planner: a sonar occupancy grid searched again as it changes, "
                                   "followed by line of sight at 2 m/s (speed-aware domain; `tasks.map_planner`)",
                                   lambda d: sonar_map_planner(d.env), tasks="planning", protection="speed-aware"))
+register("bug", PolicySpec("a complete sensor-based planner of the Bug family (DistBug's leave rule) on the "
+                           "sonar's remembered echoes, at 2 m/s inside the speed-aware domain (`tasks.bug`)",
+                           lambda d: bug_planner(d.env), tasks="planning", protection="speed-aware"))
 register("oracle", PolicySpec("plans on the true map (every geom, movers where they are) and follows the plan as "
                               "map-replan does: certifies arenas, the reference of time efficiency",
                               lambda d: true_map_planner(d.env), family="reference", tasks="planning",

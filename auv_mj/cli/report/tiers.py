@@ -27,7 +27,7 @@ LEARNED = "planner-general"
 """The learned planner the targets are about."""
 ABLATION = "planner-general-zeroed"
 """The same system with its learned output zeroed."""
-COMPETITORS = ("map-replan", "los-fast", "los-avoid")
+COMPETITORS = ("map-replan", "los-fast", "los-avoid", "bug")
 """The non-oracle classical planners it must match in success and beat in time efficiency on the hard tier."""
 SPEED_BASELINE = "los-fast"
 """The standard tier's time target is against this one."""

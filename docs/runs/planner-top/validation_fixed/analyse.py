@@ -18,7 +18,7 @@ from auv_mj.cli.benchmark import bootstrap_mean, episode_efficiency
 HERE = Path(__file__).parent
 REFERENCE = HERE.parent / "validation_230"
 CANDIDATES = ("fixed0_snaps_ep40", "fixed0_snaps_ep70", "fixed0_snaps_final", "fixed1_snaps_ep41",
-              "fixed1_snaps_ep71", "fixed1_snaps_final")
+              "fixed1_snaps_ep71", "fixed1_snaps_final", "fixed0_long180k", "fixed1_long180k")
 
 
 def load(folder: Path, pattern: str) -> dict:
