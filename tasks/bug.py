@@ -44,7 +44,7 @@ from auv_mj.geometry import wrap_angle
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 from tasks.avoidance import SLOW_CONE, map_fence, with_repulsion
 from tasks.guidance import approach_speed
-from tasks.map_planner import PROTECTION, SONAR_OFFSET, Policy, route_target
+from tasks.map_planner import PROTECTION, Policy, route_target, sonar_rays
 from tasks.planning import ACTION_HEADING_RANGE, SONAR_SLICE
 
 MEMORY_STEPS = 40
@@ -158,11 +158,9 @@ class BugPlanner:
     def sense(self, time_step: dm_env.TimeStep, pose: np.ndarray) -> np.ndarray:
         """Adds this scan's echoes to the memory; the nine ranges [m]."""
         ranges = np.asarray(time_step.observation["observation"])[SONAR_SLICE] * SONAR_RANGE
-        x, y, psi = pose
-        origin = np.array([x, y]) + SONAR_OFFSET * np.array([math.cos(psi), math.sin(psi)])
+        origin, directions = sonar_rays(pose)
         hit = ranges < SONAR_RANGE - 1e-6
-        angles = psi + BEAM_ANGLES[hit]
-        self.echoes.append(origin + ranges[hit, None] * np.column_stack([np.cos(angles), np.sin(angles)]))
+        self.echoes.append(origin + ranges[hit, None] * directions[hit])
         return ranges
 
     def choose_side(self, ranges: np.ndarray, position: np.ndarray, psi: float, target: np.ndarray) -> int:
@@ -171,7 +169,7 @@ class BugPlanner:
         discontinuity of the range); the side whose end point O minimises |x - O| + |O - target| is taken. A
         side whose beams never open scores infinity; with neither open, the side of the farther free water."""
         x, y = position
-        origin = position + SONAR_OFFSET * np.array([math.cos(psi), math.sin(psi)])
+        origin, directions = sonar_rays((x, y, psi))
         bearing = wrap_angle(math.atan2(target[1] - y, target[0] - x) - psi)
         centre = int(np.argmin(np.abs(BEAM_ANGLES - np.clip(bearing, BEAM_ANGLES[0], BEAM_ANGLES[-1]))))
         blocking = float(ranges[centre])
@@ -180,8 +178,7 @@ class BugPlanner:
             score, k = math.inf, centre
             while 0 <= k + step < len(ranges):
                 if ranges[k + step] > min(ranges[k], blocking) + OPEN_JUMP:
-                    angle = psi + BEAM_ANGLES[k]
-                    end = origin + ranges[k] * np.array([math.cos(angle), math.sin(angle)])
+                    end = origin + ranges[k] * directions[k]
                     score = float(np.hypot(*(end - position)) + np.hypot(*(target - end)))
                     break
                 k += step
@@ -225,10 +222,8 @@ class BugPlanner:
         near = AHEAD & (ranges < FRONT_CLEAR)
         if not near.any():
             return False
-        x, y, psi = pose
-        origin = np.array([x, y]) + SONAR_OFFSET * np.array([math.cos(psi), math.sin(psi)])
-        angles = psi + BEAM_ANGLES[near]
-        echoes = origin + ranges[near, None] * np.column_stack([np.cos(angles), np.sin(angles)])
+        origin, directions = sonar_rays(pose)
+        echoes = origin + ranges[near, None] * directions[near]
         return bool(np.any(np.hypot(*(echoes - self.anchor).T) < CONNECT))
 
     def __call__(self, time_step: dm_env.TimeStep) -> np.ndarray:

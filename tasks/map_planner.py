@@ -75,6 +75,14 @@ _RAY_STEP = CELL / 2
 """Spacing [m] of the points a beam marks free."""
 
 
+def sonar_rays(pose) -> tuple[np.ndarray, np.ndarray]:
+    """The sonars' origin (x, y) [m] and the nine beams' unit directions (9 x 2) in the world frame at `pose`
+    (x, y, psi): a beam's echo at range r lies at origin + r * direction."""
+    x, y, psi = (float(p) for p in pose[:3])
+    origin = np.array([x, y]) + SONAR_OFFSET * np.array([math.cos(psi), math.sin(psi)])
+    return origin, np.column_stack([np.cos(psi + BEAM_ANGLES), np.sin(psi + BEAM_ANGLES)])
+
+
 def fast_line_of_sight(env) -> Policy:
     """Line of sight along the route at 2 m/s (no protection domain: `los_fast` adds it), slowing to 1 m/s
     near a small final goal as every planner here does (`approach_speed`): without it, it circles a tunnel's
@@ -214,9 +222,7 @@ class SonarMap(GridFollower):
     def update(self, time_step: dm_env.TimeStep, pose: np.ndarray) -> bool:
         """Marks the nine beams: cells along each beam short of its range clear, its echo's cell hit."""
         ranges = np.asarray(time_step.observation["observation"])[SONAR_SLICE] * SONAR_RANGE
-        x, y, psi = pose
-        origin = np.array([x, y]) + SONAR_OFFSET * np.array([math.cos(psi), math.sin(psi)])
-        directions = np.column_stack([np.cos(psi + BEAM_ANGLES), np.sin(psi + BEAM_ANGLES)])
+        origin, directions = sonar_rays(pose)
         samples = np.arange(0.0, SONAR_RANGE, _RAY_STEP)
         clear = samples[None, :] < (ranges[:, None] - CELL)
         points = origin + samples[None, :, None] * directions[:, None, :]
