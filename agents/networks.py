@@ -114,6 +114,32 @@ class Critic(nn.Module):
         return self.net(torch.cat([obs, action], dim=-1)).squeeze(-1)
 
 
+NEW_INPUT_MEAN, NEW_INPUT_STD = 0.5, 0.5
+"""The normaliser's prior for inputs added to a trained network (`widen_inputs`): a feature in [0, 1]."""
+
+
+def widen_inputs(state: Mapping[str, torch.Tensor], at: int, count: int) -> dict[str, torch.Tensor]:
+    """The state dict of an actor, critic or `Normalizer` trained on inputs without `count` new ones inserted at
+    index `at`, for the same module on the wider input: the first layer gets zero weights from the new inputs,
+    so the widened network computes exactly what it did, and learns to use them from there (as a residual
+    planner's zeroed head starts as its skeleton, Silver et al. 2018); a normaliser takes the new inputs' mean
+    and std as NEW_INPUT_MEAN and NEW_INPUT_STD over the count it had seen (a prior that the data then moves)."""
+    out = dict(state)
+    if "count" in state:  # a Normalizer
+        n = state["count"]
+        values = {"sum": NEW_INPUT_MEAN * n, "sumsq": (NEW_INPUT_MEAN**2 + NEW_INPUT_STD**2) * n,
+                  "mean": NEW_INPUT_MEAN, "std": NEW_INPUT_STD}
+        for key, value in values.items():
+            old = state[key]
+            new = torch.full((count,), float(value), dtype=old.dtype, device=old.device)
+            out[key] = torch.cat([old[:at], new, old[at:]])
+        return out
+    weight = state["net.0.weight"]
+    zeros = torch.zeros(weight.shape[0], count, dtype=weight.dtype, device=weight.device)
+    out["net.0.weight"] = torch.cat([weight[:, :at], zeros, weight[:, at:]], dim=1)
+    return out
+
+
 class ParameterVector:
     """The parameters of some modules as views into one flat leaf tensor `flat`, their gradients as views into
     `flat.grad`.

@@ -53,6 +53,7 @@ from agents.checkpoint import (
 from agents.collector import CATCH_UP, Collectors, env_action, episode_seed, flat_observation
 from agents.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
 from agents.her import HerReplayBuffer
+from agents.networks import widen_inputs
 from agents.replay import Batch, ReplayBuffer
 from auv_mj.console import progress_bar
 from auv_mj.goals import GOAL_KEYS
@@ -107,6 +108,9 @@ def env_spec(env: gym.Env) -> dict[str, Any]:
         input_dim = obs_dim + goal_dim * goal_input
         spec.update(kind="goal", observation_dim=obs_dim, goal_dim=goal_dim, goal_input=goal_input,
                     obs_dim=input_dim, obs_shape=[input_dim])
+        inserted = getattr(env.unwrapped, "inserted_inputs", None)
+        if inserted is not None:  # inputs a guide added (guide="map-memory"): `--init` may widen a network
+            spec["inserted_inputs"] = [int(v) for v in inserted]
     elif isinstance(space, spaces.Box):
         spec.update(kind="box", obs_dim=int(np.prod(space.shape)), obs_shape=list(space.shape))
     else:
@@ -143,17 +147,26 @@ def _make_buffer(agent_name: str, spec: dict[str, Any], env: gym.Env,
 
 
 def _initialise_from(agent: DDPG, path: Path, spec: dict[str, Any]) -> None:
-    """Copies the networks and the observation normaliser of checkpoint `path` into `agent`."""
+    """Copies the networks and the observation normaliser of checkpoint `path` into `agent`; a checkpoint
+    trained without the inputs that the env's guide inserts (`inserted_inputs`) is widened to them
+    (`agents.networks.widen_inputs`)."""
     source, meta = load_agent(path, device=agent.config.device)
     saved_spec = {k: v for k, v in meta["spec"].items() if k != "env_id"}
     ours = {k: v for k, v in spec.items() if k != "env_id"}
+    if source.config.hidden_sizes != agent.config.hidden_sizes:
+        raise ValueError(f"--init checkpoint {path} has hidden sizes {source.config.hidden_sizes}, "
+                         f"the run asks for {agent.config.hidden_sizes}")
+    at, count = ours.get("inserted_inputs", (0, 0))
+    widen = count > 0 and "inserted_inputs" not in saved_spec and saved_spec["act_dim"] == ours["act_dim"] \
+        and saved_spec["obs_dim"] + count == ours["obs_dim"]
+    if widen:  # a network trained without the guide's new inputs: they start with zero weights
+        for name, module in agent.modules().items():
+            module.load_state_dict(widen_inputs(source.modules()[name].state_dict(), at, count))
+        return
     if (saved_spec["obs_dim"], saved_spec["act_dim"]) != (ours["obs_dim"], ours["act_dim"]):
         raise ValueError(f"--init checkpoint {path} has observation/action sizes "
                          f"{saved_spec['obs_dim']}/{saved_spec['act_dim']}, this task needs "
                          f"{ours['obs_dim']}/{ours['act_dim']}")
-    if source.config.hidden_sizes != agent.config.hidden_sizes:
-        raise ValueError(f"--init checkpoint {path} has hidden sizes {source.config.hidden_sizes}, "
-                         f"the run asks for {agent.config.hidden_sizes}")
     for name, module in agent.modules().items():
         module.load_state_dict(source.modules()[name].state_dict())
 

@@ -119,8 +119,9 @@ class AUVGymEnv(gymnasium.Env):
         that a zero action is the classical planner itself.
         `guide="map"` (planning tasks) puts the virtual goal along the sonar map's planned path in the
         observation in place of the task's (`tasks.map_planner.MapGuide`: the map is the planner's memory), and
-        pays the reward on that path's length left (`tasks.map_planner.path_reward`); "route" (the default)
-        leaves the task's goal and reward.
+        pays the reward on that path's length left (`tasks.map_planner.path_reward`); "map-memory" puts the
+        map itself in too, as MEMORY_BEAMS ranges cast on it all round the vehicle, just before the sonar block
+        of the observation vector (`inserted_inputs`); "route" (the default) leaves the task's goal and reward.
         """
         from tasks import suite  # imported here so that registering the ids stays light
 
@@ -176,8 +177,18 @@ class AUVGymEnv(gymnasium.Env):
         if guide != "route" and not self.is_goal_task:
             raise ValueError(f"guide={guide!r} (a goal along the map's path) is for the planning tasks, not "
                              f"{task_name!r}")
-        self._guide = MapGuide(self._env) if guide == "map" else None
+        self._guide = MapGuide(self._env, memory=guide == "map-memory") if guide != "route" else None
+        if self.inserted_inputs is not None:  # the map-memory scan widens the observation vector
+            size = self.observation_space["observation"].shape[0] + self.inserted_inputs[1]
+            self.observation_space = spaces.Dict({**self.observation_space.spaces,
+                                                  "observation": spaces.Box(-np.inf, np.inf, (size,), np.float64)})
         self._last_observation = None
+
+    @property
+    def inserted_inputs(self) -> tuple[int, int] | None:
+        """(index, count) of the inputs the guide puts into the observation vector (guide="map-memory"), so
+        that a network trained without them can be widened (`agents.train`, `--init`); None otherwise."""
+        return None if self._guide is None else self._guide.inserted_inputs
 
     @property
     def protection(self) -> bool:
@@ -381,6 +392,10 @@ class PlanningMix(gymnasium.Env):
     @property
     def goal_dependent_actions(self) -> bool:
         return self.active.goal_dependent_actions
+
+    @property
+    def inserted_inputs(self) -> tuple[int, int] | None:
+        return self.active.inserted_inputs
 
     @property
     def task_name(self) -> str:

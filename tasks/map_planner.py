@@ -331,9 +331,15 @@ def _resettable(follower: GridFollower) -> Policy:
     return policy
 
 
-GUIDES = ("route", "map")
-"""What a residual planner's goal input is: "route", the task's own goal (the straight route), or "map", the
-virtual goal along `map_replan`'s planned path (`MapGuide`)."""
+GUIDES = ("route", "map", "map-memory")
+"""What a residual planner's goal input is: "route", the task's own goal (the straight route), "map", the
+virtual goal along `map_replan`'s planned path (`MapGuide`), or "map-memory", that goal and the map itself as
+an input too: MEMORY_BEAMS ranges cast on the sonar map all round the vehicle (`MapGuide`, `memory=True`)."""
+MEMORY_BEAMS = 16
+"""Rays of the map-memory scan, evenly all round the vehicle from its bow (22.5 deg apart): what the map
+remembers beside and behind it, where the nine sonars (a 120 deg fan ahead) no longer look."""
+MEMORY_RANGE = 60.0
+"""Reach [m] of the map-memory scan: twice the protection domain's d0, about a cup's depth."""
 
 
 class MapGuide:
@@ -347,11 +353,29 @@ class MapGuide:
     zeroed the planner is `map_replan`'s follower at the zero action's speed.
     """
 
-    def __init__(self, env):
+    def __init__(self, env, memory: bool = False):
         self.env = env
         self.follower = SonarMap(env)
+        self.memory = bool(memory)
+        """Whether the observation also carries the map (`memory_scan`, guide="map-memory")."""
         self.left = self.left_before = 0.0
         """The planned path's length left [m] at the last call, and at the call before."""
+
+    @property
+    def inserted_inputs(self) -> tuple[int, int] | None:
+        """(index, count) of the inputs this guide puts into the observation vector (the memory scan, just
+        before the sonar block, so that SONAR_SLICE still reads the sonar); None when it adds none."""
+        if not self.memory:
+            return None
+        size = int(np.prod(self.env.observation_spec()["observation"].shape))
+        return SONAR_SLICE.indices(size)[0], MEMORY_BEAMS
+
+    def memory_scan(self, pose: np.ndarray) -> np.ndarray:
+        """The map's memory in the body frame: MEMORY_BEAMS ranges / MEMORY_RANGE cast on the sonar map's
+        occupied cells from the vehicle's centre (`auv_mj.arenas.grid.ray_ranges`), beam k at psi + k 2 pi / 16."""
+        follower = self.follower
+        angles = float(pose[2]) + np.arange(MEMORY_BEAMS) * (2 * math.pi / MEMORY_BEAMS)
+        return grid.ray_ranges(follower.grid, follower.occupied, pose[:2], angles, MEMORY_RANGE) / MEMORY_RANGE
 
     def reset(self) -> None:
         """Forgets the map (the next step starts a new episode)."""
@@ -372,8 +396,11 @@ class MapGuide:
         desired[:2] = pose[:2] + left * np.array([math.cos(bearing), math.sin(bearing)])
         if desired.size == 4:
             desired[2:] = (math.cos(bearing), math.sin(bearing))
-        observation["observation"] = self.env.task.relabel_observation(observation["observation"],
-                                                                       observation["achieved_goal"], desired)
+        vector = self.env.task.relabel_observation(observation["observation"], observation["achieved_goal"], desired)
+        if self.memory:
+            at, _ = self.inserted_inputs
+            vector = np.concatenate([vector[:at], self.memory_scan(pose), vector[at:]])
+        observation["observation"] = vector
         observation["desired_goal"] = desired
         return observation, left
 
@@ -395,9 +422,10 @@ def path_reward(left_before: float, left: float, info: dict) -> float:
     return float(PROGRESS_GAIN * gained + reached + info["goal_independent_reward"])
 
 
-def map_guided(env, policy: Policy) -> Policy:
-    """`policy` (a residual planner acting on its time step's goal) fed `MapGuide`'s virtual goal."""
-    guide = MapGuide(env)
+def map_guided(env, policy: Policy, memory: bool = False) -> Policy:
+    """`policy` (a residual planner acting on its time step's goal) fed `MapGuide`'s virtual goal (and with
+    `memory` its scan of the map, guide="map-memory")."""
+    guide = MapGuide(env, memory)
 
     def act(time_step: dm_env.TimeStep) -> np.ndarray:
         observation, _ = guide(time_step)

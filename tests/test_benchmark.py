@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from auv_mj import seeds
@@ -126,3 +127,53 @@ def test_refusals_come_before_any_episode(tmp_path):
         assert done.returncode == 2, done.stderr
         assert words in done.stderr and "Traceback" not in done.stderr
         assert "ep/s" not in done.stderr  # no progress bar: nothing ran
+
+
+def _flown(seed: int, length: float, time: float, success: bool = True) -> dict:
+    return {"seed": seed, "success": success, "outcome": "goal" if success else "collision",
+            "path_length": length, "time_to_goal": time if success else None}
+
+
+def test_path_efficiency_times_speed_ratio_is_the_uncapped_time_efficiency():
+    """The identity the report's "where the time goes" table rests on, against oracle time / own time computed here
+    from the raw numbers, over random lengths and times (both faster and slower than the oracle)."""
+    rng = np.random.RandomState(0)
+    for _ in range(2000):
+        length, time, oracle_length, oracle_time = 10.0 ** rng.uniform(-2, 4, 4)
+        path, speed = benchmark.efficiency_parts(_flown(1, length, time), _flown(1, oracle_length, oracle_time))
+        expected = oracle_time / time
+        assert abs(path * speed - expected) <= 1e-12 * max(1.0, expected)
+        assert path == oracle_length / length
+
+
+def test_efficiency_parts_of_a_known_case_and_none_on_a_failure():
+    oracle = _flown(7, 400.0, 200.0)
+    path, speed = benchmark.efficiency_parts(_flown(7, 500.0, 250.0), oracle)  # same 2 m/s, 100 m longer
+    assert path == pytest.approx(0.8, abs=1e-15) and speed == pytest.approx(1.0, abs=1e-15)
+    path, speed = benchmark.efficiency_parts(_flown(7, 400.0, 400.0), oracle)  # same path at half the speed
+    assert path == 1.0 and speed == pytest.approx(0.5, abs=1e-15)
+    assert benchmark.efficiency_parts(_flown(7, 500.0, 250.0, success=False), oracle) is None
+    assert benchmark.efficiency_parts(_flown(7, 500.0, 250.0), _flown(7, 400.0, 200.0, success=False)) is None
+
+
+def test_decomposition_pairs_by_seed_and_counts_the_shared_successes():
+    cell, other = "obstacles/hard/ideal", "tunnel/hard/ideal"
+    oracle = {"cells": {cell: {"episodes": [_flown(1, 100.0, 50.0), _flown(2, 200.0, 100.0), _flown(3, 300.0, 150.0),
+                                            _flown(4, 100.0, 50.0, success=False)]},
+                        other: {"episodes": [_flown(1, 90.0, 30.0)]}}}
+    ours = {"cells": {cell: {"episodes": [  # another order, seed 2 missing, seed 5 not in the oracle's, 4 its failure
+        _flown(3, 600.0, 300.0),  # 0.5 / 1.0
+        _flown(5, 1.0, 1.0), _flown(4, 100.0, 50.0),
+        _flown(1, 100.0, 100.0)]},  # 1.0 / 0.5
+        other: {"episodes": [_flown(1, 120.0, 60.0, success=False)]}}}
+    d = benchmark.decomposition(ours, oracle, [cell, other])
+    assert d["seeds"] == 2
+    assert d["path_efficiency"] == pytest.approx(0.75) and d["speed_ratio"] == pytest.approx(0.75)
+    assert d["time_efficiency"] == pytest.approx(0.5)  # 150 / 300 and 50 / 100, not 0.75 x 0.75
+    ours["cells"][other]["episodes"][0]["success"] = True
+    ours["cells"][other]["episodes"][0]["time_to_goal"] = 60.0  # 0.75 / (2 / 3)
+    d = benchmark.decomposition(ours, oracle, [cell, other])
+    assert d["seeds"] == 3 and d["path_efficiency"] == pytest.approx((0.5 + 1.0 + 0.75) / 3)
+    assert d["speed_ratio"] == pytest.approx((1.0 + 0.5 + 2.0 / 3.0) / 3)
+    assert benchmark.decomposition(ours, oracle, [cell])["seeds"] == 2  # only the cells asked for
+    assert benchmark.decomposition(ours, oracle, ["moving_obstacles/hard/ideal"]) is None

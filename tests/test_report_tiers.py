@@ -112,3 +112,36 @@ def test_the_exact_mcnemar_p_value_is_the_two_sided_binomial_test_of_the_discord
         assert abs(exact_mcnemar(only_a, only_b) - expected) < 1e-12
     assert exact_mcnemar(0, 0) == 1.0  # no discordant pair: no evidence either way
     assert abs(exact_mcnemar(6, 0) - 2 / 2 ** 6) < 1e-15  # the one most extreme outcome on each side
+
+
+def _flown(times_and_lengths, fail=()) -> dict:
+    """A cell entry with its episodes: seed k flew lengths[k] metres in times[k] seconds (reached, but for `fail`)."""
+    episodes = [{"seed": k, "success": k not in fail, "path_length": length, "time_to_goal": time}
+                for k, (length, time) in enumerate(times_and_lengths)]
+    return {"summary": _summary(1.0, 1.0, 100.0), "episodes": episodes}
+
+
+def test_where_the_time_goes_splits_time_efficiency_per_tier_and_water(tmp_path):
+    """Path efficiency / speed ratio (seeds) per tier and water, the three sets pooled, for every policy but the
+    oracle: a planner at the oracle's speed on longer paths reads as a speed ratio of 1 and its path loss."""
+    oracle = {"cells": {HARD: _flown([(400.0, 200.0), (300.0, 150.0)]),
+                        "tunnel/hard/ideal": _flown([(100.0, 100.0)]),
+                        STANDARD: _flown([(200.0, 100.0)])}}
+    board = {"oracle": oracle,
+             "planner-general": {"cells": {HARD: _flown([(500.0, 250.0), (600.0, 300.0)]),  # 0.8 and 0.5, at 1.0
+                                           "tunnel/hard/ideal": _flown([(125.0, 125.0)]),  # 0.8 at 1.0
+                                           STANDARD: _flown([(200.0, 200.0)])}},  # 1.0 at half the speed
+             "los-avoid": {"cells": {HARD: _flown([(400.0, 400.0), (1.0, 1.0)], fail={1})}}}
+    lines = tiers.time_split(board)
+    assert lines[0] == "| policy | standard, ideal | standard, ocean | hard, ideal | hard, ocean |"
+    assert lines[2] == "| `planner-general` | 1.000 / 0.500 (1) | n/a | 0.700 / 1.000 (3) | n/a |"
+    assert lines[3] == "| `los-avoid` | n/a | n/a | 1.000 / 0.500 (1) | n/a |"
+    assert not any("`oracle`" in line for line in lines)
+    assert tiers.time_split({"los-avoid": board["los-avoid"]}) == ["(`oracle` is not published: no decomposition)"]
+    path = tmp_path / "leaderboard.json"
+    path.write_text(json.dumps({"policies": board}))
+    text: list[str] = []
+    tiers.tiers(text, path)
+    start = text.index("### Where the time goes: path efficiency / speed ratio against `oracle`")
+    assert "path efficiency" in text[start + 2] and "x speed ratio" in text[start + 2]
+    assert text[start + 4:start + 8] == lines

@@ -167,3 +167,20 @@ def shortest_path(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float 
 def path_length(path: np.ndarray) -> float:
     """Length [m] of a polyline (m, 2)."""
     return float(np.sum(np.hypot(*np.diff(np.asarray(path, dtype=float), axis=0).T))) if len(path) > 1 else 0.0
+
+
+def ray_ranges(grid: Grid, occupied: np.ndarray, origin, angles, max_range: float) -> np.ndarray:
+    """Range [m] along each ray from `origin` (x, y) at world `angles` [rad] to the first occupied cell, or
+    `max_range` where none lies within it: a rangefinder cast on the map instead of on the world (the
+    ego-centric scan of a map-memory planner, `tasks.map_planner.MapGuide`). Rays are sampled every half cell;
+    off the grid counts as free. Vectorised over rays and samples."""
+    angles = np.asarray(angles, dtype=float).ravel()
+    samples = np.arange(grid.cell / 2, max_range, grid.cell / 2)
+    directions = np.column_stack([np.cos(angles), np.sin(angles)])
+    points = np.asarray(origin, dtype=float)[:2] + samples[None, :, None] * directions[:, None, :]
+    i, j, inside = grid.index(points)
+    hit = np.zeros(i.shape, bool)
+    hit[inside] = occupied[i[inside], j[inside]]
+    hit = hit.reshape(len(angles), len(samples))
+    first = np.argmax(hit, axis=1)
+    return np.where(hit.any(axis=1), samples[first], float(max_range))

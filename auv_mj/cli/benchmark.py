@@ -220,6 +220,42 @@ def episode_efficiency(episode: dict, reference: dict[int, float]) -> float:
     return min(1.0, reference[episode["seed"]] / episode["time_to_goal"]) if episode["success"] else 0.0
 
 
+def efficiency_parts(episode: dict, oracle_episode: dict) -> tuple[float, float] | None:
+    """Time efficiency on a success split in two, to tell a longer path from a slower flight: (path efficiency, the
+    oracle's path length over the episode's; speed ratio, the episode's mean speed, path length / time to the goal,
+    over the oracle's), on a seed both reached the goal on; None otherwise (or where a length or time is not
+    positive). Their product is the oracle's time over the episode's, uncapped (`episode_efficiency` before its cap):
+    (L_o / L) (L / T) / (L_o / T_o) = T_o / T."""
+    if not (episode["success"] and oracle_episode["success"]):
+        return None
+    length, time = episode["path_length"], episode["time_to_goal"]
+    oracle_length, oracle_time = oracle_episode["path_length"], oracle_episode["time_to_goal"]
+    if None in (length, time, oracle_length, oracle_time) or min(length, time, oracle_length, oracle_time) <= 0:
+        return None
+    return oracle_length / length, (length / time) / (oracle_length / oracle_time)
+
+
+def decomposition(results: dict, oracle: dict, cells: Sequence[str]) -> dict | None:
+    """`efficiency_parts` pooled over the cells `cells` of a results dict against the oracle's, paired by seed within
+    each cell (the seeds both hold and both reached the goal on): {"path_efficiency", "speed_ratio",
+    "time_efficiency" (uncapped, the per-seed product), the means over those seeds, and "seeds", how many}; None
+    where there is no such seed."""
+    parts: list[tuple[float, float]] = []
+    for name in cells:
+        ours = results.get("cells", {}).get(name, {}).get("episodes", [])
+        theirs = {int(e["seed"]): e for e in oracle.get("cells", {}).get(name, {}).get("episodes", [])}
+        for episode in ours:
+            reference = theirs.get(int(episode["seed"]))
+            split = efficiency_parts(episode, reference) if reference is not None else None
+            if split is not None:
+                parts.append(split)
+    if not parts:
+        return None
+    path, speed = np.array(parts).T
+    return {"path_efficiency": float(path.mean()), "speed_ratio": float(speed.mean()),
+            "time_efficiency": float((path * speed).mean()), "seeds": len(parts)}
+
+
 def paired_efficiency(a: dict, b: dict, references: dict[str, dict[int, float]],
                       cells: Sequence[str] | None = None) -> np.ndarray:
     """Per-seed differences of time efficiency, A - B, over the cells both results dicts hold (`cells` only, if

@@ -49,7 +49,7 @@ from tasks.auv3d import SUITE3D, classical_3d, is_3d
 from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
 from tasks.bug import bug_planner
 from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
-from tasks.map_planner import fast_line_of_sight, map_guided, sonar_map_planner, true_map_planner
+from tasks.map_planner import MEMORY_BEAMS, fast_line_of_sight, map_guided, sonar_map_planner, true_map_planner
 from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from tasks.splane import OCEAN_GAINS, SPlaneController
 
@@ -143,13 +143,18 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
     (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, a
     residual planner (`"residual": R`, `"speed"`) through line of sight (`tasks.guidance.guided_action`), and a
-    map-guided one (`"guide": "map"`) on the virtual goal along the sonar map's path (`tasks.map_planner.MapGuide`).
+    map-guided one (`"guide": "map"`) on the virtual goal along the sonar map's path (`tasks.map_planner.MapGuide`),
+    with the map's scan in its input too under "map-memory".
     `protection` as `PolicySpec.protection`; `guide` and `speed` (`tasks.guidance.SPEEDS`) override the
     checkpoint's. `zeroed`: the network's output replaced by zeros, the rest as deployed (the ablation row: what
     the system is without what it learned).
     ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = loaded_policy(path)
+    env_kwargs = policy.metadata.get("run_info", {}).get("env_kwargs", {}) or {}
+    guide = guide or env_kwargs.get("guide", "route")
     sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
+    if guide == "map-memory" and "observation" in sample:  # the map's scan is inserted into the vector
+        sample["observation"] = np.zeros(sample["observation"].size + MEMORY_BEAMS)
     actions = tuple(env.action_spec().shape)
     try:
         policy.flat_obs(sample["observation"] if set(sample) == {"observation"} else sample)
@@ -166,11 +171,10 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
 
-    env_kwargs = policy.metadata.get("run_info", {}).get("env_kwargs", {}) or {}
     if float(env_kwargs.get("residual", 0.0)) > 0:  # a residual planner acts through line of sight
         act = with_guidance(act, env, float(env_kwargs["residual"]), speed or env_kwargs.get("speed", "absolute"))
-    if (guide or env_kwargs.get("guide", "route")) == "map":
-        act = map_guided(env, act)
+    if guide in ("map", "map-memory"):
+        act = map_guided(env, act, memory=guide == "map-memory")
     field_ = protection_field(env_kwargs.get("protection", False))
     if isinstance(protection, str):
         field_ = protection_field(protection)

@@ -15,7 +15,10 @@ from auv_mj.cli.benchmark import (
     LEADERBOARD,
     ORACLE,
     SUITE_V1,
+    TIERS,
+    WATERS,
     bootstrap_mean,
+    decomposition,
     exact_mcnemar,
     oracle_times,
     paired_efficiency,
@@ -164,6 +167,26 @@ def ablation(board: dict) -> list[str]:
     return lines
 
 
+def time_split(board: dict, names: Sequence[str] | None = None) -> list[str]:
+    """Where each published policy's time goes against ORACLE, per tier and water (the three sets pooled): mean path
+    efficiency / mean speed ratio (`auv_mj.cli.benchmark.decomposition`) over the seeds both reached the goal on."""
+    if ORACLE not in board:
+        return [f"(`{ORACLE}` is not published: no decomposition)"]
+    names = [n for n in (names or board) if n != ORACLE]
+    groups = [(tier, water) for tier in TIERS for water in WATERS]
+    lines = ["| policy | " + " | ".join(f"{tier}, {water}" for tier, water in groups) + " |",
+             "| --- " * (len(groups) + 1) + "|"]
+    for name in names:
+        row = []
+        for tier, water in groups:
+            d = decomposition(board[name], board[ORACLE],
+                              [c.name for c in SUITE_V1 if c.tier == tier and c.water == water])
+            row.append("n/a" if d is None else
+                       f"{fmt(d['path_efficiency'], 3)} / {fmt(d['speed_ratio'], 3)} ({d['seeds']})")
+        lines.append(f"| `{name}` | " + " | ".join(row) + " |")
+    return lines
+
+
 def tiers(lines: list[str], leaderboard: Path = LEADERBOARD) -> None:
     """The section's Markdown (module docstring)."""
     board = json.loads(Path(leaderboard).read_text())["policies"]
@@ -181,7 +204,15 @@ def tiers(lines: list[str], leaderboard: Path = LEADERBOARD) -> None:
             summary = board[name]["cells"].get(cell.name, {}).get("summary")
             if summary is not None:
                 lines.append(_row(cell.name, name, summary))
-    lines += ["", f"### Ablation: `{LEARNED}` against its learned output zeroed (`{ABLATION}`)", "", *ablation(board),
+    lines += ["", f"### Where the time goes: path efficiency / speed ratio against `{ORACLE}`", "",
+              "On a seed both reached the goal on, time efficiency (uncapped) = path efficiency (the oracle's path "
+              "length over the policy's) x speed ratio (the policy's mean speed, path length / time, over the "
+              "oracle's). A speed ratio near 1 means the policy flies as fast as the oracle, so the time it loses "
+              "is path length; `map-replan` runs the oracle's search and follower, so its lost length is what it "
+              "did not yet know of the map. Means over those seeds of the three sets (obstacles, "
+              "moving_obstacles, tunnel) per tier and water, paired by seed (seeds in brackets).", "",
+              *time_split(board, names), "",
+              f"### Ablation: `{LEARNED}` against its learned output zeroed (`{ABLATION}`)", "", *ablation(board),
               "", f"### Targets (`{LEARNED}`, issue 30)", "", *verdicts(board), "",
               "Commands: `auv-mj benchmark --policy P --episodes N --workers 2 --out runs/benchmark/P --publish` for "
               "each P above (the oracle first: it is the reference of time efficiency), then `auv-mj reproduce "
