@@ -4,11 +4,13 @@ the same validation seeds. The candidates' episodes are the JSON files beside th
 (`scripts/benchmark_tiers.py --seed 20000 --policies CHECKPOINT`); the references are those of `../validation_230/`.
 
     python docs/runs/planner-top/validation_fixed/analyse.py
+    python docs/runs/planner-top/validation_fixed/analyse.py FOLDER NAME...   # other candidates: FOLDER/*_NAME.json
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +33,7 @@ def load(folder: Path, pattern: str) -> dict:
     return merged
 
 
-def main() -> None:
+def main(folder: Path = HERE, candidates: tuple[str, ...] = CANDIDATES) -> None:
     ref = {**load(REFERENCE, "open_ref.json"), **load(REFERENCE, "tunnel_ref.json")}
     shipped = {**load(REFERENCE, "open_pg.json"), **load(REFERENCE, "tunnel_pg.json")}
     oracle = {t: {r["seed"]: r["time_to_goal"] for r in ref[t]["oracle"] if r["success"]} for t in ref}
@@ -41,8 +43,8 @@ def main() -> None:
 
     bases = {"map-replan": {t: scores(ref[t]["map-replan"], t) for t in ref},
              "planner-general": {t: scores(shipped[t]["planner-general"], t) for t in shipped}}
-    for name in CANDIDATES:
-        cells = load(HERE, f"*_{name}.json")
+    for name in candidates:
+        cells = load(folder, f"*_{name}.json")
         mine = {t: scores(next(iter(c.values())), t) for t, c in cells.items()}
         failures = sum(not r["success"] for c in cells.values() for rows in c.values() for r in rows)
         parts = [f"{t} {np.mean(list(s.values())):.3f} ({len(s)})" for t, s in mine.items()]
@@ -54,4 +56,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(Path(sys.argv[1]), tuple(sys.argv[2:])) if len(sys.argv) > 2 else main()
