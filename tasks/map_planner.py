@@ -337,7 +337,7 @@ virtual goal along `map_replan`'s planned path (`MapGuide`), or "map-memory", th
 an input too: MEMORY_BEAMS ranges cast on the sonar map all round the vehicle (`MapGuide`, `memory=True`)."""
 MEMORY_BEAMS = 16
 """Rays of the map-memory scan, evenly all round the vehicle from its bow (22.5 deg apart): what the map
-remembers beside and behind it, where the nine sonars (a 120 deg fan ahead) no longer look."""
+remembers all round it, behind it too, where the nine sonars (-90 to +90 deg from the bow) do not look."""
 MEMORY_RANGE = 60.0
 """Reach [m] of the map-memory scan: twice the protection domain's d0, about a cup's depth."""
 
