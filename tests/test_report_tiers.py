@@ -68,6 +68,17 @@ def test_standard_tier_target_is_a_time_ratio_to_los_fast():
     assert tiers.verdicts(board)[0].endswith("**NOT met**")
 
 
+def test_standard_tier_verdict_gives_the_oracles_own_time_ratio():
+    """The target is a time ratio to los-fast; the oracle's own ratio beside it shows where it lies below the
+    reference (only when the oracle is published on the cell)."""
+    board = _board({"planner-general": {STANDARD: _summary(1.0, 0.99, 98)},
+                    "los-fast": {STANDARD: _summary(1.0, 0.95, 100)}})
+    assert "oracle" not in tiers.verdicts(board)[0]
+    board["oracle"] = _board({"oracle": {STANDARD: _summary(1.0, 1.0, 97)}})["oracle"]
+    (line,) = tiers.verdicts(board)
+    assert "(<= 0.95; the oracle's own: 0.970 x)" in line and line.endswith("**NOT met**")
+
+
 def test_section_lays_out_every_published_cell_and_the_ablation(tmp_path):
     board = _board({"oracle": {HARD: _summary(1.0, 1.0, 220)}, "planner-general": {HARD: _summary(0.99, 0.9, 250)},
                     "planner-general-zeroed": {HARD: _summary(0.97, 0.5, 420)}})

@@ -71,6 +71,17 @@ def ahead(board: dict, cell: str, other: str) -> tuple[bool, str]:
     return low > 0, f"{other} {_interval(mean, low, high)}"
 
 
+def _oracle_ratio(reference: dict | None, base: dict) -> str:
+    """The oracle's own mean time over SPEED_BASELINE's on a cell, as a clause of the standard tier's verdict.
+
+    The oracle flies the shortest path on the true map at the top speed, so a ratio above STANDARD_TIME says that
+    the target asks for less time than the reference of time efficiency takes: no planner in the same speed
+    envelope can meet it there."""
+    if not reference or not reference.get("time_to_goal") or not base.get("time_to_goal"):
+        return ""
+    return f"; the oracle's own: {fmt(reference['time_to_goal'] / base['time_to_goal'], 3)} x"
+
+
 def verdicts(board: dict) -> list[str]:
     """The issue's targets for LEARNED, one line per cell it applies to: what was measured and met / NOT met.
     "A higher time efficiency" is judged paired by seed (`ahead`): a difference inside the noise is not higher."""
@@ -103,7 +114,7 @@ def verdicts(board: dict) -> list[str]:
                    and ratio is not None and ratio <= STANDARD_TIME)
             text = (f"success {fmt(success, 2)} (>= {STANDARD_SUCCESS} and {SPEED_BASELINE}'s "
                     f"{fmt(base['success_rate'], 2)}), mean time {fmt(ratio, 3)} x {SPEED_BASELINE}'s (<= "
-                    f"{STANDARD_TIME})")
+                    f"{STANDARD_TIME}{_oracle_ratio(get.get(ORACLE), base)})")
         else:
             continue
         out.append(f"- {cell.name}: {text}: **{'met' if met else 'NOT met'}**")
