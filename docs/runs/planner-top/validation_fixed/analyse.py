@@ -5,6 +5,10 @@ the same validation seeds. The candidates' episodes are the JSON files beside th
 
     python docs/runs/planner-top/validation_fixed/analyse.py
     python docs/runs/planner-top/validation_fixed/analyse.py FOLDER NAME...   # other candidates: FOLDER/*_NAME.json
+    python docs/runs/planner-top/validation_fixed/analyse.py FOLDER NAME... --reference DIR   # other references
+
+A reference folder holds `open_ref.json` and `tunnel_ref.json` (the oracle and `map-replan`) and `open_pg.json` and
+`tunnel_pg.json` (`planner-general`), all on the candidates' seeds and water.
 """
 
 from __future__ import annotations
@@ -33,9 +37,9 @@ def load(folder: Path, pattern: str) -> dict:
     return merged
 
 
-def main(folder: Path = HERE, candidates: tuple[str, ...] = CANDIDATES) -> None:
-    ref = {**load(REFERENCE, "open_ref.json"), **load(REFERENCE, "tunnel_ref.json")}
-    shipped = {**load(REFERENCE, "open_pg.json"), **load(REFERENCE, "tunnel_pg.json")}
+def main(folder: Path = HERE, candidates: tuple[str, ...] = CANDIDATES, reference: Path = REFERENCE) -> None:
+    ref = {**load(reference, "open_ref.json"), **load(reference, "tunnel_ref.json")}
+    shipped = {**load(reference, "open_pg.json"), **load(reference, "tunnel_pg.json")}
     oracle = {t: {r["seed"]: r["time_to_goal"] for r in ref[t]["oracle"] if r["success"]} for t in ref}
 
     def scores(rows: list[dict], task: str) -> dict[int, float]:
@@ -56,4 +60,9 @@ def main(folder: Path = HERE, candidates: tuple[str, ...] = CANDIDATES) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), tuple(sys.argv[2:])) if len(sys.argv) > 2 else main()
+    args = sys.argv[1:]
+    where = REFERENCE
+    if "--reference" in args:
+        k = args.index("--reference")
+        where, args = Path(args[k + 1]), args[:k] + args[k + 2:]
+    main(Path(args[0]), tuple(args[1:]), where) if len(args) > 1 else main(reference=where)
