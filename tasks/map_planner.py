@@ -358,17 +358,14 @@ class MapGuide:
         self.follower = SonarMap(env)
         self.memory = bool(memory)
         """Whether the observation also carries the map (`memory_scan`, guide="map-memory")."""
+        self.inserted_inputs: tuple[int, int] | None = None
+        """(index, count) of the inputs this guide puts into the observation vector (the memory scan, just before
+        the sonar block, so that SONAR_SLICE still reads the sonar); None when it adds none."""
+        if self.memory:
+            size = int(np.prod(env.observation_spec()["observation"].shape))
+            self.inserted_inputs = SONAR_SLICE.indices(size)[0], MEMORY_BEAMS
         self.left = self.left_before = 0.0
         """The planned path's length left [m] at the last call, and at the call before."""
-
-    @property
-    def inserted_inputs(self) -> tuple[int, int] | None:
-        """(index, count) of the inputs this guide puts into the observation vector (the memory scan, just
-        before the sonar block, so that SONAR_SLICE still reads the sonar); None when it adds none."""
-        if not self.memory:
-            return None
-        size = int(np.prod(self.env.observation_spec()["observation"].shape))
-        return SONAR_SLICE.indices(size)[0], MEMORY_BEAMS
 
     def memory_scan(self, pose: np.ndarray) -> np.ndarray:
         """The map's memory in the body frame: MEMORY_BEAMS ranges / MEMORY_RANGE cast on the sonar map's

@@ -74,9 +74,9 @@ def ahead(board: dict, cell: str, other: str) -> tuple[bool, str]:
 def _oracle_ratio(reference: dict | None, base: dict) -> str:
     """The oracle's own mean time over SPEED_BASELINE's on a cell, as a clause of the standard tier's verdict.
 
-    The oracle flies the shortest path on the true map at the top speed, so a ratio above STANDARD_TIME says that
-    the target asks for less time than the reference of time efficiency takes: no planner in the same speed
-    envelope can meet it there."""
+    The oracle searches the true map (inflated by hull plus d_s) and flies it at the top speed, so a ratio above
+    STANDARD_TIME says that the target asks for less time than the planner that knows the whole map takes. It is
+    not a hard bound: the grid, the inflation and the movers' unknown future leave the oracle some slack."""
     if not reference or not reference.get("time_to_goal") or not base.get("time_to_goal"):
         return ""
     return f"; the oracle's own: {fmt(reference['time_to_goal'] / base['time_to_goal'], 3)} x"

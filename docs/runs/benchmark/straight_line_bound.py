@@ -33,8 +33,8 @@ def main() -> None:
                 continue
             env = suite.load("auv", task, task_kwargs={"random": seed, "tier": "standard", "conditions": "ideal"})
             env.reset()
-            route = env.task._route
-            straight = np.linalg.norm(np.asarray(route.goals[-1])[:2] - np.asarray(route.start)[:2])
+            start, goal = np.asarray(env.physics.pose())[:2], env.task.goals[-1]
+            straight = np.linalg.norm(goal - start)
             bound.append((straight - env.task.goal_radius) / MAX_SPEED)
             fast.append(episodes["los-fast"][seed]["time_to_goal"])
             oracle.append(episodes["oracle"][seed]["time_to_goal"])

@@ -6,6 +6,7 @@ the same validation seeds. The candidates' episodes are the JSON files beside th
     python docs/runs/planner-top/validation_fixed/analyse.py
     python docs/runs/planner-top/validation_fixed/analyse.py FOLDER NAME...   # other candidates: FOLDER/*_NAME.json
     python docs/runs/planner-top/validation_fixed/analyse.py FOLDER NAME... --reference DIR   # other references
+    python docs/runs/planner-top/validation_fixed/analyse.py FOLDER NAME... --per-set   # each set's difference too
 
 A reference folder holds `open_ref.json` and `tunnel_ref.json` (the oracle and `map-replan`) and `open_pg.json` and
 `tunnel_pg.json` (`planner-general`), all on the candidates' seeds and water.
@@ -37,7 +38,15 @@ def load(folder: Path, pattern: str) -> dict:
     return merged
 
 
-def main(folder: Path = HERE, candidates: tuple[str, ...] = CANDIDATES, reference: Path = REFERENCE) -> None:
+def difference(mine: dict, theirs: dict) -> str:
+    """Mean [95 % bootstrap] of the per-seed differences of two {task: {seed: efficiency}}, on their common seeds."""
+    d = np.array([e - theirs[t][s] for t, es in mine.items() for s, e in es.items() if s in theirs.get(t, {})])
+    mean, low, high = bootstrap_mean(d)
+    return f"{mean:+.3f} [{low:+.3f}, {high:+.3f}]"
+
+
+def main(folder: Path = HERE, candidates: tuple[str, ...] = CANDIDATES, reference: Path = REFERENCE,
+         per_set: bool = False) -> None:
     ref = {**load(reference, "open_ref.json"), **load(reference, "tunnel_ref.json")}
     shipped = {**load(reference, "open_pg.json"), **load(reference, "tunnel_pg.json")}
     oracle = {t: {r["seed"]: r["time_to_goal"] for r in ref[t]["oracle"] if r["success"]} for t in ref}
@@ -52,17 +61,21 @@ def main(folder: Path = HERE, candidates: tuple[str, ...] = CANDIDATES, referenc
         mine = {t: scores(next(iter(c.values())), t) for t, c in cells.items()}
         failures = sum(not r["success"] for c in cells.values() for rows in c.values() for r in rows)
         parts = [f"{t} {np.mean(list(s.values())):.3f} ({len(s)})" for t, s in mine.items()]
-        for base, theirs in bases.items():
-            d = np.array([e - theirs[t][s] for t, es in mine.items() for s, e in es.items() if s in theirs[t]])
-            mean, low, high = bootstrap_mean(d)
-            parts.append(f"minus {base} {mean:+.3f} [{low:+.3f}, {high:+.3f}]")
+        parts += [f"minus {base} {difference(mine, theirs)}" for base, theirs in bases.items()]
         print(f"{name}: " + ", ".join(parts) + f", failures {failures}")
+        for task in mine if per_set else ():
+            print(f"  {task}: " + ", ".join(f"minus {base} {difference({task: mine[task]}, theirs)}"
+                                            for base, theirs in bases.items()))
 
 
 if __name__ == "__main__":
     args = sys.argv[1:]
-    where = REFERENCE
+    where, per_set = REFERENCE, "--per-set" in args
+    args = [a for a in args if a != "--per-set"]
     if "--reference" in args:
         k = args.index("--reference")
         where, args = Path(args[k + 1]), args[:k] + args[k + 2:]
-    main(Path(args[0]), tuple(args[1:]), where) if len(args) > 1 else main(reference=where)
+    if len(args) > 1:
+        main(Path(args[0]), tuple(args[1:]), where, per_set)
+    else:
+        main(reference=where, per_set=per_set)
