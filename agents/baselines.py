@@ -1,5 +1,5 @@
 """Baselines that act on observations alone: uniform random actions. (The classical controllers, which
-read the task, live with the tasks: `tasks.guidance`.)"""
+read the task, live with the tasks: `auv_mj.planners.guidance`.)"""
 
 from __future__ import annotations
 

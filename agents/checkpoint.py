@@ -20,8 +20,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from agents.ddpg import DDPG, DDPGConfig
-from agents.td3 import TD3, TD3Config
+from auv_mj.agents.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.td3 import TD3, TD3Config
 
 FORMAT = "auv-mj-ddpg/1"
 """Format tag in every checkpoint's metadata."""
@@ -163,7 +163,7 @@ def _finite_numbers(value: Any, count: int) -> bool:
 
 def expected_shapes(obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...],
                     twin: bool = False) -> dict[str, tuple[int, ...]]:
-    """Tensor name -> shape of the networks and normaliser of an agent of these sizes (`agents.networks`);
+    """Tensor name -> shape of the networks and normaliser of an agent of these sizes (`auv_mj.agents.networks`);
     `twin` adds TD3's second critic."""
     shapes: dict[str, tuple[int, ...]] = {"obs_norm.count": ()}
     shapes.update({f"obs_norm.{k}": (obs_dim,) for k in ("sum", "sumsq", "mean", "std")})

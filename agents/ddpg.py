@@ -21,8 +21,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from agents.networks import Actor, Critic, Normalizer, ParameterVector, VectorAdam
-from agents.replay import Batch
+from auv_mj.agents.networks import Actor, Critic, Normalizer, ParameterVector, VectorAdam
+from auv_mj.agents.replay import Batch
 from auv_mj.inputs import shown
 
 EPSILON_UNITS = ("steps", "episodes")
@@ -203,7 +203,7 @@ class DDPG:
         self.critic = Critic(obs_dim, act_dim, config.hidden_sizes).to(self.device)
         self.actor_target = copy.deepcopy(self.actor).requires_grad_(False)
         self.critic_target = copy.deepcopy(self.critic).requires_grad_(False)
-        # Each network's parameters in one vector (`agents.networks`), so that Adam and the soft target
+        # Each network's parameters in one vector (`auv_mj.agents.networks`), so that Adam and the soft target
         # updates take one call per network; backward passes fill the vectors' gradients.
         self.vectors = {name: ParameterVector(getattr(self, name))
                         for name in ("actor", "critic", "actor_target", "critic_target")}

@@ -4,7 +4,7 @@ The normaliser follows the HER paper (Andrychowicz et al. 2017): inputs are stan
 statistics and clipped to [-NORM_CLIP, NORM_CLIP]; its statistics are module buffers, so they travel
 with every checkpoint.
 
-The gradient steps of `agents.ddpg` and `agents.td3` are autograd's: their losses are code and
+The gradient steps of `auv_mj.agents.ddpg` and `auv_mj.agents.td3` are autograd's: their losses are code and
 `loss.backward()` gives the gradients. Each network's parameters live in one `ParameterVector`, so that
 `VectorAdam` (torch.optim.Adam(fused=True) on the vectors) and the soft target updates (Eq. 19) take one call
 per network: at Table 4's sizes on a CPU, Adam on the six tensors of a network costs about three times its step
@@ -189,7 +189,7 @@ class VectorAdam(torch.optim.Adam):
     Its state dict has the per-parameter layout of torch.optim.Adam on the modules' own parameters (a state
     per parameter, in order, none before the first step), so checkpoints read and write as they did before
     the parameters moved into vectors. The state exists from the start (zero moments, step 0), so that the
-    collectors (`agents.collector`) can copy it through shared memory before the first step.
+    collectors (`auv_mj.agents.collector`) can copy it through shared memory before the first step.
     """
 
     def __init__(self, vectors: Sequence[ParameterVector], lr: float, betas: tuple[float, float] = (0.9, 0.999),

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from agents.checkpoint import load_module, read_checkpoint
-from agents.her import policy_input
-from agents.networks import Actor, Normalizer
+from auv_mj.agents.checkpoint import load_module, read_checkpoint
+from auv_mj.agents.her import policy_input
+from auv_mj.agents.networks import Actor, Normalizer
 
 
 class Policy:

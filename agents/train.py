@@ -7,16 +7,16 @@ collect an episode, learn from the buffer every `train_every` steps, log the epi
 Goal tasks (dict observations with observation / achieved_goal / desired_goal) train `her-ddpg` with a
 `HerReplayBuffer`, or `ddpg` on the flat [observation, desired_goal] without relabelling; Box tasks train
 `ddpg`, `executor` (the execution layer of Sec. 3.3) or `td3` (DDPG with TD3's twin critics, delayed actor
-and target smoothing, `agents.td3`; on either kind of task, as `ddpg`). Every `train_every` env steps the agent does
-round(train_every * updates_per_step) gradient steps on one batched sample. Episodes end on
+and target smoothing, `auv_mj.agents.td3`; on either kind of task, as `ddpg`). Every `train_every` env steps the agent
+does round(train_every * updates_per_step) gradient steps on one batched sample. Episodes end on
 `terminated` (goal, collision: no bootstrap) or `truncated` (time limit: bootstrap).
 
 `collectors=N` (N >= 1) uses more cores: the environments are stepped, and the actor learnt, in N collector
 processes while this process learns the critic (and, with one collector, steps a share of the environment
-steps itself), in lock-step rounds (`agents.collector`); a run is then deterministic given its seed and N,
+steps itself), in lock-step rounds (`auv_mj.agents.collector`); a run is then deterministic given its seed and N,
 and the update-to-data ratio is the serial one.
 
-A run directory holds `checkpoint.pt` (atomic, see agents.checkpoint), `replay-<steps>.npz`,
+A run directory holds `checkpoint.pt` (atomic, see auv_mj.agents.checkpoint), `replay-<steps>.npz`,
 `progress.csv` (one row per episode), `config.json` and TensorBoard scalars in `tb/`. `resume=True`
 continues the same run from its last checkpoint, replay buffer and RNG states included; each episode
 resets the env with a seed derived from (seed, episode index), so a resumed run repeats the
@@ -41,7 +41,7 @@ import numpy as np
 import torch
 from gymnasium import spaces
 
-from agents.checkpoint import (
+from auv_mj.agents.checkpoint import (
     AGENT_CLASSES,
     agent_classes,
     config_to_dict,
@@ -50,11 +50,11 @@ from agents.checkpoint import (
     save_checkpoint,
     save_replay,
 )
-from agents.collector import CATCH_UP, Collectors, env_action, episode_seed, flat_observation
-from agents.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
-from agents.her import HerReplayBuffer
-from agents.networks import widen_inputs
-from agents.replay import Batch, ReplayBuffer
+from auv_mj.agents.collector import CATCH_UP, Collectors, env_action, episode_seed, flat_observation
+from auv_mj.agents.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
+from auv_mj.agents.her import HerReplayBuffer
+from auv_mj.agents.networks import widen_inputs
+from auv_mj.agents.replay import Batch, ReplayBuffer
 from auv_mj.console import progress_bar
 from auv_mj.goals import GOAL_KEYS
 
@@ -108,7 +108,7 @@ def env_spec(env: gym.Env) -> dict[str, Any]:
         input_dim = obs_dim + goal_dim * goal_input
         spec.update(kind="goal", observation_dim=obs_dim, goal_dim=goal_dim, goal_input=goal_input,
                     obs_dim=input_dim, obs_shape=[input_dim])
-        inserted = getattr(env.unwrapped, "inserted_inputs", None)
+        inserted = wrapper_attr(env, "inserted_inputs", None)
         if inserted is not None:  # inputs a guide added (guide="map-memory"): `--init` may widen a network
             spec["inserted_inputs"] = [int(v) for v in inserted]
     elif isinstance(space, spaces.Box):
@@ -116,6 +116,15 @@ def env_spec(env: gym.Env) -> dict[str, Any]:
     else:
         raise ValueError(f"expected a goal Dict {GOAL_KEYS} or a Box observation space, got {space}")
     return spec
+
+
+def wrapper_attr(env: gym.Env, name: str, default: Any) -> Any:
+    """Attribute `name` of `env` or of the first wrapper or environment under it that has it (a deployment chain's
+    `inserted_inputs`, say), else `default`."""
+    try:
+        return env.get_wrapper_attr(name)
+    except AttributeError:
+        return default
 
 
 def _check_agent_env(agent_name: str, kind: str) -> None:
@@ -131,7 +140,7 @@ def _make_buffer(agent_name: str, spec: dict[str, Any], env: gym.Env,
                  config: DDPGConfig) -> ReplayBuffer | HerReplayBuffer:
     if agent_name == "her-ddpg":
         base = env.unwrapped
-        if getattr(base, "goal_dependent_actions", False):
+        if wrapper_attr(env, "goal_dependent_actions", False):
             raise ValueError("her-ddpg relabels goals, but this environment's actions depend on the goal (a "
                              "residual planner, env option residual > 0): relabelled transitions would not have "
                              "happened; train it with ddpg")
@@ -149,7 +158,7 @@ def _make_buffer(agent_name: str, spec: dict[str, Any], env: gym.Env,
 def _initialise_from(agent: DDPG, path: Path, spec: dict[str, Any]) -> None:
     """Copies the networks and the observation normaliser of checkpoint `path` into `agent`; a checkpoint
     trained without the inputs that the env's guide inserts (`inserted_inputs`) is widened to them
-    (`agents.networks.widen_inputs`)."""
+    (`auv_mj.agents.networks.widen_inputs`)."""
     source, meta = load_agent(path, device=agent.config.device)
     saved_spec = {k: v for k, v in meta["spec"].items() if k != "env_id"}
     ours = {k: v for k, v in spec.items() if k != "env_id"}
@@ -399,7 +408,7 @@ def _critic_round(run: _Run, n_updates: int) -> tuple[Any, torch.Tensor | None]:
 
 def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env], count: int,
                            total_steps: int | None, episodes: int | None, checkpoint_every: int, bar: Any) -> None:
-    """The lock-step rounds of `agents.collector`: `count` collector processes (and this one, for its share)
+    """The lock-step rounds of `auv_mj.agents.collector`: `count` collector processes (and this one, for its share)
     step their environments, and collector 0 learns the actor, while this process learns the critic.
 
     The rounds are pipelined so that neither side waits on the other's bookkeeping: while round k is
@@ -552,7 +561,7 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
     Checkpoints every `checkpoint_every` episodes and at the end (also on Ctrl-C). `run_info` (JSON-able:
     the task and its options, say) is kept in every checkpoint's metadata; a resumed run keeps its own.
     `collectors` >= 1 steps that many environments in collector processes while this process learns
-    (`agents.collector`: deterministic given the seed and the count, but not the serial run); `env_fn`
+    (`auv_mj.agents.collector`: deterministic given the seed and the count, but not the serial run); `env_fn`
     must then pickle.
     """
     for name, value, least in (("total_steps", total_steps, 0), ("episodes", episodes, 0),

@@ -7,8 +7,8 @@ from pathlib import Path
 
 
 def models_dir() -> Path:
-    """The `models/` folder (installed as the package `auv_mj_models`)."""
-    return Path(str(resources.files("auv_mj_models")))
+    """The `models/` folder (installed as the package `auv_mj.models`)."""
+    return Path(str(resources.files("auv_mj.models")))
 
 
 def model_path(name: str) -> Path:

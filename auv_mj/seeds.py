@@ -6,7 +6,7 @@ start, goal, obstacles and, with `arena="random"`, the arena itself.
 
 - TEST: held-out seeds that figures are reported on (`auv-mj eval --seed 10000`, `auv-mj reproduce`);
 - VALIDATION: seeds that models are chosen on (checkpoints, hyper-parameters), never reported as results;
-- TRAIN: every seed a training run resets its environment with (`agents.train.episode_seed`).
+- TRAIN: every seed a training run resets its environment with (`auv_mj.agents.train.episode_seed`).
 """
 
 from __future__ import annotations

@@ -17,17 +17,18 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli.benchmark import wilson
-from auv_mj.cli.policies import env_and_policy
+from auv_mj.benchmark.metrics import wilson
 from auv_mj.episode import episode_metrics, record_episode
-from tasks import map_planner, suite
+from auv_mj.planners import map_planner
+from auv_mj.tasks import suite
+from auv_mj.zoo.registry import env_and_policy
 
 POLICIES = ("oracle", "planner-general", "two-layer-general", "los-avoid", "los-fast", "map-replan")
 TASKS = ("obstacles", "moving_obstacles", "tunnel")
 
 
 CLASSICAL = {"los-fast": map_planner.los_fast, "map-replan": map_planner.map_replan, "oracle": map_planner.oracle}
-"""The planners of `tasks.map_planner`, built here directly (the same as their registered names)."""
+"""The planners of `auv_mj.planners.map_planner`, built here directly (the same as their registered names)."""
 
 
 def make(policy: str, task: str, seed: int, task_kwargs: dict):

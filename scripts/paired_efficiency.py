@@ -2,7 +2,7 @@
 
 For every cell both results hold (filtered by --tier / --water) and every seed the oracle reached the goal on,
 the difference A - B of the per-episode time efficiency (oracle time / own time, capped at 1; 0 on a failure, as
-`auv_mj.cli.benchmark.cell_summary` scores it), its mean, a 95 % bootstrap interval (seeded) and the seeds each
+`auv_mj.benchmark.metrics.cell_summary` scores it), its mean, a 95 % bootstrap interval (seeded) and the seeds each
 policy was the faster on.
 
     python scripts/paired_efficiency.py runs/hard100/planner-general/results.json \
@@ -21,7 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli.benchmark import LEADERBOARD, ORACLE, bootstrap_mean, oracle_times, paired_efficiency
+from auv_mj.benchmark.leaderboard import LEADERBOARD
+from auv_mj.benchmark.metrics import bootstrap_mean, oracle_times, paired_efficiency
+from auv_mj.benchmark.suite import ORACLE
 
 
 def paired(a: dict, b: dict, oracle: dict, tier: str | None, water: str | None, cell_name: str | None = None

@@ -3,7 +3,8 @@
 #   bash scripts/run.sh demo    the main job: the end-to-end tunnel demo (video + table)
 #   bash scripts/run.sh test    the test suite (ruff, import-linter, pytest)
 #   bash scripts/run.sh link    (optional) link this checkout's auv-mj into ~/.local/bin
-# The first run creates .venv (override with AUV_MJ_VENV) and installs the CPU build of PyTorch and auv-mj.
+# The first run creates .venv (override with AUV_MJ_VENV) and installs PyTorch (its CPU build without an NVIDIA GPU)
+# and auv-mj. The C kernels are compiled on first use into ~/.cache/auv-mj (AUV_MJ_CACHE moves it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv="${AUV_MJ_VENV:-.venv}"
@@ -12,9 +13,20 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   echo "setting up $venv (first run only)..." >&2
   python3 -m venv "$venv"
   "$venv/bin/python" -m pip install --quiet --upgrade pip
-  # The CPU build of PyTorch first, or pip pulls a multi-GB CUDA build.
-  "$venv/bin/python" -m pip install --quiet torch==2.13.0
-  "$venv/bin/python" -m pip install --quiet -e ".[test]"
+  # PyTorch first, or pip pulls a multi-GB CUDA build. Without an NVIDIA GPU, the CPU build from PyTorch's own CPU
+  # wheel index, falling back to the package index; pip shows its progress on these long downloads.
+  if ! "$venv/bin/python" -c "import torch" 2>/dev/null; then
+    if command -v nvidia-smi >/dev/null 2>&1 && nvidia-smi -L >/dev/null 2>&1; then
+      "$venv/bin/python" -m pip install --progress-bar on torch==2.13.0
+    else
+      echo "installing PyTorch's CPU build (no NVIDIA GPU found)..." >&2
+      "$venv/bin/python" -m pip install --progress-bar on --timeout 30 --retries 1 \
+          --index-url https://download.pytorch.org/whl/cpu torch==2.13.0 \
+        || "$venv/bin/python" -m pip install --progress-bar on torch==2.13.0
+    fi
+  fi
+  echo "installing auv-mj and its dependencies..." >&2
+  "$venv/bin/python" -m pip install --progress-bar on -e ".[test]" 2>&1 | { grep -v "^Requirement already satisfied" || true; } >&2
   touch "$stamp"
 fi
 # Nothing outside this checkout changes: `auv-mj` lives in $venv/bin. `bash scripts/run.sh link` puts a link to it
@@ -36,7 +48,7 @@ case "$job" in
   demo) exec "$venv/bin/auv-mj" demo "$@" ;;
   test)
     "$venv/bin/ruff" check .
-    "$venv/bin/lint-imports" --no-cache
+    "$venv/bin/lint-imports" --no-cache --no-logo
     exec "$venv/bin/python" -m pytest -q -n 2 "$@" ;;
   *) echo "usage: bash scripts/run.sh demo|test|link [args...]" >&2; exit 2 ;;
 esac

@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 from dm_env import specs
 
-from tasks.options import shown
+from auv_mj.tasks.options import shown
 
 
 class ActionClipped(UserWarning):

@@ -11,7 +11,7 @@
 
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
-(up to DEPTH_RANGE) for the classical depth-heading executor (`tasks.auv3d_control`), which runs at 10 Hz inside
+(up to DEPTH_RANGE) for the classical depth-heading executor (`auv_mj.tasks.auv3d_control`), which runs at 10 Hz inside
 the step. Their observation is what the vehicle can know: its motion and attitude, depth and altitude, the 27
 fan ranges, and the goal (or the tube's look-ahead point) relative to itself.
 
@@ -38,11 +38,10 @@ from auv_mj.sim import ocean3d
 from auv_mj.sim.physics6 import AUV6Physics, euler_angles, set_pose
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, Sensors3D
 from auv_mj.sim.sonar import SONAR_RANGE
-from tasks import options
-from tasks.actions import checked_action
-from tasks.auv3d_control import EXECUTOR_DT, DepthHeadingController, State3D
-from tasks.avoidance import RepulsiveField
-from tasks.clock import ExecutorClock
+from auv_mj.tasks import options
+from auv_mj.tasks.actions import checked_action
+from auv_mj.tasks.auv3d_control import EXECUTOR_DT, DepthHeadingController, State3D, los_command
+from auv_mj.tasks.clock import ExecutorClock
 
 SUITE3D = containers.TaggedTasks()
 """Task name -> factory of the "auv3d" domain."""
@@ -116,7 +115,7 @@ LOOKAHEAD = 8.0
 
 
 class Physics3D(ExecutorClock, AUV6Physics):
-    """AUV6Physics with the executor's clock (`tasks.clock.ExecutorClock`): `set_tick(callback)` calls it every
+    """AUV6Physics with the executor's clock (`auv_mj.tasks.clock.ExecutorClock`): `set_tick(callback)` calls it every
     EXECUTOR_DT while stepping."""
 
     TICK_PERIOD = EXECUTOR_DT
@@ -459,12 +458,9 @@ class Tunnel3D(Planning3D):
                          -depth])
 
 
-TUBE_FIELD = RepulsiveField(influence=TUBE_INFLUENCE)
 
 
 def _los(position, path, lookahead):
-    from tasks.auv3d_control import los_command
-
     return los_command(position, path, lookahead, CRUISE_SPEED)
 
 
@@ -492,42 +488,6 @@ def tunnel3d(time_limit: float = TUNNEL_TIME_LIMIT, random=None, environment_kwa
                          task_kwargs.get("conditions"))
 
 
-def los_policy(env, avoid: bool = False) -> Callable:
-    """Line of sight in 3-D (to the goal, or along the tube) as a planning policy; `avoid` adds the protection
-    domain on the 3-D fan (`los-avoid`)."""
-    from tasks.auv3d_control import protect_command
-
-    task, physics = env.task, env.physics
-    field = TUBE_FIELD if isinstance(task, Tunnel3D) else None
-
-    def policy(time_step) -> np.ndarray:
-        position = physics.position()
-        if len(task.path) >= 2:
-            command = _los(position, task.path, LOOKAHEAD)
-        else:
-            offset = task.goal - position
-            command = (CRUISE_SPEED, math.atan2(offset[1], offset[0]), -float(task.goal[2]))
-        if avoid:
-            command = protect_command(command, physics.heading(), task.sensors.read(physics)["sonar"], field)
-        heading_offset = wrap_angle(command[1] - physics.heading()) / HEADING_RANGE
-        depth_offset = (command[2] - physics.depth()) / DEPTH_RANGE
-        return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_offset, depth_offset], -1.0, 1.0)
-
-    return policy
-
-
-
 def is_3d(env) -> bool:
     """Whether `env` is an environment of the "auv3d" domain (the 6-DOF vehicle)."""
     return isinstance(getattr(env, "physics", None), AUV6Physics)
-
-
-def classical_3d(env, avoid: bool = False) -> Callable:
-    """The classical baseline of an auv3d environment: the S-plane depth-heading executor on depth_heading;
-    line of sight in 3-D on the classical executor on goal3d and tunnel3d, inside the protection domain on the
-    3-D fan if `avoid` (the app's `--policy splane` and `--policy los-avoid`)."""
-    if isinstance(env.task, DepthHeading):
-        if avoid:
-            raise ValueError("los-avoid is a planner: it runs on goal3d and tunnel3d, not on depth_heading")
-        return splane_policy(env)
-    return los_policy(env, avoid=avoid)

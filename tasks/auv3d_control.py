@@ -1,15 +1,13 @@
-"""Classical control of the 6-DOF vehicle (issue 32): the baselines learned 3-D control must beat.
+"""Classical control of the 6-DOF vehicle: the executor the 3-D tasks run, and the baseline learned 3-D control
+must beat.
 
-- `DepthHeadingController`: the S-plane of Eq. (32) (`tasks.splane.s_plane`) on three channels: surge speed
+- `DepthHeadingController`: the S-plane of Eq. (32) (`auv_mj.tasks.splane.s_plane`) on three channels: surge speed
   through the thrust (with the planar drag feed-forward and integrator), heading through the rudder, and depth
   through the pitch and the stern planes, cascaded: the depth error sets a pitch command, the pitch error sets
   the stern planes. A slow depth integrator finds the nose-down trim that holds the positively buoyant REMUS
   down. It is the executor of `depth_heading` and the inner loop of the 3-D planning tasks.
 - `los_command`: line-of-sight guidance in 3-D (Fossen 2011, Ch. 10): heading to the look-ahead point in the
   horizontal plane, its depth as the depth command.
-- `protect_command`: the protection domain of Sec. 3.2.2 (`tasks.avoidance.RepulsiveField`) on the 3-D fan:
-  the level row's echoes bend the heading as in the plane, the down and up rows' echoes push the depth command
-  up or down.
 
 Gains were set by hand on `depth_heading` (paper schedule, ideal conditions), comparing sets by their
 MAE (speed, heading, depth): the defaults give (0.003 m/s, 0.036 rad, 0.198 m); the first heading gains
@@ -25,10 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from auv_mj.geometry import wrap_angle
-from auv_mj.sim.sensors3d import FAN_AZIMUTHS, FAN_ELEVATIONS
-from auv_mj.sim.sonar import SONAR_RANGE
-from tasks.avoidance import RepulsiveField
-from tasks.splane import s_plane
+from auv_mj.tasks.splane import s_plane
 
 EXECUTOR_DT = 0.1
 """The 3-D executor's period [s], as the planar executor's."""
@@ -163,25 +158,3 @@ def los_command(position: Sequence[float], path: np.ndarray, lookahead: float, s
             target = path[j] + (s - arc[j]) / max(lengths[j], 1e-12) * segments[j]
     heading = math.atan2(target[1] - here[1], target[0] - here[0])
     return speed, heading, -float(target[2])
-
-
-def protect_command(command: Sequence[float], heading: float, ranges: np.ndarray,
-                    field: RepulsiveField | None = None, depth_gain: float = 1.0) -> tuple[float, float, float]:
-    """`command` (V, psi, depth) bent away from the fan's echoes (27 ranges, `auv_mj.sim.sensors3d` order).
-
-    Heading: the planar repulsion (Eq. 22 gradient) of the level row's nine beams on the offset psi_cmd - psi.
-    Depth: each down-row echo nearer than the domain pushes the depth command up by depth_gain (1/d - 1/d0) k
-    metres, each up-row echo pushes it down; the lift is scaled to metres by the vehicle's look-ahead, d0.
-    """
-    field = field or RepulsiveField()
-    speed, psi_cmd, depth_cmd = (float(c) for c in command)
-    rows = np.asarray(ranges, dtype=float).reshape(len(FAN_ELEVATIONS), len(FAN_AZIMUTHS))
-    level = int(np.argmin(np.abs(FAN_ELEVATIONS)))
-    offset = field.heading_offset(rows[level], wrap_angle(psi_cmd - heading))
-    push = 0.0
-    for row, sign in ((0, -1.0), (len(FAN_ELEVATIONS) - 1, 1.0)):  # down row lifts (less depth), up row sinks
-        near = rows[row][rows[row] < min(field.influence, SONAR_RANGE)]
-        if near.size:
-            d = np.maximum(near, 0.5)
-            push += sign * depth_gain * field.influence * float(np.max(1.0 / d - 1.0 / field.influence))
-    return speed, wrap_angle(heading + offset), depth_cmd + push

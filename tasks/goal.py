@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tasks import options, planning
-from tasks.registry import SUITE
+from auv_mj.tasks import options, planning
+from auv_mj.tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 600.0
 """Seconds (1200 planner steps): the farthest random goal at TARGET_SPEED, with room to turn."""

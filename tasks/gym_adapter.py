@@ -1,6 +1,6 @@
 """A Gymnasium view of any auv-mj suite task, and the `auv_mj/*-v0` environment ids.
 
-`AUVGymEnv(task_name)` wraps `tasks.suite.load("auv", task_name, ...)`. Goal-conditioned tasks get the
+`AUVGymEnv(task_name)` wraps `auv_mj.tasks.suite.load("auv", task_name, ...)`. Goal-conditioned tasks get the
 Gymnasium-Robotics GoalEnv convention: a Dict observation ("observation", "achieved_goal",
 "desired_goal") and vectorised `compute_reward` / `compute_terminated` / `compute_truncated` that
 delegate to the task, so that `reward == env.compute_reward(obs["achieved_goal"], obs["desired_goal"],
@@ -27,9 +27,8 @@ import numpy as np
 from gymnasium import spaces
 
 from auv_mj.goals import GOAL_KEYS
-from tasks import options as checks
-from tasks import suite
-from tasks.actions import checked_action
+from auv_mj.tasks import options as checks
+from auv_mj.tasks import suite
 
 DOMAIN = "auv"
 """The suite domain of every task."""
@@ -44,7 +43,7 @@ MAX_RENDER_SIZE = 4096
 """Largest `render()` image side [pixels]."""
 MAX_RENDER_DISTANCE = 10_000.0
 """Highest render camera [m]."""
-ENTRY_POINT = "tasks.gym_adapter:AUVGymEnv"
+ENTRY_POINT = "auv_mj.tasks.gym_adapter:AUVGymEnv"
 
 
 def gym_id(task_name: str) -> str:
@@ -56,7 +55,7 @@ def gym_id(task_name: str) -> str:
 GYM_IDS = {gym_id(name): name for _, name in suite.PLANAR_TASKS}
 """Gymnasium id -> suite task name, one per task of the suite (derived from it)."""
 GYM_IDS_3D = {gym_id(name): name for _, name in suite.TASKS_3D}
-"""Gymnasium id -> task name of the 6-DOF domain "auv3d" (`tasks.auv3d`): flat Box observations."""
+"""Gymnasium id -> task name of the 6-DOF domain "auv3d" (`auv_mj.tasks.auv3d`): flat Box observations."""
 
 
 def _box(spec) -> spaces.Box:
@@ -103,36 +102,19 @@ class AUVGymEnv(gymnasium.Env):
 
     def __init__(self, task_name: str, task_kwargs: Mapping[str, Any] | None = None,
                  environment_kwargs: Mapping[str, Any] | None = None, render_mode: str | None = None,
-                 render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE,
-                 protection: bool | str = False, residual: float = 0.0, guide: str = "route",
-                 speed: str = "absolute"):
+                 render_size: tuple[int, int] = RENDER_SIZE, render_distance: float = RENDER_DISTANCE):
         """`task_kwargs` go to the task factory (not "random": seed through `reset(seed=...)`).
 
-        `protection=True` or "paper" (planning tasks) puts the protection domain of Sec. 3.2.2
-        (`tasks.avoidance`) in the environment: every action's heading is bent away from near echoes before
-        the task sees it, as the `planner` policies are run, so that a planner can be trained with it in the
-        loop; "speed-aware" puts in the speed-aware domain (`tasks.avoidance.PROTECTIONS`).
-        `residual` > 0 (planning tasks) makes the action a residual planner's, a correction of that span to
-        line of sight (`tasks.guidance.guided_action`), applied before the protection domain; with
-        `speed="top"` its speed action is a correction to the classical planners' speed too
-        (`tasks.guidance.approach_speed`), and with "fixed" that speed itself (the planner steers only), so
-        that a zero action is the classical planner itself.
-        `guide="map"` (planning tasks) puts the virtual goal along the sonar map's planned path in the
-        observation in place of the task's (`tasks.map_planner.MapGuide`: the map is the planner's memory), and
-        pays the reward on that path's length left (`tasks.map_planner.path_reward`); "map-memory" puts the
-        map itself in too, as MEMORY_BEAMS ranges cast on it all round the vehicle, just before the sonar block
-        of the observation vector (`inserted_inputs`); "route" (the default) leaves the task's goal and reward.
+        A trained planner's layers (guide, residual, protection domain) are not the task's: they wrap this
+        environment as `auv_mj.planners.deploy.DeployedEnv`, the one deployment chain.
         """
-        from tasks import suite  # imported here so that registering the ids stays light
+        from auv_mj.tasks import suite  # imported here so that registering the ids stays light
 
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
                              f"got {render_mode!r}")
         if task_kwargs is not None and not isinstance(task_kwargs, Mapping):
             raise ValueError(f"task_kwargs must be a dict of task options, got {checks.shown(task_kwargs)}")
-        from tasks.avoidance import protection_field
-
-        self._field = protection_field(protection)
         task_kwargs = dict(task_kwargs or {})
         if "random" in task_kwargs:
             raise ValueError("seed the task through reset(seed=...), not task_kwargs['random']")
@@ -157,50 +139,8 @@ class AUVGymEnv(gymnasium.Env):
         self._camera = None
         self._camera_model = None
         self._needs_reset = True
-        if self.protection and not self.is_goal_task:
-            raise ValueError(f"protection is for the planning tasks, not {task_name!r}")
-        from tasks.guidance import MAX_RESIDUAL
-
-        self.residual = checks.number("residual", residual, 0.0, MAX_RESIDUAL)
-        if self.residual and not self.is_goal_task:
-            raise ValueError(f"residual (a correction to line of sight) is for the planning tasks, not {task_name!r}")
-        from tasks.guidance import checked_speed
-
-        self.speed = checked_speed(speed)
-        if self.speed != "absolute" and not self.residual:
-            raise ValueError(f"speed={speed!r} (a correction to the classical planners' speed) is a residual "
-                             "planner's option: set residual > 0 too")
-        from tasks.map_planner import GUIDES, MapGuide
-
-        if guide not in GUIDES:
-            raise ValueError(f"guide must be one of {list(GUIDES)}, got {checks.shown(guide)}")
-        if guide != "route" and not self.is_goal_task:
-            raise ValueError(f"guide={guide!r} (a goal along the map's path) is for the planning tasks, not "
-                             f"{task_name!r}")
-        self._guide = MapGuide(self._env, memory=guide == "map-memory") if guide != "route" else None
-        if self.inserted_inputs is not None:  # the map-memory scan widens the observation vector
-            size = self.observation_space["observation"].shape[0] + self.inserted_inputs[1]
-            self.observation_space = spaces.Dict({**self.observation_space.spaces,
-                                                  "observation": spaces.Box(-np.inf, np.inf, (size,), np.float64)})
-        self._last_observation = None
-
-    @property
-    def inserted_inputs(self) -> tuple[int, int] | None:
-        """(index, count) of the inputs the guide puts into the observation vector (guide="map-memory"), so
-        that a network trained without them can be widened (`agents.train`, `--init`); None otherwise."""
-        return None if self._guide is None else self._guide.inserted_inputs
-
-    @property
-    def protection(self) -> bool:
-        """Whether a protection domain acts on every action (`tasks.avoidance.protection_field`)."""
-        return self._field is not None
-
-    @property
-    def goal_dependent_actions(self) -> bool:
-        """Whether what an action does depends on the desired goal (a residual planner), or the reward is not
-        the task's goal-conditioned one (guide="map"): hindsight relabelling would then store transitions that
-        did not happen."""
-        return self.residual > 0 or self._guide is not None
+        self.last_time_step = None
+        """The dm_env time step of the last reset or step (what a wrapper such as the deployment chain reads)."""
 
     # --- the wrapped dm_control objects ------------------------------------------------------------
 
@@ -228,45 +168,28 @@ class AUVGymEnv(gymnasium.Env):
         super().reset(seed=seed)
         if seed is not None:
             self.task.random.seed(seed)
-        time_step = self._env.reset()
+        time_step = self.last_time_step = self._env.reset()
         self._needs_reset = False
-        observation = time_step.observation
-        if self._guide is not None:
-            self._guide.reset()
-            observation, _ = self._guide(time_step)
-        self._last_observation = observation
-        return self._observation(observation), self._info()
+        return self._observation(time_step.observation), self._info()
 
     def step(self, action):
         """One task step; `terminated` on a LAST step with discount 0, `truncated` at the time limit.
 
-        The action follows the suite's one convention (`tasks.actions`): not numbers (strings included),
+        The action follows the suite's one convention (`auv_mj.tasks.actions`): not numbers (strings included),
         the wrong shape or NaN/inf raise ValueError; a finite action outside the space is clipped to it with
         an `ActionClipped` warning, once per task.
         """
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
-        if self.residual or self.protection:  # the layers on top read a valid action (checked once)
-            from tasks.avoidance import protect
-            from tasks.guidance import guided_action
-
-            action = checked_action(action, self._env.action_spec(), self.task)
-            if self.residual:
-                action = guided_action(action, self._last_observation["desired_goal"], self.physics.pose(),
-                                       self.residual, self.speed, self.task)
-            if self.protection:
-                fence = self.task.map_fence(self.physics) if self._field.fence else None
-                action = protect(action, self._last_observation["observation"], self._field, fence)
-        time_step = self._env.step(action)
-        observation, reward = time_step.observation, float(time_step.reward)
-        if self._guide is not None:
-            observation, _ = self._guide(time_step)
-            reward = self._guide.reward(self.task.last_info)
-        self._last_observation = observation
+        time_step = self.last_time_step = self._env.step(action)
         terminated = bool(time_step.last() and time_step.discount == 0.0)
         truncated = bool(time_step.last() and not terminated)
         self._needs_reset = time_step.last()
-        return self._observation(observation), reward, terminated, truncated, self._info()
+        return self._observation(time_step.observation), float(time_step.reward), terminated, truncated, self._info()
+
+    def gym_observation(self, observation: Mapping[str, np.ndarray]):
+        """The Gymnasium observation of a dm_env observation of this task (`gym_spaces`' map)."""
+        return self._observation(observation)
 
     def compute_reward(self, achieved_goal, desired_goal, info):
         """The task's vectorised reward for (batches of) goals; `info` as from `step` (or a batch of them)."""
@@ -345,8 +268,7 @@ class PlanningMix(gymnasium.Env):
 
     def __init__(self, tasks: tuple[str, ...] = MIX_TASKS, weights: tuple[float, ...] | None = None,
                  task_kwargs: Mapping[str, Any] | None = None,
-                 per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None, protection: bool | str = False,
-                 residual: float = 0.0, guide: str = "route", speed: str = "absolute"):
+                 per_task_kwargs: Mapping[str, Mapping[str, Any]] | None = None):
         if isinstance(tasks, str) or not isinstance(tasks, (list, tuple)) or not all(isinstance(t, str) for t in tasks):
             raise ValueError(f"tasks: a list of planning task names, got {checks.shown(tasks)}")
         tasks = tuple(tasks)
@@ -367,8 +289,7 @@ class PlanningMix(gymnasium.Env):
         if unknown:
             raise ValueError(f"per_task_kwargs: {sorted(unknown)} not among the tasks {tasks}")
         self.tasks, self.weights = tasks, weights / weights.sum()
-        self.envs = [AUVGymEnv(name, {**dict(task_kwargs or {}), **dict((per_task_kwargs or {}).get(name, {}))},
-                               protection=protection, residual=residual, guide=guide, speed=speed)
+        self.envs = [AUVGymEnv(name, {**dict(task_kwargs or {}), **dict((per_task_kwargs or {}).get(name, {}))})
                      for name in tasks]
         first = self.envs[0]
         for name, env in zip(tasks, self.envs, strict=True):
@@ -383,19 +304,6 @@ class PlanningMix(gymnasium.Env):
     @property
     def goal_in_observation(self) -> bool:
         return self.active.goal_in_observation
-
-    @property
-    def protection(self) -> bool:
-        """Whether a protection domain acts on every action (`tasks.avoidance.protection_field`)."""
-        return self._field is not None
-
-    @property
-    def goal_dependent_actions(self) -> bool:
-        return self.active.goal_dependent_actions
-
-    @property
-    def inserted_inputs(self) -> tuple[int, int] | None:
-        return self.active.inserted_inputs
 
     @property
     def task_name(self) -> str:
@@ -437,7 +345,7 @@ def register_envs() -> None:
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs={"task_name": task_name})
     if MIX_ID not in gymnasium.registry:
-        gymnasium.register(id=MIX_ID, entry_point="tasks.gym_adapter:PlanningMix")
+        gymnasium.register(id=MIX_ID, entry_point="auv_mj.tasks.gym_adapter:PlanningMix")
 
 
 register_envs()

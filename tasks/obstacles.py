@@ -41,8 +41,8 @@ import numpy as np
 from auv_mj.arenas import arena, procedural, traps
 from auv_mj.arenas.tunnels import mover_name
 from auv_mj.assets import model_path
-from tasks import options, planning
-from tasks.registry import SUITE
+from auv_mj.tasks import options, planning
+from auv_mj.tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 900.0
 """Seconds (1800 planner steps): the farthest random goal at TARGET_SPEED with detours."""

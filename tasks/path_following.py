@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tasks import planning
-from tasks.registry import SUITE
+from auv_mj.tasks import planning
+from auv_mj.tasks.registry import SUITE
 
 LINE = np.array([[200.0, 40.0], [300.0, 300.0]])
 """The straight path of Sec. 4.2 [m]."""

@@ -18,7 +18,7 @@ tau = clip(tau_S-plane + residual * a * (actuator half-range)); the observation 
 normalised command. Gain scheduling (`gains` > 0, ours): the agent's four actions set the S-plane's gains
 (k_V1, k_V2, k_psi1, k_psi2) of Eq. 32 for the step, each times 2^(gains * a), and the S-plane acts. In both
 a zero action gives exactly the S-plane's forces. `ExecutorMemory` holds the integrals, the history and the
-S-plane: the task and a learned executor deployed in a planning task (`auv_mj.cli.policies.LearnedExecutor`)
+S-plane: the task and a learned executor deployed in a planning task (`auv_mj.zoo.registry.LearnedExecutor`)
 share it.
 
 Commands: "paper" (default) holds the Sec. 4.2 command, 1.0 m/s and pi/12, from rest at psi = 0; a pair
@@ -60,10 +60,10 @@ from auv_mj.episode import record_episode
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean
 from auv_mj.sim.vehicle import vehicle_facts
-from tasks import options
-from tasks.actions import checked_action
-from tasks.registry import SUITE
-from tasks.splane import EXECUTOR_DT, OCEAN_GAINS, SPlaneController, SPlaneGains
+from auv_mj.tasks import options
+from auv_mj.tasks.actions import checked_action
+from auv_mj.tasks.registry import SUITE
+from auv_mj.tasks.splane import EXECUTOR_DT, OCEAN_GAINS, SPlaneController, SPlaneGains
 
 EPISODE_STEPS = 1100
 """Length of the Sec. 4.2 experiment, in executor steps."""
@@ -141,7 +141,7 @@ GAIN_NAMES = ("k1_speed", "k2_speed", "k1_heading", "k2_heading")
 """The S-plane gains a gain-scheduling executor sets, one action each."""
 BASES = {"nominal": SPlaneGains(), "ocean": OCEAN_GAINS}
 """The S-plane a residual or gain-scheduling executor builds on (`base`): the gains tuned on the nominal model
-(`tasks.splane_tuning`) or re-tuned in ocean water (`OCEAN_GAINS`, `--conditions ocean`)."""
+(`auv_mj.tasks.splane_tuning`) or re-tuned in ocean water (`OCEAN_GAINS`, `--conditions ocean`)."""
 OBSERVATIONS = ("paper", "integral", "history")
 REWARDS = ("suite", "paper")
 COMMANDS = ("paper", "random")

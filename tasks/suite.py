@@ -1,13 +1,13 @@
 """The auv-mj task suite, dm_control style: `load("auv", "goal")`, `ALL_TASKS`, tags.
 
-Every planar task lives in the domain "auv" and is registered in `tasks.registry.SUITE` by its module:
+Every planar task lives in the domain "auv" and is registered in `auv_mj.tasks.registry.SUITE` by its module:
 goal, waypoints, obstacles, moving_obstacles, tunnel, path_line, path_curve (planning, one step per
 0.5 s planner decision) and speed_heading (execution, one step per 0.1 s executor tick). The 6-DOF vehicle's
-tasks (depth_heading, goal3d, tunnel3d) are the domain "auv3d" (`tasks.auv3d.SUITE3D`): `load("auv3d", ...)`;
+tasks (depth_heading, goal3d, tunnel3d) are the domain "auv3d" (`auv_mj.tasks.auv3d.SUITE3D`): `load("auv3d", ...)`;
 `ALL_TASKS` and `domain_of` cover both domains; `PLANAR_TASKS`, BENCHMARKING and `tasks_by_tag` are the planar
 domain's, `TASKS_3D` the 6-DOF one's.
 
-`python -m tasks.suite [--steps N]` prints each task's environment steps per second under random actions.
+`python -m auv_mj.tasks.suite [--steps N]` prints each task's environment steps per second under random actions.
 """
 
 from __future__ import annotations
@@ -19,10 +19,10 @@ import time
 import numpy as np
 from dm_control.rl import control
 
-from tasks import goal, obstacles, path_following, speed_heading, tunnel, waypoints  # noqa: F401 (registers)
-from tasks.auv3d import DOMAIN as DOMAIN_3D
-from tasks.auv3d import SUITE3D
-from tasks.registry import SUITE
+from auv_mj.tasks import goal, obstacles, path_following, speed_heading, tunnel, waypoints  # noqa: F401 (registers)
+from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
+from auv_mj.tasks.auv3d import SUITE3D
+from auv_mj.tasks.registry import SUITE
 
 DOMAIN = "auv"
 """The suite's only domain."""
@@ -64,7 +64,7 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     `task_kwargs` go to the task's factory (e.g. {"random": 0, "reward": "paper", "scenario": "a"}; every
     task takes "conditions": "ideal" (default), "ocean" or a mapping of effects, see `auv_mj.sim.ocean`);
     `environment_kwargs` to `control.Environment`. Raises ValueError naming the valid choices, or the option
-    the task refuses (`tasks.options`).
+    the task refuses (`auv_mj.tasks.options`).
     """
     if domain_name not in _REGISTRIES:
         raise ValueError(f"domain {domain_name!r} does not exist; valid domains: {', '.join(_REGISTRIES)}")
@@ -104,8 +104,8 @@ def steps_per_second(task_name: str, steps: int = 2000, seed: int = 0) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Prints steps/s of every task (`python -m tasks.suite`)."""
-    parser = argparse.ArgumentParser(prog="python -m tasks.suite", description=steps_per_second.__doc__)
+    """Prints steps/s of every task (`python -m auv_mj.tasks.suite`)."""
+    parser = argparse.ArgumentParser(prog="python -m auv_mj.tasks.suite", description=steps_per_second.__doc__)
     parser.add_argument("--steps", type=int, default=2000, help="environment steps per task")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("tasks", nargs="*", default=list(SUITE), help="task names (default: all)")

@@ -28,9 +28,9 @@ import numpy as np
 from auv_mj.arenas import procedural, traps
 from auv_mj.arenas.arena import arena_info, compose_xml
 from auv_mj.assets import model_path
-from tasks import options as checks
-from tasks import planning
-from tasks.registry import SUITE
+from auv_mj.tasks import options as checks
+from auv_mj.tasks import planning
+from auv_mj.tasks.registry import SUITE
 
 DEFAULT_ARENA = "arenas/tunnel_inspection.xml"
 """The Sec. 4.3 tunnel (Table 12), relative to `models/`."""

@@ -23,8 +23,8 @@ import math
 
 import numpy as np
 
-from tasks import options, planning
-from tasks.registry import SUITE
+from auv_mj.tasks import options, planning
+from auv_mj.tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 4000.0
 """Seconds (8000 planner steps): the longest layout ("c", 1650 m) at TARGET_SPEED, twice over."""

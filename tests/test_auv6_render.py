@@ -6,7 +6,7 @@ import numpy as np
 
 from auv_mj.cli.render3d import plot_depth, plot_track
 from auv_mj.render.video3d import Track3D, render_episode_3d
-from tasks import auv3d
+from auv_mj.tasks import auv3d
 
 
 def test_three_panels_per_control_step_and_the_track_beside_them(tmp_path):

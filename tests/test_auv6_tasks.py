@@ -8,10 +8,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import auv_mj  # noqa: F401  (picks the OpenGL backend before dm_control is imported)
-import tasks  # noqa: F401  (registers the Gymnasium ids)
 from auv_mj.episode import episode_metrics, record_episode
-from tasks import auv3d, suite
-from tasks.gym_adapter import GYM_IDS_3D
+from auv_mj.planners import los3d
+from auv_mj.tasks import auv3d, suite
+from auv_mj.tasks.gym_adapter import GYM_IDS_3D
 
 pytestmark = pytest.mark.filterwarnings("ignore:.*Box observation space m.* value is .*infinity")
 TASKS_3D = [name for _, name in suite.TASKS_3D]
@@ -86,7 +86,7 @@ def test_classical_executor_holds_depth_heading_within_half_a_metre():
 @pytest.mark.parametrize("seed, avoid", [(0, False), (1, True)])
 def test_line_of_sight_gets_through_procedural_tubes_clear_of_the_wall(seed, avoid):
     env = auv3d.tunnel3d(random=seed)
-    policy = auv3d.los_policy(env, avoid=avoid)
+    policy = los3d.los_policy(env, avoid=avoid)
     step = env.reset()
     tube = env.task.path
     assert np.ptp(tube[:, 2]) > 2.0  # it climbs or dives
@@ -100,7 +100,7 @@ def test_line_of_sight_gets_through_procedural_tubes_clear_of_the_wall(seed, avo
 
 def test_los_avoid_reaches_goal3d_over_the_seabed():
     env = auv3d.goal3d(random=0)
-    policy = auv3d.los_policy(env, avoid=True)
+    policy = los3d.los_policy(env, avoid=True)
     step = env.reset()
     while not step.last():
         step = env.step(policy(step))

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from auv_mj.episode import episode_metrics, record_episode
+from auv_mj.planners.avoidance import RepulsiveField, with_repulsion
+from auv_mj.planners.guidance import line_of_sight
 from auv_mj.sim.sonar import SONAR_RANGE
-from tasks import suite
-from tasks.avoidance import RepulsiveField, with_repulsion
-from tasks.guidance import line_of_sight
+from auv_mj.tasks import suite
 
 FIELD = RepulsiveField()
 
@@ -57,19 +57,21 @@ def test_line_of_sight_with_the_domain_clears_the_table_7_obstacles():
 def test_a_residual_planners_zero_action_is_los_avoid_exactly_and_its_correction_bends_the_heading():
     import gymnasium as gym
 
-    from tasks.guidance import guided_action, los_avoid
+    from auv_mj.planners.deploy import deploy_env
+    from auv_mj.planners.guidance import guided_action, los_avoid
 
-    env = gym.make("auv_mj/Planning-v0", tasks=["tunnel"], per_task_kwargs={"tunnel": {"arena": "random"}},
-                   protection=True, residual=0.5).unwrapped
+    deployed = deploy_env(gym.make("auv_mj/Planning-v0", tasks=["tunnel"],
+                                   per_task_kwargs={"tunnel": {"arena": "random"}}), protection=True, residual=0.5)
+    env = deployed.unwrapped
     twin = gym.make("auv_mj/Planning-v0", tasks=["tunnel"],  # los-avoid brings its own protection domain
                     per_task_kwargs={"tunnel": {"arena": "random"}}).unwrapped
-    env.reset(seed=3)
+    deployed.reset(seed=3)
     observation, _ = twin.reset(seed=3)
-    assert env.goal_dependent_actions and not twin.goal_dependent_actions
+    assert deployed.goal_dependent_actions
     classical = los_avoid(twin.active.dm_env)
     for _ in range(60):  # the guided env with zero actions and los-avoid in the plain env: the same run
         expected = classical(dm_env.transition(0.0, observation))
-        env.step(np.zeros(2))
+        deployed.step(np.zeros(2))
         observation, *_ = twin.step(expected)
         np.testing.assert_array_equal(env.active.physics.data.qpos, twin.active.physics.data.qpos)
     # a correction adds residual * a1 to line of sight's normalised heading offset, clipped to [-1, 1]
@@ -81,12 +83,13 @@ def test_a_residual_planners_zero_action_is_los_avoid_exactly_and_its_correction
 
 @pytest.mark.parametrize("residual", [-0.5, 3.0, "some"])
 def test_a_bad_planner_residual_is_refused_by_name(residual):
-    from tasks.gym_adapter import AUVGymEnv
+    from auv_mj.planners.deploy import deploy_env
+    from auv_mj.tasks.gym_adapter import AUVGymEnv
 
     with pytest.raises(ValueError, match="residual"):
-        AUVGymEnv("goal", residual=residual)
+        deploy_env(AUVGymEnv("goal"), residual=residual)
     with pytest.raises(ValueError, match="residual"):
-        AUVGymEnv("speed_heading", residual=0.5)
+        deploy_env(AUVGymEnv("speed_heading"), residual=0.5)
 
 
 def test_a_top_speed_residual_corrects_the_classical_speed_and_bad_speeds_are_refused():
@@ -94,9 +97,10 @@ def test_a_top_speed_residual_corrects_the_classical_speed_and_bad_speeds_are_re
     the base itself."""
     from types import SimpleNamespace
 
-    from tasks.guidance import TOP_SPEED_ACTION, approach_speed, guided_action
-    from tasks.gym_adapter import AUVGymEnv
-    from tasks.planning import TARGET_SPEED, speed_action
+    from auv_mj.planners.deploy import deploy_env
+    from auv_mj.planners.guidance import TOP_SPEED_ACTION, approach_speed, guided_action
+    from auv_mj.tasks.gym_adapter import AUVGymEnv
+    from auv_mj.tasks.planning import TARGET_SPEED, speed_action
 
     goal, pose = np.array([10.0, 10.0]), np.array([0.0, 0.0, 0.0])
     open_water = SimpleNamespace(goals=np.array([[500.0, 500.0]]), goal_radius=12.5)  # top speed all the way
@@ -108,15 +112,15 @@ def test_a_top_speed_residual_corrects_the_classical_speed_and_bad_speeds_are_re
                                speed_action(TARGET_SPEED) - 0.6)
     np.testing.assert_allclose(guided_action([-0.6, 0.4], goal, pose, 0.5, "fixed", open_water),
                                [TOP_SPEED_ACTION, 0.7])  # speed="fixed": the planner steers only
-    env = AUVGymEnv("tunnel", {"arena": "random"}, residual=1.0, speed="top")
+    env = deploy_env(AUVGymEnv("tunnel", {"arena": "random"}), residual=1.0, speed="top").unwrapped
     env.reset(seed=1)
     task, far = env.task, np.array([*env.task.goals[-1] - 500.0, 0.0])
     assert approach_speed(task, far) == TOP_SPEED_ACTION  # the tunnel's 2 m goal: slow only near it
     assert approach_speed(task, np.array([*task.goals[-1] + 1.0, 0.0])) == speed_action(TARGET_SPEED)
     with pytest.raises(ValueError, match="speed must be one of"):
-        AUVGymEnv("obstacles", residual=1.0, speed="fast")
+        deploy_env(AUVGymEnv("obstacles"), residual=1.0, speed="fast")
     with pytest.raises(ValueError, match="set residual > 0"):
-        AUVGymEnv("obstacles", speed="top")
+        deploy_env(AUVGymEnv("obstacles"), speed="top")
 
 
 # --- the speed-aware protection domain (issue 15) ----------------------------------------------------------
@@ -126,8 +130,8 @@ def test_the_speed_aware_domain_is_the_papers_at_or_below_the_reference_speed():
     """The paper's repulsion (with the speed-aware domain's own gain k_2) whenever V_cmd <= V_ref."""
     from dataclasses import replace
 
-    from tasks.avoidance import PROTECTIONS, protect
-    from tasks.planning import SONAR_SLICE, speed_command
+    from auv_mj.planners.avoidance import PROTECTIONS, protect
+    from auv_mj.tasks.planning import SONAR_SLICE, speed_command
 
     aware = PROTECTIONS["speed-aware"]
     papers_form = replace(PROTECTIONS["paper"], gain=aware.gain)
@@ -143,8 +147,8 @@ def test_the_speed_aware_domain_is_the_papers_at_or_below_the_reference_speed():
 def test_above_the_reference_speed_echoes_count_in_time_to_contact_and_one_ahead_slows_the_vehicle():
     from dataclasses import replace
 
-    from tasks.avoidance import PROTECTIONS, protect
-    from tasks.planning import SONAR_SLICE, speed_action, speed_command
+    from auv_mj.planners.avoidance import PROTECTIONS, protect
+    from auv_mj.tasks.planning import SONAR_SLICE, speed_action, speed_command
 
     aware = PROTECTIONS["speed-aware"]
     paper = replace(PROTECTIONS["paper"], gain=aware.gain)  # the paper's form with the same k_2
@@ -172,7 +176,7 @@ def test_above_the_reference_speed_echoes_count_in_time_to_contact_and_one_ahead
 
 @pytest.mark.parametrize("value", ["fast", 1, 0.5, [True]])
 def test_a_protection_option_that_names_no_domain_is_refused_by_value(value):
-    from tasks.avoidance import protection_field
+    from auv_mj.planners.avoidance import protection_field
 
     with pytest.raises(ValueError, match="protection must be True, False or one of"):
         protection_field(value)
@@ -186,8 +190,8 @@ def test_a_protection_option_that_names_no_domain_is_refused_by_value(value):
 def test_a_field_with_a_fence_reads_the_map_edge_as_echoes_and_one_without_ignores_it():
     from dataclasses import replace
 
-    from tasks.avoidance import PROTECTIONS, protect
-    from tasks.planning import SONAR_SLICE
+    from auv_mj.planners.avoidance import PROTECTIONS, protect
+    from auv_mj.tasks.planning import SONAR_SLICE
 
     observation = np.zeros(18)
     observation[SONAR_SLICE] = ranges(s2=60.0) / SONAR_RANGE
@@ -206,8 +210,8 @@ def test_a_field_with_a_fence_reads_the_map_edge_as_echoes_and_one_without_ignor
 def test_a_planning_task_measures_its_map_edge_from_the_bow_of_the_vehicle():
     """`map_fence` against the fence computed here from the pose, the bow offset and the arena's bounds."""
     from auv_mj.arenas import arena
+    from auv_mj.planners.avoidance import map_fence
     from auv_mj.sim.sonar import fence_ranges
-    from tasks.avoidance import map_fence
 
     env = suite.load("auv", "obstacles", task_kwargs={"random": 4})
     env.reset()

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from auv_mj import seeds
-from auv_mj.cli import benchmark
-from auv_mj.cli.evaluate import run_episode
+from auv_mj.benchmark import metrics, runner, suite
+from auv_mj.benchmark.runner import run_episode
 
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
@@ -31,25 +31,25 @@ def _strict(text: str) -> dict:
 
 def test_the_suite_definition_is_pinned_to_its_version():
     """Changing what suite v1 measures must bump SUITE_VERSION and add the new fingerprint."""
-    assert benchmark.fingerprint() == benchmark.FINGERPRINTS[benchmark.SUITE_VERSION]
-    assert benchmark.SUITE_NAME == f"suite v{benchmark.SUITE_VERSION}"
-    changed = [benchmark.Cell("tunnel", "hard", "ocean", seeds.TEST.start, episodes=benchmark.EPISODES + 1)]
-    assert benchmark.fingerprint(changed) != benchmark.fingerprint(benchmark.SUITE_V1[-1:])
+    assert suite.fingerprint() == suite.FINGERPRINTS[suite.SUITE_VERSION]
+    assert suite.SUITE_NAME == f"suite v{suite.SUITE_VERSION}"
+    changed = [suite.Cell("tunnel", "hard", "ocean", seeds.TEST.start, episodes=suite.EPISODES + 1)]
+    assert suite.fingerprint(changed) != suite.fingerprint(suite.SUITE_V1[-1:])
 
 
 def test_the_suite_covers_every_set_tier_and_water_on_held_out_seeds():
-    cells = benchmark.SUITE_V1
+    cells = suite.SUITE_V1
     assert {(c.task, c.tier, c.water) for c in cells} == {
-        (t, tier, w) for t in ("obstacles", "moving_obstacles", "tunnel") for tier in benchmark.TIERS
-        for w in benchmark.WATERS}
+        (t, tier, w) for t in ("obstacles", "moving_obstacles", "tunnel") for tier in suite.TIERS
+        for w in suite.WATERS}
     assert len({c.name for c in cells}) == len(cells)
     for cell in cells:
-        block = cell.seeds(benchmark.SEED_BLOCK)
+        block = cell.seeds(suite.SEED_BLOCK)
         assert block[0] in seeds.TEST and block[-1] in seeds.TEST
         assert cell.task_kwargs == {"arena": "random", "tier": cell.tier, "conditions": cell.water}
     firsts = {c.task: c.first_seed for c in cells}
     starts = sorted(firsts.values())
-    assert all(b - a >= benchmark.SEED_BLOCK for a, b in zip(starts, starts[1:], strict=False))  # sets never share
+    assert all(b - a >= suite.SEED_BLOCK for a, b in zip(starts, starts[1:], strict=False))  # sets never share
 
 
 @pytest.mark.parametrize(("wins", "n"), [(0, 10), (5, 10), (10, 10), (37, 40), (1, 200)])
@@ -57,7 +57,7 @@ def test_wilson_interval_matches_scipy(wins, n):
     from scipy.stats import binomtest
 
     expected = binomtest(wins, n).proportion_ci(0.95, method="wilson")
-    low, high = benchmark.wilson(wins, n)
+    low, high = metrics.wilson(wins, n)
     assert low == pytest.approx(expected.low, abs=1e-4) and high == pytest.approx(expected.high, abs=1e-4)
 
 
@@ -68,17 +68,17 @@ def test_time_efficiency_is_oracle_time_over_own_time_and_zero_on_failure():
             {"seed": 4, "success": True, "time_to_goal": 80.0, "outcome": "goal"}]  # no oracle success: left out
     rows = [{**r, "collision": r["outcome"] == "collision", "safety_violation": False, "min_clearance": 3.0,
              "path_length": 1.0, "return": 0.0} for r in rows]
-    summary = benchmark.cell_summary(rows, {1: 60.0, 2: 50.0, 3: 50.0})
+    summary = metrics.cell_summary(rows, {1: 60.0, 2: 50.0, 3: 50.0})
     assert summary["time_efficiency"] == pytest.approx((0.6 + 0.0 + 1.0) / 3)
     assert summary["time_efficiency_episodes"] == 3
     assert summary["success_rate"] == 0.75 and summary["outcomes"]["collision"] == 1
-    assert benchmark.cell_summary(rows, None)["time_efficiency"] is None
+    assert metrics.cell_summary(rows, None)["time_efficiency"] is None
 
 
 def test_a_reused_environment_gives_the_episodes_of_fresh_ones():
-    cell = benchmark.SUITE_V1[2]  # obstacles, hard, ideal
+    cell = suite.SUITE_V1[2]  # obstacles, hard, ideal
     for seed in cell.seeds(2):
-        got = benchmark.run_cell_episode("los-fast", cell.task, seed, cell.task_kwargs, 60)
+        got = runner.run_cell_episode("los-fast", cell.task, seed, cell.task_kwargs, 60)
         expected = run_episode("los-fast", cell.task, seed, cell.task_kwargs, 60)
         assert {k: got[k] for k in got if k != "seed"} == {k: expected[k] for k in got if k != "seed"}
 
@@ -90,8 +90,8 @@ def test_benchmark_on_two_episodes_writes_json_row_and_comparison(tmp_path):
                 "--workers", "2", "--out", first, "--leaderboard", board, "--publish")
     assert done.returncode == 0, done.stderr
     results = _strict((first / "results.json").read_text())
-    assert results["suite"] == "suite v1" and results["suite_version"] == benchmark.SUITE_VERSION
-    assert results["fingerprint"] == benchmark.fingerprint()
+    assert results["suite"] == "suite v1" and results["suite_version"] == suite.SUITE_VERSION
+    assert results["fingerprint"] == suite.fingerprint()
     assert list(results["cells"]) == ["obstacles/hard/ideal", "moving_obstacles/hard/ideal", "tunnel/hard/ideal"]
     for name, cell in results["cells"].items():
         summary = cell["summary"]
@@ -101,7 +101,7 @@ def test_benchmark_on_two_episodes_writes_json_row_and_comparison(tmp_path):
         assert [e["seed"] for e in cell["episodes"]] == list(cell["seeds"]) == [cell["seeds"][0], cell["seeds"][0] + 1]
         task = name.split("/")[0]
         for episode in cell["episodes"]:  # the parallel run's episodes are the serial loop's
-            again = benchmark.run_cell_episode("los-fast", task, episode["seed"], cell["task_kwargs"], 40)
+            again = runner.run_cell_episode("los-fast", task, episode["seed"], cell["task_kwargs"], 40)
             assert again == episode
     row = (first / "leaderboard_row.md").read_text().splitlines()
     assert row[0].startswith("| policy |") and row[2].startswith("| `los-fast` | suite v1 | 6 |")
@@ -140,7 +140,7 @@ def test_path_efficiency_times_speed_ratio_is_the_uncapped_time_efficiency():
     rng = np.random.RandomState(0)
     for _ in range(2000):
         length, time, oracle_length, oracle_time = 10.0 ** rng.uniform(-2, 4, 4)
-        path, speed = benchmark.efficiency_parts(_flown(1, length, time), _flown(1, oracle_length, oracle_time))
+        path, speed = metrics.efficiency_parts(_flown(1, length, time), _flown(1, oracle_length, oracle_time))
         expected = oracle_time / time
         assert abs(path * speed - expected) <= 1e-12 * max(1.0, expected)
         assert path == oracle_length / length
@@ -148,12 +148,12 @@ def test_path_efficiency_times_speed_ratio_is_the_uncapped_time_efficiency():
 
 def test_efficiency_parts_of_a_known_case_and_none_on_a_failure():
     oracle = _flown(7, 400.0, 200.0)
-    path, speed = benchmark.efficiency_parts(_flown(7, 500.0, 250.0), oracle)  # same 2 m/s, 100 m longer
+    path, speed = metrics.efficiency_parts(_flown(7, 500.0, 250.0), oracle)  # same 2 m/s, 100 m longer
     assert path == pytest.approx(0.8, abs=1e-15) and speed == pytest.approx(1.0, abs=1e-15)
-    path, speed = benchmark.efficiency_parts(_flown(7, 400.0, 400.0), oracle)  # same path at half the speed
+    path, speed = metrics.efficiency_parts(_flown(7, 400.0, 400.0), oracle)  # same path at half the speed
     assert path == 1.0 and speed == pytest.approx(0.5, abs=1e-15)
-    assert benchmark.efficiency_parts(_flown(7, 500.0, 250.0, success=False), oracle) is None
-    assert benchmark.efficiency_parts(_flown(7, 500.0, 250.0), _flown(7, 400.0, 200.0, success=False)) is None
+    assert metrics.efficiency_parts(_flown(7, 500.0, 250.0, success=False), oracle) is None
+    assert metrics.efficiency_parts(_flown(7, 500.0, 250.0), _flown(7, 400.0, 200.0, success=False)) is None
 
 
 def test_decomposition_pairs_by_seed_and_counts_the_shared_successes():
@@ -166,14 +166,14 @@ def test_decomposition_pairs_by_seed_and_counts_the_shared_successes():
         _flown(5, 1.0, 1.0), _flown(4, 100.0, 50.0),
         _flown(1, 100.0, 100.0)]},  # 1.0 / 0.5
         other: {"episodes": [_flown(1, 120.0, 60.0, success=False)]}}}
-    d = benchmark.decomposition(ours, oracle, [cell, other])
+    d = metrics.decomposition(ours, oracle, [cell, other])
     assert d["seeds"] == 2
     assert d["path_efficiency"] == pytest.approx(0.75) and d["speed_ratio"] == pytest.approx(0.75)
     assert d["time_efficiency"] == pytest.approx(0.5)  # 150 / 300 and 50 / 100, not 0.75 x 0.75
     ours["cells"][other]["episodes"][0]["success"] = True
     ours["cells"][other]["episodes"][0]["time_to_goal"] = 60.0  # 0.75 / (2 / 3)
-    d = benchmark.decomposition(ours, oracle, [cell, other])
+    d = metrics.decomposition(ours, oracle, [cell, other])
     assert d["seeds"] == 3 and d["path_efficiency"] == pytest.approx((0.5 + 1.0 + 0.75) / 3)
     assert d["speed_ratio"] == pytest.approx((1.0 + 0.5 + 2.0 / 3.0) / 3)
-    assert benchmark.decomposition(ours, oracle, [cell])["seeds"] == 2  # only the cells asked for
-    assert benchmark.decomposition(ours, oracle, ["moving_obstacles/hard/ideal"]) is None
+    assert metrics.decomposition(ours, oracle, [cell])["seeds"] == 2  # only the cells asked for
+    assert metrics.decomposition(ours, oracle, ["moving_obstacles/hard/ideal"]) is None

@@ -11,10 +11,10 @@ import shapely
 from auv_mj.arenas import grid, traps
 from auv_mj.arenas.tunnels import MovingObstacle, Obstacle
 from auv_mj.episode import episode_metrics, record_episode
-from tasks import obstacles, planning, suite
-from tasks.guidance import los_avoid
-from tasks.map_planner import map_replan, oracle
-from tasks.tunnel import RANDOM_TUNNELS
+from auv_mj.planners.guidance import los_avoid
+from auv_mj.planners.map_planner import map_replan, oracle
+from auv_mj.tasks import obstacles, planning, suite
+from auv_mj.tasks.tunnel import RANDOM_TUNNELS
 
 BOUNDS = planning.MAP_BOUNDS
 SEEDS = (20_000, 20_001, 20_002)
@@ -137,9 +137,9 @@ def test_tunnel_command_writes_the_hard_arena_of_a_seed(tmp_path):
 def _zero_residual_on_the_map(env, speed: str = "fixed"):
     """A residual planner whose learned output is zero, at the classical speed (`speed`, "top" or "fixed"), on
     `MapGuide`'s virtual goal, inside the speed-aware domain: the skeleton of a map-guided learned planner."""
-    from tasks.avoidance import map_fence, with_repulsion
-    from tasks.guidance import with_guidance
-    from tasks.map_planner import PROTECTION, map_guided
+    from auv_mj.planners.avoidance import map_fence, with_repulsion
+    from auv_mj.planners.guidance import with_guidance
+    from auv_mj.planners.map_planner import PROTECTION, map_guided
 
     zero = with_guidance(lambda time_step: np.zeros(2), env, 1.0, speed)
     return with_repulsion(map_guided(env, zero), PROTECTION, map_fence(env))
@@ -173,7 +173,7 @@ def test_a_zero_top_speed_residual_on_the_map_is_map_replan_exactly(speed):
 def test_map_guide_goal_lies_along_the_planned_path():
     """The virtual goal is on the bearing of the follower's look-ahead point, as far as the path left is long,
     and the observation's goal features are the task's own for that goal (distance, body-frame bearing)."""
-    from tasks.map_planner import MapGuide
+    from auv_mj.planners.map_planner import MapGuide
 
     env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 500.0)
     guide, drive = MapGuide(env), _zero_residual_on_the_map(env)
@@ -194,7 +194,7 @@ def test_map_guide_goal_lies_along_the_planned_path():
 
 
 def test_path_reward_pays_path_progress_capped():
-    from tasks.map_planner import PATH_STEP, path_reward
+    from auv_mj.planners.map_planner import PATH_STEP, path_reward
 
     info = {"goal_independent_reward": -0.05, "event": ""}
     assert path_reward(100.0, 99.0, info) == pytest.approx(planning.PROGRESS_GAIN * 1.0 - 0.05)

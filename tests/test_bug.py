@@ -9,10 +9,10 @@ import shapely
 from test_benchmark_tiers import CUP, _known_arena
 
 from auv_mj.arenas import traps
-from auv_mj.cli.policies import POLICIES
 from auv_mj.episode import episode_metrics, record_episode
-from tasks import bug
-from tasks.avoidance import map_fence, with_repulsion
+from auv_mj.planners import bug
+from auv_mj.planners.avoidance import map_fence, with_repulsion
+from auv_mj.zoo.registry import POLICIES
 
 
 def test_corridor_blocked_matches_a_buffered_segment():

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from auv_mj.benchmark import runner
+
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
 
@@ -113,14 +115,13 @@ def test_eval_json_is_strict_and_outcomes_sum_to_the_episodes(tmp_path):
 
 
 def test_every_episode_ends_in_one_named_outcome():
-    from auv_mj.cli import evaluate
 
-    results = evaluate.evaluate("splane", ["obstacles", "goal"], 3, seed=0, max_steps=60, progress=False)
+    results = runner.evaluate("splane", ["obstacles", "goal"], 3, seed=0, max_steps=60, progress=False)
     for summary in results["tasks"].values():
         assert sum(summary["outcomes"].values()) == summary["episodes"] == 3
         assert set(summary["outcomes"]) == {"goal", "collision", "left_map", "timeout"}
     # line of sight through Table 7 b's obstacles collides: a named outcome, not an empty event
-    summary = evaluate.evaluate("splane", ["obstacles"], 1, task_kwargs={"scenario": "b"}, progress=False)
+    summary = runner.evaluate("splane", ["obstacles"], 1, task_kwargs={"scenario": "b"}, progress=False)
     assert summary["tasks"]["obstacles"]["outcomes"]["collision"] == 1
 
 
@@ -182,11 +183,11 @@ def test_python_m_runs_the_app():
 
 def test_a_candidate_planner_checkpoint_runs_under_the_shipped_names(tmp_path):
     """`two-layer=PATH` runs the checkpoint PATH as the planner of the two-layer system."""
-    from auv_mj.cli import evaluate, policies
+    from auv_mj.zoo import registry as policies
 
     path = policies.shipped_checkpoint("planner")
-    ours = evaluate.evaluate(f"two-layer={path}", ["goal"], 1, max_steps=5, progress=False)
-    shipped = evaluate.evaluate("two-layer", ["goal"], 1, max_steps=5, progress=False)
+    ours = runner.evaluate(f"two-layer={path}", ["goal"], 1, max_steps=5, progress=False)
+    shipped = runner.evaluate("two-layer", ["goal"], 1, max_steps=5, progress=False)
     assert ours["tasks"] == shipped["tasks"]
     with pytest.raises(FileNotFoundError, match="no checkpoint"):
         policies.split_name(f"planner={tmp_path / 'missing.pt'}")

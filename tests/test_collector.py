@@ -1,4 +1,4 @@
-"""Training with collector processes (agents.collector): it learns, it is deterministic given the seed and the
+"""Training with collector processes (auv_mj.agents.collector): it learns, it is deterministic given the seed and the
 number of collectors, it keeps the update-to-data ratio, and HER stores each collector's episodes whole."""
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ import pytest
 import torch
 from test_agents import FAST, evaluate, make_env
 
-from agents.checkpoint import read_checkpoint, read_replay
-from agents.collector import LEARNER_SHARE, Collectors, episode_seed
-from agents.ddpg import DDPG, DDPGConfig
-from agents.policy import Policy
-from agents.train import _owed_updates, env_spec, train
+from auv_mj.agents.checkpoint import read_checkpoint, read_replay
+from auv_mj.agents.collector import LEARNER_SHARE, Collectors, episode_seed
+from auv_mj.agents.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.policy import Policy
+from auv_mj.agents.train import _owed_updates, env_spec, train
 
 
 def _log(run_dir):

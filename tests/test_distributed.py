@@ -12,7 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from auv_mj.cli import distributed, evaluate, main
+from auv_mj.benchmark import metrics, runner
+from auv_mj.cli import main
+from auv_mj.jobs import distributed
 
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 TASK, POLICY, EPISODES, SEED, MAX_STEPS = "goal", "random", 3, 5, 12
@@ -32,7 +34,7 @@ def ray_session():
 
 @pytest.fixture(scope="module")
 def serial():
-    return evaluate.evaluate(POLICY, [TASK], EPISODES, SEED, MAX_STEPS, progress=False)
+    return runner.evaluate(POLICY, [TASK], EPISODES, SEED, MAX_STEPS, progress=False)
 
 
 def dies_on(marker_dir: str, doomed_seed: int, deaths: int, policy_name, task_name, seed, task_kwargs, max_steps):
@@ -43,7 +45,7 @@ def dies_on(marker_dir: str, doomed_seed: int, deaths: int, policy_name, task_na
         (Path(marker_dir) / f"run-{seed}-{runs}").touch()
         if runs < deaths:
             os._exit(17)
-    return evaluate.run_episode(policy_name, task_name, seed, task_kwargs, max_steps)
+    return runner.run_episode(policy_name, task_name, seed, task_kwargs, max_steps)
 
 
 def _dump(results: dict) -> str:
@@ -60,7 +62,7 @@ def test_workers_and_ray_give_the_serial_json(tmp_path, serial, ray_session):
     bars = [line for line in done.stderr.splitlines() if "%|" in line]
     assert bars and all(line.startswith("eval 1 task(s):") for line in bars)  # one bar across the workers
     assert f"{EPISODES}/{EPISODES}" in bars[-1]
-    on_ray = evaluate.evaluate(POLICY, [TASK], EPISODES, SEED, MAX_STEPS, progress=False, ray_address="local")
+    on_ray = runner.evaluate(POLICY, [TASK], EPISODES, SEED, MAX_STEPS, progress=False, ray_address="local")
     assert _dump(on_ray) == _dump(serial)
     assert ray_session.is_initialized()  # the module's session was used, not shut down
 
@@ -70,25 +72,25 @@ def test_a_dead_worker_loses_no_finished_episode(tmp_path, serial, ray_session, 
     options = {"workers": 2} if where == "workers" else {"ray_address": "local"}
     doomed = SEED + 1
     (tmp_path / "once").mkdir()
-    retried = evaluate.evaluate(POLICY, [TASK], EPISODES, SEED, MAX_STEPS, progress=False, retries=1,
+    retried = runner.evaluate(POLICY, [TASK], EPISODES, SEED, MAX_STEPS, progress=False, retries=1,
                                 episode_fn=functools.partial(dies_on, str(tmp_path / "once"), doomed, 1),
                                 **options)
     assert _dump(retried) == _dump(serial)  # died once, rerun, nothing lost or changed
 
     (tmp_path / "always").mkdir()
-    failed = evaluate.evaluate(POLICY, [TASK], EPISODES, SEED, MAX_STEPS, progress=False, retries=1,
+    failed = runner.evaluate(POLICY, [TASK], EPISODES, SEED, MAX_STEPS, progress=False, retries=1,
                                episode_fn=functools.partial(dies_on, str(tmp_path / "always"), doomed, 99),
                                **options)
     assert [(f["task"], f["episode"], f["seed"]) for f in failed["failed"]] == [(TASK, 1, doomed)]
     runs = len(list((tmp_path / "always").glob("run-*")))
     assert runs == (2 if where == "ray" else 3)  # Ray: 1 + 1 retry; pool: in the pool, then alone twice
-    kept = [evaluate.run_episode(POLICY, TASK, s, {}, MAX_STEPS) for s in (SEED, SEED + 2)]
-    assert failed["tasks"][TASK] == evaluate.summarise(kept)
+    kept = [runner.run_episode(POLICY, TASK, s, {}, MAX_STEPS) for s in (SEED, SEED + 2)]
+    assert failed["tasks"][TASK] == metrics.summarise(kept)
 
 
 def test_cli_reports_a_failed_episode_and_still_writes_the_rest(tmp_path, monkeypatch, capsys):
     # Episodes that raise on one task: the other task's episodes are kept, the failures named, exit 1.
-    monkeypatch.setattr(evaluate, "run_episode", functools.partial(raises_on, "speed_heading"))
+    monkeypatch.setattr(runner, "run_episode", functools.partial(raises_on, "speed_heading"))
     out = tmp_path / "r.json"
     status = main(["eval", "--policy", "splane", "--task", "all", "--episodes", "1", "--max-steps", "5",
                    "--workers", "2", "--no-progress", "--json", str(out)])
@@ -109,7 +111,7 @@ def raises_on(bad_task, policy_name, task_name, seed, task_kwargs, max_steps):
     """run_episode, except that it raises on `bad_task`."""
     if task_name == bad_task:
         raise RuntimeError(f"no {bad_task} today")
-    return evaluate.run_episode(policy_name, task_name, seed, task_kwargs, max_steps)
+    return runner.run_episode(policy_name, task_name, seed, task_kwargs, max_steps)
 
 
 def test_bad_options_are_refused():
@@ -133,8 +135,8 @@ def _log(run_dir: Path) -> list[list[str]]:
 
 
 def test_a_two_trial_sweep_trains_like_train_and_resumes(tmp_path, ray_session):
-    from agents.ddpg import DDPGConfig
-    from agents.train import train
+    from auv_mj.agents.ddpg import DDPGConfig
+    from auv_mj.agents.train import train
     from auv_mj.cli import sweep
     from auv_mj.cli.train import make_env_fn
 

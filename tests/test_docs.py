@@ -34,17 +34,17 @@ def _anchors(page: Path) -> set[str]:
 
 def test_the_readme_policy_table_is_the_registry_s():
     """The README's copy is `auv-mj policies --markdown`; refresh it from there when a policy is registered."""
-    from auv_mj.cli.policies import POLICIES, markdown_table
+    from auv_mj.zoo.registry import POLICIES, markdown_table
 
     block = _block("policies")
     assert block == markdown_table(), "README's policy table is stale: paste `auv-mj policies --markdown` over it"
     listed = re.findall(r"^\| `([^`]+)` \|", block, re.M)
-    assert listed == list(POLICIES)
+    assert sorted(listed) == sorted(POLICIES)
 
 
 def test_auv_mj_policies_markdown_prints_the_table(capsys):
     from auv_mj.cli import main
-    from auv_mj.cli.policies import markdown_table
+    from auv_mj.zoo.registry import markdown_table
 
     assert main(["policies", "--markdown"]) in (0, None)
     assert capsys.readouterr().out.strip() == markdown_table()
@@ -56,14 +56,16 @@ def test_the_layout_names_every_part_of_the_core_and_every_layer():
     core = {m.strip() for m in config["contracts"][0]["layers"][-1].split(":")}
     for module in sorted(core):
         name = module.split(".", 1)[1]
-        assert (f"`auv_mj/{name}/`" in block or f"`auv_mj/{name}.py`" in block or f"`{name}`" in block), \
+        assert (f"`auv_mj/{name}/`" in block or f"`auv_mj/{name}.py`" in block or f"`{name}`" in block
+                or f"`{module}`" in block), \
             f"the README's layout does not name {module}"
-    for folder in ("auv_mj/cli/", "agents/", "tasks/", "auv_mj/cli/report/", "models/"):
+    for folder in ("auv_mj/cli/", "agents/", "tasks/", "planners/", "auv_mj/zoo/", "auv_mj/jobs/",
+                   "auv_mj/benchmark/", "auv_mj/cli/report/", "models/"):
         assert f"`{folder}`" in block, folder
 
 
 def test_the_layout_names_only_paths_that_exist():
-    paths = re.findall(r"`((?:auv_mj|agents|tasks|models|tests|docs)/[\w/.-]*)`", _block("layout"))
+    paths = re.findall(r"`((?:auv_mj|agents|tasks|planners|models|tests|docs)/[\w/.-]*)`", _block("layout"))
     assert len(paths) >= 8
     missing = [p for p in paths if not (ROOT / p).exists()]
     assert not missing, f"the README's layout names paths that do not exist: {missing}"
@@ -83,3 +85,22 @@ def test_relative_links_and_anchors_resolve(page):
         elif anchor and linked.suffix == ".md" and anchor not in _anchors(linked):
             broken.append(target)
     assert not broken, f"{page.name}: links that do not resolve: {broken}"
+
+
+def test_the_readme_python_api_examples_run(tmp_path):
+    """The README's Python API section runs as written (its blocks in order, as one script), in a fresh process from
+    an empty folder: named policies, a suite cell and a suite with workers, the metrics, a leaderboard of one's own."""
+    import subprocess
+    import sys
+
+    text = README.read_text()
+    section = text[text.index("## Python API"):]
+    section = section[:section.index("\n## ", 1)]
+    code = "\n".join(re.findall(r"```python\n(.*?)```", section, re.S))
+    assert "run_suite" in code and "publish" in code and "load_policy" in section
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    board = tmp_path / "my_board"
+    assert (board / "leaderboard.json").is_file() and (board / "leaderboard.md").is_file()
+    lines = done.stdout.splitlines()
+    assert lines[-1].startswith("| `los-fast` | suite v1 | 6 |")  # its own row: six cells, one episode each

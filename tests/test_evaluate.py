@@ -10,25 +10,26 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from auv_mj.cli import evaluate, policies
+from auv_mj.benchmark import runner
 from auv_mj.cli.report.fig8 import episodes_to
 from auv_mj.cli.report.training_speed import training_speed
+from auv_mj.zoo import registry as policies
 
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 
 
 def test_evaluation_is_deterministic_for_a_seed():
-    first = evaluate.evaluate("splane", ["path_line"], episodes=2, seed=3, max_steps=40, progress=False)
-    again = evaluate.evaluate("splane", ["path_line"], episodes=2, seed=3, max_steps=40, progress=False)
+    first = runner.evaluate("splane", ["path_line"], episodes=2, seed=3, max_steps=40, progress=False)
+    again = runner.evaluate("splane", ["path_line"], episodes=2, seed=3, max_steps=40, progress=False)
     assert first == again
-    other = evaluate.evaluate("random", ["goal"], episodes=2, seed=3, max_steps=40, progress=False)
-    again = evaluate.evaluate("random", ["goal"], episodes=2, seed=3, max_steps=40, progress=False)
+    other = runner.evaluate("random", ["goal"], episodes=2, seed=3, max_steps=40, progress=False)
+    again = runner.evaluate("random", ["goal"], episodes=2, seed=3, max_steps=40, progress=False)
     assert other == again
 
 
 def test_metrics_of_a_collision_and_of_a_success():
-    collided = evaluate.evaluate("random", ["obstacles"], episodes=1, seed=0, progress=False)
-    summary = evaluate.evaluate("splane", ["goal"], episodes=2, seed=0, progress=False)["tasks"]["goal"]
+    collided = runner.evaluate("random", ["obstacles"], episodes=1, seed=0, progress=False)
+    summary = runner.evaluate("splane", ["goal"], episodes=2, seed=0, progress=False)["tasks"]["goal"]
     assert summary["success_rate"] == 1.0 and summary["collision_rate"] == 0.0
     assert 0 < summary["time_to_goal"] < 600 and summary["path_length"] > 50
     assert math.isinf(summary["min_clearance"]) or summary["min_clearance"] > 5
@@ -36,7 +37,7 @@ def test_metrics_of_a_collision_and_of_a_success():
 
 
 def test_tracking_metrics_per_disturbance_phase():
-    summary = evaluate.evaluate("splane", ["speed_heading"], 1, 0, progress=False)["tasks"]["speed_heading"]
+    summary = runner.evaluate("splane", ["speed_heading"], 1, 0, progress=False)["tasks"]["speed_heading"]
     for phase in ("instantaneous", "constant", "periodic"):
         assert 0 <= summary[f"mae_speed_{phase}"] < 0.1
         assert 0 <= summary[f"mae_heading_{phase}"] < 0.1
@@ -116,11 +117,11 @@ def test_training_speed_ratio_from_peer_logs(tmp_path):
 
 
 def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp_path):
-    from agents.ddpg import DDPGConfig
-    from agents.policy import Policy
-    from agents.train import train
+    from auv_mj.agents.ddpg import DDPGConfig
+    from auv_mj.agents.policy import Policy
+    from auv_mj.agents.train import train
     from auv_mj.cli.train import make_env_fn, task_env_id
-    from tasks.speed_heading import run_executor
+    from auv_mj.tasks.speed_heading import run_executor
 
     kwargs = {"command": "random", "disturbances": "random", "observation": "integral"}
     env_fn = make_env_fn(task_env_id("speed_heading"), task_kwargs=kwargs, max_episode_steps=50)
@@ -128,7 +129,7 @@ def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp
     ckpt = train(env_fn, "executor", config, total_steps=100, run_dir=tmp_path / "run", progress=False,
                  tensorboard=False).checkpoint
     assert Policy.load(ckpt).obs_dim == 9
-    summary = evaluate.evaluate(str(ckpt), ["speed_heading"], 1, 0, max_steps=150,
+    summary = runner.evaluate(str(ckpt), ["speed_heading"], 1, 0, max_steps=150,
                                 progress=False)["tasks"]["speed_heading"]
     executor_mae = run_executor(policies.learned_executor(ckpt), time_limit=15.0)["none"]
     assert summary["mae_speed_none"] == pytest.approx(executor_mae[0])  # same episode through either path
@@ -136,11 +137,11 @@ def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp
 
 
 def test_eval_task_kwargs_reach_every_episode_and_bad_ones_are_named():
-    from tasks.speed_heading import rollout
-    from tasks.splane import SPlaneController
+    from auv_mj.tasks.speed_heading import rollout
+    from auv_mj.tasks.splane import SPlaneController
 
     kwargs = {"command": "random", "disturbances": "random", "reward": "paper"}
-    results = evaluate.evaluate("splane", ["speed_heading"], 2, seed=5, max_steps=40, progress=False,
+    results = runner.evaluate("splane", ["speed_heading"], 2, seed=5, max_steps=40, progress=False,
                                 task_kwargs=kwargs)
     assert results["task_kwargs"] == kwargs
     returns = []
@@ -148,12 +149,12 @@ def test_eval_task_kwargs_reach_every_episode_and_bad_ones_are_named():
         trace = rollout(SPlaneController(), random=seed, time_limit=4.0, **kwargs)
         returns.append(-np.sum(np.abs(trace["speed_error"]) + np.abs(trace["heading_error"])))
     assert results["tasks"]["speed_heading"]["return"] == pytest.approx(np.mean(returns))
-    default = evaluate.evaluate("splane", ["speed_heading"], 2, seed=5, max_steps=40, progress=False)
+    default = runner.evaluate("splane", ["speed_heading"], 2, seed=5, max_steps=40, progress=False)
     assert default["tasks"]["speed_heading"]["return"] > 0  # the suite reward is in [0, 1]
     with pytest.raises(ValueError, match="task 'speed_heading' has no option 'bogus'"):
-        evaluate.evaluate("splane", ["speed_heading"], 1, max_steps=5, progress=False, task_kwargs={"bogus": 1})
+        runner.evaluate("splane", ["speed_heading"], 1, max_steps=5, progress=False, task_kwargs={"bogus": 1})
     with pytest.raises(ValueError, match="'random' is set by --seed"):
-        evaluate.evaluate("splane", ["speed_heading"], 1, progress=False, task_kwargs={"random": 1})
+        runner.evaluate("splane", ["speed_heading"], 1, progress=False, task_kwargs={"random": 1})
     done = subprocess.run([*AUV_MJ, "eval", "--policy", "splane", "--task", "speed_heading", "--episodes", "1",
                            "--task-kwargs", '{"bogus": 1}'], capture_output=True, text=True, timeout=300)
     assert done.returncode != 0 and "Traceback" not in done.stderr
@@ -210,8 +211,8 @@ class ZeroResidual:
 
 def test_a_deployed_residual_executor_with_zero_correction_drives_a_planning_task_as_the_splane():
     from auv_mj.episode import record_episode
-    from tasks import suite
-    from tasks.guidance import line_of_sight
+    from auv_mj.planners.guidance import line_of_sight
+    from auv_mj.tasks import suite
 
     low, high = np.array([-20.0, -10.0]), np.array([20.0, 10.0])
     runs = []
@@ -225,28 +226,28 @@ def test_a_deployed_residual_executor_with_zero_correction_drives_a_planning_tas
 
 
 def test_executors_by_name_on_planning_tasks():
-    splane = evaluate.run_episode("splane", "path_line", 0, {}, max_steps=80)
-    named = evaluate.run_episode("splane", "path_line", 0, {"executor": "splane"}, max_steps=80)
+    splane = runner.run_episode("splane", "path_line", 0, {}, max_steps=80)
+    named = runner.run_episode("splane", "path_line", 0, {"executor": "splane"}, max_steps=80)
     assert named == splane  # the default executor, asked for by name
-    retuned = evaluate.run_episode("splane", "path_line", 0, {"executor": "splane-ocean"}, max_steps=80)
-    assert retuned == evaluate.run_episode("splane-ocean", "path_line", 0, {}, max_steps=80)
+    retuned = runner.run_episode("splane", "path_line", 0, {"executor": "splane-ocean"}, max_steps=80)
+    assert retuned == runner.run_episode("splane-ocean", "path_line", 0, {}, max_steps=80)
     assert retuned["return"] != splane["return"] and retuned["path_length"] != splane["path_length"]
     with pytest.raises(ValueError, match="executor 'warp': not one of"):
-        evaluate.run_episode("splane", "path_line", 0, {"executor": "warp"}, max_steps=5)
+        runner.run_episode("splane", "path_line", 0, {"executor": "warp"}, max_steps=5)
     with pytest.raises(ValueError, match="runs the learned executor 'executor'; leave 'executor' out"):
-        evaluate.run_episode("two-layer", "goal", 0, {"executor": "splane"}, max_steps=5)
+        runner.run_episode("two-layer", "goal", 0, {"executor": "splane"}, max_steps=5)
 
 
 def test_the_ocean_gains_lower_the_ocean_tuning_cost_and_not_the_ideal_one():
-    from tasks.splane import OCEAN_GAINS, SPlaneGains
-    from tasks.splane_tuning import tuning_cost
+    from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneGains
+    from auv_mj.tasks.splane_tuning import tuning_cost
 
     assert tuning_cost(OCEAN_GAINS, conditions="ocean") < 0.8 * tuning_cost(SPlaneGains(), conditions="ocean")
     assert tuning_cost(SPlaneGains()) < tuning_cost(OCEAN_GAINS)  # each set is best in the water it was tuned in
 
 
 def test_the_shipped_ocean_executor_is_rebuilt_from_its_checkpoint_on_every_task():
-    from tasks.speed_heading import GAIN_NAMES
+    from auv_mj.tasks.speed_heading import GAIN_NAMES
 
     meta = policies.Policy.load(policies.shipped_checkpoint("ocean-executor")).metadata
     assert meta["agent"] == "td3" and meta["run_info"]["task_kwargs"]["conditions"] == "ocean"
@@ -256,7 +257,7 @@ def test_the_shipped_ocean_executor_is_rebuilt_from_its_checkpoint_on_every_task
     assert policy(time_step).shape == (len(GAIN_NAMES),)
     executor = policies.named_executor("ocean-executor")
     assert executor.memory.gains == meta["run_info"]["task_kwargs"]["gains"]
-    m = evaluate.run_episode("splane", "goal", 10_000, {"conditions": "ocean", "executor": "ocean-executor"},
+    m = runner.run_episode("splane", "goal", 10_000, {"conditions": "ocean", "executor": "ocean-executor"},
                              max_steps=30)
     assert m["path_length"] > 10.0  # the vehicle moves under the planner's guidance on this executor
 
@@ -274,8 +275,8 @@ def test_the_general_two_layer_system_runs_on_the_best_learned_executor_and_the_
 
 def test_the_general_planner_slows_to_the_reference_speed_whenever_an_echo_is_close_ahead():
     from auv_mj.episode import record_episode
+    from auv_mj.planners.avoidance import PROTECTIONS, SLOW_CONE
     from auv_mj.sim.sonar import BEAM_ANGLES
-    from tasks.avoidance import PROTECTIONS, SLOW_CONE
 
     assert policies.POLICIES["planner-general"].protection == "speed-aware"
     field = PROTECTIONS["speed-aware"]

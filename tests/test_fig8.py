@@ -112,7 +112,7 @@ def _summary(success: float, collisions: float, time: float | None) -> dict:
 
 
 def test_the_heldout_section_judges_each_set_by_the_issue_15_bar(monkeypatch):
-    from auv_mj.cli import evaluate
+    from auv_mj.benchmark import runner
     from auv_mj.cli.report import heldout
 
     figures = {  # (policy, task) -> summary; los-avoid is slower everywhere
@@ -133,8 +133,8 @@ def test_the_heldout_section_judges_each_set_by_the_issue_15_bar(monkeypatch):
         short = kwargs.get("scenario") == "b" and task == "obstacles"
         return {"outcome": "goal", "min_clearance": 4.2 if short else 8.0, "time_to_goal": 100.0}
 
-    monkeypatch.setattr(evaluate, "evaluate", fake_evaluate)
-    monkeypatch.setattr(evaluate, "run_episode", fake_episode)
+    monkeypatch.setattr(runner, "evaluate", fake_evaluate)
+    monkeypatch.setattr(runner, "run_episode", fake_episode)
     lines: list[str] = []
     heldout.heldout(lines, workers=2)
     report = "\n".join(lines)

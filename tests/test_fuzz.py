@@ -28,14 +28,14 @@ import torch
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
-from agents.checkpoint import load_agent, read_checkpoint, save_checkpoint
-from agents.ddpg import DDPG, DDPGConfig
-from agents.policy import Policy
 from auv_mj import AUVPhysics, model_path
 from auv_mj import cli as auv_mj_cli
+from auv_mj.agents.checkpoint import load_agent, read_checkpoint, save_checkpoint
+from auv_mj.agents.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.policy import Policy
 from auv_mj.arenas import arena_check
-from tasks import suite
-from tasks.gym_adapter import GYM_IDS, MIX_ID, AUVGymEnv
+from auv_mj.tasks import suite
+from auv_mj.tasks.gym_adapter import GYM_IDS, MIX_ID, AUVGymEnv
 
 ROOT = Path(__file__).resolve().parents[1]
 CORRIDOR = (ROOT / "docs" / "arenas.md").read_text().split("```xml\n", 1)[1].split("```", 1)[0]
@@ -250,15 +250,13 @@ GYM_KWARGS = {"task_kwargs": st.one_of(st.none(), task_options().map(lambda spec
               "environment_kwargs": st.one_of(st.none(), st.just({"legacy_step": True}), ANY_VALUE),
               "render_size": st.one_of(st.tuples(st.integers(-5, 5000), st.integers(-5, 5000)), ANY_VALUE),
               "render_distance": st.one_of(st.floats(-1.0, 2e4), ANY_VALUE),
-              "protection": st.one_of(st.booleans(), ANY_VALUE),
               "render_mode": st.one_of(st.none(), st.sampled_from(["rgb_array", "human", "rgb_array_list", ""]))}
 """Keyword arguments of `gymnasium.make` for the task ids (render_mode a string or None: `gymnasium.make`
 itself reads it before the environment sees it)."""
 MIX_KWARGS = {"tasks": st.one_of(st.lists(st.sampled_from(["goal", "obstacles", "tunnel", "speed_heading", "x"]),
                                           max_size=3), ANY_VALUE),
               "weights": st.one_of(st.none(), st.lists(st.floats(-1.0, 3.0), max_size=3), ANY_VALUE),
-              "per_task_kwargs": st.one_of(st.none(), st.just({"goal": {"goal_radius": 20.0}}), ANY_VALUE),
-              "protection": st.one_of(st.booleans(), ANY_VALUE)}
+              "per_task_kwargs": st.one_of(st.none(), st.just({"goal": {"goal_radius": 20.0}}), ANY_VALUE)}
 """Keyword arguments of `gymnasium.make("auv_mj/Planning-v0")`."""
 
 

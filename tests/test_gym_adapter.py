@@ -1,5 +1,6 @@
 """The Gymnasium adapter: env_checker, the GoalEnv reward invariant, seeding, SB3 HER, rendering."""
 
+import os
 import subprocess
 import sys
 
@@ -9,9 +10,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import auv_mj  # noqa: F401  (picks the OpenGL backend before dm_control is imported)
-import tasks  # noqa: F401  (registers the auv_mj/* ids)
-from tasks import gym_adapter, suite
-from tasks.gym_adapter import GYM_IDS, AUVGymEnv
+from auv_mj.tasks import gym_adapter, suite
+from auv_mj.tasks.gym_adapter import GYM_IDS, AUVGymEnv
 
 pytestmark = pytest.mark.filterwarnings("ignore:.*Box observation space m.* value is .*infinity")
 
@@ -22,10 +22,23 @@ SHORT = {"time_limit": 5.0}
 """Task kwargs for short episodes (10 planner steps, 50 executor steps)."""
 
 
-def test_every_id_is_registered_on_import_tasks():
-    code = (f"import gymnasium, tasks; ids = {list(GYM_IDS)!r}; "
-            "missing = [i for i in ids if i not in gymnasium.registry]; assert not missing, missing")
-    subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
+def test_import_auv_mj_registers_every_id_beside_a_users_own_tasks_and_agents(tmp_path):
+    """`import auv_mj` alone registers the ids, run from a project with its own `tasks` and `agents` packages
+    (which must not be imported: auv-mj's are `auv_mj.tasks` and `auv_mj.agents`)."""
+    for package in ("tasks", "agents"):
+        (tmp_path / package).mkdir()
+        (tmp_path / package / "__init__.py").write_text("raise ImportError('a user package was imported')\n")
+    code = (f"import gymnasium, auv_mj; ids = {list(GYM_IDS)!r}; "
+            "missing = [i for i in ids if i not in gymnasium.registry]; assert not missing, missing; "
+            "env = gymnasium.make('auv_mj/Goal-v0'); env.reset(seed=0); env.step(env.action_space.sample()); "
+            "from auv_mj import zoo; from auv_mj.tasks import suite; "
+            "e = suite.load('auv', 'obstacles', task_kwargs={'random': 1}); "
+            "p = zoo.load_policy('bug', e, 'obstacles'); p(e.reset()); print('ran'); import tasks")
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(tmp_path)})
+    # everything ran; only the last statement, the user's own `import tasks`, reached the user's package
+    assert done.returncode == 1 and done.stderr.count("ImportError: a user package was imported") == 1, done.stderr
+    assert done.stdout.strip() == "ran", done.stderr
 
 
 def test_registered_ids_cover_the_suite():
@@ -168,7 +181,7 @@ def test_her_without_copied_infos_names_copy_info_dict(one_torch_thread):
 
 def test_relative_observation_is_invariant_to_moving_and_turning_the_world():
     """The body-frame goal: shifting and rotating the pose and the goal together changes nothing."""
-    from tasks.planning import relative_goal
+    from auv_mj.tasks.planning import relative_goal
 
     rng = np.random.default_rng(0)
     pose, goal = rng.uniform(-300, 300, (50, 2)), rng.uniform(-300, 300, (50, 2))
@@ -220,9 +233,10 @@ def test_planning_mix_draws_the_task_from_the_seed_and_relabels_with_each_steps_
 
 @pytest.mark.parametrize("protection", [True, "speed-aware"])
 def test_protection_in_the_loop_bends_the_heading_as_the_planner_policy_does(protection):
-    from tasks.avoidance import protect, protection_field
+    from auv_mj.planners.avoidance import protect, protection_field
+    from auv_mj.planners.deploy import deploy_env
 
-    env = AUVGymEnv("obstacles", task_kwargs={"scenario": "a"}, protection=protection)
+    env = deploy_env(AUVGymEnv("obstacles", task_kwargs={"scenario": "a"}), protection=protection)
     bare = AUVGymEnv("obstacles", task_kwargs={"scenario": "a"})
     obs, _ = env.reset(seed=0)
     bare_obs, _ = bare.reset(seed=0)
@@ -237,18 +251,19 @@ def test_protection_in_the_loop_bends_the_heading_as_the_planner_policy_does(pro
 
 
 def test_guide_option_is_checked_and_puts_the_map_goal_in_the_observation():
-    from tasks.map_planner import PATH_STEP
-    from tasks.planning import PROGRESS_GAIN
+    from auv_mj.planners.deploy import deploy_env
+    from auv_mj.planners.map_planner import PATH_STEP
+    from auv_mj.tasks.planning import PROGRESS_GAIN
 
     with pytest.raises(ValueError, match="guide must be one of"):
-        AUVGymEnv("obstacles", guide="maps")
+        deploy_env(AUVGymEnv("obstacles"), guide="maps")
     with pytest.raises(ValueError, match="for the planning tasks"):
-        AUVGymEnv("speed_heading", guide="map")
-    env = AUVGymEnv("obstacles", {"arena": "random", "tier": "hard"}, protection="speed-aware", residual=1.0,
-                    guide="map")
+        deploy_env(AUVGymEnv("speed_heading"), guide="map")
+    env = deploy_env(AUVGymEnv("obstacles", {"arena": "random", "tier": "hard"}), protection="speed-aware",
+                     residual=1.0, guide="map")
     assert env.goal_dependent_actions  # its reward is not the task's compute_reward: no hindsight relabelling
     observation, _ = env.reset(seed=20_000)
-    goal = np.asarray(env.task.goals[-1])
+    goal = np.asarray(env.unwrapped.task.goals[-1])
     straight = np.hypot(*(goal - observation["achieved_goal"][:2]))
     assert np.hypot(*(observation["desired_goal"][:2] - observation["achieved_goal"][:2])) >= straight - 1e-6
     rewards = []

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 import torch
 
-from agents.networks import Actor, Critic, Normalizer, widen_inputs
+from auv_mj.agents.networks import Actor, Critic, Normalizer, widen_inputs
 from auv_mj.arenas import grid
-from tasks import planning
-from tasks.map_planner import MEMORY_BEAMS, MEMORY_RANGE, MapGuide
+from auv_mj.planners.deploy import deploy_env
+from auv_mj.planners.map_planner import MEMORY_BEAMS, MEMORY_RANGE, MapGuide
+from auv_mj.tasks import planning
 from tests.test_benchmark_tiers import CUP, _known_arena
 
 CHECKPOINTS = Path(__file__).resolve().parents[1] / "agents" / "checkpoints"
@@ -93,10 +94,10 @@ def test_memory_scan_is_in_the_body_frame_and_before_the_sonar():
 
 
 def test_the_gym_space_is_widened_and_holds_the_observations():
-    env = gymnasium.make("auv_mj/Obstacles-v0", task_kwargs={"reward": "progress"}, residual=1.0,
-                         speed="fixed", guide="map-memory", protection="speed-aware").unwrapped
-    plain = gymnasium.make("auv_mj/Obstacles-v0", task_kwargs={"reward": "progress"}, residual=1.0,
-                           speed="fixed", guide="map", protection="speed-aware").unwrapped
+    env = deploy_env(gymnasium.make("auv_mj/Obstacles-v0", task_kwargs={"reward": "progress"}), residual=1.0,
+                     speed="fixed", guide="map-memory", protection="speed-aware")
+    plain = deploy_env(gymnasium.make("auv_mj/Obstacles-v0", task_kwargs={"reward": "progress"}), residual=1.0,
+                       speed="fixed", guide="map", protection="speed-aware")
     observation, _ = env.reset(seed=20_000)
     size = plain.observation_space["observation"].shape[0]
     assert env.observation_space["observation"].shape == (size + MEMORY_BEAMS,)
@@ -140,14 +141,14 @@ def test_a_widened_network_computes_what_it_did_whatever_the_new_inputs(at):
 def test_init_widens_planner_general_to_the_memory_input_and_it_drives_as_before(tmp_path):
     """`auv-mj train --init planner_general.pt` on guide="map-memory": the run's first checkpoint (no gradient step
     yet) acts as the shipped network, action for action on a cup, where the memory scan is not all 1s."""
-    from agents.ddpg import DDPGConfig
-    from agents.train import train
-    from auv_mj.cli.policies import checkpoint_policy
+    from auv_mj.agents.ddpg import DDPGConfig
+    from auv_mj.agents.train import train
+    from auv_mj.zoo.registry import checkpoint_policy
 
     options = {"residual": 1.0, "speed": "fixed", "guide": "map-memory", "protection": "speed-aware"}
 
     def make():
-        return gymnasium.make("auv_mj/Obstacles-v0", task_kwargs={"reward": "progress"}, **options)
+        return deploy_env(gymnasium.make("auv_mj/Obstacles-v0", task_kwargs={"reward": "progress"}), **options)
 
     train(make, "ddpg", DDPGConfig(seed=0, learning_starts=10_000), total_steps=20, run_dir=tmp_path,
           init=CHECKPOINTS / "planner_general.pt", run_info={"env_kwargs": options}, progress=False,

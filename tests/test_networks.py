@@ -1,5 +1,5 @@
-"""The gradient steps of agents.ddpg and agents.td3 (autograd's) against the numbers of the hand-written code
-before them and against torch.optim.Adam on plain modules.
+"""The gradient steps of auv_mj.agents.ddpg and auv_mj.agents.td3 (autograd's) against the numbers of the hand-written
+code before them and against torch.optim.Adam on plain modules.
 
 `ParameterVector` moves each network's parameters into one vector and `VectorAdam` is torch.optim.Adam(fused=True)
 on those vectors.
@@ -23,11 +23,11 @@ import numpy as np
 import pytest
 import torch
 
-from agents.checkpoint import agent_tensors, load_agent, read_checkpoint, save_checkpoint
-from agents.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, soft_update, td_target
-from agents.networks import Critic, ParameterVector, VectorAdam, mlp
-from agents.replay import Batch
-from agents.td3 import TD3, TD3Config, smoothed_target_action, twin_td_target
+from auv_mj.agents.checkpoint import agent_tensors, load_agent, read_checkpoint, save_checkpoint
+from auv_mj.agents.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, soft_update, td_target
+from auv_mj.agents.networks import Critic, ParameterVector, VectorAdam, mlp
+from auv_mj.agents.replay import Batch
+from auv_mj.agents.td3 import TD3, TD3Config, smoothed_target_action, twin_td_target
 
 torch.set_num_threads(1)
 

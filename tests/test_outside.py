@@ -86,9 +86,9 @@ def test_the_factory_sees_the_episode_the_seed_gives(user_module):
     try:
         import user_policies
 
-        from auv_mj.cli import policies
-        from auv_mj.cli.evaluate import run_episode
-        from tasks import suite
+        from auv_mj.benchmark.runner import run_episode
+        from auv_mj.tasks import suite
+        from auv_mj.zoo import registry as policies
 
         policies.env_and_policy("user_policies:ahead", "goal", 10_000)  # the check's reset
         user_policies.SEEN.clear()
@@ -131,7 +131,7 @@ TRAIN_SB3 = textwrap.dedent('''
     import gymnasium as gym
     import torch
     from stable_baselines3 import TD3
-    import tasks  # registers the auv_mj ids
+    import auv_mj.tasks  # registers the auv_mj ids
     torch.set_num_threads(1)
     model = TD3("MultiInputPolicy", gym.make("auv_mj/Goal-v0"), learning_starts=100, seed=0,
                 policy_kwargs={"net_arch": [32, 32]})
@@ -154,8 +154,9 @@ def test_a_stable_baselines3_model_runs_through_eval(tmp_path):
     assert summary["episodes"] == 2 and sum(summary["outcomes"].values()) == 2
 
     # Its actions are the model's own on the adapter's observation.
-    from auv_mj.cli import outside, policies
-    from tasks.gym_adapter import gym_spaces
+    from auv_mj.tasks.gym_adapter import gym_spaces
+    from auv_mj.zoo import outside
+    from auv_mj.zoo import registry as policies
 
     env, act = policies.env_and_policy(str(model), "goal", 10_000)
     time_step = env.reset()

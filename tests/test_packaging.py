@@ -1,4 +1,4 @@
-"""The built wheel carries the MJCF models and the shipped checkpoints, found without the source tree."""
+"""The built wheel is one package, `auv_mj`, with its models, checkpoints and leaderboard; the run script."""
 
 import subprocess
 import sys
@@ -8,7 +8,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_models_are_found_from_an_installed_wheel(tmp_path):
+def test_an_installed_wheel_is_one_package_with_its_data(tmp_path):
+    """The wheel installs everything under `auv_mj` (nothing under a generic top-level name) with the MJCF models,
+    the shipped checkpoints and the published leaderboard; run from a folder holding a user's own `tasks` and
+    `agents` packages, `import auv_mj` registers the Gymnasium ids, and the benchmark gives time efficiency against
+    the published oracle."""
     build = subprocess.run([sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "--no-build-isolation",
                             "-q", "-w", str(tmp_path / "dist")], capture_output=True, text=True, timeout=300,
                            cwd=tmp_path)
@@ -18,23 +22,36 @@ def test_models_are_found_from_an_installed_wheel(tmp_path):
     with zipfile.ZipFile(wheel) as archive:
         names = archive.namelist()
         archive.extractall(site)
-    assert "auv_mj_models/auv.xml" in names and "auv_mj_models/arenas/tunnel_inspection.xml" in names
-    assert "auv_mj/cli/__init__.py" in names and "auv_mj/cli/evaluate.py" in names  # the app ships too
-    assert "agents/checkpoints/planner_general.pt" in names
-    assert "auv_mj_models/arenas/validation/l_bend.xml" in names
-    assert "auv_mj/sim/hydro_kernel.c" in names  # the C step's source, built on first use
-    probe = ("import auv_mj, tasks; from auv_mj import AUVPhysics, model_path; "
+    tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")}
+    assert tops == {"auv_mj"}, tops
+    for name in ("auv_mj/models/auv.xml", "auv_mj/models/arenas/tunnel_inspection.xml",
+                 "auv_mj/models/arenas/validation/l_bend.xml", "auv_mj/agents/checkpoints/planner_general.pt",
+                 "auv_mj/tasks/suite.py", "auv_mj/planners/map_planner.py", "auv_mj/zoo/registry.py",
+                 "auv_mj/benchmark/data/leaderboard.json", "auv_mj/cli/evaluate.py", "auv_mj/cli/report/tiers.py",
+                 "auv_mj/sim/hydro_kernel.c"):
+        assert name in names, name
+    user = tmp_path / "user_project"  # a user's own packages named like ours were before
+    for package in ("tasks", "agents"):
+        (user / package).mkdir(parents=True)
+        (user / package / "__init__.py").write_text("raise ImportError('a user package was imported')\n")
+    probe = ("import auv_mj, gymnasium; from auv_mj import AUVPhysics, model_path; "
              "p = AUVPhysics.from_xml_path(model_path('auv.xml')); "
              "print(auv_mj.__file__); print(model_path('arenas/tunnel_inspection.xml')); print(p.sonar()[4]); "
-             "p.step(10); print(auv_mj.sim.native.kernel() is not None)")
-    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, cwd=tmp_path,
-                         env={"PYTHONPATH": str(site), "PATH": "/usr/bin:/bin", "MUJOCO_GL": "egl",
+             "p.step(10); print(auv_mj.sim.native.kernel() is not None); "
+             "env = gymnasium.make('auv_mj/Goal-v0'); env.reset(seed=0); print(env.unwrapped.task_name); "
+             "from auv_mj.benchmark import SUITE_V1, run_cell; "
+             "r = run_cell('los-fast', SUITE_V1[0], 1, max_steps=4, progress=False); "
+             "print(r['summary']['time_efficiency'], r['summary']['time_efficiency_episodes'])")
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, cwd=user,
+                         env={"PYTHONPATH": f"{user}:{site}", "PATH": "/usr/bin:/bin", "MUJOCO_GL": "egl",
                               "AUV_MJ_CACHE": str(tmp_path / "cache")})
     assert run.returncode == 0, run.stderr
-    module, arena, echo, compiled = run.stdout.split()
+    module, arena, echo, compiled, task, efficiency, scored = run.stdout.split()
     assert Path(module).is_relative_to(site) and Path(arena).is_relative_to(site)
     assert float(echo) == 120.0
     assert compiled == "True" and list((tmp_path / "cache").glob("hydro_kernel-*.so"))
+    assert task == "goal"
+    assert efficiency == "0.0" and scored == "1"  # cut at 4 steps: no success, but scored against the oracle
 
 
 def test_run_script_changes_nothing_outside_its_checkout(tmp_path):

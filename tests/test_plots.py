@@ -12,7 +12,7 @@ from PIL import Image
 
 from auv_mj.cli import plots
 from auv_mj.episode import EpisodeRecord, record_episode
-from tasks import suite
+from auv_mj.tasks import suite
 
 
 def _cruise(time_step) -> np.ndarray:

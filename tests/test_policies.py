@@ -1,4 +1,4 @@
-"""The policy registry (`auv_mj.cli.policies.POLICIES`): every name is listed, runs, and behaves as before."""
+"""The policy registry (`auv_mj.zoo.registry.POLICIES`): every name is listed, runs, and behaves as before."""
 
 import json
 import subprocess
@@ -7,14 +7,15 @@ from pathlib import Path
 
 import pytest
 
-from auv_mj.cli import evaluate, policies
+from auv_mj.benchmark import runner
+from auv_mj.zoo import registry as policies
 
 ROOT = Path(__file__).resolve().parents[1]
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 RECORDED = json.loads((ROOT / "tests" / "data" / "policy_outcomes_d7f506e_float64.json").read_text())
 """Outcome and path length of 60-step episodes of each name that existed before the registry, recorded at
-d7f506e (the parallel tables of names) with `evaluate.run_episode(name, task, seed, {}, 60)`, its `Policy` run in
-float64 as `agents.policy.Policy` is now (the float32 record, `policy_outcomes_d7f506e.json`, holds only on the
+d7f506e (the parallel tables of names) with `runner.run_episode(name, task, seed, {}, 60)`, its `Policy` run in
+float64 as `auv_mj.agents.policy.Policy` is now (the float32 record, `policy_outcomes_d7f506e.json`, holds only on the
 kind of CPU it was made on)."""
 RENAMED = {"planner-general": "planner-route", "two-layer-general": "two-layer-route"}
 """Names whose policy moved to another name since (issue 30 shipped a new general planner; the old one, on the
@@ -34,7 +35,7 @@ def test_every_registered_policy_is_listed_by_help(command):
 @pytest.mark.parametrize("name", list(policies.POLICIES))
 def test_every_registered_policy_runs_a_short_episode(name):
     task = policies.resolve_tasks("all", name)[0]
-    metrics = evaluate.run_episode(name, task, 20_000, {}, 5)
+    metrics = runner.run_episode(name, task, 20_000, {}, 5)
     assert metrics["steps"] == 5 and metrics["outcome"] == "timeout"
 
 
@@ -45,7 +46,7 @@ def test_names_behave_as_before_the_registry():
         name = RENAMED.get(name, name)
         if seed != "10000":
             continue
-        metrics = evaluate.run_episode(name, task, int(seed), {}, 60)
+        metrics = runner.run_episode(name, task, int(seed), {}, 60)
         assert metrics["outcome"] == recorded["outcome"], key
         assert metrics["path_length"] == pytest.approx(recorded["path_length"], rel=1e-9, abs=1e-9), key
 
@@ -58,7 +59,7 @@ def test_a_new_policy_is_one_entry():
         assert "test-planner" in policies.policy_help()
         assert "| `test-planner` |" in policies.markdown_table()
         assert policies.resolve_tasks("all", "test-planner") == policies.resolve_tasks("all", "los-avoid")
-        assert evaluate.run_episode("test-planner", "obstacles", 3, {}, 5)["steps"] == 5
+        assert runner.run_episode("test-planner", "obstacles", 3, {}, 5)["steps"] == 5
         with pytest.raises(ValueError, match="registered twice"):
             policies.register("test-planner", spec)
     finally:

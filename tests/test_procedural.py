@@ -19,8 +19,8 @@ import shapely
 
 from auv_mj.arenas import arena, arena_check, procedural, tunnels
 from auv_mj.episode import episode_metrics, record_episode
-from tasks import obstacles, planning, suite, tunnel
-from tasks.guidance import los_avoid
+from auv_mj.planners.guidance import los_avoid
+from auv_mj.tasks import obstacles, planning, suite, tunnel
 
 AUV_MJ = Path(sys.executable).with_name("auv-mj")
 SHORT_OPTIONS = {"arena": "random", "arena_spec": {"length": [300, 300]}}

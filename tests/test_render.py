@@ -14,7 +14,7 @@ import pytest
 
 from auv_mj import render
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, Snapshot
-from tasks import suite
+from auv_mj.tasks import suite
 
 SIZE = (160, 120)
 CLI = [sys.executable, "-m", "auv_mj.cli", "render"]

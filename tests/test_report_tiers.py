@@ -116,7 +116,7 @@ def test_the_exact_mcnemar_p_value_is_the_two_sided_binomial_test_of_the_discord
     """Checked against scipy's binomial test, an independent implementation, and the closed forms at the edges."""
     from scipy.stats import binomtest
 
-    from auv_mj.cli.benchmark import exact_mcnemar
+    from auv_mj.benchmark.metrics import exact_mcnemar
 
     for only_a, only_b in [(7, 2), (2, 7), (11, 6), (0, 5), (10, 0), (3, 3), (1, 0), (25, 12)]:
         expected = binomtest(only_a, only_a + only_b, 0.5).pvalue

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from auv_mj.geometry import wrap_angle
-from tasks import speed_heading as sh
-from tasks.registry import SUITE
-from tasks.splane import OCEAN_GAINS, SPlaneController, SPlaneGains
+from auv_mj.tasks import speed_heading as sh
+from auv_mj.tasks.registry import SUITE
+from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController, SPlaneGains
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,8 @@ import pytest
 
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim.vehicle import vehicle_facts
-from tasks.splane import EXECUTOR_DT, SPlaneController, SPlaneGains, s_plane
-from tasks.splane_tuning import step_response
+from auv_mj.tasks.splane import EXECUTOR_DT, SPlaneController, SPlaneGains, s_plane
+from auv_mj.tasks.splane_tuning import step_response
 
 SURGE_LIMIT = vehicle_facts().surge_limit
 YAW_LIMIT = vehicle_facts().yaw_limit

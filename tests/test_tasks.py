@@ -19,9 +19,9 @@ import pytest
 from auv_mj.arenas.arena import arena_info
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim.sonar import SONAR_RANGE
-from tasks import obstacles, planning, suite, tunnel
-from tasks.actions import ActionClipped
-from tasks.registry import SUITE
+from auv_mj.tasks import obstacles, planning, suite, tunnel
+from auv_mj.tasks.actions import ActionClipped
+from auv_mj.tasks.registry import SUITE
 
 PLANNING_TASKS = sorted(SUITE.tagged("planning"))
 SONAR_OFFSET = 0.665
@@ -122,7 +122,7 @@ def test_suite_lists_every_task_and_rejects_unknown_names():
 
 
 def test_benchmark_command_prints_steps_per_second():
-    out = subprocess.run([sys.executable, "-m", "tasks.suite", "goal", "tunnel", "--steps", "20"],
+    out = subprocess.run([sys.executable, "-m", "auv_mj.tasks.suite", "goal", "tunnel", "--steps", "20"],
                          capture_output=True, text=True, check=True, timeout=120).stdout
     assert [line.split()[0] for line in out.splitlines()] == ["goal", "tunnel"] and "steps/s" in out
 
@@ -246,7 +246,7 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
     for a0, speed in ((-1.0, 0.0), (1.0, 2.0)):  # forward only: never astern, blind
         env.step(np.array([a0, 0.0]))
         assert env.task.last_info["command"][0] == pytest.approx(speed)
-    with pytest.warns(ActionClipped, match="clipped"):  # the one action convention (tasks.actions)
+    with pytest.warns(ActionClipped, match="clipped"):  # the one action convention (auv_mj.tasks.actions)
         env.step(np.array([-5.0, 0.0]))
     assert env.task.last_info["command"][0] == pytest.approx(0.0)
     with pytest.raises(ValueError, match="finite"):
@@ -517,10 +517,10 @@ def test_a_collision_penalty_is_subtracted_on_the_collision_step_only(reward):
 
 
 @pytest.mark.parametrize("load", [lambda: planning.Physics.load(planning.open_water_arena()),
-                                  lambda: __import__("tasks.auv3d", fromlist=["Physics3D"]).Physics3D.load()],
+                                  lambda: __import__("auv_mj.tasks.auv3d", fromlist=["Physics3D"]).Physics3D.load()],
                          ids=["planar", "6dof"])
 def test_the_executor_clock_ticks_before_the_first_step_and_then_every_period(load):
-    """`tasks.clock.ExecutorClock`: over n physics steps of dt, a period of k steps ticks ceil(n / k) times, in
+    """`auv_mj.tasks.clock.ExecutorClock`: over n physics steps of dt, a period of k steps ticks ceil(n / k) times, in
     whatever chunks `step` is called, a copy keeps the clock and a reset starts it at a tick."""
     physics = load()
     ticks: list[float] = []

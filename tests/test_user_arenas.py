@@ -18,7 +18,7 @@ import shapely
 
 from auv_mj.arenas import arena, arena_check, layout
 from auv_mj.cli import main
-from tasks import suite
+from auv_mj.tasks import suite
 
 ROOT = Path(__file__).resolve().parents[1]
 CORRIDOR = (ROOT / "docs" / "arenas.md").read_text().split("```xml\n", 1)[1].split("```", 1)[0]
@@ -220,7 +220,7 @@ def test_a_users_arena_passes_gymnasiums_checker(corridor):
     import gymnasium
     from gymnasium.utils.env_checker import check_env
 
-    import tasks  # noqa: F401  (registers the ids)
+    import auv_mj  # noqa: F401  (registers the ids)
 
     env = gymnasium.make("auv_mj/MovingObstacles-v0", task_kwargs={"arena": str(corridor), "time_limit": 5.0})
     with warnings.catch_warnings():

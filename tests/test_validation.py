@@ -22,17 +22,17 @@ import numpy as np
 import pytest
 import torch
 
-import tasks  # noqa: F401  (registers the Gymnasium ids)
-from agents import policy as policy_module
-from agents.checkpoint import load_agent, read_checkpoint, save_checkpoint
-from agents.ddpg import DDPG, DDPGConfig
-from agents.policy import Policy
+import auv_mj  # noqa: F401  (registers the Gymnasium ids)
 from auv_mj import AUVPhysics, inputs, model_path
 from auv_mj import cli as auv_mj_cli
+from auv_mj.agents import policy as policy_module
+from auv_mj.agents.checkpoint import load_agent, read_checkpoint, save_checkpoint
+from auv_mj.agents.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.policy import Policy
 from auv_mj.arenas import arena_check, tunnels
 from auv_mj.cli.options import json_object
-from tasks import suite
-from tasks.actions import ActionClipped
+from auv_mj.tasks import suite
+from auv_mj.tasks.actions import ActionClipped
 
 ROOT = Path(__file__).resolve().parents[1]
 CORRIDOR = (ROOT / "docs" / "arenas.md").read_text().split("```xml\n", 1)[1].split("```", 1)[0]
@@ -462,7 +462,7 @@ def test_arena_assets_cannot_read_files_or_allocate_without_bound(asset, message
 
 
 def test_a_checkpoint_of_another_task_is_refused_before_the_episode(capsys):
-    from auv_mj.cli import policies
+    from auv_mj.zoo import registry as policies
 
     executor = policies.shipped_checkpoint("executor")
     with pytest.raises(ValueError, match="executor.pt does not fit this task: observation of size 21, the "

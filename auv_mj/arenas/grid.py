@@ -1,6 +1,6 @@
 """Occupancy grids of the planning plane and shortest paths on them (LaValle, *Planning Algorithms*, Ch. 5-6).
 
-The map of the mapping planners (`tasks.map_planner`: filled from the sonar online, or from the true geoms for
+The map of the mapping planners (`auv_mj.planners.map_planner`: filled from the sonar online, or from the true geoms for
 the oracle) and the certificate of the hard arenas (`auv_mj.arenas.traps`): an arena is feasible when a path
 from its start to its goal keeps HARD_CLEARANCE from every footprint on this grid.
 
@@ -172,7 +172,7 @@ def path_length(path: np.ndarray) -> float:
 def ray_ranges(grid: Grid, occupied: np.ndarray, origin, angles, max_range: float) -> np.ndarray:
     """Range [m] along each ray from `origin` (x, y) at world `angles` [rad] to the first occupied cell, or
     `max_range` where none lies within it: a rangefinder cast on the map instead of on the world (the
-    ego-centric scan of a map-memory planner, `tasks.map_planner.MapGuide`). Rays are sampled every half cell;
+    ego-centric scan of a map-memory planner, `auv_mj.planners.map_planner.MapGuide`). Rays are sampled every half cell;
     off the grid counts as free. Vectorised over rays and samples."""
     angles = np.asarray(angles, dtype=float).ravel()
     samples = np.arange(grid.cell / 2, max_range, grid.cell / 2)

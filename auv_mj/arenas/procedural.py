@@ -122,7 +122,7 @@ class TunnelSpec:
 
     turn_radius: float
     """The vehicle's least turn radius [m]: the planning tasks' top speed over their heading-command rate
-    (`tasks.tunnel.least_turn_radius`). The sharpest bend is turn_radius + width / 2."""
+    (`auv_mj.tasks.tunnel.least_turn_radius`). The sharpest bend is turn_radius + width / 2."""
     width: tuple[float, float] = (20.0, 60.0)
     """Tunnel width [m]."""
     length: tuple[float, float] = (300.0, 1000.0)

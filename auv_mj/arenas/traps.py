@@ -79,7 +79,7 @@ class HardSpec:
     """Trap kinds, drawn uniformly."""
     cup_width: tuple[float, float] = (60.0, 100.0)
     """Inner width of a cup [m]: its mouth is wider than twice the protection domain's reach d0 = 30 m
-    (`tasks.avoidance.RepulsiveField.influence`), so a reactive planner is not turned away at the mouth but
+    (`auv_mj.planners.avoidance.RepulsiveField.influence`), so a reactive planner is not turned away at the mouth but
     meets the back wall inside, where a local minimum of the field lies."""
     cup_depth: tuple[float, float] = (35.0, 70.0)
     """Inner depth of a cup [m]: more than d0, so that the back wall's echoes do not reach the mouth."""

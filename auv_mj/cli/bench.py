@@ -24,21 +24,21 @@ import mujoco
 import numpy as np
 import torch
 
-import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
-from agents.ddpg import DDPG, DDPGConfig
-from agents.replay import Batch
-from agents.td3 import TD3, TD3Config
-from agents.train import env_spec, train
+import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from auv_mj import model_path, render
+from auv_mj.agents.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.replay import Batch
+from auv_mj.agents.td3 import TD3, TD3Config
+from auv_mj.agents.train import env_spec, train
 from auv_mj.arenas.arena import load
 from auv_mj.cli.options import bounded_int, check_output, seed_int, usage_error
 from auv_mj.cli.train import make_env_fn
+from auv_mj.planners.guidance import line_of_sight
 from auv_mj.render import glbackend
 from auv_mj.sim import native, native6
 from auv_mj.sim.physics import AUVPhysics
 from auv_mj.sim.physics6 import AUV6Physics, set_pose
-from tasks import suite
-from tasks.guidance import line_of_sight
+from auv_mj.tasks import suite
 
 SUB_STEPS = 10
 """Physics steps per `AUVPhysics.step(n)` call in the batched timing (one 10 Hz executor step)."""

@@ -17,11 +17,12 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj import render
-from auv_mj.cli import plots, policies
+from auv_mj.cli import plots
 from auv_mj.cli.evaluate import table_cell
 from auv_mj.cli.options import add_episode_options, check_output, fps, pixels, task_kwargs, usage_error
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, episode_metrics, record_episode
 from auv_mj.render import glbackend
+from auv_mj.zoo import registry as policies
 
 TASK = "tunnel"
 SYSTEM = "two-layer"

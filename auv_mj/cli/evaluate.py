@@ -14,7 +14,7 @@ clearances on a task without obstacles to measure (speed_heading), tracking erro
 reports none. The JSON is strict (any parser reads it); the CSV leaves such cells empty.
 
 `--workers N` runs the episodes in N local processes and `--ray ADDRESS` (or `local`) as Ray tasks on a
-cluster (`auv_mj.cli.distributed`); each episode is seeded as in the serial loop and the summaries are
+cluster (`auv_mj.jobs.distributed`); each episode is seeded as in the serial loop and the summaries are
 taken over the episodes in index order, so the JSON is the serial one. An episode that produced no result
 (its worker died more than `--retries` times, or it raised) is listed under "failed" by task, episode
 index and seed; the summaries cover the finished episodes, and the exit status is 1.
@@ -32,9 +32,8 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from auv_mj.cli import distributed, failures, policies
+from auv_mj.benchmark.runner import evaluate
+from auv_mj.cli import failures
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     MAX_RETRIES,
@@ -46,118 +45,11 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
-from auv_mj.console import progress_bar
-from auv_mj.episode import OUTCOMES, episode_metrics, record_episode
+from auv_mj.jobs import distributed
+from auv_mj.zoo import registry as policies
 
 SEED_LIMIT = 2**32 - 1
 """Largest task seed (NumPy's RandomState); episode i of a run uses --seed + i."""
-
-
-def run_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
-                max_steps: int | None = None) -> dict:
-    """The metrics of one episode of `task_name` seeded `seed` under the named policy."""
-    env, policy = policies.env_and_policy(policy_name, task_name, seed, task_kwargs)
-    return episode_metrics(record_episode(env, policy, max_steps, task_name, policy_name, seed))
-
-
-def _mean(values: list) -> float | None:
-    values = [v for v in values if v is not None]
-    return float(np.mean(values)) if values else None
-
-
-def summarise(episodes: list[dict]) -> dict:
-    """Per-task summary of episode metrics (rates, means; time to goal over successful episodes)."""
-    clearances = [e["min_clearance"] for e in episodes if e["min_clearance"] is not None]
-    summary = {"episodes": len(episodes),
-               "outcomes": {name: sum(e["outcome"] == name for e in episodes) for name in OUTCOMES},
-               "success_rate": _mean([e["success"] for e in episodes]),
-               "collision_rate": _mean([e["collision"] for e in episodes]),
-               "safety_violation_rate": _mean([e["safety_violation"] for e in episodes]),
-               "min_clearance": float(np.min(clearances)) if clearances else None,
-               "median_min_clearance": float(np.median(clearances)) if clearances else None,
-               "path_length": _mean([e["path_length"] for e in episodes]),
-               "time_to_goal": _mean([e["time_to_goal"] for e in episodes if e["success"]]),
-               "return": _mean([e["return"] for e in episodes]),
-               "return_std": float(np.std([e["return"] for e in episodes]))}
-    extra = sorted({k for e in episodes for k in e if k.startswith(("mae_", "max_"))})
-    for key in extra:
-        values = [e[key] for e in episodes if e.get(key) is not None]
-        summary[key] = (float(np.max(values)) if key.startswith("max_") else float(np.mean(values))) \
-            if values else None
-    return summary
-
-
-def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
-             max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
-             workers: int = 1, ray_address: str | None = None, retries: int = distributed.RETRIES,
-             episode_fn=None, on_episode=None) -> dict:
-    """Evaluates `policy_name` on each task; returns {"policy", "seed", "tasks": {task: summary}}.
-
-    `task_kwargs` go to every task (e.g. random commands on speed_heading); the seed is the episode's.
-    With `workers` > 1 or a `ray_address` the episodes run in parallel (`evaluate_parallel`).
-    `on_episode(task, seed, metrics)` is called for every finished episode (e.g. to find the failures).
-    """
-    if workers > 1 or ray_address is not None:
-        return evaluate_parallel(policy_name, task_names, episodes, seed, max_steps, progress, task_kwargs,
-                                 workers=workers, ray_address=ray_address, retries=retries,
-                                 episode_fn=episode_fn, on_episode=on_episode)
-    task_kwargs = dict(task_kwargs or {})
-    results = {}
-    for task_name in task_names:
-        runs = []
-        bar = progress_bar(total=episodes, desc=f"eval {task_name}", unit="ep", disable=not progress)
-        for i in range(episodes):
-            runs.append(run_episode(policy_name, task_name, seed + i, task_kwargs, max_steps))
-            if on_episode is not None:
-                on_episode(task_name, seed + i, runs[-1])
-            bar.update(1)
-            bar.set_postfix(success=f"{np.mean([r['success'] for r in runs]):.2f}")
-        bar.close()
-        results[task_name] = summarise(runs)
-    return {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
-            "tasks": results}
-
-
-def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
-                      max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
-                      workers: int = 2, ray_address: str | None = None, retries: int = distributed.RETRIES,
-                      episode_fn=None, on_episode=None) -> dict:
-    """`evaluate` with the episodes of every task spread over `workers` local processes or a Ray cluster.
-
-    Episode i of a task runs `episode_fn(policy_name, task, seed + i, task_kwargs, max_steps)` (by default
-    `run_episode`; a module-level function, for pickling), as the serial loop does; results are kept as they arrive and
-    summarised in episode order, so the result equals the serial one. Episodes that gave no result are
-    listed under "failed" ({task, episode, seed, error}); the summaries cover the others.
-    """
-    task_kwargs = dict(task_kwargs or {})
-    jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task in task_names for i in range(episodes)]
-    finished: dict[int, dict] = {}
-    failed = []
-    bar = progress_bar(total=len(jobs), desc=f"eval {len(task_names)} task(s)", unit="ep", disable=not progress)
-    try:
-        for k, result in distributed.run_jobs(episode_fn or run_episode, jobs, workers=workers,
-                                              ray_address=ray_address, retries=retries):
-            if isinstance(result, distributed.JobFailed):
-                failed.append({"task": jobs[k][1], "episode": k % episodes, "seed": jobs[k][2],
-                               "error": result.error})
-            else:
-                finished[k] = result
-                if on_episode is not None:
-                    on_episode(jobs[k][1], jobs[k][2], result)
-            bar.update(1)
-            bar.set_postfix(success=f"{np.mean([r['success'] for r in finished.values()] or [0]):.2f}",
-                            failed=len(failed))
-    finally:
-        bar.close()
-    results = {}
-    for t, task_name in enumerate(task_names):
-        runs = [finished[k] for k in range(t * episodes, (t + 1) * episodes) if k in finished]
-        results[task_name] = summarise(runs) if runs else {"episodes": 0, "outcomes": dict.fromkeys(OUTCOMES, 0)}
-    out = {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
-           "tasks": results}
-    if failed:
-        out["failed"] = sorted(failed, key=lambda f: (task_names.index(f["task"]), f["episode"]))
-    return out
 
 
 TABLE_COLUMNS = ("success_rate", "collision_rate", "min_clearance", "path_length", "time_to_goal", "return",
@@ -239,9 +131,9 @@ def run(args: argparse.Namespace) -> int:
         usage_error(args, "--workers sets the CPUs of --ray local only; a cluster's CPUs are its own")
     if args.ray is not None:
         try:
-            import ray  # noqa: F401
-        except ImportError:
-            usage_error(args, "--ray needs Ray: pip install 'ray[tune]'")
+            distributed.require_ray()
+        except ImportError as e:
+            usage_error(args, f"--ray: {e}")
     try:
         task_names = policies.resolve_tasks(args.task, args.policy)
         if "random" in kwargs:

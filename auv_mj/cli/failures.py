@@ -16,9 +16,10 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from auv_mj.cli import plots, policies
+from auv_mj.cli import plots
 from auv_mj.episode import EpisodeRecorder, outcome
 from auv_mj.render import glbackend
+from auv_mj.zoo import registry as policies
 
 VIDEO_SIZE = (640, 360)
 """(width, height) of a failure's video [pixels]: small, as a folder may hold many."""

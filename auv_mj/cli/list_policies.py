@@ -1,10 +1,10 @@
-"""`auv-mj policies`: the policy registry (`auv_mj.cli.policies.POLICIES`) as a table."""
+"""`auv-mj policies`: the policy registry (`auv_mj.zoo.registry.POLICIES`) as a table."""
 
 from __future__ import annotations
 
 import argparse
 
-from auv_mj.cli import policies
+from auv_mj.zoo import registry as policies
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -18,8 +18,12 @@ def run(args: argparse.Namespace) -> int:
         print(policies.markdown_table())
         return 0
     width = max(map(len, policies.POLICIES))
-    for name, spec in policies.POLICIES.items():
-        print(f"{name:{width}s}  [{spec.family}, {spec.tasks}] {spec.description}")
-    print(f"\nAlso: a checkpoint path, or NAME=PATH for "
+    for role, title in policies.ROLES.items():
+        print(f"{title}:")
+        for name, spec in policies.POLICIES.items():
+            if spec.role == role:
+                print(f"  {name:{width}s}  [{spec.family}, {spec.tasks}] {spec.description}")
+        print()
+    print(f"Also: a checkpoint path, or NAME=PATH for "
           f"{', '.join(n for n, s in policies.POLICIES.items() if s.accepts_path)}.")
     return 0

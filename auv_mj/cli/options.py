@@ -117,7 +117,7 @@ def add_episode_options(parser: argparse.ArgumentParser, *, task: str | None = "
                              "`random` draws a fresh arena per episode where the task can")
     parser.add_argument("--seed", type=seed_int, default=0, help=seed_help)
     if with_policy:
-        from auv_mj.cli.policies import policy_help  # the registry's names (imported only by episode commands)
+        from auv_mj.zoo.registry import policy_help  # the registry's names (imported only by episode commands)
 
         parser.add_argument("--policy", default=policy, required=policy_required, help=policy_help())
 

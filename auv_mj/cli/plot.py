@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from auv_mj.cli import policies
 from auv_mj.cli.options import add_episode_options, check_output, pixels, positive_int, task_kwargs, usage_error
 from auv_mj.cli.plots import (
     BANDS,
@@ -18,6 +17,7 @@ from auv_mj.cli.plots import (
     tracking_csv,
 )
 from auv_mj.episode import record_episode
+from auv_mj.zoo import registry as policies
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -9,7 +9,7 @@
   the runs of each group with a min-max or standard-deviation band (Fig. 8).
 
 Inputs are `EpisodeRecord`s (or their .npz files, see `auv_mj.episode`), per-step tracking CSVs
-(TRACKING_COLUMNS, as `tracking_csv` writes them) and training logs (`agents.train`'s progress.csv:
+(TRACKING_COLUMNS, as `tracking_csv` writes them) and training logs (`auv_mj.agents.train`'s progress.csv:
 episode, steps, return, success, wall_time, ...). `auv-mj plot trajectory|tracking|learning` wraps them.
 """
 
@@ -40,7 +40,7 @@ TRACKING_COLUMNS = ("step", "time", "speed", "speed_command", "heading", "headin
                     "speed_error", "heading_error", "cross_track_error", "phase")
 """Columns of a per-step tracking CSV (heading in rad; errors = command - measured, heading wrapped)."""
 LEARNING_COLUMNS = ("episode", "return", "success")
-"""Columns a training log must have (agents.train writes episode, steps, length, return, success,
+"""Columns a training log must have (auv_mj.agents.train writes episode, steps, length, return, success,
 wall_time)."""
 RUN_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown")
 PHASE_COLOURS = {"instantaneous": "tab:red", "constant": "tab:orange", "periodic": "tab:purple"}
@@ -218,7 +218,7 @@ def plot_gallery(panels: Sequence, path: str | Path, titles: Sequence[str] | Non
 def tracking_table(record: EpisodeRecord) -> dict[str, np.ndarray]:
     """Per-step tracking columns (TRACKING_COLUMNS) of an episode: values after each step."""
     n = record.steps
-    speed = record.velocity[1:, 0]  # surge speed u: the executor's controlled speed (tasks.speed_heading)
+    speed = record.velocity[1:, 0]  # surge speed u: the executor's controlled speed (auv_mj.tasks.speed_heading)
     heading = record.pose[1:, 2]
     table = {"step": np.arange(1, n + 1), "time": record.time[1:], "speed": speed,
              "speed_command": record.command[:, 0], "heading": heading,

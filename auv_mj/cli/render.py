@@ -7,7 +7,6 @@ import sys
 import time
 from pathlib import Path
 
-from auv_mj.cli import policies
 from auv_mj.cli.options import (
     add_episode_options,
     bounded_float,
@@ -20,6 +19,7 @@ from auv_mj.cli.options import (
 )
 from auv_mj.cli.render3d import render_3d
 from auv_mj.episode import EpisodeRecorder, outcome
+from auv_mj.planners.guidance import line_of_sight
 from auv_mj.render import glbackend
 from auv_mj.render.video import (
     CAMERAS,
@@ -31,8 +31,8 @@ from auv_mj.render.video import (
     time_against_bare_renderer,
     write_video,
 )
-from tasks import suite
-from tasks.guidance import line_of_sight
+from auv_mj.tasks import suite
+from auv_mj.zoo import registry as policies
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

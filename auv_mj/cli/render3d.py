@@ -1,6 +1,6 @@
 """Videos and plots of 6-DOF episodes (issue 32): `python -m auv_mj.cli.render3d --task tunnel3d --policy splane`.
 
-Runs one episode of an auv3d task with a registered policy (`auv_mj.cli.policies`), writes the three-panel
+Runs one episode of an auv3d task with a registered policy (`auv_mj.zoo.registry`), writes the three-panel
 video of `auv_mj.render.video3d` (chase | top-down | side) and, with --plots PREFIX, two figures:
 PREFIX_depth.png (depth against time, with the command where the task has one) and PREFIX_track.png (the
 3-D track, with the tube's centreline or the goal). `auv-mj render --task tunnel3d ...` runs it (`render_3d`).
@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from auv_mj.cli.policies import env_and_policy
 from auv_mj.episode import EpisodeRecorder
 from auv_mj.render.video import write_video
 from auv_mj.render.video3d import PANEL_SIZE, Track3D, iter_frames_3d
-from tasks import suite
+from auv_mj.tasks import suite
+from auv_mj.zoo.registry import env_and_policy
 
 DPI = 100
 

@@ -52,7 +52,7 @@ def train_sb3(steps: int, csv_path: Path, seed: int = 0, noise_std: float = NOIS
     from stable_baselines3.common.noise import NormalActionNoise
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    import tasks  # noqa: F401  (registers the auv_mj ids)
+    import auv_mj  # noqa: F401  (registers the auv_mj ids)
 
     torch.set_num_threads(1)
     env = DummyVecEnv([lambda: gym.make("auv_mj/Goal-v0")])

@@ -1,6 +1,6 @@
 """`auv-mj sweep`: training over seeds, agents and a grid of hyper-parameters as Ray Tune trials.
 
-One trial is one `agents.train.train` run, built from the same Gymnasium factory as `auv-mj train`, in its
+One trial is one `auv_mj.agents.train.train` run, built from the same Gymnasium factory as `auv-mj train`, in its
 own run directory `OUT/<agent>[-<field>=<value>...]-seed<S>` (checkpoints, replay, progress.csv), so
 `auv-mj reproduce --runs OUT` and `auv-mj plot learning` read a sweep as they read single runs.
 
@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
-from agents.checkpoint import read_checkpoint
-from agents.ddpg import DDPGConfig
-from agents.train import AGENTS, CHECKPOINT_NAME, LOG_NAME
+from auv_mj.agents.checkpoint import read_checkpoint
+from auv_mj.agents.ddpg import DDPGConfig
+from auv_mj.agents.train import AGENTS, CHECKPOINT_NAME, LOG_NAME
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     MAX_RETRIES,
@@ -46,6 +46,7 @@ from auv_mj.cli.options import (
 )
 from auv_mj.cli.report.fig8 import episodes_to
 from auv_mj.cli.train import add_config_options, config_overrides, make_env_fn, task_env_id
+from auv_mj.jobs import distributed
 
 TARGET = 0.9
 """Success rate a trial is timed to (Fig. 8)."""
@@ -97,8 +98,8 @@ def check_grid(grid: dict[str, Any]) -> dict[str, list]:
 def run_trial(config: dict[str, Any], *, env_id: str, env_kwargs: dict, base: dict[str, Any], root: str,
               steps: int | None, episodes: int | None, collectors: int, checkpoint_every: int) -> dict[str, Any]:
     """One trial (in a Ray worker): train in ROOT/<trial name>, resuming its checkpoint if there is one."""
-    from agents.checkpoint import agent_classes
-    from agents.train import train
+    from auv_mj.agents.checkpoint import agent_classes
+    from auv_mj.agents.train import train
 
     agent, seed, params = config["agent"], config["seed"], config["params"]
     overrides = {k: tuple(v) if isinstance(v, list) else v for k, v in {**base, **params}.items()}
@@ -276,9 +277,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Runs the sweep, prints the results table and writes OUT/results.csv."""
     try:
-        import ray  # noqa: F401
-    except ImportError:
-        usage_error(args, "auv-mj sweep needs Ray Tune: pip install 'ray[tune]'")
+        distributed.require_ray()
+    except ImportError as e:
+        usage_error(args, f"auv-mj sweep runs on Ray Tune: {e}")
     if args.workers is not None and args.ray != "local":
         usage_error(args, "--workers sets the CPUs of --ray local only; a cluster's CPUs are its own")
     if args.retries < 0:

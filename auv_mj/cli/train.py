@@ -1,4 +1,4 @@
-"""`auv-mj train AGENT --task TASK`: a thin command over `agents.train.train` (the training library).
+"""`auv-mj train AGENT --task TASK`: a thin command over `auv_mj.agents.train.train` (the training library).
 
 It parses the options (every `DDPGConfig` field is one), builds the Gymnasium factory of the task with
 its `--task-kwargs` / `--arena`, and hands both to the library.
@@ -16,11 +16,11 @@ from typing import Any
 
 import gymnasium as gym
 
-import tasks  # noqa: F401  (registers the auv_mj Gymnasium ids)
-from agents.checkpoint import agent_classes, config_from_dict, read_checkpoint
-from agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
-from agents.td3 import TD3Config
-from agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
+import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
+from auv_mj.agents.checkpoint import agent_classes, config_from_dict, read_checkpoint
+from auv_mj.agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
+from auv_mj.agents.td3 import TD3Config
+from auv_mj.agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     bounded_int,
@@ -31,6 +31,7 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.inputs import check_json_depth, read_text
+from auv_mj.planners.deploy import ChainConfig, deploy_env
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
@@ -61,7 +62,9 @@ class EnvFactory:
     def __call__(self) -> gym.Env:
         if self.module:
             importlib.import_module(self.module)
-        return gym.make(self.env_id, **_with_executor(self.kwargs))
+        chain = {k: v for k, v in self.kwargs.items() if k in ChainConfig.__dataclass_fields__}
+        rest = {k: v for k, v in self.kwargs.items() if k not in chain}
+        return deploy_env(gym.make(self.env_id, **_with_executor(rest)), **chain)
 
 
 def _with_executor(kwargs: dict) -> dict:
@@ -70,7 +73,7 @@ def _with_executor(kwargs: dict) -> dict:
     it will run on (e.g. the learned one of the two-layer system)."""
     task_kwargs = kwargs.get("task_kwargs")
     if isinstance(task_kwargs, dict) and isinstance(task_kwargs.get("executor"), str):
-        from auv_mj.cli.policies import named_executor
+        from auv_mj.zoo.registry import named_executor
 
         return {**kwargs, "task_kwargs": {**task_kwargs, "executor": named_executor(task_kwargs["executor"])}}
     return kwargs

@@ -43,7 +43,7 @@ from auv_mj.arenas.tunnels import (
     tunnel_element,
 )
 from auv_mj.cli.options import bounded_float, bounded_int, check_output, seed_int, usage_error
-from tasks import obstacles, planning, tunnel
+from auv_mj.tasks import obstacles, planning, tunnel
 
 RANDOM_TASKS = ("tunnel", "obstacles", "moving_obstacles")
 """Tasks whose random arenas `--random` writes."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from auv_mj.cli import evaluate
+from auv_mj.benchmark import runner
 
 PAPER_TABLE9 = {  # Table 9: MAE of speed [m/s] and heading [rad] per disturbance phase
     "splane": {"instantaneous": (0.0089, 0.0080), "constant": (0.0460, 0.0028), "periodic": (0.0421, 0.0448)},
@@ -52,5 +52,5 @@ def fmt(value: float, digits: int = 4) -> str:
 def tracking_errors(name: str, task: str, conditions: str = "ideal") -> tuple[float, ...]:
     """(MAE speed, MAE heading, MAX speed, MAX heading, cross-track MAE) of one episode, once on the path
     (the steps the task marks `tracked`: `auv_mj.episode.episode_metrics`)."""
-    m = evaluate.run_episode(name, task, 0, {"conditions": conditions})
+    m = runner.run_episode(name, task, 0, {"conditions": conditions})
     return m["mae_speed"], m["mae_heading"], m["max_speed"], m["max_heading"], m["mae_cross_track"]

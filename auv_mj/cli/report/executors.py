@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from auv_mj import seeds
-from auv_mj.cli import evaluate
+from auv_mj.benchmark import runner
 from auv_mj.cli.report.common import CONDITIONS, HELD_OUT_SEED, PAPER_TRACKING, fmt
 from auv_mj.cli.report.registry import ReportSettings, section
 
@@ -36,7 +36,7 @@ def _executor_table9(lines: list[str], episodes: int) -> dict:
     results = {}
     for name, _ in EXECUTOR_ROWS:
         for condition in CONDITIONS:
-            summary = evaluate.evaluate(name, ["speed_heading"], episodes, EXECUTOR_SEED, progress=False,
+            summary = runner.evaluate(name, ["speed_heading"], episodes, EXECUTOR_SEED, progress=False,
                                         task_kwargs={"conditions": condition})["tasks"]["speed_heading"]
             results[name, condition] = summary
             cells = [f"{fmt(summary.get(f'mae_speed_{p}'))} / {fmt(summary.get(f'mae_heading_{p}'))}"
@@ -79,7 +79,7 @@ def executors(lines: list[str], episodes: int, workers: int = 1) -> None:
     for task in PAPER_TRACKING:
         for name, _ in EXECUTOR_ROWS:
             for condition in CONDITIONS:
-                m = evaluate.run_episode("splane", task, 0, {"conditions": condition, "executor": name})
+                m = runner.run_episode("splane", task, 0, {"conditions": condition, "executor": name})
                 errors = (m["mae_speed"], m["mae_heading"], m["max_speed"], m["max_heading"])
                 lines.append(f"| {task} | {name} | {condition} | {' | '.join(fmt(e) for e in errors)} | "
                              f"{fmt(m['mae_cross_track'], 2)} |")
@@ -93,7 +93,7 @@ def executors(lines: list[str], episodes: int, workers: int = 1) -> None:
               "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for task, kwargs in SYSTEM_TASKS:
         for name in ("splane", "splane-ocean", "ocean-executor"):
-            s = evaluate.evaluate("planner-general", [task], SYSTEM_EPISODES, HELD_OUT_SEED, progress=False,
+            s = runner.evaluate("planner-general", [task], SYSTEM_EPISODES, HELD_OUT_SEED, progress=False,
                                   task_kwargs={**kwargs, "conditions": "ocean", "executor": name},
                                   workers=workers)["tasks"][task]
             outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)

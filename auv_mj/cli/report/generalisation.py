@@ -5,10 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from auv_mj import seeds
-from auv_mj.cli import evaluate, plots, policies
+from auv_mj.benchmark import metrics, runner
+from auv_mj.cli import plots
 from auv_mj.cli.report.common import fmt
 from auv_mj.cli.report.registry import ReportSettings, section
 from auv_mj.episode import episode_metrics, record_episode
+from auv_mj.zoo import registry as policies
 
 GENERALISATION_POLICIES = ("two-layer-general", "two-layer-e2e", "two-layer", "los-avoid", "splane")
 """The planners trained on random arenas (residual on line of sight, and end to end) and the paper's planner (all
@@ -28,7 +30,7 @@ TRAINING_RUN_SEED = 0
 
 
 def _policy_set(name: str, task: str, kwargs: dict, seeds: list[int]) -> dict:
-    return evaluate.summarise([evaluate.run_episode(name, task, s, kwargs) for s in seeds])
+    return metrics.summarise([runner.run_episode(name, task, s, kwargs) for s in seeds])
 
 
 def generalisation(lines: list[str], episodes: int, figures: Path, workers: int = 1) -> None:
@@ -46,7 +48,7 @@ def generalisation(lines: list[str], episodes: int, figures: Path, workers: int 
     for label, task, kwargs in GENERALISATION_SETS:
         for split, chosen in (("held-out", held_out), ("training", trained)):
             for name in GENERALISATION_POLICIES:
-                s = (evaluate.evaluate(name, [task], episodes, held_out[0], progress=False, task_kwargs=kwargs,
+                s = (runner.evaluate(name, [task], episodes, held_out[0], progress=False, task_kwargs=kwargs,
                                        workers=workers)["tasks"][task] if split == "held-out"
                      else _policy_set(name, task, kwargs, chosen))
                 outcomes = ", ".join(f"{k} {v}" for k, v in s["outcomes"].items() if v)

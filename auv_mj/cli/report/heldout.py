@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from auv_mj import seeds
-from auv_mj.cli import evaluate
+from auv_mj.benchmark import runner
 from auv_mj.cli.report.common import SCENARIOS, fmt
 from auv_mj.cli.report.generalisation import GENERALISATION_SETS
 from auv_mj.cli.report.registry import ReportSettings, section
@@ -43,7 +43,7 @@ def heldout(lines: list[str], workers: int) -> None:
     for label, task, kwargs in GENERALISATION_SETS:
         results = {}
         for name, extra in HELDOUT_POLICIES:
-            run = evaluate.evaluate(name, [task], HELDOUT_EPISODES, seeds.TEST.start, progress=False,
+            run = runner.evaluate(name, [task], HELDOUT_EPISODES, seeds.TEST.start, progress=False,
                                     task_kwargs={**kwargs, **extra}, workers=workers)
             shown = name + (f" (executor: {extra['executor']})" if extra else "")
             s = results[shown] = run["tasks"][task]
@@ -62,7 +62,7 @@ def heldout(lines: list[str], workers: int) -> None:
               "| scenario | paper | outcome | min clearance [m] | time [s] |", "| --- | --- | --- | --- | --- |"]
     short = []
     for label, table, task, kwargs in SCENARIOS:
-        m = evaluate.run_episode("two-layer-general", task, 0, kwargs)
+        m = runner.run_episode("two-layer-general", task, 0, kwargs)
         ok = m["outcome"] == "goal" and (m["min_clearance"] is None or m["min_clearance"] >= SCENARIO_CLEARANCE)
         short += [] if ok else [label]
         lines.append(f"| {label} | {table} | {m['outcome']} | {fmt(m['min_clearance'], 1)} | "

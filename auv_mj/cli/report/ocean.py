@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from auv_mj.cli import evaluate
+from auv_mj.benchmark import runner
 from auv_mj.cli.report.common import (
     CONDITIONS,
     HELD_OUT_SEED,
@@ -52,7 +52,7 @@ def ocean_conditions(lines: list[str], episodes: int) -> None:
     broken = []
     for task in OCEAN_TASKS:
         for name in OCEAN_POLICIES:
-            summary = {condition: evaluate.evaluate(name, [task], episodes, HELD_OUT_SEED, progress=False,
+            summary = {condition: runner.evaluate(name, [task], episodes, HELD_OUT_SEED, progress=False,
                                                     task_kwargs={"conditions": condition})["tasks"][task]
                        for condition in CONDITIONS}
             ideal, rough = summary["ideal"], summary["ocean"]
@@ -71,7 +71,7 @@ def ocean_conditions(lines: list[str], episodes: int) -> None:
               "| controller | phase | MAE speed ideal | MAE speed ocean | MAE heading ideal | MAE heading ocean |",
               "| --- | --- | --- | --- | --- | --- |"]
     for name in ("executor", "splane"):
-        summary = {condition: evaluate.evaluate(name, ["speed_heading"], 1, 0, progress=False,
+        summary = {condition: runner.evaluate(name, ["speed_heading"], 1, 0, progress=False,
                                                 task_kwargs={"conditions": condition})["tasks"]["speed_heading"]
                    for condition in CONDITIONS}
         for phase in PAPER_TABLE9[name]:

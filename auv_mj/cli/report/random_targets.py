@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from auv_mj.cli import evaluate
+from auv_mj.benchmark import runner
 from auv_mj.cli.report.common import HELD_OUT_SEED, fmt
 from auv_mj.cli.report.registry import ReportSettings, section
 
@@ -16,7 +16,7 @@ def random_targets(lines: list[str], episodes: int) -> None:
               "| task | policy | episodes | success | target | collisions | ceiling | min clearance [m] |",
               "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for task, target, ceiling in RANDOM_TARGETS:
-        summary = evaluate.evaluate("planner", [task], episodes, HELD_OUT_SEED, progress=False)["tasks"][task]
+        summary = runner.evaluate("planner", [task], episodes, HELD_OUT_SEED, progress=False)["tasks"][task]
         lines.append(f"| {task} | planner | {episodes} | {summary['success_rate']:.2f} | >= {target} | "
                      f"{summary['collision_rate']:.2f} | {'<= ' + str(ceiling) if ceiling else '-'} | "
                      f"{fmt(summary['min_clearance'], 1)} |")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from auv_mj.cli import evaluate
+from auv_mj.benchmark import runner
 from auv_mj.cli.report.common import PAPER_TABLE9, fmt
 from auv_mj.cli.report.registry import ReportSettings, section
 
@@ -16,7 +16,7 @@ def table9(lines: list[str], settings: ReportSettings | None = None) -> None:
               "| controller | phase | MAE speed ours | MAE speed paper | MAE heading ours | MAE heading paper |",
               "| --- | --- | --- | --- | --- | --- |"]
     for name in ("executor", "splane"):
-        summary = evaluate.evaluate(name, ["speed_heading"], 1, 0, progress=False)["tasks"]["speed_heading"]
+        summary = runner.evaluate(name, ["speed_heading"], 1, 0, progress=False)["tasks"]["speed_heading"]
         for phase, (paper_v, paper_h) in PAPER_TABLE9[name].items():
             lines.append(f"| {name} | {phase} | {fmt(summary.get(f'mae_speed_{phase}'))} | {paper_v} | "
                          f"{fmt(summary.get(f'mae_heading_{phase}'))} | {paper_h} |")

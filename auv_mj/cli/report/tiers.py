@@ -11,18 +11,9 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from auv_mj.cli.benchmark import (
-    LEADERBOARD,
-    ORACLE,
-    SUITE_V1,
-    TIERS,
-    WATERS,
-    bootstrap_mean,
-    decomposition,
-    exact_mcnemar,
-    oracle_times,
-    paired_efficiency,
-)
+from auv_mj.benchmark.leaderboard import LEADERBOARD
+from auv_mj.benchmark.metrics import bootstrap_mean, decomposition, exact_mcnemar, oracle_times, paired_efficiency
+from auv_mj.benchmark.suite import ORACLE, SUITE_V1, TIERS, WATERS
 from auv_mj.cli.report.common import fmt
 from auv_mj.cli.report.registry import ReportSettings, section
 
@@ -180,7 +171,7 @@ def ablation(board: dict) -> list[str]:
 
 def time_split(board: dict, names: Sequence[str] | None = None) -> list[str]:
     """Where each published policy's time goes against ORACLE, per tier and water (the three sets pooled): mean path
-    efficiency / mean speed ratio (`auv_mj.cli.benchmark.decomposition`) over the seeds both reached the goal on."""
+    efficiency / mean speed ratio (`auv_mj.benchmark.metrics.decomposition`) over the seeds both reached the goal on."""
     if ORACLE not in board:
         return [f"(`{ORACLE}` is not published: no decomposition)"]
     names = [n for n in (names or board) if n != ORACLE]

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli.benchmark import LEADERBOARD
-from tasks import suite
-from tasks.planning import MAX_SPEED
+from auv_mj.benchmark.leaderboard import LEADERBOARD
+from auv_mj.tasks import suite
+from auv_mj.tasks.planning import MAX_SPEED
 
 NAMES = ("oracle", "los-fast", "planner-general")
 

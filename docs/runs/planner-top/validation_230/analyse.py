@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli.benchmark import bootstrap_mean, episode_efficiency
+from auv_mj.benchmark.metrics import bootstrap_mean, episode_efficiency
 
 HERE = Path(__file__).parent
 PAIRS = (("planner-general", "planner-general-speed"), ("planner-general", "map-replan"),

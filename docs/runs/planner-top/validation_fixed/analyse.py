@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli.benchmark import bootstrap_mean, episode_efficiency
+from auv_mj.benchmark.metrics import bootstrap_mean, episode_efficiency
 
 HERE = Path(__file__).parent
 REFERENCE = HERE.parent / "validation_230"

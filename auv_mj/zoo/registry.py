@@ -10,7 +10,7 @@ Adding a policy is one entry: `register("my-planner", PolicySpec("what it is", b
 module imported by it.
 
 Besides the names:
-- a checkpoint path runs that trained `agents.policy.Policy`, with the protection domain it trained with;
+- a checkpoint path runs that trained `auv_mj.agents.policy.Policy`, with the protection domain it trained with;
 - `NAME=PATH` runs the checkpoint PATH in place of the shipped one, for a spec with `accepts_path` (`planner`,
   `planner-raw`, `two-layer`), to compare or choose candidates on validation seeds;
 - `RESOLVERS` turn other forms of name into specs (e.g. a module's factory, `MODULE:FACTORY`).
@@ -31,36 +31,39 @@ from typing import Any
 import numpy as np
 import torch
 
-from agents.baselines import uniform_random
-from agents.checkpoint import read_checkpoint
-from agents.policy import Policy
+from auv_mj.agents.baselines import uniform_random
+from auv_mj.agents.checkpoint import read_checkpoint
+from auv_mj.agents.policy import Policy
 from auv_mj.arenas import arena
-from auv_mj.cli.policy_spec import (
+from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsion
+from auv_mj.planners.bug import bug_planner
+from auv_mj.planners.deploy import Chain, ChainConfig, deployed
+from auv_mj.planners.guidance import classical, is_goal_task, line_of_sight
+from auv_mj.planners.los3d import classical_3d
+from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
+from auv_mj.tasks import suite
+from auv_mj.tasks.auv3d import SUITE3D, is_3d
+from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
+from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController
+from auv_mj.zoo.spec import (
     POLICIES,
     RESOLVERS,
+    ROLES,
     RUNS_ON,  # noqa: F401  (re-exported)
     ActingPolicy,
     Deployment,
     PolicySpec,
     register,
 )
-from tasks import suite
-from tasks.auv3d import SUITE3D, classical_3d, is_3d
-from tasks.avoidance import PROTECTIONS, map_fence, protection_field, with_repulsion
-from tasks.bug import bug_planner
-from tasks.guidance import classical, is_goal_task, line_of_sight, with_guidance
-from tasks.map_planner import MEMORY_BEAMS, fast_line_of_sight, map_guided, sonar_map_planner, true_map_planner
-from tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
-from tasks.splane import OCEAN_GAINS, SPlaneController
 
 # --- checkpoints and executors ----------------------------------------------------------------------------------
 
 
 def _checkpoint_dir() -> Path:
-    """`agents/checkpoints`, in a checkout or an installed wheel (the `agents` package's folder)."""
-    import agents
+    """The shipped checkpoints' folder: `checkpoints/` of the `auv_mj.agents` package (agents/ in a checkout)."""
+    import auv_mj.agents
 
-    return Path(agents.__file__).resolve().parent / "checkpoints"
+    return Path(auv_mj.agents.__file__).resolve().parent / "checkpoints"
 
 
 def shipped_checkpoint(name: str, task: str | None = None) -> Path:
@@ -142,18 +145,29 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
                       zeroed: bool = False, speed: str | None = None) -> ActingPolicy:
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
     (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, a
-    residual planner (`"residual": R`, `"speed"`) through line of sight (`tasks.guidance.guided_action`), and a
-    map-guided one (`"guide": "map"`) on the virtual goal along the sonar map's path (`tasks.map_planner.MapGuide`),
+    residual planner (`"residual": R`, `"speed"`) through line of sight (`auv_mj.planners.guidance.guided_action`),
+    and a map-guided one (`"guide": "map"`) on the virtual goal along the sonar map's path
+    (`auv_mj.planners.map_planner.MapGuide`),
     with the map's scan in its input too under "map-memory".
-    `protection` as `PolicySpec.protection`; `guide` and `speed` (`tasks.guidance.SPEEDS`) override the
+    `protection` as `PolicySpec.protection`; `guide` and `speed` (`auv_mj.planners.guidance.SPEEDS`) override the
     checkpoint's. `zeroed`: the network's output replaced by zeros, the rest as deployed (the ablation row: what
-    the system is without what it learned).
+    the system is without what it learned). The layers are the one deployment chain (`auv_mj.planners.deploy`)
+    that the network was trained in.
     ValueError naming the file if its observation or action sizes do not fit the task."""
     policy = loaded_policy(path)
     env_kwargs = policy.metadata.get("run_info", {}).get("env_kwargs", {}) or {}
-    guide = guide or env_kwargs.get("guide", "route")
+    chain = {k: v for k, v in env_kwargs.items() if k in ChainConfig.__dataclass_fields__}
+    if guide is not None:
+        chain["guide"] = guide
+    if speed is not None and float(chain.get("residual", 0.0)) > 0:
+        chain["speed"] = speed
+    if isinstance(protection, str):
+        chain["protection"] = protection
+    elif protection is not None:
+        chain["protection"] = (chain.get("protection") or "paper") if protection else False
+    config = ChainConfig(**chain)
     sample = {key: np.zeros(spec.shape) for key, spec in env.observation_spec().items()}
-    if guide == "map-memory" and "observation" in sample:  # the map's scan is inserted into the vector
+    if config.guide == "map-memory" and "observation" in sample:  # the map's scan is inserted into the vector
         sample["observation"] = np.zeros(sample["observation"].size + MEMORY_BEAMS)
     actions = tuple(env.action_spec().shape)
     try:
@@ -171,16 +185,7 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
 
-    if float(env_kwargs.get("residual", 0.0)) > 0:  # a residual planner acts through line of sight
-        act = with_guidance(act, env, float(env_kwargs["residual"]), speed or env_kwargs.get("speed", "absolute"))
-    if guide in ("map", "map-memory"):
-        act = map_guided(env, act, memory=guide == "map-memory")
-    field_ = protection_field(env_kwargs.get("protection", False))
-    if isinstance(protection, str):
-        field_ = protection_field(protection)
-    elif protection is not None:
-        field_ = (field_ or PROTECTIONS["paper"]) if protection else None
-    return with_repulsion(act, field_, map_fence(env)) if field_ is not None else act
+    return act if config.is_identity else deployed(act, Chain(config, env))
 
 
 def _from_checkpoint(deployment: Deployment) -> ActingPolicy:
@@ -203,15 +208,16 @@ PAPER_PLANNER = {"checkpoint": "planner.pt", "checkpoint_on": {"tunnel": "planne
 """The paper's HER-DDPG planner: one checkpoint per environment (`planner_tunnel.pt` on the tunnel task)."""
 
 register("planner", _learned("the paper's HER-DDPG planner with its protection domain (Sec. 3.2.2), on the task's "
-                             "executor", protection=True, **PAPER_PLANNER))
+                             "executor", protection=True, **PAPER_PLANNER, role="paper"))
 register("planner-raw", _learned("the paper's planner without the protection domain", protection=False,
-                                 **PAPER_PLANNER))
+                                 **PAPER_PLANNER, role="paper"))
 register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3)",
-                               protection=True, executor="executor", **PAPER_PLANNER))
+                               protection=True, executor="executor", **PAPER_PLANNER, role="paper"))
 GENERAL_DEPLOYMENT = {"tasks": "planning", "protection": "speed-aware"}
 """How the general planners are deployed: on every planning task, inside the speed-aware domain with the geofence."""
 GENERAL_SPEED = "fixed"
-"""The speed `planner-general` runs at (`tasks.guidance.SPEEDS`): the classical planners' (2 m/s, slowing near a
+"""The speed `planner-general` runs at (`auv_mj.planners.guidance.SPEEDS`): the classical planners' (2 m/s, slowing
+near a
 small final goal), its network steering only. Chosen on validation seeds over the speed it learned ("absolute",
 `planner-general-speed`): paired time efficiency +0.020 [+0.008, +0.033] over 230 validation episodes
 (docs/runs/planner-top/selection.md)."""
@@ -224,7 +230,7 @@ def _general(speed: str, zeroed: bool = False) -> Callable[[Deployment], ActingP
 
 register("planner-general", PolicySpec(
     "the general planner: a residual planner steering along the sonar map's planned path (the map is its memory) at "
-    "the classical planners' speed, trained on the hard tier, speed-aware domain and geofence (issue 30)",
+    "the classical planners' speed, trained on the hard tier, inside the speed-aware domain and geofence",
     _general(GENERAL_SPEED), family="learned", checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT))
 register("two-layer-general", PolicySpec("planner-general on the learned ocean executor", _general(GENERAL_SPEED),
                                          family="learned", checkpoint="planner_general.pt",
@@ -232,53 +238,59 @@ register("two-layer-general", PolicySpec("planner-general on the learned ocean e
 register("planner-general-zeroed", PolicySpec(
     "planner-general with its learned output zeroed, the rest as deployed: its classical skeleton, which is "
     "map-replan exactly (the ablation)", _general(GENERAL_SPEED, zeroed=True), family="reference",
-    checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT))
+    checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT, role="reference"))
 register("planner-general-speed", PolicySpec(
     "planner-general at the speed it learned (its network's speed action; the deployment of the previous release)",
-    _general("absolute"), family="learned", checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT))
+    _general("absolute"), family="learned", checkpoint="planner_general.pt", **GENERAL_DEPLOYMENT, role="comparison"))
 register("planner-route", _learned(
-    "the general planner of issue 15, kept for comparison: a residual planner over line of sight along the route "
+    "the first general planner: a residual planner over line of sight along the route "
     "(no memory), trained on the standard arenas, speed-aware domain and geofence", "planner_route.pt",
-    **GENERAL_DEPLOYMENT))
+    **GENERAL_DEPLOYMENT, role="comparison"))
 register("two-layer-route", _learned("planner-route on the learned ocean executor", "planner_route.pt",
-                                     executor="ocean-executor", **GENERAL_DEPLOYMENT))
+                                     executor="ocean-executor", **GENERAL_DEPLOYMENT, role="comparison"))
 register("planner-e2e", _learned("the first planner trained on the distribution of arenas, end to end (kept for "
-                                 "comparison)", "planner_e2e.pt", tasks="planning", protection=True))
+                                 "comparison)", "planner_e2e.pt", tasks="planning", protection=True, role="comparison"))
 register("two-layer-e2e", _learned("planner-e2e on the paper's learned executor", "planner_e2e.pt",
-                                   tasks="planning", protection=True, executor="executor"))
-register("executor", _learned("the paper's DDPG execution layer (speed_heading)", "executor.pt", tasks="executor"))
+                                   tasks="planning", protection=True, executor="executor", role="comparison"))
+register("executor", _learned("the paper's DDPG execution layer (speed_heading)", "executor.pt", tasks="executor",
+                              role="paper"))
 register("ocean-executor", _learned("TD3 scheduling the S-plane's gains every step, trained in ocean water "
-                                    "(speed_heading, issue 17)", "executor_ocean.pt", tasks="executor"))
+                                    "(speed_heading)", "executor_ocean.pt", tasks="executor"))
 register("los-executor", PolicySpec("line of sight on the learned DDPG executor: the execution layer alone",
-                                    lambda d: line_of_sight(d.env), tasks="planning", executor="executor"))
+                                    lambda d: line_of_sight(d.env), tasks="planning", executor="executor",
+                                    role="paper"))
 register("splane", PolicySpec("the classical baseline: line of sight + the S-plane (Eq. 32), or the S-plane alone "
                               "on speed_heading (auv3d: the depth-heading S-plane, with 3-D line of sight on "
                               "goal3d/tunnel3d)",
                               lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env)))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
-                                    "(`tasks.splane.OCEAN_GAINS`)", _splane_ocean, default_executor="splane-ocean"))
+                                    "(`auv_mj.tasks.splane.OCEAN_GAINS`)", _splane_ocean,
+                                    default_executor="splane-ocean", role="reference"))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner (auv3d: 3-D line of sight, the domain on the 3-D fan)",
                                  lambda d: classical_3d(d.env, avoid=True) if is_3d(d.env) else line_of_sight(d.env),
-                                 tasks="planning", protection="paper"))
+                                 tasks="planning", protection="paper", role="paper"))
 register("planner-map", PolicySpec(
     "planner-route on the sonar map's path without training on it (`guide=\"map\"`): what planner-general's "
     "training on the map adds over it", lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", guide="map"),
-    family="learned", checkpoint="planner_route.pt", **GENERAL_DEPLOYMENT))
+    family="learned", checkpoint="planner_route.pt", **GENERAL_DEPLOYMENT, role="reference"))
 register("los-fast", PolicySpec("line of sight along the route at 2 m/s inside the speed-aware protection domain and "
-                                "the geofence: planner-route's zero action at top speed (issue 30)",
-                                lambda d: fast_line_of_sight(d.env), tasks="planning", protection="speed-aware"))
+                                "the geofence: planner-route's zero action at top speed",
+                                lambda d: fast_line_of_sight(d.env), tasks="planning", protection="speed-aware",
+                                role="reference"))
 register("map-replan", PolicySpec("the mapping local planner: a sonar occupancy grid searched again as it changes, "
-                                  "followed by line of sight at 2 m/s (speed-aware domain; `tasks.map_planner`)",
+                                  "followed by line of sight at 2 m/s (speed-aware domain; "
+                                  "`auv_mj.planners.map_planner`)",
                                   lambda d: sonar_map_planner(d.env), tasks="planning", protection="speed-aware"))
 register("bug", PolicySpec("a complete sensor-based planner of the Bug family (DistBug's leave rule) on the "
-                           "sonar's remembered echoes, at 2 m/s inside the speed-aware domain (`tasks.bug`)",
+                           "sonar's remembered echoes, at 2 m/s inside the speed-aware domain (`auv_mj.planners.bug`)",
                            lambda d: bug_planner(d.env), tasks="planning", protection="speed-aware"))
 register("oracle", PolicySpec("plans on the true map (every geom, movers where they are) and follows the plan as "
                               "map-replan does: certifies arenas, the reference of time efficiency",
                               lambda d: true_map_planner(d.env), family="reference", tasks="planning",
-                              protection="speed-aware"))
-register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference"))
+                              protection="speed-aware", role="reference"))
+register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference",
+                              role="reference"))
 
 CHECKPOINT = PolicySpec("a trained checkpoint (`auv-mj train`), with the protection domain it trained with",
                         _from_checkpoint, family="learned")
@@ -425,16 +437,29 @@ def policy_help() -> str:
 
 
 def markdown_table() -> str:
-    """The README's policy table: name, family, tasks, executor, protection domain, description."""
-    lines = ["| policy | family | runs on | executor | protection | what it is |",
-             "| --- | --- | --- | --- | --- | --- |"]
-    for name, spec in POLICIES.items():
-        tasks = {"any": "every task", "planning": "planning tasks", "executor": "speed_heading"}[spec.tasks]
-        executor = spec.executor or spec.default_executor or ("task's" if spec.tasks != "executor" else "-")
-        protection = {None: "as trained" if spec.checkpoint else "-", True: "paper's (or its own)",
-                      False: "none"}.get(spec.protection, spec.protection)
-        lines.append(f"| `{name}` | {spec.family} | {tasks} | {executor} | {protection} | {spec.description} |")
-    return "\n".join(lines)
+    """The README's policy tables, one per role (`ROLES`): name, family, tasks, executor, protection, description."""
+    lines = []
+    for role, title in ROLES.items():
+        lines += [f"**{title}**", "", "| policy | family | runs on | executor | protection | what it is |",
+                  "| --- | --- | --- | --- | --- | --- |"]
+        for name, spec in POLICIES.items():
+            if spec.role != role:
+                continue
+            tasks = {"any": "every task", "planning": "planning tasks", "executor": "speed_heading"}[spec.tasks]
+            executor = spec.executor or spec.default_executor or ("task's" if spec.tasks != "executor" else "-")
+            protection = {None: "as trained" if spec.checkpoint else "-", True: "paper's (or its own)",
+                          False: "none"}.get(spec.protection, spec.protection)
+            lines.append(f"| `{name}` | {spec.family} | {tasks} | {executor} | {protection} | {spec.description} |")
+        lines.append("")
+    return "\n".join(lines).rstrip()
 
 
-from auv_mj.cli import outside  # noqa: E402, F401, I001  (registers MODULE:FACTORY and PATH.zip in RESOLVERS)
+from auv_mj.zoo import outside  # noqa: E402, F401, I001  (registers MODULE:FACTORY and PATH.zip in RESOLVERS)
+
+
+def load_policy(name: str, env, task: str | None = None, seed: int = 0) -> ActingPolicy:
+    """The named policy (any `--policy` form) acting in `env`, a suite environment of task `task` (which picks a
+    per-task checkpoint), as `policy(time_step) -> action` with `reset()` where it keeps state. For an environment
+    that the policy needs set up (its executor, the observation a checkpoint was trained on), build both with
+    `env_and_policy`."""
+    return make_policy(name, env, seed, task)

@@ -1,6 +1,6 @@
 """What a registered policy is (`PolicySpec`), the registry's tables (`POLICIES`, `RESOLVERS`) and `register`.
 
-The entries themselves are in `auv_mj.cli.policies`; modules that add forms of name (`auv_mj.cli.outside`) import
+The entries themselves are in `auv_mj.zoo.registry`; modules that add forms of name (`auv_mj.zoo.outside`) import
 this module, not that one, so the registry has no import cycle.
 """
 
@@ -16,6 +16,10 @@ import numpy as np
 ActingPolicy = Callable[[Any], np.ndarray]
 """`policy(time_step) -> action`, what every command runs."""
 
+ROLES = {"use": "To use", "paper": "The paper's", "reference": "References and ablations",
+         "comparison": "Kept for comparison"}
+"""What a spec is for (`PolicySpec.role`) -> its heading in `auv-mj policies` and the README's tables: the ones to
+use, the paper's own, the references and ablations that measure others, and earlier ones kept for comparison."""
 RUNS_ON = ("planning", "executor", "any")
 """What a spec's `tasks` may be: the suite's tasks tagged "planning", those tagged "executor", or every task."""
 
@@ -54,15 +58,19 @@ class PolicySpec:
     default_executor: str | None = None
     """The executor it runs on unless the task options name one."""
     protection: bool | str | None = None
-    """Its protection domain (Sec. 3.2.2, `tasks.avoidance.PROTECTIONS`). A checkpoint's: None, the one it trained
-    with; False, none; True, its own or else the paper's; a name, that one. Any other policy's: a name (or True,
+    """Its protection domain (Sec. 3.2.2, `auv_mj.planners.avoidance.PROTECTIONS`). A checkpoint's: None, the one it
+    trained with; False, none; True, its own or else the paper's; a name, that one. Any other policy's: a name (or True,
     the paper's) puts its actions through that domain, with the map's geofence where the domain reads it."""
     accepts_path: bool = False
     """Whether `NAME=PATH` runs checkpoint PATH in its place."""
+    role: str = "use"
+    """What it is for: one of ROLES."""
 
     def __post_init__(self):
         if self.tasks not in RUNS_ON:
             raise ValueError(f"PolicySpec.tasks {self.tasks!r}: not one of {RUNS_ON}")
+        if self.role not in ROLES:
+            raise ValueError(f"PolicySpec.role {self.role!r}: not one of {list(ROLES)}")
 
 
 POLICIES: dict[str, PolicySpec] = {}

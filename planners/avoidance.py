@@ -29,9 +29,9 @@ import dm_env
 import numpy as np
 
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
-from tasks import options as checks
-from tasks.planning import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
-from tasks.planning import SONAR_SLICE, TARGET_SPEED, speed_action, speed_command
+from auv_mj.tasks import options as checks
+from auv_mj.tasks.planning import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
+from auv_mj.tasks.planning import SONAR_SLICE, TARGET_SPEED, speed_action, speed_command
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
 SLOW_CONE = math.pi / 8

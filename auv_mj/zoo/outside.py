@@ -1,13 +1,13 @@
-"""Policies from outside the project, plugged into the policy registry (`auv_mj.cli.policies.RESOLVERS`).
+"""Policies from outside the project, plugged into the policy registry (`auv_mj.zoo.registry.RESOLVERS`).
 
 Two forms of `--policy` name are resolved here, on every command that runs episodes (eval, render, plot, demo,
 benchmark):
 - `MODULE:FACTORY`: `FACTORY(env)` of an importable module returns a callable `policy(time_step) -> action`;
-  `env` is the suite's dm_env environment of the episode (`tasks.suite.load`), `time_step` its `dm_env.TimeStep`.
+  `env` is the suite's dm_env environment of the episode (`auv_mj.tasks.suite.load`), `time_step` its `dm_env.TimeStep`.
   A factory may also take the episode seed as a keyword, `FACTORY(env, seed=...)`.
 - `PATH.zip`: a Stable-Baselines3 model (DDPG, TD3, SAC, PPO, A2C) trained on our Gymnasium ids
-  (`tasks.gym_adapter`). It reads the observation the Gymnasium adapter would give it, through the adapter's own
-  map (`tasks.gym_adapter.gym_spaces`), and acts deterministically. Its actions go to the task as the adapter's
+  (`auv_mj.tasks.gym_adapter`). It reads the observation the Gymnasium adapter would give it, through the adapter's own
+  map (`auv_mj.tasks.gym_adapter.gym_spaces`), and acts deterministically. Its actions go to the task as the adapter's
   `step` passes them (no protection domain, no residual); a model trained under `VecNormalize` needs its
   statistics, which the zip does not hold, so train such a model without it or fold them into the policy.
 
@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_mj.cli.policy_spec import RESOLVERS, ActingPolicy, Deployment, PolicySpec
+from auv_mj.zoo.spec import RESOLVERS, ActingPolicy, Deployment, PolicySpec
 
 FACTORY_FORM = re.compile(r"^(?P<module>[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*):(?P<factory>[A-Za-z_][\w]*)$")
 """`MODULE:FACTORY`: a dotted module path, a colon and an attribute name (as entry points write them)."""
@@ -202,7 +202,7 @@ def _fits(model_space, task_space) -> bool:
 def sb3_policy(name: str, path: Path, env) -> ActingPolicy:
     """The SB3 model at `path` acting on `env`'s time steps through the Gymnasium adapter's observation;
     ValueError naming both spaces when the model's observation or action space does not fit the task's."""
-    from tasks.gym_adapter import gym_spaces
+    from auv_mj.tasks.gym_adapter import gym_spaces
 
     model = load_sb3(path)
     observation_space, action_space, observe = gym_spaces(env)

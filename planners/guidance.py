@@ -1,7 +1,7 @@
 """The classical controllers of the tasks: line-of-sight guidance for the planning tasks and the S-plane
 controller (Eq. 32) on speed_heading. Each is a callable `policy(time_step) -> action in [-1, 1]^2` of one
 environment; `classical(env)` picks the task's own. `los_avoid(env)` adds the protection domain of
-Sec. 3.2.2 (`tasks.avoidance`) to line of sight: the classical local planner a learned one must beat.
+Sec. 3.2.2 (`auv_mj.planners.avoidance`) to line of sight: the classical local planner a learned one must beat.
 
 A residual planner (ours, after residual RL: Johannink et al. 2019, Silver et al. 2018) builds on line of
 sight: `guided_action` reads its action a = (a0, a1) as the speed a0 (as any planner's) and a correction
@@ -13,7 +13,7 @@ With `speed="top"` (issue 30) the speed is a correction too: V action = clip(bas
 classical planners' speed (`approach_speed`: the top cruise speed, 2 m/s, slowing to the target speed near a
 small final goal); with `speed="fixed"` the speed is that base and a0 is unused (the planner steers only). A
 zero action is then exactly the classical planner it corrects: on the map's virtual goal
-(`tasks.map_planner.MapGuide`) inside the speed-aware domain, `map-replan`.
+(`auv_mj.planners.map_planner.MapGuide`) inside the speed-aware domain, `map-replan`.
 """
 
 from __future__ import annotations
@@ -25,10 +25,10 @@ import dm_env
 import numpy as np
 
 from auv_mj.geometry import wrap_angle
-from tasks.avoidance import with_repulsion
-from tasks.planning import ACTION_HEADING_RANGE, MAX_SPEED, TARGET_SPEED, speed_action
-from tasks.speed_heading import executor_policy
-from tasks.splane import SPlaneController
+from auv_mj.planners.avoidance import with_repulsion
+from auv_mj.tasks.planning import ACTION_HEADING_RANGE, MAX_SPEED, TARGET_SPEED, speed_action
+from auv_mj.tasks.speed_heading import executor_policy
+from auv_mj.tasks.splane import SPlaneController
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
 CRUISE_ACTION = speed_action(TARGET_SPEED)
@@ -71,7 +71,7 @@ def line_of_sight(env) -> Policy:
 
 def approach_speed(task, pose) -> float:
     """TOP_SPEED_ACTION, or the target speed's action within APPROACH of a final goal narrower than
-    APPROACH_RADIUS: the classical planners' speed (`tasks.map_planner`)."""
+    APPROACH_RADIUS: the classical planners' speed (`auv_mj.planners.map_planner`)."""
     goals = task.goals
     if task.goal_radius < APPROACH_RADIUS and np.hypot(*(goals[-1] - np.asarray(pose)[:2])) < APPROACH:
         return speed_action(TARGET_SPEED)

@@ -27,9 +27,9 @@ follows the nearest of them.
   turns and follows the other way, for twice as far, and so on.
 
 It cruises at the top speed inside the speed-aware protection domain with the geofence, as every planner of the
-benchmark does (`tasks.map_planner`). On a route of many goals (a tunnel) motion to goal heads for the task's
+benchmark does (`auv_mj.planners.map_planner`). On a route of many goals (a tunnel) motion to goal heads for the task's
 current goal, as line of sight does; a boundary's target (for the hit distance and the leave) is the route point
-ROUTE_HORIZON on (`tasks.map_planner.route_target`, `map_replan`'s target too), and reaching it also leaves.
+ROUTE_HORIZON on (`auv_mj.planners.map_planner.route_target`, `map_replan`'s target too), and reaching it also leaves.
 """
 
 from __future__ import annotations
@@ -41,11 +41,11 @@ import dm_env
 import numpy as np
 
 from auv_mj.geometry import wrap_angle
+from auv_mj.planners.avoidance import SLOW_CONE, map_fence, with_repulsion
+from auv_mj.planners.guidance import approach_speed
+from auv_mj.planners.map_planner import PROTECTION, Policy, route_target, sonar_rays
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
-from tasks.avoidance import SLOW_CONE, map_fence, with_repulsion
-from tasks.guidance import approach_speed
-from tasks.map_planner import PROTECTION, Policy, route_target, sonar_rays
-from tasks.planning import ACTION_HEADING_RANGE, SONAR_SLICE
+from auv_mj.tasks.planning import ACTION_HEADING_RANGE, SONAR_SLICE
 
 MEMORY_STEPS = 40
 """Scans whose echoes are remembered (20 s at the sonar's 2 Hz): a wall abeam or behind is still followed."""
@@ -78,7 +78,7 @@ CONNECT = 20.0
 AHEAD = np.abs(BEAM_ANGLES) <= SLOW_CONE + 1e-9
 """The beams ahead, S4-S6 (the speed-aware domain's slow-down cone)."""
 FRONT_CLEAR = 20.0
-"""Boundary following with an echo this near [m] in the beams ahead (S4-S6, `tasks.avoidance.SLOW_CONE`) turns
+"""Boundary following with an echo this near [m] in the beams ahead (S4-S6, `auv_mj.planners.avoidance.SLOW_CONE`) turns
 away from its wall's side at the full rate: a concave corner (a wedge's apex, a cup's back) is not driven into."""
 SIDE_TIE = math.pi / 6
 """The two sides' wall tangents closer than this [rad] in their error to the target's bearing are a tie."""

@@ -106,8 +106,21 @@ def _pool_jobs(fn: Callable[..., Any], jobs: Sequence[tuple], workers: int,
                             alone.appendleft(i)
 
 
+RAY_MISSING = "Ray is not installed: it is an extra of auv-mj, pip install 'auv-mj[ray]' (or -e '.[ray]' in a checkout)"
+"""What a job on Ray says where Ray is not installed."""
+
+
+def require_ray() -> None:
+    """ImportError naming the extra (RAY_MISSING) unless Ray can be imported."""
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        raise ImportError(RAY_MISSING) from None
+
+
 def _ray_jobs(fn: Callable[..., Any], jobs: Sequence[tuple], address: str, workers: int,
               retries: int) -> Iterator[tuple[int, Any]]:
+    require_ray()
     import ray
     from ray.exceptions import RayError, RayTaskError
 

@@ -4,7 +4,7 @@ Each is `factory(env) -> policy(time_step) -> action` on a planning task's suite
 and the speed envelope of the learned planners: the nine sonar ranges of the observation, the vehicle's pose
 (what line of sight already reads, `env.physics.pose()`), the task's route (its goals) and the map's edge
 (the geofence). Every one cruises at the top speed MAX_SPEED = 2 m/s inside the speed-aware protection domain
-(`tasks.avoidance.PROTECTIONS["speed-aware"]`) with the geofence, as `planner-general` is deployed.
+(`auv_mj.planners.avoidance.PROTECTIONS["speed-aware"]`) with the geofence, as `planner-general` is deployed.
 
 - `los_fast`: line of sight along the route at 2 m/s under that domain: `planner-general`'s zero action (but
   for the approach to a small final goal, `approach_speed`, which every planner here shares).
@@ -32,10 +32,10 @@ import numpy as np
 
 from auv_mj.arenas import arena, grid
 from auv_mj.episode import VEHICLE_BODY, arena_geometry, geom_footprint
+from auv_mj.planners.avoidance import PROTECTIONS, map_fence, with_repulsion
+from auv_mj.planners.guidance import approach_speed, los_heading
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
-from tasks.avoidance import PROTECTIONS, map_fence, with_repulsion
-from tasks.guidance import approach_speed, los_heading
-from tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE
+from auv_mj.tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE
 
 Policy = Callable[[dm_env.TimeStep], np.ndarray]
 
@@ -348,8 +348,8 @@ class MapGuide:
     Each step it brings `SonarMap` up to date (the map, and the search when it must run again, as `map_replan`)
     and puts a virtual goal in the observation in place of the task's: on the bearing of the path's look-ahead
     point, as far away as the planned path is long, so that the body-frame goal the planner reads (distance and
-    bearing, `tasks.planning.RELATIVE_FIELDS`) keeps the range it has on the straight route. Line of sight,
-    which a residual planner corrects (`tasks.guidance`), then aims along the path: with the learned output
+    bearing, `auv_mj.tasks.planning.RELATIVE_FIELDS`) keeps the range it has on the straight route. Line of sight,
+    which a residual planner corrects (`auv_mj.planners.guidance`), then aims along the path: with the learned output
     zeroed the planner is `map_replan`'s follower at the zero action's speed.
     """
 

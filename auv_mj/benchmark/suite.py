@@ -1,0 +1,92 @@
+"""The held-out benchmark's definition: suite v1, one table of cells (`SUITE_V1`), and its fingerprint.
+
+Each row (a `Cell`) is a task with its options (a procedural arena of a tier in a water), a block of held-out TEST
+seeds (`auv_mj.seeds.TEST`) and its default number of episodes. Episode i of a cell runs with seed `cell.seeds[i]`.
+Changing what the suite measures (a row, its seeds, options, episodes or the metrics) is a new version:
+`SUITE_VERSION` goes up and `FINGERPRINTS` gets the new definition's hash, which a test pins.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+
+from auv_mj import seeds
+
+SUITE_NAME = "suite v1"
+SUITE_VERSION = 1
+TIERS = ("standard", "hard")
+"""The `tier` task option: the standard arenas, and the hard ones (traps, narrow gaps, crowded movers)."""
+WATERS = ("ideal", "ocean")
+"""The `conditions` task option: the paper's water, and current, lag and noise (`auv_mj.sim.ocean`)."""
+SEED_BLOCK = 1000
+"""Held-out seeds per set: set k uses TEST seeds [TEST.start + k * SEED_BLOCK, ... + SEED_BLOCK)."""
+EPISODES = 50
+"""Episodes per cell by default: the whole suite in <= 30 min with two workers on a 2-core machine."""
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One row of the suite: a task and its options, on a block of held-out seeds."""
+
+    task: str
+    tier: str
+    water: str
+    first_seed: int
+    """Episode i runs with seed first_seed + i (inside `auv_mj.seeds.TEST`)."""
+    episodes: int = EPISODES
+
+    @property
+    def name(self) -> str:
+        return f"{self.task}/{self.tier}/{self.water}"
+
+    @property
+    def task_kwargs(self) -> dict:
+        """The task's options: a procedural arena of the cell's tier, in the cell's water."""
+        return {"arena": "random", "tier": self.tier, "conditions": self.water}
+
+    def seeds(self, episodes: int | None = None) -> range:
+        return range(self.first_seed, self.first_seed + (episodes or self.episodes))
+
+
+def _block(k: int) -> int:
+    return seeds.TEST.start + k * SEED_BLOCK
+
+
+SUITE_V1: tuple[Cell, ...] = (
+    Cell("obstacles", "standard", "ideal", _block(0)),
+    Cell("obstacles", "standard", "ocean", _block(0)),
+    Cell("obstacles", "hard", "ideal", _block(0)),
+    Cell("obstacles", "hard", "ocean", _block(0)),
+    Cell("moving_obstacles", "standard", "ideal", _block(1)),
+    Cell("moving_obstacles", "standard", "ocean", _block(1)),
+    Cell("moving_obstacles", "hard", "ideal", _block(1)),
+    Cell("moving_obstacles", "hard", "ocean", _block(1)),
+    Cell("tunnel", "standard", "ideal", _block(2)),
+    Cell("tunnel", "standard", "ocean", _block(2)),
+    Cell("tunnel", "hard", "ideal", _block(2)),
+    Cell("tunnel", "hard", "ocean", _block(2)),
+)
+"""The benchmark, version 1: random obstacles, random moving obstacles and random tunnels, each in both tiers and
+both waters; the tiers and waters of a set share its seeds (paired comparisons)."""
+METRICS = ("success_rate", "success_ci95", "outcomes", "time_to_goal", "min_clearance", "median_min_clearance",
+           "time_efficiency")
+"""What each cell reports (part of the definition, and of its fingerprint)."""
+FINGERPRINTS = {1: "4592ab23994f2ac5"}
+"""Version -> the first 16 hex digits of `fingerprint()` of that version's definition."""
+ORACLE = "oracle"
+"""The policy whose times are the reference of time efficiency."""
+
+
+def definition(suite: Sequence[Cell] = SUITE_V1) -> dict:
+    """The suite's definition as plain data: what its fingerprint hashes and its JSON names."""
+    return {"name": SUITE_NAME, "version": SUITE_VERSION, "metrics": list(METRICS),
+            "cells": [{**asdict(c), "name": c.name, "task_kwargs": c.task_kwargs} for c in suite]}
+
+
+def fingerprint(suite: Sequence[Cell] = SUITE_V1) -> str:
+    """SHA-256 (first 16 hex digits) of the definition: any change to what the suite measures changes it."""
+    text = json.dumps({k: v for k, v in definition(suite).items() if k != "version"}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]

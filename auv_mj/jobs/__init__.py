@@ -1,0 +1,1 @@
+"""Independent jobs spread over local processes or a Ray cluster (`distributed.run_jobs`)."""
