@@ -730,15 +730,16 @@ def reset_seeds(seed: int, iteration: int, num_envs: int) -> list[int]:
     return [train_seed(seed, iteration * num_envs + i) for i in range(num_envs)]
 
 
-def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None = None, run_dir: str | Path = "runs/ppo",
-          total_steps: int = 1_000_000, resume: bool = False, progress: bool = True,
-          tensorboard: bool = False) -> PPOResult:
+def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, run_dir: str | Path, total_steps: int,
+          *, resume: bool = False, progress: bool = True, tensorboard: bool = False) -> PPOResult:
     """Trains PPO on a Gymnasium vector env (or a zero-argument function making one) for `total_steps` env steps
     (rounded up to whole rollouts of num_steps x num_envs), checkpointing to `run_dir/checkpoint.pt`.
 
-    `resume=True` continues the run in `run_dir` from its checkpoint (its config; `config`, if given, must equal
-    it) and gives exactly the result of an uninterrupted run to the same `total_steps`. A row per rollout goes to
-    `progress.csv` and, with `tensorboard`, to TensorBoard scalars in `run_dir/tb`.
+    `config` None takes PPOConfig's defaults (or, resuming, the checkpoint's). `resume=True` continues the run in
+    `run_dir` from its checkpoint (`config`, if given, must equal the saved one) and gives exactly the result of
+    an uninterrupted run to the same `total_steps` (see the module docstring for when). A row per rollout goes to
+    `progress.csv` (rows after the checkpoint, from a crashed run, are dropped on resume) and, with
+    `tensorboard`, to TensorBoard scalars in `run_dir/tb`.
     """
     if not isinstance(total_steps, int) or isinstance(total_steps, bool) or total_steps < 1:
         raise ValueError(f"total_steps must be a whole number >= 1, got {total_steps!r}")
@@ -786,6 +787,15 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None = N
             vec_env.close()
 
 
+def _logged_rows(path: Path, iterations: int) -> list[dict[str, str]]:
+    """The rows of a run's progress.csv up to rollout `iterations` (those a resumed run keeps)."""
+    if not path.is_file():
+        return []
+    with open(path, newline="") as f:
+        return [row for row in csv.DictReader(f) if row.get("iteration", "").isdigit()
+                and int(row["iteration"]) <= iterations and set(row) == set(LOG_FIELDS)]
+
+
 def _train_loop(vec_env: VectorEnv, model: ActorCritic, optimizer: torch.optim.Optimizer,
                 generator: torch.Generator, config: PPOConfig, spec: dict[str, Any], run_dir: Path,
                 counters: dict[str, Any], total_steps: int, resume: bool, progress: bool,
@@ -794,10 +804,11 @@ def _train_loop(vec_env: VectorEnv, model: ActorCritic, optimizer: torch.optim.O
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "config.json").write_text(json.dumps({"agent": "ppo", "config": config_to_dict(config),
                                                      "spec": spec}, indent=2))
-    log_file = open(run_dir / LOG_NAME, "a" if resume else "w", newline="")
+    kept = _logged_rows(run_dir / LOG_NAME, counters["iteration"]) if resume else []
+    log_file = open(run_dir / LOG_NAME, "w", newline="")
     log = csv.DictWriter(log_file, LOG_FIELDS)
-    if log_file.tell() == 0:
-        log.writeheader()
+    log.writeheader()
+    log.writerows(kept)
     writer = _tensorboard(run_dir, counters["env_steps"] if resume else None) if tensorboard else None
     collector = Collector(vec_env, model, spec, config, generator)
     per_rollout = config.num_steps * collector.num_envs
