@@ -23,6 +23,7 @@ from agents.ppo import (
     Minibatch,
     PPOConfig,
     PPOPolicy,
+    Rollout,
     build_model,
     clipped_surrogate,
     env_spec,
@@ -290,8 +291,6 @@ def test_one_update_step_is_minus_lr_times_autograds_gradient_and_lowers_the_los
     assert loss_at(p0 - lr * grad) < loss_at(p0)
     _set_params(model, p0)
     # `update` on a rollout that is this minibatch, with plain SGD: exactly one step of -lr * grad
-    from agents.ppo import Rollout
-
     zeros = torch.zeros_like(batch.values)
     # a rollout whose GAE returns the minibatch's advantages: gamma = 0, rewards = A + V, next values unused
     rollout = Rollout(batch.obs, batch.starts, batch.valid, batch.actions, batch.logprobs, batch.values,
