@@ -337,7 +337,8 @@ def _evaluate(policy: PPOPolicy, episodes: int, seed: int) -> float:
 TOY_CONFIG = PPOConfig(recurrent="gru", hidden_sizes=(16,), recurrent_size=16, num_steps=20, num_minibatches=4,
                        update_epochs=4, learning_rate=3e-3, gamma=0.99, checkpoint_every=50, seed=0)
 TOY_STEPS = 16 * 20 * 30
-"""30 rollouts of 16 envs: every one of seeds 0-4 reached a return of 1.0 in either mode (GRU and LSTM)."""
+"""30 rollouts of 16 envs: with a GRU every one of seeds 0-4 reached a return of 1.0 in either mode (an LSTM 8 of
+those 10 runs; one reached 0.875, one stayed at 0)."""
 EVAL_EPISODES, EVAL_SEED = 100, 10_000
 
 
