@@ -385,6 +385,22 @@ def main() -> None:
           f"{descent:.3f} m/s, u {speed:.3f} m/s, radius u / r = {speed / abs(turn):.1f} m, "
           f"roll {np.degrees(run[late, 4]).mean():+.1f} deg, pitch {np.degrees(run[late, 5]).min():+.1f} to "
           f"{np.degrees(run[late, 5]).max():+.1f} deg")
+    from vehicle6_reference import Reference6
+
+    start = np.zeros(12)
+    start[2], start[6] = RELEASE_DEPTH, u0
+    reference = Reference6.from_xml().solve(start, duration, lambda t: (thrust, 0.0, 0.0))
+    print(f"  the scipy reference (tests/vehicle6_reference.py): depth {reference(duration)[2]:.2f} m against the "
+          f"simulator's {run[-1, 3]:.2f} m")
+    text = model_path("auv6.xml").read_text()
+    for name, old, new in (("B = W", f'name="hydro_B" data="{c.B!r}"', f'name="hydro_B" data="{model.weight!r}"'),
+                           ("B = W and no propeller torque", 'gear="1 0 0 -0.1407 0 0"', 'gear="1 0 0 0 0 0"')):
+        if old not in text:
+            raise RuntimeError(f"models/auv6.xml has no {old}")
+        text = text.replace(old, new)
+        run = open_loop_run(AUV6Physics.from_xml_string(text), u0, thrust, duration)
+        print(f"  and with {name}: depth change {run[-1, 3] - run[0, 3]:+.3f} m, heading change "
+              f"{np.unwrap(run[:, 6])[-1] - run[0, 6]:+.3f} rad")
 
 
 if __name__ == "__main__":
