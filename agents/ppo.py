@@ -1,0 +1,903 @@
+"""Proximal Policy Optimisation (Schulman et al. 2017) with an optional GRU or LSTM memory, on Gymnasium vector envs.
+
+The file reads top to bottom as CleanRL's `ppo_continuous_action.py` and `ppo_atari_lstm.py` do: a frozen config,
+the actor-critic, the rollout, GAE, the clipped losses, the update, the training loop and a deployable policy.
+Every step of the update is a function that tests call.
+
+- Actions: a Gaussian with a state-independent log std, in a normalised action space whose [-1, 1] is the env's
+  Box; the sampled action is clipped to [-1, 1] and rescaled to the Box only when it is sent to the env, and the
+  loss uses the unclipped sample (as CleanRL's `ClipAction`). The deployable policy takes the clipped mean.
+- Observations: a Box (flattened), or a goal Dict whose `observation` and `desired_goal` are concatenated in
+  that order (OBS_KEYS; `achieved_goal` is not an input). A running mean/std normaliser (`agents.networks.
+  Normalizer`, in every checkpoint) standardises them; it is updated from each rollout after the update, so a
+  rollout is replayed with the statistics it was collected with (the first ratio of an update is exactly 1).
+- Memory (`recurrent="gru"` or `"lstm"`): an MLP encoder, one GRU/LSTM cell, then linear policy and value heads.
+  The state is carried across a rollout and zeroed before the first observation of each episode (`starts`);
+  minibatches are whole environments, and the update re-runs each sequence from the rollout's initial state
+  with the same `starts`.
+- Episode ends and autoreset (Gymnasium >= 1.0, `gymnasium.vector.AutoresetMode`): `env.metadata
+  ["autoreset_mode"]`, NEXT_STEP when absent (the default of SyncVectorEnv and AsyncVectorEnv).
+  NEXT_STEP: the step that ends an episode returns its final observation; the next `step` resets that env and
+  ignores its action, returning reward 0 and the first observation. That extra step is kept in the rollout
+  (its value V(final observation) is the bootstrap of a truncation, computed with the episode's memory) but
+  masked out of every loss (`valid`). SAME_STEP: the step returns the next episode's first observation and
+  `info["final_obs"]`; V(final observation) is computed from the episode's memory for truncated envs.
+  DISABLED is refused. GAE bootstraps truncations (time limits) from V(final observation) and not
+  terminations, through a separate `next_values` array (`gae`).
+- Checkpoints (`checkpoint.pt`, atomic, `torch.load(weights_only=True)`) fall every `checkpoint_every` rollouts
+  and at the end of a `train` call. At every multiple of `checkpoint_every`, and at the start of each `train`
+  call, the envs are reset with seeds derived from (seed, rollout index) (`auv_mj.seeds.train_seed`): env
+  states cannot be saved, so no run carries one past a periodic checkpoint, and a run resumed from one (after a
+  crash, or a `train` call whose total_steps ended on a multiple of checkpoint_every rollouts) repeats the
+  uninterrupted run exactly. Resumed from an end checkpoint between multiples, it differs from the uninterrupted
+  run by that extra reset. The episodes cut by a reset end like a time limit (bootstrapped from the last value).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+import torch
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from torch import nn
+
+from auv_mj.console import progress_bar
+from auv_mj.seeds import train_seed
+
+from .checkpoint import atomic_write, config_from_dict, config_to_dict, load_module
+from .networks import Normalizer
+
+FORMAT = "auv-mj-ppo/1"
+"""Format tag in every PPO checkpoint's metadata."""
+CHECKPOINT_NAME = "checkpoint.pt"
+LOG_NAME = "progress.csv"
+LOG_FIELDS = ("iteration", "env_steps", "episodes", "mean_return", "policy_loss", "value_loss", "entropy",
+              "approx_kl", "clip_fraction", "explained_variance", "samples_per_s")
+OBS_KEYS = ("observation", "desired_goal")
+"""The keys of a goal Dict observation that form the network input, concatenated in this order."""
+RECURRENT_KINDS = (None, "gru", "lstm")
+MAX_CHECKPOINT_BYTES = 2**30
+"""Largest checkpoint file read (1 GiB)."""
+ACTOR_OUT_GAIN, CRITIC_OUT_GAIN, HIDDEN_GAIN = 0.01, 1.0, math.sqrt(2.0)
+"""Orthogonal initialisation gains of the policy head, value head and hidden layers (Huang et al. 2022, "The 37
+implementation details of PPO", detail 2)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PPOConfig:
+    """Hyper-parameters of PPO; defaults are CleanRL's `ppo_continuous_action.py` (Huang et al. 2022)."""
+
+    learning_rate: float = 3e-4
+    """Adam step size."""
+    adam_eps: float = 1e-5
+    """Adam epsilon (CleanRL's 1e-5 rather than torch's 1e-8)."""
+    num_steps: int = 2048
+    """Environment steps per env in one rollout; a rollout holds num_steps x num_envs transitions."""
+    gamma: float = 0.99
+    """Discount factor."""
+    gae_lambda: float = 0.95
+    """GAE lambda (Schulman et al. 2016)."""
+    num_minibatches: int = 32
+    """Minibatches per epoch: of transitions (feed-forward) or of whole environments' sequences (recurrent)."""
+    update_epochs: int = 10
+    """Passes over each rollout."""
+    clip_coef: float = 0.2
+    """Clipping range epsilon of the probability ratio (Schulman et al. 2017, Eq. 7)."""
+    clip_vloss: bool = True
+    """Clip the value update to +-clip_coef around the rollout's values, as the policy's."""
+    ent_coef: float = 0.0
+    """Weight of the entropy bonus."""
+    vf_coef: float = 0.5
+    """Weight of the value loss."""
+    max_grad_norm: float = 0.5
+    """Global gradient norm clip."""
+    norm_adv: bool = True
+    """Standardise advantages within each minibatch."""
+    target_kl: float | None = None
+    """Stop the epochs of an update early once the approximate KL exceeds this (None: never)."""
+    hidden_sizes: tuple[int, ...] = (64, 64)
+    """Tanh hidden layers: of both MLPs (feed-forward), or of the encoder before the recurrent cell."""
+    recurrent: str | None = None
+    """Memory: None (feed-forward actor and critic), "gru" or "lstm" (a shared encoder and cell)."""
+    recurrent_size: int = 64
+    """Hidden units of the GRU/LSTM cell."""
+    init_log_std: float = 0.0
+    """Initial log standard deviation of the Gaussian policy (in the normalised action space)."""
+    norm_obs: bool = True
+    """Standardise observations with running statistics (updated after each rollout)."""
+    checkpoint_every: int = 10
+    """Rollouts between checkpoints; the envs are reset at each, so that resuming is exact (module docstring)."""
+    seed: int = 0
+    """Seeds the networks, the action noise, the minibatch order and the env resets."""
+    device: str = "cpu"
+    """Torch device of the networks and the update."""
+    torch_threads: int = 1
+    """Intra-op CPU threads (`torch.set_num_threads`)."""
+
+    def __post_init__(self):
+        positive_ints = ("num_steps", "num_minibatches", "update_epochs", "recurrent_size", "checkpoint_every",
+                         "torch_threads")
+        for name in positive_ints:
+            value = getattr(self, name)
+            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+                raise ValueError(f"PPOConfig.{name} must be a whole number >= 1, got {value!r}")
+        for name in ("learning_rate", "adam_eps", "clip_coef", "max_grad_norm"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 < value < math.inf):
+                raise ValueError(f"PPOConfig.{name} must be a finite number > 0, got {value!r}")
+        for name in ("gamma", "gae_lambda"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 <= value <= 1):
+                raise ValueError(f"PPOConfig.{name} must be in [0, 1], got {value!r}")
+        for name in ("ent_coef", "vf_coef"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 <= value < math.inf):
+                raise ValueError(f"PPOConfig.{name} must be a finite number >= 0, got {value!r}")
+        if self.target_kl is not None and not (isinstance(self.target_kl, (int, float)) and self.target_kl > 0):
+            raise ValueError(f"PPOConfig.target_kl must be None or a number > 0, got {self.target_kl!r}")
+        if not (isinstance(self.hidden_sizes, tuple)
+                and all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in self.hidden_sizes)):
+            raise ValueError(f"PPOConfig.hidden_sizes must be a tuple of whole numbers >= 1, got {self.hidden_sizes!r}")
+        if self.recurrent not in RECURRENT_KINDS:
+            raise ValueError(f"PPOConfig.recurrent must be one of {RECURRENT_KINDS}, got {self.recurrent!r}")
+        if not (isinstance(self.init_log_std, (int, float)) and -20 <= self.init_log_std <= 2):
+            raise ValueError(f"PPOConfig.init_log_std must be in [-20, 2], got {self.init_log_std!r}")
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
+            raise ValueError(f"PPOConfig.seed must be a whole number >= 0, got {self.seed!r}")
+        for name in ("clip_vloss", "norm_adv", "norm_obs"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
+        if not isinstance(self.device, str) or not self.device:
+            raise ValueError(f"PPOConfig.device must be a torch device name, got {self.device!r}")
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Spaces
+
+
+def env_spec(observation_space: spaces.Space, action_space: spaces.Space) -> dict[str, Any]:
+    """The JSON-able description of one env's spaces that a network and a checkpoint need; ValueError for spaces
+    PPO here cannot take (not a Box or goal Dict observation, not a bounded Box action)."""
+    if isinstance(observation_space, spaces.Dict):
+        missing = [k for k in OBS_KEYS if k not in observation_space.spaces]
+        if missing or not all(isinstance(observation_space[k], spaces.Box) for k in OBS_KEYS):
+            raise ValueError(f"a Dict observation space needs Box entries {OBS_KEYS}, got {observation_space}")
+        parts = [int(np.prod(observation_space[k].shape)) for k in OBS_KEYS]
+        spec: dict[str, Any] = {"kind": "goal", "obs_keys": list(OBS_KEYS), "obs_parts": parts,
+                                "obs_shape": [sum(parts)]}
+    elif isinstance(observation_space, spaces.Box):
+        spec = {"kind": "box", "obs_shape": list(observation_space.shape)}
+    else:
+        raise ValueError(f"observation space must be a Box or a goal Dict, got {type(observation_space).__name__}")
+    if not isinstance(action_space, spaces.Box):
+        raise ValueError(f"action space must be a Box (continuous actions), got {type(action_space).__name__}")
+    low, high = action_space.low.reshape(-1), action_space.high.reshape(-1)
+    if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low < high)):
+        raise ValueError(f"action space bounds must be finite with low < high, got {action_space}")
+    spec.update(obs_dim=int(np.prod(spec["obs_shape"])), act_dim=int(low.size), act_shape=list(action_space.shape),
+                action_low=low.astype(float).tolist(), action_high=high.astype(float).tolist())
+    if spec["obs_dim"] < 1:
+        raise ValueError(f"observation space has no entries: {observation_space}")
+    return spec
+
+
+def flatten_obs(obs: np.ndarray | Mapping[str, np.ndarray], spec: Mapping[str, Any]) -> np.ndarray:
+    """The network input of an observation or a batch (leading dims kept): a Box flattened, a goal Dict's
+    OBS_KEYS flattened and concatenated."""
+    if spec["kind"] == "goal":
+        if not isinstance(obs, Mapping):
+            raise ValueError(f"a goal policy takes a dict observation with keys {OBS_KEYS}, got {type(obs).__name__}")
+        arrays = [np.asarray(obs[k], np.float32) for k in spec["obs_keys"]]
+        lead = arrays[0].shape[:-1] if arrays[0].ndim else ()
+        flat = np.concatenate([a.reshape(*lead, -1) for a in arrays], axis=-1)
+    else:
+        arr = np.asarray(obs, np.float32)
+        flat = arr.reshape(*arr.shape[: arr.ndim - len(spec["obs_shape"])], -1)
+    if flat.shape[-1] != spec["obs_dim"]:
+        raise ValueError(f"observation of size {flat.shape[-1]}, the policy expects {spec['obs_dim']}")
+    return flat
+
+
+def env_action(action: np.ndarray, spec: Mapping[str, Any]) -> np.ndarray:
+    """A normalised action (..., act_dim), clipped to [-1, 1] and rescaled to the env's Box."""
+    low, high = np.asarray(spec["action_low"]), np.asarray(spec["action_high"])
+    a = np.clip(action, -1.0, 1.0)
+    return low + (a + 1.0) * 0.5 * (high - low)
+
+
+def autoreset_mode(env: VectorEnv) -> AutoresetMode:
+    """The env's autoreset mode from `env.metadata["autoreset_mode"]` (NEXT_STEP, Gymnasium's default, when
+    absent); ValueError for DISABLED or an unknown value."""
+    mode = (getattr(env, "metadata", None) or {}).get("autoreset_mode", AutoresetMode.NEXT_STEP)
+    try:
+        mode = mode if isinstance(mode, AutoresetMode) else AutoresetMode(mode)
+    except ValueError:
+        raise ValueError(f"unknown autoreset_mode {mode!r} in the env's metadata") from None
+    if mode == AutoresetMode.DISABLED:
+        raise ValueError("autoreset_mode DISABLED is not supported: PPO needs an autoresetting vector env")
+    return mode
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# The actor-critic
+
+
+def _linear(n_in: int, n_out: int, gain: float) -> nn.Linear:
+    layer = nn.Linear(n_in, n_out)
+    nn.init.orthogonal_(layer.weight, gain)
+    nn.init.zeros_(layer.bias)
+    return layer
+
+
+def _tanh_mlp(n_in: int, hidden_sizes: Sequence[int], n_out: int | None = None, out_gain: float = 1.0) -> nn.Sequential:
+    layers: list[nn.Module] = []
+    for width in hidden_sizes:
+        layers += [_linear(n_in, width, HIDDEN_GAIN), nn.Tanh()]
+        n_in = width
+    if n_out is not None:
+        layers.append(_linear(n_in, n_out, out_gain))
+    return nn.Sequential(*layers)
+
+
+class ActorCritic(nn.Module):
+    """A Gaussian policy and a value function, feed-forward or with a GRU/LSTM memory.
+
+    The memory state is one tensor (batch, state_size): h for a GRU, [h, c] for an LSTM, empty (size 0) for the
+    feed-forward networks, so carrying, zeroing and saving it is the same code for all three.
+    """
+
+    def __init__(self, obs_dim: int, act_dim: int, config: PPOConfig):
+        super().__init__()
+        self.obs_dim, self.act_dim, self.kind = obs_dim, act_dim, config.recurrent
+        self.obs_norm = Normalizer(obs_dim)
+        self.norm_obs = config.norm_obs
+        if self.kind is None:
+            self.actor = _tanh_mlp(obs_dim, config.hidden_sizes, act_dim, ACTOR_OUT_GAIN)
+            self.critic = _tanh_mlp(obs_dim, config.hidden_sizes, 1, CRITIC_OUT_GAIN)
+            self.state_size = 0
+        else:
+            self.encoder = _tanh_mlp(obs_dim, config.hidden_sizes)
+            features = config.hidden_sizes[-1] if config.hidden_sizes else obs_dim
+            cell = nn.GRUCell if self.kind == "gru" else nn.LSTMCell
+            self.core = cell(features, config.recurrent_size)
+            for name, param in self.core.named_parameters():
+                if name.startswith("weight"):
+                    nn.init.orthogonal_(param, 1.0)
+                else:
+                    nn.init.zeros_(param)
+            self.actor_head = _linear(config.recurrent_size, act_dim, ACTOR_OUT_GAIN)
+            self.critic_head = _linear(config.recurrent_size, 1, CRITIC_OUT_GAIN)
+            self.state_size = config.recurrent_size * (2 if self.kind == "lstm" else 1)
+        self.log_std = nn.Parameter(torch.full((act_dim,), float(config.init_log_std)))
+
+    def initial_state(self, batch: int) -> torch.Tensor:
+        """The zero memory of `batch` envs, (batch, state_size)."""
+        ref = self.log_std
+        return torch.zeros(batch, self.state_size, dtype=ref.dtype, device=ref.device)
+
+    def forward(self, obs: torch.Tensor, starts: torch.Tensor, state: torch.Tensor,
+                ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(action means (T, B, act_dim), values (T, B), final state (B, S)) of sequences obs (T, B, obs_dim).
+
+        starts (T, B) is 1 where obs[t] is an episode's first observation: the state is zeroed before it, so
+        nothing of the previous episode reaches it. Feed-forward networks ignore starts and state.
+        """
+        x = self.obs_norm(obs) if self.norm_obs else obs
+        if self.kind is None:
+            return self.actor(x), self.critic(x).squeeze(-1), state
+        features = self.encoder(x)
+        outputs = []
+        for t in range(obs.shape[0]):
+            state = state * (1.0 - starts[t]).unsqueeze(-1)
+            if self.kind == "gru":
+                state = self.core(features[t], state)
+                outputs.append(state)
+            else:
+                h, c = self.core(features[t], tuple(state.chunk(2, dim=-1)))
+                state = torch.cat([h, c], dim=-1)
+                outputs.append(h)
+        out = torch.stack(outputs)
+        return self.actor_head(out), self.critic_head(out).squeeze(-1), state
+
+    def distribution(self, mean: torch.Tensor) -> torch.distributions.Normal:
+        """The Gaussian policy around `mean`, with the state-independent std exp(log_std)."""
+        return torch.distributions.Normal(mean, self.log_std.exp().expand_as(mean))
+
+    def evaluate(self, obs: torch.Tensor, starts: torch.Tensor, state: torch.Tensor, actions: torch.Tensor,
+                 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(log pi(a|s), entropy, V(s)), each (T, B), of a replayed sequence of actions (T, B, act_dim)."""
+        mean, value, _ = self(obs, starts, state)
+        dist = self.distribution(mean)
+        return dist.log_prob(actions).sum(-1), dist.entropy().sum(-1), value
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# GAE and the losses
+
+
+def gae(rewards: torch.Tensor, values: torch.Tensor, terminations: torch.Tensor, truncations: torch.Tensor,
+        next_values: torch.Tensor, gamma: float, lam: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """(advantages, returns) by generalised advantage estimation (Schulman et al. 2016, Eq. 16), arrays (T, N).
+
+    next_values[t] is V(s_{t+1}), the value of the observation that followed action t in the same episode: at a
+    truncation (time limit) that is the episode's final observation, and the TD error bootstraps from it; at a
+    termination it is ignored (no future). The advantage recursion stops at every episode end:
+        delta_t = r_t + gamma (1 - term_t) next_values_t - values_t
+        A_t = delta_t + gamma lam (1 - (term_t or trunc_t)) A_{t+1},   returns_t = A_t + values_t.
+    The last step's A_{t+1} is 0 (the rollout's bootstrap is in next_values[T-1]).
+    """
+    terms, ends = terminations.to(values.dtype), torch.maximum(terminations, truncations).to(values.dtype)
+    deltas = rewards + gamma * (1.0 - terms) * next_values - values
+    advantages = torch.zeros_like(values)
+    running = torch.zeros_like(values[0])
+    for t in reversed(range(values.shape[0])):
+        running = deltas[t] + gamma * lam * (1.0 - ends[t]) * running
+        advantages[t] = running
+    return advantages, advantages + values
+
+
+def masked_mean(x: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+    """Mean of x over the entries where mask is 1 (all when mask is None)."""
+    if mask is None:
+        return x.mean()
+    return (x * mask).sum() / mask.sum().clamp_min(1.0)
+
+
+def clipped_surrogate(logprob: torch.Tensor, old_logprob: torch.Tensor, advantages: torch.Tensor, clip_coef: float,
+                      mask: torch.Tensor | None = None) -> torch.Tensor:
+    """The clipped policy loss -L^CLIP (Schulman et al. 2017, Eq. 7): mean of max(-A r, -A clip(r, 1-e, 1+e)),
+    r = pi/pi_old. Where the clipped term is the larger, its gradient is zero: no incentive to move r further."""
+    ratio = (logprob - old_logprob).exp()
+    return masked_mean(torch.maximum(-advantages * ratio, -advantages * ratio.clamp(1 - clip_coef, 1 + clip_coef)),
+                       mask)
+
+
+def value_loss(values: torch.Tensor, old_values: torch.Tensor, returns: torch.Tensor, clip_coef: float | None,
+               mask: torch.Tensor | None = None) -> torch.Tensor:
+    """0.5 (V - R)^2, or with clip_coef the larger of it and 0.5 (V_old + clip(V - V_old, +-clip_coef) - R)^2
+    (the value clipping of OpenAI Baselines' PPO2)."""
+    loss = (values - returns).square()
+    if clip_coef is not None:
+        clipped = old_values + (values - old_values).clamp(-clip_coef, clip_coef)
+        loss = torch.maximum(loss, (clipped - returns).square())
+    return 0.5 * masked_mean(loss, mask)
+
+
+class Minibatch(NamedTuple):
+    """Sequences (T, B, ...) of a rollout to replay: B whole envs (recurrent) or B single transitions (T = 1)."""
+
+    obs: torch.Tensor
+    starts: torch.Tensor
+    state: torch.Tensor
+    """Memory before obs[0], (B, S)."""
+    actions: torch.Tensor
+    logprobs: torch.Tensor
+    values: torch.Tensor
+    advantages: torch.Tensor
+    returns: torch.Tensor
+    valid: torch.Tensor
+    """1 for transitions in the loss, 0 for NEXT_STEP's reset steps."""
+
+
+def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+    """The PPO objective to minimise, -L^CLIP + vf_coef L^VF - ent_coef S (Schulman et al. 2017, Eq. 9), on one
+    minibatch, and its parts (detached) for the logs."""
+    logprob, entropy, value = model.evaluate(batch.obs, batch.starts, batch.state, batch.actions)
+    advantages, mask = batch.advantages, batch.valid
+    if config.norm_adv:
+        mean = masked_mean(advantages, mask)
+        std = masked_mean((advantages - mean).square(), mask).sqrt()
+        advantages = (advantages - mean) / (std + 1e-8)
+    pg = clipped_surrogate(logprob, batch.logprobs, advantages, config.clip_coef, mask)
+    vf = value_loss(value, batch.values, batch.returns, config.clip_coef if config.clip_vloss else None, mask)
+    ent = masked_mean(entropy, mask)
+    loss = pg + config.vf_coef * vf - config.ent_coef * ent
+    with torch.no_grad():
+        log_ratio = logprob - batch.logprobs
+        stats = {"policy_loss": pg.detach(), "value_loss": vf.detach(), "entropy": ent.detach(),
+                 "approx_kl": masked_mean(log_ratio.exp() - 1 - log_ratio, mask),
+                 "clip_fraction": masked_mean(((log_ratio.exp() - 1).abs() > config.clip_coef).to(mask.dtype), mask)}
+    return loss, stats
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Rollouts and the update
+
+
+@dataclasses.dataclass
+class Rollout:
+    """num_steps x num_envs transitions, (T, N, ...) tensors, with the memory before the first."""
+
+    obs: torch.Tensor
+    starts: torch.Tensor
+    valid: torch.Tensor
+    actions: torch.Tensor
+    logprobs: torch.Tensor
+    values: torch.Tensor
+    rewards: torch.Tensor
+    terminations: torch.Tensor
+    truncations: torch.Tensor
+    next_values: torch.Tensor
+    """V(s_{t+1}) of the same episode (`gae`)."""
+    initial_state: torch.Tensor
+
+    def advantages(self, config: PPOConfig) -> tuple[torch.Tensor, torch.Tensor]:
+        """GAE (advantages, returns), zero on the steps that are not in the loss."""
+        adv, ret = gae(self.rewards, self.values, self.terminations, self.truncations, self.next_values,
+                       config.gamma, config.gae_lambda)
+        return adv * self.valid, ret * self.valid
+
+
+def minibatches(rollout: Rollout, advantages: torch.Tensor, returns: torch.Tensor, config: PPOConfig,
+                generator: torch.Generator) -> list[Minibatch]:
+    """One epoch's minibatches in a random order: groups of whole envs' sequences (recurrent, so the memory is
+    re-run from the rollout's initial state), or of single transitions (feed-forward)."""
+    r = rollout
+    fields = (r.obs, r.starts, r.actions, r.logprobs, r.values, advantages, returns, r.valid)
+    if r.initial_state.shape[-1]:
+        n_envs = r.obs.shape[1]
+        order = torch.randperm(n_envs, generator=generator, device=generator.device).to(r.obs.device)
+        out = []
+        for envs in order.tensor_split(config.num_minibatches):
+            obs, starts, actions, logprobs, values, adv, ret, valid = (x[:, envs] for x in fields)
+            out.append(Minibatch(obs, starts, r.initial_state[envs], actions, logprobs, values, adv, ret, valid))
+        return out
+    flat = [x.reshape(1, -1, *x.shape[2:]) for x in fields]
+    order = torch.randperm(flat[0].shape[1], generator=generator, device=generator.device).to(r.obs.device)
+    out = []
+    for idx in order.tensor_split(config.num_minibatches):
+        obs, starts, actions, logprobs, values, adv, ret, valid = (x[:, idx] for x in flat)
+        no_memory = r.initial_state.new_zeros(len(idx), 0)
+        out.append(Minibatch(obs, starts, no_memory, actions, logprobs, values, adv, ret, valid))
+    return out
+
+
+def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollout, config: PPOConfig,
+           generator: torch.Generator) -> dict[str, float]:
+    """update_epochs passes of minibatch gradient steps on `ppo_loss` over one rollout (Schulman et al. 2017,
+    Algorithm 1); the mean of each loss part over the steps, and the explained variance of the returns."""
+    advantages, returns = rollout.advantages(config)
+    totals: dict[str, float] = {}
+    steps = 0
+    for _ in range(config.update_epochs):
+        kls = []
+        for batch in minibatches(rollout, advantages, returns, config, generator):
+            loss, stats = ppo_loss(model, batch, config)
+            optimizer.zero_grad()
+            loss.backward()
+            nn.utils.clip_grad_norm_(model.parameters(), config.max_grad_norm)
+            optimizer.step()
+            for key, value in stats.items():
+                totals[key] = totals.get(key, 0.0) + float(value)
+            kls.append(stats["approx_kl"])
+            steps += 1
+        if config.target_kl is not None and float(torch.stack(kls).mean()) > config.target_kl:
+            break
+    out = {key: value / max(steps, 1) for key, value in totals.items()}
+    valid = rollout.valid.bool()
+    y, pred = returns[valid], rollout.values[valid]
+    var = float(y.var()) if y.numel() > 1 else 0.0
+    out["explained_variance"] = float("nan") if var == 0 else 1.0 - float((y - pred).var()) / var
+    out["gradient_steps"] = steps
+    return out
+
+
+class Collector:
+    """Steps a vector env with the policy, carrying each env's memory and its episode bookkeeping."""
+
+    def __init__(self, env: VectorEnv, model: ActorCritic, spec: Mapping[str, Any], config: PPOConfig,
+                 generator: torch.Generator):
+        self.env, self.model, self.spec, self.config, self.generator = env, model, spec, config, generator
+        self.mode = autoreset_mode(env)
+        self.num_envs = int(env.num_envs)
+        self.device = torch.device(config.device)
+        self.obs: np.ndarray | None = None
+        self.state = model.initial_state(self.num_envs)
+        self.starts = np.ones(self.num_envs, bool)
+        self.pending_reset = np.zeros(self.num_envs, bool)
+        """NEXT_STEP: envs whose last step ended an episode; their next step is a reset, not a transition."""
+        self.episode_returns = np.zeros(self.num_envs)
+        self.episode_lengths = np.zeros(self.num_envs, int)
+        self.finished: list[tuple[float, int]] = []
+        """(return, length) of the episodes ended since the last `take_finished`."""
+
+    def reset(self, seeds: list[int]) -> None:
+        """Resets every env (new episodes, zero memory)."""
+        obs, _ = self.env.reset(seed=seeds)
+        self.obs = flatten_obs(obs, self.spec)
+        self.state = self.model.initial_state(self.num_envs)
+        self.starts[:] = True
+        self.pending_reset[:] = False
+        self.episode_returns[:] = 0.0
+        self.episode_lengths[:] = 0
+
+    def _tensor(self, x: np.ndarray, dtype: torch.dtype = torch.float32) -> torch.Tensor:
+        return torch.as_tensor(x, dtype=dtype, device=self.device)
+
+    @torch.no_grad()
+    def rollout(self, num_steps: int) -> Rollout:
+        """num_steps steps of every env; the observations are also added to the normaliser's pending stats."""
+        T, N, model = num_steps, self.num_envs, self.model
+        f32 = {"dtype": torch.float32, "device": self.device}
+        obs_buf = torch.zeros(T, N, self.spec["obs_dim"], **f32)
+        actions = torch.zeros(T, N, self.spec["act_dim"], **f32)
+        starts, valid, logprobs, values, rewards, terms, truncs, next_values = (
+            torch.zeros(T, N, **f32) for _ in range(8))
+        initial_state = self.state.clone()
+        act_shape = (N, *self.spec["act_shape"])
+        for t in range(T):
+            obs = self._tensor(self.obs)
+            obs_buf[t], starts[t] = obs, self._tensor(self.starts)
+            valid[t] = self._tensor(~self.pending_reset)
+            mean, value, self.state = model(obs[None], starts[t][None], self.state)
+            dist = model.distribution(mean[0])
+            noise = torch.randn(mean.shape[1:], generator=self.generator, device=self.generator.device)
+            action = mean[0] + dist.stddev * noise.to(self.device)
+            actions[t], logprobs[t], values[t] = action, dist.log_prob(action).sum(-1), value[0]
+            sent = env_action(action.cpu().numpy(), self.spec).reshape(act_shape)
+            next_obs, reward, term, trunc, info = self.env.step(sent.astype(self.env.single_action_space.dtype))
+            reward, term, trunc = (np.asarray(reward, np.float64), np.asarray(term, bool), np.asarray(trunc, bool))
+            rewards[t], terms[t], truncs[t] = self._tensor(reward), self._tensor(term), self._tensor(trunc)
+            ended = term | trunc
+            was_transition = ~self.pending_reset
+            self.episode_returns += np.where(was_transition, reward, 0.0)
+            self.episode_lengths += was_transition
+            for i in np.flatnonzero(ended & was_transition):
+                self.finished.append((float(self.episode_returns[i]), int(self.episode_lengths[i])))
+            self.episode_returns[ended] = 0.0
+            self.episode_lengths[ended] = 0
+            if self.mode == AutoresetMode.SAME_STEP:
+                bootstrap = trunc & ~term
+                if bootstrap.any():
+                    final = np.stack([flatten_obs(_final_observation(info, i), self.spec) if bootstrap[i]
+                                      else self.obs[i] for i in range(N)])
+                    # V(final observation) continues the episode's memory, so no start here
+                    _, final_value, _ = model(self._tensor(final)[None], torch.zeros(1, N, **f32), self.state)
+                    next_values[t] = torch.where(self._tensor(bootstrap).bool(), final_value[0], next_values[t])
+                self.starts = ended
+            else:
+                # NEXT_STEP: an env that just ended shows its final observation now and resets at its next step
+                self.starts = self.pending_reset.copy()
+                self.pending_reset = ended
+            self.obs = flatten_obs(next_obs, self.spec)
+        _, last_value, _ = model(self._tensor(self.obs)[None], self._tensor(self.starts)[None], self.state)
+        following = torch.cat([values[1:], last_value], dim=0)
+        if self.mode == AutoresetMode.SAME_STEP:
+            next_values = torch.where(truncs.bool() & ~terms.bool(), next_values, following)
+        else:
+            next_values = following
+        if self.config.norm_obs:
+            model.obs_norm.update(obs_buf.reshape(-1, self.spec["obs_dim"]).cpu().numpy())
+        return Rollout(obs_buf, starts, valid, actions, logprobs, values, rewards, terms, truncs, next_values,
+                       initial_state)
+
+    def take_finished(self) -> list[tuple[float, int]]:
+        """The (return, length) of the episodes finished since the last call."""
+        out, self.finished = self.finished, []
+        return out
+
+
+def _final_observation(info: Mapping[str, Any], i: int) -> Any:
+    """Env i's final observation from a SAME_STEP info dict (an object array, or a dict of arrays for Dict spaces)."""
+    if "final_obs" not in info:
+        raise ValueError("a SAME_STEP vector env must return info['final_obs'] for the envs that ended")
+    final = info["final_obs"]
+    if isinstance(final, Mapping):
+        return {k: v[i] for k, v in final.items()}
+    return final[i]
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Checkpoints
+
+
+def _generator(config: PPOConfig) -> torch.Generator:
+    generator = torch.Generator(device=config.device)
+    generator.manual_seed(config.seed)
+    return generator
+
+
+def build_model(spec: Mapping[str, Any], config: PPOConfig) -> ActorCritic:
+    """A fresh actor-critic for `spec`, initialised from config.seed (without touching torch's global RNG)."""
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(config.seed)
+        model = ActorCritic(int(spec["obs_dim"]), int(spec["act_dim"]), config)
+    return model.to(config.device)
+
+
+def make_optimizer(model: ActorCritic, config: PPOConfig) -> torch.optim.Adam:
+    """Adam over every trained parameter (the normaliser's statistics are buffers, not parameters)."""
+    return torch.optim.Adam(model.parameters(), lr=config.learning_rate, eps=config.adam_eps)
+
+
+def save_checkpoint(path: str | Path, model: ActorCritic, optimizer: torch.optim.Optimizer | None,
+                    generator: torch.Generator | None, config: PPOConfig, spec: Mapping[str, Any],
+                    counters: Mapping[str, Any]) -> None:
+    """Atomically writes the model (normaliser included), Adam's moments and the RNG with JSON-able metadata."""
+    tensors = {f"model.{k}": v.detach().cpu().clone() for k, v in model.state_dict().items()}
+    if optimizer is not None:
+        for index, state in optimizer.state_dict()["state"].items():
+            for name, value in state.items():
+                tensors[f"optimizer.{index}.{name}"] = torch.as_tensor(value).detach().cpu().clone()
+    if generator is not None:
+        tensors["generator"] = generator.get_state().cpu()
+    meta = {"format": FORMAT, "agent": "ppo", "config": config_to_dict(config), "spec": dict(spec),
+            "counters": dict(counters)}
+    payload = {"tensors": tensors, "metadata": meta}
+    atomic_write(path, lambda f: torch.save(payload, f))
+
+
+def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any], PPOConfig]:
+    """(tensors, metadata, config) of a PPO checkpoint; ValueError naming the file if it is unreadable or foreign."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no checkpoint at {path}")
+    if path.stat().st_size > MAX_CHECKPOINT_BYTES:
+        raise ValueError(f"checkpoint {path} is larger than {MAX_CHECKPOINT_BYTES // 2**20} MiB")
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises many types for corrupt or truncated files
+        raise ValueError(f"checkpoint {path} is corrupt or truncated, or holds more than plain tensors "
+                         f"(torch.load with weights_only=True raised {type(exc).__name__})") from exc
+    ok = (isinstance(payload, dict) and isinstance(payload.get("tensors"), dict)
+          and isinstance(payload.get("metadata"), dict) and payload["metadata"].get("format") == FORMAT)
+    if not ok:
+        raise ValueError(f"checkpoint {path} is not an auv-mj PPO checkpoint (format {FORMAT!r} expected)")
+    tensors, meta = payload["tensors"], payload["metadata"]
+    config = config_from_dict(meta.get("config"), f"checkpoint {path}: config", PPOConfig)
+    spec = meta.get("spec")
+    if not (isinstance(spec, Mapping) and isinstance(spec.get("obs_dim"), int) and isinstance(spec.get("act_dim"), int)
+            and 1 <= spec["obs_dim"] <= 10**6 and 1 <= spec["act_dim"] <= 10**4):
+        raise ValueError(f"checkpoint {path}: its metadata has no valid 'spec' (obs_dim, act_dim)")
+    for name, value in tensors.items():
+        if not isinstance(value, torch.Tensor):
+            raise ValueError(f"checkpoint {path}: entry {name!r:.60} is not a tensor")
+        if value.is_floating_point() and not bool(torch.isfinite(value).all()):
+            raise ValueError(f"checkpoint {path}: tensor {name} holds NaN or infinite values")
+    return tensors, meta, config
+
+
+def load_model(path: str | Path, tensors: Mapping[str, torch.Tensor], spec: Mapping[str, Any],
+               config: PPOConfig) -> ActorCritic:
+    """The actor-critic of a checkpoint's tensors; ValueError naming the file if they do not fit its config."""
+    model = ActorCritic(int(spec["obs_dim"]), int(spec["act_dim"]), config)
+    load_module(model, tensors, "model", Path(path))
+    return model.to(config.device)
+
+
+def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: Mapping[str, torch.Tensor], path: Path) -> None:
+    state: dict[int, dict[str, torch.Tensor]] = {}
+    for key, value in tensors.items():
+        if key.startswith("optimizer."):
+            index, _, name = key[len("optimizer."):].partition(".")
+            if not (index.isdigit() and name):
+                raise ValueError(f"checkpoint {path}: tensor {key!r:.80} is not an optimiser state entry")
+            state.setdefault(int(index), {})[name] = value
+    full = optimizer.state_dict()
+    full["state"] = state
+    try:
+        optimizer.load_state_dict(full)
+    except (RuntimeError, ValueError, KeyError) as exc:
+        raise ValueError(f"checkpoint {path}: its optimiser state does not fit: {' '.join(str(exc).split())}") from None
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Training
+
+
+@dataclasses.dataclass
+class PPOResult:
+    """Where a run was written and how it went (counters are totals over resumes)."""
+
+    run_dir: Path
+    checkpoint: Path
+    env_steps: int
+    iterations: int
+    episodes: int
+    mean_return: float
+    """Mean return of the episodes finished in the last rollout (nan if none)."""
+
+
+def _tensorboard(run_dir: Path, purge_step: int | None) -> Any:
+    from torch.utils.tensorboard import SummaryWriter  # slow import, only when asked for
+
+    return SummaryWriter(str(run_dir / "tb"), purge_step=purge_step)
+
+
+def _open_env(env: VectorEnv | Callable[[], VectorEnv]) -> tuple[VectorEnv, bool]:
+    """The vector env, and whether this module made it (and so closes it)."""
+    if isinstance(env, VectorEnv):
+        return env, False
+    if not callable(env):
+        raise ValueError(f"env must be a gymnasium VectorEnv or a function returning one, got {type(env).__name__}")
+    made = env()
+    if not isinstance(made, VectorEnv):
+        raise ValueError(f"env_fn must return a gymnasium.vector.VectorEnv, got {type(made).__name__}")
+    return made, True
+
+
+def reset_seeds(seed: int, iteration: int, num_envs: int) -> list[int]:
+    """The seeds the envs are reset with before rollout `iteration` (distinct, in auv_mj.seeds.TRAIN)."""
+    return [train_seed(seed, iteration * num_envs + i) for i in range(num_envs)]
+
+
+def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, run_dir: str | Path, total_steps: int,
+          *, resume: bool = False, progress: bool = True, tensorboard: bool = False) -> PPOResult:
+    """Trains PPO on a Gymnasium vector env (or a zero-argument function making one) for `total_steps` env steps
+    (rounded up to whole rollouts of num_steps x num_envs), checkpointing to `run_dir/checkpoint.pt`.
+
+    `config` None takes PPOConfig's defaults (or, resuming, the checkpoint's). `resume=True` continues the run in
+    `run_dir` from its checkpoint (`config`, if given, must equal the saved one) and gives exactly the result of
+    an uninterrupted run to the same `total_steps` (see the module docstring for when). A row per rollout goes to
+    `progress.csv` (rows after the checkpoint, from a crashed run, are dropped on resume) and, with
+    `tensorboard`, to TensorBoard scalars in `run_dir/tb`.
+    """
+    if not isinstance(total_steps, int) or isinstance(total_steps, bool) or total_steps < 1:
+        raise ValueError(f"total_steps must be a whole number >= 1, got {total_steps!r}")
+    run_dir = Path(run_dir)
+    ckpt_path = run_dir / CHECKPOINT_NAME
+    vec_env, owned = _open_env(env)
+    try:
+        spec = env_spec(vec_env.single_observation_space, vec_env.single_action_space)
+        autoreset_mode(vec_env)
+        if resume:
+            tensors, meta, saved = read_checkpoint(ckpt_path)
+            if config is not None and config != saved:
+                raise ValueError(f"checkpoint {ckpt_path} was trained with {saved}, not {config}")
+            config = saved
+            if meta["spec"] != spec:
+                raise ValueError(f"checkpoint {ckpt_path} is for spaces {meta['spec']}, this env has {spec}")
+            counters = dict(meta.get("counters", {}))
+        else:
+            if ckpt_path.exists():
+                raise FileExistsError(f"{ckpt_path} exists: resume it or choose another run directory")
+            config = config or PPOConfig()
+            counters = {"iteration": 0, "env_steps": 0, "episodes": 0, "wall_time": 0.0}
+        num_envs = int(vec_env.num_envs)
+        if config.recurrent is not None and config.num_minibatches > num_envs:
+            raise ValueError(f"PPOConfig.num_minibatches {config.num_minibatches} exceeds the {num_envs} envs: a "
+                             "recurrent minibatch holds whole envs' sequences")
+        if config.num_minibatches > config.num_steps * num_envs:
+            raise ValueError(f"PPOConfig.num_minibatches {config.num_minibatches} exceeds the rollout's "
+                             f"{config.num_steps * num_envs} transitions")
+        torch.set_num_threads(config.torch_threads)
+        generator = _generator(config)
+        if resume:
+            model = load_model(ckpt_path, tensors, spec, config)
+            optimizer = make_optimizer(model, config)
+            _load_optimizer(optimizer, tensors, ckpt_path)
+            if "generator" in tensors:
+                generator.set_state(tensors["generator"])
+        else:
+            model = build_model(spec, config)
+            optimizer = make_optimizer(model, config)
+        return _train_loop(vec_env, model, optimizer, generator, config, spec, run_dir, counters, total_steps,
+                           resume, progress, tensorboard)
+    finally:
+        if owned:
+            vec_env.close()
+
+
+def _logged_rows(path: Path, iterations: int) -> list[dict[str, str]]:
+    """The rows of a run's progress.csv up to rollout `iterations` (those a resumed run keeps)."""
+    if not path.is_file():
+        return []
+    with open(path, newline="") as f:
+        return [row for row in csv.DictReader(f) if row.get("iteration", "").isdigit()
+                and int(row["iteration"]) <= iterations and set(row) == set(LOG_FIELDS)]
+
+
+def _train_loop(vec_env: VectorEnv, model: ActorCritic, optimizer: torch.optim.Optimizer,
+                generator: torch.Generator, config: PPOConfig, spec: dict[str, Any], run_dir: Path,
+                counters: dict[str, Any], total_steps: int, resume: bool, progress: bool,
+                tensorboard: bool) -> PPOResult:
+    """Rollout, update, log, checkpoint, until total_steps; the envs are reset at every checkpoint."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "config.json").write_text(json.dumps({"agent": "ppo", "config": config_to_dict(config),
+                                                     "spec": spec}, indent=2))
+    kept = _logged_rows(run_dir / LOG_NAME, counters["iteration"]) if resume else []
+    log_file = open(run_dir / LOG_NAME, "w", newline="")
+    log = csv.DictWriter(log_file, LOG_FIELDS)
+    log.writeheader()
+    log.writerows(kept)
+    writer = _tensorboard(run_dir, counters["env_steps"] if resume else None) if tensorboard else None
+    collector = Collector(vec_env, model, spec, config, generator)
+    per_rollout = config.num_steps * collector.num_envs
+    iterations = math.ceil(total_steps / per_rollout)
+    bar = progress_bar(total=iterations * per_rollout, initial=counters["env_steps"], unit="step",
+                       disable=not progress)
+    started, wall_before = time.perf_counter(), float(counters.get("wall_time", 0.0))
+    mean_return = float("nan")
+    try:
+        while counters["iteration"] < iterations:
+            t0 = time.perf_counter()
+            if counters["iteration"] % config.checkpoint_every == 0 or collector.obs is None:
+                collector.reset(reset_seeds(config.seed, counters["iteration"], collector.num_envs))
+            model.eval()
+            rollout = collector.rollout(config.num_steps)
+            model.train()
+            stats = update(model, optimizer, rollout, config, generator)
+            model.obs_norm.sync()
+            finished = collector.take_finished()
+            counters["iteration"] += 1
+            counters["env_steps"] += per_rollout
+            counters["episodes"] += len(finished)
+            mean_return = float(np.mean([r for r, _ in finished])) if finished else float("nan")
+            sps = per_rollout / max(time.perf_counter() - t0, 1e-9)
+            row = {"iteration": counters["iteration"], "env_steps": counters["env_steps"],
+                   "episodes": counters["episodes"], "mean_return": mean_return, "samples_per_s": sps,
+                   **{k: stats.get(k, float("nan")) for k in LOG_FIELDS[4:10]}}
+            log.writerow(row)
+            log_file.flush()
+            if writer is not None:
+                for key, value in row.items():
+                    if key not in ("iteration", "env_steps") and np.isfinite(value):
+                        writer.add_scalar(f"ppo/{key}", value, counters["env_steps"])
+            bar.update(per_rollout)
+            bar.set_postfix(ret=f"{mean_return:.3g}", sps=f"{sps:.0f}")
+            if counters["iteration"] % config.checkpoint_every == 0 or counters["iteration"] == iterations:
+                counters["wall_time"] = wall_before + time.perf_counter() - started
+                save_checkpoint(run_dir / CHECKPOINT_NAME, model, optimizer, generator, config, spec, counters)
+    finally:
+        bar.close()
+        log_file.close()
+        if writer is not None:
+            writer.close()
+    return PPOResult(run_dir, run_dir / CHECKPOINT_NAME, counters["env_steps"], counters["iteration"],
+                     counters["episodes"], mean_return)
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# The deployable policy
+
+
+class PPOPolicy:
+    """A trained PPO policy as a deterministic controller: observation -> the clipped mean action in the env's Box.
+
+    Runs in float64 (as `agents.policy.Policy`, so that a closed loop does not depend on the CPU's float32
+    kernels) and carries the memory from call to call; `reset()` before each episode. It takes one observation
+    (a Box array or goal dict) or a batch of them with a leading env dimension; the memory is sized on the first
+    call after a reset.
+    """
+
+    def __init__(self, model: ActorCritic, spec: Mapping[str, Any], device: str = "cpu"):
+        self.model = model.to(device).double().eval()
+        self.spec = dict(spec)
+        self.device = torch.device(device)
+        self.state: torch.Tensor | None = None
+
+    @classmethod
+    def load(cls, path: str | Path, device: str = "cpu") -> PPOPolicy:
+        """The policy of PPO checkpoint `path`; ValueError naming the file if it is unusable."""
+        tensors, meta, config = read_checkpoint(path)
+        model = load_model(path, tensors, meta["spec"], dataclasses.replace(config, device="cpu"))
+        return cls(model, meta["spec"], device)
+
+    def reset(self) -> None:
+        """Forgets the memory: the next call starts an episode."""
+        self.state = None
+
+    @torch.no_grad()
+    def __call__(self, obs: np.ndarray | Mapping[str, np.ndarray]) -> np.ndarray:
+        """The action for `obs`, continuing the episode since the last reset."""
+        flat = flatten_obs(obs, self.spec)
+        single = flat.ndim == 1
+        x = torch.as_tensor(np.asarray(flat, np.float64).reshape(-1, self.spec["obs_dim"]), device=self.device)
+        starts = torch.zeros(1, x.shape[0], dtype=torch.float64, device=self.device)
+        if self.state is None:
+            self.state = self.model.initial_state(x.shape[0])
+        elif self.state.shape[0] != x.shape[0]:
+            raise ValueError(f"a batch of {x.shape[0]} observations, the policy's memory holds {self.state.shape[0]} "
+                             "envs: reset() before changing the batch size")
+        mean, _, self.state = self.model(x[None], starts, self.state)
+        action = env_action(mean[0].cpu().numpy(), self.spec).reshape(-1, *self.spec["act_shape"])
+        return action[0] if single else action
