@@ -8,7 +8,7 @@ Every step of the update is a function that tests call.
   Box; the sampled action is clipped to [-1, 1] and rescaled to the Box only when it is sent to the env, and the
   loss uses the unclipped sample (as CleanRL's `ClipAction`). The deployable policy takes the clipped mean.
 - Observations: a Box (flattened), or a goal Dict whose `observation` and `desired_goal` are concatenated in
-  that order (OBS_KEYS; `achieved_goal` is not an input). A running mean/std normaliser (`agents.networks.
+  that order (OBS_KEYS; `achieved_goal` is not an input). A running mean/std normaliser (`auv_mj.agents.networks.
   Normalizer`, in every checkpoint) standardises them; it is updated from each rollout after the update, so a
   rollout is replayed with the statistics it was collected with (the first ratio of an update is exactly 1).
 - Memory (`recurrent="gru"` or `"lstm"`): an MLP encoder, one GRU/LSTM cell, then linear policy and value heads.
@@ -50,11 +50,10 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from torch import nn
 
+from auv_mj.agents.checkpoint import atomic_write, config_from_dict, config_to_dict, load_module
+from auv_mj.agents.networks import Normalizer
 from auv_mj.console import progress_bar
 from auv_mj.seeds import train_seed
-
-from .checkpoint import atomic_write, config_from_dict, config_to_dict, load_module
-from .networks import Normalizer
 
 FORMAT = "auv-mj-ppo/1"
 """Format tag in every PPO checkpoint's metadata."""
@@ -863,7 +862,7 @@ def _train_loop(vec_env: VectorEnv, model: ActorCritic, optimizer: torch.optim.O
 class PPOPolicy:
     """A trained PPO policy as a deterministic controller: observation -> the clipped mean action in the env's Box.
 
-    Runs in float64 (as `agents.policy.Policy`, so that a closed loop does not depend on the CPU's float32
+    Runs in float64 (as `auv_mj.agents.policy.Policy`, so that a closed loop does not depend on the CPU's float32
     kernels) and carries the memory from call to call; `reset()` before each episode. It takes one observation
     (a Box array or goal dict) or a batch of them with a leading env dimension; the memory is sized on the first
     call after a reset.

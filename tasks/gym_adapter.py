@@ -44,6 +44,10 @@ MAX_RENDER_SIZE = 4096
 MAX_RENDER_DISTANCE = 10_000.0
 """Highest render camera [m]."""
 ENTRY_POINT = "auv_mj.tasks.gym_adapter:AUVGymEnv"
+VECTOR_ENTRY_POINT = "auv_mj.tasks.vector:make_vector_env"
+"""`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")` of the VECTOR_TASKS' ids."""
+VECTOR_TASKS = ("goal", "obstacles", "moving_obstacles", "tunnel")
+"""The planning tasks with a batched environment (`auv_mj.tasks.vector.AUVVectorEnv`)."""
 
 
 def gym_id(task_name: str) -> str:
@@ -343,7 +347,8 @@ def register_envs() -> None:
     """Registers the `auv_mj/*-v0` ids (GYM_IDS, and MIX_ID) with Gymnasium; idempotent."""
     for env_id, task_name in {**GYM_IDS, **GYM_IDS_3D}.items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs={"task_name": task_name})
+            gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs={"task_name": task_name},
+                               vector_entry_point=VECTOR_ENTRY_POINT if task_name in VECTOR_TASKS else None)
     if MIX_ID not in gymnasium.registry:
         gymnasium.register(id=MIX_ID, entry_point="auv_mj.tasks.gym_adapter:PlanningMix")
 

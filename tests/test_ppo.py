@@ -17,7 +17,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from agents.ppo import (
+from auv_mj.agents.ppo import (
     ActorCritic,
     Collector,
     Minibatch,

@@ -251,6 +251,24 @@ class Hydrodynamics:
         wrench = None if disturbance is None else tuple(float(f) for f in disturbance)
         self.bind(model, data)(0, model.opt.timestep, None if wrench is None else lambda: wrench)
 
+    def kernel_arguments(self) -> tuple[np.ndarray, np.ndarray]:
+        """(coefficients, addresses) of the C step `hydro_kernel.c`, in the orders KERNEL_COEFFICIENTS and
+        KERNEL_INDICES: what `bind` hands the native stepper, and the batched step (`auv_mj.sim.batch`) too."""
+        c = self.coefficients
+        a11, a22, a23, a33 = self._a11, self._a22, self._a23, self._a33
+        k_u, k_v, k_r = (max(0.0, -k) for k in (c.X_uu, c.Y_vv, c.N_rr))
+        munk = a11 - a22
+        values = dict(a11=a11, a22=a22, a23=a23, a33=a33, munk=munk, neg_munk=-munk, X_uu=c.X_uu,
+                      Y_uv=c.Y_uv, Y_ur=c.Y_ur, N_uv=c.N_uv, N_ur=c.N_ur, Y_vv=c.Y_vv, Y_vr=c.Y_vr, Y_rv=c.Y_rv,
+                      Y_rr=c.Y_rr, N_vv=c.N_vv, N_vr=c.N_vr, N_rv=c.N_rv, N_rr=c.N_rr, k_u=k_u, k_v=k_v, k_r=k_r,
+                      sway_mass=float(self.total_mass[1, 1]),
+                      cross_flow=float(any((c.Y_vr, c.Y_rv, c.N_vr, c.N_rv))))
+        m_xx, m_yx, m_yy, m_rx, m_ry, m_rr = (int(i) for i in self._M_index)
+        addresses = dict(i_psi=self.qpos_yaw, ix=self._dof_x, iy=self._dof_y, ir=self._dof_yaw, m_xx=m_xx, m_yx=m_yx,
+                         m_yy=m_yy, m_rx=m_rx, m_ry=m_ry, m_rr=m_rr)
+        return (np.array([values[k] for k in KERNEL_COEFFICIENTS]),
+                np.array([addresses[k] for k in KERNEL_INDICES], dtype=np.dtype(ctypes.c_long)))
+
     def bind(self, model: mujoco.MjModel, data: mujoco.MjData, native: bool = True) -> Callable[..., None]:
         """The stepper of this vehicle in (`model`, `data`): `advance(nstep, dt, wrench=None)`.
 
@@ -295,14 +313,7 @@ class Hydrodynamics:
         cross_flow = any((Y_vr, Y_rv, N_vr, N_rv))  # REMUS has none: their zero terms are skipped
         compiled = native_kernel() if native else None
         if compiled is not None:
-            values = dict(a11=a11, a22=a22, a23=a23, a33=a33, munk=munk, neg_munk=neg_munk, X_uu=X_uu,
-                          Y_uv=Y_uv, Y_ur=Y_ur, N_uv=N_uv, N_ur=N_ur, Y_vv=Y_vv, Y_vr=Y_vr, Y_rv=Y_rv, Y_rr=Y_rr,
-                          N_vv=N_vv, N_vr=N_vr, N_rv=N_rv, N_rr=N_rr, k_u=k_u, k_v=k_v, k_r=k_r,
-                          sway_mass=sway_mass, cross_flow=float(cross_flow))
-            addresses = dict(i_psi=i_psi, ix=ix, iy=iy, ir=ir, m_xx=m_xx, m_yx=m_yx, m_yy=m_yy, m_rx=m_rx,
-                             m_ry=m_ry, m_rr=m_rr)
-            return _native_advance(compiled, model, data, np.array([values[k] for k in KERNEL_COEFFICIENTS]),
-                                   np.array([addresses[k] for k in KERNEL_INDICES], dtype=np.dtype(ctypes.c_long)))
+            return _native_advance(compiled, model, data, *self.kernel_arguments())
         factor, step1, step2 = mujoco.mj_factorM, mujoco.mj_step1, mujoco.mj_step2
         cos, sin = math.cos, math.sin
 

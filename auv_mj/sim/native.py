@@ -68,13 +68,15 @@ def mujoco_library_path() -> Path:
     return found[0]
 
 
-def build(compiler: str, target: Path, source: Path = SOURCE, flags: tuple[str, ...] = FLAGS) -> None:
-    """Compiles `source` into the shared library `target`, atomically (a temporary name, then a rename)."""
+def build(compiler: str, target: Path, source: Path = SOURCE, flags: tuple[str, ...] = FLAGS,
+          libraries: tuple[str, ...] = ()) -> None:
+    """Compiles `source` into the shared library `target`, atomically (a temporary name, then a rename);
+    `libraries` are linker arguments put after the source."""
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, temporary = tempfile.mkstemp(suffix=".so", dir=target.parent)
     os.close(fd)
     try:
-        result = subprocess.run([compiler, *flags, "-o", temporary, str(source), "-lm"],
+        result = subprocess.run([compiler, *flags, "-o", temporary, str(source), "-lm", *libraries],
                                 capture_output=True, text=True, timeout=120)
         if result.returncode != 0:
             raise OSError(f"{compiler} failed on {source.name}: {result.stderr.strip()[:500]}")
@@ -84,17 +86,20 @@ def build(compiler: str, target: Path, source: Path = SOURCE, flags: tuple[str, 
             os.unlink(temporary)
 
 
-def compiled(source: Path = SOURCE, flags: tuple[str, ...] = FLAGS) -> Path:
+def compiled(source: Path = SOURCE, flags: tuple[str, ...] = FLAGS, depends: tuple[Path, ...] = (),
+             libraries: tuple[str, ...] = ()) -> Path:
     """The shared library of the C file `source` in the cache, built first if it is not there; it is keyed by the
-    source, the compiler, the flags and the platform. OSError when there is no compiler or the build fails."""
+    source and the files it includes (`depends`), the compiler, the flags, the `libraries` and the platform.
+    OSError when there is no compiler or the build fails."""
     compiler = shutil.which(os.environ.get("CC", "cc"))
     if compiler is None:
         raise OSError(f"no C compiler found ({os.environ.get('CC', 'cc')!r}; set CC)")
-    key = hashlib.sha256(source.read_bytes() + "\0".join((compiler, *flags, platform.machine(),
-                                                            platform.system())).encode()).hexdigest()[:16]
+    texts = b"".join(path.read_bytes() for path in (source, *depends))
+    key = hashlib.sha256(texts + "\0".join((compiler, *flags, *libraries, platform.machine(),
+                                             platform.system())).encode()).hexdigest()[:16]
     target = cache_dir() / f"{source.stem}-{key}.so"
     if not target.exists():
-        build(compiler, target, source, flags)
+        build(compiler, target, source, flags, libraries)
     return target
 
 

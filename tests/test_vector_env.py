@@ -1,0 +1,170 @@
+"""The batched planning env (`auv_mj.tasks.vector.AUVVectorEnv`, issue 45) against the single one (`AUVGymEnv`).
+
+THE test: sub-environment i reset with seed s runs exactly the single environment's episode for seed s under the
+same actions -- observations, rewards, terminated / truncated and every info entry to 1e-9 -- for the four
+planning tasks, both tiers, ideal and ocean water, through autoresets (which continue each sub-environment's
+RandomState, as `AUVGymEnv.reset()` without a seed does). The actions steer at the goal with noise, so that
+episodes end in goals, collisions and time limits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+import auv_mj.tasks  # noqa: F401  (registers the ids)
+from auv_mj.tasks.gym_adapter import AUVGymEnv
+from auv_mj.tasks.vector import AUVVectorEnv
+
+TOLERANCE = 1e-9
+SEEDS = (3, 4, 5)
+TIME_LIMIT = 25.0
+"""Seconds of an episode here (50 steps): every sub-environment reaches its time limit at least once."""
+STEPS = 60
+CASES = [("goal", "standard", water) for water in ("ideal", "ocean")] + [
+    (task, tier, water) for task in ("obstacles", "moving_obstacles", "tunnel") for tier in ("standard", "hard")
+    for water in ("ideal", "ocean")]
+
+
+def task_options(task: str, tier: str, water: str) -> dict:
+    options = {"conditions": water, "time_limit": TIME_LIMIT}
+    if task != "goal":
+        options.update(arena="random", tier=tier)
+    return options
+
+
+def steer(observation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Actions towards the goal's bearing (relative observation: cos, sin at 1, 2), with noise, float32."""
+    bearing = np.arctan2(observation[:, 2], observation[:, 1])
+    heading = np.clip(bearing / (math.pi / 2) + rng.normal(0.0, 0.3, len(bearing)), -1.2, 1.2)
+    speed = rng.uniform(0.5, 1.0, len(bearing))
+    return np.stack([speed, heading], axis=1).astype(np.float32)
+
+
+def assert_close(vector_value, single_value, what: str) -> None:
+    if isinstance(single_value, str):
+        assert vector_value == single_value, what
+        return
+    a, b = np.asarray(vector_value, dtype=float), np.asarray(single_value, dtype=float)
+    assert a.shape == b.shape, what
+    np.testing.assert_allclose(a, b, rtol=0, atol=TOLERANCE, err_msg=what)
+
+
+def run_side_by_side(task: str, options: dict, mode: AutoresetMode, steps: int = STEPS) -> dict:
+    """Steps the batch and one AUVGymEnv per sub-environment on the same actions, comparing everything; returns
+    counts of the episode endings and events seen."""
+    num = len(SEEDS)
+    vector = AUVVectorEnv(task, num, options, threads=2, autoreset_mode=mode)
+    singles = [AUVGymEnv(task, options) for _ in range(num)]
+    observation, info = vector.reset(seed=list(SEEDS))
+    for i, (single, seed) in enumerate(zip(singles, SEEDS, strict=True)):
+        expected, _ = single.reset(seed=seed)
+        for key in expected:
+            assert_close(observation[key][i], expected[key], f"reset {i} {key}")
+    rng = np.random.default_rng(0)
+    pending = np.zeros(num, dtype=bool)
+    seen = {"terminated": 0, "truncated": 0, "autoresets": 0}
+    for t in range(steps):
+        actions = steer(observation["observation"], rng)
+        observation, reward, terminated, truncated, info = vector.step(actions)
+        for i, single in enumerate(singles):
+            where = f"step {t} env {i}"
+            if pending[i]:  # next-step autoreset: this step is the sub-environment's reset
+                expected, expected_info = single.reset()
+                expected_reward, expected_terminated, expected_truncated = 0.0, False, False
+                seen["autoresets"] += 1
+            else:
+                expected, expected_reward, expected_terminated, expected_truncated, expected_info = \
+                    single.step(actions[i])
+            final = mode == AutoresetMode.SAME_STEP and (expected_terminated or expected_truncated)
+            assert_close(reward[i], expected_reward, f"{where} reward")
+            assert terminated[i] == expected_terminated and truncated[i] == expected_truncated, where
+            step_obs = {key: info["final_obs"][i][key] for key in expected} if final else \
+                {key: observation[key][i] for key in expected}
+            step_info = {key: info["final_info"][key][i] for key in info["final_info"]
+                         if not key.startswith("_") and info["final_info"]["_" + key][i]} if final else \
+                {key: info[key][i] for key in info if not key.startswith("_") and key not in ("final_obs", "final_info")
+                 and info["_" + key][i]}
+            for key in expected:
+                assert_close(step_obs[key], expected[key], f"{where} {key}")
+            assert set(step_info) == set(expected_info), where
+            for key, value in expected_info.items():
+                assert_close(step_info[key], value, f"{where} info {key}")
+            if final:  # same-step autoreset: the observation is already the next episode's first
+                expected, _ = single.reset()
+                seen["autoresets"] += 1
+                for key in expected:
+                    assert_close(observation[key][i], expected[key], f"{where} reset {key}")
+            event = expected_info.get("event", "")
+            if event:
+                seen[event] = seen.get(event, 0) + 1
+        seen["terminated"] += int(terminated.sum())
+        seen["truncated"] += int(truncated.sum())
+        pending = (terminated | truncated) if mode == AutoresetMode.NEXT_STEP else np.zeros(num, dtype=bool)
+    vector.close()
+    return seen
+
+
+@pytest.mark.parametrize(("task", "tier", "water"), CASES)
+def test_sub_environment_is_the_single_environment(task, tier, water):
+    seen = run_side_by_side(task, task_options(task, tier, water), AutoresetMode.NEXT_STEP)
+    assert seen["autoresets"] >= len(SEEDS)  # every sub-environment went through an autoreset
+    assert seen["truncated"] >= 1
+
+
+def test_same_step_autoreset_is_the_single_environment():
+    seen = run_side_by_side("moving_obstacles", task_options("moving_obstacles", "standard", "ocean"),
+                            AutoresetMode.SAME_STEP)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
+@pytest.mark.parametrize(("task", "changes", "event", "steps"), [
+    ("goal", {"goal_radius": 50.0, "time_limit": 150.0}, "goal", 230),
+    ("obstacles", {"time_limit": 60.0}, "collision", 140),
+    ("tunnel", {}, "subgoal", 140),
+])
+def test_episodes_end_every_way(task, changes, event, steps):
+    """Goals, sub-goals and collisions happen (and match) under the steering actions."""
+    options = task_options(task, "standard", "ideal") | changes
+    seen = run_side_by_side(task, options, AutoresetMode.NEXT_STEP, steps=steps)
+    assert seen.get(event, 0) >= 1, seen
+
+
+def test_make_vec_returns_the_batch():
+    env = gymnasium.make_vec("auv_mj/Tunnel-v0", num_envs=2, vectorization_mode="vector_entry_point",
+                             task_kwargs={"arena": "random"}, threads=1)
+    single = AUVGymEnv("tunnel", {"arena": "random"})
+    assert isinstance(env.unwrapped, AUVVectorEnv)
+    assert env.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    assert env.single_observation_space == single.observation_space
+    assert env.single_action_space == single.action_space
+    assert env.observation_space["observation"].shape == (2, *single.observation_space["observation"].shape)
+    observation, _ = env.reset(seed=7)
+    assert env.observation_space.contains(observation)
+    env.close()
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"num_envs": 0}, "num_envs"),
+    ({"threads": 0}, "threads"),
+    ({"autoreset_mode": "Disabled"}, "autoreset_mode"),
+    ({"task_kwargs": {"random": 3}}, "reset"),
+])
+def test_bad_options_are_refused(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        AUVVectorEnv("goal", **({"num_envs": 1} | kwargs))
+
+
+def test_bad_actions_are_refused():
+    env = AUVVectorEnv("goal", 2, threads=1)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="finite"):
+        env.step(np.array([[0.0, 0.0], [np.nan, 0.0]]))
+    with pytest.raises(ValueError, match="AUVGymEnv"):
+        gymnasium.make_vec("auv_mj/Goal-v0", num_envs=2, protection=True)
