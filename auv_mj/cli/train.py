@@ -17,8 +17,11 @@ from typing import Any
 import gymnasium as gym
 
 import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
+from auv_mj.agents import ppo
 from auv_mj.agents.checkpoint import agent_classes, config_from_dict, read_checkpoint
 from auv_mj.agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
+from auv_mj.agents.ppo import PPOConfig
+from auv_mj.agents.ppo_planner import MIXTURE_NAME, PLANNER_CONFIG, MixtureConfig, train_planner
 from auv_mj.agents.td3 import TD3Config
 from auv_mj.agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
 from auv_mj.cli.options import (
@@ -32,6 +35,7 @@ from auv_mj.cli.options import (
 )
 from auv_mj.inputs import check_json_depth, read_text
 from auv_mj.planners.deploy import ChainConfig, deploy_env
+from auv_mj.tasks.planning import REWARDS
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
@@ -107,9 +111,10 @@ TASK_KWARGS_NAME = "task_kwargs.json"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj train AGENT --task TASK ...`; every DDPGConfig field is an option."""
-    parser.add_argument("agent", choices=AGENTS,
+    parser.add_argument("agent", choices=(*AGENTS, "ppo"),
                         help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading) | td3 (DDPG with twin "
-                             "critics, delayed actor, target smoothing; any task)")
+                             "critics, delayed actor, target smoothing; any task) | ppo (--task planning-mix: "
+                             "the batched mixture of planning tasks, tiers and waters; options under 'ppo')")
     parser.add_argument("--task", required=True, help="suite task name or Gymnasium id (auv_mj/...-v0)")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
                         help='task options, e.g. \'{"command": "random", "disturbances": "random"}\'; '
@@ -139,6 +144,100 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="step N environments in collector processes while this one learns (1 uses a "
                              "second core; deterministic given --seed and N, not the serial run) [0: serial]")
     add_config_options(parser)
+    add_ppo_options(parser)
+
+
+PPO_TASK = "planning-mix"
+"""The task name of `auv-mj train ppo`: `auv_mj.tasks.mixture.PlanningMixtureVectorEnv`."""
+
+
+def add_ppo_options(parser: argparse.ArgumentParser) -> None:
+    """Options of `auv-mj train ppo --task planning-mix`: the mixture, validation, and one `--ppo-FIELD` per
+    PPOConfig field but seed and device (defaults: `auv_mj.agents.ppo_planner.PLANNER_CONFIG`)."""
+    group = parser.add_argument_group("ppo (--task planning-mix: obstacles, moving_obstacles, tunnel on random arenas, "
+                                      "both tiers, both waters, training seeds only; validation on the hard tier's "
+                                      "validation seeds)")
+    mix = MixtureConfig()
+    group.add_argument("--envs-per-cell", type=positive_int,
+                       help=f"vehicles per (task, tier, water) [{mix.envs_per_cell}]")
+    group.add_argument("--reward", choices=REWARDS, help=f"the tasks' reward [{mix.reward}]")
+    group.add_argument("--collision-penalty", type=float, help=f"penalty on a collision or leaving the map "
+                                                               f"[{mix.collision_penalty}]")
+    group.add_argument("--reward-scale", type=float, help=f"multiplies every reward [{mix.reward_scale}]")
+    group.add_argument("--validate-every", type=positive_int, default=1_000_000, metavar="STEPS",
+                       help="env steps between validations and snapshots (rounded up to checkpoint periods) "
+                            "[1000000]")
+    group.add_argument("--validation-episodes", type=positive_int, default=16, metavar="N",
+                       help="validation-seed episodes per hard-tier cell [16]")
+    group.add_argument("--validation-max-steps", type=positive_int, metavar="N",
+                       help="cut validation episodes after N steps (counted as failures) [the tasks' time limits]")
+    group.add_argument("--threads", type=positive_int, help="threads of the batched physics [this process's CPUs]")
+    docs = field_docs(PPOConfig)
+    for field in dataclasses.fields(PPOConfig):
+        if field.name in _CLI_SKIP:
+            continue
+        default = getattr(PLANNER_CONFIG, field.name)
+        flag, help_text = "--ppo-" + field.name.replace("_", "-"), f"{docs.get(field.name, '')} [{default}]"
+        if field.name == "hidden_sizes":
+            group.add_argument(flag, type=int, nargs="+", help=help_text)
+        elif field.name == "recurrent":
+            group.add_argument(flag, choices=("gru", "lstm", "none"), help=help_text + " (none: no memory)")
+        elif field.name == "target_kl":
+            group.add_argument(flag, type=float, help=help_text)
+        elif isinstance(default, bool):
+            group.add_argument(flag, type=_boolean, help=help_text)
+        else:
+            group.add_argument(flag, type=type(default), help=help_text)
+
+
+def _boolean(text: str) -> bool:
+    if text.lower() in ("true", "1", "yes"):
+        return True
+    if text.lower() in ("false", "0", "no"):
+        return False
+    raise argparse.ArgumentTypeError(f"expected true or false, got {text!r}")
+
+
+def _run_ppo(args: argparse.Namespace) -> int:
+    """`auv-mj train ppo --task planning-mix`: `auv_mj.agents.ppo_planner.train_planner`."""
+    try:
+        if args.task != PPO_TASK:
+            raise ValueError(f"agent ppo trains on --task {PPO_TASK} (the batched mixture), got {args.task!r}")
+        if args.steps is None:
+            raise ValueError("agent ppo needs --steps (total env steps)")
+        run_dir = args.run_dir or Path("runs") / PPO_TASK / f"ppo-seed{args.seed or 0}"
+        overrides = {f.name: getattr(args, "ppo_" + f.name) for f in dataclasses.fields(PPOConfig)
+                     if getattr(args, "ppo_" + f.name, None) is not None}
+        if "hidden_sizes" in overrides:
+            overrides["hidden_sizes"] = tuple(overrides["hidden_sizes"])
+        if overrides.get("recurrent") == "none":
+            overrides["recurrent"] = None
+        for name in ("seed", "device"):
+            if getattr(args, name) is not None:
+                overrides[name] = getattr(args, name)
+        mix_fields = {"envs_per_cell": args.envs_per_cell, "reward": args.reward,
+                      "collision_penalty": args.collision_penalty, "reward_scale": args.reward_scale}
+        mix_overrides = {k: v for k, v in mix_fields.items() if v is not None}
+        if args.resume:
+            saved = _read_options(run_dir / MIXTURE_NAME)
+            base_mix = MixtureConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in saved.items()})
+            base = ppo.read_checkpoint(run_dir / ppo.CHECKPOINT_NAME)[2]
+        else:
+            base_mix, base = MixtureConfig(), PLANNER_CONFIG
+            if (run_dir / ppo.CHECKPOINT_NAME).exists():
+                raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: give --resume or another --run-dir")
+        mixture = dataclasses.replace(base_mix, **mix_overrides)
+        config = dataclasses.replace(base, **overrides)
+        result = train_planner(run_dir, config, mixture, args.steps, validate_every=args.validate_every,
+                               validation_episodes=args.validation_episodes, resume=args.resume,
+                               progress=not args.no_progress, tensorboard=not args.no_tensorboard,
+                               threads=args.threads, validation_max_steps=args.validation_max_steps)
+    except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
+        usage_error(args, str(exc))
+    print(f"{result['env_steps']} steps; best hard-tier validation success {result['best_success']:.3f} at "
+          f"{result['best_steps']} steps")
+    print(f"checkpoint: {result['checkpoint']}  best: {result['best']}")
+    return 0
 
 
 def add_config_options(parser: argparse.ArgumentParser) -> None:
@@ -191,6 +290,8 @@ def _read_options(path: Path) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     """Runs `auv-mj train`; returns the exit status."""
+    if args.agent == "ppo":
+        return _run_ppo(args)
     if args.collectors < 0:
         usage_error(args, f"--collectors must be >= 0, got {args.collectors}")
     try:

@@ -34,6 +34,8 @@ import torch
 from auv_mj.agents.baselines import uniform_random
 from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.agents.policy import Policy
+from auv_mj.agents.ppo import FORMAT as PPO_FORMAT
+from auv_mj.agents.ppo import PPOPolicy
 from auv_mj.arenas import arena
 from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsion
 from auv_mj.planners.bug import bug_planner
@@ -43,6 +45,7 @@ from auv_mj.planners.los3d import classical_3d
 from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
 from auv_mj.tasks import suite
 from auv_mj.tasks.auv3d import SUITE3D, is_3d
+from auv_mj.tasks.gym_adapter import gym_spaces
 from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController
 from auv_mj.zoo.spec import (
@@ -274,6 +277,56 @@ register("planner-map", PolicySpec(
     "planner-route on the sonar map's path without training on it (`guide=\"map\"`): what planner-general's "
     "training on the map adds over it", lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", guide="map"),
     family="learned", checkpoint="planner_route.pt", **GENERAL_DEPLOYMENT, role="reference"))
+@lru_cache(maxsize=8)
+def _loaded_ppo(path: str, mtime_ns: int, size: int) -> PPOPolicy:
+    return PPOPolicy.load(path)
+
+
+def is_ppo_checkpoint(path: Path) -> bool:
+    """Whether `path` is a PPO checkpoint (`auv_mj.agents.ppo`), whose planners read the task's default
+    observation."""
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception:  # not a readable checkpoint: the DDPG reader says why
+        return False
+    return isinstance(payload, dict) and isinstance(payload.get("metadata"), dict) \
+        and payload["metadata"].get("format") == PPO_FORMAT
+
+
+def recurrent_policy(path: Path, env, protection: str | None = None) -> ActingPolicy:
+    """A PPO checkpoint's deterministic policy on time steps of `env`, its memory (GRU state) carried through
+    the episode and zeroed on `time_step.first()`; the task's planning observation and desired goal are its
+    input. `protection` (a domain of `auv_mj.planners.avoidance.PROTECTIONS`) runs it under that domain through
+    the deployment chain; None: nothing between the network and the task."""
+    stat = Path(path).stat()
+    shared = _loaded_ppo(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
+    policy = PPOPolicy(shared.model, shared.spec)  # this episode's own memory over the shared network
+    observe = gym_spaces(env)[2]
+    actions = tuple(env.action_spec().shape)
+    if tuple(policy.spec["act_shape"]) != actions:
+        raise ValueError(f"checkpoint {path} does not fit this task: it gives {policy.spec['act_shape']} actions, "
+                         f"the task takes shape {actions}")
+
+    def act(time_step):
+        if time_step.first():
+            policy.reset()
+        return policy(observe(time_step.observation))
+
+    return act if protection is None else deployed(act, Chain(ChainConfig(protection=protection), env))
+
+
+MEMORY_PLANNER = "planner_memory.pt"
+"""The shipped checkpoint of `planner-memory`: PPO with a GRU on the training mixture, chosen on validation seeds
+(docs/runs/planner-memory-ppo/)."""
+register("planner-memory", PolicySpec(
+    "a planner learned from scratch (PPO with a GRU memory) on random obstacles, moving obstacles and tunnels, both "
+    "tiers and waters: the sonars, its motion and the goal in, (speed, heading) out, nothing classical under it",
+    lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=MEMORY_PLANNER, tasks="planning",
+    protection=False, accepts_path=True, role="comparison"))
+register("planner-memory-safe", PolicySpec(
+    "planner-memory inside the speed-aware protection domain and the geofence (the safety layer under it)",
+    lambda d: recurrent_policy(d.checkpoint, d.env, "speed-aware"), family="learned", checkpoint=MEMORY_PLANNER,
+    tasks="planning", protection="speed-aware", accepts_path=True, role="comparison"))
 register("los-fast", PolicySpec("line of sight along the route at 2 m/s inside the speed-aware protection domain and "
                                 "the geofence: planner-route's zero action at top speed",
                                 lambda d: fast_line_of_sight(d.env), tasks="planning", protection="speed-aware",
@@ -359,7 +412,7 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     elif spec.default_executor is not None and planning:
         task_kwargs["executor"] = named_executor(spec.default_executor)
     checkpoint = _checkpoint_of(spec, path, task_name)
-    if checkpoint is not None and "observation" not in task_kwargs:
+    if checkpoint is not None and "observation" not in task_kwargs and not is_ppo_checkpoint(checkpoint):
         meta = read_checkpoint(checkpoint)[1]
         if not planning:  # the executor's observation (residual, gains, base) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})

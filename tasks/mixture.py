@@ -1,0 +1,212 @@
+"""A batched training mixture of planning tasks: one `AUVVectorEnv` per (task, tier, water), side by side.
+
+`PlanningMixtureVectorEnv` holds `envs_per_cell` vehicles of each combination of MIXTURE_TASKS (random
+obstacles, random moving obstacles, random tunnels: every task with `arena="random"`), the two tiers and the two
+waters of the held-out benchmark, and presents them as one `gymnasium.vector.VectorEnv` whose sub-environments
+are the cells' concatenated (cell k holds rows k * envs_per_cell ... (k + 1) * envs_per_cell - 1). A policy
+trained on it sees every kind of arena in every water in each rollout, in equal shares.
+
+Seeds: it is a training env and draws every episode from `auv_mj.seeds.TRAIN` only. `reset(seed=s)` (an int)
+starts row i with `train_seed(s, i)`; a list of seeds must lie in TRAIN (ValueError otherwise: validation and
+test seeds never reach training). Each later episode of a row, started by the autoreset, gets the next training
+seed of the same stream, `train_seed(base, num_envs + j)` for the j-th autoreset in row order, where `base` is the
+int (or the first seed of the list) of the last reset: the whole sequence of episodes follows from the reset
+seeds, which PPO derives from its run seed. (The row's task RandomState is re-seeded with that seed as the
+episode ends, so that the sub-env's own NEXT_STEP autoreset is exactly `reset(seed=that seed)`.)
+
+`reward_scale` multiplies every reward (PPO's value targets stay near 1 with the progress reward's metres).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from auv_mj import seeds as seed_ranges
+from auv_mj.tasks import options as checks
+from auv_mj.tasks.vector import AUVVectorEnv
+
+MIXTURE_TASKS = ("obstacles", "moving_obstacles", "tunnel")
+"""The planning tasks of the mixture, each on procedural arenas (`arena="random"`)."""
+TIERS = ("standard", "hard")
+"""The arena tiers (the benchmark's `tier` option)."""
+WATERS = ("ideal", "ocean")
+"""The waters (the benchmark's `conditions` option)."""
+MAX_ENVS_PER_CELL = 1024
+"""Most vehicles per (task, tier, water) cell."""
+OWN_OPTIONS = ("arena", "tier", "conditions", "random")
+"""Task options the mixture sets itself per cell; `task_kwargs` may not give them."""
+
+
+def mixture_cells(tasks: Sequence[str] = MIXTURE_TASKS, tiers: Sequence[str] = TIERS,
+                  waters: Sequence[str] = WATERS) -> list[tuple[str, str, str]]:
+    """The (task, tier, water) cells of a mixture, in row order."""
+    for name, values, allowed in (("tasks", tasks, MIXTURE_TASKS), ("tiers", tiers, TIERS),
+                                  ("waters", waters, WATERS)):
+        if not values or isinstance(values, str):
+            raise ValueError(f"{name} must be a non-empty list drawn from {list(allowed)}, got {checks.shown(values)}")
+        for value in values:
+            checks.choice(name, value, allowed)
+        if len(set(values)) != len(values):
+            raise ValueError(f"{name} repeats an entry: {list(values)}")
+    return list(itertools.product(tasks, tiers, waters))
+
+
+def _merged_box(boxes: Sequence[spaces.Box], name: str) -> spaces.Box:
+    shapes = {b.shape for b in boxes}
+    if len(shapes) != 1:
+        raise ValueError(f"the mixture's tasks disagree on the shape of {name}: {sorted(shapes)}")
+    low = np.minimum.reduce([b.low for b in boxes])
+    high = np.maximum.reduce([b.high for b in boxes])
+    return spaces.Box(low, high, dtype=boxes[0].dtype)
+
+
+class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
+    """Planning tasks x tiers x waters on procedural arenas as one batched env (see the module docstring)."""
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, envs_per_cell: int = 8, tasks: Sequence[str] = MIXTURE_TASKS,
+                 tiers: Sequence[str] = TIERS, waters: Sequence[str] = WATERS,
+                 task_kwargs: Mapping[str, Any] | None = None, reward_scale: float = 1.0,
+                 threads: int | None = None):
+        """`task_kwargs` go to every cell's tasks (e.g. {"reward": "progress"}), beside the cell's own arena,
+        tier and conditions; `threads` are each cell's C batch threads (default: this process's CPUs)."""
+        if isinstance(envs_per_cell, bool) or not isinstance(envs_per_cell, int | np.integer) \
+                or not 1 <= envs_per_cell <= MAX_ENVS_PER_CELL:
+            raise ValueError(f"envs_per_cell must be a whole number in [1, {MAX_ENVS_PER_CELL}], got "
+                             f"{checks.shown(envs_per_cell)}")
+        if isinstance(reward_scale, bool) or not isinstance(reward_scale, int | float) \
+                or not 0 < reward_scale < np.inf:
+            raise ValueError(f"reward_scale must be a finite number > 0, got {checks.shown(reward_scale)}")
+        if task_kwargs is not None and not isinstance(task_kwargs, Mapping):
+            raise ValueError(f"task_kwargs must be a dict of task options, got {checks.shown(task_kwargs)}")
+        task_kwargs = dict(task_kwargs or {})
+        own = sorted(set(task_kwargs) & set(OWN_OPTIONS))
+        if own:
+            raise ValueError(f"task_kwargs: {', '.join(own)} are set by the mixture per cell (arena 'random', its "
+                             "tier and water; seeds through reset)")
+        self.cells = mixture_cells(tasks, tiers, waters)
+        self.envs_per_cell = int(envs_per_cell)
+        self.reward_scale = float(reward_scale)
+        self.task_kwargs = task_kwargs
+        self.subenvs = [AUVVectorEnv(task, num_envs=self.envs_per_cell, threads=threads,
+                                     task_kwargs={**task_kwargs, "arena": "random", "tier": tier, "conditions": water})
+                        for task, tier, water in self.cells]
+        self.num_envs = self.envs_per_cell * len(self.subenvs)
+        first = self.subenvs[0].single_observation_space
+        for sub in self.subenvs[1:]:
+            if set(sub.single_observation_space.spaces) != set(first.spaces):
+                raise ValueError("the mixture's tasks have different observation keys")
+        self.single_observation_space = spaces.Dict({
+            key: _merged_box([sub.single_observation_space[key] for sub in self.subenvs], key)
+            for key in first.spaces})
+        self.single_action_space = _merged_box([sub.single_action_space for sub in self.subenvs], "the action")
+        if any(not np.array_equal(sub.single_action_space.low, self.single_action_space.low)
+               or not np.array_equal(sub.single_action_space.high, self.single_action_space.high)
+               for sub in self.subenvs):
+            raise ValueError("the mixture's tasks have different action bounds")
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.cell_of_row = np.repeat(np.arange(len(self.subenvs)), self.envs_per_cell)
+        """Row -> index into `cells`."""
+        self._base: int | None = None
+        self._episodes = 0
+        self.episode_seeds = np.zeros(self.num_envs, dtype=np.int64)
+        """The training seed of each row's current (or pending, after an episode ended) episode."""
+
+    # --- seeds -----------------------------------------------------------------------------------------
+
+    def _next_seed(self) -> int:
+        seed = seed_ranges.train_seed(self._base, self.num_envs + self._episodes)
+        self._episodes += 1
+        return seed
+
+    def reset(self, *, seed: int | Sequence[int] | None = None, options: dict | None = None):
+        """Starts every row's episode: `seed` an int (row i: `train_seed(seed, i)`), a list of TRAIN seeds, or
+        None (the next seeds of the current stream; the stream of seed 0 before any reset)."""
+        if options:
+            raise ValueError(f"reset options are not supported, got {checks.shown(options)}")
+        if seed is None:
+            if self._base is None:
+                self._base = 0
+                seed_list = [seed_ranges.train_seed(0, i) for i in range(self.num_envs)]
+            else:
+                seed_list = [self._next_seed() for _ in range(self.num_envs)]
+        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+            checks.seed(int(seed), "seed")
+            self._base, self._episodes = int(seed), 0
+            seed_list = [seed_ranges.train_seed(int(seed), i) for i in range(self.num_envs)]
+        else:
+            seed_list = [int(s) for s in seed]
+            if len(seed_list) != self.num_envs:
+                raise ValueError(f"seed: {self.num_envs} seeds (one per sub-environment), got {len(seed_list)}")
+            outside = [s for s in seed_list if s not in seed_ranges.TRAIN]
+            if outside:
+                raise ValueError(f"seed: the training mixture takes training seeds only (auv_mj.seeds.TRAIN, "
+                                 f"[{seed_ranges.TRAIN.start}, {seed_ranges.TRAIN.stop})), got {outside[0]}")
+            self._base, self._episodes = seed_list[0], 0
+        self.episode_seeds[:] = seed_list
+        observations, infos = [], []
+        n = self.envs_per_cell
+        for k, sub in enumerate(self.subenvs):
+            obs, info = sub.reset(seed=seed_list[k * n:(k + 1) * n])
+            observations.append(obs)
+            infos.append(info)
+        return self._concat_obs(observations), self._concat_infos(infos)
+
+    # --- stepping --------------------------------------------------------------------------------------
+
+    def step(self, actions):
+        """One planner step of every row; an ended episode's row is re-seeded with the next training seed and
+        resets at its next step (NEXT_STEP autoreset)."""
+        actions = np.asarray(actions)
+        if actions.shape != self.action_space.shape:
+            raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
+        n = self.envs_per_cell
+        parts = [sub.step(actions[k * n:(k + 1) * n]) for k, sub in enumerate(self.subenvs)]
+        reward = np.concatenate([p[1] for p in parts]) * self.reward_scale
+        terminated = np.concatenate([p[2] for p in parts])
+        truncated = np.concatenate([p[3] for p in parts])
+        for row in np.flatnonzero(terminated | truncated):
+            seed = self._next_seed()
+            self.episode_seeds[row] = seed
+            sub = self.subenvs[row // n]
+            sub.envs[row % n].task.random.seed(seed)  # the sub-env's autoreset is then reset(seed=seed)
+        infos = self._concat_infos([p[4] for p in parts])
+        return self._concat_obs([p[0] for p in parts]), reward, terminated, truncated, infos
+
+    def _concat_obs(self, observations: list[dict]) -> dict:
+        return {key: np.concatenate([o[key] for o in observations]).astype(space.dtype, copy=False)
+                for key, space in self.single_observation_space.spaces.items()}
+
+    def _concat_infos(self, infos: list[dict]) -> dict:
+        """Gymnasium's dict of arrays over all rows; a key some cells lack is masked out for their rows."""
+        keys = [k for k in dict.fromkeys(itertools.chain.from_iterable(infos)) if not k.startswith("_")]
+        n = self.envs_per_cell
+        merged: dict[str, Any] = {}
+        for key in keys:
+            sample = next(np.asarray(info[key]) for info in infos if key in info)
+            if sample.dtype == object or isinstance(infos[0].get(key), dict):
+                continue  # final_obs / final_info are SAME_STEP's; this env autoresets NEXT_STEP
+            values = np.zeros((self.num_envs, *sample.shape[1:]), dtype=sample.dtype)
+            mask = np.zeros(self.num_envs, dtype=bool)
+            for k, info in enumerate(infos):
+                if key in info:
+                    values[k * n:(k + 1) * n] = info[key]
+                    mask[k * n:(k + 1) * n] = info.get("_" + key, np.ones(n, bool))
+            merged[key], merged["_" + key] = values, mask
+        return merged
+
+    def close_extras(self, **kwargs) -> None:
+        """Closes every cell's batch."""
+        for sub in self.subenvs:
+            sub.close()
+        self.subenvs = []

@@ -1,0 +1,142 @@
+"""The planner learned from scratch: the training mixture's seeds, the registered recurrent policy's memory, and a
+short `auv-mj train ppo` run that checkpoints, validates and resumes exactly."""
+
+from __future__ import annotations
+
+import csv
+
+import dm_env
+import numpy as np
+import pytest
+import torch
+
+from auv_mj import seeds
+from auv_mj.agents import ppo
+from auv_mj.cli import main
+from auv_mj.tasks import suite
+from auv_mj.tasks.mixture import PlanningMixtureVectorEnv, mixture_cells
+from auv_mj.tasks.vector import AUVVectorEnv
+from auv_mj.zoo.registry import is_ppo_checkpoint, make_env, make_policy, recurrent_policy
+
+SHORT = {"time_limit": 1.0}
+"""Episodes of two planner steps, so that autoresets come at once."""
+
+
+def _mixture(**kwargs) -> PlanningMixtureVectorEnv:
+    return PlanningMixtureVectorEnv(envs_per_cell=2, tasks=("obstacles", "moving_obstacles"), tiers=("hard",),
+                                    waters=("ideal", "ocean"), **kwargs)
+
+
+def test_mixture_cells_and_rows():
+    assert len(mixture_cells()) == 12
+    env = _mixture()
+    assert env.num_envs == 8
+    assert [env.cells[k] for k in env.cell_of_row] == [
+        ("obstacles", "hard", "ideal")] * 2 + [("obstacles", "hard", "ocean")] * 2 + [
+        ("moving_obstacles", "hard", "ideal")] * 2 + [("moving_obstacles", "hard", "ocean")] * 2
+    with pytest.raises(ValueError, match="tier"):
+        PlanningMixtureVectorEnv(envs_per_cell=1, task_kwargs={"tier": "hard"})
+    with pytest.raises(ValueError, match="tasks"):
+        PlanningMixtureVectorEnv(envs_per_cell=1, tasks=("goal",))
+
+
+def test_mixture_seeds_are_training_seeds_and_deterministic():
+    env = _mixture(task_kwargs=SHORT)
+    obs, _ = env.reset(seed=5)
+    first = env.episode_seeds.copy()
+    assert first.tolist() == [seeds.train_seed(5, i) for i in range(8)]
+    again, _ = _mixture(task_kwargs=SHORT).reset(seed=5)
+    for key in obs:
+        np.testing.assert_array_equal(obs[key], again[key])
+    # row 3 (obstacles / hard / ocean, its second vehicle) is episode seed first[3]: the cell's own batch agrees
+    alone, _ = AUVVectorEnv("obstacles", 1, task_kwargs={**SHORT, "arena": "random", "tier": "hard",
+                                                         "conditions": "ocean"}).reset(seed=[int(first[3])])
+    np.testing.assert_array_equal(obs["observation"][3], alone["observation"][0])
+    actions = np.zeros(env.action_space.shape)
+    ended = np.zeros(8, dtype=bool)
+    while not ended.all():
+        _, _, term, trunc, _ = env.step(actions)
+        ended |= term | trunc
+    # every episode ended together (the short time limit): the next seeds follow in row order
+    assert env.episode_seeds.tolist() == [seeds.train_seed(5, 8 + j) for j in range(8)]
+    assert all(int(s) in seeds.TRAIN for s in env.episode_seeds)
+    obs, reward, _, _, _ = env.step(actions)  # NEXT_STEP: the autoreset
+    assert np.all(reward == 0)
+    fresh, _ = AUVVectorEnv("moving_obstacles", 1, task_kwargs={**SHORT, "arena": "random", "tier": "hard",
+                                                                "conditions": "ideal"}).reset(
+        seed=[int(env.episode_seeds[4])])
+    np.testing.assert_array_equal(obs["observation"][4], fresh["observation"][0])
+
+
+def test_mixture_refuses_validation_and_test_seeds():
+    env = _mixture()
+    good = [seeds.train_seed(0, i) for i in range(8)]
+    env.reset(seed=good)
+    for outside in (seeds.VALIDATION.start, seeds.TEST.start + 3):
+        with pytest.raises(ValueError, match="training seeds only"):
+            env.reset(seed=[outside, *good[1:]])
+
+
+def _tiny_checkpoint(tmp_path, recurrent):
+    env = AUVVectorEnv("obstacles", 1, task_kwargs={"arena": "random"})
+    spec = ppo.env_spec(env.single_observation_space, env.single_action_space)
+    config = ppo.PPOConfig(recurrent=recurrent, hidden_sizes=(16,), recurrent_size=8, init_log_std=0.0)
+    model = ppo.build_model(spec, config)
+    with torch.no_grad():  # a policy head that reads the memory (the initial 0.01 gain hides it)
+        head = model.actor_head if recurrent else model.actor[-1]
+        head.weight.normal_(0.0, 2.0, generator=torch.Generator().manual_seed(1))
+    path = tmp_path / "planner.pt"
+    ppo.save_checkpoint(path, model, None, None, config, spec, {"iteration": 0, "env_steps": 0})
+    return path
+
+
+def test_registered_policy_resets_its_memory_at_episode_start(tmp_path):
+    path = _tiny_checkpoint(tmp_path, "gru")
+    assert is_ppo_checkpoint(path)
+    name = f"planner-memory={path}"
+    env = make_env(name, "obstacles", 20_000, arena="random", tier="hard")
+    act = make_policy(name, env, task="obstacles")
+    first = env.reset()
+    a0 = act(first)
+    time_step = first
+    for _ in range(4):
+        time_step = env.step(act(time_step))
+    carried = act(time_step._replace(step_type=dm_env.StepType.MID, observation=first.observation))
+    assert not np.allclose(carried, a0)  # the memory changes the action: the test below can fail
+    env2 = make_env(name, "obstacles", 20_000, arena="random", tier="hard")
+    restart = env2.reset()
+    np.testing.assert_allclose(act(restart), a0, rtol=0, atol=1e-12)  # first(): the memory was zeroed
+    fresh = recurrent_policy(path, env2)
+    np.testing.assert_allclose(fresh(restart), a0, rtol=0, atol=1e-12)
+
+
+def _rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _train(run_dir, steps, *extra):
+    return main(["train", "ppo", "--task", "planning-mix", "--steps", str(steps), "--envs-per-cell", "1",
+                 "--ppo-num-steps", "8", "--ppo-num-minibatches", "2", "--ppo-update-epochs", "1",
+                 "--ppo-hidden-sizes", "16", "--ppo-recurrent-size", "8", "--ppo-checkpoint-every", "1",
+                 "--validate-every", "96", "--validation-episodes", "1", "--validation-max-steps", "3",
+                 "--run-dir", str(run_dir), "--no-progress", "--no-tensorboard", *extra])
+
+
+def test_train_ppo_checkpoints_validates_and_resumes_exactly(tmp_path):
+    assert _train(tmp_path / "a", 192) == 0
+    assert (tmp_path / "a" / "snapshots" / "steps_96.pt").is_file()
+    assert (tmp_path / "a" / "best.pt").is_file()
+    assert [r["env_steps"] for r in _rows(tmp_path / "a" / "validation.csv")] == ["96", "192"]
+    assert _train(tmp_path / "a", 288, "--resume") == 0
+    assert _train(tmp_path / "b", 288) == 0
+    resumed, meta, config = ppo.read_checkpoint(tmp_path / "a" / "checkpoint.pt")
+    straight, meta_b, _ = ppo.read_checkpoint(tmp_path / "b" / "checkpoint.pt")
+    assert config.recurrent == "gru" and meta["counters"]["env_steps"] == 288
+    for key, value in straight.items():
+        if key.startswith("model."):
+            torch.testing.assert_close(resumed[key], value, rtol=0, atol=0)
+    assert [r["env_steps"] for r in _rows(tmp_path / "a" / "validation.csv")] == ["96", "192", "288"]
+    with pytest.raises(SystemExit):
+        _train(tmp_path / "b", 288)  # the run exists: --resume or another directory
+    assert suite.DOMAIN == "auv"
