@@ -7,7 +7,8 @@
   (VERTICAL_SHARE of its horizontal force). Metrics add mae_depth [m] (`last_info["depth_error"]`).
 - `goal3d`: reach a goal in 3-D among obstacles over a seabed (`arena="random"` draws them).
 - `tunnel3d`: follow a tube along an x, y, z centreline to its end (`auv_mj.arenas.tubes`; `arena="random"`
-  draws procedural tubes with climbs, dives and bends).
+  draws procedural tubes with climbs, dives and bends, `arena=PATH` flies a tube file from `auv-mj tunnel --tube`,
+  its rocks and moving spheres included).
 
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
@@ -24,6 +25,7 @@ import auv_mj  # noqa: F401  # isort: skip  (first: it picks MuJoCo's OpenGL bac
 import collections
 import math
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -32,8 +34,9 @@ from dm_control.suite import base
 from dm_control.utils import containers, rewards
 from dm_env import specs
 
-from auv_mj.arenas import arena3d, tubes
+from auv_mj.arenas import arena3d, arena_check, tubes
 from auv_mj.geometry import wrap_angle
+from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
 from auv_mj.sim import ocean3d
 from auv_mj.sim.physics6 import AUV6Physics, euler_angles, set_pose
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, Sensors3D
@@ -335,8 +338,13 @@ class Planning3D(base.Task):
 
     time_limit = GOAL_TIME_LIMIT
 
+    ARENAS = ("random", "fixed")
+    """The `arena` choices every planning task has (a task may take arena files too: `_arena_option`)."""
+
     def __init__(self, arena: str = "random", random=None, conditions="ideal"):
-        self._arena_mode = options.choice("arena", arena, ("random", "fixed"))
+        self._arena_mode = self._arena_option(arena)
+        self.movers: list[tuple[int, tubes.TubeMover]] = []
+        """(mocap index, track) of each moving obstacle of the arena."""
         self.ocean = ocean3d.Ocean3D(conditions)
         self.sensors = Sensors3D(noise=self.ocean.noise)
         self.executor = DepthHeadingController()
@@ -348,6 +356,10 @@ class Planning3D(base.Task):
         super().__init__(random=options.seed(random))
 
     # subclass hooks
+    def _arena_option(self, arena) -> str:
+        """The arena mode of option `arena` (ValueError naming it)."""
+        return options.choice("arena", arena, self.ARENAS)
+
     def draw_arena(self, random: np.random.RandomState):  # -> (arena root, start (3,), heading, goal (3,), path)
         raise NotImplementedError
 
@@ -356,13 +368,17 @@ class Planning3D(base.Task):
         return self.goal
 
     def initialize_episode(self, physics: Physics3D) -> None:
-        seed = 0 if self._arena_mode == "fixed" else int(self.random.randint(2**31 - 1))
+        seed = int(self.random.randint(2**31 - 1)) if self._arena_mode == "random" else 0
         root, start, heading, goal, path = self.draw_arena(np.random.RandomState(seed))
         if self._loaded_key != seed:
             xml, source = arena3d.compose_xml(root, thruster_lag=self.ocean.conditions.thruster_lag)
             physics.reload_from_xml_string(xml, source=source)
             self._loaded_key = seed
         self.goal, self.path = np.asarray(goal, dtype=float), np.asarray(path, dtype=float).reshape(-1, 3)
+        model = physics.model.ptr
+        self.movers = [(int(model.body_mocapid[model.body(f"mover_{m.name}").id]), m)
+                       for m in tubes.items_from_arena(root)[1]]
+        self._move(physics)
         set_pose(physics, start, yaw=heading, nu=(1.0, 0, 0, 0, 0, 0))
         physics.reset_fins()
         self.command = (1.0, heading, -float(start[2]))
@@ -373,7 +389,13 @@ class Planning3D(base.Task):
         self._distance = self._target_distance(physics)
         super().initialize_episode(physics)
 
+    def _move(self, physics: Physics3D) -> None:
+        """Puts the moving obstacles where their tracks have them now."""
+        for slot, mover in self.movers:
+            physics.data.ptr.mocap_pos[slot] = mover.position(physics.time())
+
     def _tick(self, physics: Physics3D) -> None:
+        self._move(physics)
         self.ocean.tick(physics)
         state = read_state(physics, self.sensors.read(physics))
         physics.set_control(self.executor(self.command, state))
@@ -445,9 +467,32 @@ class Tunnel3D(Planning3D):
 
     time_limit = TUNNEL_TIME_LIMIT
 
+    def _arena_option(self, arena) -> str:
+        """"random", "fixed", or a tube arena file (`auv-mj tunnel --tube`, or written by hand), which must pass
+        `auv-mj check-arena`."""
+        if isinstance(arena, str) and arena in self.ARENAS:
+            return arena
+        if not isinstance(arena, (str, Path)):
+            raise ValueError(f"task option arena must be one of 'random', 'fixed' or a tube arena file "
+                             f"(`auv-mj tunnel --tube`), got {arena!r:.60}")
+        if not Path(arena).is_file():
+            raise ValueError(f"task option arena: no such file {str(arena)!r:.200} (give 'random', 'fixed' or a tube "
+                             "arena file from `auv-mj tunnel --tube`)")
+        if not tubes.is_tube_arena(arena):
+            raise ValueError(f"{arena}: not a tube arena (no tube_centreline numeric): tunnel3d flies tubes made by "
+                             "`auv-mj tunnel --tube`; planar tunnels are for the task tunnel")
+        arena_check.require_usable(arena)
+        root = parse_xml(read_text(Path(arena), "tube arena", MAX_XML_BYTES), str(arena), "tube arena")
+        self._file = (root, tubes.tube_from_arena(root))
+        return "file"
+
     def draw_arena(self, random: np.random.RandomState):
-        tube = tubes.random_tube(random)
-        return tubes.tube_arena(tube), tube.centreline[0], tube.start_heading(), tube.centreline[-1], tube.centreline
+        if self._arena_mode == "file":
+            root, tube = self._file
+        else:
+            tube = tubes.random_tube(random)
+            root = tubes.tube_arena(tube)
+        return root, tube.centreline[0], tube.start_heading(), tube.centreline[-1], tube.centreline
 
     def target(self, position: np.ndarray) -> np.ndarray:
         """The line-of-sight look-ahead point LOOKAHEAD metres on along the centreline (the goal before a tube)."""
