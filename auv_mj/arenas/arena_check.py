@@ -97,6 +97,15 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
 
     if tubes.is_tube_arena(source):
         report.summary, report.problems = tubes.tube_report(source)
+        if png is not None:
+            try:
+                root = source if isinstance(source, ET.Element) else inputs.parse_xml(
+                    inputs.read_text(Path(source), "arena MJCF", inputs.MAX_XML_BYTES), name, "arena MJCF")
+                tube = tubes.tube_from_arena(root)
+                items = tubes.items_from_arena(root)
+            except ValueError:
+                return report  # the report names what is wrong; there is nothing sound to draw
+            report.png = plot_tube(tube, *items, png, title=Path(name).name)
         return report
     try:
         physics = load(source)
@@ -691,6 +700,65 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="best", fontsize=8)
+    png = Path(png)
+    fig.savefig(png, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return png
+
+
+def plot_tube(tube, obstacles, movers, png: str | Path, title: str = "") -> Path:
+    """Writes a PNG of a tube arena (`auv_mj.arenas.tubes`): from above (x, y) and from the side, unrolled along
+    the centreline (depth against distance along it), with the wall's inner surface, rocks, movers' tracks, start
+    and goal."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Circle
+
+    from auv_mj.arenas.tubes import distance_to_centreline
+
+    line = tube.centreline
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+    heading = np.diff(line[:, :2], axis=0)
+    heading = np.vstack([heading[:1], heading[:-1] + heading[1:], heading[-1:]])
+    side = np.column_stack([-heading[:, 1], heading[:, 0]]) / np.maximum(
+        np.linalg.norm(heading, axis=1, keepdims=True), 1e-12)
+    fig, (top, profile) = plt.subplots(2, 1, figsize=(10, 9), gridspec_kw={"height_ratios": [3, 2]})
+    wall = dict(color="#73787f", lw=1.5)
+    for sign in (1.0, -1.0):
+        edge = line[:, :2] + sign * tube.radius * side
+        top.plot(*edge.T, **wall, label="wall (inner surface)" if sign > 0 else None)
+        profile.plot(arc, -(line[:, 2] + sign * tube.radius), **wall)
+    top.plot(*line[:, :2].T, "--", color="#1f77b4", lw=1.0, label="centreline")
+    profile.plot(arc, -line[:, 2], "--", color="#1f77b4", lw=1.0)
+
+    def place(point):
+        return distance_to_centreline(tube, np.asarray(point, dtype=float)[None])[1][0]
+
+    for o in obstacles:
+        top.add_patch(Circle((o.x, o.y), o.radius, color="#9a6a3f", zorder=3))
+        profile.add_patch(Circle((place(o.centre), -o.z), o.radius, color="#9a6a3f", zorder=3))
+        top.annotate(o.name, (o.x, o.y), fontsize=7, ha="center", xytext=(0, 8), textcoords="offset points")
+    for m in movers:
+        a, b = np.asarray(m.start, dtype=float), np.asarray(m.end, dtype=float)
+        top.plot([a[0], b[0]], [a[1], b[1]], ":", color="#d9342b", lw=1.2)
+        top.add_patch(Circle(a[:2], m.radius, color="#d9342b", alpha=0.8, zorder=3))
+        profile.plot([place(a), place(b)], [-a[2], -b[2]], ":", color="#d9342b", lw=1.2)
+        profile.add_patch(Circle((place(a), -a[2]), m.radius, color="#d9342b", alpha=0.8, zorder=3))
+        top.annotate(f"{m.name} ({m.speed:g} m/s)", a[:2], fontsize=7, color="#d9342b", ha="center",
+                     xytext=(0, 8), textcoords="offset points")
+    for ax, start, goal in ((top, line[0, :2], line[-1, :2]), (profile, (0.0, -line[0, 2]), (arc[-1], -line[-1, 2]))):
+        ax.plot(*start, "o", color="#2ca02c", ms=8, label="start", zorder=4)
+        ax.plot(*goal, "*", color="#e6b800", ms=14, mec="k", mew=0.5, label="goal", zorder=4)
+        ax.grid(alpha=0.3)
+    top.set_aspect("equal")
+    top.set(xlabel="x [m]", ylabel="y [m]", title=f"{title}: from above" if title else "from above")
+    profile.set(xlabel="distance along the centreline [m]", ylabel="depth [m]",
+                title="from the side, unrolled along the centreline (depth not to scale)")
+    profile.invert_yaxis()
+    top.legend(loc="best", fontsize=8)
+    fig.tight_layout()
     png = Path(png)
     fig.savefig(png, dpi=110, bbox_inches="tight")
     plt.close(fig)
