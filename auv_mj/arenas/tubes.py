@@ -190,7 +190,7 @@ def tube_elements(tube: Tube, name: str = "tube") -> list[ET.Element]:
     for i in range(len(ends)):
         for k in range(tube.staves):
             elements.append(ET.Element("geom", name=f"wall_{name}_{i}_{k}", type="capsule",
-                                       fromto=" ".join(f"{v:.6g}" for v in ends[i, k].ravel()),
+                                       fromto=" ".join(f"{v:.8g}" for v in ends[i, k].ravel()),
                                        size=f"{tube.stave_radius:g}", rgba="0.5 0.55 0.6 0.35"))
     for site, point in (("start", tube.centreline[0]), ("goal", tube.centreline[-1])):
         elements.append(ET.Element("site", name=site, pos=" ".join(f"{v:.6g}" for v in point), size="0.3",
