@@ -1,12 +1,22 @@
 """Tube arenas for the 6-DOF vehicle (issue 32): a pipe along an x, y, z centreline, and open water with a seabed.
 
-A tube's wall is a ring of N_STAVES capsules ("staves") along each centreline segment, each from one ring
-point to the same ring point of the next vertex. The rings are carried along the centreline by parallel
-transport (no twist), so consecutive staves meet end to end round bends and the wall is closed: neighbouring
-staves overlap (`Tube.stave_radius` is more than half their spacing). Rays of the sonar fan and the hull's
-contacts see the wall as it is. The inner free radius is `radius`; the centreline lies in the arena's
-`tube_centreline` numeric (x y z triples) and the radius in `tube_radius`, which `check_tube` (and
-`auv-mj check-arena`) read back.
+A tube's wall is a ring of capsules ("staves") along each centreline segment, sized to the tube: staves of
+`stave_radius_for(radius)` (0.6 m, or a tenth of a wide tube's radius), as many round the ring as keep
+neighbouring staves' axes within STAVE_OVERLAP of a stave's diameter (`staves_for`, from the diameter and the
+sharpest turn of the centreline), so that a tube from 2 to 100 m across has a closed wall of tens of staves round.
+Each stave lies on its segment's cylinder and is cut by the planes bisecting the turns at its ends (a mitre
+joint), its ring frame carried from segment to segment by parallel transport (no twist): consecutive staves meet
+end to end round bends, and the free radius is `radius` everywhere. `check_tube` measures the largest gap
+between neighbouring staves (`wall_gap`), refuses a bend so tight for the tube's width that the wall would fold,
+and `tube_report` (`auv-mj check-arena`) casts rays across the tube from the centreline to find any way out,
+whoever wrote the wall. Rays of the sonar fan and the hull's contacts see the wall as it is. The centreline lies
+in the arena's `tube_centreline` numeric (x y z triples), the radius in `tube_radius`, the staves in
+`tube_stave_radius` and `tube_staves`.
+
+A tube may hold rocks (`TubeObstacle`, spheres `obstacle_NAME`) and movers (`TubeMover`, mocap spheres
+`mover_NAME` going back and forth, their tracks in `mover3d_NAME` numerics); `check_items` refuses one outside
+the tube, one that leaves less than MIN_PASSAGE to get past, or one within END_CLEARANCE of the start or goal.
+`read_tube` reads a tube from a CSV of x, y, z rows or a JSON object with its obstacles and movers.
 
 Procedural tubes (`random_tube`) climb, dive and bend within the vehicle's envelope: bends no tighter than
 MIN_BEND_RADIUS, slopes no steeper than MAX_SLOPE, the whole tube below MIN_COVER of water.

@@ -91,7 +91,9 @@ def run(args: argparse.Namespace) -> int:
             if args.plots is not None:
                 check_output(args, f"{args.plots}_depth.png", "--plots")
             env, policy = make_env_and_policy(args)
-            render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task} / {args.policy}")
+            render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task} / {args.policy}",
+                      width=args.width, height=args.height, fps=args.fps, speedup=args.speedup,
+                      hold_end=args.hold_end, gif=True if args.gif else None, progress=not args.no_progress)
             return 0
         if args.output is None:
             usage_error(args, "give the video file with -o/--output")
