@@ -50,6 +50,9 @@ TOP_DISTANCE = 40.0
 """Height of the top-down view's camera above the vehicle [m]."""
 SIDE_DISTANCE = 30.0
 """Distance of the side view's camera from the vehicle [m]."""
+VIEW_PER_RADIUS = 5.0
+"""In a wide tube the top and side cameras stand back this many tube radii (at least TOP_DISTANCE and
+SIDE_DISTANCE), so that the views hold the tube across."""
 CHASE_SHARE = 2.0 / 3.0
 """Share of the frame's width the chase view takes; the top and side views share the rest, one above the other."""
 PROGRESS_SHARE = 1.0 / 45.0
@@ -196,10 +199,13 @@ class FrameRenderer3D:
         self.cameras = {"chase": mujoco.MjvCamera(), "top": mujoco.MjvCamera(), "side": mujoco.MjvCamera()}
         self.cameras["chase"].type = mujoco.mjtCamera.mjCAMERA_FIXED
         self.cameras["chase"].fixedcamid = self.model.camera(CHASE_CAMERA).id
-        for name, distance, elevation in (("top", TOP_DISTANCE, -90.0), ("side", SIDE_DISTANCE, 0.0)):
+        tube = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_NUMERIC, "tube_radius")
+        reach = VIEW_PER_RADIUS * float(self.model.numeric_data[self.model.numeric_adr[tube]]) if tube >= 0 else 0.0
+        self._distance = {"top": max(TOP_DISTANCE, reach), "side": max(SIDE_DISTANCE, reach)}
+        for name, elevation in (("top", -90.0), ("side", 0.0)):
             camera = self.cameras[name]
             camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-            camera.distance, camera.elevation = distance, elevation
+            camera.distance, camera.elevation = self._distance[name], elevation
         self._pixels = np.empty((self.height, self.width, 3), np.uint8)
         self._hud = self.height >= MIN_HUD_HEIGHT
         if self._hud:
@@ -232,11 +238,11 @@ class FrameRenderer3D:
             ahead = (self._centres - camera) @ forward
             visible = (np.linalg.norm(self._centres - camera, axis=1) < CHASE_RANGE + r) & (ahead > -r)
         elif name == "top":
-            half_w, half_h = self._window(name, TOP_DISTANCE)
+            half_w, half_h = self._window(name, self._distance[name])
             visible = (np.abs(offset[:, 0]) < half_w + r) & (np.abs(offset[:, 1]) < half_h + r)
             visible &= ~(self._wall & (offset[:, 2] > 0.0))  # the wall above the vehicle is cut away
         else:
-            half_w, half_h = self._window(name, SIDE_DISTANCE)
+            half_w, half_h = self._window(name, self._distance[name])
             across = np.array([-forward[1], forward[0], 0.0]) / max(float(np.hypot(*forward[:2])), 1e-9)
             along = np.array([across[1], -across[0], 0.0])
             visible = (np.abs(offset @ along) < half_w + r) & (np.abs(offset[:, 2]) < half_h + r)
