@@ -71,7 +71,11 @@ def test_auv_mj_render_draws_a_6dof_task_and_its_plots(tmp_path):
                           capture_output=True, text=True, timeout=300, env={"PATH": "/usr/bin:/bin",
                                                                             "MUJOCO_GL": "egl"})
     assert done.returncode == 0, done.stderr
-    assert out.stat().st_size > 0
+    import imageio.v3 as iio
+
+    video = iio.imread(out, index=None)
+    assert video.shape == (3 + 1 + 30, 96, 160, 3)  # the reset and three steps, a frame each, then 1 s held
+    assert iio.immeta(out)["fps"] == 30
     assert (tmp_path / "dive_depth.png").stat().st_size > 0 and (tmp_path / "dive_track.png").stat().st_size > 0
     bad = subprocess.run([sys.executable, "-m", "auv_mj.cli", "render", "--task", "nope", "-o", str(out)],
                          capture_output=True, text=True, timeout=300, env={"PATH": "/usr/bin:/bin",
