@@ -39,6 +39,7 @@ from auv_mj.render.video import (
     DEFAULT_SIZE,
     EVENT_COLOURS,
     EVENT_HOLD,
+    WATER_RGBA,
     _gl_context_class,  # the headless backend's GLContext, as the planar renderer makes it
 )
 from auv_mj.sim.sensors3d import altimeter, fan_directions
@@ -76,6 +77,8 @@ CHASE_RANGE = 40.0
 """The chase view draws the arena's geoms within this distance [m] of its camera (a tube holds thousands)."""
 EXTRA_GEOMS = 64
 """Room in the scene beyond the model and the fan."""
+WATER_RGB = np.floor(np.asarray(WATER_RGBA[:3]) * 255).astype(np.uint8)
+"""The water behind the geoms, as in the planar videos (OpenGL clears to black; no lit geom is exactly black)."""
 BAR_RGB, BAR_BACK_RGB = (60, 200, 255), (25, 35, 45)
 LABEL_RGB = (255, 255, 255)
 SCALES = ((200, 50), (420, 100), (800, 150), (1200, 200))
@@ -294,6 +297,7 @@ class FrameRenderer3D:
             mujoco.mjr_render(mujoco.MjrRect(*self.layout.panels[name]), self.scene, self._context)
         mujoco.mjr_readPixels(self._pixels, None, mujoco.MjrRect(0, 0, self.width, self.height), self._context)
         frame = self._pixels[::-1].copy()
+        frame[~frame.any(axis=-1)] = WATER_RGB
         self._borders(frame)
         self._progress(frame, state.progress)
         if self._hud:
