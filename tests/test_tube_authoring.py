@@ -145,6 +145,14 @@ def test_tunnel3d_refuses_what_is_not_a_usable_tube(tmp_path):
     ET.ElementTree(broken).write(tmp_path / "broken.xml")
     with pytest.raises(ValueError, match="not a usable arena: .*wall staves"):
         auv3d.tunnel3d(arena=str(tmp_path / "broken.xml"))
+    leaky = tubes.tube_arena(tubes.Tube(bending(8.0), 4.0))  # as many staves, one pulled out of the ring
+    stave = next(g for g in leaky.iter("geom") if g.get("name") == "wall_tube_3_5")
+    ends = np.array([float(v) for v in stave.get("fromto").split()]).reshape(2, 3)
+    stave.set("fromto", " ".join(f"{v:.8g}" for v in (ends + [0.0, 0.0, -3.0]).ravel()))
+    ET.ElementTree(leaky).write(tmp_path / "leaky.xml")
+    with pytest.raises(ValueError, match="not a usable arena: .*the wall has a gap: a ray from the middle of "
+                                         "segment 3"):
+        auv3d.tunnel3d(arena=str(tmp_path / "leaky.xml"))
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
@@ -171,6 +179,9 @@ def test_a_tube_from_a_csv_through_check_arena_and_eval_to_its_end(tmp_path):
     assert result["outcomes"] == {"goal": 1, "collision": 0, "left_map": 0, "timeout": 0}
     length = float(np.sum(np.linalg.norm(np.diff(corners, axis=0), axis=1)))
     assert result["path_length"] > length - 2 * auv3d.GOAL_RADIUS
+    outside = run_cli("tunnel", "--tube", str(csv), "--width", "30", "--smooth", "-o", str(tmp_path / "rock.xml"),
+                      "--obstacle", "60,40,-40,3,boulder")
+    assert outside.returncode == 2 and "obstacle boulder at (60, 40, -40) is outside the tube" in outside.stderr
     csv.write_text("x,y,z\n0,0,-40\n40,0,-40\n20,35,-40\n")  # a 120 deg corner
     sharp = run_cli("tunnel", "--tube", str(csv), "--width", "30", "-o", str(tmp_path / "sharp.xml"))
     assert sharp.returncode == 2 and "bend at point 1" in sharp.stderr and not (tmp_path / "sharp.xml").exists()
