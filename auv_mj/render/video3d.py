@@ -42,7 +42,7 @@ from auv_mj.render.video import (
     WATER_RGBA,
     _gl_context_class,  # the headless backend's GLContext, as the planar renderer makes it
 )
-from auv_mj.sim.sensors3d import altimeter, fan_directions
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, altimeter, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
 
 CHASE_CAMERA = "chase"
@@ -74,7 +74,8 @@ NEAR_RGBA, FAR_RGBA = np.array([1.0, 0.15, 0.1, 0.9]), np.array([0.2, 1.0, 0.4, 
 """A beam's colour at zero range and at COLOUR_RANGE (linear between)."""
 NO_ECHO_RGBA = np.array([0.6, 0.85, 0.6, 0.25])
 CHASE_RANGE = 40.0
-"""The chase view draws the arena's geoms within this distance [m] of its camera (a tube holds thousands)."""
+"""The chase view draws the arena's geoms within this distance [m] of its camera, plus two tube radii in a tube
+(a tube holds thousands of staves)."""
 EXTRA_GEOMS = 64
 """Room in the scene beyond the model and the fan."""
 WATER_RGB = np.floor(np.asarray(WATER_RGBA[:3]) * 255).astype(np.uint8)
@@ -204,7 +205,8 @@ class FrameRenderer3D:
         self.cameras["chase"].fixedcamid = self.model.camera(CHASE_CAMERA).id
         tube = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_NUMERIC, "tube_radius")
         reach = VIEW_PER_RADIUS * float(self.model.numeric_data[self.model.numeric_adr[tube]]) if tube >= 0 else 0.0
-        self._distance = {"top": max(TOP_DISTANCE, reach), "side": max(SIDE_DISTANCE, reach)}
+        self._distance = {"top": max(TOP_DISTANCE, reach), "side": max(SIDE_DISTANCE, reach),
+                          "chase": CHASE_RANGE + 2.0 * reach / VIEW_PER_RADIUS}
         for name, elevation in (("top", -90.0), ("side", 0.0)):
             camera = self.cameras[name]
             camera.type = mujoco.mjtCamera.mjCAMERA_FREE
@@ -239,7 +241,7 @@ class FrameRenderer3D:
         if name == "chase":
             camera = self.data.cam_xpos[self.cameras["chase"].fixedcamid]
             ahead = (self._centres - camera) @ forward
-            visible = (np.linalg.norm(self._centres - camera, axis=1) < CHASE_RANGE + r) & (ahead > -r)
+            visible = (np.linalg.norm(self._centres - camera, axis=1) < self._distance["chase"] + r) & (ahead > -r)
         elif name == "top":
             half_w, half_h = self._window(name, self._distance[name])
             visible = (np.abs(offset[:, 0]) < half_w + r) & (np.abs(offset[:, 1]) < half_h + r)
@@ -337,7 +339,7 @@ class FrameRenderer3D:
         heading = math.degrees(math.atan2(rotation[1, 0], rotation[0, 0]))
         labels = ["time", "depth", "altitude", "speed", "pitch", "heading", "goal", "progress"]
         values = [f"{state.time:7.1f} s", f"{-state.qpos[2]:6.1f} m",
-                  f"{state.altitude:6.1f} m" if math.isfinite(state.altitude) else "  none in range",
+                  f"{state.altitude:6.1f} m" if state.altitude < ALTIMETER_RANGE else f"  > {ALTIMETER_RANGE:g} m",
                   f"{math.sqrt(u * u + v * v + w * w):5.2f} m/s", f"{pitch:+6.1f} deg", f"{heading:+7.1f} deg",
                   f"{state.goal_distance:6.1f} m away" if math.isfinite(state.goal_distance) else "  -",
                   f"{100 * state.progress:5.1f} %"]
