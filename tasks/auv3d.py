@@ -107,7 +107,7 @@ WATER_DEPTH = 60.0
 COLLISION_REWARD, GOAL_REWARD, PROGRESS_WEIGHT, STEP_COST = -50.0, 50.0, 1.0, 0.01
 """The planning reward: PROGRESS_WEIGHT per metre gained on the goal, -STEP_COST a step, +GOAL_REWARD on reaching
 it, COLLISION_REWARD on a collision or broaching. The progress telescopes, so reaching the goal beats waiting
-outside it at every discount (as reward="progress" in `tasks.planning`): along any path that stays outside the
+outside it at every discount (as reward="progress" in `auv_mj.tasks.planning`): along any path that stays outside the
 radius, summation by parts bounds sum_k gamma^k (d_k - d_{k+1}) by d_0 - GOAL_RADIUS, and the other terms are
 < 0; the step that reaches it pays at least that + GOAL_REWARD - STEP_COST (tests/test_rewards.py)."""
 MIN_DEPTH = 1.0

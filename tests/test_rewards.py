@@ -1,7 +1,7 @@
 """Rewards that cannot be gamed (issue 45): on every planning task and under every reward kind, reaching the goal
 returns more than waiting just outside it or idling, at every discount (tasks/planning.py, "The success bonus").
 
-Three policies run from the same seed: line of sight on the S-plane executor (`tasks.guidance.classical`, the
+Three policies run from the same seed: line of sight on the S-plane executor (`auv_mj.planners.guidance.classical`, the
 `splane` policy) reaching the goal; a waiter that drives the same way and cuts its thrust STOP_MARGIN outside the
 goal, with the route's last goal current; and an idler whose thrust is off from the start (action [-1, 0] is
 V = 0). The waiter's episode is the reaching one up to the step where it stops, reward for reward, so the two
@@ -16,9 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from tasks import auv3d, planning, suite
-from tasks.guidance import classical
-from tasks.registry import SUITE
+from auv_mj.planners import los3d
+from auv_mj.planners.guidance import classical
+from auv_mj.tasks import auv3d, planning, suite
+from auv_mj.tasks.registry import SUITE
 
 GAMMAS = (0.9, 0.99, 0.999, 1.0)
 STOP_MARGIN = 3.0
@@ -192,7 +193,7 @@ def test_a_procedural_tunnel_counts_the_steps_of_its_own_time_limit():
 def run_3d(name: str, seed: int, mode: str) -> tuple[np.ndarray, str, int | None]:
     """One goal3d / tunnel3d episode of `mode`: (rewards, last event, the waiter's split step)."""
     env = suite.load("auv3d", name, task_kwargs={"random": seed})
-    task, reach = env.task, auv3d.los_policy(env)
+    task, reach = env.task, los3d.los_policy(env)
     time_step, rewards, split = env.reset(), [], None
     while not time_step.last():
         near = np.linalg.norm(task.goal - env.physics.position()) < auv3d.GOAL_RADIUS + STOP_MARGIN_3D
