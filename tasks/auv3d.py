@@ -33,6 +33,7 @@ from dm_control.utils import containers, rewards
 from dm_env import specs
 
 from auv_mj.arenas import arena3d, tubes
+from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean3d
 from auv_mj.sim.physics6 import AUV6Physics, euler_angles, set_pose
@@ -311,7 +312,7 @@ def depth_heading(time_limit: float = EPISODE_STEPS * EXECUTOR_DT, random=None, 
                                **environment_kwargs)
 
 
-def splane_policy(env) -> Callable:
+def splane_policy(env) -> Planner:
     """The classical executor (`DepthHeadingController`) as a policy(time_step) of a depth_heading env."""
     task, physics = env.task, env.physics
     controller = DepthHeadingController()
@@ -321,8 +322,7 @@ def splane_policy(env) -> Callable:
             controller.reset()
         return _normalise(controller(task.command(physics), task.state(physics)), physics)
 
-    policy.reset = controller.reset
-    return policy
+    return FunctionPlanner(policy, controller.reset)
 
 
 # --- planning tasks ------------------------------------------------------------------------------------------

@@ -55,8 +55,8 @@ from dm_control.utils import rewards
 from dm_env import specs
 
 from auv_mj.arenas import arena
+from auv_mj.episode import FunctionPlanner, Planner, record_episode
 from auv_mj.episode import phase_mae as _phase_mae
-from auv_mj.episode import record_episode
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean
 from auv_mj.sim.vehicle import vehicle_facts
@@ -545,7 +545,7 @@ def speed_heading(time_limit: float = _DEFAULT_TIME_LIMIT, random=None, environm
 # --- evaluation (Table 9) ---------------------------------------------------------------------------------
 
 
-def executor_policy(env, executor: Executor) -> Callable:
+def executor_policy(env, executor: Executor) -> Planner:
     """`executor(command, state) -> (tau_u, tau_r)` as a policy(time_step) of the speed_heading env: its
     output is clipped to the actuator ranges and scaled to the task's [-1, 1] action (Eq. 28-29)."""
     task, physics = env.task, env.physics
@@ -557,7 +557,7 @@ def executor_policy(env, executor: Executor) -> Callable:
         tau = np.clip(np.asarray(executor(task.command(physics), task.state(physics)), dtype=float), low, high)
         return np.clip(2 * (tau - low) / (high - low) - 1, -1.0, 1.0)
 
-    return policy
+    return FunctionPlanner(policy)
 
 
 def rollout(executor: Executor, random=0, time_limit: float = _DEFAULT_TIME_LIMIT,

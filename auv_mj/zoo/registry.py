@@ -35,6 +35,7 @@ from auv_mj.agents.baselines import uniform_random
 from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.agents.policy import Policy
 from auv_mj.arenas import arena
+from auv_mj.episode import FunctionPlanner, Planner, as_planner
 from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsion
 from auv_mj.planners.bug import bug_planner
 from auv_mj.planners.deploy import Chain, ChainConfig, deployed
@@ -50,7 +51,6 @@ from auv_mj.zoo.spec import (
     RESOLVERS,
     ROLES,
     RUNS_ON,  # noqa: F401  (re-exported)
-    ActingPolicy,
     Deployment,
     PolicySpec,
     register,
@@ -142,7 +142,7 @@ def loaded_policy(path: Path) -> Policy:
 
 
 def checkpoint_policy(path: Path, env, protection: bool | str | None = None, guide: str | None = None,
-                      zeroed: bool = False, speed: str | None = None) -> ActingPolicy:
+                      zeroed: bool = False, speed: str | None = None) -> Planner:
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
     (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, a
     residual planner (`"residual": R`, `"speed"`) through line of sight (`auv_mj.planners.guidance.guided_action`),
@@ -185,15 +185,15 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
 
-    return act if config.is_identity else deployed(act, Chain(config, env))
+    return FunctionPlanner(act) if config.is_identity else deployed(act, Chain(config, env))
 
 
-def _from_checkpoint(deployment: Deployment) -> ActingPolicy:
+def _from_checkpoint(deployment: Deployment) -> Planner:
     """A learned spec's build: its checkpoint under its protection domain."""
     return checkpoint_policy(deployment.checkpoint, deployment.env, deployment.spec.protection)
 
 
-def _splane_ocean(deployment: Deployment) -> ActingPolicy:
+def _splane_ocean(deployment: Deployment) -> Planner:
     """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading."""
     env = deployment.env
     return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
@@ -223,7 +223,7 @@ small final goal), its network steering only. Chosen on validation seeds over th
 (docs/runs/planner-top/selection.md)."""
 
 
-def _general(speed: str, zeroed: bool = False) -> Callable[[Deployment], ActingPolicy]:
+def _general(speed: str, zeroed: bool = False) -> Callable[[Deployment], Planner]:
     """The build of planner_general.pt at `speed`, its output zeroed if `zeroed`."""
     return lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", zeroed=zeroed, speed=speed)
 
@@ -370,15 +370,16 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     return suite.load(suite.domain_of(task_name), task_name, task_kwargs=task_kwargs)
 
 
-def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> ActingPolicy:
-    """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the checkpoint)."""
+def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> Planner:
+    """The named policy as a Planner (`reset()`, `act(time_step)`) for `env` (of suite task `task`, which picks the
+    checkpoint)."""
     spec, path = resolve(policy_name)
     checkpoint = _checkpoint_of(spec, path, task)
-    act = spec.build(Deployment(env, task, seed, checkpoint, spec))
+    planner = as_planner(spec.build(Deployment(env, task, seed, checkpoint, spec)))
     if checkpoint is None and spec.protection and not is_3d(env):  # a classical policy inside a protection domain
         # (an auv3d policy carries its own domain on the 3-D fan)
-        act = with_repulsion(act, protection_field(spec.protection), map_fence(env))
-    return act
+        planner = with_repulsion(planner, protection_field(spec.protection), map_fence(env))
+    return planner
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
@@ -457,9 +458,9 @@ def markdown_table() -> str:
 from auv_mj.zoo import outside  # noqa: E402, F401, I001  (registers MODULE:FACTORY and PATH.zip in RESOLVERS)
 
 
-def load_policy(name: str, env, task: str | None = None, seed: int = 0) -> ActingPolicy:
+def load_policy(name: str, env, task: str | None = None, seed: int = 0) -> Planner:
     """The named policy (any `--policy` form) acting in `env`, a suite environment of task `task` (which picks a
-    per-task checkpoint), as `policy(time_step) -> action` with `reset()` where it keeps state. For an environment
+    per-task checkpoint), as a Planner: `reset()` at an episode's start, `act(time_step) -> action`. For an environment
     that the policy needs set up (its executor, the observation a checkpoint was trained on), build both with
     `env_and_policy`."""
     return make_policy(name, env, seed, task)

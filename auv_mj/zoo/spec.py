@@ -11,10 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-ActingPolicy = Callable[[Any], np.ndarray]
-"""`policy(time_step) -> action`, what every command runs."""
+from auv_mj.episode import Planner
 
 ROLES = {"use": "To use", "paper": "The paper's", "reference": "References and ablations",
          "comparison": "Kept for comparison"}
@@ -42,7 +39,7 @@ class PolicySpec:
 
     description: str
     """One line for `--help` and the README's policy table."""
-    build: Callable[[Deployment], ActingPolicy]
+    build: Callable[[Deployment], Planner]
     """Makes the acting policy for one episode's environment."""
     family: str = "classical"
     """"learned", "classical" or "reference" (random, oracle): the column of the README's table."""
