@@ -521,16 +521,21 @@ class PlanningTask(base.Task):
     including `compute_reward` / `compute_terminated` for hindsight relabelling, lives here.
     """
 
-    def __init__(self, executor: Callable | None = None, reward: str = "suite",
+    def __init__(self, executor: Callable | str | None = None, reward: str = "suite",
                  goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
                  conditions="ideal", collision_penalty: float = 0.0):
-        """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); `reward` one of
+        """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`), or its name
+        (`auv_mj.tasks.executors.EXECUTORS`, or a speed_heading checkpoint path); `reward` one of
         REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.sim.ocean.conditions`);
         `collision_penalty`: subtracted from the "paper" and "progress" rewards on a collision or on leaving
         the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY]."""
         self.reward_kind = options.choice("reward", reward, REWARDS)
         self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
+        if isinstance(executor, str):
+            from auv_mj.tasks.executors import named_executor  # the learned ones load torch: only when named
+
+            executor = named_executor(executor)
         executor = options.function("executor", executor, "executor(command, state) -> (tau_u, tau_r)")
         self.goal_radius = options.number("goal_radius", goal_radius, 0.0, MAX_GOAL_RADIUS, "m", low_open=True)
         self.collision_penalty = options.number("collision_penalty", collision_penalty, 0.0, MAX_COLLISION_PENALTY)

@@ -53,3 +53,21 @@ def test_the_episode_loop_resets_the_planner_once_then_acts_every_step():
     assert planner.resets == 1 and planner.acts == 7 == len(record.action)
     record_episode(env, planner, max_steps=3)
     assert planner.resets == 2 and planner.acts == 10
+
+
+def test_suite_load_takes_every_executor_name():
+    """Executor names resolve below the zoo (`auv_mj.tasks.executors`): `suite.load` takes the learned ones too, and
+    an episode on a named executor is the zoo's episode on it."""
+    from auv_mj.benchmark.runner import run_episode
+    from auv_mj.episode import episode_metrics
+    from auv_mj.tasks.executors import EXECUTORS
+
+    for name in EXECUTORS:
+        env = suite.load("auv", "path_line", task_kwargs={"random": 0, "executor": name})
+        assert callable(env.task.executor)
+    with pytest.raises(ValueError, match="executor 'warp'"):
+        suite.load("auv", "path_line", task_kwargs={"random": 0, "executor": "warp"})
+    env = suite.load("auv", "path_line", task_kwargs={"random": 0, "executor": "ocean-executor"})
+    ours = episode_metrics(record_episode(env, registry.make_policy("splane", env, 0, "path_line"), 40))
+    zoo = run_episode("splane", "path_line", 0, {"executor": "ocean-executor"}, 40)
+    assert ours["path_length"] == zoo["path_length"] and ours["return"] == zoo["return"]

@@ -64,19 +64,7 @@ class EnvFactory:
             importlib.import_module(self.module)
         chain = {k: v for k, v in self.kwargs.items() if k in ChainConfig.__dataclass_fields__}
         rest = {k: v for k, v in self.kwargs.items() if k not in chain}
-        return deploy_env(gym.make(self.env_id, **_with_executor(rest)), **chain)
-
-
-def _with_executor(kwargs: dict) -> dict:
-    """`kwargs` with a planning task's executor named in its task_kwargs ("executor": one of
-    `policies.EXECUTORS` or a speed_heading checkpoint) built, so that a planner trains on the execution layer
-    it will run on (e.g. the learned one of the two-layer system)."""
-    task_kwargs = kwargs.get("task_kwargs")
-    if isinstance(task_kwargs, dict) and isinstance(task_kwargs.get("executor"), str):
-        from auv_mj.zoo.registry import named_executor
-
-        return {**kwargs, "task_kwargs": {**task_kwargs, "executor": named_executor(task_kwargs["executor"])}}
-    return kwargs
+        return deploy_env(gym.make(self.env_id, **rest), **chain)
 
 
 def make_env_fn(env_id: str, **kwargs: Any) -> EnvFactory:

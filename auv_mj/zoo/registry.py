@@ -44,8 +44,8 @@ from auv_mj.planners.los3d import classical_3d
 from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
 from auv_mj.tasks import suite
 from auv_mj.tasks.auv3d import SUITE3D, is_3d
+from auv_mj.tasks.executors import EXECUTORS, named_executor  # noqa: F401  (EXECUTORS: the zoo's face)
 from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
-from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController
 from auv_mj.zoo.spec import (
     POLICIES,
     RESOLVERS,
@@ -107,22 +107,14 @@ def learned_executor(path: Path | None = None) -> LearnedExecutor:
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
 
-EXECUTORS: dict[str, Callable[[], Any]] = {
-    "splane": SPlaneController,
-    "splane-ocean": lambda: SPlaneController(OCEAN_GAINS),
-    "executor": lambda: learned_executor(shipped_checkpoint("executor")),
-    "ocean-executor": lambda: learned_executor(shipped_checkpoint("ocean-executor")),
-}
-"""Executor names a planning task's `executor` option takes on the command line -> the executor."""
+def paper_executor() -> LearnedExecutor:
+    """The paper's learned execution layer (`executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
+    return learned_executor(shipped_checkpoint("executor"))
 
 
-def named_executor(name: str):
-    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path) as `executor(command, state)`."""
-    if name in EXECUTORS:
-        return EXECUTORS[name]()
-    if Path(name).is_file():
-        return learned_executor(Path(name))
-    raise ValueError(f"task_kwargs executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
+def ocean_executor() -> LearnedExecutor:
+    """The learned ocean executor (`ocean-executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
+    return learned_executor(shipped_checkpoint("ocean-executor"))
 
 
 # --- building policies ------------------------------------------------------------------------------------------
