@@ -200,10 +200,12 @@ PAPER_PLANNER = {"checkpoint": "planner.pt", "checkpoint_on": {"tunnel": "planne
 """The paper's HER-DDPG planner: one checkpoint per environment (`planner_tunnel.pt` on the tunnel task)."""
 
 register("planner", _learned("the paper's HER-DDPG planner with its protection domain (Sec. 3.2.2), on the task's "
-                             "executor", protection=True, **PAPER_PLANNER, role="paper"))
+                             "executor; trained on the paper's scenarios, it fails on tunnels of your own",
+                             protection=True, **PAPER_PLANNER, role="paper"))
 register("planner-raw", _learned("the paper's planner without the protection domain", protection=False,
                                  **PAPER_PLANNER, role="paper"))
-register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3)",
+register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3); "
+                               "it fails on tunnels of your own",
                                protection=True, executor="executor", **PAPER_PLANNER, role="paper"))
 GENERAL_DEPLOYMENT = {"tasks": "planning", "protection": "speed-aware"}
 """How the general planners are deployed: on every planning task, inside the speed-aware domain with the geofence."""
