@@ -4,7 +4,8 @@
   depth) and the vehicle's sensors and sets (thrust, rudder, stern), scaled from [-1, 1]^3 by the actuator
   ranges. The "paper" schedule is Sec. 4.2's (1 m/s, pi/12, the sway burst, the constant and the periodic
   force) extended to depth: a 5 m dive from 10 m at the start, and each disturbance with a vertical part
-  (VERTICAL_SHARE of its horizontal force). Metrics add mae_depth [m] (`last_info["depth_error"]`).
+  (VERTICAL_SHARE of its horizontal force). Metrics add mae_depth [m] (`last_info["depth_error"]`). As on
+  speed_heading, an episode ends by its schedule: it reports no success, only "within_tolerance" per step.
 - `goal3d`: reach a goal in 3-D among obstacles over a seabed (`arena="random"` draws them).
 - `tunnel3d`: follow a tube along an x, y, z centreline to its end (`auv_mj.arenas.tubes`; `arena="random"`
   draws procedural tubes with climbs, dives and bends).
@@ -287,7 +288,7 @@ class DepthHeading(base.Task):
         met = abs(e_v) < SPEED_TOLERANCE and abs(e_psi) < HEADING_TOLERANCE and abs(e_d) < DEPTH_TOLERANCE
         self.last_info = {"phase": self.phase(self._step), "speed_error": e_v, "heading_error": e_psi,
                           "depth_error": e_d, "command": np.array([v_cmd, psi_cmd]), "depth_command": depth_cmd,
-                          "tracked": self._step >= SETTLE_STEPS, "success": met, "is_success": met}
+                          "tracked": self._step >= SETTLE_STEPS, "within_tolerance": met, "is_success": met}
         command = self.command(physics)
         state = self.state(physics)
         e_psi_now = wrap_angle(command[1] - state.heading)
