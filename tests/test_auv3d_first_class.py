@@ -156,6 +156,13 @@ def auv3d_gym_id(task: str) -> str:
     return gym_id(task)
 
 
+def test_train_finds_the_6dof_gymnasium_ids_by_task_name():
+    from auv_mj.cli.train import task_env_id
+
+    assert [task_env_id(t) for t in TASKS_3D] == ["auv_mj/DepthHeading-v0", "auv_mj/Goal3D-v0", "auv_mj/Tunnel3D-v0"]
+    assert task_env_id("moving_obstacles") == "auv_mj/MovingObstacles-v0"
+
+
 # --- seeds --------------------------------------------------------------------------------------------------
 
 
