@@ -68,6 +68,15 @@ def test_all_and_the_tags_cover_both_domains_for_the_policies_that_run_there():
         registry.resolve_tasks("auv3d", "map-replan")
 
 
+def test_load_policy_refuses_a_planar_policy_in_a_6dof_environment():
+    env = suite.load("auv3d", "goal3d", task_kwargs={"random": 0})
+    with pytest.raises(ValueError, match="policy 'bug' runs on the planar planning tasks .*, not on a 6-DOF task"):
+        registry.load_policy("bug", env)
+    with pytest.raises(ValueError, match="'goal3d' is a 6-DOF planning task"):
+        registry.load_policy("oracle", env, "goal3d")
+    assert callable(registry.load_policy("los-avoid", env))
+
+
 def test_a_spec_names_known_domains_and_the_table_shows_them():
     with pytest.raises(ValueError, match="PolicySpec.domains"):
         PolicySpec("x", build=lambda d: None, domains=("mars",))

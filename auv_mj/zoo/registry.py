@@ -428,8 +428,15 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
 
 
 def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> ActingPolicy:
-    """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the checkpoint)."""
+    """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the checkpoint).
+    ValueError (`check_runs_on`) for a policy that does not run on `task`, or on `env`'s domain when no task is
+    named."""
     spec, path = resolve(policy_name)
+    if task is not None:
+        check_runs_on(policy_name, task)
+    elif (DOMAIN_3D if is_3d(env) else suite.DOMAIN) not in spec.domains:
+        domain = DOMAIN_3D if is_3d(env) else suite.DOMAIN
+        raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(spec)}, not on a {DOMAINS[domain]} task")
     checkpoint = _checkpoint_of(spec, path, task)
     act = spec.build(Deployment(env, task, seed, checkpoint, spec))
     if checkpoint is None and spec.protection and not is_3d(env):  # a classical policy inside a protection domain
