@@ -432,10 +432,10 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -
     ValueError (`check_runs_on`) for a policy that does not run on `task`, or on `env`'s domain when no task is
     named."""
     spec, path = resolve(policy_name)
+    domain = DOMAIN_3D if is_3d(env) else suite.DOMAIN
     if task is not None:
         check_runs_on(policy_name, task)
-    elif (DOMAIN_3D if is_3d(env) else suite.DOMAIN) not in spec.domains:
-        domain = DOMAIN_3D if is_3d(env) else suite.DOMAIN
+    elif domain not in spec.domains:
         raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(spec)}, not on a {DOMAINS[domain]} task")
     checkpoint = _checkpoint_of(spec, path, task)
     act = spec.build(Deployment(env, task, seed, checkpoint, spec))
