@@ -517,22 +517,24 @@ def episode_metrics(record: EpisodeRecord) -> dict:
 
     None stands for a figure that is undefined for this episode: time to goal without success, a
     clearance on a task that measures none, a tracking error where the task reports none or before
-    the vehicle reached its path.
+    the vehicle reached its path, and success and time to goal on a task that reports no success (a tracking
+    task, speed_heading or depth_heading, whose episode ends by its schedule, not at a goal).
     """
     info = record.info
     steps = record.steps
     clearance = np.asarray(info.get("min_clearance", []), dtype=float)
     clearance = clearance[np.isfinite(clearance)]
     success_steps = np.flatnonzero(record.success)
+    has_goal = "success" in info
     result = {
-        "return": record.episode_return, "steps": steps, "success": record.succeeded,
+        "return": record.episode_return, "steps": steps, "success": record.succeeded if has_goal else None,
         "outcome": outcome(record.event),
         "collision": bool(np.any(np.asarray(info.get("collision", np.zeros(steps)), dtype=float) > 0.5)),
         "safety_violation": bool(np.any(np.asarray(info.get("safety_violation", np.zeros(steps)),
                                                    dtype=float) > 0.5)),
         "min_clearance": float(clearance.min()) if clearance.size else None,
         "path_length": float(np.sum(np.hypot(*np.diff(record.pose[:, :2], axis=0).T))),
-        "time_to_goal": float(record.time[success_steps[0] + 1]) if success_steps.size else None,
+        "time_to_goal": float(record.time[success_steps[0] + 1]) if has_goal and success_steps.size else None,
     }
     tracked = _tracked(record)
     for key in TRACKING_KEYS:

@@ -476,13 +476,16 @@ class SpeedHeading(base.Task):
         return command[0] - u, wrap_angle(command[1] - psi)
 
     def _info(self, step: int, command: tuple[float, float]) -> dict:
-        """last_info of executor step `step`, which followed `command`."""
+        """last_info of executor step `step`, which followed `command`. A tracking episode ends by its schedule, not
+        at a goal: it reports no "success" (`auv_mj.episode.episode_metrics` then gives none), only whether the
+        command is met this step ("within_tolerance", and Gymnasium's "is_success", which training logs read at an
+        episode's end)."""
         e_v, e_psi = self._errors
         met = abs(e_v) < SPEED_TOLERANCE and abs(e_psi) < HEADING_TOLERANCE
         return {"phase": self.phase(step), "speed_error": e_v, "heading_error": e_psi,
                 "command": np.array(command), "disturbance_active": self.disturbance_active(step),
                 "tracked": step >= SETTLE_STEPS,
-                "success": met, "is_success": met}
+                "within_tolerance": met, "is_success": met}
 
     # --- dm_control Task ---------------------------------------------------------------------------
 

@@ -32,17 +32,22 @@ from auv_mj.cli.options import (
 )
 from auv_mj.inputs import check_json_depth, read_text
 from auv_mj.planners.deploy import ChainConfig, deploy_env
+from auv_mj.tasks import suite
+from auv_mj.tasks.gym_adapter import gym_id
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
 
 
 def task_env_id(task: str) -> str:
-    """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, or `auv_mj/<CamelCase>-v0`."""
+    """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, the suite's own id of a task of either
+    domain (`auv_mj.tasks.gym_adapter.gym_id`: goal3d -> auv_mj/Goal3D-v0), or `auv_mj/<CamelCase>-v0`."""
     if task in TASK_IDS:
         return TASK_IDS[task]
     if "/" in task or ":" in task:
         return task
+    if task in suite.TASKS_BY_DOMAIN[suite.DOMAIN] + suite.TASKS_BY_DOMAIN[suite.DOMAIN_3D]:
+        return gym_id(task)
     camel = "".join(part[:1].upper() + part[1:] for part in re.split(r"[-_\s]+", task) if part)
     return f"auv_mj/{camel}-v0"
 

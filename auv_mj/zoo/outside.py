@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from auv_mj.episode import Planner
-from auv_mj.zoo.spec import RESOLVERS, Deployment, PolicySpec
+from auv_mj.zoo.spec import DOMAINS, RESOLVERS, Deployment, PolicySpec
 
 FACTORY_FORM = re.compile(r"^(?P<module>[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*):(?P<factory>[A-Za-z_][\w]*)$")
 """`MODULE:FACTORY`: a dotted module path, a colon and an attribute name (as entry points write them)."""
@@ -134,7 +134,8 @@ def _factory_spec(name: str, module_name: str, attribute: str) -> PolicySpec:
     factory = _factory(name, module_name, attribute)
     doc = (inspect.getdoc(factory) or "").split("\n")[0]
     return PolicySpec(f"outside policy {name}" + (f": {doc}" if doc else ""),
-                      _checked_build(name, _factory_build(name, factory)), family="outside")
+                      _checked_build(name, _factory_build(name, factory)), family="outside",
+                      domains=tuple(DOMAINS))
 
 
 def resolve_factory(name: str) -> tuple[PolicySpec, None] | None:
@@ -226,7 +227,7 @@ def _sb3_spec(name: str) -> PolicySpec:
     path = Path(name)
     load_sb3(path)  # refuse a file that is no model before any environment is built
     build = _checked_build(name, lambda deployment: sb3_policy(name, path, deployment.env))
-    return PolicySpec(f"Stable-Baselines3 model {path.name}", build, family="outside")
+    return PolicySpec(f"Stable-Baselines3 model {path.name}", build, family="outside", domains=tuple(DOMAINS))
 
 
 def resolve_sb3(name: str) -> tuple[PolicySpec, None] | None:
