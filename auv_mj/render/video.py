@@ -113,6 +113,8 @@ EVENT_COLOURS = {"goal": (0.3, 1.0, 0.4), "collision": (1.0, 0.3, 0.3), "left_ma
 QUIET_EVENTS = ("subgoal",)
 """Events counted in the overlay but given no banner (a path's virtual sub-goals come every 10 m)."""
 CAMERAS = ("follow", "overview", "both")
+VIDEO_SUFFIXES = (".mp4", ".gif")
+"""The video files `write_video` writes: H.264 MP4 or animated GIF."""
 SCALE_RGBA = (1.0, 1.0, 1.0, 1.0)
 SCALE_FRACTION = 0.2
 """The scale bar is the 1-2-5 length nearest below this fraction of the view's width."""
