@@ -68,3 +68,47 @@ def test_a_square_map_keeps_its_legends_beside_it(tmp_path):
     assert rows < 0.15 and cols < 0.1, (rows, cols)  # was 0.31
     with Image.open(path) as image:
         assert image.size[0] == 900 and 0.5 * 900 < image.size[1] < 1.1 * 900
+
+
+# --- the video's key ----------------------------------------------------------------------------------------------
+
+
+def _ramps(frame: np.ndarray, least: int = 40) -> list[tuple[int, int, int]]:
+    """(row, first column, last column) of horizontal runs of at least `least` pixels coloured as the sonar's echo
+    colours (blue 25, red + green >= 255) that go from red to green: the key's colour ramp."""
+    found = []
+    r, g, b = (frame[..., i].astype(int) for i in range(3))
+    echo = (np.abs(b - 25) <= 1) & (r + g >= 250)
+    for row in range(frame.shape[0]):
+        columns = np.flatnonzero(echo[row])
+        if len(columns) < least:
+            continue
+        runs = np.split(columns, np.flatnonzero(np.diff(columns) > 1) + 1)
+        for run in runs:
+            if len(run) >= least and r[row, run[0]] > 240 > g[row, run[0]] + 100 and g[row, run[-1]] > 240 > \
+                    r[row, run[-1]] + 100:
+                found.append((row, int(run[0]), int(run[-1])))
+    return found
+
+
+@pytest.mark.parametrize("camera", ["both", "follow", "overview"])
+def test_a_video_frame_has_a_key_to_the_sonar_colours_and_lines(camera):
+    from auv_mj import render
+
+    env = suite.load("auv", "obstacles", task_kwargs={"random": 0})
+    env.reset()
+    frame = render.render_frame(env.physics, width=640, height=360, camera=camera)
+    ramps = _ramps(frame)
+    assert ramps, "no sonar colour ramp in the frame"
+    row, first, last = ramps[0]
+    assert row > 360 / 2 and first > 640 / 2, ramps  # in the bottom right corner, clear of the text overlay
+
+
+def test_the_key_names_what_the_lines_are():
+    from auv_mj.render.video import FrameRenderer
+
+    env = suite.load("auv", "moving_obstacles", task_kwargs={"random": 0})
+    env.reset()
+    with FrameRenderer(env.physics, 640, 360) as renderer:
+        labels = renderer.key_labels
+    assert {"sonar echo", "no echo", "map bounds", "trail", "obstacle path"} <= set(labels), labels
