@@ -112,3 +112,60 @@ def test_the_key_names_what_the_lines_are():
     with FrameRenderer(env.physics, 640, 360) as renderer:
         labels = renderer.key_labels
     assert {"sonar echo", "no echo", "map bounds", "trail", "obstacle path"} <= set(labels), labels
+
+
+# --- the arena preview --------------------------------------------------------------------------------------------
+
+HARBOUR = {
+    "name": "harbour", "bounds": [0, 0, 600, 600], "border": True, "start": [60, 300], "heading": 0,
+    "goal": [540, 300], "shapes": [
+        {"type": "polygon", "name": "pier", "points": [[280, 240], [345, 240], [345, 360], [280, 360], [280, 346],
+                                                       [331, 346], [331, 254], [280, 254]]},
+        {"type": "polygon", "name": "jetty", "points": [[150, 420], [230, 420], [230, 500], [210, 500], [210, 440],
+                                                        [170, 440], [170, 500], [150, 500]]},
+        {"type": "box", "name": "buoy_a", "x": 200, "y": 150, "length": 10, "width": 10},
+        {"type": "box", "name": "buoy_b", "x": 212, "y": 150, "length": 10, "width": 10},
+        {"type": "cylinder", "name": "rock", "x": 450, "y": 420, "radius": 12},
+        {"type": "mover", "name": "ferry", "waypoints": [[450, 100], [450, 200]], "speed": 0.2, "radius": 5},
+    ]}
+
+
+@pytest.fixture
+def harbour(tmp_path):
+    import json
+
+    path = tmp_path / "harbour.json"
+    path.write_text(json.dumps(HARBOUR))
+    return path
+
+
+def test_the_arena_preview_is_titled_by_its_file_and_kind(harbour, tmp_path, monkeypatch):
+    from auv_mj.arenas import arena_check
+    from auv_mj.assets import model_path
+    from auv_mj.cli import main
+
+    titles = []
+    plot = arena_check.plot_arena
+    monkeypatch.setattr(arena_check, "plot_arena", lambda *args, **kwargs: titles.append(kwargs["title"])
+                        or plot(*args, **kwargs))
+    assert main(["arena", str(harbour), "-o", str(tmp_path / "harbour.xml")]) == 0
+    report = arena_check.check_arena(model_path("arenas/validation/l_bend.xml"), tmp_path / "l_bend.png")
+    assert titles == ["harbour.xml: open-water arena", "l_bend.xml: tunnel arena"]
+    assert report.ok and (tmp_path / "harbour.png").exists()
+
+
+def test_a_polygon_is_labelled_once_and_no_labels_overlap(harbour):
+    from auv_mj.arenas import arena_check, layout
+    from auv_mj.arenas.arena import arena_info, load
+
+    physics = load(layout.read_layout(harbour).element("test"))
+    fig = arena_check.arena_figure(physics, arena_info(physics), title="harbour")
+    renderer = fig.canvas.get_renderer()
+    texts = [t for t in fig.axes[0].texts if t.get_text()]
+    names = [t.get_text() for t in texts]
+    assert names.count("obstacle_pier") == 1 and names.count("obstacle_jetty") == 1, names
+    assert not [n for n in names if re.fullmatch(r"obstacle_(pier|jetty)_\d+", n)], names
+    assert {"obstacle_buoy_a", "obstacle_buoy_b", "obstacle_rock"} <= set(names), names
+    boxes = [t.get_window_extent(renderer) for t in texts]
+    overlaps = [(names[i], names[j]) for i in range(len(boxes)) for j in range(i) if boxes[i].overlaps(boxes[j])]
+    assert not overlaps, overlaps
