@@ -80,8 +80,8 @@ def test_run_script_changes_nothing_outside_its_checkout(tmp_path):
 
 
 BACKEND_WARNINGS = """import warnings
-warnings.warn_explicit("Editable installation.\\n!!\\n  Please be careful with folders in your working directory with the "
-                       "same name as your package", UserWarning, "editable_wheel.py", 354,
+warnings.warn_explicit("Editable installation.\\n!!\\n  Please be careful with folders in your working directory "
+                       "with the same name as your package", UserWarning, "editable_wheel.py", 354,
                        module="setuptools.command.editable_wheel")
 warnings.warn_explicit("License classifiers are deprecated.", UserWarning, "dist.py", 1, module="setuptools.dist")
 """
