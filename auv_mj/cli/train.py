@@ -130,7 +130,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard scalars")
     parser.add_argument("--collectors", type=bounded_int(0, MAX_PROCESSES), default=0, metavar="N",
                         help="step N environments in collector processes while this one learns (1 uses a "
-                             "second core; deterministic given --seed and N, not the serial run) [0: serial]")
+                             "second core; deterministic given --seed and N, not the serial run) (default: 0, serial)")
     add_config_options(parser)
 
 
