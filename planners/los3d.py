@@ -11,10 +11,11 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
+from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import RepulsiveField
 from auv_mj.sim.sensors3d import FAN_AZIMUTHS, FAN_ELEVATIONS
@@ -58,7 +59,7 @@ def protect_command(command: Sequence[float], heading: float, ranges: np.ndarray
     return speed, wrap_angle(heading + offset), depth_cmd + push
 
 
-def los_policy(env, avoid: bool = False) -> Callable:
+def los_policy(env, avoid: bool = False) -> Planner:
     """Line of sight in 3-D (to the goal, or along the tube) as a planning policy; `avoid` adds the protection
     domain on the 3-D fan (`los-avoid`)."""
     task, physics = env.task, env.physics
@@ -77,10 +78,10 @@ def los_policy(env, avoid: bool = False) -> Callable:
         depth_offset = (command[2] - physics.depth()) / DEPTH_RANGE
         return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_offset, depth_offset], -1.0, 1.0)
 
-    return policy
+    return FunctionPlanner(policy)
 
 
-def classical_3d(env, avoid: bool = False) -> Callable:
+def classical_3d(env, avoid: bool = False) -> Planner:
     """The classical baseline of an auv3d environment: the S-plane depth-heading executor on depth_heading;
     line of sight in 3-D on the classical executor on goal3d and tunnel3d, inside the protection domain on the
     3-D fan if `avoid` (the app's `--policy splane` and `--policy los-avoid`)."""

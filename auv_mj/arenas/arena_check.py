@@ -86,12 +86,15 @@ class ArenaReport:
 
 
 def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
-                need_path: bool = True) -> ArenaReport:
+                need_path: bool = True, name: str | None = None) -> ArenaReport:
     """Checks an arena (a file or an element); writes a top-down preview to `png` if given.
 
-    `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8).
+    `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8). `name` is
+    how the report and the preview's title call the arena (default: its file, or `<arena element>`): the file an
+    element is about to be written to, say.
     """
-    name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
+    if name is None:
+        name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
     report = ArenaReport(name)
     from auv_mj.arenas import tubes  # a 3-D tube arena (issue 32) is checked for the 6-DOF vehicle
 
@@ -105,7 +108,7 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
                 items = tubes.items_from_arena(root)
             except ValueError:
                 return report  # the report names what is wrong; there is nothing sound to draw
-            report.png = plot_tube(tube, *items, png, title=Path(name).name)
+            report.png = plot_tube(tube, *items, png, title=f"{Path(name).name}: tube arena")
         return report
     try:
         physics = load(source)
@@ -126,7 +129,8 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
         _check_unknown(physics, info, static, report)
         _check_movers(physics, info, static, report)
     if png is not None:
-        report.png = plot_arena(physics, info, png, title=Path(name).name, skip=absurd)
+        report.png = plot_arena(physics, info, png, title=f"{Path(name).name}: {arena_kind(model, info)} arena",
+                                skip=absurd)
     return report
 
 
@@ -601,6 +605,68 @@ def _xy4(b) -> str:
 
 # --- preview --------------------------------------------------------------------------------------
 
+LABEL_OFFSETS = ((0, 6), (0, -14), (8, -4), (-8, -4), (0, 18), (0, -26), (16, 10), (-16, 10), (16, -18),
+                 (-16, -18), (0, 30), (0, -38))
+"""Where a geom's name may go [points from the centre of its outline, the text's bottom centre], tried in order
+until it overlaps no label placed before it."""
+PIECE_NAME = re.compile(r"(.+)_(\d+)")
+"""A piece of a polygon cut into convex meshes: NAME_0, NAME_1, ... (`auv_mj.arenas.layout`)."""
+
+
+def arena_kind(model: mujoco.MjModel, info: ArenaInfo | None) -> str:
+    """What an arena is, for a reader: "tunnel" (made by `auv-mj tunnel`, or walls along a global path) or
+    "open-water" (made by `auv-mj arena`, or anything else)."""
+    texts = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_TEXT, i) for i in range(model.ntext)}
+    if "tunnel_command" in texts:
+        return "tunnel"
+    if "arena_command" in texts:
+        return "open-water"
+    walls = any(model.geom(g).name.startswith("wall") for g in range(model.ngeom))
+    return "tunnel" if walls and info is not None and len(info.path) > 1 else "open-water"
+
+
+def _labelled_shapes(model: mujoco.MjModel, outlines: dict[int, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+    """(name, outline) of each static shape to label: a polygon's convex pieces (meshes NAME_0, NAME_1, ... whose
+    outlines join into one) once, as NAME at the middle of the whole; other geoms by their own name."""
+    groups: dict[str, list[int]] = collections.defaultdict(list)
+    for g in outlines:
+        match = PIECE_NAME.fullmatch(model.geom(g).name)
+        if match and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            groups[match.group(1)].append(g)
+    merged: dict[int, tuple[str, np.ndarray]] = {}
+    for stem, pieces in groups.items():
+        numbers = sorted(int(PIECE_NAME.fullmatch(model.geom(g).name).group(2)) for g in pieces)
+        if len(pieces) < 2 or numbers != list(range(len(pieces))):
+            continue
+        union = shapely.union_all([shapely.Polygon(outlines[g]).buffer(1e-6) for g in pieces])
+        if isinstance(union, shapely.Polygon):  # the pieces join: one polygon
+            point = union.representative_point()
+            merged.update({g: (stem, np.array([[point.x, point.y]])) for g in pieces})
+    shapes, done = [], set()
+    for g, outline in outlines.items():
+        name, where = merged.get(g, (model.geom(g).name, outline))
+        if name not in done:
+            done.add(name)
+            shapes.append((name, where))
+    return shapes
+
+
+def _place_labels(ax, labels: list[tuple[str, np.ndarray, dict]]) -> None:
+    """Annotates each (text, point, style) at the first of LABEL_OFFSETS where it overlaps no label placed before
+    it (nor a fixed text already on `ax`); one that fits nowhere is left out rather than drawn over another."""
+    renderer = ax.figure.canvas.get_renderer()
+    ax.apply_aspect()
+    placed = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
+    for text, point, style in labels:
+        for dx, dy in LABEL_OFFSETS:
+            note = ax.annotate(text, point, xytext=(dx, dy), textcoords="offset points", ha="center",
+                               va="bottom", **style)
+            box = note.get_window_extent(renderer)
+            if not any(box.overlaps(other) for other in placed):
+                placed.append(box)
+                break
+            note.remove()
+
 
 def _outline(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray | None:
     """The xy outline of a geom seen from above (None for planes)."""
@@ -638,7 +704,20 @@ def _drawable(points) -> bool:
 
 def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, title: str = "",
                skip: set[int] | frozenset[int] = frozenset()) -> Path:
-    """Writes a top-down PNG of walls, obstacles, movers and their paths, the global path, start and goal.
+    """Writes `arena_figure` as a PNG."""
+    import matplotlib.pyplot as plt
+
+    fig = arena_figure(physics, info, title, skip)
+    png = Path(png)
+    fig.savefig(png, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return png
+
+
+def arena_figure(physics: AUVPhysics, info: ArenaInfo | None, title: str = "",
+                 skip: set[int] | frozenset[int] = frozenset()):
+    """A top-down figure of walls, obstacles, movers and their paths, the global path, start and goal: each static
+    shape named once (a polygon cut into pieces by its own name), the names placed where they overlap no other.
 
     Geoms in `skip`, and anything not at finite coordinates within MAX_EXTENT, are left out.
     """
@@ -652,6 +731,7 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
     mujoco.mj_kinematics(model, data)
     fig, ax = plt.subplots(figsize=(10, 7))
     movers = {model.body(m.body).id: m for m in info.movers} if info is not None else {}
+    named: dict[int, np.ndarray] = {}
     for g in range(model.ngeom):
         body = model.geom_bodyid[g]
         if (body != 0 and body not in movers) or g in skip:
@@ -663,8 +743,8 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
         colour = "#d9342b" if body in movers else "#73787f" if name.startswith("wall") else "#9a6a3f"
         ax.add_patch(Polygon(outline, closed=True, facecolor=colour, edgecolor=colour, lw=0.5, zorder=2))
         if body == 0 and not name.startswith("wall") and name:
-            ax.annotate(name, outline.mean(axis=0), fontsize=7, ha="center", va="bottom",
-                        xytext=(0, 6), textcoords="offset points")
+            named[g] = outline
+    labels = []
     for mover in movers.values():
         if not (_drawable(mover.waypoints) and math.isfinite(mover.speed)):
             continue
@@ -673,8 +753,8 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
             ax.plot(*track[:-1].T, "--", color="#d9342b", lw=1.0, zorder=3)
         ax.annotate("", track[-1], track[-2], zorder=3,
                     arrowprops={"arrowstyle": "->", "color": "#d9342b", "ls": "--"})
-        ax.annotate(f"{mover.body} ({mover.speed:g} m/s)", mover.start, fontsize=7, color="#d9342b",
-                    xytext=(0, 8), textcoords="offset points", ha="center")
+        labels.append((f"{mover.body} ({mover.speed:g} m/s)", mover.start, {"fontsize": 7, "color": "#d9342b"}))
+    labels += [(name, where.mean(axis=0), {"fontsize": 7}) for name, where in _labelled_shapes(model, named)]
     if info is not None:
         path = info.path[np.all(np.abs(info.path) <= MAX_EXTENT, axis=1)] if len(info.path) else info.path
         if len(path):
@@ -698,12 +778,10 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
     ax.set_ylabel("y [m]")
     ax.set_title(title)
     ax.grid(alpha=0.3)
+    _place_labels(ax, labels)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="best", fontsize=8)
-    png = Path(png)
-    fig.savefig(png, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return png
+    return fig
 
 
 def plot_tube(tube, obstacles, movers, png: str | Path, title: str = "") -> Path:
@@ -753,7 +831,7 @@ def plot_tube(tube, obstacles, movers, png: str | Path, title: str = "") -> Path
         ax.plot(*goal, "*", color="#e6b800", ms=14, mec="k", mew=0.5, label="goal", zorder=4)
         ax.grid(alpha=0.3)
     top.set_aspect("equal")
-    top.set(xlabel="x [m]", ylabel="y [m]", title=f"{title}: from above" if title else "from above")
+    top.set(xlabel="x [m]", ylabel="y [m]", title=f"{title}, from above" if title else "from above")
     profile.set(xlabel="distance along the centreline [m]", ylabel="depth [m]",
                 title="from the side, unrolled along the centreline (depth not to scale)")
     profile.invert_yaxis()

@@ -24,8 +24,6 @@ MIN_BEND_RADIUS, slopes no steeper than MAX_SLOPE, the whole tube below MIN_COVE
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -35,7 +33,7 @@ import mujoco
 import numpy as np
 
 from auv_mj.arenas.arena3d import arena_root, seabed
-from auv_mj.inputs import read_text
+from auv_mj.inputs import csv_rows, read_text
 
 N_STAVES = 20
 """Staves round the ring of a tube written before the ring was sized to the tube (no `tube_staves` numeric)."""
@@ -504,7 +502,7 @@ def read_centreline(path: str | Path) -> np.ndarray:
     file, row and field of a bad entry."""
     path = Path(path)
     text = read_text(path, "tube centreline CSV", 10_000_000)
-    rows = [row for row in csv.reader(io.StringIO(text)) if row and any(cell.strip() for cell in row)]
+    rows = [row for row in csv_rows(text, str(path), "x,y,z") if row and any(cell.strip() for cell in row)]
     if rows and not _is_number(rows[0][0]):
         header = [cell.strip().lower() for cell in rows[0]]
         if header[:3] != ["x", "y", "z"]:

@@ -13,14 +13,18 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 
-import numpy as np
-
-from auv_mj.benchmark.metrics import cell_summary, oracle_times, summarise
+from auv_mj.benchmark.metrics import cell_summary, oracle_times, success_rate, summarise
 from auv_mj.benchmark.suite import ORACLE, SUITE_NAME, SUITE_VERSION, Cell, fingerprint
 from auv_mj.console import progress_bar
 from auv_mj.episode import OUTCOMES, episode_metrics, record_episode
 from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
+
+
+def _rate(rows: list[dict]) -> str:
+    """The progress bar's success so far: n/a before any result and on tracking tasks (they report none)."""
+    rate = success_rate(rows) if rows else None
+    return "n/a" if rate is None else f"{rate:.2f}"
 
 
 def run_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
@@ -54,7 +58,7 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
             if on_episode is not None:
                 on_episode(task_name, seed + i, runs[-1])
             bar.update(1)
-            bar.set_postfix(success=f"{np.mean([r['success'] for r in runs]):.2f}")
+            bar.set_postfix(success=_rate(runs))
         bar.close()
         results[task_name] = summarise(runs)
     return {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
@@ -88,7 +92,7 @@ def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, se
                 if on_episode is not None:
                     on_episode(jobs[k][1], jobs[k][2], result)
             bar.update(1)
-            bar.set_postfix(success=f"{np.mean([r['success'] for r in finished.values()] or [0]):.2f}",
+            bar.set_postfix(success=_rate(list(finished.values())),
                             failed=len(failed))
     finally:
         bar.close()
@@ -155,7 +159,7 @@ def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None =
             else:
                 rows[k] = result
             bar.update(1)
-            bar.set_postfix(success=f"{np.mean([r['success'] for r in rows.values()] or [0]):.2f}", failed=len(failed))
+            bar.set_postfix(success=_rate(list(rows.values())), failed=len(failed))
     finally:
         bar.close()
     by_cell = {c.name: [] for c in cells}

@@ -362,6 +362,65 @@ def training_section(settings: BenchSettings) -> list[Measurement]:
                         "updates/s", "one torch thread") for name in agents]
 
 
+VECTOR_CASES = {"goal": {}, "obstacles hard": {"arena": "random", "tier": "hard"}}
+"""Tasks (and options) of the "vector" section: open water, and the hard tier's procedural arenas (resets and all)."""
+VECTOR_MEMORY_STEPS = 1_000_000
+"""Environment steps over which the "vector" section follows the batch's resident memory (N = 256)."""
+PPO_BENCH_ENVS = 64
+"""Batch size of the "vector" section's PPO run."""
+PPO_BENCH_ROLLOUTS = 4
+"""Rollouts (of 128 steps per env) of the "vector" section's PPO run, after one untimed rollout."""
+
+
+@section("vector")
+def vector_section(settings: BenchSettings) -> list[Measurement]:
+    """The batched planning environment (`auv_mj.tasks.vector`): env steps/s for N in {1, 16, 64, 256} on 1 and 2
+    threads beside the physics limit (plain `mj_step`, 50 substeps per env step, one thread), Gymnasium's
+    AsyncVectorEnv and SB3's SubprocVecEnv on 2 processes; the resident memory over 10^6 env steps; and recurrent
+    PPO's samples/s end to end (`auv_mj.agents.ppo`, GRU, N = 64) against the batch alone."""
+    from auv_mj.agents.ppo import PPOConfig
+    from auv_mj.agents.ppo import train as train_ppo
+    from auv_mj.tasks.vector import AUVVectorEnv
+    from auv_mj.tasks.vector_bench import MEMORY_SIZE, batch_rate, vector_bench
+
+    seconds = max(0.5, 2.0 * settings.scale)
+    measurements = []
+    for case, task_kwargs in VECTOR_CASES.items():
+        task = case.split()[0]
+        memory = settings.calls(VECTOR_MEMORY_STEPS) // MEMORY_SIZE if case == "goal" else 0
+        rows = vector_bench(task, task_kwargs, seconds=seconds, memory_steps=memory)
+        for row in rows:
+            if "rss_early" in row:
+                measurements.append(Measurement(f"{case}: resident memory growth over {memory * MEMORY_SIZE} env "
+                                                "steps", (row["rss_late"] - row["rss_early"]) / 2**20, "MiB",
+                                                f"{row['rss_early'] / 2**20:.0f} MiB after a tenth"))
+            else:
+                measurements.append(Measurement(f"{case}: {row['name']}", row["steps_per_second"], "env steps/s",
+                                                f"{row['ratio']:.2f} of the physics limit, load "
+                                                f"{row['load']:.1f}"))
+        by_name = {r["name"]: r["steps_per_second"] for r in rows if "steps_per_second" in r}
+        one, two = by_name["batch N=256 threads=1"], by_name["batch N=256 threads=2"]
+        measurements.append(Measurement(f"{case}: N=256, 2 threads / 1 thread", two / one, "x"))
+        measurements.append(Measurement(f"{case}: N=256, 2 threads / AsyncVectorEnv (2 processes)",
+                                        two / by_name["AsyncVectorEnv (2 processes)"], "x"))
+    config = PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4, recurrent="gru", seed=settings.seed,
+                       checkpoint_every=10_000)
+    steps = PPO_BENCH_ENVS * config.num_steps
+    batch = batch_rate("obstacles", VECTOR_CASES["obstacles hard"], PPO_BENCH_ENVS, 2, seconds)
+    with tempfile.TemporaryDirectory() as folder:
+        env = AUVVectorEnv("obstacles", PPO_BENCH_ENVS, VECTOR_CASES["obstacles hard"], threads=2)
+        train_ppo(env, config, Path(folder) / "warm", steps, progress=False)  # one rollout: imports, first resets
+        start = time.perf_counter()
+        train_ppo(env, config, Path(folder) / "timed", steps * settings.calls(PPO_BENCH_ROLLOUTS), progress=False)
+        rate = steps * settings.calls(PPO_BENCH_ROLLOUTS) / (time.perf_counter() - start)
+        env.close()
+    measurements.append(Measurement(f"obstacles hard: PPO (GRU) end to end, N={PPO_BENCH_ENVS}", rate,
+                                    "env steps/s", "collection and updates, one torch thread"))
+    measurements.append(Measurement("obstacles hard: PPO end to end / the batch alone", rate / batch, "x",
+                                    f"batch N={PPO_BENCH_ENVS}, 2 threads: {batch:.0f} env steps/s"))
+    return measurements
+
+
 CORE_STEPS = 20_000
 """Env steps of each timed training run of the "cores" section (the collector's start, 2-3 s, is timed too)."""
 CORE_REPEATS = 3

@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     record.save(episode_file)
     records = {args.policy: record}
     for name in COMPARED:
-        if name not in records:
+        if name not in records and policies.runs_on(policies.POLICIES[name], task):  # (planar: none on a 6-DOF task)
             try:
                 env, policy = policies.env_and_policy(name, task, args.seed, kwargs)
                 records[name] = record_episode(env, policy, task=task, policy_name=name, seed=args.seed)

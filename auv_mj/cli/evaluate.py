@@ -8,7 +8,9 @@ Per task the summary holds (units in brackets):
 - `min_clearance` (least over episodes) and `median_min_clearance` [m], hull to the nearest geom;
 - `path_length` [m], `time_to_goal` [s] (mean over successful episodes), `return` and `return_std`;
 - tracking tasks: `mae_speed`, `max_speed` [m/s], `mae_heading`, `max_heading` [rad], `mae_cross_track`,
-  `max_cross_track` [m], and on speed_heading `mae_speed_<phase>`, `mae_heading_<phase>` (Table 9).
+  `max_cross_track` [m], on depth_heading `mae_depth`, `max_depth` [m], and on speed_heading and depth_heading
+  `mae_speed_<phase>`, `mae_heading_<phase>` (Table 9). Their episodes end by their schedule, not at a goal:
+  `success_rate` and `time_to_goal` are null for them.
 A figure that is undefined is null in the JSON (never NaN): `time_to_goal` when no episode succeeded,
 clearances on a task without obstacles to measure (speed_heading), tracking errors where the task
 reports none. The JSON is strict (any parser reads it); the CSV leaves such cells empty.
@@ -53,7 +55,10 @@ SEED_LIMIT = 2**32 - 1
 
 
 TABLE_COLUMNS = ("success_rate", "collision_rate", "min_clearance", "path_length", "time_to_goal", "return",
-                 "mae_speed", "mae_heading")
+                 "mae_speed", "mae_heading", "mae_depth")
+"""The table's columns; a tracking column no task of the table reports (mae_depth outside depth_heading) is left
+out. On a tracking task success_rate and time_to_goal read n/a: its episodes end by their schedule."""
+OPTIONAL_COLUMNS = ("mae_depth",)
 
 
 def table_cell(value, width: int = 15, digits: int = 3) -> str:
@@ -68,11 +73,13 @@ def table_cell(value, width: int = 15, digits: int = 3) -> str:
 
 def format_table(results: dict) -> str:
     """A plain-text table of the headline metrics and the outcomes, one row per task."""
-    header = f"{'task':<18}" + "".join(f"{c:>15}" for c in TABLE_COLUMNS) + "   outcomes"
+    columns = [c for c in TABLE_COLUMNS if c not in OPTIONAL_COLUMNS
+               or any(s.get(c) is not None for s in results["tasks"].values())]
+    header = f"{'task':<18}" + "".join(f"{c:>15}" for c in columns) + "   outcomes"
     lines = [f"policy: {results['policy']}   episodes: {results['episodes']}   seed: {results['seed']}",
              header, "-" * len(header)]
     for task, summary in results["tasks"].items():
-        cells = "".join(table_cell(summary.get(c)) for c in TABLE_COLUMNS)
+        cells = "".join(table_cell(summary.get(c)) for c in columns)
         outcomes = ", ".join(f"{name} {n}" for name, n in summary["outcomes"].items() if n)
         lines.append(f"{task:<18}{cells}   {outcomes}")
     return "\n".join(lines)
@@ -143,11 +150,16 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, FileNotFoundError) as e:
         usage_error(args, str(e))
     ended: list[tuple[str, int, str]] = []
+
+    def on_episode(task: str, seed: int, metrics: dict) -> None:
+        if metrics["success"] is not None:  # a tracking episode (no goal) is no failure to record
+            ended.append((task, seed, metrics["outcome"]))
+
     try:
         results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps,
                            progress=not args.no_progress, task_kwargs=kwargs, workers=args.workers,
                            ray_address=args.ray, retries=args.retries,
-                           on_episode=lambda task, seed, metrics: ended.append((task, seed, metrics["outcome"])))
+                           on_episode=on_episode)
     except (ValueError, FileNotFoundError) as e:
         print(f"{args.prog}: error: {e}", file=sys.stderr)
         return 1

@@ -1,4 +1,4 @@
-"""Videos and plots of 6-DOF episodes (issue 32): `python -m auv_mj.cli.render3d --task tunnel3d --policy splane`.
+"""Videos and plots of 6-DOF episodes: `python -m auv_mj.cli.render3d --task tunnel3d --policy splane`.
 
 Runs one episode of an auv3d task with a registered policy (`auv_mj.zoo.registry`), writes the video of
 `auv_mj.render.video3d` (chase, top-down and side views with a heads-up display) and, with --plots PREFIX, two

@@ -32,17 +32,22 @@ from auv_mj.cli.options import (
 )
 from auv_mj.inputs import check_json_depth, read_text
 from auv_mj.planners.deploy import ChainConfig, deploy_env
+from auv_mj.tasks import suite
+from auv_mj.tasks.gym_adapter import gym_id
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
 
 
 def task_env_id(task: str) -> str:
-    """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, or `auv_mj/<CamelCase>-v0`."""
+    """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, the suite's own id of a task of either
+    domain (`auv_mj.tasks.gym_adapter.gym_id`: goal3d -> auv_mj/Goal3D-v0), or `auv_mj/<CamelCase>-v0`."""
     if task in TASK_IDS:
         return TASK_IDS[task]
     if "/" in task or ":" in task:
         return task
+    if task in suite.TASKS_BY_DOMAIN[suite.DOMAIN] + suite.TASKS_BY_DOMAIN[suite.DOMAIN_3D]:
+        return gym_id(task)
     camel = "".join(part[:1].upper() + part[1:] for part in re.split(r"[-_\s]+", task) if part)
     return f"auv_mj/{camel}-v0"
 
@@ -64,19 +69,7 @@ class EnvFactory:
             importlib.import_module(self.module)
         chain = {k: v for k, v in self.kwargs.items() if k in ChainConfig.__dataclass_fields__}
         rest = {k: v for k, v in self.kwargs.items() if k not in chain}
-        return deploy_env(gym.make(self.env_id, **_with_executor(rest)), **chain)
-
-
-def _with_executor(kwargs: dict) -> dict:
-    """`kwargs` with a planning task's executor named in its task_kwargs ("executor": one of
-    `policies.EXECUTORS` or a speed_heading checkpoint) built, so that a planner trains on the execution layer
-    it will run on (e.g. the learned one of the two-layer system)."""
-    task_kwargs = kwargs.get("task_kwargs")
-    if isinstance(task_kwargs, dict) and isinstance(task_kwargs.get("executor"), str):
-        from auv_mj.zoo.registry import named_executor
-
-        return {**kwargs, "task_kwargs": {**task_kwargs, "executor": named_executor(task_kwargs["executor"])}}
-    return kwargs
+        return deploy_env(gym.make(self.env_id, **rest), **chain)
 
 
 def make_env_fn(env_id: str, **kwargs: Any) -> EnvFactory:
@@ -137,7 +130,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard scalars")
     parser.add_argument("--collectors", type=bounded_int(0, MAX_PROCESSES), default=0, metavar="N",
                         help="step N environments in collector processes while this one learns (1 uses a "
-                             "second core; deterministic given --seed and N, not the serial run) [0: serial]")
+                             "second core; deterministic given --seed and N, not the serial run) (default: 0, serial)")
     add_config_options(parser)
 
 

@@ -113,7 +113,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                             help="number of movers in the tunnel")
     group.add_argument("--tier", default="standard", choices=traps.TIERS,
                        help="the task's `tier` option: today's distribution (standard, default) or the hard tier of "
-                            "certified trap arenas (issue 30, auv_mj/arenas/traps.py)")
+                            "certified trap arenas (auv_mj/arenas/traps.py)")
 
 
 def _command_line() -> str | None:

@@ -2,9 +2,11 @@
 MuJoCo Playground's registry).
 
 The one place where tasks and agents meet (the app layer). A spec holds what a name means: how its policy is built,
-its shipped checkpoint, the executor it runs on, its protection domain (Sec. 3.2.2), the tasks it runs on and a
-one-line description. Everything else derives from `POLICIES`: the names, the `--policy` help of every command, the
-README's policy table (`auv-mj policies --markdown`), `resolve_tasks`, `make_env` and `make_policy`.
+its shipped checkpoint, the executor it runs on, its protection domain (Sec. 3.2.2), the suite domains (planar,
+6-DOF) and kind of task it runs on and a one-line description. Everything else derives from `POLICIES`: the names,
+the `--policy` help of every command, the README's policy table (`auv-mj policies --markdown`), `resolve_tasks`
+(which tasks of 'all', a tag or a domain a policy runs), `check_runs_on` (the one-line refusal of a task it cannot
+run), `make_env` and `make_policy`.
 
 Adding a policy is one entry: `register("my-planner", PolicySpec("what it is", build=...))`, in this file or in a
 module imported by it.
@@ -35,6 +37,7 @@ from auv_mj.agents.baselines import uniform_random
 from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.agents.policy import Policy
 from auv_mj.arenas import arena
+from auv_mj.episode import FunctionPlanner, Planner, as_planner
 from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsion
 from auv_mj.planners.bug import bug_planner
 from auv_mj.planners.deploy import Chain, ChainConfig, deployed
@@ -42,15 +45,17 @@ from auv_mj.planners.guidance import classical, is_goal_task, line_of_sight
 from auv_mj.planners.los3d import classical_3d
 from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
 from auv_mj.tasks import suite
+from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
 from auv_mj.tasks.auv3d import SUITE3D, is_3d
+from auv_mj.tasks.executors import EXECUTORS, named_executor  # noqa: F401  (EXECUTORS: the zoo's face)
+from auv_mj.tasks.registry import SUITE
 from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
-from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController
 from auv_mj.zoo.spec import (
+    DOMAINS,
     POLICIES,
     RESOLVERS,
     ROLES,
     RUNS_ON,  # noqa: F401  (re-exported)
-    ActingPolicy,
     Deployment,
     PolicySpec,
     register,
@@ -107,22 +112,14 @@ def learned_executor(path: Path | None = None) -> LearnedExecutor:
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
 
-EXECUTORS: dict[str, Callable[[], Any]] = {
-    "splane": SPlaneController,
-    "splane-ocean": lambda: SPlaneController(OCEAN_GAINS),
-    "executor": lambda: learned_executor(shipped_checkpoint("executor")),
-    "ocean-executor": lambda: learned_executor(shipped_checkpoint("ocean-executor")),
-}
-"""Executor names a planning task's `executor` option takes on the command line -> the executor."""
+def paper_executor() -> LearnedExecutor:
+    """The paper's learned execution layer (`executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
+    return learned_executor(shipped_checkpoint("executor"))
 
 
-def named_executor(name: str):
-    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path) as `executor(command, state)`."""
-    if name in EXECUTORS:
-        return EXECUTORS[name]()
-    if Path(name).is_file():
-        return learned_executor(Path(name))
-    raise ValueError(f"task_kwargs executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
+def ocean_executor() -> LearnedExecutor:
+    """The learned ocean executor (`ocean-executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
+    return learned_executor(shipped_checkpoint("ocean-executor"))
 
 
 # --- building policies ------------------------------------------------------------------------------------------
@@ -142,7 +139,7 @@ def loaded_policy(path: Path) -> Policy:
 
 
 def checkpoint_policy(path: Path, env, protection: bool | str | None = None, guide: str | None = None,
-                      zeroed: bool = False, speed: str | None = None) -> ActingPolicy:
+                      zeroed: bool = False, speed: str | None = None) -> Planner:
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
     (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, a
     residual planner (`"residual": R`, `"speed"`) through line of sight (`auv_mj.planners.guidance.guided_action`),
@@ -185,15 +182,15 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
 
-    return act if config.is_identity else deployed(act, Chain(config, env))
+    return FunctionPlanner(act) if config.is_identity else deployed(act, Chain(config, env))
 
 
-def _from_checkpoint(deployment: Deployment) -> ActingPolicy:
+def _from_checkpoint(deployment: Deployment) -> Planner:
     """A learned spec's build: its checkpoint under its protection domain."""
     return checkpoint_policy(deployment.checkpoint, deployment.env, deployment.spec.protection)
 
 
-def _splane_ocean(deployment: Deployment) -> ActingPolicy:
+def _splane_ocean(deployment: Deployment) -> Planner:
     """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading."""
     env = deployment.env
     return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
@@ -203,15 +200,20 @@ def _learned(description: str, checkpoint: str, **kwargs: Any) -> PolicySpec:
     return PolicySpec(description, _from_checkpoint, family="learned", checkpoint=checkpoint, **kwargs)
 
 
+BOTH = tuple(DOMAINS)
+"""`PolicySpec.domains` of a policy that runs on the planar and the 6-DOF vehicle's tasks."""
+
 PAPER_PLANNER = {"checkpoint": "planner.pt", "checkpoint_on": {"tunnel": "planner_tunnel.pt"}, "tasks": "planning",
                  "accepts_path": True}
 """The paper's HER-DDPG planner: one checkpoint per environment (`planner_tunnel.pt` on the tunnel task)."""
 
 register("planner", _learned("the paper's HER-DDPG planner with its protection domain (Sec. 3.2.2), on the task's "
-                             "executor", protection=True, **PAPER_PLANNER, role="paper"))
+                             "executor; trained on the paper's scenarios, it fails on tunnels of your own",
+                             protection=True, **PAPER_PLANNER, role="paper"))
 register("planner-raw", _learned("the paper's planner without the protection domain", protection=False,
                                  **PAPER_PLANNER, role="paper"))
-register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3)",
+register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3); "
+                               "it fails on tunnels of your own",
                                protection=True, executor="executor", **PAPER_PLANNER, role="paper"))
 GENERAL_DEPLOYMENT = {"tasks": "planning", "protection": "speed-aware"}
 """How the general planners are deployed: on every planning task, inside the speed-aware domain with the geofence."""
@@ -223,7 +225,7 @@ small final goal), its network steering only. Chosen on validation seeds over th
 (docs/runs/planner-top/selection.md)."""
 
 
-def _general(speed: str, zeroed: bool = False) -> Callable[[Deployment], ActingPolicy]:
+def _general(speed: str, zeroed: bool = False) -> Callable[[Deployment], Planner]:
     """The build of planner_general.pt at `speed`, its output zeroed if `zeroed`."""
     return lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", zeroed=zeroed, speed=speed)
 
@@ -262,14 +264,15 @@ register("los-executor", PolicySpec("line of sight on the learned DDPG executor:
 register("splane", PolicySpec("the classical baseline: line of sight + the S-plane (Eq. 32), or the S-plane alone "
                               "on speed_heading (auv3d: the depth-heading S-plane, with 3-D line of sight on "
                               "goal3d/tunnel3d)",
-                              lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env)))
+                              lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env),
+                              domains=BOTH))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
                                     "(`auv_mj.tasks.splane.OCEAN_GAINS`)", _splane_ocean,
                                     default_executor="splane-ocean", role="reference"))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner (auv3d: 3-D line of sight, the domain on the 3-D fan)",
                                  lambda d: classical_3d(d.env, avoid=True) if is_3d(d.env) else line_of_sight(d.env),
-                                 tasks="planning", protection="paper", role="paper"))
+                                 tasks="planning", protection="paper", role="paper", domains=BOTH))
 register("planner-map", PolicySpec(
     "planner-route on the sonar map's path without training on it (`guide=\"map\"`): what planner-general's "
     "training on the map adds over it", lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", guide="map"),
@@ -290,10 +293,10 @@ register("oracle", PolicySpec("plans on the true map (every geom, movers where t
                               lambda d: true_map_planner(d.env), family="reference", tasks="planning",
                               protection="speed-aware", role="reference"))
 register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference",
-                              role="reference"))
+                              role="reference", domains=BOTH))
 
 CHECKPOINT = PolicySpec("a trained checkpoint (`auv-mj train`), with the protection domain it trained with",
-                        _from_checkpoint, family="learned")
+                        _from_checkpoint, family="learned", domains=BOTH)
 """The spec of a checkpoint path given as the name."""
 
 
@@ -338,15 +341,63 @@ def _checkpoint_of(spec: PolicySpec, path: Path | None, task: str | None) -> Pat
 
 
 def executor_tasks() -> tuple[str, ...]:
-    """The suite's execution-layer tasks (tagged "executor"): the tasks with no executor option."""
-    return tuple(t for _, t in suite.tasks_by_tag("executor"))
+    """The suite's execution-layer tasks of both domains (tagged "executor"): the tasks with no executor option."""
+    return tuple(t for _, t in suite.tasks_by_tag("executor")) + tuple(SUITE3D.tagged("executor"))
+
+
+def domain_tasks(domain: str, runs_on: str = "any") -> list[str]:
+    """The task names of suite domain `domain` tagged `runs_on` ("planning", "executor"), or all of them ("any")."""
+    names = suite.TASKS_BY_DOMAIN[domain]
+    if runs_on == "any":
+        return list(names)
+    tagged = set((SUITE3D if domain == DOMAIN_3D else SUITE).tagged(runs_on))
+    return [t for t in names if t in tagged]
+
+
+def runs_on(spec: PolicySpec, task_name: str) -> bool:
+    """Whether a policy of `spec` runs on suite task `task_name` (its domains and `PolicySpec.tasks`)."""
+    domain = suite.domain_of(task_name)
+    return domain in spec.domains and task_name in domain_tasks(domain, spec.tasks)
+
+
+def task_policies(task_name: str) -> list[str]:
+    """The registered policies that run on `task_name`."""
+    return [name for name, spec in POLICIES.items() if runs_on(spec, task_name)]
+
+
+def _kind(runs: str) -> str:
+    return {"any": "", "planning": "planning ", "executor": "tracking "}[runs]
+
+
+def check_runs_on(policy_name: str, task_name: str) -> None:
+    """ValueError, one line, when the policy does not run on the task: naming the policy, the task, what the policy
+    runs on and which registered policies run on the task."""
+    spec = resolve(policy_name)[0]
+    if runs_on(spec, task_name):
+        return
+    domain = suite.domain_of(task_name)
+    kind = next((k for k in ("planning", "executor") if task_name in domain_tasks(domain, k)), "any")
+    raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(spec)}; {task_name!r} is a {DOMAINS[domain]} "
+                     f"{_kind(kind)}task: its policies are {', '.join(task_policies(task_name))}")
+
+
+def _runs_on_text(spec: PolicySpec) -> str:
+    """What a spec runs on, in words: "the planar planning tasks (goal, ...)"."""
+    where = " and ".join(DOMAINS[d] for d in spec.domains)
+    tasks = [t for d in spec.domains for t in domain_tasks(d, spec.tasks)]
+    return f"the {where} {_kind(spec.tasks)}tasks ({', '.join(tasks)})"
 
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     """The suite environment for one episode; a spec with an executor plugs it in, and a checkpoint gets the
-    observation it was trained on (read from its metadata)."""
+    observation it was trained on (read from its metadata). Only options the task takes are set: the 6-DOF tasks
+    have their own executor and observation, so nothing is added there. ValueError (`check_runs_on`) for a policy
+    that does not run on the task."""
+    check_runs_on(policy_name, task_name)
     spec, path = resolve(policy_name)
     task_kwargs["random"] = seed
+    if suite.domain_of(task_name) == DOMAIN_3D:
+        return suite.load(DOMAIN_3D, task_name, task_kwargs=task_kwargs)
     executor = task_kwargs.get("executor")
     planning = task_name not in executor_tasks()
     if spec.executor is not None and planning:
@@ -367,45 +418,54 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
             task_kwargs.update({k: v for k, v in memory.items() if k not in task_kwargs})
         elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
-    return suite.load(suite.domain_of(task_name), task_name, task_kwargs=task_kwargs)
+    return suite.load(suite.DOMAIN, task_name, task_kwargs=task_kwargs)
 
 
-def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> ActingPolicy:
-    """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the checkpoint)."""
+def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> Planner:
+    """The named policy as a Planner (`reset()`, `act(time_step)`) for `env` (of suite task `task`, which picks the
+    checkpoint). ValueError (`check_runs_on`) for a policy that does not run on `task`, or on `env`'s domain when no
+    task is named."""
     spec, path = resolve(policy_name)
+    domain = DOMAIN_3D if is_3d(env) else suite.DOMAIN
+    if task is not None:
+        check_runs_on(policy_name, task)
+    elif domain not in spec.domains:
+        raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(spec)}, not on a {DOMAINS[domain]} task")
     checkpoint = _checkpoint_of(spec, path, task)
-    act = spec.build(Deployment(env, task, seed, checkpoint, spec))
+    planner = as_planner(spec.build(Deployment(env, task, seed, checkpoint, spec)))
     if checkpoint is None and spec.protection and not is_3d(env):  # a classical policy inside a protection domain
         # (an auv3d policy carries its own domain on the 3-D fan)
-        act = with_repulsion(act, protection_field(spec.protection), map_fence(env))
-    return act
+        planner = with_repulsion(planner, protection_field(spec.protection), map_fence(env))
+    return planner
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
-    """A task name, a tag or 'all' -> the task names the policy runs on (`PolicySpec.tasks`).
+    """A task name, a tag, a domain ("auv", "auv3d") or 'all' -> the task names the policy runs on (its
+    `PolicySpec.domains` and `PolicySpec.tasks`).
 
-    'all' and the tags are the planar domain's tasks; the 6-DOF tasks (domain auv3d) are chosen by name, or all
-    of them by 'auv3d', since only some policies (splane, los-avoid, random) know the 6-DOF vehicle."""
-    names = [task for _, task in suite.PLANAR_TASKS]
-    names_3d = [task for _, task in suite.TASKS_3D]
+    'all' and the tags cover both domains, the planar tasks first; a group keeps the tasks the policy runs on, and
+    a task named alone that it does not run on is refused in one line (`check_runs_on`)."""
+    domains = {d: list(names) for d, names in suite.TASKS_BY_DOMAIN.items()}
+    names = [t for group in domains.values() for t in group]
+    tags = sorted(set(suite.TAGS) | set(SUITE3D.tags()))
+    if spec in names:
+        check_runs_on(policy_name, spec)
+        return [spec]
     if spec == "all":
         chosen = names
-    elif spec in names or spec in names_3d:
-        chosen = [spec]
-    elif spec == "auv3d":
-        chosen = names_3d
+    elif spec in domains:
+        chosen = domains[spec]
+    elif spec in tags:
+        chosen = [t for d in domains for t in domain_tasks(d, spec)]
     else:
-        chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
-        if not chosen:
-            raise ValueError(f"unknown task or tag {spec!r}; tasks: {names + names_3d}; tags: "
-                             f"{sorted(suite.TAGS)}; auv3d (the 6-DOF tasks)")
-    runs_on = resolve(policy_name)[0].tasks
-    if runs_on != "any":
-        tagged = {t for _, t in suite.tasks_by_tag(runs_on)} | set(SUITE3D.tagged(runs_on))
-        chosen = [t for t in chosen if t in tagged]
-    if not chosen:
-        raise ValueError(f"policy {policy_name!r} cannot run any task of {spec!r}")
-    return chosen
+        raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {tags}; domains: {list(domains)}; "
+                         "or all")
+    policy = resolve(policy_name)[0]
+    kept = [t for t in chosen if runs_on(policy, t)]
+    if not kept:
+        raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(policy)}, none of {spec!r} "
+                         f"({', '.join(chosen)})")
+    return kept
 
 
 def env_and_policy(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None):
@@ -436,6 +496,14 @@ def policy_help() -> str:
             f"policy(time_step) -> action) or PATH.zip (a Stable-Baselines3 model)")
 
 
+def runs_on_label(spec: PolicySpec) -> str:
+    """The "runs on" cell of a spec: its domains' words and its kind of task ("planar + 6-DOF planning tasks"), or
+    the tracking tasks by name."""
+    if spec.tasks == "executor":
+        return ", ".join(t for d in spec.domains for t in domain_tasks(d, "executor"))
+    return f"{' + '.join(DOMAINS[d] for d in spec.domains)} {_kind(spec.tasks)}tasks"
+
+
 def markdown_table() -> str:
     """The README's policy tables, one per role (`ROLES`): name, family, tasks, executor, protection, description."""
     lines = []
@@ -445,7 +513,7 @@ def markdown_table() -> str:
         for name, spec in POLICIES.items():
             if spec.role != role:
                 continue
-            tasks = {"any": "every task", "planning": "planning tasks", "executor": "speed_heading"}[spec.tasks]
+            tasks = runs_on_label(spec)
             executor = spec.executor or spec.default_executor or ("task's" if spec.tasks != "executor" else "-")
             protection = {None: "as trained" if spec.checkpoint else "-", True: "paper's (or its own)",
                           False: "none"}.get(spec.protection, spec.protection)
@@ -457,9 +525,9 @@ def markdown_table() -> str:
 from auv_mj.zoo import outside  # noqa: E402, F401, I001  (registers MODULE:FACTORY and PATH.zip in RESOLVERS)
 
 
-def load_policy(name: str, env, task: str | None = None, seed: int = 0) -> ActingPolicy:
+def load_policy(name: str, env, task: str | None = None, seed: int = 0) -> Planner:
     """The named policy (any `--policy` form) acting in `env`, a suite environment of task `task` (which picks a
-    per-task checkpoint), as `policy(time_step) -> action` with `reset()` where it keeps state. For an environment
+    per-task checkpoint), as a Planner: `reset()` at an episode's start, `act(time_step) -> action`. For an environment
     that the policy needs set up (its executor, the observation a checkpoint was trained on), build both with
     `env_and_policy`."""
     return make_policy(name, env, seed, task)
