@@ -42,6 +42,7 @@ from auv_mj.arenas.tunnels import (
     route_clearance,
     segment_lines,
 )
+from auv_mj.console import progress_bar
 from auv_mj.geometry import xy_text
 from auv_mj.sim.physics import AUVPhysics
 
@@ -85,19 +86,46 @@ class ArenaReport:
         return out
 
 
+CHECK_STAGES = ("load", "numbers and sites", "extent", "geoms", "walls", "route", "unknown obstacles", "movers",
+                "preview")
+"""The stages of `check_arena`, in order: what its progress bar counts."""
+
+
 def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
-                need_path: bool = True) -> ArenaReport:
+                need_path: bool = True, progress: bool = False) -> ArenaReport:
     """Checks an arena (a file or an element); writes a top-down preview to `png` if given.
 
-    `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8).
+    `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8). `progress`
+    shows a bar over CHECK_STAGES (a large arena takes a while to compile, search and draw); it ends at 100 % also
+    where stages are skipped.
     """
     name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
+    bar = progress_bar(total=len(CHECK_STAGES), desc=f"check-arena {Path(name).name}"[:40], unit="stage",
+                       disable=not progress)
+
+    def stage(label: str) -> None:
+        bar.n = CHECK_STAGES.index(label)
+        bar.set_postfix_str(label)
+
+    try:
+        report = _check(source, name, png, need_path, stage)
+        bar.set_postfix_str("done")
+        bar.update(bar.total - bar.n)  # every stage done or not needed
+        return report
+    finally:
+        bar.close()
+
+
+def _check(source: str | Path | ET.Element, name: str, png: str | Path | None, need_path: bool,
+           stage) -> ArenaReport:
+    """`check_arena`'s work, calling `stage(label)` as each of CHECK_STAGES begins."""
     report = ArenaReport(name)
     from auv_mj.arenas import tubes  # a 3-D tube arena (issue 32) is checked for the 6-DOF vehicle
 
     if tubes.is_tube_arena(source):
         report.summary, report.problems = tubes.tube_report(source)
         return report
+    stage("load")
     try:
         physics = load(source)
     except ValueError as e:
@@ -106,17 +134,25 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
     model = physics.model.ptr
     info = None
     placed = False
+    stage("numbers and sites")
     if _check_numerics(model, report):
         info = arena_info(physics)
         placed = _check_sites(model, info, report, need_path)
+    stage("extent")
     static, absurd = _check_extent(model, physics, report)
+    stage("geoms")
     _check_geoms(model, physics, static, report)
+    stage("walls")
     _check_walls(model, physics, static, report)
     if info is not None and placed and not absurd:
+        stage("route")
         _check_route(physics, info, static, report)
+        stage("unknown obstacles")
         _check_unknown(physics, info, static, report)
+        stage("movers")
         _check_movers(physics, info, static, report)
     if png is not None:
+        stage("preview")
         report.png = plot_arena(physics, info, png, title=Path(name).name, skip=absurd)
     return report
 

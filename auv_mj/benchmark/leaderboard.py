@@ -64,17 +64,29 @@ def markdown_row(results: dict, names: Sequence[str] | None = None, mark: str = 
             f"{_rate(total['time_efficiency'])} | {clearance} |")
 
 
+PUBLISHED_MARK = " (published)"
+"""Follows a policy's name in `comparison_table` where its own published row stands beside this run's."""
+RUN_MARK = " (this run)"
+"""Follows this run's policy name in `comparison_table`."""
+
+
 def comparison_table(results: dict, board: dict) -> str:
-    """This run's row beside every leaderboard entry of the same suite version, over this run's cells."""
+    """This run's row beside every leaderboard entry of the same suite version, over this run's cells. The board's
+    own entry of the run's policy, when there is one, stands beside it marked PUBLISHED_MARK (the run: RUN_MARK),
+    so that a short run can be read against the policy's published figures."""
     names = list(results["cells"])
     entries = {name: r for name, r in board.get("policies", {}).items()
-               if r.get("suite_version") == results["suite_version"] and name != results["policy"]}
-    rows = [(pooled(r, names)["success"] or 0.0, markdown_row(r, names)) for r in entries.values()]
-    rows.append((pooled(results, names)["success"] or 0.0, markdown_row(results, mark=" (this run)")))
+               if r.get("suite_version") == results["suite_version"]}
+    rows = [(pooled(r, names)["success"] or 0.0, markdown_row(r, names, PUBLISHED_MARK if name == results["policy"]
+                                                              else "")) for name, r in entries.items()]
+    rows.append((pooled(results, names)["success"] or 0.0, markdown_row(results, mark=RUN_MARK)))
     rows.sort(key=lambda row: -row[0])
     cells = f"all {len(names)} cells" if len(names) == len(SUITE_V1) else ", ".join(names)
-    return (f"{SUITE_NAME} over {cells}; rates pooled over their episodes, time efficiency against `{ORACLE}`.\n\n"
-            + ROW_HEADER + "\n" + "\n".join(row for _, row in rows) + "\n")
+    own = results["policy"] in entries
+    note = (f" `{results['policy']}`{RUN_MARK} is this run; `{results['policy']}`{PUBLISHED_MARK} is its published "
+            "entry over the same cells." if own else "")
+    return (f"{SUITE_NAME} over {cells}; rates pooled over their episodes, time efficiency against `{ORACLE}`."
+            f"{note}\n\n" + ROW_HEADER + "\n" + "\n".join(row for _, row in rows) + "\n")
 
 
 def leaderboard_markdown(board: dict) -> str:
