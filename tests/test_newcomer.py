@@ -34,7 +34,7 @@ def test_a_fixed_tunnel_in_ideal_water_is_one_episode_standing_for_every_seed():
     assert kept == [("tunnel", 0)]  # a failure is filmed once, not once per seed
     for seed in (2, 3):  # the seeds that were not run give that very episode
         again = runner.run_episode("splane", "tunnel", seed, None, STEPS)
-        assert {**again, "seed": 0} == results["records"]["tunnel"][0]
+        assert runner.episode_row(0, again) == results["records"]["tunnel"][0]
 
 
 @pytest.mark.parametrize(("policy", "task", "options"), [
@@ -45,7 +45,7 @@ def test_a_fixed_tunnel_in_ideal_water_is_one_episode_standing_for_every_seed():
 def test_episodes_that_depend_on_their_seed_all_run(policy, task, options):
     results = runner.evaluate(policy, [task], 3, 0, STEPS, progress=False, task_kwargs=options)
     summary = results["tasks"][task]
-    assert summary["deterministic"] is False and "stands_for" not in summary
+    assert "deterministic" not in summary and "stands_for" not in summary
     assert summary["episodes"] == 3 and [row["seed"] for row in results["records"][task]] == [0, 1, 2]
     assert len({row["return"] for row in results["records"][task]}) > 1
 
@@ -54,7 +54,7 @@ def test_a_parallel_deterministic_run_is_the_serial_one():
     serial = runner.evaluate("splane", ["tunnel", "goal"], 3, 0, STEPS, progress=False)
     parallel = runner.evaluate("splane", ["tunnel", "goal"], 3, 0, STEPS, progress=False, workers=2)
     assert parallel == serial
-    assert serial["tasks"]["tunnel"]["deterministic"] and not serial["tasks"]["goal"]["deterministic"]
+    assert serial["tasks"]["tunnel"]["deterministic"] and "deterministic" not in serial["tasks"]["goal"]
 
 
 def test_eval_says_deterministic_writes_records_and_films_the_failure_once(tmp_path, capsys):
@@ -90,7 +90,7 @@ def test_eval_records_are_the_episodes_and_the_csv_holds_them(tmp_path):
         assert rows[1][key] == expected[key]
     assert rows[1]["duration"] == pytest.approx(STEPS * env.control_timestep())  # five 0.5 s planner steps
     assert rows[1]["path_length"] == pytest.approx(np.sum(np.hypot(*np.diff(record.pose[:, :2], axis=0).T)))
-    assert metrics.summarise(rows) == {k: v for k, v in results["tasks"]["goal"].items() if k != "deterministic"}
+    assert metrics.summarise(rows) == results["tasks"]["goal"]
 
     evaluate_cli.write_outputs(results, None, tmp_path / "goal.csv")
     with open(tmp_path / "goal_episodes.csv", newline="") as f:
@@ -139,6 +139,15 @@ def test_the_render_bar_ends_at_100_percent_when_the_episode_ends_early(capsys):
     assert steps < env._step_limit  # the goal was reached before the time limit, the bar's first total
     last = _last_bar(capsys.readouterr().err)
     assert "100%" in last and f"{steps}/{steps}" in last
+
+
+def test_the_demo_shows_its_table_episodes_to_100_percent(tmp_path, capsys):
+    from auv_mj.cli.demo import COMPARED
+
+    assert main(["demo", "--no-video", "--task", "goal", "--task-kwargs", '{"goal_radius": 50}', "--out",
+                 str(tmp_path)]) == 0  # a near goal: four short episodes
+    last = _last_bar(capsys.readouterr().err)
+    assert last.startswith("demo: table episodes: 100%") and f"{len(COMPARED) + 1}/{len(COMPARED) + 1}" in last
 
 
 def test_check_arena_shows_its_stages_to_100_percent(tmp_path, capsys):

@@ -23,16 +23,8 @@ from auv_mj.episode import OUTCOMES, EpisodeRecord, episode_metrics, record_epis
 from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
 
-
-def run_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
-                max_steps: int | None = None) -> dict:
-    """The metrics of one episode of `task_name` seeded `seed` under the named policy."""
-    env, policy = policies.env_and_policy(policy_name, task_name, seed, task_kwargs)
-    return episode_metrics(record_episode(env, policy, max_steps, task_name, policy_name, seed))
-
-
 TRACE = "trace"
-"""Key of a row from `run_traced_episode`: the digest of its episode record, dropped before the row is kept."""
+"""Key of `run_episode`'s digest of the episode record; `evaluate` drops it from the rows it keeps."""
 PROBE_EPISODES = 2
 """Episodes of a task that `evaluate` runs first, to find out whether its episodes depend on their seed."""
 
@@ -54,9 +46,10 @@ def record_digest(record: EpisodeRecord) -> str:
     return digest.hexdigest()
 
 
-def run_traced_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
-                       max_steps: int | None = None) -> dict:
-    """`run_episode`'s metrics and, under TRACE, the digest of the episode (`record_digest`)."""
+def run_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
+                max_steps: int | None = None) -> dict:
+    """The metrics of one episode of `task_name` seeded `seed` under the named policy (`episode_metrics`), and under
+    TRACE the digest of its record (`record_digest`), by which `evaluate` tells one episode from another."""
     env, policy = policies.env_and_policy(policy_name, task_name, seed, task_kwargs)
     record = record_episode(env, policy, max_steps, task_name, policy_name, seed)
     return {**episode_metrics(record), TRACE: record_digest(record)}
@@ -79,25 +72,25 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
     Deterministic runs. The first PROBE_EPISODES episodes of every task run first; when the two are the same
     episode bit for bit (`record_digest`: a fixed arena or named scenario in ideal water under a policy that
     draws no random number), no seed can change it, so the others are not run: the task's summary and records
-    hold that one episode, with "deterministic": true and "stands_for": `episodes` (the seeds it stands for).
-    Otherwise "deterministic" is false and every episode runs. A custom `episode_fn` (which returns metrics
-    without TRACE) always runs every episode.
+    hold that one episode, and the summary says "deterministic": true and "stands_for": `episodes` (the seeds it
+    stands for). Otherwise every episode runs (and the summary is `summarise`'s alone). An `episode_fn` whose
+    metrics hold no TRACE always runs every episode.
 
     `task_kwargs` go to every task (e.g. random commands on speed_heading); the seed is the episode's.
     With `workers` > 1 or a `ray_address` the episodes run in parallel on local processes or a Ray cluster
     (`auv_mj.jobs.distributed`); `episode_fn(policy_name, task, seed, task_kwargs, max_steps)` runs one episode
-    (by default `run_traced_episode`; module level, for pickling). Results are summarised in episode order, so a
+    (by default `run_episode`; module level, for pickling). Results are summarised in episode order, so a
     parallel run equals the serial one. Episodes that gave no result (parallel runs only) are listed under "failed"
     ({task, episode, seed, error}); the summaries cover the others. `on_episode(task, seed, metrics)` is called for
     every episode kept (e.g. to find the failures): once for a deterministic task.
     """
     task_kwargs = dict(task_kwargs or {})
-    episode_fn = episode_fn or run_traced_episode
+    episode_fn = episode_fn or run_episode
     parallel = workers > 1 or ray_address is not None
     finished: dict[tuple[str, int], dict] = {}
     failed: list[dict] = []
-    bar = progress_bar(total=len(task_names) * episodes, desc=f"eval {', '.join(task_names)}"[:40], unit="ep",
-                       disable=not progress)
+    desc = f"eval {task_names[0]}" if len(task_names) == 1 and not parallel else f"eval {len(task_names)} task(s)"
+    bar = progress_bar(total=len(task_names) * episodes, desc=desc, unit="ep", disable=not progress)
 
     def run(keys: list[tuple[str, int]]):
         jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task, i in keys]
@@ -142,9 +135,8 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
     for task in task_names:
         rows = [episode_row(seed + i, finished[task, i]) for i in sorted(kept[task]) if (task, i) in finished]
         summary = summarise(rows) if rows else {"episodes": 0, "outcomes": dict.fromkeys(OUTCOMES, 0)}
-        summary["deterministic"] = deterministic[task]
         if deterministic[task]:
-            summary["stands_for"] = episodes
+            summary.update(deterministic=True, stands_for=episodes)
         results[task], records[task] = summary, rows
     out = {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
            "tasks": results, "records": records}

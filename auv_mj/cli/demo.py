@@ -88,12 +88,14 @@ def run(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     recorder = EpisodeRecorder(env, task, args.policy, args.seed)
     video = args.out / f"{task}.mp4"
-    if args.no_video:
-        bar = progress_bar(total=1, desc=f"demo: {args.policy}", unit="ep")
+    compared = [name for name in COMPARED if name != args.policy]
+    bar = None
+    if args.no_video:  # the table's episodes, a minute or so each: one bar over them names the one running
+        bar = progress_bar(total=1 + len(compared), desc="demo: table episodes", unit="ep")
+        bar.set_postfix(policy=args.policy)
         for _ in recorder.run(policy):
             pass
         bar.update(1)
-        bar.close()
     else:
         try:
             glbackend.require()
@@ -107,9 +109,9 @@ def run(args: argparse.Namespace) -> int:
     episode_file = args.out / f"{task}_episode.npz"
     record.save(episode_file)
     records = {args.policy: record}
-    compared = [name for name in COMPARED if name not in records]
-    bar = progress_bar(total=len(compared), desc="demo: table episodes", unit="ep")
-    for name in compared:  # an episode each, of a minute or so: the bar names the one running
+    if bar is None:  # after the video, whose episode had the renderer's bar
+        bar = progress_bar(total=len(compared), desc="demo: table episodes", unit="ep")
+    for name in compared:
         bar.set_postfix(policy=name)
         try:
             env, policy = policies.env_and_policy(name, task, args.seed, kwargs)

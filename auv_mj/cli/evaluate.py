@@ -9,6 +9,11 @@ Per task the summary holds (units in brackets):
 - `path_length` [m], `time_to_goal` [s] (mean over successful episodes), `return` and `return_std`;
 - tracking tasks: `mae_speed`, `max_speed` [m/s], `mae_heading`, `max_heading` [rad], `mae_cross_track`,
   `max_cross_track` [m], and on speed_heading `mae_speed_<phase>`, `mae_heading_<phase>` (Table 9).
+The JSON's `records` hold every episode ({task: [rows in seed order]}: seed, outcome, duration, path length,
+least clearance, return, ...), written also one row per episode to `NAME_episodes.csv` beside --csv (or --json).
+A task whose first two seeds give the same episode bit for bit (a fixed arena in ideal water under a policy that
+draws no random number) runs no more: its summary holds that one episode, says `deterministic` and the seeds it
+`stands_for`, and the table says so under its row (`auv_mj.benchmark.runner.evaluate`).
 A figure that is undefined is null in the JSON (never NaN): `time_to_goal` when no episode succeeded,
 clearances on a task without obstacles to measure (speed_heading), tracking errors where the task
 reports none. The JSON is strict (any parser reads it); the CSV leaves such cells empty.
@@ -21,7 +26,7 @@ index and seed; the summaries cover the finished episodes, and the exit status i
 
 `--record-failures DIR` writes an MP4 and a trajectory PNG of every episode that did not reach the goal
 (`auv_mj.cli.failures`: each is run again, seeded as before, through the renderer), named
-`TASK_seedSEED_OUTCOME`; the folder is checked before the first episode.
+`TASK_seedSEED_OUTCOME`, each episode once; the folder is checked before the first episode.
 """
 
 from __future__ import annotations
