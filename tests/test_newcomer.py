@@ -150,6 +150,12 @@ def test_the_demo_shows_its_table_episodes_to_100_percent(tmp_path, capsys):
     assert last.startswith("demo: table episodes: 100%") and f"{len(COMPARED) + 1}/{len(COMPARED) + 1}" in last
 
 
+def test_reproduce_counts_its_sections_to_100_percent(tmp_path, capsys):
+    assert main(["reproduce", "--sections", "fig8,training_speed", "--out", str(tmp_path / "report.md")]) == 0
+    last = _last_bar(capsys.readouterr().err)  # two sections that read the shipped training logs
+    assert last.startswith("reproduce: 100%") and "2/2" in last
+
+
 def test_check_arena_shows_its_stages_to_100_percent(tmp_path, capsys):
     from auv_mj.arenas.arena_check import CHECK_STAGES, check_arena
 
