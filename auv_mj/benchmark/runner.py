@@ -94,6 +94,8 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
 
     def run(keys: list[tuple[str, int]]):
         jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task, i in keys]
+        if not jobs:  # every task deterministic: no workers (nor Ray) to start
+            return
         if parallel:
             results = distributed.run_jobs(episode_fn, jobs, workers=workers, ray_address=ray_address,
                                            retries=retries)
