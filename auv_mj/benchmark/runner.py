@@ -42,7 +42,7 @@ def record_digest(record: EpisodeRecord) -> str:
     for part in parts:
         array = np.ascontiguousarray(part)
         digest.update(str((array.dtype, array.shape)).encode())
-        digest.update(array.tobytes())
+        digest.update(repr(array.tolist()).encode() if array.dtype == object else array.tobytes())  # not addresses
     return digest.hexdigest()
 
 

@@ -89,7 +89,7 @@ def format_table(results: dict) -> str:
 def deterministic_note(task: str, seed: int, stands_for: int) -> str:
     """The line under the table for a task whose episodes are one (`auv_mj.benchmark.runner.evaluate`)."""
     return (f"{task}: deterministic: 1 episode stands for {stands_for} seeds (seeds {seed} and {seed + 1} gave the "
-            f"same episode step for step: a fixed arena in ideal water under a policy that draws no random number)")
+            "same episode step for step, so the seed changes nothing here; a random arena or ocean water varies it)")
 
 
 EPISODE_CSV_SUFFIX = "_episodes.csv"
