@@ -113,12 +113,13 @@ def test_the_comparison_puts_the_policys_published_row_beside_the_run(tmp_path):
         cell["episodes"] = cell["episodes"][:1]
         cell["summary"] = metrics.cell_summary(cell["episodes"], None)
     table = comparison_table(short, board)
-    rows = [line for line in table.splitlines() if line.startswith("| `los-fast`")]
-    assert len(rows) == 2
-    run = next(r for r in rows if RUN_MARK in r)
-    mine = next(r for r in rows if PUBLISHED_MARK in r)
+    rows = [line for line in table.splitlines() if line.startswith("| `")]
+    run, mine = rows[:2]  # the run, and right under it its published entry
+    assert run.startswith(f"| `los-fast`{RUN_MARK} |") and mine.startswith(f"| `los-fast`{PUBLISHED_MARK} |")
     assert run.split("|")[3].strip() == "1" and mine.split("|")[3].strip() == "2"  # episodes: the run's, the board's
-    assert "this run" in table and "published" in table
+    assert len(rows) == 2  # the board holds no other policy
+    other = comparison_table({**short, "policy": "los-avoid"}, board).splitlines()
+    assert not any(PUBLISHED_MARK in line for line in other)  # no published row of its own: none marked
 
 
 # --- progress bars end at 100 % --------------------------------------------------------------------------------------

@@ -71,22 +71,24 @@ RUN_MARK = " (this run)"
 
 
 def comparison_table(results: dict, board: dict) -> str:
-    """This run's row beside every leaderboard entry of the same suite version, over this run's cells. The board's
-    own entry of the run's policy, when there is one, stands beside it marked PUBLISHED_MARK (the run: RUN_MARK),
-    so that a short run can be read against the policy's published figures."""
+    """This run's row beside every leaderboard entry of the same suite version, over this run's cells. The run comes
+    first (marked RUN_MARK) and, where the board holds the same policy, its published entry right under it (marked
+    PUBLISHED_MARK), so that a short run reads against the policy's published figures; then the others by success."""
     names = list(results["cells"])
+    policy = results["policy"]
     entries = {name: r for name, r in board.get("policies", {}).items()
                if r.get("suite_version") == results["suite_version"]}
-    rows = [(pooled(r, names)["success"] or 0.0, markdown_row(r, names, PUBLISHED_MARK if name == results["policy"]
-                                                              else "")) for name, r in entries.items()]
-    rows.append((pooled(results, names)["success"] or 0.0, markdown_row(results, mark=RUN_MARK)))
-    rows.sort(key=lambda row: -row[0])
+    rows = [markdown_row(results, mark=RUN_MARK)]
+    if policy in entries:
+        rows.append(markdown_row(entries[policy], names, PUBLISHED_MARK))
+    others = sorted((r for name, r in entries.items() if name != policy),
+                    key=lambda r: -(pooled(r, names)["success"] or 0.0))
+    rows += [markdown_row(r, names) for r in others]
     cells = f"all {len(names)} cells" if len(names) == len(SUITE_V1) else ", ".join(names)
-    own = results["policy"] in entries
-    note = (f" `{results['policy']}`{RUN_MARK} is this run; `{results['policy']}`{PUBLISHED_MARK} is its published "
-            "entry over the same cells." if own else "")
-    return (f"{SUITE_NAME} over {cells}; rates pooled over their episodes, time efficiency against `{ORACLE}`."
-            f"{note}\n\n" + ROW_HEADER + "\n" + "\n".join(row for _, row in rows) + "\n")
+    note = (f" First this run of `{policy}`, then its published entry over the same cells." if policy in entries
+            else "")
+    return (f"{SUITE_NAME} over {cells}; rates pooled over their episodes, time efficiency against `{ORACLE}`.{note}"
+            "\n\n" + ROW_HEADER + "\n" + "\n".join(rows) + "\n")
 
 
 def leaderboard_markdown(board: dict) -> str:

@@ -18,7 +18,8 @@ It writes into DIR: `results.json` (strict JSON: the suite name, version and fin
 and episodes), `episodes.csv` (one row per episode: cell, seed, outcome, duration, path length, least clearance,
 return, ...), `leaderboard_row.md` (the policy's Markdown row) and `comparison.md` (the row beside the shipped
 policies' results in the shipped leaderboard, `auv_mj/benchmark/data/leaderboard.json`, over the same cells; the
-policy's own published entry, if it has one, stands beside the run, marked "(published)" and "(this run)").
+run's row, marked "(this run)", comes first and the policy's own published entry, if it has one, right under it,
+marked "(published)").
 `--publish` adds the run to that file (or to `--leaderboard`) and regenerates the `leaderboard.md` beside it; that
 is how the shipped results are made.
 
