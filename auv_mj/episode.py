@@ -535,6 +535,7 @@ def episode_metrics(record: EpisodeRecord) -> dict:
         "min_clearance": float(clearance.min()) if clearance.size else None,
         "path_length": float(np.sum(np.hypot(*np.diff(record.pose[:, :2], axis=0).T))),
         "time_to_goal": float(record.time[success_steps[0] + 1]) if has_goal and success_steps.size else None,
+        "duration": float(record.time[-1] - record.time[0]),
     }
     tracked = _tracked(record)
     for key in TRACKING_KEYS:

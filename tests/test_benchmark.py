@@ -1,6 +1,7 @@
 """`auv-mj benchmark`: the suite's definition is pinned to its version, its figures follow their definitions, and
 the command writes strict JSON, the leaderboard row and the comparison (end to end, on two episodes)."""
 
+import csv
 import json
 import os
 import subprocess
@@ -103,6 +104,11 @@ def test_benchmark_on_two_episodes_writes_json_row_and_comparison(tmp_path):
         for episode in cell["episodes"]:  # the parallel run's episodes are the serial loop's
             again = runner.run_cell_episode("los-fast", task, episode["seed"], cell["task_kwargs"], 40)
             assert again == episode
+    with open(first / "episodes.csv", newline="") as f:  # one row per episode, as results.json holds them
+        table = list(csv.DictReader(f))
+    assert [(r["cell"], int(r["seed"]), r["outcome"]) for r in table] == [
+        (name, e["seed"], e["outcome"]) for name, cell in results["cells"].items() for e in cell["episodes"]]
+    assert all(float(r["duration"]) > 0 for r in table)
     row = (first / "leaderboard_row.md").read_text().splitlines()
     assert row[0].startswith("| policy |") and row[2].startswith("| `los-fast` | suite v1 | 6 |")
     assert row[2].count("|") == row[0].count("|")

@@ -42,6 +42,7 @@ from auv_mj.arenas.tunnels import (
     route_clearance,
     segment_lines,
 )
+from auv_mj.console import progress_bar
 from auv_mj.geometry import xy_text
 from auv_mj.sim.physics import AUVPhysics
 
@@ -85,16 +86,41 @@ class ArenaReport:
         return out
 
 
+CHECK_STAGES = ("load", "numbers and sites", "extent", "geoms", "walls", "route", "unknown obstacles", "movers",
+                "preview")
+"""The stages of `check_arena`, in order: what its progress bar counts."""
+
+
 def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
-                need_path: bool = True, name: str | None = None) -> ArenaReport:
+                need_path: bool = True, name: str | None = None, progress: bool = False) -> ArenaReport:
     """Checks an arena (a file or an element); writes a top-down preview to `png` if given.
 
     `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8). `name` is
     how the report and the preview's title call the arena (default: its file, or `<arena element>`): the file an
-    element is about to be written to, say.
+    element is about to be written to, say. `progress` shows a bar over CHECK_STAGES (a large arena takes a while
+    to compile, search and draw); it ends at 100 % also where stages are skipped.
     """
     if name is None:
         name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
+    bar = progress_bar(total=len(CHECK_STAGES), desc=f"check-arena {Path(name).name}"[:40], unit="stage",
+                       disable=not progress)
+
+    def stage(label: str) -> None:
+        bar.n = CHECK_STAGES.index(label)
+        bar.set_postfix_str(label)
+
+    try:
+        report = _check(source, name, png, need_path, stage)
+        bar.set_postfix_str("done")
+        bar.update(bar.total - bar.n)  # every stage done or not needed
+        return report
+    finally:
+        bar.close()
+
+
+def _check(source: str | Path | ET.Element, name: str, png: str | Path | None, need_path: bool,
+           stage) -> ArenaReport:
+    """`check_arena`'s work, calling `stage(label)` as each of CHECK_STAGES begins."""
     report = ArenaReport(name)
     from auv_mj.arenas import tubes  # a 3-D tube arena (issue 32) is checked for the 6-DOF vehicle
 
@@ -110,6 +136,7 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
                 return report  # the report names what is wrong; there is nothing sound to draw
             report.png = plot_tube(tube, *items, png, title=f"{Path(name).name}: tube arena")
         return report
+    stage("load")
     try:
         physics = load(source)
     except ValueError as e:
@@ -118,17 +145,25 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
     model = physics.model.ptr
     info = None
     placed = False
+    stage("numbers and sites")
     if _check_numerics(model, report):
         info = arena_info(physics)
         placed = _check_sites(model, info, report, need_path)
+    stage("extent")
     static, absurd = _check_extent(model, physics, report)
+    stage("geoms")
     _check_geoms(model, physics, static, report)
+    stage("walls")
     _check_walls(model, physics, static, report)
     if info is not None and placed and not absurd:
+        stage("route")
         _check_route(physics, info, static, report)
+        stage("unknown obstacles")
         _check_unknown(physics, info, static, report)
+        stage("movers")
         _check_movers(physics, info, static, report)
     if png is not None:
+        stage("preview")
         report.png = plot_arena(physics, info, png, title=f"{Path(name).name}: {arena_kind(model, info)} arena",
                                 skip=absurd)
     return report

@@ -64,17 +64,31 @@ def markdown_row(results: dict, names: Sequence[str] | None = None, mark: str = 
             f"{_rate(total['time_efficiency'])} | {clearance} |")
 
 
+PUBLISHED_MARK = " (published)"
+"""Follows a policy's name in `comparison_table` where its own published row stands beside this run's."""
+RUN_MARK = " (this run)"
+"""Follows this run's policy name in `comparison_table`."""
+
+
 def comparison_table(results: dict, board: dict) -> str:
-    """This run's row beside every leaderboard entry of the same suite version, over this run's cells."""
+    """This run's row beside every leaderboard entry of the same suite version, over this run's cells. The run comes
+    first (marked RUN_MARK) and, where the board holds the same policy, its published entry right under it (marked
+    PUBLISHED_MARK), so that a short run reads against the policy's published figures; then the others by success."""
     names = list(results["cells"])
+    policy = results["policy"]
     entries = {name: r for name, r in board.get("policies", {}).items()
-               if r.get("suite_version") == results["suite_version"] and name != results["policy"]}
-    rows = [(pooled(r, names)["success"] or 0.0, markdown_row(r, names)) for r in entries.values()]
-    rows.append((pooled(results, names)["success"] or 0.0, markdown_row(results, mark=" (this run)")))
-    rows.sort(key=lambda row: -row[0])
+               if r.get("suite_version") == results["suite_version"]}
+    rows = [markdown_row(results, mark=RUN_MARK)]
+    if policy in entries:
+        rows.append(markdown_row(entries[policy], names, PUBLISHED_MARK))
+    others = sorted((r for name, r in entries.items() if name != policy),
+                    key=lambda r: -(pooled(r, names)["success"] or 0.0))
+    rows += [markdown_row(r, names) for r in others]
     cells = f"all {len(names)} cells" if len(names) == len(SUITE_V1) else ", ".join(names)
-    return (f"{SUITE_NAME} over {cells}; rates pooled over their episodes, time efficiency against `{ORACLE}`.\n\n"
-            + ROW_HEADER + "\n" + "\n".join(row for _, row in rows) + "\n")
+    note = (f" First this run of `{policy}`, then its published entry over the same cells." if policy in entries
+            else "")
+    return (f"{SUITE_NAME} over {cells}; rates pooled over their episodes, time efficiency against `{ORACLE}`.{note}"
+            "\n\n" + ROW_HEADER + "\n" + "\n".join(rows) + "\n")
 
 
 def leaderboard_markdown(board: dict) -> str:

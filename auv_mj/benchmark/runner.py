@@ -10,15 +10,40 @@ episodes are queued longest cells first, so that two workers are busy to the end
 
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Sequence
+
+import numpy as np
 
 from auv_mj.benchmark.metrics import cell_summary, oracle_times, success_rate, summarise
 from auv_mj.benchmark.suite import ORACLE, SUITE_NAME, SUITE_VERSION, Cell, fingerprint
 from auv_mj.console import progress_bar
-from auv_mj.episode import OUTCOMES, episode_metrics, record_episode
+from auv_mj.episode import OUTCOMES, EpisodeRecord, episode_metrics, record_episode
 from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
+
+TRACE = "trace"
+"""Key of `run_episode`'s digest of the episode record; `evaluate` drops it from the rows it keeps."""
+PROBE_EPISODES = 2
+"""Episodes of a task that `evaluate` runs first, to find out whether its episodes depend on their seed."""
+
+
+def record_digest(record: EpisodeRecord) -> str:
+    """SHA-256 of every array of an episode record that the seed could change: the arena, and per instant and step
+    time, pose, velocity, sonar, actuator forces, goal, movers, actions, commands, rewards, events and the task's
+    info. Two records with the same digest are the same episode, bit for bit."""
+    digest = hashlib.sha256()
+    arena = record.arena
+    parts = [record.time, record.pose, record.velocity, record.sonar, record.control, record.desired_goal,
+             record.movers, record.action, record.command, record.reward, record.event.astype(str), record.success,
+             arena.bounds, arena.start, arena.goal, arena.path, arena.goals, *arena.polygons]
+    parts += [np.asarray(record.info[k]) for k in sorted(record.info)]
+    for part in parts:
+        array = np.ascontiguousarray(part)
+        digest.update(str((array.dtype, array.shape)).encode())
+        digest.update(repr(array.tolist()).encode() if array.dtype == object else array.tobytes())  # not addresses
+    return digest.hexdigest()
 
 
 def _rate(rows: list[dict]) -> str:
@@ -29,83 +54,117 @@ def _rate(rows: list[dict]) -> str:
 
 def run_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
                 max_steps: int | None = None) -> dict:
-    """The metrics of one episode of `task_name` seeded `seed` under the named policy."""
+    """The metrics of one episode of `task_name` seeded `seed` under the named policy (`episode_metrics`), and under
+    TRACE the digest of its record (`record_digest`), by which `evaluate` tells one episode from another."""
     env, policy = policies.env_and_policy(policy_name, task_name, seed, task_kwargs)
-    return episode_metrics(record_episode(env, policy, max_steps, task_name, policy_name, seed))
+    record = record_episode(env, policy, max_steps, task_name, policy_name, seed)
+    return {**episode_metrics(record), TRACE: record_digest(record)}
+
+
+def episode_row(seed: int, metrics: dict) -> dict:
+    """The record of one episode in `evaluate`'s results: its seed and its metrics (`episode_metrics`: outcome,
+    success, duration [s], path length [m], least clearance [m], return, time to goal [s], ...)."""
+    return {"seed": seed, **{k: v for k, v in metrics.items() if k != TRACE}}
 
 
 def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
              max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
              workers: int = 1, ray_address: str | None = None, retries: int = distributed.RETRIES,
              episode_fn=None, on_episode=None) -> dict:
-    """Evaluates `policy_name` on each task; returns {"policy", "seed", "tasks": {task: summary}}.
+    """Evaluates `policy_name` on each task over `episodes` seeded episodes (episode i: task and policy seed
+    `seed` + i); returns {"policy", "seed", "episodes", "task_kwargs", "tasks": {task: summary}, "records": {task:
+    [episode rows in seed order]}} (rows: `episode_row`).
+
+    Deterministic runs. The first PROBE_EPISODES episodes of every task run first; when the two are the same
+    episode bit for bit (`record_digest`: a fixed arena or named scenario in ideal water under a policy that
+    draws no random number), no seed can change it, so the others are not run: the task's summary and records
+    hold that one episode, and the summary says "deterministic": true and "stands_for": `episodes` (the seeds it
+    stands for). Otherwise every episode runs (and the summary is `summarise`'s alone). An `episode_fn` whose
+    metrics hold no TRACE always runs every episode.
 
     `task_kwargs` go to every task (e.g. random commands on speed_heading); the seed is the episode's.
-    With `workers` > 1 or a `ray_address` the episodes run in parallel (`evaluate_parallel`).
-    `on_episode(task, seed, metrics)` is called for every finished episode (e.g. to find the failures).
-    """
-    if workers > 1 or ray_address is not None:
-        return evaluate_parallel(policy_name, task_names, episodes, seed, max_steps, progress, task_kwargs,
-                                 workers=workers, ray_address=ray_address, retries=retries,
-                                 episode_fn=episode_fn, on_episode=on_episode)
-    task_kwargs = dict(task_kwargs or {})
-    results = {}
-    for task_name in task_names:
-        runs = []
-        bar = progress_bar(total=episodes, desc=f"eval {task_name}", unit="ep", disable=not progress)
-        for i in range(episodes):
-            runs.append(run_episode(policy_name, task_name, seed + i, task_kwargs, max_steps))
-            if on_episode is not None:
-                on_episode(task_name, seed + i, runs[-1])
-            bar.update(1)
-            bar.set_postfix(success=_rate(runs))
-        bar.close()
-        results[task_name] = summarise(runs)
-    return {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
-            "tasks": results}
-
-
-def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
-                      max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
-                      workers: int = 2, ray_address: str | None = None, retries: int = distributed.RETRIES,
-                      episode_fn=None, on_episode=None) -> dict:
-    """`evaluate` with the episodes of every task spread over `workers` local processes or a Ray cluster.
-
-    Episode i of a task runs `episode_fn(policy_name, task, seed + i, task_kwargs, max_steps)` (by default
-    `run_episode`; a module-level function, for pickling), as the serial loop does; results are kept as they arrive and
-    summarised in episode order, so the result equals the serial one. Episodes that gave no result are
-    listed under "failed" ({task, episode, seed, error}); the summaries cover the others.
+    With `workers` > 1 or a `ray_address` the episodes run in parallel on local processes or a Ray cluster
+    (`auv_mj.jobs.distributed`); `episode_fn(policy_name, task, seed, task_kwargs, max_steps)` runs one episode
+    (by default `run_episode`; module level, for pickling). Results are summarised in episode order, so a
+    parallel run equals the serial one. Episodes that gave no result (parallel runs only) are listed under "failed"
+    ({task, episode, seed, error}); the summaries cover the others. `on_episode(task, seed, metrics)` is called for
+    every episode kept (e.g. to find the failures): once for a deterministic task.
     """
     task_kwargs = dict(task_kwargs or {})
-    jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task in task_names for i in range(episodes)]
-    finished: dict[int, dict] = {}
-    failed = []
-    bar = progress_bar(total=len(jobs), desc=f"eval {len(task_names)} task(s)", unit="ep", disable=not progress)
-    try:
-        for k, result in distributed.run_jobs(episode_fn or run_episode, jobs, workers=workers,
-                                              ray_address=ray_address, retries=retries):
+    episode_fn = episode_fn or run_episode
+    parallel = workers > 1 or ray_address is not None
+    finished: dict[tuple[str, int], dict] = {}
+    failed: list[dict] = []
+    desc = f"eval {task_names[0]}" if len(task_names) == 1 and not parallel else f"eval {len(task_names)} task(s)"
+    bar = progress_bar(total=len(task_names) * episodes, desc=desc, unit="ep", disable=not progress)
+
+    def run(keys: list[tuple[str, int]]):
+        jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task, i in keys]
+        if not jobs:  # every task deterministic: no workers (nor Ray) to start
+            return
+        if parallel:
+            results = distributed.run_jobs(episode_fn, jobs, workers=workers, ray_address=ray_address,
+                                           retries=retries)
+        else:
+            results = ((k, episode_fn(*job)) for k, job in enumerate(jobs))
+        for k, result in results:
+            task, i = keys[k]
             if isinstance(result, distributed.JobFailed):
-                failed.append({"task": jobs[k][1], "episode": k % episodes, "seed": jobs[k][2],
-                               "error": result.error})
+                failed.append({"task": task, "episode": i, "seed": seed + i, "error": result.error})
             else:
-                finished[k] = result
-                if on_episode is not None:
-                    on_episode(jobs[k][1], jobs[k][2], result)
+                finished[task, i] = result
             bar.update(1)
             bar.set_postfix(success=_rate(list(finished.values())),
                             failed=len(failed))
+            yield task, i
+
+    try:
+        probe = min(episodes, PROBE_EPISODES)
+        for _ in run([(task, i) for task in task_names for i in range(probe)]):
+            pass  # on_episode waits until it is known whether the probe's episodes are one
+        deterministic = {task: _same_episode([finished.get((task, i)) for i in range(probe)])
+                         for task in task_names} if episodes >= PROBE_EPISODES else dict.fromkeys(task_names, False)
+        kept = {task: [0] if deterministic[task] else list(range(probe)) for task in task_names}
+        if on_episode is not None:
+            for task in task_names:
+                for i in kept[task]:
+                    if (task, i) in finished:
+                        on_episode(task, seed + i, finished[task, i])
+        rest = [(task, i) for task in task_names if not deterministic[task] for i in range(probe, episodes)]
+        bar.total = bar.n + len(rest)  # a deterministic task's other seeds are not run: the bar ends at 100 %
+        bar.refresh()
+        for task, i in run(rest):
+            kept[task].append(i)
+            if on_episode is not None and (task, i) in finished:
+                on_episode(task, seed + i, finished[task, i])
     finally:
         bar.close()
-    results = {}
-    for t, task_name in enumerate(task_names):
-        runs = [finished[k] for k in range(t * episodes, (t + 1) * episodes) if k in finished]
-        results[task_name] = summarise(runs) if runs else {"episodes": 0, "outcomes": dict.fromkeys(OUTCOMES, 0)}
+    results, records = {}, {}
+    for task in task_names:
+        rows = [episode_row(seed + i, finished[task, i]) for i in sorted(kept[task]) if (task, i) in finished]
+        summary = summarise(rows) if rows else {"episodes": 0, "outcomes": dict.fromkeys(OUTCOMES, 0)}
+        if deterministic[task]:
+            summary.update(deterministic=True, stands_for=episodes)
+        results[task], records[task] = summary, rows
     out = {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
-           "tasks": results}
+           "tasks": results, "records": records}
     if failed:
         out["failed"] = sorted(failed, key=lambda f: (task_names.index(f["task"]), f["episode"]))
     return out
 
+
+def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
+                      max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
+                      workers: int = 2, **options) -> dict:
+    """`evaluate` over `workers` local processes (or a Ray cluster, `ray_address`)."""
+    return evaluate(policy_name, task_names, episodes, seed, max_steps, progress, task_kwargs, workers=workers,
+                    **options)
+
+
+def _same_episode(rows: list[dict | None]) -> bool:
+    """Whether the probe's episodes (their rows, None where one failed) are one and the same episode."""
+    traces = [row.get(TRACE) if row is not None else None for row in rows]
+    return len(traces) >= 2 and traces[0] is not None and all(t == traces[0] for t in traces)
 
 
 # --- the benchmark's cells ---------------------------------------------------------------------------------------
@@ -130,7 +189,8 @@ def run_cell_episode(policy_name: str, task: str, seed: int, task_kwargs: dict, 
     policy = policies.make_policy(policy_name, env, seed, task)
     metrics = episode_metrics(record_episode(env, policy, max_steps, task, policy_name, seed))
     return {"seed": seed, **{k: metrics[k] for k in ("success", "outcome", "collision", "safety_violation",
-                                                     "min_clearance", "path_length", "time_to_goal", "return")}}
+                                                     "min_clearance", "path_length", "time_to_goal", "duration",
+                                                     "return")}}
 
 
 def _jobs(policy_name: str, cells: Sequence[Cell], episodes: int | None, max_steps: int | None) -> list[tuple]:

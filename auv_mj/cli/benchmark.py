@@ -15,8 +15,11 @@ ratios; 0 on a failure; SPL, Anderson et al. 2018) over the seeds where the orac
 (`--oracle FILE`, by default the `oracle` entry of the leaderboard). Figures that are undefined are null.
 
 It writes into DIR: `results.json` (strict JSON: the suite name, version and fingerprint, every cell's summary
-and episodes), `leaderboard_row.md` (the policy's Markdown row) and `comparison.md` (the row beside the shipped
-policies' results in the shipped leaderboard, `auv_mj/benchmark/data/leaderboard.json`, over the same cells).
+and episodes), `episodes.csv` (one row per episode: cell, seed, outcome, duration, path length, least clearance,
+return, ...), `leaderboard_row.md` (the policy's Markdown row) and `comparison.md` (the row beside the shipped
+policies' results in the shipped leaderboard, `auv_mj/benchmark/data/leaderboard.json`, over the same cells; the
+run's row, marked "(this run)", comes first and the policy's own published entry, if it has one, right under it,
+marked "(published)").
 `--publish` adds the run to that file (or to `--leaderboard`) and regenerates the `leaderboard.md` beside it; that
 is how the shipped results are made.
 
@@ -43,6 +46,7 @@ from auv_mj.benchmark.leaderboard import (
 )
 from auv_mj.benchmark.runner import benchmark
 from auv_mj.benchmark.suite import EPISODES, ORACLE, SEED_BLOCK, SUITE_V1, SUITE_VERSION, TIERS, WATERS
+from auv_mj.cli.evaluate import write_episodes_csv
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     bounded_int,
@@ -53,6 +57,9 @@ from auv_mj.cli.options import (
 )
 from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
+
+EPISODES_CSV = "episodes.csv"
+"""The per-episode table in --out: one row per episode (cell, seed, outcome, duration, path length, ...)."""
 
 
 def _choices(values: tuple[str, ...], option: str):
@@ -78,8 +85,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run the episodes in this many local processes")
     parser.add_argument("--ray", default=None, metavar="ADDRESS", help="run the episodes as Ray tasks at ADDRESS "
                         "('local' starts Ray here, 'auto' or HOST:PORT joins a cluster)")
-    parser.add_argument("--out", type=Path, required=True, help="folder for results.json, leaderboard_row.md and "
-                        "comparison.md")
+    parser.add_argument("--out", type=Path, required=True, help="folder for results.json, episodes.csv, "
+                        "leaderboard_row.md and comparison.md")
     parser.add_argument("--oracle", type=Path, default=None, help="an oracle results.json for time efficiency "
                         f"(default: the `{ORACLE}` entry of the leaderboard)")
     parser.add_argument("--leaderboard", type=Path, default=LEADERBOARD, help="the leaderboard to compare with and "
@@ -136,6 +143,8 @@ def run(args: argparse.Namespace) -> int:
     (out / "results.json").write_text(json.dumps(results, indent=1, allow_nan=False))
     row = markdown_row(results)
     (out / "leaderboard_row.md").write_text(ROW_HEADER + "\n" + row + "\n")
+    write_episodes_csv([{"cell": name, **e} for name, cell in results["cells"].items() for e in cell["episodes"]],
+                       out / EPISODES_CSV, first=("cell",))
     comparison = comparison_table(results, board)
     (out / "comparison.md").write_text(comparison)
     print(comparison)
@@ -149,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
             episodes = [(cell.task, e["seed"], e["outcome"]) for e in results["cells"][cell.name]["episodes"]]
             record_failures(args.policy, episodes, args.record_failures / cell.name.replace("/", "-"),
                             cell.task_kwargs, args.max_steps)
-    print(f"wrote {out / 'results.json'}, {out / 'leaderboard_row.md'}, {out / 'comparison.md'}")
+    print(f"wrote {out / 'results.json'}, {out / EPISODES_CSV}, {out / 'leaderboard_row.md'}, {out / 'comparison.md'}")
     for failure in results.get("failed", []):
         print(f"{args.prog}: episode seed {failure['seed']} of {failure['cell']} failed: {failure['error']}",
               file=sys.stderr)

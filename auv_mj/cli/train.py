@@ -17,6 +17,7 @@ from typing import Any
 import gymnasium as gym
 
 import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
+from auv_mj import zoo
 from auv_mj.agents.checkpoint import agent_classes, config_from_dict, read_checkpoint
 from auv_mj.agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
 from auv_mj.agents.td3 import TD3Config
@@ -118,8 +119,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=positive_int, help="total episodes (default: max_episodes, Table 4)")
     parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
-    parser.add_argument("--init", type=Path, metavar="CHECKPOINT",
-                        help="start a new run from this checkpoint's networks (fine-tuning)")
+    parser.add_argument("--init", metavar="CHECKPOINT",
+                        help="start a new run from this checkpoint's networks (fine-tuning): a checkpoint path or "
+                             "a learned policy's name, for its shipped checkpoint (e.g. planner-route; "
+                             "`auv-mj policies` lists them)")
     parser.add_argument("--zero-actor-head", action="store_true",
                         help="a new run's actor output layer starts at zero: a residual planner starts as its "
                              "classical skeleton (with --actor-burn-in, the critic learns it first)")
@@ -198,6 +201,7 @@ def run(args: argparse.Namespace) -> int:
             env_kwargs = _read_options(env_file)
         if args.resume and args.init:
             raise ValueError("--init starts a new run; it cannot be combined with --resume")
+        init = None if args.init is None else zoo.checkpoint_path(args.init, args.task)
         env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": kwargs} if kwargs else {}),
                              **(env_kwargs or {}))
         env_fn().close()  # a bad task option is refused here, before the run directory is touched
@@ -211,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
             base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"], run_dir, config_class)
         config = dataclasses.replace(base, **config_overrides(args))
         result = train(env_fn, args.agent, config, total_steps=args.steps, episodes=args.episodes,
-                       run_dir=run_dir, resume=args.resume, init=args.init,
+                       run_dir=run_dir, resume=args.resume, init=init,
                        checkpoint_every=args.checkpoint_every, progress=not args.no_progress,
                        tensorboard=not args.no_tensorboard, collectors=args.collectors,
                        zero_actor_head=args.zero_actor_head,

@@ -49,7 +49,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from auv_mj.console import progress_bar
+from auv_mj.console import complete, progress_bar
 from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions
 from auv_mj.geometry import wrap_angle
 from auv_mj.render import glbackend, raster
@@ -1039,6 +1039,7 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
             previous = snap
             if snap.step:
                 bar.update(1)
+        complete(bar)  # an episode that ended before its time limit: the bar ends at 100 %
         for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
             yield frame.copy()
     finally:

@@ -84,6 +84,21 @@ def shipped_checkpoint(name: str, task: str | None = None) -> Path:
     return path
 
 
+def checkpoint_path(name: str | Path, task: str | None = None) -> Path:
+    """The checkpoint file that `name` stands for: a registered learned policy's shipped checkpoint (its own on
+    `task` where it has one per task, e.g. `planner` on `tunnel`), or an existing checkpoint path as it is. What
+    `auv-mj train --init NAME` starts from, so that a shipped network is fine-tuned by its name.
+    ValueError naming the learned policies for anything else."""
+    text = str(name)
+    if text in POLICIES and POLICIES[text].checkpoint is not None:
+        return shipped_checkpoint(text, task)
+    if Path(text).is_file():
+        return Path(text)
+    learned = [n for n, s in POLICIES.items() if s.checkpoint is not None]
+    what = "has no checkpoint (a classical policy)" if text in POLICIES else "is not a checkpoint file"
+    raise ValueError(f"{text!r} {what}; give a checkpoint path or a learned policy: {', '.join(learned)}")
+
+
 class LearnedExecutor:
     """A trained speed_heading policy as a planning task's executor: (command, state) -> (tau_u, tau_r).
 
