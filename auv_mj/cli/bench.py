@@ -75,12 +75,17 @@ class Measurement:
 
 Section = Callable[[BenchSettings], list[Measurement]]
 SECTIONS: dict[str, Section] = {}
+ON_REQUEST: set[str] = set()
+"""Sections run only when `--sections` names them (minutes long: the batched env's)."""
 
 
-def section(name: str) -> Callable[[Section], Section]:
-    """Registers a benchmark section under `name` (run in registration order)."""
+def section(name: str, on_request: bool = False) -> Callable[[Section], Section]:
+    """Registers a benchmark section under `name` (run in registration order); `on_request`: not in the default
+    run, only when `--sections` names it."""
     def register(function: Section) -> Section:
         SECTIONS[name] = function
+        if on_request:
+            ON_REQUEST.add(name)
         return function
     return register
 
@@ -372,7 +377,7 @@ PPO_BENCH_ROLLOUTS = 4
 """Rollouts (of 128 steps per env) of the "vector" section's PPO run, after one untimed rollout."""
 
 
-@section("vector")
+@section("vector", on_request=True)
 def vector_section(settings: BenchSettings) -> list[Measurement]:
     """The batched planning environment (`auv_mj.tasks.vector`): env steps/s for N in {1, 16, 64, 256} on 1 and 2
     threads beside the physics limit (plain `mj_step`, 50 substeps per env step, one thread), Gymnasium's
@@ -391,9 +396,10 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
         rows = vector_bench(task, task_kwargs, seconds=seconds, memory_steps=memory)
         for row in rows:
             if "rss_early" in row:
-                measurements.append(Measurement(f"{case}: resident memory growth over {memory * MEMORY_SIZE} env "
-                                                "steps", (row["rss_late"] - row["rss_early"]) / 2**20, "MiB",
-                                                f"{row['rss_early'] / 2**20:.0f} MiB after a tenth"))
+                measurements.append(Measurement(f"{case}: resident memory after {memory * MEMORY_SIZE} env steps / "
+                                                "after a tenth of them", row["rss_late"] / row["rss_early"], "x",
+                                                f"{row['rss_early'] / 2**20:.0f} -> {row['rss_late'] / 2**20:.0f} "
+                                                "MiB"))
             else:
                 measurements.append(Measurement(f"{case}: {row['name']}", row["steps_per_second"], "env steps/s",
                                                 f"{row['ratio']:.2f} of the physics limit, load "
@@ -480,7 +486,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=bounded_int(1, 1000), default=None,
                         help="timed repeats (default 7, --quick 3)")
     parser.add_argument("--sections", default=None,
-                        help=f"comma-separated sections to run (default all: {','.join(SECTIONS)})")
+                        help=f"comma-separated sections to run (default all but {','.join(sorted(ON_REQUEST))}: "
+                             f"{','.join(n for n in SECTIONS if n not in ON_REQUEST)})")
     parser.add_argument("--json", type=Path, default=None, metavar="PATH",
                         help="also write the figures as JSON")
     parser.add_argument("--seed", type=seed_int, default=0, help="seed of the wall layouts")
@@ -488,7 +495,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """`auv-mj bench`: runs the sections, prints their figures, optionally writes them as JSON."""
-    names = list(SECTIONS) if args.sections is None else [n.strip() for n in args.sections.split(",") if n]
+    names = [n for n in SECTIONS if n not in ON_REQUEST] if args.sections is None else \
+        [n.strip() for n in args.sections.split(",") if n]
     unknown = [n for n in names if n not in SECTIONS]
     if unknown:
         usage_error(args, f"--sections: unknown section(s) {', '.join(unknown)[:200]}; known: {', '.join(SECTIONS)}")
