@@ -8,6 +8,8 @@
 - `goal3d`: reach a goal in 3-D among obstacles over a seabed (`arena="random"` draws them).
 - `tunnel3d`: follow a tube along an x, y, z centreline to its end (`auv_mj.arenas.tubes`; `arena="random"`
   draws procedural tubes with climbs, dives and bends).
+- Both take `tier="hard"`: arenas where depth is the way on (`auv_mj.arenas.traps3d`), certified by the 3-D
+  oracle's search before use.
 
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
@@ -32,7 +34,7 @@ from dm_control.suite import base
 from dm_control.utils import containers, rewards
 from dm_env import specs
 
-from auv_mj.arenas import arena3d, tubes
+from auv_mj.arenas import arena3d, traps3d, tubes
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean3d
 from auv_mj.sim.physics6 import AUV6Physics, euler_angles, set_pose
@@ -112,6 +114,10 @@ TUBE_INFLUENCE = 2.5
 in a tube only echoes nearer than the wall at its nominal 3 m repel (those of a vehicle off the centreline)."""
 LOOKAHEAD = 8.0
 """Line-of-sight look-ahead [m] along a tube's centreline."""
+TIERS = ("standard", "hard")
+"""The planning tasks' `tier` option: the standard arenas, or the hard ones where depth is the way on
+(`auv_mj.arenas.traps3d`: walls to pass over or under, caves, seabed relief; tubes with plugs), each certified by
+the 3-D oracle's search."""
 
 
 class Physics3D(ExecutorClock, AUV6Physics):
@@ -335,8 +341,9 @@ class Planning3D(base.Task):
 
     time_limit = GOAL_TIME_LIMIT
 
-    def __init__(self, arena: str = "random", random=None, conditions="ideal"):
+    def __init__(self, arena: str = "random", random=None, conditions="ideal", tier: str = "standard"):
         self._arena_mode = options.choice("arena", arena, ("random", "fixed"))
+        self.tier = options.choice("tier", tier, TIERS)
         self.ocean = ocean3d.Ocean3D(conditions)
         self.sensors = Sensors3D(noise=self.ocean.noise)
         self.executor = DepthHeadingController()
@@ -437,6 +444,9 @@ class Goal3D(Planning3D):
     """Reach a goal in 3-D among obstacles over a seabed (module docstring)."""
 
     def draw_arena(self, random: np.random.RandomState):
+        if self.tier == "hard":
+            return traps3d.hard_goal_arena(random, WATER_DEPTH, self.executor.gains.max_pitch, MIN_DEPTH,
+                                           GOAL_RADIUS).as_tuple()
         return tubes.goal_arena(random, WATER_DEPTH)
 
 
@@ -446,6 +456,8 @@ class Tunnel3D(Planning3D):
     time_limit = TUNNEL_TIME_LIMIT
 
     def draw_arena(self, random: np.random.RandomState):
+        if self.tier == "hard":
+            return traps3d.hard_tube(random, self.executor.gains.max_pitch).as_tuple()
         tube = tubes.random_tube(random)
         return tubes.tube_arena(tube), tube.centreline[0], tube.start_heading(), tube.centreline[-1], tube.centreline
 
