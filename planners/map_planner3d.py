@@ -18,7 +18,7 @@ Algorithms*, Ch. 5-6):
   within the soft clearance of the path left), at most every REPLAN_STEPS planner steps; when the target moved on;
   when the vehicle is further than OFF_PATH (TUBE_OFF_PATH) from its path; and every REPLAN_PERIOD steps regardless.
   The target is the goal (goal3d) or the centreline's point ROUTE_HORIZON metres on from the vehicle's nearest one,
-  moved on in ROUTE_STEP steps (tunnel3d).
+  moved on in ROUTE_STEP steps, and on past any obstacle the map holds there (tunnel3d).
 - The follower is 3-D line of sight on the planned path (`auv_mj.tasks.auv3d_control.los_command`: heading to the
   point LOOKAHEAD metres along it, its depth as the depth command) at the classical planners' CRUISE_SPEED, inside
   the protection domain on the 3-D fan (`auv_mj.planners.los3d.protect_command`) with PATH_FIELD in open water and
@@ -39,7 +39,7 @@ from auv_mj.arenas import grid, traps3d, voxels
 from auv_mj.episode import VEHICLE_BODY
 from auv_mj.planners.avoidance import RepulsiveField
 from auv_mj.planners.los3d import TUBE_FIELD, command_action, protect_command
-from auv_mj.sim.sensors3d import ALTIMETER_RANGE, fan_directions
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_AZIMUTHS, FAN_ELEVATIONS, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import CRUISE_SPEED, GOAL_RADIUS, MIN_DEPTH, Tunnel3D
 from auv_mj.tasks.auv3d import LOOKAHEAD as TUBE_LOS_LOOKAHEAD
@@ -69,9 +69,12 @@ PATH_FIELD = RepulsiveField(influence=15.0)
 """The protection domain in open water while following a planned path: the paper's gain, echoes repelling within
 15 m (chosen on validation seeds over the open-water 30 m of `los-avoid`, which turns the vehicle along a wall it
 is planned to climb over)."""
-ROUTE_HORIZON = 30.0
-"""In a tube the search goes to the centreline's point this far [m] on ..."""
-ROUTE_STEP = 10.0
+ROUTE_HORIZON = 12.0
+"""In a tube the search goes to the centreline's point this far [m] on (the chord of a 20 m bend over it strays
+0.9 m from the centreline: unseen wall beyond the fan's reach round a bend does not pull the path into it) ..."""
+ORACLE_ROUTE_HORIZON = 30.0
+"""... the oracle's, which no unseen wall can mislead, this far ..."""
+ROUTE_STEP = 4.0
 """... moved on in steps of this many metres (each a new target, a new search)."""
 WINDOW = np.array([20.0, 20.0, 12.0])
 """The open-water search stays within the box round vehicle and target grown by this [m] ..."""
@@ -110,6 +113,7 @@ class VoxelFollower:
     Subclasses fill `self.occupied` (`start`, `update`) and say when the map changed near the path."""
 
     replan_steps = REPLAN_STEPS
+    route_horizon = ROUTE_HORIZON
 
     def __init__(self, env):
         self.env = env
@@ -164,9 +168,22 @@ class VoxelFollower:
         if not self.in_tube:
             return task.goal, GOAL_RADIUS, 0
         _, s = _nearest(task.path, self.physics.position())
-        step = int((s + ROUTE_HORIZON) // ROUTE_STEP)
+        step = int((s + self.route_horizon) // ROUTE_STEP)
         point = _point_at(task.path, step * ROUTE_STEP)
+        while self.blocked(point) and np.linalg.norm(point - task.path[-1]) > 1e-9:  # on to water past an obstacle
+            step += 1
+            point = _point_at(task.path, step * ROUTE_STEP)
         return point, GOAL_RADIUS, step if np.linalg.norm(point - task.path[-1]) > 1e-9 else "end"
+
+    def blocked(self, point: np.ndarray) -> bool:
+        """Whether an occupied voxel lies within the hard clearance of `point`'s voxel (box neighbourhood)."""
+        cells, inside = self.grid.index(point)
+        if not inside[0]:
+            return False
+        reach = np.ceil(self.hard / self.grid.cell).astype(int)
+        lo = np.maximum(cells[0] - reach, 0)
+        hi = np.minimum(cells[0] + reach + 1, self.grid.shape)
+        return bool(self.occupied[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]].any())
 
     def plan(self, position: np.ndarray, goal: np.ndarray, radius: float) -> None:
         """Searches the map round the vehicle and the target; keeps the old path when none is found."""
@@ -218,10 +235,21 @@ class VoxelFollower:
 
 
 _FAN = fan_directions()
+_NEIGHBOURS = np.array([(r * len(FAN_AZIMUTHS) + c, r * len(FAN_AZIMUTHS) + c + 1) for r in range(len(FAN_ELEVATIONS))
+                        for c in range(len(FAN_AZIMUTHS) - 1)]
+                       + [(r * len(FAN_AZIMUTHS) + c, (r + 1) * len(FAN_AZIMUTHS) + c)
+                          for r in range(len(FAN_ELEVATIONS) - 1) for c in range(len(FAN_AZIMUTHS))])
+"""Pairs of neighbouring fan beams (in azimuth within a row, in elevation within a column)."""
+JOIN_POINTS = 8
+"""Points marked along the segment between two joined echoes (`SonarVoxelMap.update`)."""
 
 
 class SonarVoxelMap(VoxelFollower):
-    """`map-replan`'s map: log-odds counts of the fan's and the altimeter's echoes and clear beams."""
+    """`map-replan`'s map: log-odds counts of the fan's and the altimeter's echoes and clear beams.
+
+    Two neighbouring beams' echoes nearer each other than twice the hard clearance plus a voxel are joined (the
+    voxels along the segment between them are hit too): the search could not pass between them anyway, and a wall
+    seen by a sparse fan has no holes between its beams."""
 
     def start(self) -> None:
         super().start()
@@ -250,7 +278,13 @@ class SonarVoxelMap(VoxelFollower):
         cells, inside = self.grid.index(points[clear])
         missed = np.unique(np.ravel_multi_index(cells[inside].T, self.grid.shape))
         hit = ranges < limits - 1e-6
-        cells, inside = self.grid.index(origins[hit] + ranges[hit, None] * directions[hit])
+        echoes = origins + np.minimum(ranges, limits)[:, None] * directions
+        a, b = _NEIGHBOURS[:, 0], _NEIGHBOURS[:, 1]
+        join = hit[a] & hit[b] & (np.linalg.norm(echoes[a] - echoes[b], axis=1)
+                                  < 2.0 * self.hard + float(self.grid.cell[0]))
+        t = np.linspace(0.0, 1.0, JOIN_POINTS)[None, :, None]
+        joined = (echoes[a[join]][:, None, :] * (1.0 - t) + echoes[b[join]][:, None, :] * t).reshape(-1, 3)
+        cells, inside = self.grid.index(np.vstack([echoes[hit], joined]))
         echoed = np.unique(np.ravel_multi_index(cells[inside].T, self.grid.shape))
         touched = np.union1d(missed, echoed)
         odds = self.odds.flat[touched].astype(np.int16)
@@ -265,7 +299,10 @@ class SonarVoxelMap(VoxelFollower):
 
 
 class TrueVoxelMap(VoxelFollower):
-    """The oracle's map: every geom of the arena (the 3-D arenas are static) and the surface."""
+    """The oracle's map: every geom of the arena (the 3-D arenas are static) and the surface. Knowing the walls, it
+    looks ORACLE_ROUTE_HORIZON along a tube: time to climb, dive or sidestep to pass a plug at a flyable slope."""
+
+    route_horizon = ORACLE_ROUTE_HORIZON
 
     def start(self) -> None:
         super().start()
