@@ -14,7 +14,7 @@ from importlib import import_module
 from typing import Any
 
 _NAMES = {"SUITE_V1": "suite", "SUITE_3D_V1": "suite", "SUITES": "suite", "Cell": "suite",
-           "fingerprint": "suite", "evaluate": "runner",
+          "fingerprint": "suite", "evaluate": "runner",
           "run_episode": "runner", "run_cell": "runner", "run_suite": "runner", "publish": "leaderboard",
           "read_board": "leaderboard", "LEADERBOARD": "leaderboard", "summarise": "metrics", "wilson": "metrics"}
 
