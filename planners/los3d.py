@@ -74,11 +74,18 @@ def los_policy(env, avoid: bool = False) -> Planner:
             command = (CRUISE_SPEED, math.atan2(offset[1], offset[0]), -float(task.goal[2]))
         if avoid:
             command = protect_command(command, physics.heading(), task.sensors.read(physics)["sonar"], field)
-        heading_offset = wrap_angle(command[1] - physics.heading()) / HEADING_RANGE
-        depth_offset = (command[2] - physics.depth()) / DEPTH_RANGE
-        return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_offset, depth_offset], -1.0, 1.0)
+        return command_action(command, physics)
 
     return FunctionPlanner(policy)
+
+
+def command_action(command: Sequence[float], physics) -> np.ndarray:
+    """The planning action (a_speed, a_heading, a_depth) in [-1, 1]^3 that asks the executor for `command`
+    (V [m/s], psi [rad], depth [m]) from the vehicle's heading and depth now (clipped where it lies beyond one
+    step's range)."""
+    heading_offset = wrap_angle(command[1] - physics.heading()) / HEADING_RANGE
+    depth_offset = (command[2] - physics.depth()) / DEPTH_RANGE
+    return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_offset, depth_offset], -1.0, 1.0)
 
 
 def classical_3d(env, avoid: bool = False) -> Planner:

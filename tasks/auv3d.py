@@ -10,6 +10,8 @@
 - `tunnel3d`: follow a tube along an x, y, z centreline to its end (`auv_mj.arenas.tubes`; `arena="random"`
   draws procedural tubes with climbs, dives and bends, `arena=PATH` flies a tube file from `auv-mj tunnel --tube`,
   its rocks and moving spheres included).
+- Both take `tier="hard"`: arenas where depth is the way on (`auv_mj.arenas.traps3d`), certified by the 3-D
+  oracle's search before use.
 
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
@@ -45,7 +47,7 @@ from dm_control.suite import base
 from dm_control.utils import containers, rewards
 from dm_env import specs
 
-from auv_mj.arenas import arena3d, arena_check, tubes
+from auv_mj.arenas import arena3d, arena_check, traps3d, tubes
 from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
@@ -140,6 +142,10 @@ FIXED_ARENA_SEED = 0
 """The seed of `arena="fixed"`'s one arena (outside the train, validation and test ranges of `auv_mj.seeds`)."""
 TARGET_ENTRIES = slice(10, 14)
 """Where PLANNING_OBSERVATION holds the target (distance, cos and sin of its bearing, depth offset)."""
+TIERS = ("standard", "hard")
+"""The planning tasks' `tier` option: the standard arenas, or the hard ones where depth is the way on
+(`auv_mj.arenas.traps3d`: walls to pass over or under, caves, seabed relief; tubes with plugs), each certified by
+the 3-D oracle's search."""
 
 
 class Physics3D(ExecutorClock, AUV6Physics):
@@ -394,8 +400,9 @@ class Planning3D(base.Task):
     ARENAS = ("random", "fixed")
     """The `arena` choices every planning task has (a task may take arena files too: `_arena_option`)."""
 
-    def __init__(self, arena: str = "random", random=None, conditions="ideal"):
+    def __init__(self, arena: str = "random", random=None, conditions="ideal", tier: str = "standard"):
         self._arena_mode = self._arena_option(arena)
+        self.tier = options.choice("tier", tier, TIERS)
         self.movers: list[tuple[int, tubes.TubeMover]] = []
         """(mocap index, track) of each moving obstacle of the arena."""
         self.ocean = ocean3d.Ocean3D(conditions)
@@ -561,6 +568,9 @@ class Goal3D(Planning3D):
     goal_in_observation = True
 
     def draw_arena(self, random: np.random.RandomState):
+        if self.tier == "hard":
+            return traps3d.hard_goal_arena(random, WATER_DEPTH, self.executor.gains.max_pitch, MIN_DEPTH,
+                                           GOAL_RADIUS).as_tuple()
         return tubes.goal_arena(random, WATER_DEPTH)
 
 
@@ -591,6 +601,8 @@ class Tunnel3D(Planning3D):
     def draw_arena(self, random: np.random.RandomState):
         if self._arena_mode == "file":
             root, tube = self._file
+        elif self.tier == "hard":
+            return traps3d.hard_tube(random, self.executor.gains.max_pitch).as_tuple()
         else:
             tube = tubes.random_tube(random)
             root = tubes.tube_arena(tube)

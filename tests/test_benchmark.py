@@ -38,6 +38,19 @@ def test_the_suite_definition_is_pinned_to_its_version():
     assert suite.fingerprint(changed) != suite.fingerprint(suite.SUITE_V1[-1:])
 
 
+def test_the_3d_suite_is_pinned_to_its_version_and_apart_from_suite_v1():
+    """The 3-D suite has its own name, fingerprint and board; suite v1's fingerprint does not move with it."""
+    three = suite.SUITES["auv3d"]
+    assert three.fingerprint() == suite.FINGERPRINTS_3D[three.version]
+    assert suite.SUITES["auv"].fingerprint() == suite.FINGERPRINTS[suite.SUITE_VERSION] == suite.fingerprint()
+    assert three.fingerprint() != suite.fingerprint() and three.board != suite.SUITES["auv"].board
+    assert {c.task for c in three.cells} == {"goal3d", "tunnel3d"}
+    assert {(c.tier, c.water) for c in three.cells} == {(t, w) for t in suite.TIERS for w in suite.WATERS}
+    blocks = {c.first_seed for c in three.cells} | {c.first_seed for c in suite.SUITE_V1}
+    assert all(first in seeds.TEST and first + suite.SEED_BLOCK - 1 in seeds.TEST for first in blocks)
+    assert len({c.first_seed for c in three.cells} & {c.first_seed for c in suite.SUITE_V1}) == 0
+
+
 def test_the_suite_covers_every_set_tier_and_water_on_held_out_seeds():
     cells = suite.SUITE_V1
     assert {(c.task, c.tier, c.water) for c in cells} == {

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from auv_mj.benchmark.metrics import cell_summary, oracle_times, success_rate, summarise
-from auv_mj.benchmark.suite import ORACLE, SUITE_NAME, SUITE_VERSION, Cell, fingerprint
+from auv_mj.benchmark.suite import ORACLE, SUITES, Cell, Suite
 from auv_mj.console import progress_bar
 from auv_mj.episode import OUTCOMES, EpisodeRecord, episode_metrics, record_episode
 from auv_mj.jobs import distributed
@@ -209,7 +209,7 @@ def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None =
         if workers == 1 and ray_address is None:
             results = ((k, run_cell_episode(*job)) for k, job in enumerate(jobs))
         else:  # the tunnel cells' long episodes first, so that no worker is left with one at the end
-            order = sorted(range(len(jobs)), key=lambda k: jobs[k][1] != "tunnel")
+            order = sorted(range(len(jobs)), key=lambda k: not jobs[k][1].startswith("tunnel"))
             queued = [jobs[k] for k in order]
             results = ((order[k], r) for k, r in distributed.run_jobs(run_cell_episode, queued, workers=workers,
                                                                       ray_address=ray_address))
@@ -230,12 +230,13 @@ def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None =
 
 def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = None, max_steps: int | None = None,
               *, oracle: dict | None = None, workers: int = 1, ray_address: str | None = None,
-              progress: bool = True) -> dict:
-    """Runs the cells and returns the results dict that `results.json` holds."""
+              progress: bool = True, suite: Suite = SUITES["auv"]) -> dict:
+    """Runs the cells (of `suite`, suite v1 by default) and returns the results dict that `results.json` holds."""
     by_cell, failed = run_episodes(policy_name, cells, episodes, max_steps, workers=workers,
                                    ray_address=ray_address, progress=progress)
     references = oracle_times(oracle)
-    out = {"suite": SUITE_NAME, "suite_version": SUITE_VERSION, "fingerprint": fingerprint(), "policy": policy_name,
+    out = {"suite": suite.name, "suite_version": suite.version, "fingerprint": suite.fingerprint(),
+           "policy": policy_name,
            "episodes_per_cell": episodes or None, "max_steps": max_steps,
            "time_efficiency_reference": ORACLE if references else None, "cells": {}}
     for cell in cells:
@@ -256,20 +257,21 @@ def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = No
 
 def run_suite(policy_name: str, cells: Sequence[Cell] | None = None, episodes: int | None = None, *,
               max_steps: int | None = None, oracle: dict | str | None = "published", workers: int = 1,
-              ray_address: str | None = None, progress: bool = True) -> dict:
-    """The named policy on the suite's `cells` (all of suite v1 by default): the results dict of `benchmark`.
+              ray_address: str | None = None, progress: bool = True, domain: str = "auv") -> dict:
+    """The named policy on the suite's `cells` (all of the `domain`'s suite by default: suite v1 of "auv", the 3-D
+    suite of "auv3d"): the results dict of `benchmark`.
 
     `oracle`: the oracle's results that time efficiency is measured against; "published" (the default) takes the
     shipped leaderboard's, None measures none (unless the policy is the oracle itself)."""
-    from auv_mj.benchmark.leaderboard import oracle_results
-    from auv_mj.benchmark.suite import SUITE_V1
+    from auv_mj.benchmark.leaderboard import board_path, oracle_results, read_board
 
+    suite = SUITES[domain]
     if isinstance(oracle, str):
         if oracle != "published":
             raise ValueError(f"oracle must be 'published', a results dict or None, got {oracle!r}")
-        oracle = oracle_results()
-    return benchmark(policy_name, SUITE_V1 if cells is None else cells, episodes, max_steps, oracle=oracle,
-                     workers=workers, ray_address=ray_address, progress=progress)
+        oracle = oracle_results(read_board(board_path(suite)))
+    return benchmark(policy_name, suite.cells if cells is None else cells, episodes, max_steps, oracle=oracle,
+                     workers=workers, ray_address=ray_address, progress=progress, suite=suite)
 
 
 def run_cell(policy_name: str, cell: Cell, episodes: int | None = None, **options) -> dict:

@@ -44,6 +44,7 @@ from auv_mj.planners.deploy import Chain, ChainConfig, deployed
 from auv_mj.planners.guidance import classical, is_goal_task, line_of_sight
 from auv_mj.planners.los3d import classical_3d
 from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
+from auv_mj.planners.map_planner3d import sonar_voxel_planner, true_voxel_planner
 from auv_mj.tasks import suite
 from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
 from auv_mj.tasks.auv3d import SUITE3D, is_3d
@@ -298,15 +299,20 @@ register("los-fast", PolicySpec("line of sight along the route at 2 m/s inside t
                                 role="reference"))
 register("map-replan", PolicySpec("the mapping local planner: a sonar occupancy grid searched again as it changes, "
                                   "followed by line of sight at 2 m/s (speed-aware domain; "
-                                  "`auv_mj.planners.map_planner`)",
-                                  lambda d: sonar_map_planner(d.env), tasks="planning", protection="speed-aware"))
+                                  "`auv_mj.planners.map_planner`; auv3d: a voxel map of the 3-D fan and the "
+                                  "altimeter, a pitch-limited search, 3-D line of sight, "
+                                  "`auv_mj.planners.map_planner3d`)",
+                                  lambda d: sonar_voxel_planner(d.env) if is_3d(d.env) else sonar_map_planner(d.env),
+                                  tasks="planning", protection="speed-aware", domains=BOTH))
 register("bug", PolicySpec("a complete sensor-based planner of the Bug family (DistBug's leave rule) on the "
                            "sonar's remembered echoes, at 2 m/s inside the speed-aware domain (`auv_mj.planners.bug`)",
                            lambda d: bug_planner(d.env), tasks="planning", protection="speed-aware"))
 register("oracle", PolicySpec("plans on the true map (every geom, movers where they are) and follows the plan as "
-                              "map-replan does: certifies arenas, the reference of time efficiency",
-                              lambda d: true_map_planner(d.env), family="reference", tasks="planning",
-                              protection="speed-aware", role="reference"))
+                              "map-replan does: certifies arenas, the reference of time efficiency (auv3d: on the "
+                              "true voxel map)",
+                              lambda d: true_voxel_planner(d.env) if is_3d(d.env) else true_map_planner(d.env),
+                              family="reference", tasks="planning",
+                              protection="speed-aware", role="reference", domains=BOTH))
 register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference",
                               role="reference", domains=BOTH))
 
