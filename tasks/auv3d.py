@@ -40,8 +40,16 @@ from auv_mj.sim.sensors3d import ALTIMETER_RANGE, Sensors3D
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
-from auv_mj.tasks.auv3d_control import EXECUTOR_DT, DepthHeadingController, State3D, los_command
+from auv_mj.tasks.auv3d_control import (
+    EXECUTOR_DT,
+    SCHEDULED_GAINS,
+    DepthHeadingController,
+    DepthHeadingGains,
+    State3D,
+    los_command,
+)
 from auv_mj.tasks.clock import ExecutorClock
+from auv_mj.tasks.depth_executor import SENSOR_NAMES, DepthExecutorMemory
 
 SUITE3D = containers.TaggedTasks()
 """Task name -> factory of the "auv3d" domain."""
@@ -86,8 +94,8 @@ MAX_COMMAND_DEPTH = 500.0
 COMMANDS = ("paper", "random")
 DISTURBANCES = ("paper", "none")
 REWARDS = ("suite", "paper")
-EXECUTOR_OBSERVATION = ("V_cmd", "u", "v", "w", "p", "q", "r", "e_V", "cos_e_psi", "sin_e_psi", "e_depth",
-                        "roll", "pitch", "depth")
+EXECUTOR_OBSERVATION = SENSOR_NAMES
+"""The executor's observation (`auv_mj.tasks.depth_executor.SENSOR_NAMES`)."""
 
 # --- planning ------------------------------------------------------------------------------------------------
 PLANNER_DT = 0.5
@@ -137,11 +145,6 @@ def read_state(physics: AUV6Physics, sensed: dict[str, np.ndarray]) -> State3D:
     return State3D(u, v, w, p, q, r, float(roll), float(pitch), float(heading), float(sensed["depth"]))
 
 
-def _scale(action: np.ndarray, physics: AUV6Physics) -> np.ndarray:
-    low, high = physics.model.actuator_ctrlrange.T
-    return low + 0.5 * (np.asarray(action, dtype=float) + 1.0) * (high - low)
-
-
 def _normalise(control_values: np.ndarray, physics: AUV6Physics) -> np.ndarray:
     low, high = physics.model.actuator_ctrlrange.T
     return np.clip(2.0 * (np.asarray(control_values, dtype=float) - low) / (high - low) - 1.0, -1.0, 1.0)
@@ -151,9 +154,13 @@ class DepthHeading(base.Task):
     """Follow (V, psi, depth) with (thrust, rudder, stern) under disturbances (module docstring)."""
 
     def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper", reward: str = "suite",
-                 random=None, conditions="ideal"):
+                 random=None, conditions="ideal", observation: str = "sensors", residual: float = 0.0,
+                 gains: float = 0.0, base: str = "nominal"):
         """`command`: "paper", "random" or (V [m/s], psi [rad], depth [m]); `disturbances`: "paper" or "none";
-        `reward`: "suite" ([0, 1]) or "paper" (-|e_V| - |e_psi| - |e_depth| / DEPTH_MARGIN); `conditions`: ocean."""
+        `reward`: "suite" ([0, 1]) or "paper" (-|e_V| - |e_psi| - |e_depth| / DEPTH_MARGIN); `conditions`: ocean;
+        `observation`, `residual`, `gains`, `base`: a learned executor's view and action
+        (`auv_mj.tasks.depth_executor.DepthExecutorMemory`: plain controls, a residual on the S-plane or its
+        gains scheduled; "history" appends the S-plane's integrals and the last controls)."""
         if isinstance(command, str):
             options.choice("command", command, COMMANDS)
         else:
@@ -167,7 +174,8 @@ class DepthHeading(base.Task):
         self._schedule: list[tuple[int, float, float, float]] = [(0, *PAPER_COMMAND)]
         self._errors = (0.0, 0.0, 0.0)
         self.last_info: dict = {}
-        self._observation = np.zeros(len(EXECUTOR_OBSERVATION))
+        self.memory = DepthExecutorMemory(observation, residual, gains, base)
+        self._observation = np.zeros(self.memory.size)
         super().__init__(random=options.seed(random))
 
     def initialize_episode(self, physics: AUV6Physics) -> None:
@@ -193,6 +201,7 @@ class DepthHeading(base.Task):
         set_pose(physics, (0.0, 0.0, -start_depth), yaw=heading, nu=(speed, 0, 0, 0, 0, 0))
         physics.reset_fins()
         physics.set_control(np.zeros(physics.model.nu))
+        self.memory.reset(*physics.model.actuator_ctrlrange.T)
         physics.disturbance = self._disturbance() if self._disturbances == "paper" else None
         self.ocean.start(physics, self.random)
         self.sensors.reset()
@@ -253,13 +262,16 @@ class DepthHeading(base.Task):
         return read_state(physics, self.sensors.read(physics))
 
     def action_spec(self, physics) -> specs.BoundedArray:
+        """(thrust, rudder, stern) in [-1, 1]^3, or one action per scheduled gain (`gains`)."""
+        if self.memory.gains:
+            return specs.BoundedArray((len(SCHEDULED_GAINS),), float, -1.0, 1.0, name=",".join(SCHEDULED_GAINS))
         return specs.BoundedArray((physics.model.nu,), float, -1.0, 1.0, name="thrust,rudder,stern")
 
     def before_step(self, action, physics) -> None:
         self.ocean.tick(physics)
         self._step = int(round(physics.time() / EXECUTOR_DT))
         self._step_command = self.command(physics)
-        physics.set_control(_scale(checked_action(action, self.action_spec(physics), self), physics))
+        physics.set_control(self.memory.controls(checked_action(action, self.action_spec(physics), self)))
 
     def after_step(self, physics) -> None:
         v_cmd, psi_cmd, depth_cmd = self._step_command
@@ -270,15 +282,11 @@ class DepthHeading(base.Task):
         self.last_info = {"phase": self.phase(self._step), "speed_error": e_v, "heading_error": e_psi,
                           "depth_error": e_d, "command": np.array([v_cmd, psi_cmd]), "depth_command": depth_cmd,
                           "tracked": self._step >= SETTLE_STEPS, "success": met, "is_success": met}
-        command = self.command(physics)
-        state = self.state(physics)
-        e_psi_now = wrap_angle(command[1] - state.heading)
-        self._observation = np.array([command[0], state.u, state.v, state.w, state.p, state.q, state.r,
-                                      command[0] - state.u, math.cos(e_psi_now), math.sin(e_psi_now),
-                                      command[2] - state.depth, state.roll, state.pitch, state.depth])
+        self._observation = self.memory.observe(self.command(physics), self.state(physics))
 
     def get_observation(self, physics) -> collections.OrderedDict:
-        """"observation": EXECUTOR_OBSERVATION from the command in force and the sensors' samples."""
+        """"observation": EXECUTOR_OBSERVATION from the command in force and the sensors' samples (then the
+        memories of the "history" observation and a residual's S-plane controls, `DepthExecutorMemory`)."""
         return collections.OrderedDict(observation=self._observation.copy())
 
     def get_reward(self, physics) -> float:
@@ -306,10 +314,11 @@ def depth_heading(time_limit: float = EPISODE_STEPS * EXECUTOR_DT, random=None, 
                                **environment_kwargs)
 
 
-def splane_policy(env) -> Callable:
-    """The classical executor (`DepthHeadingController`) as a policy(time_step) of a depth_heading env."""
+def splane_policy(env, gains: DepthHeadingGains | None = None) -> Callable:
+    """The classical executor (`DepthHeadingController`, with `gains` or the hand-set ones) as a policy(time_step)
+    of a depth_heading env."""
     task, physics = env.task, env.physics
-    controller = DepthHeadingController()
+    controller = DepthHeadingController(gains)
 
     def policy(time_step) -> np.ndarray:
         if time_step.first():
@@ -335,11 +344,18 @@ class Planning3D(base.Task):
 
     time_limit = GOAL_TIME_LIMIT
 
-    def __init__(self, arena: str = "random", random=None, conditions="ideal"):
+    def __init__(self, arena: str = "random", random=None, conditions="ideal", executor=None):
+        """`arena`: "random" (one per episode) or "fixed"; `conditions`: ocean (`auv_mj.sim.ocean3d`); `executor`:
+        None (the hand-set depth-heading S-plane) or a callable executor(command, State3D) -> (thrust [N],
+        rudder [rad], stern [rad]) with `reset()`, called every EXECUTOR_DT (a re-tuned S-plane, a learned depth
+        executor: `auv_mj.zoo.registry` turns names into these)."""
         self._arena_mode = options.choice("arena", arena, ("random", "fixed"))
         self.ocean = ocean3d.Ocean3D(conditions)
         self.sensors = Sensors3D(noise=self.ocean.noise)
-        self.executor = DepthHeadingController()
+        if executor is not None and not (callable(executor) and hasattr(executor, "reset")):
+            raise ValueError(f"task option executor must be an executor(command, state) with reset(), got "
+                             f"{options.shown(executor)} (names are resolved by `auv_mj.zoo.registry`)")
+        self.executor = executor if executor is not None else DepthHeadingController()
         self.command = (0.0, 0.0, START_DEPTH)
         self.path = np.zeros((0, 3))
         self.goal = np.zeros(3)

@@ -32,6 +32,7 @@ from auv_mj.cli.options import (
 )
 from auv_mj.inputs import check_json_depth, read_text
 from auv_mj.planners.deploy import ChainConfig, deploy_env
+from auv_mj.tasks.gym_adapter import GYM_IDS_3D
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""
@@ -64,18 +65,20 @@ class EnvFactory:
             importlib.import_module(self.module)
         chain = {k: v for k, v in self.kwargs.items() if k in ChainConfig.__dataclass_fields__}
         rest = {k: v for k, v in self.kwargs.items() if k not in chain}
-        return deploy_env(gym.make(self.env_id, **_with_executor(rest)), **chain)
+        return deploy_env(gym.make(self.env_id, **_with_executor(rest, self.env_id in GYM_IDS_3D)), **chain)
 
 
-def _with_executor(kwargs: dict) -> dict:
+def _with_executor(kwargs: dict, three_d: bool = False) -> dict:
     """`kwargs` with a planning task's executor named in its task_kwargs ("executor": one of
-    `policies.EXECUTORS` or a speed_heading checkpoint) built, so that a planner trains on the execution layer
-    it will run on (e.g. the learned one of the two-layer system)."""
+    `policies.EXECUTORS` or a speed_heading checkpoint; on a 6-DOF task, `three_d`, one of `EXECUTORS_3D` or a
+    depth_heading checkpoint) built, so that a planner trains on the execution layer it will run on (e.g. the
+    learned one of the two-layer system)."""
     task_kwargs = kwargs.get("task_kwargs")
     if isinstance(task_kwargs, dict) and isinstance(task_kwargs.get("executor"), str):
         from auv_mj.zoo.registry import named_executor
 
-        return {**kwargs, "task_kwargs": {**task_kwargs, "executor": named_executor(task_kwargs["executor"])}}
+        executor = named_executor(task_kwargs["executor"], three_d)
+        return {**kwargs, "task_kwargs": {**task_kwargs, "executor": executor}}
     return kwargs
 
 

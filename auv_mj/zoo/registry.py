@@ -18,7 +18,9 @@ Besides the names:
 On the planning tasks the executor under any planner without an executor of its own is chosen in the task
 options, `--task-kwargs '{"executor": NAME}'`, NAME one of EXECUTORS (or a speed_heading checkpoint path), e.g.
 the general planner on the learned ocean executor:
-`--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`.
+`--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`. On the 6-DOF planning tasks (goal3d,
+tunnel3d) NAME is one of EXECUTORS_3D (or a depth_heading checkpoint path), e.g. `--policy los-avoid --task goal3d
+--task-kwargs '{"executor": "depth-executor"}'`.
 """
 
 from __future__ import annotations
@@ -39,10 +41,13 @@ from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsio
 from auv_mj.planners.bug import bug_planner
 from auv_mj.planners.deploy import Chain, ChainConfig, deployed
 from auv_mj.planners.guidance import classical, is_goal_task, line_of_sight
-from auv_mj.planners.los3d import classical_3d
+from auv_mj.planners.los3d import classical_3d, los_policy
 from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
 from auv_mj.tasks import suite
-from auv_mj.tasks.auv3d import SUITE3D, is_3d
+from auv_mj.tasks.auv3d import SUITE3D, DepthHeading, Physics3D, is_3d, splane_policy
+from auv_mj.tasks.auv3d_control import OCEAN_DEPTH_GAINS, DepthHeadingController
+from auv_mj.tasks.depth_executor import DepthExecutorMemory
+from auv_mj.tasks.depth_executor import executor_options as depth_executor_options
 from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
 from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController
 from auv_mj.zoo.spec import (
@@ -86,23 +91,35 @@ class LearnedExecutor:
     exactly as in the speed_heading task (Eq. 28-29; a residual executor's output corrects the S-plane's),
     through the task's own `ExecutorMemory` (integrals, command history, the S-plane), set up from the
     checkpoint's training options. Call it once per executor step, as the tasks do; `reset` starts an episode.
+    `three_d`: a depth_heading policy instead, (V, psi, depth), State3D -> (thrust, rudder, stern), through
+    `auv_mj.tasks.depth_executor.DepthExecutorMemory`.
     """
 
-    def __init__(self, policy, low: np.ndarray, high: np.ndarray):
+    def __init__(self, policy, low: np.ndarray, high: np.ndarray, three_d: bool = False):
         self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
         kwargs = getattr(policy, "metadata", {}).get("run_info", {}).get("task_kwargs", {})
-        self.memory = ExecutorMemory(**executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
+        if three_d:
+            self.memory = DepthExecutorMemory(**depth_executor_options(policy.obs_dim, kwargs), low=self.low,
+                                              high=self.high)
+            self._act = self.memory.controls
+        else:
+            self.memory = ExecutorMemory(**executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
+            self._act = self.memory.forces
 
     def reset(self) -> None:
         """Zeroes the memories (the start of an episode)."""
         self.memory.reset()
 
     def __call__(self, command, state) -> np.ndarray:
-        return self.memory.forces(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
+        return self._act(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
 
 
-def learned_executor(path: Path | None = None) -> LearnedExecutor:
-    """The shipped (or given) learned execution layer as a task executor."""
+def learned_executor(path: Path | None = None, three_d: bool = False) -> LearnedExecutor:
+    """The shipped (or given) learned execution layer as a task executor (`three_d`: a depth executor of the
+    6-DOF vehicle)."""
+    if three_d:
+        low, high = Physics3D.load().model.actuator_ctrlrange.T
+        return LearnedExecutor(Policy.load(path or shipped_checkpoint("depth-executor")), low, high, three_d=True)
     low, high = arena.load().model.actuator_ctrlrange.T
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
@@ -114,15 +131,24 @@ EXECUTORS: dict[str, Callable[[], Any]] = {
     "ocean-executor": lambda: learned_executor(shipped_checkpoint("ocean-executor")),
 }
 """Executor names a planning task's `executor` option takes on the command line -> the executor."""
+EXECUTORS_3D: dict[str, Callable[[], Any]] = {
+    "splane": DepthHeadingController,
+    "splane-ocean": lambda: DepthHeadingController(OCEAN_DEPTH_GAINS),
+    "depth-executor": lambda: learned_executor(shipped_checkpoint("depth-executor"), three_d=True),
+}
+"""The same on the 6-DOF planning tasks (goal3d, tunnel3d): the depth-heading S-plane, re-tuned in ocean water
+(`OCEAN_DEPTH_GAINS`), or the learned depth executor."""
 
 
-def named_executor(name: str):
-    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path) as `executor(command, state)`."""
-    if name in EXECUTORS:
-        return EXECUTORS[name]()
+def named_executor(name: str, three_d: bool = False):
+    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path; with `three_d`, one of
+    EXECUTORS_3D or a depth_heading checkpoint path) as `executor(command, state)`."""
+    table = EXECUTORS_3D if three_d else EXECUTORS
+    if name in table:
+        return table[name]()
     if Path(name).is_file():
-        return learned_executor(Path(name))
-    raise ValueError(f"task_kwargs executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
+        return learned_executor(Path(name), three_d=three_d)
+    raise ValueError(f"task_kwargs executor {name!r}: not one of {list(table)} nor a checkpoint file")
 
 
 # --- building policies ------------------------------------------------------------------------------------------
@@ -194,8 +220,11 @@ def _from_checkpoint(deployment: Deployment) -> ActingPolicy:
 
 
 def _splane_ocean(deployment: Deployment) -> ActingPolicy:
-    """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading."""
+    """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading
+    (`OCEAN_GAINS`) and on depth_heading (`OCEAN_DEPTH_GAINS`)."""
     env = deployment.env
+    if is_3d(env):
+        return splane_policy(env, OCEAN_DEPTH_GAINS) if isinstance(env.task, DepthHeading) else los_policy(env)
     return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
 
 
@@ -256,6 +285,13 @@ register("executor", _learned("the paper's DDPG execution layer (speed_heading)"
                               role="paper"))
 register("ocean-executor", _learned("TD3 scheduling the S-plane's gains every step, trained in ocean water "
                                     "(speed_heading)", "executor_ocean.pt", tasks="executor"))
+register("depth-executor", _learned("TD3 scheduling the depth-heading S-plane's gains every step, trained in ocean "
+                                    "water (depth_heading, the 6-DOF vehicle)", "depth_executor.pt",
+                                    tasks="executor", domain="auv3d"))
+register("two-layer-3d", PolicySpec("the two-layer system in 3-D: 3-D line of sight with the protection domain on the "
+                                    "3-D fan (los-avoid) on the learned depth executor (goal3d, tunnel3d)",
+                                    lambda d: classical_3d(d.env, avoid=True), tasks="planning",
+                                    executor="depth-executor", protection="paper", domain="auv3d"))
 register("los-executor", PolicySpec("line of sight on the learned DDPG executor: the execution layer alone",
                                     lambda d: line_of_sight(d.env), tasks="planning", executor="executor",
                                     role="paper"))
@@ -264,7 +300,8 @@ register("splane", PolicySpec("the classical baseline: line of sight + the S-pla
                               "goal3d/tunnel3d)",
                               lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env)))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
-                                    "(`auv_mj.tasks.splane.OCEAN_GAINS`)", _splane_ocean,
+                                    "(`auv_mj.tasks.splane.OCEAN_GAINS`; auv3d: the depth-heading S-plane's, "
+                                    "`OCEAN_DEPTH_GAINS`)", _splane_ocean,
                                     default_executor="splane-ocean", role="reference"))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner (auv3d: 3-D line of sight, the domain on the 3-D fan)",
@@ -338,8 +375,8 @@ def _checkpoint_of(spec: PolicySpec, path: Path | None, task: str | None) -> Pat
 
 
 def executor_tasks() -> tuple[str, ...]:
-    """The suite's execution-layer tasks (tagged "executor"): the tasks with no executor option."""
-    return tuple(t for _, t in suite.tasks_by_tag("executor"))
+    """The suite's execution-layer tasks (tagged "executor", both domains): the tasks with no executor option."""
+    return tuple(t for _, t in suite.tasks_by_tag("executor")) + tuple(SUITE3D.tagged("executor"))
 
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
@@ -349,21 +386,23 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     task_kwargs["random"] = seed
     executor = task_kwargs.get("executor")
     planning = task_name not in executor_tasks()
+    three_d = suite.domain_of(task_name) == "auv3d"
     if spec.executor is not None and planning:
         if executor is not None:
             raise ValueError(f"policy {policy_name!r} runs the learned executor {spec.executor!r}; leave 'executor' "
                              f"out of task_kwargs (or use a planner policy with it)")
-        task_kwargs["executor"] = named_executor(spec.executor)
+        task_kwargs["executor"] = named_executor(spec.executor, three_d)
     elif isinstance(executor, str):
-        task_kwargs["executor"] = named_executor(executor)
+        task_kwargs["executor"] = named_executor(executor, three_d)
     elif spec.default_executor is not None and planning:
-        task_kwargs["executor"] = named_executor(spec.default_executor)
+        task_kwargs["executor"] = named_executor(spec.default_executor, three_d)
     checkpoint = _checkpoint_of(spec, path, task_name)
     if checkpoint is not None and "observation" not in task_kwargs:
         meta = read_checkpoint(checkpoint)[1]
         if not planning:  # the executor's observation (residual, gains, base) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})
-            memory = executor_options(int(meta["obs_dim"]), trained)
+            options = depth_executor_options if three_d else executor_options
+            memory = options(int(meta["obs_dim"]), trained)
             task_kwargs.update({k: v for k, v in memory.items() if k not in task_kwargs})
         elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
@@ -388,12 +427,15 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
     of them by 'auv3d', since only some policies (splane, los-avoid, random) know the 6-DOF vehicle."""
     names = [task for _, task in suite.PLANAR_TASKS]
     names_3d = [task for _, task in suite.TASKS_3D]
+    only_3d = resolve(policy_name)[0].domain == "auv3d"  # a 6-DOF policy: 'all' and the tags mean its domain
     if spec == "all":
-        chosen = names
+        chosen = names_3d if only_3d else names
     elif spec in names or spec in names_3d:
         chosen = [spec]
     elif spec == "auv3d":
         chosen = names_3d
+    elif only_3d:
+        chosen = list(SUITE3D.tagged(spec)) if spec in suite.TAGS else []
     else:
         chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
         if not chosen:
@@ -446,6 +488,8 @@ def markdown_table() -> str:
             if spec.role != role:
                 continue
             tasks = {"any": "every task", "planning": "planning tasks", "executor": "speed_heading"}[spec.tasks]
+            if spec.domain == "auv3d":
+                tasks = {"any": "auv3d tasks", "planning": "goal3d, tunnel3d", "executor": "depth_heading"}[spec.tasks]
             executor = spec.executor or spec.default_executor or ("task's" if spec.tasks != "executor" else "-")
             protection = {None: "as trained" if spec.checkpoint else "-", True: "paper's (or its own)",
                           False: "none"}.get(spec.protection, spec.protection)

@@ -65,12 +65,17 @@ class PolicySpec:
     """Whether `NAME=PATH` runs checkpoint PATH in its place."""
     role: str = "use"
     """What it is for: one of ROLES."""
+    domain: str | None = None
+    """"auv3d" for a policy of the 6-DOF vehicle alone (its `tasks` are then that domain's); None: the planar
+    domain's tasks, and the 6-DOF ones where it knows them (`auv_mj.zoo.registry.resolve_tasks`)."""
 
     def __post_init__(self):
         if self.tasks not in RUNS_ON:
             raise ValueError(f"PolicySpec.tasks {self.tasks!r}: not one of {RUNS_ON}")
         if self.role not in ROLES:
             raise ValueError(f"PolicySpec.role {self.role!r}: not one of {list(ROLES)}")
+        if self.domain not in (None, "auv3d"):
+            raise ValueError(f"PolicySpec.domain {self.domain!r}: None or 'auv3d'")
 
 
 POLICIES: dict[str, PolicySpec] = {}
