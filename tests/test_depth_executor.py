@@ -148,3 +148,15 @@ def test_registry_entries_run_a_few_steps(policy, task):
         assert isinstance(env.task.executor.memory, DepthExecutorMemory)
     if policy == "splane-ocean" and task == "tunnel3d":
         assert env.task.executor.gains == OCEAN_DEPTH_GAINS
+
+
+def test_a_short_tuning_writes_its_best_gains_and_they_read_back(tmp_path):
+    from auv_mj.tasks import depth_tuning
+
+    best = tmp_path / "best.json"
+    gains = depth_tuning.tune(max_evaluations=2, seeds=[depth_tuning.train_seed(1, 0)], best_file=best)
+    assert depth_tuning.read_gains(best) == gains
+    assert gains.band_depth == DepthHeadingGains().band_depth  # untuned fields stay as set
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(ValueError, match="bad.json"):
+        depth_tuning.read_gains(tmp_path / "bad.json")

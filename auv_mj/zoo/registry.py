@@ -286,12 +286,14 @@ register("executor", _learned("the paper's DDPG execution layer (speed_heading)"
 register("ocean-executor", _learned("TD3 scheduling the S-plane's gains every step, trained in ocean water "
                                     "(speed_heading)", "executor_ocean.pt", tasks="executor"))
 register("depth-executor", _learned("TD3 scheduling the depth-heading S-plane's gains every step, trained in ocean "
-                                    "water (depth_heading, the 6-DOF vehicle)", "depth_executor.pt",
-                                    tasks="executor", domain="auv3d"))
+                                    "water (depth_heading, the 6-DOF vehicle); kept for comparison: on held-out "
+                                    "schedules it tracks less closely than splane-ocean", "depth_executor.pt",
+                                    tasks="executor", domain="auv3d", role="comparison"))
 register("two-layer-3d", PolicySpec("the two-layer system in 3-D: 3-D line of sight with the protection domain on the "
                                     "3-D fan (los-avoid) on the learned depth executor (goal3d, tunnel3d)",
                                     lambda d: classical_3d(d.env, avoid=True), tasks="planning",
-                                    executor="depth-executor", protection="paper", domain="auv3d"))
+                                    executor="depth-executor", protection="paper", domain="auv3d",
+                                    role="comparison"))
 register("los-executor", PolicySpec("line of sight on the learned DDPG executor: the execution layer alone",
                                     lambda d: line_of_sight(d.env), tasks="planning", executor="executor",
                                     role="paper"))
