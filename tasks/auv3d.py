@@ -4,16 +4,19 @@
   depth) and the vehicle's sensors and sets (thrust, rudder, stern), scaled from [-1, 1]^3 by the actuator
   ranges. The "paper" schedule is Sec. 4.2's (1 m/s, pi/12, the sway burst, the constant and the periodic
   force) extended to depth: a 5 m dive from 10 m at the start, and each disturbance with a vertical part
-  (VERTICAL_SHARE of its horizontal force). Metrics add mae_depth [m] (`last_info["depth_error"]`).
+  (VERTICAL_SHARE of its horizontal force). Metrics add mae_depth [m] (`last_info["depth_error"]`). A learned
+  executor can act through the S-plane instead (`residual`, `gains`, `base`, `observation`;
+  `auv_mj.tasks.depth_executor`).
 - `goal3d`: reach a goal in 3-D among obstacles over a seabed (`arena="random"` draws them).
 - `tunnel3d`: follow a tube along an x, y, z centreline to its end (`auv_mj.arenas.tubes`; `arena="random"`
   draws procedural tubes with climbs, dives and bends).
 
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
-(up to DEPTH_RANGE) for the classical depth-heading executor (`auv_mj.tasks.auv3d_control`), which runs at 10 Hz inside
-the step. Their observation is what the vehicle can know: its motion and attitude, depth and altitude, the 27
-fan ranges, and the goal (or the tube's look-ahead point) relative to itself.
+(up to DEPTH_RANGE) for the depth-heading executor, which runs at 10 Hz inside the step: the classical one
+(`auv_mj.tasks.auv3d_control`) unless the `executor` option gives another (a re-tuned or a learned one). Their
+observation is what the vehicle can know: its motion and attitude, depth and altitude, the 27 fan ranges, and the
+goal (or the tube's look-ahead point) relative to itself.
 
 Every task takes `conditions` ("ideal", "ocean" or a mapping, `auv_mj.sim.ocean3d`).
 """
