@@ -6,6 +6,8 @@
   force) extended to depth: a 5 m dive from 10 m at the start, and each disturbance with a vertical part
   (VERTICAL_SHARE of its horizontal force). Metrics add mae_depth [m] (`last_info["depth_error"]`). As on
   speed_heading, an episode ends by its schedule: it reports no success, only "within_tolerance" per step.
+  A learned executor can act through the S-plane instead (`residual`, `gains`, `base`, `observation`;
+  `auv_mj.tasks.depth_executor`).
 - `goal3d`: reach a goal in 3-D among obstacles over a seabed (`arena="random"` draws them).
 - `tunnel3d`: follow a tube along an x, y, z centreline to its end (`auv_mj.arenas.tubes`; `arena="random"`
   draws procedural tubes with climbs, dives and bends, `arena=PATH` flies a tube file from `auv-mj tunnel --tube`,
@@ -15,9 +17,10 @@
 
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
-(up to DEPTH_RANGE) for the classical depth-heading executor (`auv_mj.tasks.auv3d_control`), which runs at 10 Hz inside
-the step. Their observation is the Gymnasium-Robotics goal dict, as the planar goal tasks': "observation" is what the
-vehicle can know (its motion and attitude, depth and altitude, the goal, or the tube's look-ahead point, relative to
+(up to DEPTH_RANGE) for the depth-heading executor, which runs at 10 Hz inside the step: the classical one
+(`auv_mj.tasks.auv3d_control`) unless the `executor` option names or gives another (`auv_mj.tasks.executors`).
+Their observation is the Gymnasium-Robotics goal dict, as the planar goal tasks': "observation" is what the vehicle
+can know (its motion and attitude, depth and altitude, the goal, or the tube's look-ahead point, relative to
 itself, and the 27 fan ranges), "achieved_goal" and "desired_goal" are (x, y, z, cos psi, sin psi): where the vehicle
 is and the heading it senses, and the goal (goal3d's, or the tube's end) with the heading of the way into it. The
 reward (progress towards the goal, a bonus on reaching it, a step cost, a penalty for a collision or broaching) is
@@ -57,8 +60,16 @@ from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_BEAMS, Sensors3D
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
-from auv_mj.tasks.auv3d_control import EXECUTOR_DT, DepthHeadingController, State3D, los_command
+from auv_mj.tasks.auv3d_control import (
+    EXECUTOR_DT,
+    SCHEDULED_GAINS,
+    DepthHeadingController,
+    DepthHeadingGains,
+    State3D,
+    los_command,
+)
 from auv_mj.tasks.clock import ExecutorClock
+from auv_mj.tasks.depth_executor import SENSOR_NAMES, DepthExecutorMemory
 from auv_mj.tasks.planning import info_field
 
 SUITE3D = containers.TaggedTasks()
@@ -104,8 +115,8 @@ MAX_COMMAND_DEPTH = 500.0
 COMMANDS = ("paper", "random")
 DISTURBANCES = ("paper", "none")
 REWARDS = ("suite", "paper")
-EXECUTOR_OBSERVATION = ("V_cmd", "u", "v", "w", "p", "q", "r", "e_V", "cos_e_psi", "sin_e_psi", "e_depth",
-                        "roll", "pitch", "depth")
+EXECUTOR_OBSERVATION = SENSOR_NAMES
+"""The executor's observation (`auv_mj.tasks.depth_executor.SENSOR_NAMES`)."""
 
 # --- planning ------------------------------------------------------------------------------------------------
 PLANNER_DT = 0.5
@@ -171,11 +182,6 @@ def read_state(physics: AUV6Physics, sensed: dict[str, np.ndarray]) -> State3D:
     return State3D(u, v, w, p, q, r, float(roll), float(pitch), float(heading), float(sensed["depth"]))
 
 
-def _scale(action: np.ndarray, physics: AUV6Physics) -> np.ndarray:
-    low, high = physics.model.actuator_ctrlrange.T
-    return low + 0.5 * (np.asarray(action, dtype=float) + 1.0) * (high - low)
-
-
 def _normalise(control_values: np.ndarray, physics: AUV6Physics) -> np.ndarray:
     low, high = physics.model.actuator_ctrlrange.T
     return np.clip(2.0 * (np.asarray(control_values, dtype=float) - low) / (high - low) - 1.0, -1.0, 1.0)
@@ -185,9 +191,13 @@ class DepthHeading(base.Task):
     """Follow (V, psi, depth) with (thrust, rudder, stern) under disturbances (module docstring)."""
 
     def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper", reward: str = "suite",
-                 random=None, conditions="ideal"):
+                 random=None, conditions="ideal", observation: str = "sensors", residual: float = 0.0,
+                 gains: float = 0.0, base: str = "nominal"):
         """`command`: "paper", "random" or (V [m/s], psi [rad], depth [m]); `disturbances`: "paper" or "none";
-        `reward`: "suite" ([0, 1]) or "paper" (-|e_V| - |e_psi| - |e_depth| / DEPTH_MARGIN); `conditions`: ocean."""
+        `reward`: "suite" ([0, 1]) or "paper" (-|e_V| - |e_psi| - |e_depth| / DEPTH_MARGIN); `conditions`: ocean;
+        `observation`, `residual`, `gains`, `base`: a learned executor's view and action
+        (`auv_mj.tasks.depth_executor.DepthExecutorMemory`: plain controls, a residual on the S-plane or its
+        gains scheduled; "history" appends the S-plane's integrals and the last controls)."""
         if isinstance(command, str):
             options.choice("command", command, COMMANDS)
         else:
@@ -201,7 +211,8 @@ class DepthHeading(base.Task):
         self._schedule: list[tuple[int, float, float, float]] = [(0, *PAPER_COMMAND)]
         self._errors = (0.0, 0.0, 0.0)
         self.last_info: dict = {}
-        self._observation = np.zeros(len(EXECUTOR_OBSERVATION))
+        self.memory = DepthExecutorMemory(observation, residual, gains, base)
+        self._observation = np.zeros(self.memory.size)
         super().__init__(random=options.seed(random))
 
     def initialize_episode(self, physics: AUV6Physics) -> None:
@@ -227,6 +238,7 @@ class DepthHeading(base.Task):
         set_pose(physics, (0.0, 0.0, -start_depth), yaw=heading, nu=(speed, 0, 0, 0, 0, 0))
         physics.reset_fins()
         physics.set_control(np.zeros(physics.model.nu))
+        self.memory.reset(*physics.model.actuator_ctrlrange.T)
         physics.disturbance = self._disturbance() if self._disturbances == "paper" else None
         self.ocean.start(physics, self.random)
         self.sensors.reset()
@@ -287,13 +299,16 @@ class DepthHeading(base.Task):
         return read_state(physics, self.sensors.read(physics))
 
     def action_spec(self, physics) -> specs.BoundedArray:
+        """(thrust, rudder, stern) in [-1, 1]^3, or one action per scheduled gain (`gains`)."""
+        if self.memory.gains:
+            return specs.BoundedArray((len(SCHEDULED_GAINS),), float, -1.0, 1.0, name=",".join(SCHEDULED_GAINS))
         return specs.BoundedArray((physics.model.nu,), float, -1.0, 1.0, name="thrust,rudder,stern")
 
     def before_step(self, action, physics) -> None:
         self.ocean.tick(physics)
         self._step = int(round(physics.time() / EXECUTOR_DT))
         self._step_command = self.command(physics)
-        physics.set_control(_scale(checked_action(action, self.action_spec(physics), self), physics))
+        physics.set_control(self.memory.controls(checked_action(action, self.action_spec(physics), self)))
 
     def after_step(self, physics) -> None:
         v_cmd, psi_cmd, depth_cmd = self._step_command
@@ -304,15 +319,11 @@ class DepthHeading(base.Task):
         self.last_info = {"phase": self.phase(self._step), "speed_error": e_v, "heading_error": e_psi,
                           "depth_error": e_d, "command": np.array([v_cmd, psi_cmd]), "depth_command": depth_cmd,
                           "tracked": self._step >= SETTLE_STEPS, "within_tolerance": met, "is_success": met}
-        command = self.command(physics)
-        state = self.state(physics)
-        e_psi_now = wrap_angle(command[1] - state.heading)
-        self._observation = np.array([command[0], state.u, state.v, state.w, state.p, state.q, state.r,
-                                      command[0] - state.u, math.cos(e_psi_now), math.sin(e_psi_now),
-                                      command[2] - state.depth, state.roll, state.pitch, state.depth])
+        self._observation = self.memory.observe(self.command(physics), self.state(physics))
 
     def get_observation(self, physics) -> collections.OrderedDict:
-        """"observation": EXECUTOR_OBSERVATION from the command in force and the sensors' samples."""
+        """"observation": EXECUTOR_OBSERVATION from the command in force and the sensors' samples (then the
+        memories of the "history" observation and a residual's S-plane controls, `DepthExecutorMemory`)."""
         return collections.OrderedDict(observation=self._observation.copy())
 
     def get_reward(self, physics) -> float:
@@ -340,10 +351,11 @@ def depth_heading(time_limit: float = EPISODE_STEPS * EXECUTOR_DT, random=None, 
                                **environment_kwargs)
 
 
-def splane_policy(env) -> Planner:
-    """The classical executor (`DepthHeadingController`) as a policy(time_step) of a depth_heading env."""
+def splane_policy(env, gains: DepthHeadingGains | None = None) -> Planner:
+    """The classical executor (`DepthHeadingController`, with `gains` or the hand-set ones) as a policy(time_step)
+    of a depth_heading env."""
     task, physics = env.task, env.physics
-    controller = DepthHeadingController()
+    controller = DepthHeadingController(gains)
 
     def policy(time_step) -> np.ndarray:
         if time_step.first():
@@ -400,14 +412,27 @@ class Planning3D(base.Task):
     ARENAS = ("random", "fixed")
     """The `arena` choices every planning task has (a task may take arena files too: `_arena_option`)."""
 
-    def __init__(self, arena: str = "random", random=None, conditions="ideal", tier: str = "standard"):
+    def __init__(self, arena: str = "random", random=None, conditions="ideal", tier: str = "standard",
+                 executor=None):
+        """`arena`: "random" (one per episode), "fixed" or (tunnel3d) a tube file; `conditions`: ocean
+        (`auv_mj.sim.ocean3d`); `tier`: TIERS; `executor`: None (the hand-set depth-heading S-plane), a name of
+        `auv_mj.tasks.executors.EXECUTORS_3D` (or a depth_heading checkpoint path), or a callable
+        executor(command, State3D) -> (thrust [N], rudder [rad], stern [rad]) with `reset()`, called every
+        EXECUTOR_DT."""
         self._arena_mode = self._arena_option(arena)
         self.tier = options.choice("tier", tier, TIERS)
         self.movers: list[tuple[int, tubes.TubeMover]] = []
         """(mocap index, track) of each moving obstacle of the arena."""
         self.ocean = ocean3d.Ocean3D(conditions)
         self.sensors = Sensors3D(noise=self.ocean.noise)
-        self.executor = DepthHeadingController()
+        if isinstance(executor, str):
+            from auv_mj.tasks.executors import named_executor  # the learned ones load torch: only when named
+
+            executor = named_executor(executor, three_d=True)
+        if executor is not None and not (callable(executor) and hasattr(executor, "reset")):
+            raise ValueError(f"task option executor must be an executor(command, state) with reset() or its name, "
+                             f"got {options.shown(executor)}")
+        self.executor = executor if executor is not None else DepthHeadingController()
         self.command = (0.0, 0.0, START_DEPTH)
         self.path = np.zeros((0, 3))
         self.goal = np.zeros(3)
@@ -416,6 +441,12 @@ class Planning3D(base.Task):
         self._desired = np.zeros(GOAL_SIZE)
         self._achieved = np.zeros(GOAL_SIZE)
         super().__init__(random=options.seed(random))
+
+    @property
+    def max_pitch(self) -> float:
+        """The executor's pitch limit [rad], which the hard arenas' certified paths climb and dive within: its
+        S-plane's, or the hand-set S-plane's for an executor with no gains of its own."""
+        return (getattr(self.executor, "gains", None) or DepthHeadingGains()).max_pitch
 
     # subclass hooks
     def _arena_option(self, arena) -> str:
@@ -569,7 +600,7 @@ class Goal3D(Planning3D):
 
     def draw_arena(self, random: np.random.RandomState):
         if self.tier == "hard":
-            return traps3d.hard_goal_arena(random, WATER_DEPTH, self.executor.gains.max_pitch, MIN_DEPTH,
+            return traps3d.hard_goal_arena(random, WATER_DEPTH, self.max_pitch, MIN_DEPTH,
                                            GOAL_RADIUS).as_tuple()
         return tubes.goal_arena(random, WATER_DEPTH)
 
@@ -602,7 +633,7 @@ class Tunnel3D(Planning3D):
         if self._arena_mode == "file":
             root, tube = self._file
         elif self.tier == "hard":
-            return traps3d.hard_tube(random, self.executor.gains.max_pitch).as_tuple()
+            return traps3d.hard_tube(random, self.max_pitch).as_tuple()
         else:
             tube = tubes.random_tube(random)
             root = tubes.tube_arena(tube)

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from auv_mj.tasks import options as checks
+from auv_mj.tasks.auv3d_control import OCEAN_DEPTH_GAINS, DepthHeadingController
 from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController
 
 Executor = Callable[[Any, Any], Any]
@@ -30,6 +31,15 @@ EXECUTORS: dict[str, Callable[[], Executor] | str] = {
 """Executor name -> a function making it, or the entry point ("module:function") of one."""
 CHECKPOINT_EXECUTOR = "auv_mj.zoo.registry:learned_executor"
 """Entry point of `function(path) -> executor` for a speed_heading checkpoint file given as the executor."""
+EXECUTORS_3D: dict[str, Callable[[], Executor] | str] = {
+    "splane": DepthHeadingController,
+    "splane-ocean": lambda: DepthHeadingController(OCEAN_DEPTH_GAINS),
+    "depth-executor": "auv_mj.zoo.registry:depth_executor",
+}
+"""The same on the 6-DOF planning tasks (goal3d, tunnel3d): the depth-heading S-plane, re-tuned in ocean water
+(`OCEAN_DEPTH_GAINS`), or the learned depth executor."""
+CHECKPOINT_EXECUTOR_3D = "auv_mj.zoo.registry:learned_depth_executor"
+"""Entry point of `function(path) -> executor` for a depth_heading checkpoint file given as a 6-DOF executor."""
 
 
 def register_executor(name: str, make: Callable[[], Executor] | str) -> None:
@@ -44,14 +54,16 @@ def _load(entry_point: str) -> Callable:
     return getattr(import_module(module), function)
 
 
-def named_executor(name: str) -> Executor:
-    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path); ValueError naming it otherwise."""
+def named_executor(name: str, three_d: bool = False) -> Executor:
+    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path; with `three_d`, of a 6-DOF task,
+    one of EXECUTORS_3D or a depth_heading checkpoint path); ValueError naming it otherwise."""
+    table = EXECUTORS_3D if three_d else EXECUTORS
     if not isinstance(name, str):
-        raise ValueError(f"executor: a name of {list(EXECUTORS)}, a checkpoint path or a callable, got "
+        raise ValueError(f"executor: a name of {list(table)}, a checkpoint path or a callable, got "
                          f"{checks.shown(name)}")
-    if name in EXECUTORS:
-        make = EXECUTORS[name]
+    if name in table:
+        make = table[name]
         return _load(make)() if isinstance(make, str) else make()
     if Path(name).is_file():
-        return _load(CHECKPOINT_EXECUTOR)(Path(name))
-    raise ValueError(f"executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
+        return _load(CHECKPOINT_EXECUTOR_3D if three_d else CHECKPOINT_EXECUTOR)(Path(name))
+    raise ValueError(f"executor {name!r}: not one of {list(table)} nor a checkpoint file")

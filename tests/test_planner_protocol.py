@@ -13,14 +13,16 @@ from auv_mj.tasks import suite
 from auv_mj.zoo import registry
 
 
-@pytest.mark.parametrize("name", sorted(n for n, s in registry.POLICIES.items() if s.tasks != "executor"))
-def test_every_registered_planning_policy_is_a_planner(name):
-    env = registry.make_env(name, "obstacles", 3)
-    planner = registry.make_policy(name, env, 3, "obstacles")
+@pytest.mark.parametrize(("name", "task"), sorted(
+    (n, task) for n, s in registry.POLICIES.items() if s.tasks != "executor"
+    for domain, task in (("auv", "obstacles"), ("auv3d", "goal3d")) if domain in s.domains))
+def test_every_registered_planning_policy_is_a_planner(name, task):
+    env = registry.make_env(name, task, 3)
+    planner = registry.make_policy(name, env, 3, task)
     assert isinstance(planner, Planner) and not isinstance(planner, types.FunctionType)
     planner.reset()
     action = planner.act(env.reset())
-    assert np.shape(action) == (2,) and np.all(np.isfinite(action))
+    assert np.shape(action) == env.action_spec().shape and np.all(np.isfinite(action))
 
 
 def test_a_plain_function_becomes_a_planner_and_a_planner_stays_itself():

@@ -20,7 +20,9 @@ Besides the names:
 On the planning tasks the executor under any planner without an executor of its own is chosen in the task
 options, `--task-kwargs '{"executor": NAME}'`, NAME one of EXECUTORS (or a speed_heading checkpoint path), e.g.
 the general planner on the learned ocean executor:
-`--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`.
+`--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`. On the 6-DOF planning tasks (goal3d,
+tunnel3d) NAME is one of EXECUTORS_3D (or a depth_heading checkpoint path), e.g. `--policy los-avoid --task goal3d
+--task-kwargs '{"executor": "depth-executor"}'`.
 """
 
 from __future__ import annotations
@@ -42,12 +44,15 @@ from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsio
 from auv_mj.planners.bug import bug_planner
 from auv_mj.planners.deploy import Chain, ChainConfig, deployed
 from auv_mj.planners.guidance import classical, is_goal_task, line_of_sight
-from auv_mj.planners.los3d import classical_3d
+from auv_mj.planners.los3d import classical_3d, los_policy
 from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
 from auv_mj.planners.map_planner3d import sonar_voxel_planner, true_voxel_planner
 from auv_mj.tasks import suite
 from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
-from auv_mj.tasks.auv3d import SUITE3D, is_3d
+from auv_mj.tasks.auv3d import SUITE3D, DepthHeading, Physics3D, is_3d, splane_policy
+from auv_mj.tasks.auv3d_control import OCEAN_DEPTH_GAINS
+from auv_mj.tasks.depth_executor import DepthExecutorMemory
+from auv_mj.tasks.depth_executor import executor_options as depth_executor_options
 from auv_mj.tasks.executors import EXECUTORS, named_executor  # noqa: F401  (EXECUTORS: the zoo's face)
 from auv_mj.tasks.registry import SUITE
 from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
@@ -107,23 +112,35 @@ class LearnedExecutor:
     exactly as in the speed_heading task (Eq. 28-29; a residual executor's output corrects the S-plane's),
     through the task's own `ExecutorMemory` (integrals, command history, the S-plane), set up from the
     checkpoint's training options. Call it once per executor step, as the tasks do; `reset` starts an episode.
+    `three_d`: a depth_heading policy instead, (V, psi, depth), State3D -> (thrust, rudder, stern), through
+    `auv_mj.tasks.depth_executor.DepthExecutorMemory`.
     """
 
-    def __init__(self, policy, low: np.ndarray, high: np.ndarray):
+    def __init__(self, policy, low: np.ndarray, high: np.ndarray, three_d: bool = False):
         self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
         kwargs = getattr(policy, "metadata", {}).get("run_info", {}).get("task_kwargs", {})
-        self.memory = ExecutorMemory(**executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
+        if three_d:
+            self.memory = DepthExecutorMemory(**depth_executor_options(policy.obs_dim, kwargs), low=self.low,
+                                              high=self.high)
+            self._act = self.memory.controls
+        else:
+            self.memory = ExecutorMemory(**executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
+            self._act = self.memory.forces
 
     def reset(self) -> None:
         """Zeroes the memories (the start of an episode)."""
         self.memory.reset()
 
     def __call__(self, command, state) -> np.ndarray:
-        return self.memory.forces(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
+        return self._act(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
 
 
-def learned_executor(path: Path | None = None) -> LearnedExecutor:
-    """The shipped (or given) learned execution layer as a task executor."""
+def learned_executor(path: Path | None = None, three_d: bool = False) -> LearnedExecutor:
+    """The shipped (or given) learned execution layer as a task executor (`three_d`: a depth executor of the
+    6-DOF vehicle)."""
+    if three_d:
+        low, high = Physics3D.load().model.actuator_ctrlrange.T
+        return LearnedExecutor(Policy.load(path or shipped_checkpoint("depth-executor")), low, high, three_d=True)
     low, high = arena.load().model.actuator_ctrlrange.T
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
@@ -136,6 +153,16 @@ def paper_executor() -> LearnedExecutor:
 def ocean_executor() -> LearnedExecutor:
     """The learned ocean executor (`ocean-executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
     return learned_executor(shipped_checkpoint("ocean-executor"))
+
+
+def depth_executor() -> LearnedExecutor:
+    """The learned depth executor (`depth-executor`), by name in `auv_mj.tasks.executors.EXECUTORS_3D`."""
+    return learned_executor(shipped_checkpoint("depth-executor"), three_d=True)
+
+
+def learned_depth_executor(path: Path) -> LearnedExecutor:
+    """A depth_heading checkpoint file as a 6-DOF task's executor (`auv_mj.tasks.executors`)."""
+    return learned_executor(path, three_d=True)
 
 
 # --- building policies ------------------------------------------------------------------------------------------
@@ -207,8 +234,11 @@ def _from_checkpoint(deployment: Deployment) -> Planner:
 
 
 def _splane_ocean(deployment: Deployment) -> Planner:
-    """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading."""
+    """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading
+    (`OCEAN_GAINS`) and on depth_heading (`OCEAN_DEPTH_GAINS`)."""
     env = deployment.env
+    if is_3d(env):
+        return splane_policy(env, OCEAN_DEPTH_GAINS) if isinstance(env.task, DepthHeading) else los_policy(env)
     return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
 
 
@@ -274,6 +304,15 @@ register("executor", _learned("the paper's DDPG execution layer (speed_heading)"
                               role="paper"))
 register("ocean-executor", _learned("TD3 scheduling the S-plane's gains every step, trained in ocean water "
                                     "(speed_heading)", "executor_ocean.pt", tasks="executor"))
+register("depth-executor", _learned("TD3 scheduling the depth-heading S-plane's gains every step, trained in ocean "
+                                    "water (depth_heading, the 6-DOF vehicle); kept for comparison: on held-out "
+                                    "schedules it tracks less closely than splane-ocean", "depth_executor.pt",
+                                    tasks="executor", domains=("auv3d",), role="comparison"))
+register("two-layer-3d", PolicySpec("the two-layer system in 3-D: 3-D line of sight with the protection domain on the "
+                                    "3-D fan (los-avoid) on the learned depth executor (goal3d, tunnel3d)",
+                                    lambda d: classical_3d(d.env, avoid=True), tasks="planning",
+                                    executor="depth-executor", protection="paper", domains=("auv3d",),
+                                    role="comparison"))
 register("los-executor", PolicySpec("line of sight on the learned DDPG executor: the execution layer alone",
                                     lambda d: line_of_sight(d.env), tasks="planning", executor="executor",
                                     role="paper"))
@@ -283,8 +322,9 @@ register("splane", PolicySpec("the classical baseline: line of sight + the S-pla
                               lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env),
                               domains=BOTH))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
-                                    "(`auv_mj.tasks.splane.OCEAN_GAINS`)", _splane_ocean,
-                                    default_executor="splane-ocean", role="reference"))
+                                    "(`auv_mj.tasks.splane.OCEAN_GAINS`; auv3d: the depth-heading S-plane's, "
+                                    "`OCEAN_DEPTH_GAINS`)", _splane_ocean,
+                                    default_executor="splane-ocean", role="reference", domains=BOTH))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner (auv3d: 3-D line of sight, the domain on the 3-D fan)",
                                  lambda d: classical_3d(d.env, avoid=True) if is_3d(d.env) else line_of_sight(d.env),
@@ -411,35 +451,36 @@ def _runs_on_text(spec: PolicySpec) -> str:
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     """The suite environment for one episode; a spec with an executor plugs it in, and a checkpoint gets the
-    observation it was trained on (read from its metadata). Only options the task takes are set: the 6-DOF tasks
-    have their own executor and observation, so nothing is added there. ValueError (`check_runs_on`) for a policy
+    observation it was trained on (read from its metadata). Only what the policy needs is set (an executor, a
+    checkpoint's observation), never an option its task does not take. ValueError (`check_runs_on`) for a policy
     that does not run on the task."""
     check_runs_on(policy_name, task_name)
     spec, path = resolve(policy_name)
     task_kwargs["random"] = seed
-    if suite.domain_of(task_name) == DOMAIN_3D:
-        return suite.load(DOMAIN_3D, task_name, task_kwargs=task_kwargs)
     executor = task_kwargs.get("executor")
     planning = task_name not in executor_tasks()
+    three_d = suite.domain_of(task_name) == DOMAIN_3D
     if spec.executor is not None and planning:
         if executor is not None:
             raise ValueError(f"policy {policy_name!r} runs the learned executor {spec.executor!r}; leave 'executor' "
                              f"out of task_kwargs (or use a planner policy with it)")
-        task_kwargs["executor"] = named_executor(spec.executor)
+        task_kwargs["executor"] = named_executor(spec.executor, three_d)
     elif isinstance(executor, str):
-        task_kwargs["executor"] = named_executor(executor)
+        task_kwargs["executor"] = named_executor(executor, three_d)
     elif spec.default_executor is not None and planning:
-        task_kwargs["executor"] = named_executor(spec.default_executor)
+        task_kwargs["executor"] = named_executor(spec.default_executor, three_d)
     checkpoint = _checkpoint_of(spec, path, task_name)
     if checkpoint is not None and "observation" not in task_kwargs:
         meta = read_checkpoint(checkpoint)[1]
         if not planning:  # the executor's observation (residual, gains, base) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})
-            memory = executor_options(int(meta["obs_dim"]), trained)
+            options = depth_executor_options if three_d else executor_options
+            memory = options(int(meta["obs_dim"]), trained)
             task_kwargs.update({k: v for k, v in memory.items() if k not in task_kwargs})
-        elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
+        elif meta["spec"].get("kind") == "goal" and not three_d:  # a planar planner reading the goal beside the
+            # paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
-    return suite.load(suite.DOMAIN, task_name, task_kwargs=task_kwargs)
+    return suite.load(suite.domain_of(task_name), task_name, task_kwargs=task_kwargs)
 
 
 def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> Planner:
