@@ -1,17 +1,15 @@
-"""Baselines that act on observations alone: uniform random actions. (The classical controllers, which
-read the task, live with the tasks: `auv_mj.planners.guidance`.)"""
+"""Baselines that act on observations alone: uniform random actions. (The classical planners, which read the task,
+are the peers of the learned agents: `auv_mj.planners`.)"""
 
 from __future__ import annotations
-
-from collections.abc import Callable
 
 import dm_env
 import numpy as np
 
-Policy = Callable[[dm_env.TimeStep], np.ndarray]
+from auv_mj.episode import FunctionPlanner, Planner
 
 
-def uniform_random(env, seed: int = 0) -> Policy:
+def uniform_random(env, seed: int = 0) -> Planner:
     """Uniform actions within the action spec's bounds, from its own seeded generator."""
     rng = np.random.default_rng(seed)
     spec = env.action_spec()
@@ -21,4 +19,4 @@ def uniform_random(env, seed: int = 0) -> Policy:
     def policy(time_step: dm_env.TimeStep) -> np.ndarray:
         return rng.uniform(low, high)
 
-    return policy
+    return FunctionPlanner(policy)

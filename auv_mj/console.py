@@ -12,3 +12,11 @@ def progress_bar(**kwargs: Any):
     from tqdm import tqdm
 
     return tqdm(file=sys.stderr, mininterval=0.1 if sys.stderr.isatty() else 10.0, **kwargs)
+
+
+def complete(bar) -> None:
+    """Ends a bar whose work finished before its total (an episode that ends before its time limit, runs that need
+    not be made): the total becomes what was done, so that the bar closes at 100 %."""
+    if bar.total is None or bar.n < bar.total:
+        bar.total = bar.n
+        bar.refresh()

@@ -17,7 +17,9 @@ import zipfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
 
+import dm_env
 import mujoco
 import numpy as np
 
@@ -28,7 +30,60 @@ VEHICLE_BODY = "auv"
 CIRCLE_SEGMENTS = 32
 """Vertices of the polygon standing for a round footprint (sphere, cylinder, capsule end)."""
 
-Policy = Callable[..., np.ndarray]
+
+
+# --- the planner protocol -------------------------------------------------------------------------
+
+
+@runtime_checkable
+class Planner(Protocol):
+    """What the episode loop runs, every policy of auv-mj, classical or learned (nav2's planner interface in small):
+    `reset()` at the start of each episode, then `act(time_step) -> action` at every control step."""
+
+    def reset(self) -> None: ...
+
+    def act(self, time_step: dm_env.TimeStep) -> np.ndarray: ...
+
+
+class PlannerBase:
+    """A Planner with nothing to reset unless a subclass says so; calling it is `act`."""
+
+    def reset(self) -> None:
+        """Forgets the last episode (nothing, unless the planner keeps state)."""
+
+    def act(self, time_step: dm_env.TimeStep) -> np.ndarray:
+        raise NotImplementedError
+
+    def __call__(self, time_step: dm_env.TimeStep) -> np.ndarray:
+        return self.act(time_step)
+
+
+class FunctionPlanner(PlannerBase):
+    """A Planner made of a function `act(time_step) -> action` and, where it keeps state, its `reset()`."""
+
+    def __init__(self, act: Callable[[dm_env.TimeStep], Any], reset: Callable[[], None] | None = None):
+        self._act, self._reset = act, reset
+
+    def reset(self) -> None:
+        if self._reset is not None:
+            self._reset()
+
+    def act(self, time_step: dm_env.TimeStep) -> np.ndarray:
+        return self._act(time_step)
+
+
+def as_planner(policy: Planner | Callable[[dm_env.TimeStep], Any]) -> Planner:
+    """`policy` itself if it is a Planner; a plain function `policy(time_step) -> action` (a user's factory's, an
+    outside library's) as a Planner with nothing to reset. TypeError naming it otherwise."""
+    if isinstance(policy, Planner):
+        return policy
+    if callable(policy):
+        return FunctionPlanner(policy)
+    raise TypeError(f"a policy is a Planner (reset, act) or a function time_step -> action, got {policy!r:.80}")
+
+
+Policy = Planner | Callable[[dm_env.TimeStep], Any]
+"""What the episode loop takes: a Planner, or a plain function of the time step (`as_planner`)."""
 
 
 # --- arena geometry -------------------------------------------------------------------------------
@@ -362,13 +417,12 @@ class EpisodeRecorder:
         """Resets, then steps until the episode ends or `max_steps`; yields each new Snapshot."""
         time_step = self.env.reset()
         self.arena = arena_geometry(self.env.physics, self.env.task)
-        reset = getattr(policy, "reset", None)
-        if callable(reset):
-            reset()
+        planner = as_planner(policy)
+        planner.reset()
         self.snapshots = [self._snapshot(time_step)]
         yield self.snapshots[-1]
         while not time_step.last() and (max_steps is None or len(self.snapshots) <= max_steps):
-            action = policy(time_step)
+            action = planner.act(time_step)
             time_step = self.env.step(action)
             self.snapshots.append(self._snapshot(time_step, action, self.snapshots[-1]))
             yield self.snapshots[-1]
@@ -463,22 +517,25 @@ def episode_metrics(record: EpisodeRecord) -> dict:
 
     None stands for a figure that is undefined for this episode: time to goal without success, a
     clearance on a task that measures none, a tracking error where the task reports none or before
-    the vehicle reached its path.
+    the vehicle reached its path, and success and time to goal on a task that reports no success (a tracking
+    task, speed_heading or depth_heading, whose episode ends by its schedule, not at a goal).
     """
     info = record.info
     steps = record.steps
     clearance = np.asarray(info.get("min_clearance", []), dtype=float)
     clearance = clearance[np.isfinite(clearance)]
     success_steps = np.flatnonzero(record.success)
+    has_goal = "success" in info
     result = {
-        "return": record.episode_return, "steps": steps, "success": record.succeeded,
+        "return": record.episode_return, "steps": steps, "success": record.succeeded if has_goal else None,
         "outcome": outcome(record.event),
         "collision": bool(np.any(np.asarray(info.get("collision", np.zeros(steps)), dtype=float) > 0.5)),
         "safety_violation": bool(np.any(np.asarray(info.get("safety_violation", np.zeros(steps)),
                                                    dtype=float) > 0.5)),
         "min_clearance": float(clearance.min()) if clearance.size else None,
         "path_length": float(np.sum(np.hypot(*np.diff(record.pose[:, :2], axis=0).T))),
-        "time_to_goal": float(record.time[success_steps[0] + 1]) if success_steps.size else None,
+        "time_to_goal": float(record.time[success_steps[0] + 1]) if has_goal and success_steps.size else None,
+        "duration": float(record.time[-1] - record.time[0]),
     }
     tracked = _tracked(record)
     for key in TRACKING_KEYS:

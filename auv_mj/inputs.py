@@ -9,6 +9,8 @@ level, MuJoCo's compiler once per body). The checks themselves are scans and can
 
 from __future__ import annotations
 
+import csv
+import io
 import os
 import stat
 import xml.etree.ElementTree as ET
@@ -27,6 +29,8 @@ MAX_JSON_DEPTH = 32
 """Deepest nesting of JSON (objects and arrays); deeper input is refused, not recursed."""
 
 _READ_CHUNK = 1 << 16
+CSV_DELIMITERS = {";": "';'", "\t": "tabs", "|": "'|'"}
+"""Cell separators other than the comma that spreadsheets write, named as a refusal names them."""
 
 
 def shown(value: Any, limit: int = 60) -> str:
@@ -165,3 +169,38 @@ def check_element(root: ET.Element, source: str, what: str = "MJCF") -> None:
         if count > MAX_XML_ELEMENTS:
             raise ValueError(f"{source}: {what} with more than {MAX_XML_ELEMENTS} elements is refused")
         stack.extend((child, depth + 1) for child in element)
+
+
+def _other_delimiter(cell: str) -> str | None:
+    """The name of the separator a one-cell CSV row was split with instead of commas, or None."""
+    for delimiter, name in CSV_DELIMITERS.items():
+        if delimiter in cell:
+            return name
+    words = cell.split()
+    return "spaces" if len(words) > 1 and all(_is_number(word) for word in words) else None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def csv_rows(text: str, source: str, form: str) -> list[list[str]]:
+    """The rows of comma-separated `text`; ValueError naming `source` and the row when a row is one cell holding
+    another separator (`;`, tabs, `|` or spaces: a spreadsheet's export in another locale), which a comma reader
+    would take for one cell. `form` is what a row should look like, e.g. "x,y[,width]". Rows and comments
+    (`#` at the start of a row) are checked as they come, so a header separated by semicolons is named too."""
+    try:
+        table = list(csv.reader(io.StringIO(text)))
+    except csv.Error as e:
+        raise ValueError(f"{source}: not a CSV file: {e}") from None
+    for lineno, cells in enumerate(table, start=1):
+        cell = cells[0].split("#", 1)[0].strip() if len(cells) == 1 else ""
+        name = _other_delimiter(cell) if cell else None
+        if name is not None:
+            raise ValueError(f"{source}: row {lineno} {shown(cell, 40)} is one cell separated by {name}: separate "
+                             f"the cells with commas ({form})")
+    return table

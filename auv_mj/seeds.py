@@ -2,7 +2,8 @@
 
 Procgen and the dm_control suite evaluate on seeds never used in training; so do we. A seed here is a
 task seed (the `random` of a suite task, `reset(seed=...)` of a Gymnasium id): it draws the episode's
-start, goal, obstacles and, with `arena="random"`, the arena itself.
+start, goal, obstacles and, with `arena="random"`, the arena itself, in both suite domains (the planar tasks
+and the 6-DOF goal3d and tunnel3d draw an episode's arena from its task seed).
 
 - TEST: held-out seeds that figures are reported on (`auv-mj eval --seed 10000`, `auv-mj reproduce`);
 - VALIDATION: seeds that models are chosen on (checkpoints, hyper-parameters), never reported as results;

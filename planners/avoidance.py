@@ -28,12 +28,12 @@ from dataclasses import dataclass
 import dm_env
 import numpy as np
 
+from auv_mj.episode import FunctionPlanner, Planner, as_planner
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 from auv_mj.tasks import options as checks
 from auv_mj.tasks.planning import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
 from auv_mj.tasks.planning import SONAR_SLICE, TARGET_SPEED, speed_action, speed_command
 
-Policy = Callable[[dm_env.TimeStep], np.ndarray]
 SLOW_CONE = math.pi / 8
 """Half-width [rad] of the cone ahead whose echoes slow a speed-aware domain's planner: beams S4-S6."""
 _AHEAD = np.abs(BEAM_ANGLES) <= SLOW_CONE + 1e-9
@@ -129,20 +129,19 @@ def protect(action, observation: np.ndarray, field: RepulsiveField | None = None
     return action
 
 
-def with_repulsion(policy: Policy, field: RepulsiveField | None = None,
-                   fence: Callable[[], np.ndarray] | None = None) -> Policy:
+def with_repulsion(policy: Planner, field: RepulsiveField | None = None,
+                   fence: Callable[[], np.ndarray] | None = None) -> Planner:
     """`policy` with the protection domain active: its heading action is bent away from near echoes.
     `fence()`: the map's edge per beam now (e.g. `map_fence(env)`), read by a field with `fence`."""
     field = field or RepulsiveField()
 
+    inner = as_planner(policy)
+
     def act(time_step: dm_env.TimeStep) -> np.ndarray:
         edge = fence() if field.fence and fence is not None else None
-        return protect(policy(time_step), time_step.observation["observation"], field, edge)
+        return protect(inner.act(time_step), time_step.observation["observation"], field, edge)
 
-    for name in ("reset",):
-        if hasattr(policy, name):
-            setattr(act, name, getattr(policy, name))
-    return act
+    return FunctionPlanner(act, inner.reset)
 
 
 def map_fence(env) -> Callable[[], np.ndarray] | None:

@@ -40,10 +40,11 @@ from collections import deque
 import dm_env
 import numpy as np
 
+from auv_mj.episode import Planner, PlannerBase
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import SLOW_CONE, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed
-from auv_mj.planners.map_planner import PROTECTION, Policy, route_target, sonar_rays
+from auv_mj.planners.map_planner import PROTECTION, route_target, sonar_rays
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 from auv_mj.tasks.planning import ACTION_HEADING_RANGE, SONAR_SLICE
 
@@ -132,7 +133,7 @@ def follow_heading(points: np.ndarray, position: np.ndarray, psi: float, side: i
     return psi + side * CORNER_TURN, anchor
 
 
-class BugPlanner:
+class BugPlanner(PlannerBase):
     """Motion to goal and boundary following on the sonar's remembered echoes (module docstring)."""
 
     def __init__(self, env):
@@ -226,7 +227,7 @@ class BugPlanner:
         echoes = origin + ranges[near, None] * directions[near]
         return bool(np.any(np.hypot(*(echoes - self.anchor).T) < CONNECT))
 
-    def __call__(self, time_step: dm_env.TimeStep) -> np.ndarray:
+    def act(self, time_step: dm_env.TimeStep) -> np.ndarray:
         if time_step.first():
             self.reset()
         pose = np.array(self.env.physics.pose(), dtype=float)
@@ -258,18 +259,13 @@ class BugPlanner:
                          float(np.clip(offset / ACTION_HEADING_RANGE, -1.0, 1.0))])
 
 
-def bug_planner(env) -> Policy:
+def bug_planner(env) -> Planner:
     """The Bug planner (module docstring) without the protection domain: `bug` adds it."""
     planner = BugPlanner(env)
 
-    def policy(time_step: dm_env.TimeStep) -> np.ndarray:
-        return planner(time_step)
-
-    policy.reset = planner.reset
-    policy.planner = planner
-    return policy
+    return planner
 
 
-def bug(env) -> Policy:
+def bug(env) -> Planner:
     """The Bug planner inside the speed-aware domain with the geofence."""
     return with_repulsion(bug_planner(env), PROTECTION, map_fence(env))

@@ -18,7 +18,7 @@ so that what a network learned in and what it is run in cannot drift.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -27,13 +27,12 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
+from auv_mj.episode import FunctionPlanner, Planner, as_planner
 from auv_mj.planners.avoidance import map_fence, protect, protection_field
 from auv_mj.planners.guidance import MAX_RESIDUAL, SPEEDS, guided_action
 from auv_mj.planners.map_planner import GUIDES, MapGuide
 from auv_mj.tasks import options as checks
 from auv_mj.tasks.actions import checked_action
-
-Policy = Callable[[dm_env.TimeStep], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -134,22 +133,22 @@ class Chain:
         return action
 
 
-def deployed(policy: Policy, chain: Chain) -> Policy:
+def deployed(policy: Planner, chain: Chain) -> Planner:
     """`policy` (a network on the planner's observation) run in the chain's environment through the chain: the
-    evaluation side of the one chain. The result has `reset()` (start of an episode)."""
+    evaluation side of the one chain."""
+    inner = as_planner(policy)
 
     def act(time_step: dm_env.TimeStep) -> np.ndarray:
         if time_step.first():
             chain.reset()
         observation = chain.observe(time_step)
-        return chain.act(policy(time_step._replace(observation=observation)), observation)
+        return chain.act(inner.act(time_step._replace(observation=observation)), observation)
 
     def reset() -> None:
         chain.reset()
-        getattr(policy, "reset", lambda: None)()
+        inner.reset()
 
-    act.reset = reset
-    return act
+    return FunctionPlanner(act, reset)
 
 
 class DeployedEnv(gymnasium.Wrapper):

@@ -19,18 +19,17 @@ zero action is then exactly the classical planner it corrects: on the map's virt
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import dm_env
 import numpy as np
 
+from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import with_repulsion
 from auv_mj.tasks.planning import ACTION_HEADING_RANGE, MAX_SPEED, TARGET_SPEED, speed_action
 from auv_mj.tasks.speed_heading import executor_policy
 from auv_mj.tasks.splane import SPlaneController
 
-Policy = Callable[[dm_env.TimeStep], np.ndarray]
 CRUISE_ACTION = speed_action(TARGET_SPEED)
 """The speed action a0 commanding the target velocity of Tables 6-8 and 12 (Table 3, forward only)."""
 MAX_RESIDUAL = 2.0
@@ -60,13 +59,13 @@ def los_heading(goal, pose) -> float:
     return float(np.clip(offset / ACTION_HEADING_RANGE, -1.0, 1.0))
 
 
-def line_of_sight(env) -> Policy:
+def line_of_sight(env) -> Planner:
     """Heads straight for the current desired goal at the cruise speed; sees no obstacles."""
 
     def policy(time_step: dm_env.TimeStep) -> np.ndarray:
         return np.array([CRUISE_ACTION, los_heading(time_step.observation["desired_goal"], env.physics.pose())])
 
-    return policy
+    return FunctionPlanner(policy)
 
 
 def approach_speed(task, pose) -> float:
@@ -96,24 +95,13 @@ def checked_speed(speed) -> str:
     return speed
 
 
-def with_guidance(policy: Policy, env, residual: float, speed: str = "absolute") -> Policy:
-    """`policy`, a residual planner's, acting in `env` through `guided_action`; `speed` one of SPEEDS."""
-    speed = checked_speed(speed)
-
-    def act(time_step: dm_env.TimeStep) -> np.ndarray:
-        return guided_action(policy(time_step), time_step.observation["desired_goal"], env.physics.pose(), residual,
-                             speed, env.task)
-
-    return act
-
-
-def los_avoid(env) -> Policy:
+def los_avoid(env) -> Planner:
     """Line of sight along the route (global path, sub-goals or the straight line to the goal) with the
     protection domain of Sec. 3.2.2 active."""
     return with_repulsion(line_of_sight(env))
 
 
-def splane_tracker(env) -> Policy:
+def splane_tracker(env) -> Planner:
     """The S-plane controller of Eq. (32) driving (tau_u, tau_r) on the speed_heading task."""
     return executor_policy(env, SPlaneController())
 
@@ -123,6 +111,6 @@ def is_goal_task(env) -> bool:
     return "desired_goal" in env.observation_spec()
 
 
-def classical(env) -> Policy:
+def classical(env) -> Planner:
     """The classical baseline of a task: S-plane on speed_heading, line of sight elsewhere."""
     return line_of_sight(env) if is_goal_task(env) else splane_tracker(env)

@@ -11,10 +11,11 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
+from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import RepulsiveField
 from auv_mj.sim.sensors3d import FAN_AZIMUTHS, FAN_ELEVATIONS
@@ -58,7 +59,7 @@ def protect_command(command: Sequence[float], heading: float, ranges: np.ndarray
     return speed, wrap_angle(heading + offset), depth_cmd + push
 
 
-def los_policy(env, avoid: bool = False) -> Callable:
+def los_policy(env, avoid: bool = False) -> Planner:
     """Line of sight in 3-D (to the goal, or along the tube) as a planning policy; `avoid` adds the protection
     domain on the 3-D fan (`los-avoid`)."""
     task, physics = env.task, env.physics
@@ -73,14 +74,21 @@ def los_policy(env, avoid: bool = False) -> Callable:
             command = (CRUISE_SPEED, math.atan2(offset[1], offset[0]), -float(task.goal[2]))
         if avoid:
             command = protect_command(command, physics.heading(), task.sensors.read(physics)["sonar"], field)
-        heading_offset = wrap_angle(command[1] - physics.heading()) / HEADING_RANGE
-        depth_offset = (command[2] - physics.depth()) / DEPTH_RANGE
-        return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_offset, depth_offset], -1.0, 1.0)
+        return command_action(command, physics)
 
-    return policy
+    return FunctionPlanner(policy)
 
 
-def classical_3d(env, avoid: bool = False) -> Callable:
+def command_action(command: Sequence[float], physics) -> np.ndarray:
+    """The planning action (a_speed, a_heading, a_depth) in [-1, 1]^3 that asks the executor for `command`
+    (V [m/s], psi [rad], depth [m]) from the vehicle's heading and depth now (clipped where it lies beyond one
+    step's range)."""
+    heading_offset = wrap_angle(command[1] - physics.heading()) / HEADING_RANGE
+    depth_offset = (command[2] - physics.depth()) / DEPTH_RANGE
+    return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_offset, depth_offset], -1.0, 1.0)
+
+
+def classical_3d(env, avoid: bool = False) -> Planner:
     """The classical baseline of an auv3d environment: the S-plane depth-heading executor on depth_heading;
     line of sight in 3-D on the classical executor on goal3d and tunnel3d, inside the protection domain on the
     3-D fan if `avoid` (the app's `--policy splane` and `--policy los-avoid`)."""

@@ -24,20 +24,17 @@ and the speed envelope of the learned planners: the nine sonar ranges of the obs
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import dm_env
 import mujoco
 import numpy as np
 
 from auv_mj.arenas import arena, grid
-from auv_mj.episode import VEHICLE_BODY, arena_geometry, geom_footprint
+from auv_mj.episode import VEHICLE_BODY, FunctionPlanner, Planner, PlannerBase, arena_geometry, geom_footprint
 from auv_mj.planners.avoidance import PROTECTIONS, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed, los_heading
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 from auv_mj.tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE
-
-Policy = Callable[[dm_env.TimeStep], np.ndarray]
 
 PROTECTION = PROTECTIONS["speed-aware"]
 """The protection domain every planner here runs inside, with the geofence (what `planner-general` runs with)."""
@@ -83,7 +80,7 @@ def sonar_rays(pose) -> tuple[np.ndarray, np.ndarray]:
     return origin, np.column_stack([np.cos(psi + BEAM_ANGLES), np.sin(psi + BEAM_ANGLES)])
 
 
-def fast_line_of_sight(env) -> Policy:
+def fast_line_of_sight(env) -> Planner:
     """Line of sight along the route at 2 m/s (no protection domain: `los_fast` adds it), slowing to 1 m/s
     near a small final goal as every planner here does (`approach_speed`): without it, it circles a tunnel's
     2 m final goal in wide water for ever. On open water (12.5 m goals) it is `planner-general`'s zero action."""
@@ -92,10 +89,10 @@ def fast_line_of_sight(env) -> Policy:
         pose = env.physics.pose()
         return np.array([approach_speed(env.task, pose), los_heading(time_step.observation["desired_goal"], pose)])
 
-    return policy
+    return FunctionPlanner(policy)
 
 
-def los_fast(env) -> Policy:
+def los_fast(env) -> Planner:
     """Line of sight along the route at 2 m/s inside the speed-aware domain with the geofence."""
     return with_repulsion(fast_line_of_sight(env), PROTECTION, map_fence(env))
 
@@ -125,7 +122,7 @@ def route_target(task) -> tuple[np.ndarray, float, int]:
     return goals[k], radius, k
 
 
-class GridFollower:
+class GridFollower(PlannerBase):
     """A search on an occupancy grid, replanned when it must, followed by line of sight (module docstring).
 
     Subclasses fill `self.occupied` (`start`, `update`) and say when the map changed near the path.
@@ -184,7 +181,7 @@ class GridFollower:
         point = self.path[self.progress + k] if k < len(along) else self.path[-1]
         return point, float(gaps[nearest])
 
-    def __call__(self, time_step: dm_env.TimeStep) -> np.ndarray:
+    def act(self, time_step: dm_env.TimeStep) -> np.ndarray:
         pose = np.array(self.env.physics.pose(), dtype=float)
         point, _ = self.waypoint(time_step)
         return np.array([approach_speed(self.env.task, pose), los_heading(point, pose)])
@@ -300,35 +297,27 @@ class TrueMap(GridFollower):
         return True
 
 
-def sonar_map_planner(env) -> Policy:
+def sonar_map_planner(env) -> Planner:
     """The mapping local planner's search and follower (no protection domain: `map_replan` adds it)."""
-    return _resettable(SonarMap(env))
+    return SonarMap(env)
 
 
-def true_map_planner(env) -> Policy:
+def true_map_planner(env) -> Planner:
     """The oracle's search and follower on the true map (no protection domain: `oracle` adds it)."""
-    return _resettable(TrueMap(env))
+    return TrueMap(env)
 
 
-def map_replan(env) -> Policy:
+def map_replan(env) -> Planner:
     """The mapping local planner (module docstring) inside the speed-aware domain with the geofence."""
     return with_repulsion(sonar_map_planner(env), PROTECTION, map_fence(env))
 
 
-def oracle(env) -> Policy:
+def oracle(env) -> Planner:
     """The planner on the true map (module docstring) inside the speed-aware domain with the geofence."""
     return with_repulsion(true_map_planner(env), PROTECTION, map_fence(env))
 
 
-def _resettable(follower: GridFollower) -> Policy:
-    """`follower` as a plain function with its `reset` (what `with_repulsion` passes on)."""
 
-    def policy(time_step: dm_env.TimeStep) -> np.ndarray:
-        return follower(time_step)
-
-    policy.reset = follower.reset
-    policy.follower = follower
-    return policy
 
 
 GUIDES = ("route", "map", "map-memory")
@@ -417,20 +406,3 @@ def path_reward(left_before: float, left: float, info: dict) -> float:
     gained = min(max(left_before - left, -PATH_STEP), PATH_STEP)
     reached = FOLLOW_REACHED if info.get("event") in ("goal", "subgoal") else 0.0
     return float(PROGRESS_GAIN * gained + reached + info["goal_independent_reward"])
-
-
-def map_guided(env, policy: Policy, memory: bool = False) -> Policy:
-    """`policy` (a residual planner acting on its time step's goal) fed `MapGuide`'s virtual goal (and with
-    `memory` its scan of the map, guide="map-memory")."""
-    guide = MapGuide(env, memory)
-
-    def act(time_step: dm_env.TimeStep) -> np.ndarray:
-        observation, _ = guide(time_step)
-        return policy(time_step._replace(observation=observation))
-
-    def reset() -> None:
-        guide.reset()
-        getattr(policy, "reset", lambda: None)()
-
-    act.reset = reset
-    return act

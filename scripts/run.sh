@@ -8,6 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv="${AUV_MJ_VENV:-.venv}"
+TORCH_CPU_INDEX="https://download.pytorch.org/whl/cpu"
 stamp="$venv/.auv-mj-installed"
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   echo "setting up $venv (first run only)..." >&2
@@ -20,13 +21,23 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
       "$venv/bin/python" -m pip install --progress-bar on torch==2.13.0
     else
       echo "installing PyTorch's CPU build (no NVIDIA GPU found)..." >&2
-      "$venv/bin/python" -m pip install --progress-bar on --timeout 30 --retries 1 \
-          --index-url https://download.pytorch.org/whl/cpu torch==2.13.0 \
-        || "$venv/bin/python" -m pip install --progress-bar on torch==2.13.0
+      if "$venv/bin/python" -c "import urllib.request as u; u.urlopen('$TORCH_CPU_INDEX/torch/', timeout=10)" \
+          2>/dev/null; then
+        "$venv/bin/python" -m pip install --progress-bar on --index-url "$TORCH_CPU_INDEX" torch==2.13.0 \
+          || "$venv/bin/python" -m pip install --progress-bar on torch==2.13.0
+      else  # PyTorch's index out of reach: the package index's torch (a CPU build where it has one)
+        "$venv/bin/python" -m pip install --progress-bar on torch==2.13.0
+      fi
     fi
   fi
   echo "installing auv-mj and its dependencies..." >&2
-  "$venv/bin/python" -m pip install --progress-bar on -e ".[test]" 2>&1 | { grep -v "^Requirement already satisfied" || true; } >&2
+  # setuptools ends every editable build with an "Editable installation" box, a notice that a folder named like
+  # the package in the working directory may shadow it; pip 25+ shows it as a BuildBackendWarning. This filter,
+  # inherited by pip's build subprocess, drops that one notice (its message, category and module); every other
+  # warning and error of the install still shows.
+  PYTHONWARNINGS="ignore:Editable installation.:UserWarning:setuptools.command.editable_wheel" \
+    "$venv/bin/python" -m pip install --progress-bar on -e ".[test]" 2>&1 \
+    | { grep -v "^Requirement already satisfied" || true; } >&2
   touch "$stamp"
 fi
 # Nothing outside this checkout changes: `auv-mj` lives in $venv/bin. `bash scripts/run.sh link` puts a link to it

@@ -4,16 +4,33 @@
   depth) and the vehicle's sensors and sets (thrust, rudder, stern), scaled from [-1, 1]^3 by the actuator
   ranges. The "paper" schedule is Sec. 4.2's (1 m/s, pi/12, the sway burst, the constant and the periodic
   force) extended to depth: a 5 m dive from 10 m at the start, and each disturbance with a vertical part
-  (VERTICAL_SHARE of its horizontal force). Metrics add mae_depth [m] (`last_info["depth_error"]`).
+  (VERTICAL_SHARE of its horizontal force). Metrics add mae_depth [m] (`last_info["depth_error"]`). As on
+  speed_heading, an episode ends by its schedule: it reports no success, only "within_tolerance" per step.
+  A learned executor can act through the S-plane instead (`residual`, `gains`, `base`, `observation`;
+  `auv_mj.tasks.depth_executor`).
 - `goal3d`: reach a goal in 3-D among obstacles over a seabed (`arena="random"` draws them).
 - `tunnel3d`: follow a tube along an x, y, z centreline to its end (`auv_mj.arenas.tubes`; `arena="random"`
-  draws procedural tubes with climbs, dives and bends).
+  draws procedural tubes with climbs, dives and bends, `arena=PATH` flies a tube file from `auv-mj tunnel --tube`,
+  its rocks and moving spheres included).
+- Both take `tier="hard"`: arenas where depth is the way on (`auv_mj.arenas.traps3d`), certified by the 3-D
+  oracle's search before use.
 
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
-(up to DEPTH_RANGE) for the classical depth-heading executor (`auv_mj.tasks.auv3d_control`), which runs at 10 Hz inside
-the step. Their observation is what the vehicle can know: its motion and attitude, depth and altitude, the 27
-fan ranges, and the goal (or the tube's look-ahead point) relative to itself.
+(up to DEPTH_RANGE) for the depth-heading executor, which runs at 10 Hz inside the step: the classical one
+(`auv_mj.tasks.auv3d_control`) unless the `executor` option names or gives another (`auv_mj.tasks.executors`).
+Their observation is the Gymnasium-Robotics goal dict, as the planar goal tasks': "observation" is what the vehicle
+can know (its motion and attitude, depth and altitude, the goal, or the tube's look-ahead point, relative to
+itself, and the 27 fan ranges), "achieved_goal" and "desired_goal" are (x, y, z, cos psi, sin psi): where the vehicle
+is and the heading it senses, and the goal (goal3d's, or the tube's end) with the heading of the way into it. The
+reward (progress towards the goal, a bonus on reaching it, a step cost, a penalty for a collision or broaching) is
+`compute_reward(achieved_goal, desired_goal, info)`, vectorised, so that hindsight relabelling (HER) recomputes it
+exactly; on goal3d, whose observation holds the goal, `relabel_observation` recomputes the goal's entries.
+
+An arena is a function of the task seed, as in the planar domain: `arena="random"` draws each episode's arena from
+the task's `random` first (the first episode of a task seeded s has the arena of `draw_arena(RandomState(s))`), so
+that the seed ranges of `auv_mj.seeds` (train, validation, test) split the arenas too; `arena="fixed"` is one arena
+(seed 0, outside every range).
 
 Every task takes `conditions` ("ideal", "ocean" or a mapping, `auv_mj.sim.ocean3d`).
 """
@@ -24,6 +41,7 @@ import auv_mj  # noqa: F401  # isort: skip  (first: it picks MuJoCo's OpenGL bac
 import collections
 import math
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -32,16 +50,27 @@ from dm_control.suite import base
 from dm_control.utils import containers, rewards
 from dm_env import specs
 
-from auv_mj.arenas import arena3d, tubes
+from auv_mj.arenas import arena3d, arena_check, traps3d, tubes
+from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
+from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
 from auv_mj.sim import ocean3d
 from auv_mj.sim.physics6 import AUV6Physics, euler_angles, set_pose
-from auv_mj.sim.sensors3d import ALTIMETER_RANGE, Sensors3D
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_BEAMS, Sensors3D
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
-from auv_mj.tasks.auv3d_control import EXECUTOR_DT, DepthHeadingController, State3D, los_command
+from auv_mj.tasks.auv3d_control import (
+    EXECUTOR_DT,
+    SCHEDULED_GAINS,
+    DepthHeadingController,
+    DepthHeadingGains,
+    State3D,
+    los_command,
+)
 from auv_mj.tasks.clock import ExecutorClock
+from auv_mj.tasks.depth_executor import SENSOR_NAMES, DepthExecutorMemory
+from auv_mj.tasks.planning import info_field
 
 SUITE3D = containers.TaggedTasks()
 """Task name -> factory of the "auv3d" domain."""
@@ -86,8 +115,8 @@ MAX_COMMAND_DEPTH = 500.0
 COMMANDS = ("paper", "random")
 DISTURBANCES = ("paper", "none")
 REWARDS = ("suite", "paper")
-EXECUTOR_OBSERVATION = ("V_cmd", "u", "v", "w", "p", "q", "r", "e_V", "cos_e_psi", "sin_e_psi", "e_depth",
-                        "roll", "pitch", "depth")
+EXECUTOR_OBSERVATION = SENSOR_NAMES
+"""The executor's observation (`auv_mj.tasks.depth_executor.SENSOR_NAMES`)."""
 
 # --- planning ------------------------------------------------------------------------------------------------
 PLANNER_DT = 0.5
@@ -105,6 +134,11 @@ GOAL_TIME_LIMIT, TUNNEL_TIME_LIMIT = 200.0, 250.0
 WATER_DEPTH = 60.0
 """Depth of the goal3d seabed [m]."""
 COLLISION_REWARD, GOAL_REWARD, PROGRESS_WEIGHT, STEP_COST = -50.0, 50.0, 1.0, 0.01
+"""The planning reward: PROGRESS_WEIGHT per metre gained on the goal, -STEP_COST a step, +GOAL_REWARD on reaching
+it, COLLISION_REWARD on a collision or broaching. The progress telescopes, so reaching the goal beats waiting
+outside it at every discount (as reward="progress" in `auv_mj.tasks.planning`): along any path that stays outside the
+radius, summation by parts bounds sum_k gamma^k (d_k - d_{k+1}) by d_0 - GOAL_RADIUS, and the other terms are
+< 0; the step that reaches it pays at least that + GOAL_REWARD - STEP_COST (tests/test_rewards.py)."""
 MIN_DEPTH = 1.0
 """Shallower than this [m] is broaching: an episode ends in "left_map"."""
 TUBE_INFLUENCE = 2.5
@@ -112,6 +146,17 @@ TUBE_INFLUENCE = 2.5
 in a tube only echoes nearer than the wall at its nominal 3 m repel (those of a vehicle off the centreline)."""
 LOOKAHEAD = 8.0
 """Line-of-sight look-ahead [m] along a tube's centreline."""
+GOAL_SIZE = 5
+"""Entries of achieved_goal / desired_goal: x, y, z [m] and the heading as (cos, sin), which no reward reads (it lets
+hindsight relabelling recompute goal3d's body-frame goal)."""
+FIXED_ARENA_SEED = 0
+"""The seed of `arena="fixed"`'s one arena (outside the train, validation and test ranges of `auv_mj.seeds`)."""
+TARGET_ENTRIES = slice(10, 14)
+"""Where PLANNING_OBSERVATION holds the target (distance, cos and sin of its bearing, depth offset)."""
+TIERS = ("standard", "hard")
+"""The planning tasks' `tier` option: the standard arenas, or the hard ones where depth is the way on
+(`auv_mj.arenas.traps3d`: walls to pass over or under, caves, seabed relief; tubes with plugs), each certified by
+the 3-D oracle's search."""
 
 
 class Physics3D(ExecutorClock, AUV6Physics):
@@ -137,11 +182,6 @@ def read_state(physics: AUV6Physics, sensed: dict[str, np.ndarray]) -> State3D:
     return State3D(u, v, w, p, q, r, float(roll), float(pitch), float(heading), float(sensed["depth"]))
 
 
-def _scale(action: np.ndarray, physics: AUV6Physics) -> np.ndarray:
-    low, high = physics.model.actuator_ctrlrange.T
-    return low + 0.5 * (np.asarray(action, dtype=float) + 1.0) * (high - low)
-
-
 def _normalise(control_values: np.ndarray, physics: AUV6Physics) -> np.ndarray:
     low, high = physics.model.actuator_ctrlrange.T
     return np.clip(2.0 * (np.asarray(control_values, dtype=float) - low) / (high - low) - 1.0, -1.0, 1.0)
@@ -151,9 +191,13 @@ class DepthHeading(base.Task):
     """Follow (V, psi, depth) with (thrust, rudder, stern) under disturbances (module docstring)."""
 
     def __init__(self, command: str | Sequence[float] = "paper", disturbances: str = "paper", reward: str = "suite",
-                 random=None, conditions="ideal"):
+                 random=None, conditions="ideal", observation: str = "sensors", residual: float = 0.0,
+                 gains: float = 0.0, base: str = "nominal"):
         """`command`: "paper", "random" or (V [m/s], psi [rad], depth [m]); `disturbances`: "paper" or "none";
-        `reward`: "suite" ([0, 1]) or "paper" (-|e_V| - |e_psi| - |e_depth| / DEPTH_MARGIN); `conditions`: ocean."""
+        `reward`: "suite" ([0, 1]) or "paper" (-|e_V| - |e_psi| - |e_depth| / DEPTH_MARGIN); `conditions`: ocean;
+        `observation`, `residual`, `gains`, `base`: a learned executor's view and action
+        (`auv_mj.tasks.depth_executor.DepthExecutorMemory`: plain controls, a residual on the S-plane or its
+        gains scheduled; "history" appends the S-plane's integrals and the last controls)."""
         if isinstance(command, str):
             options.choice("command", command, COMMANDS)
         else:
@@ -167,7 +211,8 @@ class DepthHeading(base.Task):
         self._schedule: list[tuple[int, float, float, float]] = [(0, *PAPER_COMMAND)]
         self._errors = (0.0, 0.0, 0.0)
         self.last_info: dict = {}
-        self._observation = np.zeros(len(EXECUTOR_OBSERVATION))
+        self.memory = DepthExecutorMemory(observation, residual, gains, base)
+        self._observation = np.zeros(self.memory.size)
         super().__init__(random=options.seed(random))
 
     def initialize_episode(self, physics: AUV6Physics) -> None:
@@ -193,6 +238,7 @@ class DepthHeading(base.Task):
         set_pose(physics, (0.0, 0.0, -start_depth), yaw=heading, nu=(speed, 0, 0, 0, 0, 0))
         physics.reset_fins()
         physics.set_control(np.zeros(physics.model.nu))
+        self.memory.reset(*physics.model.actuator_ctrlrange.T)
         physics.disturbance = self._disturbance() if self._disturbances == "paper" else None
         self.ocean.start(physics, self.random)
         self.sensors.reset()
@@ -253,13 +299,16 @@ class DepthHeading(base.Task):
         return read_state(physics, self.sensors.read(physics))
 
     def action_spec(self, physics) -> specs.BoundedArray:
+        """(thrust, rudder, stern) in [-1, 1]^3, or one action per scheduled gain (`gains`)."""
+        if self.memory.gains:
+            return specs.BoundedArray((len(SCHEDULED_GAINS),), float, -1.0, 1.0, name=",".join(SCHEDULED_GAINS))
         return specs.BoundedArray((physics.model.nu,), float, -1.0, 1.0, name="thrust,rudder,stern")
 
     def before_step(self, action, physics) -> None:
         self.ocean.tick(physics)
         self._step = int(round(physics.time() / EXECUTOR_DT))
         self._step_command = self.command(physics)
-        physics.set_control(_scale(checked_action(action, self.action_spec(physics), self), physics))
+        physics.set_control(self.memory.controls(checked_action(action, self.action_spec(physics), self)))
 
     def after_step(self, physics) -> None:
         v_cmd, psi_cmd, depth_cmd = self._step_command
@@ -269,16 +318,12 @@ class DepthHeading(base.Task):
         met = abs(e_v) < SPEED_TOLERANCE and abs(e_psi) < HEADING_TOLERANCE and abs(e_d) < DEPTH_TOLERANCE
         self.last_info = {"phase": self.phase(self._step), "speed_error": e_v, "heading_error": e_psi,
                           "depth_error": e_d, "command": np.array([v_cmd, psi_cmd]), "depth_command": depth_cmd,
-                          "tracked": self._step >= SETTLE_STEPS, "success": met, "is_success": met}
-        command = self.command(physics)
-        state = self.state(physics)
-        e_psi_now = wrap_angle(command[1] - state.heading)
-        self._observation = np.array([command[0], state.u, state.v, state.w, state.p, state.q, state.r,
-                                      command[0] - state.u, math.cos(e_psi_now), math.sin(e_psi_now),
-                                      command[2] - state.depth, state.roll, state.pitch, state.depth])
+                          "tracked": self._step >= SETTLE_STEPS, "within_tolerance": met, "is_success": met}
+        self._observation = self.memory.observe(self.command(physics), self.state(physics))
 
     def get_observation(self, physics) -> collections.OrderedDict:
-        """"observation": EXECUTOR_OBSERVATION from the command in force and the sensors' samples."""
+        """"observation": EXECUTOR_OBSERVATION from the command in force and the sensors' samples (then the
+        memories of the "history" observation and a residual's S-plane controls, `DepthExecutorMemory`)."""
         return collections.OrderedDict(observation=self._observation.copy())
 
     def get_reward(self, physics) -> float:
@@ -306,18 +351,18 @@ def depth_heading(time_limit: float = EPISODE_STEPS * EXECUTOR_DT, random=None, 
                                **environment_kwargs)
 
 
-def splane_policy(env) -> Callable:
-    """The classical executor (`DepthHeadingController`) as a policy(time_step) of a depth_heading env."""
+def splane_policy(env, gains: DepthHeadingGains | None = None) -> Planner:
+    """The classical executor (`DepthHeadingController`, with `gains` or the hand-set ones) as a policy(time_step)
+    of a depth_heading env."""
     task, physics = env.task, env.physics
-    controller = DepthHeadingController()
+    controller = DepthHeadingController(gains)
 
     def policy(time_step) -> np.ndarray:
         if time_step.first():
             controller.reset()
         return _normalise(controller(task.command(physics), task.state(physics)), physics)
 
-    policy.reset = controller.reset
-    return policy
+    return FunctionPlanner(policy, controller.reset)
 
 
 # --- planning tasks ------------------------------------------------------------------------------------------
@@ -327,6 +372,31 @@ PLANNING_OBSERVATION = ("u", "v", "w", "p", "q", "r", "roll", "pitch", "depth", 
 """The planning observation's first entries; the 27 fan ranges / SONAR_RANGE follow."""
 
 
+def goal_distance(a, b) -> np.ndarray:
+    """3-D distance [m] between the (x, y, z) of goals along the last axis, elementwise over leading axes."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return np.linalg.norm(a[..., :3] - b[..., :3], axis=-1)
+
+
+def pose_goal(position, heading: float) -> np.ndarray:
+    """A goal vector (GOAL_SIZE): the position (x, y, z) [m] and the heading as (cos, sin)."""
+    return np.array([*np.asarray(position, dtype=float)[:3], math.cos(heading), math.sin(heading)])
+
+
+def target_features(achieved_goal, target) -> np.ndarray:
+    """The observation's target entries (TARGET_ENTRIES) from the vehicle's goal vector (position, sensed heading)
+    and a target point: distance [m], cos and sin of its bearing off the heading, and its depth below the vehicle
+    [m]; vectorised over leading axes."""
+    achieved, target = np.asarray(achieved_goal, dtype=float), np.asarray(target, dtype=float)
+    offset = target[..., :3] - achieved[..., :3]
+    c, s = achieved[..., 3], achieved[..., 4]
+    forward, left = c * offset[..., 0] + s * offset[..., 1], -s * offset[..., 0] + c * offset[..., 1]
+    across = np.hypot(forward, left)
+    safe = np.where(across > 1e-12, across, 1.0)
+    return np.stack([np.linalg.norm(offset, axis=-1), np.where(across > 1e-12, forward / safe, 1.0),
+                     np.where(across > 1e-12, left / safe, 0.0), -offset[..., 2]], axis=-1)
+
+
 class Planning3D(base.Task):
     """The planning layer in 3-D: (a_speed, a_heading, a_depth) every PLANNER_DT, a classical executor inside.
 
@@ -334,20 +404,55 @@ class Planning3D(base.Task):
     along a path (tunnel3d)."""
 
     time_limit = GOAL_TIME_LIMIT
+    goal_in_observation = False
+    """Whether "observation" holds the goal itself (relative): then a policy needs no desired_goal, and hindsight
+    relabelling recomputes those entries (`relabel_observation`)."""
+    goal_radius = GOAL_RADIUS
 
-    def __init__(self, arena: str = "random", random=None, conditions="ideal"):
-        self._arena_mode = options.choice("arena", arena, ("random", "fixed"))
+    ARENAS = ("random", "fixed")
+    """The `arena` choices every planning task has (a task may take arena files too: `_arena_option`)."""
+
+    def __init__(self, arena: str = "random", random=None, conditions="ideal", tier: str = "standard",
+                 executor=None):
+        """`arena`: "random" (one per episode), "fixed" or (tunnel3d) a tube file; `conditions`: ocean
+        (`auv_mj.sim.ocean3d`); `tier`: TIERS; `executor`: None (the hand-set depth-heading S-plane), a name of
+        `auv_mj.tasks.executors.EXECUTORS_3D` (or a depth_heading checkpoint path), or a callable
+        executor(command, State3D) -> (thrust [N], rudder [rad], stern [rad]) with `reset()`, called every
+        EXECUTOR_DT."""
+        self._arena_mode = self._arena_option(arena)
+        self.tier = options.choice("tier", tier, TIERS)
+        self.movers: list[tuple[int, tubes.TubeMover]] = []
+        """(mocap index, track) of each moving obstacle of the arena."""
         self.ocean = ocean3d.Ocean3D(conditions)
         self.sensors = Sensors3D(noise=self.ocean.noise)
-        self.executor = DepthHeadingController()
+        if isinstance(executor, str):
+            from auv_mj.tasks.executors import named_executor  # the learned ones load torch: only when named
+
+            executor = named_executor(executor, three_d=True)
+        if executor is not None and not (callable(executor) and hasattr(executor, "reset")):
+            raise ValueError(f"task option executor must be an executor(command, state) with reset() or its name, "
+                             f"got {options.shown(executor)}")
+        self.executor = executor if executor is not None else DepthHeadingController()
         self.command = (0.0, 0.0, START_DEPTH)
         self.path = np.zeros((0, 3))
         self.goal = np.zeros(3)
         self.last_info: dict = {}
-        self._loaded_key = None
+        self._loaded_xml = None
+        self._desired = np.zeros(GOAL_SIZE)
+        self._achieved = np.zeros(GOAL_SIZE)
         super().__init__(random=options.seed(random))
 
+    @property
+    def max_pitch(self) -> float:
+        """The executor's pitch limit [rad], which the hard arenas' certified paths climb and dive within: its
+        S-plane's, or the hand-set S-plane's for an executor with no gains of its own."""
+        return (getattr(self.executor, "gains", None) or DepthHeadingGains()).max_pitch
+
     # subclass hooks
+    def _arena_option(self, arena) -> str:
+        """The arena mode of option `arena` (ValueError naming it)."""
+        return options.choice("arena", arena, self.ARENAS)
+
     def draw_arena(self, random: np.random.RandomState):  # -> (arena root, start (3,), heading, goal (3,), path)
         raise NotImplementedError
 
@@ -355,14 +460,24 @@ class Planning3D(base.Task):
         """The point the observation and line of sight steer to."""
         return self.goal
 
+    def goal_heading(self, start: np.ndarray) -> float:
+        """The heading of desired_goal: that of the way into the goal (here the straight line from the start)."""
+        offset = self.goal - np.asarray(start, dtype=float)
+        return math.atan2(offset[1], offset[0])
+
     def initialize_episode(self, physics: Physics3D) -> None:
-        seed = 0 if self._arena_mode == "fixed" else int(self.random.randint(2**31 - 1))
-        root, start, heading, goal, path = self.draw_arena(np.random.RandomState(seed))
-        if self._loaded_key != seed:
-            xml, source = arena3d.compose_xml(root, thruster_lag=self.ocean.conditions.thruster_lag)
+        random = np.random.RandomState(FIXED_ARENA_SEED) if self._arena_mode == "fixed" else self.random
+        root, start, heading, goal, path = self.draw_arena(random)
+        xml, source = arena3d.compose_xml(root, thruster_lag=self.ocean.conditions.thruster_lag)
+        if self._loaded_xml != xml:  # recompile only for a new arena
             physics.reload_from_xml_string(xml, source=source)
-            self._loaded_key = seed
+            self._loaded_xml = xml
         self.goal, self.path = np.asarray(goal, dtype=float), np.asarray(path, dtype=float).reshape(-1, 3)
+        model = physics.model.ptr
+        self.movers = [(int(model.body_mocapid[model.body(f"mover_{m.name}").id]), m)
+                       for m in tubes.items_from_arena(root)[1]]
+        self._move(physics)
+        self._desired = pose_goal(self.goal, self.goal_heading(start))
         set_pose(physics, start, yaw=heading, nu=(1.0, 0, 0, 0, 0, 0))
         physics.reset_fins()
         self.command = (1.0, heading, -float(start[2]))
@@ -370,16 +485,22 @@ class Planning3D(base.Task):
         self.sensors.reset()
         self.ocean.start(physics, self.random)
         physics.set_tick(self._tick, EXECUTOR_DT)
-        self._distance = self._target_distance(physics)
+        self._achieved = pose_goal(physics.position(), heading)
         super().initialize_episode(physics)
 
+    def _move(self, physics: Physics3D) -> None:
+        """Puts the moving obstacles where their tracks have them now."""
+        for slot, mover in self.movers:
+            physics.data.ptr.mocap_pos[slot] = mover.position(physics.time())
+
     def _tick(self, physics: Physics3D) -> None:
+        self._move(physics)
         self.ocean.tick(physics)
         state = read_state(physics, self.sensors.read(physics))
         physics.set_control(self.executor(self.command, state))
 
     def _target_distance(self, physics) -> float:
-        return float(np.linalg.norm(self.goal - physics.position()))
+        return float(goal_distance(physics.position(), self.goal))
 
     def action_spec(self, physics) -> specs.BoundedArray:
         return specs.BoundedArray((3,), float, -1.0, 1.0, name="speed,heading,depth")
@@ -397,7 +518,6 @@ class Planning3D(base.Task):
 
     def after_step(self, physics) -> None:
         distance = self._target_distance(physics)
-        progress, self._distance = self._distance - distance, distance
         event = ""
         if self._collided(physics):
             event = "collision"
@@ -406,25 +526,38 @@ class Planning3D(base.Task):
         elif distance < GOAL_RADIUS:
             event = "goal"
         ranges = self.sensors.read(physics)["sonar"]
+        failed = event in ("collision", "left_map")
         self.last_info = {"event": event, "success": event == "goal", "is_success": event == "goal",
-                          "collision": event == "collision", "min_clearance": float(np.min(ranges)),
-                          "depth": physics.depth(), "distance": distance}
-        self._reward = (PROGRESS_WEIGHT * progress - STEP_COST + (GOAL_REWARD if event == "goal" else 0.0)
-                        + (COLLISION_REWARD if event in ("collision", "left_map") else 0.0))
+                          "collision": event == "collision", "left_map": event == "left_map",
+                          "min_clearance": float(np.min(ranges)), "depth": physics.depth(), "distance": distance,
+                          "previous_achieved_goal": self._achieved.copy(),
+                          "goal_independent_reward": -STEP_COST + (COLLISION_REWARD if failed else 0.0)}
+        # the reward is compute_reward's: one definition for the step and for relabelled goals
+        self._reward = float(self.compute_reward(pose_goal(physics.position(), 0.0), self._desired, self.last_info))
 
     def observe(self, physics) -> np.ndarray:
-        """PLANNING_OBSERVATION, then the fan ranges over SONAR_RANGE."""
+        """PLANNING_OBSERVATION, then the fan ranges over SONAR_RANGE (and sets the achieved goal)."""
         sensed = self.sensors.read(physics)
         state = read_state(physics, sensed)
-        offset = self.target(physics.position()) - physics.position()
-        bearing = wrap_angle(math.atan2(offset[1], offset[0]) - state.heading)
+        position = physics.position()
+        self._achieved = pose_goal(position, state.heading)
         head = [state.u, state.v, state.w, state.p, state.q, state.r, state.roll, state.pitch, state.depth,
-                float(sensed["altimeter"]) / ALTIMETER_RANGE, float(np.linalg.norm(offset)), math.cos(bearing),
-                math.sin(bearing), -float(offset[2])]
-        return np.concatenate([head, sensed["sonar"] / SONAR_RANGE])
+                float(sensed["altimeter"]) / ALTIMETER_RANGE]
+        return np.concatenate([head, target_features(self._achieved, self.target(position)),
+                               sensed["sonar"] / SONAR_RANGE])
+
+    def observation_spec(self, physics) -> collections.OrderedDict:
+        """"observation" (PLANNING_OBSERVATION and the fan), "achieved_goal" and "desired_goal" (GOAL_SIZE)."""
+        size = len(PLANNING_OBSERVATION) + FAN_BEAMS
+        return collections.OrderedDict(observation=specs.Array((size,), float, name="observation"),
+                                       achieved_goal=specs.Array((GOAL_SIZE,), float, name="achieved_goal"),
+                                       desired_goal=specs.Array((GOAL_SIZE,), float, name="desired_goal"))
 
     def get_observation(self, physics) -> collections.OrderedDict:
-        return collections.OrderedDict(observation=self.observe(physics))
+        """The goal dict: "observation", "achieved_goal" (the vehicle), "desired_goal" (the goal)."""
+        observation = self.observe(physics)
+        return collections.OrderedDict(observation=observation, achieved_goal=self._achieved.copy(),
+                                       desired_goal=self._desired.copy())
 
     def get_reward(self, physics) -> float:
         return float(getattr(self, "_reward", 0.0))
@@ -432,11 +565,43 @@ class Planning3D(base.Task):
     def get_termination(self, physics):
         return 0.0 if self.last_info.get("event") else None
 
+    # --- goal-conditioned API (hindsight relabelling) -------------------------------------------------------
+
+    def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """The reward of steps that reached `achieved_goal` had the goal been `desired_goal`: PROGRESS_WEIGHT per
+        metre gained on it, GOAL_REWARD on coming within GOAL_RADIUS (unless the step failed), and the step's
+        goal-independent part (STEP_COST, COLLISION_REWARD). `info`: a step's `last_info` (or a sequence / a dict of
+        arrays of them) with "previous_achieved_goal", "goal_independent_reward", "collision" and "left_map"."""
+        previous = info_field(info, "previous_achieved_goal")
+        after = goal_distance(achieved_goal, desired_goal)
+        failed = info_field(info, "collision").astype(bool) | info_field(info, "left_map").astype(bool)
+        reached = (after < GOAL_RADIUS) & ~failed
+        return (PROGRESS_WEIGHT * (goal_distance(previous, desired_goal) - after) + np.where(reached, GOAL_REWARD, 0.0)
+                + info_field(info, "goal_independent_reward"))
+
+    def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """Whether a step ends the episode had `desired_goal` been the goal: reached, collided or broached."""
+        failed = info_field(info, "collision").astype(bool) | info_field(info, "left_map").astype(bool)
+        return (goal_distance(achieved_goal, desired_goal) < GOAL_RADIUS) | failed
+
+    def relabel_observation(self, observation, achieved_goal, desired_goal) -> np.ndarray:
+        """The observation had `desired_goal` been the goal (vectorised over rows): with the goal in the observation
+        (goal3d) its TARGET_ENTRIES are recomputed from `achieved_goal`; otherwise it is unchanged."""
+        observation = np.array(observation, dtype=float, copy=True)
+        if self.goal_in_observation:
+            observation[..., TARGET_ENTRIES] = target_features(achieved_goal, desired_goal)
+        return observation
+
 
 class Goal3D(Planning3D):
     """Reach a goal in 3-D among obstacles over a seabed (module docstring)."""
 
+    goal_in_observation = True
+
     def draw_arena(self, random: np.random.RandomState):
+        if self.tier == "hard":
+            return traps3d.hard_goal_arena(random, WATER_DEPTH, self.max_pitch, MIN_DEPTH,
+                                           GOAL_RADIUS).as_tuple()
         return tubes.goal_arena(random, WATER_DEPTH)
 
 
@@ -445,9 +610,41 @@ class Tunnel3D(Planning3D):
 
     time_limit = TUNNEL_TIME_LIMIT
 
+    def _arena_option(self, arena) -> str:
+        """"random", "fixed", or a tube arena file (`auv-mj tunnel --tube`, or written by hand), which must pass
+        `auv-mj check-arena`."""
+        if isinstance(arena, str) and arena in self.ARENAS:
+            return arena
+        if not isinstance(arena, (str, Path)):
+            raise ValueError(f"task option arena must be one of 'random', 'fixed' or a tube arena file "
+                             f"(`auv-mj tunnel --tube`), got {arena!r:.60}")
+        if not Path(arena).is_file():
+            raise ValueError(f"task option arena: no such file {str(arena)!r:.200} (give 'random', 'fixed' or a tube "
+                             "arena file from `auv-mj tunnel --tube`)")
+        if not tubes.is_tube_arena(arena):
+            raise ValueError(f"{arena}: not a tube arena (no tube_centreline numeric): tunnel3d flies tubes made by "
+                             "`auv-mj tunnel --tube`; planar tunnels are for the task tunnel")
+        arena_check.require_usable(arena)
+        root = parse_xml(read_text(Path(arena), "tube arena", MAX_XML_BYTES), str(arena), "tube arena")
+        self._file = (root, tubes.tube_from_arena(root))
+        return "file"
+
     def draw_arena(self, random: np.random.RandomState):
-        tube = tubes.random_tube(random)
-        return tubes.tube_arena(tube), tube.centreline[0], tube.start_heading(), tube.centreline[-1], tube.centreline
+        if self._arena_mode == "file":
+            root, tube = self._file
+        elif self.tier == "hard":
+            return traps3d.hard_tube(random, self.max_pitch).as_tuple()
+        else:
+            tube = tubes.random_tube(random)
+            root = tubes.tube_arena(tube)
+        return root, tube.centreline[0], tube.start_heading(), tube.centreline[-1], tube.centreline
+
+    def goal_heading(self, start: np.ndarray) -> float:
+        """The heading of the tube's last segment: the way into its end."""
+        if len(self.path) < 2:
+            return super().goal_heading(start)
+        d = self.path[-1] - self.path[-2]
+        return math.atan2(d[1], d[0])
 
     def target(self, position: np.ndarray) -> np.ndarray:
         """The line-of-sight look-ahead point LOOKAHEAD metres on along the centreline (the goal before a tube)."""

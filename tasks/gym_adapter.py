@@ -5,9 +5,9 @@ Gymnasium-Robotics GoalEnv convention: a Dict observation ("observation", "achie
 "desired_goal") and vectorised `compute_reward` / `compute_terminated` / `compute_truncated` that
 delegate to the task, so that `reward == env.compute_reward(obs["achieved_goal"], obs["desired_goal"],
 info)` and Stable-Baselines3's HerReplayBuffer can relabel goals. That invariant needs the
-goal-decomposable reward, so goal tasks default to reward="paper" (Eq. 26) here; the task's
-`compute_reward` reads "previous_achieved_goal" from `info`, so give SB3's HerReplayBuffer
-`copy_info_dict=True`. Other tasks get a flat Box.
+goal-decomposable reward, so planar goal tasks default to reward="paper" (Eq. 26) here (goal3d and tunnel3d have
+only such a reward); the task's `compute_reward` reads "previous_achieved_goal" from `info`, so give SB3's
+HerReplayBuffer `copy_info_dict=True`. Other tasks get a flat Box.
 
 Time limits stay with the dm_control Environment: a LAST step with discount 0 is `terminated`, one with
 discount 1 (the time limit) is `truncated`. `reset(seed=s)` reseeds the task's RandomState with s, so
@@ -59,7 +59,8 @@ def gym_id(task_name: str) -> str:
 GYM_IDS = {gym_id(name): name for _, name in suite.PLANAR_TASKS}
 """Gymnasium id -> suite task name, one per task of the suite (derived from it)."""
 GYM_IDS_3D = {gym_id(name): name for _, name in suite.TASKS_3D}
-"""Gymnasium id -> task name of the 6-DOF domain "auv3d" (`auv_mj.tasks.auv3d`): flat Box observations."""
+"""Gymnasium id -> task name of the 6-DOF domain "auv3d" (`auv_mj.tasks.auv3d`): goal3d and tunnel3d are goal envs
+(their one reward is goal-decomposable), depth_heading has a flat Box observation."""
 
 
 def _box(spec) -> spaces.Box:
@@ -133,7 +134,7 @@ class AUVGymEnv(gymnasium.Env):
         self._env = suite.load(self._domain, task_name, task_kwargs=task_kwargs,
                                environment_kwargs=environment_kwargs)
         self.is_goal_task = is_goal_env(self._env)
-        if self.is_goal_task and "reward" not in task_kwargs:
+        if self.is_goal_task and self._domain == DOMAIN and "reward" not in task_kwargs:  # auv3d: one reward
             task_kwargs["reward"] = GOAL_TASK_REWARD
             self._env = suite.load(self._domain, task_name, task_kwargs=task_kwargs,
                                    environment_kwargs=environment_kwargs)

@@ -35,8 +35,39 @@ Rewards. reward="paper" is Eq. (26), r = K1 r_following + K2 r_avoid + K3 r_navi
   (d0 = 11.97 m). Eq. (24)'s ellipse with semi-axes L1, L2 (4 m at most) lies inside d_s, so its
   graded term is read on the disc d < d0 that Sec. 3.2.2 calls the protection field's reach;
 - r_navigation = -0.05 (Eq. 25).
-reward="suite" (default) is in [0, 1]: (goals reached + tolerance(distance to the current goal)) / number
-of goals, 1 on success, 0 on a collision or leaving the map.
+reward="suite" (default) is in [0, 1] on every other step: (goals reached + tolerance(distance to the current
+goal)) / number of goals, 0 on a collision or leaving the map.
+reward="progress" is PROGRESS_GAIN per metre gained on the current goal in place of Eq. (23)'s +-0.5, the rest
+as "paper".
+
+The success bonus (ours, not the paper's). Success ends the episode, so per-step rewards that can be positive
+paid waiting: driving towards the goal and stopping just outside it returned a mean of 847 on `goal` (seeds
+0-2, "suite"; issue 45) against 93 for reaching it; under "paper", moving 1 m away and back in three 0.3 m steps
+nets +0.8 every four steps. So the step that ends the episode in success also pays STEP_REWARD_BOUND[kind] for each
+of the K steps left in the episode, itself included (`success_bonus`; K from `PlanningTask.step_limit`):
+"suite" pays K in all, what staying in the goal would have earned had the episode gone on (dm_control's suite
+does not end on success); "paper" pays Eq. (26)'s terms + 0.45 K; "progress" needs none. Proof that stepping
+into the goal beats every continuation from the same state that does not end in success (waiting, idling,
+oscillating, failing), at every discount gamma in [0, 1]: such a continuation lasts at most K steps, gamma^k
+<= 1, and
+- "suite": each of its steps pays < 1 (not all goals reached, or 0 on a failure): it returns < K;
+- "paper": each pays at most STEP_REWARD_BOUND = k1 0.5 + k3 (-0.05) = 0.45 (r_avoid <= 0; no goal is left to
+  pay +4), but a last step that enters the goal while colliding, which pays at most the success step's Eq. (26)
+  terms, themselves at least SUCCESS_TERMS_FLOOR = k1 4 - k2 - k3 0.05 = 2.95 > 0: it returns at most
+  0.45 (K - 1) + max(0.45, terms) < terms + 0.45 K, the success step;
+- "progress": for distances d_0 (now), d_1, ..., d_m to the goal, all but d_0 outside its radius, summation by
+  parts gives sum_k gamma^k (d_k - d_{k+1}) = d_0 - (1 - gamma) sum_{k=1}^{m-1} gamma^(k-1) d_k
+  - gamma^(m-1) d_m < d_0 - radius, and its other terms are <= 0: it returns < PROGRESS_GAIN (d_0 - radius),
+  while the success step pays at least that + SUCCESS_TERMS_FLOOR. (A collision inside the goal area may
+  gain up to PROGRESS_GAIN times the one step's travel deeper in; it is not waiting.)
+At gamma = 1 the bonus also makes each step before success cost STEP_REWARD_BOUND - r_t >= 0 ("suite",
+"paper"), so sooner is better. The bound compares continuations of one state: no shaping makes a route that
+first turns away from the goal worth more than idling at gamma = 0.9, whose ~10-step horizon ends long before a
+goal 100 m away. Sub-goals of a route keep Eq. (23)'s +4 and no bonus; under "suite" every step after a sub-goal
+already pays more than any step before it. `compute_reward` pays the "paper" bonus where the relabelled goal is
+reached on a step of the route's last leg (info "last_goal"; `compute_terminated` ends a relabelled episode
+there) or where the route succeeded by reaching its last goal while an earlier one was current (info
+"success"), with K = info "steps_left": it equals the step's reward.
 
 Events (last_info["event"]): "collision" (a contact between the vehicle and any other geom, checked at
 every executor tick), "left_map" (outside the arena's `arena_bounds`), "goal", "subgoal", or "".
@@ -133,6 +164,15 @@ REWARD_WEIGHTS = (1.0, 1.0, 1.0)
 """(k1, k2, k3) of Eq. (26); the paper leaves them open, and equal weights keep its term sizes."""
 SUITE_REWARD_MARGIN = 100.0
 """Distance [m] beyond the goal radius at which the suite reward's tolerance falls to 0.1."""
+STEP_REWARD_BOUND = {"suite": 1.0,
+                     "paper": REWARD_WEIGHTS[0] * FOLLOW_CLOSER + REWARD_WEIGHTS[2] * NAVIGATION_REWARD,
+                     "progress": 0.0}
+"""The success bonus per step left (ours, module docstring): the most a step of the route's last leg that does not
+end in success can pay ("suite" 1, "paper" 0.45); "progress" needs none, its per-metre term telescopes."""
+SUCCESS_TERMS_FLOOR = REWARD_WEIGHTS[0] * FOLLOW_REACHED + REWARD_WEIGHTS[1] * COLLISION_REWARD \
+    + REWARD_WEIGHTS[2] * NAVIGATION_REWARD
+"""The least Eq. (26)'s terms of a success step can pay, beside "progress"'s per-metre term (2.95): > 0, so that
+"paper" and "progress" reward reaching the goal over any continuation that does not (module docstring)."""
 
 MAP_BOUNDS = (0.0, 0.0, 600.0, 600.0)
 """The 600 m x 600 m map of Sec. 4.1 (xmin, ymin, xmax, ymax) [m]."""
@@ -198,6 +238,12 @@ def progress_reward(previous_achieved, achieved, desired, radius) -> np.ndarray:
     before = goal_distance(previous_achieved, desired)
     after = goal_distance(achieved, desired)
     return PROGRESS_GAIN * (before - after) + np.where(after <= radius, FOLLOW_REACHED, 0.0)
+
+
+def success_bonus(kind: str, steps_left) -> np.ndarray:
+    """Ours (module docstring): what a step that ends the episode in success pays under reward `kind` beside its
+    own terms ("paper", "progress") or in all ("suite"), with `steps_left` steps left, itself included."""
+    return STEP_REWARD_BOUND[kind] * np.asarray(steps_left, dtype=float)
 
 
 def relative_goal(achieved_goal, desired_goal) -> np.ndarray:
@@ -347,13 +393,21 @@ def environment(physics: Physics, task: PlanningTask, time_limit: float,
                 environment_kwargs: dict | None = None) -> control.Environment:
     """The `control.Environment` of a planning task: one step per PLANNER_DT, `time_limit` seconds.
 
-    The options every planning factory shares (time_limit, environment_kwargs) are checked here.
+    The options every planning factory shares (time_limit, environment_kwargs) are checked here, and the task
+    learns the time limit's steps (`PlanningTask.step_limit`, for the success bonus).
     """
     time_limit = options.time_limit(time_limit)
     environment_kwargs = options.environment_kwargs(environment_kwargs)
     check_timestep(physics, PLANNER_DT, EXECUTOR_DT)
+    task.time_limit_steps = episode_steps(physics, time_limit)
     return control.Environment(physics, task, time_limit=time_limit, control_timestep=PLANNER_DT,
                                **environment_kwargs)
+
+
+def episode_steps(physics: AUVPhysics, time_limit: float) -> int:
+    """Planner steps in an episode of `time_limit` seconds, counted as `control.Environment` counts them (it ends
+    an episode at the first step count >= time_limit / (timestep * physics steps per planner step))."""
+    return math.ceil(time_limit / (physics.timestep() * control.compute_n_steps(PLANNER_DT, physics.timestep())))
 
 
 def check_timestep(physics: AUVPhysics, *periods: float) -> None:
@@ -467,16 +521,21 @@ class PlanningTask(base.Task):
     including `compute_reward` / `compute_terminated` for hindsight relabelling, lives here.
     """
 
-    def __init__(self, executor: Callable | None = None, reward: str = "suite",
+    def __init__(self, executor: Callable | str | None = None, reward: str = "suite",
                  goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
                  conditions="ideal", collision_penalty: float = 0.0):
-        """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`); `reward` one of
+        """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`), or its name
+        (`auv_mj.tasks.executors.EXECUTORS`, or a speed_heading checkpoint path); `reward` one of
         REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.sim.ocean.conditions`);
         `collision_penalty`: subtracted from the "paper" and "progress" rewards on a collision or on leaving
         the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY]."""
         self.reward_kind = options.choice("reward", reward, REWARDS)
         self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
+        if isinstance(executor, str):
+            from auv_mj.tasks.executors import named_executor  # the learned ones load torch: only when named
+
+            executor = named_executor(executor)
         executor = options.function("executor", executor, "executor(command, state) -> (tau_u, tau_r)")
         self.goal_radius = options.number("goal_radius", goal_radius, 0.0, MAX_GOAL_RADIUS, "m", low_open=True)
         self.collision_penalty = options.number("collision_penalty", collision_penalty, 0.0, MAX_COLLISION_PENALTY)
@@ -484,7 +543,10 @@ class PlanningTask(base.Task):
         self.executor = SPlaneController() if executor is None else executor
         self.ocean = ocean.Ocean(conditions)
         self.last_info: dict = {}
+        self.time_limit_steps: int | None = None
+        """Planner steps of the environment's time limit, set by `environment` (None: not known)."""
         self._model_ptr = None
+        self._steps = 0
 
     # --- subclass API -------------------------------------------------------------------------------
 
@@ -542,6 +604,7 @@ class PlanningTask(base.Task):
         self._collided = False
         self._terminal = False
         self._reward = 0.0
+        self._steps = 0
         self._sonar = None
         self.last_info = {}
         physics.set_tick(self._tick, EXECUTOR_DT)
@@ -589,6 +652,8 @@ class PlanningTask(base.Task):
                                                and bounds[1] <= position[1] <= bounds[3])
         n = len(self._goals)
         reached_before = self._reached
+        self._steps += 1
+        steps_left = max(self.step_limit - self._steps + 1, 1)
         desired = self._goals[self._reached]
         hits = np.flatnonzero(goal_distance(self._goals[self._reached:], position) <= self.goal_radius)
         if hits.size:
@@ -602,7 +667,8 @@ class PlanningTask(base.Task):
         r_avoid = COLLISION_REWARD if collision or left_map else avoid_reward(nearest, self._repulsion_range)
         k1, k2, k3 = REWARD_WEIGHTS
         independent = k2 * r_avoid + k3 * NAVIGATION_REWARD - self.collision_penalty * (collision or left_map)
-        paper = k1 * r_follow + independent
+        bonus = float(success_bonus("paper", steps_left)) if success else 0.0
+        paper = k1 * r_follow + independent + bonus
         if collision:
             event = "collision"
         elif left_map:
@@ -616,9 +682,9 @@ class PlanningTask(base.Task):
             self._reward = paper
         elif self.reward_kind == "progress":
             self._reward = float(k1 * progress_reward(self._previous, position, desired, self.goal_radius)
-                                 + independent)
+                                 + independent + float(success_bonus("progress", steps_left)) * success)
         else:
-            self._reward = self._suite_reward(position, collision or left_map, success)
+            self._reward = self._suite_reward(position, collision or left_map, success, steps_left)
         self.last_info = {
             "previous_achieved_goal": self._previous,
             "goal_independent_reward": independent,
@@ -636,6 +702,8 @@ class PlanningTask(base.Task):
             "event": event,
             "goals_reached": self._reached,
             "num_goals": n,
+            "last_goal": reached_before == n - 1,
+            "steps_left": steps_left,
             "goal_radius": self.goal_radius,
             "cross_track_error": distance_to_polyline(position, self._path),
             "command": self._command,
@@ -658,11 +726,12 @@ class PlanningTask(base.Task):
         passed = np.flatnonzero((along > 0) & (np.abs(across) < corridor))
         return first + int(passed[-1]) + 1 if passed.size else 0
 
-    def _suite_reward(self, position: np.ndarray, failed: bool, success: bool) -> float:
+    def _suite_reward(self, position: np.ndarray, failed: bool, success: bool, steps_left: int) -> float:
+        """reward="suite": 0 on a failure, the success bonus (module docstring) on success, else in [0, 1)."""
         if failed:
             return 0.0
         if success:
-            return 1.0
+            return float(success_bonus("suite", steps_left))
         distance = float(np.hypot(*(self._goals[self._reached] - position)))
         near = rewards.tolerance(distance, bounds=(0.0, self.goal_radius), margin=SUITE_REWARD_MARGIN,
                                  sigmoid="long_tail", value_at_margin=0.1)
@@ -750,7 +819,7 @@ class PlanningTask(base.Task):
         return observation
 
     def get_reward(self, physics: Physics) -> float:
-        """The reward of the step just taken ("suite" or "paper", see the module docstring)."""
+        """The reward of the step just taken (`reward_kind`, see the module docstring)."""
         return self._reward
 
     def get_termination(self, physics: Physics) -> float | None:
@@ -760,16 +829,24 @@ class PlanningTask(base.Task):
     # --- goal-conditioned API (hindsight relabelling) -----------------------------------------------
 
     def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
-        """The paper reward (Eq. 26) of steps that reached `achieved_goal`, had the goal been `desired_goal`.
+        """The "paper" reward (Eq. 26 and our success bonus; "progress" under reward="progress") of steps that
+        reached `achieved_goal`, had the goal been `desired_goal`.
 
-        `info` holds "previous_achieved_goal" and "goal_independent_reward" per step: a dict of arrays with
-        the goals' leading shape, or a sequence / object array of `last_info` dicts. For the step's own
-        goal this equals the "paper" reward of that step exactly.
+        `info` holds "previous_achieved_goal", "goal_independent_reward", "last_goal", "steps_left", "success",
+        "collision" and "left_map" per step: a dict of arrays with the goals' leading shape, or a sequence /
+        object array of `last_info` dicts. For the step's own goal this equals that step's reward exactly. The
+        bonus is paid where `desired_goal` is reached without a failure on a step of the route's last leg (a
+        relabelled episode ends there, `compute_terminated`), or where the route itself succeeded.
         """
+        kind = "progress" if self.reward_kind == "progress" else "paper"
         previous = info_field(info, "previous_achieved_goal")
         independent = info_field(info, "goal_independent_reward")
-        follow = progress_reward if self.reward_kind == "progress" else following_reward
-        return REWARD_WEIGHTS[0] * follow(previous, achieved_goal, desired_goal, self._radius(info)) + independent
+        radius = self._radius(info)
+        follow = progress_reward if kind == "progress" else following_reward
+        reward = REWARD_WEIGHTS[0] * follow(previous, achieved_goal, desired_goal, radius) + independent
+        reached = (goal_distance(achieved_goal, desired_goal) <= radius) & ~self._failed(info)
+        ended = np.where(info_field(info, "last_goal").astype(bool), reached, info_field(info, "success").astype(bool))
+        return reward + np.where(ended, success_bonus(kind, info_field(info, "steps_left")), 0.0)
 
     def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray:
         """Whether a step ends the episode had `desired_goal` been its only goal: reached, collided or left.
@@ -778,8 +855,12 @@ class PlanningTask(base.Task):
         the environment goes on to the next goal, while the relabelled single-goal episode ends.
         """
         reached = goal_distance(achieved_goal, desired_goal) <= self._radius(info)
-        failed = info_field(info, "collision").astype(bool) | info_field(info, "left_map").astype(bool)
-        return reached | failed
+        return reached | self._failed(info)
+
+    @staticmethod
+    def _failed(info) -> np.ndarray:
+        """Whether each step collided or left the map."""
+        return info_field(info, "collision").astype(bool) | info_field(info, "left_map").astype(bool)
 
     def _radius(self, info) -> np.ndarray | float:
         """The goal radius of each step: from its info when recorded there (a mix of tasks), else ours."""
@@ -787,6 +868,14 @@ class PlanningTask(base.Task):
             return info_field(info, "goal_radius")
         except ValueError:
             return self.goal_radius
+
+    @property
+    def step_limit(self) -> int:
+        """Planner steps in an episode at most: those of the environment's time limit (`time_limit_steps`), or of
+        options.MAX_TIME_LIMIT, the longest any factory takes, where no `environment` told the task."""
+        if self.time_limit_steps is None:
+            return math.ceil(options.MAX_TIME_LIMIT / PLANNER_DT)
+        return self.time_limit_steps
 
     @property
     def goals(self) -> np.ndarray:

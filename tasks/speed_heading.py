@@ -55,8 +55,8 @@ from dm_control.utils import rewards
 from dm_env import specs
 
 from auv_mj.arenas import arena
+from auv_mj.episode import FunctionPlanner, Planner, record_episode
 from auv_mj.episode import phase_mae as _phase_mae
-from auv_mj.episode import record_episode
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean
 from auv_mj.sim.vehicle import vehicle_facts
@@ -476,13 +476,16 @@ class SpeedHeading(base.Task):
         return command[0] - u, wrap_angle(command[1] - psi)
 
     def _info(self, step: int, command: tuple[float, float]) -> dict:
-        """last_info of executor step `step`, which followed `command`."""
+        """last_info of executor step `step`, which followed `command`. A tracking episode ends by its schedule, not
+        at a goal: it reports no "success" (`auv_mj.episode.episode_metrics` then gives none), only whether the
+        command is met this step ("within_tolerance", and Gymnasium's "is_success", which training logs read at an
+        episode's end)."""
         e_v, e_psi = self._errors
         met = abs(e_v) < SPEED_TOLERANCE and abs(e_psi) < HEADING_TOLERANCE
         return {"phase": self.phase(step), "speed_error": e_v, "heading_error": e_psi,
                 "command": np.array(command), "disturbance_active": self.disturbance_active(step),
                 "tracked": step >= SETTLE_STEPS,
-                "success": met, "is_success": met}
+                "within_tolerance": met, "is_success": met}
 
     # --- dm_control Task ---------------------------------------------------------------------------
 
@@ -545,7 +548,7 @@ def speed_heading(time_limit: float = _DEFAULT_TIME_LIMIT, random=None, environm
 # --- evaluation (Table 9) ---------------------------------------------------------------------------------
 
 
-def executor_policy(env, executor: Executor) -> Callable:
+def executor_policy(env, executor: Executor) -> Planner:
     """`executor(command, state) -> (tau_u, tau_r)` as a policy(time_step) of the speed_heading env: its
     output is clipped to the actuator ranges and scaled to the task's [-1, 1] action (Eq. 28-29)."""
     task, physics = env.task, env.physics
@@ -557,7 +560,7 @@ def executor_policy(env, executor: Executor) -> Callable:
         tau = np.clip(np.asarray(executor(task.command(physics), task.state(physics)), dtype=float), low, high)
         return np.clip(2 * (tau - low) / (high - low) - 1, -1.0, 1.0)
 
-    return policy
+    return FunctionPlanner(policy)
 
 
 def rollout(executor: Executor, random=0, time_limit: float = _DEFAULT_TIME_LIMIT,

@@ -21,6 +21,7 @@ the oracle's grid. `random_arena(seed)` is the arena of the first episode of a t
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -136,6 +137,13 @@ class Tunnel(planning.PlanningTask):
         goals, path = tunnel_route(info)
         return planning.Route(start=info.start, heading=info.start_heading, goals=goals, path=path,
                               movers=info.movers, pass_corridor=planning.PASS_CORRIDOR)
+
+    @property
+    def step_limit(self) -> int:
+        """As `PlanningTask`, or the steps of a procedural tunnel's own time limit where fewer (`get_termination`)."""
+        if self._time_limit is None:
+            return super().step_limit
+        return min(super().step_limit, math.ceil(self._time_limit / planning.PLANNER_DT - 0.5))
 
     def get_termination(self, physics) -> float | None:
         """As `PlanningTask`; on a procedural tunnel also 1.0 (truncation) at its own time limit."""

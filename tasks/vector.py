@@ -72,7 +72,8 @@ AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 STEP_INFO_KEYS = ("previous_achieved_goal", "goal_independent_reward", "reward_following", "reward_avoid",
                   "reward_navigation", "paper_reward", "collision", "left_map", "safety_violation", "success",
                   "is_success", "min_clearance", "min_sonar_range", "event", "goals_reached", "num_goals",
-                  "goal_radius", "cross_track_error", "command", "tracked", "speed_error", "heading_error")
+                  "last_goal", "steps_left", "goal_radius", "cross_track_error", "command", "tracked", "speed_error",
+                  "heading_error")
 """The keys of a step's info: `PlanningTask.last_info`'s."""
 
 
@@ -178,6 +179,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self._psi = np.zeros(n)
         self._previous = np.zeros((n, 2))
         self._steps = np.zeros(n, dtype=int)
+        self._task_step_limit = np.zeros(n, dtype=int)
+        """Each episode's `PlanningTask.step_limit` (a procedural tunnel's is its own): the success bonus's K."""
         self._time_limit = np.full(n, np.inf)
         self._sonar = np.zeros((n, len(planning.SONAR_NAMES)))
         self._autoreset = np.zeros(n, dtype=bool)
@@ -214,6 +217,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self._path[i, len(path):] = path[-1]  # a zero-length tail changes no distance
         self._n_goals[i] = count
         self._reached[i] = task._reached
+        self._task_step_limit[i] = task.step_limit
         bounds = task._bounds
         self._has_bounds[i] = bounds is not None
         self._bounds[i] = bounds if bounds is not None else 0.0
@@ -444,7 +448,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         r_avoid = np.where(failed, planning.COLLISION_REWARD, avoid)
         k1, k2, k3 = planning.REWARD_WEIGHTS
         independent = k2 * r_avoid + k3 * planning.NAVIGATION_REWARD - self.collision_penalty * failed
-        paper = k1 * r_follow + independent
+        steps_left = np.maximum(self._task_step_limit[index] - self._steps[index], 1)  # this step included
+        paper = k1 * r_follow + independent + np.where(success, planning.success_bonus("paper", steps_left), 0.0)
         progressed = reached > reached_before
         event = np.where(collision, "collision", np.where(left_map, "left_map", np.where(
             progressed, np.where(reached == n, "goal", "subgoal"), ""))).astype(object)
@@ -452,9 +457,10 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if self.reward_kind == "paper":
             reward = paper
         elif self.reward_kind == "progress":
-            reward = k1 * planning.progress_reward(previous_position, position, desired, radius) + independent
+            reward = (k1 * planning.progress_reward(previous_position, position, desired, radius) + independent
+                      + planning.success_bonus("progress", steps_left) * success)
         else:
-            reward = self._suite_reward(goals, n, reached, position, failed, success)
+            reward = self._suite_reward(goals, n, reached, position, failed, success, steps_left)
         u = out[:, at_out["u"]]
         infos = {
             "previous_achieved_goal": previous_position,
@@ -473,6 +479,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
             "event": event,
             "goals_reached": reached,
             "num_goals": n,
+            "last_goal": reached_before == n - 1,
+            "steps_left": steps_left,
             "goal_radius": np.full(len(index), radius),
             "cross_track_error": self._cross_track(index, position),
             "command": command,
@@ -530,14 +538,15 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
                 passed = np.where(valid & (along > 0) & (np.abs(across) < corridor), slot + 1, passed)
         return passed
 
-    def _suite_reward(self, goals, n, reached, position, failed, success) -> np.ndarray:
-        """`PlanningTask._suite_reward`, vectorised."""
+    def _suite_reward(self, goals, n, reached, position, failed, success, steps_left) -> np.ndarray:
+        """`PlanningTask._suite_reward`, vectorised (the success bonus of `steps_left` steps on success)."""
         at = np.minimum(reached, n - 1)
         goal = goals[np.arange(len(n)), at]
         distance = np.hypot(goal[:, 0] - position[:, 0], goal[:, 1] - position[:, 1])
         near = rewards.tolerance(distance, bounds=(0.0, self.goal_radius), margin=planning.SUITE_REWARD_MARGIN,
                                  sigmoid="long_tail", value_at_margin=0.1)
-        return np.where(failed, 0.0, np.where(success, 1.0, (reached + near) / n))
+        bonus = planning.success_bonus("suite", steps_left)
+        return np.where(failed, 0.0, np.where(success, bonus, (reached + near) / n))
 
     def _cross_track(self, index, position) -> np.ndarray:
         """`planning.distance_to_polyline` of each vehicle to its route's reference path."""

@@ -1,6 +1,7 @@
 """`auv-mj benchmark`: the suite's definition is pinned to its version, its figures follow their definitions, and
 the command writes strict JSON, the leaderboard row and the comparison (end to end, on two episodes)."""
 
+import csv
 import json
 import os
 import subprocess
@@ -35,6 +36,19 @@ def test_the_suite_definition_is_pinned_to_its_version():
     assert suite.SUITE_NAME == f"suite v{suite.SUITE_VERSION}"
     changed = [suite.Cell("tunnel", "hard", "ocean", seeds.TEST.start, episodes=suite.EPISODES + 1)]
     assert suite.fingerprint(changed) != suite.fingerprint(suite.SUITE_V1[-1:])
+
+
+def test_the_3d_suite_is_pinned_to_its_version_and_apart_from_suite_v1():
+    """The 3-D suite has its own name, fingerprint and board; suite v1's fingerprint does not move with it."""
+    three = suite.SUITES["auv3d"]
+    assert three.fingerprint() == suite.FINGERPRINTS_3D[three.version]
+    assert suite.SUITES["auv"].fingerprint() == suite.FINGERPRINTS[suite.SUITE_VERSION] == suite.fingerprint()
+    assert three.fingerprint() != suite.fingerprint() and three.board != suite.SUITES["auv"].board
+    assert {c.task for c in three.cells} == {"goal3d", "tunnel3d"}
+    assert {(c.tier, c.water) for c in three.cells} == {(t, w) for t in suite.TIERS for w in suite.WATERS}
+    blocks = {c.first_seed for c in three.cells} | {c.first_seed for c in suite.SUITE_V1}
+    assert all(first in seeds.TEST and first + suite.SEED_BLOCK - 1 in seeds.TEST for first in blocks)
+    assert len({c.first_seed for c in three.cells} & {c.first_seed for c in suite.SUITE_V1}) == 0
 
 
 def test_the_suite_covers_every_set_tier_and_water_on_held_out_seeds():
@@ -103,6 +117,11 @@ def test_benchmark_on_two_episodes_writes_json_row_and_comparison(tmp_path):
         for episode in cell["episodes"]:  # the parallel run's episodes are the serial loop's
             again = runner.run_cell_episode("los-fast", task, episode["seed"], cell["task_kwargs"], 40)
             assert again == episode
+    with open(first / "episodes.csv", newline="") as f:  # one row per episode, as results.json holds them
+        table = list(csv.DictReader(f))
+    assert [(r["cell"], int(r["seed"]), r["outcome"]) for r in table] == [
+        (name, e["seed"], e["outcome"]) for name, cell in results["cells"].items() for e in cell["episodes"]]
+    assert all(float(r["duration"]) > 0 for r in table)
     row = (first / "leaderboard_row.md").read_text().splitlines()
     assert row[0].startswith("| policy |") and row[2].startswith("| `los-fast` | suite v1 | 6 |")
     assert row[2].count("|") == row[0].count("|")

@@ -136,13 +136,12 @@ def test_tunnel_command_writes_the_hard_arena_of_a_seed(tmp_path):
 
 def _zero_residual_on_the_map(env, speed: str = "fixed"):
     """A residual planner whose learned output is zero, at the classical speed (`speed`, "top" or "fixed"), on
-    `MapGuide`'s virtual goal, inside the speed-aware domain: the skeleton of a map-guided learned planner."""
-    from auv_mj.planners.avoidance import map_fence, with_repulsion
-    from auv_mj.planners.guidance import with_guidance
-    from auv_mj.planners.map_planner import PROTECTION, map_guided
+    `MapGuide`'s virtual goal, inside the speed-aware domain: the skeleton of a map-guided learned planner, through
+    the one deployment chain."""
+    from auv_mj.planners.deploy import Chain, ChainConfig, deployed
 
-    zero = with_guidance(lambda time_step: np.zeros(2), env, 1.0, speed)
-    return with_repulsion(map_guided(env, zero), PROTECTION, map_fence(env))
+    config = ChainConfig(protection="speed-aware", residual=1.0, guide="map", speed=speed)
+    return deployed(lambda time_step: np.zeros(2), Chain(config, env))
 
 
 def test_map_guide_gets_a_residual_planner_out_of_a_cup():

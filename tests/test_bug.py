@@ -92,7 +92,7 @@ def test_bug_leaves_the_boundary_only_nearer_the_goal():
     env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 500.0)
     raw = bug.bug_planner(env)
     policy = with_repulsion(raw, bug.PROTECTION, map_fence(env))  # what `bug.bug` builds
-    planner = raw.planner
+    planner = raw
     time_step = env.reset()
     goal = np.asarray(time_step.observation["desired_goal"], float)[:2]
     hits = leaves = 0

@@ -99,6 +99,7 @@ def _strict(text: str):
 def test_eval_json_is_strict_and_outcomes_sum_to_the_episodes(tmp_path):
     out = tmp_path / "out.json"
     done = _run("eval", "--policy", "splane", "--task", "speed_heading", "--episodes", "2", "--max-steps", "20",
+                "--task-kwargs", '{"command": "random"}',  # two episodes that differ (a fixed command is one)
                 "--json", out, "--csv", tmp_path / "out.csv", "--no-progress")
     assert done.returncode == 0, done.stderr
     results = _strict(out.read_text())

@@ -177,3 +177,15 @@ def test_sweep_cli_refuses_bad_grids_and_seeds(tmp_path, capsys):
             main(["sweep", "ddpg", "--task", POINT_GOAL, "--out", str(tmp_path / "s"), *argv])
         assert exit_.value.code == 2 and message in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
+
+
+def test_without_ray_the_ray_jobs_name_the_extra(monkeypatch, capsys):
+    """Ray is an extra: where it is missing, `--ray` and the library's Ray jobs say which extra to install."""
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` raises ImportError
+    with pytest.raises(ImportError, match=r"auv-mj\[ray\]"):
+        distributed.require_ray()
+    with pytest.raises(ImportError, match=r"auv-mj\[ray\]"):
+        list(distributed.run_jobs(abs, [(1,)], ray_address="local"))
+    with pytest.raises(SystemExit) as refused:
+        main(["eval", "--policy", "splane", "--task", "goal", "--episodes", "1", "--ray", "local"])
+    assert refused.value.code == 2 and "auv-mj[ray]" in capsys.readouterr().err

@@ -95,7 +95,7 @@ def test_registered_policy_resets_its_memory_at_episode_start(tmp_path):
     assert is_ppo_checkpoint(path)
     name = f"planner-memory={path}"
     env = make_env(name, "obstacles", 20_000, arena="random", tier="hard")
-    act = make_policy(name, env, task="obstacles")
+    act = make_policy(name, env, task="obstacles").act
     first = env.reset()
     a0 = act(first)
     time_step = first
@@ -107,7 +107,7 @@ def test_registered_policy_resets_its_memory_at_episode_start(tmp_path):
     restart = env2.reset()
     np.testing.assert_allclose(act(restart), a0, rtol=0, atol=1e-12)  # first(): the memory was zeroed
     fresh = recurrent_policy(path, env2)
-    np.testing.assert_allclose(fresh(restart), a0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fresh.act(restart), a0, rtol=0, atol=1e-12)
 
 
 def _rows(path):

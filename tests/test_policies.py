@@ -58,7 +58,7 @@ def test_a_new_policy_is_one_entry():
     try:
         assert "test-planner" in policies.policy_help()
         assert "| `test-planner` |" in policies.markdown_table()
-        assert policies.resolve_tasks("all", "test-planner") == policies.resolve_tasks("all", "los-avoid")
+        assert policies.resolve_tasks("all", "test-planner") == policies.resolve_tasks("all", "bug")
         assert runner.run_episode("test-planner", "obstacles", 3, {}, 5)["steps"] == 5
         with pytest.raises(ValueError, match="registered twice"):
             policies.register("test-planner", spec)

@@ -199,9 +199,11 @@ def test_compute_reward_equals_the_paper_reward(name):
     objects = np.empty(len(infos), dtype=object)
     objects[:] = infos
     np.testing.assert_array_equal(task.compute_reward(achieved, desired, objects), rewards)
-    # Relabelled to the achieved goal itself: reached, so r_following = +4 and the episode ends there.
+    # Relabelled to the achieved goal itself: reached, so r_following = +4 and the episode ends there, with the
+    # success bonus for the steps left where the step was on the route's last leg.
     relabelled = task.compute_reward(achieved, achieved, as_dict)
-    np.testing.assert_allclose(relabelled, planning.FOLLOW_REACHED + as_dict["goal_independent_reward"])
+    bonus = planning.success_bonus("paper", as_dict["steps_left"]) * as_dict["last_goal"]
+    np.testing.assert_allclose(relabelled, planning.FOLLOW_REACHED + as_dict["goal_independent_reward"] + bonus)
     assert np.all(task.compute_terminated(achieved, achieved, infos))
     # Leading axes beyond one: a (2, n) batch.
     batch = task.compute_reward(np.stack([achieved, achieved]), np.stack([desired, achieved]),

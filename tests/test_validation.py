@@ -139,7 +139,8 @@ OPTION_CASES = [
     ("goal", {"random": -3}, "random must be None, a numpy RandomState or a whole number"),
     ("obstacles", {"scenario": {}}, "scenario must be one of 'random', 'a', 'b'"),
     ("tunnel", {"arena": 5}, "arena must be an arena MJCF file path"),
-    ("waypoints", {"executor": "splane"}, "executor must be None or callable"),
+    ("waypoints", {"executor": "warp"}, "executor 'warp': not one of"),
+    ("waypoints", {"executor": 5}, "executor must be None or callable"),
     ("goal", {"environment_kwargs": {"n_sub_steps": 2}}, "environment_kwargs must be a dict of"),
     ("goal", {"colour": "red"}, "has no option 'colour'"),
 ]

@@ -70,13 +70,22 @@ def compose_xml(arena: ET.Element | str | Path | None = None, thruster_lag: bool
             if target is None:
                 target = ET.SubElement(root, section)
             for child in found:
-                if child.tag not in ("geom", "site", "numeric", "light"):
-                    raise ValueError(f"{source}: a 3-D arena's <{section}> may hold geoms, sites, lights and "
-                                     f"numerics only, got <{child.tag}>")
+                if child.tag not in ("geom", "site", "numeric", "light", "body"):
+                    raise ValueError(f"{source}: a 3-D arena's <{section}> may hold geoms, sites, lights, mocap "
+                                     f"bodies and numerics only, got <{child.tag}>")
+                if child.tag == "body":
+                    _check_mocap(child, source)
                 target.append(copy.deepcopy(child))
     if thruster_lag:
         lag_actuators(root, source)
     return ET.tostring(root, encoding="unicode"), source
+
+
+def _check_mocap(body: ET.Element, source: str) -> None:
+    """A 3-D arena's bodies are moving obstacles: mocap bodies holding geoms (and sites) only."""
+    if body.get("mocap") != "true" or any(child.tag not in ("geom", "site") for child in body):
+        raise ValueError(f"{source}: body {body.get('name')!r}: a 3-D arena's bodies must be mocap=\"true\" and hold "
+                         "geoms and sites only (moving obstacles)")
 
 
 def seabed(depth: float, size: float = 500.0) -> ET.Element:

@@ -42,6 +42,7 @@ from auv_mj.arenas.tunnels import (
     route_clearance,
     segment_lines,
 )
+from auv_mj.console import progress_bar
 from auv_mj.geometry import xy_text
 from auv_mj.sim.physics import AUVPhysics
 
@@ -85,19 +86,57 @@ class ArenaReport:
         return out
 
 
+CHECK_STAGES = ("load", "numbers and sites", "extent", "geoms", "walls", "route", "unknown obstacles", "movers",
+                "preview")
+"""The stages of `check_arena`, in order: what its progress bar counts."""
+
+
 def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
-                need_path: bool = True) -> ArenaReport:
+                need_path: bool = True, name: str | None = None, progress: bool = False) -> ArenaReport:
     """Checks an arena (a file or an element); writes a top-down preview to `png` if given.
 
-    `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8).
+    `need_path=False` accepts an arena without a global path (the goal-reaching tasks of Tables 7-8). `name` is
+    how the report and the preview's title call the arena (default: its file, or `<arena element>`): the file an
+    element is about to be written to, say. `progress` shows a bar over CHECK_STAGES (a large arena takes a while
+    to compile, search and draw); it ends at 100 % also where stages are skipped.
     """
-    name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
+    if name is None:
+        name = inputs.source_name(source) if not isinstance(source, ET.Element) else "<arena element>"
+    bar = progress_bar(total=len(CHECK_STAGES), desc=f"check-arena {Path(name).name}"[:40], unit="stage",
+                       disable=not progress)
+
+    def stage(label: str) -> None:
+        bar.n = CHECK_STAGES.index(label)
+        bar.set_postfix_str(label)
+
+    try:
+        report = _check(source, name, png, need_path, stage)
+        bar.set_postfix_str("done")
+        bar.update(bar.total - bar.n)  # every stage done or not needed
+        return report
+    finally:
+        bar.close()
+
+
+def _check(source: str | Path | ET.Element, name: str, png: str | Path | None, need_path: bool,
+           stage) -> ArenaReport:
+    """`check_arena`'s work, calling `stage(label)` as each of CHECK_STAGES begins."""
     report = ArenaReport(name)
     from auv_mj.arenas import tubes  # a 3-D tube arena (issue 32) is checked for the 6-DOF vehicle
 
     if tubes.is_tube_arena(source):
         report.summary, report.problems = tubes.tube_report(source)
+        if png is not None:
+            try:
+                root = source if isinstance(source, ET.Element) else inputs.parse_xml(
+                    inputs.read_text(Path(source), "arena MJCF", inputs.MAX_XML_BYTES), name, "arena MJCF")
+                tube = tubes.tube_from_arena(root)
+                items = tubes.items_from_arena(root)
+            except ValueError:
+                return report  # the report names what is wrong; there is nothing sound to draw
+            report.png = plot_tube(tube, *items, png, title=f"{Path(name).name}: tube arena")
         return report
+    stage("load")
     try:
         physics = load(source)
     except ValueError as e:
@@ -106,18 +145,27 @@ def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
     model = physics.model.ptr
     info = None
     placed = False
+    stage("numbers and sites")
     if _check_numerics(model, report):
         info = arena_info(physics)
         placed = _check_sites(model, info, report, need_path)
+    stage("extent")
     static, absurd = _check_extent(model, physics, report)
+    stage("geoms")
     _check_geoms(model, physics, static, report)
+    stage("walls")
     _check_walls(model, physics, static, report)
     if info is not None and placed and not absurd:
+        stage("route")
         _check_route(physics, info, static, report)
+        stage("unknown obstacles")
         _check_unknown(physics, info, static, report)
+        stage("movers")
         _check_movers(physics, info, static, report)
     if png is not None:
-        report.png = plot_arena(physics, info, png, title=Path(name).name, skip=absurd)
+        stage("preview")
+        report.png = plot_arena(physics, info, png, title=f"{Path(name).name}: {arena_kind(model, info)} arena",
+                                skip=absurd)
     return report
 
 
@@ -592,6 +640,68 @@ def _xy4(b) -> str:
 
 # --- preview --------------------------------------------------------------------------------------
 
+LABEL_OFFSETS = ((0, 6), (0, -14), (8, -4), (-8, -4), (0, 18), (0, -26), (16, 10), (-16, 10), (16, -18),
+                 (-16, -18), (0, 30), (0, -38))
+"""Where a geom's name may go [points from the centre of its outline, the text's bottom centre], tried in order
+until it overlaps no label placed before it."""
+PIECE_NAME = re.compile(r"(.+)_(\d+)")
+"""A piece of a polygon cut into convex meshes: NAME_0, NAME_1, ... (`auv_mj.arenas.layout`)."""
+
+
+def arena_kind(model: mujoco.MjModel, info: ArenaInfo | None) -> str:
+    """What an arena is, for a reader: "tunnel" (made by `auv-mj tunnel`, or walls along a global path) or
+    "open-water" (made by `auv-mj arena`, or anything else)."""
+    texts = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_TEXT, i) for i in range(model.ntext)}
+    if "tunnel_command" in texts:
+        return "tunnel"
+    if "arena_command" in texts:
+        return "open-water"
+    walls = any(model.geom(g).name.startswith("wall") for g in range(model.ngeom))
+    return "tunnel" if walls and info is not None and len(info.path) > 1 else "open-water"
+
+
+def _labelled_shapes(model: mujoco.MjModel, outlines: dict[int, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+    """(name, outline) of each static shape to label: a polygon's convex pieces (meshes NAME_0, NAME_1, ... whose
+    outlines join into one) once, as NAME at the middle of the whole; other geoms by their own name."""
+    groups: dict[str, list[int]] = collections.defaultdict(list)
+    for g in outlines:
+        match = PIECE_NAME.fullmatch(model.geom(g).name)
+        if match and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            groups[match.group(1)].append(g)
+    merged: dict[int, tuple[str, np.ndarray]] = {}
+    for stem, pieces in groups.items():
+        numbers = sorted(int(PIECE_NAME.fullmatch(model.geom(g).name).group(2)) for g in pieces)
+        if len(pieces) < 2 or numbers != list(range(len(pieces))):
+            continue
+        union = shapely.union_all([shapely.Polygon(outlines[g]).buffer(1e-6) for g in pieces])
+        if isinstance(union, shapely.Polygon):  # the pieces join: one polygon
+            point = union.representative_point()
+            merged.update({g: (stem, np.array([[point.x, point.y]])) for g in pieces})
+    shapes, done = [], set()
+    for g, outline in outlines.items():
+        name, where = merged.get(g, (model.geom(g).name, outline))
+        if name not in done:
+            done.add(name)
+            shapes.append((name, where))
+    return shapes
+
+
+def _place_labels(ax, labels: list[tuple[str, np.ndarray, dict]]) -> None:
+    """Annotates each (text, point, style) at the first of LABEL_OFFSETS where it overlaps no label placed before
+    it (nor a fixed text already on `ax`); one that fits nowhere is left out rather than drawn over another."""
+    renderer = ax.figure.canvas.get_renderer()
+    ax.apply_aspect()
+    placed = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
+    for text, point, style in labels:
+        for dx, dy in LABEL_OFFSETS:
+            note = ax.annotate(text, point, xytext=(dx, dy), textcoords="offset points", ha="center",
+                               va="bottom", **style)
+            box = note.get_window_extent(renderer)
+            if not any(box.overlaps(other) for other in placed):
+                placed.append(box)
+                break
+            note.remove()
+
 
 def _outline(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray | None:
     """The xy outline of a geom seen from above (None for planes)."""
@@ -629,7 +739,20 @@ def _drawable(points) -> bool:
 
 def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, title: str = "",
                skip: set[int] | frozenset[int] = frozenset()) -> Path:
-    """Writes a top-down PNG of walls, obstacles, movers and their paths, the global path, start and goal.
+    """Writes `arena_figure` as a PNG."""
+    import matplotlib.pyplot as plt
+
+    fig = arena_figure(physics, info, title, skip)
+    png = Path(png)
+    fig.savefig(png, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return png
+
+
+def arena_figure(physics: AUVPhysics, info: ArenaInfo | None, title: str = "",
+                 skip: set[int] | frozenset[int] = frozenset()):
+    """A top-down figure of walls, obstacles, movers and their paths, the global path, start and goal: each static
+    shape named once (a polygon cut into pieces by its own name), the names placed where they overlap no other.
 
     Geoms in `skip`, and anything not at finite coordinates within MAX_EXTENT, are left out.
     """
@@ -643,6 +766,7 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
     mujoco.mj_kinematics(model, data)
     fig, ax = plt.subplots(figsize=(10, 7))
     movers = {model.body(m.body).id: m for m in info.movers} if info is not None else {}
+    named: dict[int, np.ndarray] = {}
     for g in range(model.ngeom):
         body = model.geom_bodyid[g]
         if (body != 0 and body not in movers) or g in skip:
@@ -654,8 +778,8 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
         colour = "#d9342b" if body in movers else "#73787f" if name.startswith("wall") else "#9a6a3f"
         ax.add_patch(Polygon(outline, closed=True, facecolor=colour, edgecolor=colour, lw=0.5, zorder=2))
         if body == 0 and not name.startswith("wall") and name:
-            ax.annotate(name, outline.mean(axis=0), fontsize=7, ha="center", va="bottom",
-                        xytext=(0, 6), textcoords="offset points")
+            named[g] = outline
+    labels = []
     for mover in movers.values():
         if not (_drawable(mover.waypoints) and math.isfinite(mover.speed)):
             continue
@@ -664,8 +788,8 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
             ax.plot(*track[:-1].T, "--", color="#d9342b", lw=1.0, zorder=3)
         ax.annotate("", track[-1], track[-2], zorder=3,
                     arrowprops={"arrowstyle": "->", "color": "#d9342b", "ls": "--"})
-        ax.annotate(f"{mover.body} ({mover.speed:g} m/s)", mover.start, fontsize=7, color="#d9342b",
-                    xytext=(0, 8), textcoords="offset points", ha="center")
+        labels.append((f"{mover.body} ({mover.speed:g} m/s)", mover.start, {"fontsize": 7, "color": "#d9342b"}))
+    labels += [(name, where.mean(axis=0), {"fontsize": 7}) for name, where in _labelled_shapes(model, named)]
     if info is not None:
         path = info.path[np.all(np.abs(info.path) <= MAX_EXTENT, axis=1)] if len(info.path) else info.path
         if len(path):
@@ -689,8 +813,65 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
     ax.set_ylabel("y [m]")
     ax.set_title(title)
     ax.grid(alpha=0.3)
+    _place_labels(ax, labels)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="best", fontsize=8)
+    return fig
+
+
+def plot_tube(tube, obstacles, movers, png: str | Path, title: str = "") -> Path:
+    """Writes a PNG of a tube arena (`auv_mj.arenas.tubes`): from above (x, y) and from the side, unrolled along
+    the centreline (depth against distance along it), with the wall's inner surface, rocks, movers' tracks, start
+    and goal."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Circle
+
+    from auv_mj.arenas.tubes import distance_to_centreline
+
+    line = tube.centreline
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+    heading = np.diff(line[:, :2], axis=0)
+    heading = np.vstack([heading[:1], heading[:-1] + heading[1:], heading[-1:]])
+    side = np.column_stack([-heading[:, 1], heading[:, 0]]) / np.maximum(
+        np.linalg.norm(heading, axis=1, keepdims=True), 1e-12)
+    fig, (top, profile) = plt.subplots(2, 1, figsize=(10, 9), gridspec_kw={"height_ratios": [3, 2]})
+    wall = dict(color="#73787f", lw=1.5)
+    for sign in (1.0, -1.0):
+        edge = line[:, :2] + sign * tube.radius * side
+        top.plot(*edge.T, **wall, label="wall (inner surface)" if sign > 0 else None)
+        profile.plot(arc, -(line[:, 2] + sign * tube.radius), **wall)
+    top.plot(*line[:, :2].T, "--", color="#1f77b4", lw=1.0, label="centreline")
+    profile.plot(arc, -line[:, 2], "--", color="#1f77b4", lw=1.0)
+
+    def place(point):
+        return distance_to_centreline(tube, np.asarray(point, dtype=float)[None])[1][0]
+
+    for o in obstacles:
+        top.add_patch(Circle((o.x, o.y), o.radius, color="#9a6a3f", zorder=3))
+        profile.add_patch(Circle((place(o.centre), -o.z), o.radius, color="#9a6a3f", zorder=3))
+        top.annotate(o.name, (o.x, o.y), fontsize=7, ha="center", xytext=(0, 8), textcoords="offset points")
+    for m in movers:
+        a, b = np.asarray(m.start, dtype=float), np.asarray(m.end, dtype=float)
+        top.plot([a[0], b[0]], [a[1], b[1]], ":", color="#d9342b", lw=1.2)
+        top.add_patch(Circle(a[:2], m.radius, color="#d9342b", alpha=0.8, zorder=3))
+        profile.plot([place(a), place(b)], [-a[2], -b[2]], ":", color="#d9342b", lw=1.2)
+        profile.add_patch(Circle((place(a), -a[2]), m.radius, color="#d9342b", alpha=0.8, zorder=3))
+        top.annotate(f"{m.name} ({m.speed:g} m/s)", a[:2], fontsize=7, color="#d9342b", ha="center",
+                     xytext=(0, 8), textcoords="offset points")
+    for ax, start, goal in ((top, line[0, :2], line[-1, :2]), (profile, (0.0, -line[0, 2]), (arc[-1], -line[-1, 2]))):
+        ax.plot(*start, "o", color="#2ca02c", ms=8, label="start", zorder=4)
+        ax.plot(*goal, "*", color="#e6b800", ms=14, mec="k", mew=0.5, label="goal", zorder=4)
+        ax.grid(alpha=0.3)
+    top.set_aspect("equal")
+    top.set(xlabel="x [m]", ylabel="y [m]", title=f"{title}, from above" if title else "from above")
+    profile.set(xlabel="distance along the centreline [m]", ylabel="depth [m]",
+                title="from the side, unrolled along the centreline (depth not to scale)")
+    profile.invert_yaxis()
+    top.legend(loc="best", fontsize=8)
+    fig.tight_layout()
     png = Path(png)
     fig.savefig(png, dpi=110, bbox_inches="tight")
     plt.close(fig)

@@ -17,8 +17,6 @@ every arena it writes.
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import math
 import xml.etree.ElementTree as ET
@@ -407,10 +405,7 @@ CSV_ROWS = {
 def _csv_layout(text: str, source: str) -> dict:
     """The JSON object form of a CSV layout (rows of CSV_ROWS); ValueError naming the row and cell."""
     data: dict = {"shapes": []}
-    try:
-        table = list(csv.reader(io.StringIO(text)))
-    except csv.Error as e:
-        raise ValueError(f"{source}: not a CSV file: {e}") from None
+    table = inputs.csv_rows(text, source, "e.g. start,x,y or box,NAME,x,y,length,width")
     for lineno, cells in enumerate(table, start=1):
         cells = _before_comment([c.strip() for c in cells])
         if not any(cells):

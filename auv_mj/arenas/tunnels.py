@@ -15,8 +15,6 @@ the width) must be reported, not cleaned up as GEOS offset curves do.
 from __future__ import annotations
 
 import copy
-import csv
-import io
 import json
 import math
 import os
@@ -270,10 +268,7 @@ def read_centreline(path: str | Path) -> Centreline:
 def _parse_csv(text: str, source: str) -> Centreline:
     rows, labels = [], []
     columns = ("x", "y", "width")
-    try:
-        table = list(csv.reader(io.StringIO(text)))
-    except csv.Error as e:
-        raise ValueError(f"{source}: not a CSV file: {e}") from None
+    table = inputs.csv_rows(text, source, "x,y or x,y,width")
     for lineno, cells in enumerate(table, start=1):
         cells = [c.strip() for c in cells]
         if not any(cells) or cells[0].startswith("#"):

@@ -1,7 +1,8 @@
-"""The leaderboard: every published policy's results on the suite, as package data, and its Markdown tables.
+"""The leaderboard: every published policy's results on a suite, as package data, and its Markdown tables.
 
-`LEADERBOARD` is the shipped board (`auv_mj/benchmark/data/leaderboard.json`, with `leaderboard.md` beside it), made
-by `auv-mj benchmark --policy P --publish`; `publish` adds a run to a board at any path the caller gives.
+`LEADERBOARD` is the shipped board of suite v1 (`auv_mj/benchmark/data/leaderboard.json`, with `leaderboard.md` beside
+it), `LEADERBOARD_3D` the 3-D suite's (`leaderboard3d.json`), made by `auv-mj benchmark [--domain auv3d] --policy P
+--publish`; `publish` adds a run to a board at any path the caller gives. A board holds one suite's runs.
 """
 
 from __future__ import annotations
@@ -12,10 +13,18 @@ from importlib import resources
 from pathlib import Path
 
 from auv_mj.benchmark.metrics import pooled
-from auv_mj.benchmark.suite import EPISODES, ORACLE, SUITE_NAME, SUITE_V1, SUITE_VERSION, TIERS, WATERS, fingerprint
+from auv_mj.benchmark.suite import EPISODES, ORACLE, SUITES, TIERS, WATERS, Suite, suite_named
 
-LEADERBOARD = Path(str(resources.files("auv_mj.benchmark.data"))) / "leaderboard.json"
-"""The shipped policies' results (package data), made by `auv-mj benchmark --publish`."""
+
+def board_path(suite: Suite) -> Path:
+    """The shipped leaderboard of `suite` (package data)."""
+    return Path(str(resources.files("auv_mj.benchmark.data"))) / suite.board
+
+
+LEADERBOARD = board_path(SUITES["auv"])
+"""The shipped policies' results on suite v1 (package data), made by `auv-mj benchmark --publish`."""
+LEADERBOARD_3D = board_path(SUITES["auv3d"])
+"""The shipped policies' results on the 3-D suite, made by `auv-mj benchmark --domain auv3d --publish`."""
 
 
 def read_board(path: Path = LEADERBOARD) -> dict:
@@ -64,25 +73,43 @@ def markdown_row(results: dict, names: Sequence[str] | None = None, mark: str = 
             f"{_rate(total['time_efficiency'])} | {clearance} |")
 
 
+PUBLISHED_MARK = " (published)"
+"""Follows a policy's name in `comparison_table` where its own published row stands beside this run's."""
+RUN_MARK = " (this run)"
+"""Follows this run's policy name in `comparison_table`."""
+
+
 def comparison_table(results: dict, board: dict) -> str:
-    """This run's row beside every leaderboard entry of the same suite version, over this run's cells."""
+    """This run's row beside every leaderboard entry of the same suite version, over this run's cells. The run comes
+    first (marked RUN_MARK) and, where the board holds the same policy, its published entry right under it (marked
+    PUBLISHED_MARK), so that a short run reads against the policy's published figures; then the others by success."""
     names = list(results["cells"])
+    policy = results["policy"]
+    suite = suite_named(results["suite"])
     entries = {name: r for name, r in board.get("policies", {}).items()
-               if r.get("suite_version") == results["suite_version"] and name != results["policy"]}
-    rows = [(pooled(r, names)["success"] or 0.0, markdown_row(r, names)) for r in entries.values()]
-    rows.append((pooled(results, names)["success"] or 0.0, markdown_row(results, mark=" (this run)")))
-    rows.sort(key=lambda row: -row[0])
-    cells = f"all {len(names)} cells" if len(names) == len(SUITE_V1) else ", ".join(names)
-    return (f"{SUITE_NAME} over {cells}; rates pooled over their episodes, time efficiency against `{ORACLE}`.\n\n"
-            + ROW_HEADER + "\n" + "\n".join(row for _, row in rows) + "\n")
+               if r.get("suite", suite.name) == suite.name and r.get("suite_version") == results["suite_version"]}
+    rows = [markdown_row(results, mark=RUN_MARK)]
+    if policy in entries:
+        rows.append(markdown_row(entries[policy], names, PUBLISHED_MARK))
+    others = sorted((r for name, r in entries.items() if name != policy),
+                    key=lambda r: -(pooled(r, names)["success"] or 0.0))
+    rows += [markdown_row(r, names) for r in others]
+    cells = f"all {len(names)} cells" if len(names) == len(suite.cells) else ", ".join(names)
+    note = (f" First this run of `{policy}`, then its published entry over the same cells." if policy in entries
+            else "")
+    return (f"{suite.name} over {cells}; rates pooled over their episodes, time efficiency against `{ORACLE}`.{note}"
+            "\n\n" + ROW_HEADER + "\n" + "\n".join(rows) + "\n")
 
 
 def leaderboard_markdown(board: dict) -> str:
     """The leaderboard's Markdown (`leaderboard.md`): every published policy over the whole suite."""
+    suite = suite_named(board.get("suite", SUITES["auv"].name))
     entries = sorted(board.get("policies", {}).values(), key=lambda r: -(pooled(r, list(r["cells"]))["success"]
                                                                         or 0.0))
-    lines = [f"# Leaderboard, {SUITE_NAME} (fingerprint {fingerprint()})", "",
-             "Made by `auv-mj benchmark --policy P --publish` (`auv_mj/benchmark/suite.py` defines the suite). "
+    domain = next(d for d, s in SUITES.items() if s is suite)
+    command = "auv-mj benchmark" + ("" if domain == "auv" else f" --domain {domain}")
+    lines = [f"# Leaderboard, {suite.name} (fingerprint {suite.fingerprint()})", "",
+             f"Made by `{command} --policy P --publish` (`auv_mj/benchmark/suite.py` defines the suite). "
              "Episodes: the total over the cells run; rates pooled over them; time efficiency against "
              f"`{ORACLE}` on the same seeds. Episodes per cell in these entries: "
              f"{sorted({c['summary']['episodes'] for r in entries for c in r['cells'].values()})} (the suite's "
@@ -95,12 +122,16 @@ def leaderboard_markdown(board: dict) -> str:
 
 def publish(results: dict, path: Path = LEADERBOARD) -> dict:
     """Adds a benchmark run (`runner.benchmark`'s results) to the board at `path` and writes its Markdown beside it
-    (`leaderboard.md`); returns the new board. ValueError if the run is of another suite version."""
-    if results.get("suite_version") != SUITE_VERSION:
-        raise ValueError(f"results of suite version {results.get('suite_version')}, the board is {SUITE_VERSION}")
+    (`leaderboard.md`); returns the new board. ValueError if the run is of another suite or suite version than the
+    board's."""
+    suite = suite_named(results.get("suite", SUITES["auv"].name))
+    if results.get("suite_version") != suite.version:
+        raise ValueError(f"results of suite version {results.get('suite_version')}, the board is {suite.version}")
     path = Path(path)
     board = read_board(path)
-    board = {"suite": SUITE_NAME, "suite_version": SUITE_VERSION, "fingerprint": fingerprint(),
+    if board and board.get("suite", SUITES["auv"].name) != suite.name:
+        raise ValueError(f"results of {suite.name!r}, the board {path} holds {board.get('suite')!r}")
+    board = {"suite": suite.name, "suite_version": suite.version, "fingerprint": suite.fingerprint(),
              "policies": {**board.get("policies", {}), results["policy"]: results}}
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".json.tmp")

@@ -27,12 +27,19 @@ def _mean(values: list) -> float | None:
     return float(np.mean(values)) if values else None
 
 
+def success_rate(episodes: list[dict]) -> float | None:
+    """The share of `episodes` that reached the goal; None where none has a success (tracking tasks report none)."""
+    return _mean([e["success"] for e in episodes])
+
+
 def summarise(episodes: list[dict]) -> dict:
-    """Per-task summary of episode metrics (rates, means; time to goal over successful episodes)."""
+    """Per-task summary of episode metrics (rates, means; time to goal over successful episodes). On a tracking task
+    (no success: its episodes end by their schedule) success_rate and time_to_goal are None and its headline figures
+    are the `mae_*`."""
     clearances = [e["min_clearance"] for e in episodes if e["min_clearance"] is not None]
     summary = {"episodes": len(episodes),
                "outcomes": {name: sum(e["outcome"] == name for e in episodes) for name in OUTCOMES},
-               "success_rate": _mean([e["success"] for e in episodes]),
+               "success_rate": success_rate(episodes),
                "collision_rate": _mean([e["collision"] for e in episodes]),
                "safety_violation_rate": _mean([e["safety_violation"] for e in episodes]),
                "min_clearance": float(np.min(clearances)) if clearances else None,

@@ -10,98 +10,161 @@ episodes are queued longest cells first, so that two workers are busy to the end
 
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Sequence
 
 import numpy as np
 
-from auv_mj.benchmark.metrics import cell_summary, oracle_times, summarise
-from auv_mj.benchmark.suite import ORACLE, SUITE_NAME, SUITE_VERSION, Cell, fingerprint
+from auv_mj.benchmark.metrics import cell_summary, oracle_times, success_rate, summarise
+from auv_mj.benchmark.suite import ORACLE, SUITES, Cell, Suite
 from auv_mj.console import progress_bar
-from auv_mj.episode import OUTCOMES, episode_metrics, record_episode
+from auv_mj.episode import OUTCOMES, EpisodeRecord, episode_metrics, record_episode
 from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
+
+TRACE = "trace"
+"""Key of `run_episode`'s digest of the episode record; `evaluate` drops it from the rows it keeps."""
+PROBE_EPISODES = 2
+"""Episodes of a task that `evaluate` runs first, to find out whether its episodes depend on their seed."""
+
+
+def record_digest(record: EpisodeRecord) -> str:
+    """SHA-256 of every array of an episode record that the seed could change: the arena, and per instant and step
+    time, pose, velocity, sonar, actuator forces, goal, movers, actions, commands, rewards, events and the task's
+    info. Two records with the same digest are the same episode, bit for bit."""
+    digest = hashlib.sha256()
+    arena = record.arena
+    parts = [record.time, record.pose, record.velocity, record.sonar, record.control, record.desired_goal,
+             record.movers, record.action, record.command, record.reward, record.event.astype(str), record.success,
+             arena.bounds, arena.start, arena.goal, arena.path, arena.goals, *arena.polygons]
+    parts += [np.asarray(record.info[k]) for k in sorted(record.info)]
+    for part in parts:
+        array = np.ascontiguousarray(part)
+        digest.update(str((array.dtype, array.shape)).encode())
+        digest.update(repr(array.tolist()).encode() if array.dtype == object else array.tobytes())  # not addresses
+    return digest.hexdigest()
+
+
+def _rate(rows: list[dict]) -> str:
+    """The progress bar's success so far: n/a before any result and on tracking tasks (they report none)."""
+    rate = success_rate(rows) if rows else None
+    return "n/a" if rate is None else f"{rate:.2f}"
 
 
 def run_episode(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None,
                 max_steps: int | None = None) -> dict:
-    """The metrics of one episode of `task_name` seeded `seed` under the named policy."""
+    """The metrics of one episode of `task_name` seeded `seed` under the named policy (`episode_metrics`), and under
+    TRACE the digest of its record (`record_digest`), by which `evaluate` tells one episode from another."""
     env, policy = policies.env_and_policy(policy_name, task_name, seed, task_kwargs)
-    return episode_metrics(record_episode(env, policy, max_steps, task_name, policy_name, seed))
+    record = record_episode(env, policy, max_steps, task_name, policy_name, seed)
+    return {**episode_metrics(record), TRACE: record_digest(record)}
+
+
+def episode_row(seed: int, metrics: dict) -> dict:
+    """The record of one episode in `evaluate`'s results: its seed and its metrics (`episode_metrics`: outcome,
+    success, duration [s], path length [m], least clearance [m], return, time to goal [s], ...)."""
+    return {"seed": seed, **{k: v for k, v in metrics.items() if k != TRACE}}
 
 
 def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
              max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
              workers: int = 1, ray_address: str | None = None, retries: int = distributed.RETRIES,
              episode_fn=None, on_episode=None) -> dict:
-    """Evaluates `policy_name` on each task; returns {"policy", "seed", "tasks": {task: summary}}.
+    """Evaluates `policy_name` on each task over `episodes` seeded episodes (episode i: task and policy seed
+    `seed` + i); returns {"policy", "seed", "episodes", "task_kwargs", "tasks": {task: summary}, "records": {task:
+    [episode rows in seed order]}} (rows: `episode_row`).
+
+    Deterministic runs. The first PROBE_EPISODES episodes of every task run first; when the two are the same
+    episode bit for bit (`record_digest`: a fixed arena or named scenario in ideal water under a policy that
+    draws no random number), no seed can change it, so the others are not run: the task's summary and records
+    hold that one episode, and the summary says "deterministic": true and "stands_for": `episodes` (the seeds it
+    stands for). Otherwise every episode runs (and the summary is `summarise`'s alone). An `episode_fn` whose
+    metrics hold no TRACE always runs every episode.
 
     `task_kwargs` go to every task (e.g. random commands on speed_heading); the seed is the episode's.
-    With `workers` > 1 or a `ray_address` the episodes run in parallel (`evaluate_parallel`).
-    `on_episode(task, seed, metrics)` is called for every finished episode (e.g. to find the failures).
-    """
-    if workers > 1 or ray_address is not None:
-        return evaluate_parallel(policy_name, task_names, episodes, seed, max_steps, progress, task_kwargs,
-                                 workers=workers, ray_address=ray_address, retries=retries,
-                                 episode_fn=episode_fn, on_episode=on_episode)
-    task_kwargs = dict(task_kwargs or {})
-    results = {}
-    for task_name in task_names:
-        runs = []
-        bar = progress_bar(total=episodes, desc=f"eval {task_name}", unit="ep", disable=not progress)
-        for i in range(episodes):
-            runs.append(run_episode(policy_name, task_name, seed + i, task_kwargs, max_steps))
-            if on_episode is not None:
-                on_episode(task_name, seed + i, runs[-1])
-            bar.update(1)
-            bar.set_postfix(success=f"{np.mean([r['success'] for r in runs]):.2f}")
-        bar.close()
-        results[task_name] = summarise(runs)
-    return {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
-            "tasks": results}
-
-
-def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
-                      max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
-                      workers: int = 2, ray_address: str | None = None, retries: int = distributed.RETRIES,
-                      episode_fn=None, on_episode=None) -> dict:
-    """`evaluate` with the episodes of every task spread over `workers` local processes or a Ray cluster.
-
-    Episode i of a task runs `episode_fn(policy_name, task, seed + i, task_kwargs, max_steps)` (by default
-    `run_episode`; a module-level function, for pickling), as the serial loop does; results are kept as they arrive and
-    summarised in episode order, so the result equals the serial one. Episodes that gave no result are
-    listed under "failed" ({task, episode, seed, error}); the summaries cover the others.
+    With `workers` > 1 or a `ray_address` the episodes run in parallel on local processes or a Ray cluster
+    (`auv_mj.jobs.distributed`); `episode_fn(policy_name, task, seed, task_kwargs, max_steps)` runs one episode
+    (by default `run_episode`; module level, for pickling). Results are summarised in episode order, so a
+    parallel run equals the serial one. Episodes that gave no result (parallel runs only) are listed under "failed"
+    ({task, episode, seed, error}); the summaries cover the others. `on_episode(task, seed, metrics)` is called for
+    every episode kept (e.g. to find the failures): once for a deterministic task.
     """
     task_kwargs = dict(task_kwargs or {})
-    jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task in task_names for i in range(episodes)]
-    finished: dict[int, dict] = {}
-    failed = []
-    bar = progress_bar(total=len(jobs), desc=f"eval {len(task_names)} task(s)", unit="ep", disable=not progress)
-    try:
-        for k, result in distributed.run_jobs(episode_fn or run_episode, jobs, workers=workers,
-                                              ray_address=ray_address, retries=retries):
+    episode_fn = episode_fn or run_episode
+    parallel = workers > 1 or ray_address is not None
+    finished: dict[tuple[str, int], dict] = {}
+    failed: list[dict] = []
+    desc = f"eval {task_names[0]}" if len(task_names) == 1 and not parallel else f"eval {len(task_names)} task(s)"
+    bar = progress_bar(total=len(task_names) * episodes, desc=desc, unit="ep", disable=not progress)
+
+    def run(keys: list[tuple[str, int]]):
+        jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task, i in keys]
+        if not jobs:  # every task deterministic: no workers (nor Ray) to start
+            return
+        if parallel:
+            results = distributed.run_jobs(episode_fn, jobs, workers=workers, ray_address=ray_address,
+                                           retries=retries)
+        else:
+            results = ((k, episode_fn(*job)) for k, job in enumerate(jobs))
+        for k, result in results:
+            task, i = keys[k]
             if isinstance(result, distributed.JobFailed):
-                failed.append({"task": jobs[k][1], "episode": k % episodes, "seed": jobs[k][2],
-                               "error": result.error})
+                failed.append({"task": task, "episode": i, "seed": seed + i, "error": result.error})
             else:
-                finished[k] = result
-                if on_episode is not None:
-                    on_episode(jobs[k][1], jobs[k][2], result)
+                finished[task, i] = result
             bar.update(1)
-            bar.set_postfix(success=f"{np.mean([r['success'] for r in finished.values()] or [0]):.2f}",
+            bar.set_postfix(success=_rate(list(finished.values())),
                             failed=len(failed))
+            yield task, i
+
+    try:
+        probe = min(episodes, PROBE_EPISODES)
+        for _ in run([(task, i) for task in task_names for i in range(probe)]):
+            pass  # on_episode waits until it is known whether the probe's episodes are one
+        deterministic = {task: _same_episode([finished.get((task, i)) for i in range(probe)])
+                         for task in task_names} if episodes >= PROBE_EPISODES else dict.fromkeys(task_names, False)
+        kept = {task: [0] if deterministic[task] else list(range(probe)) for task in task_names}
+        if on_episode is not None:
+            for task in task_names:
+                for i in kept[task]:
+                    if (task, i) in finished:
+                        on_episode(task, seed + i, finished[task, i])
+        rest = [(task, i) for task in task_names if not deterministic[task] for i in range(probe, episodes)]
+        bar.total = bar.n + len(rest)  # a deterministic task's other seeds are not run: the bar ends at 100 %
+        bar.refresh()
+        for task, i in run(rest):
+            kept[task].append(i)
+            if on_episode is not None and (task, i) in finished:
+                on_episode(task, seed + i, finished[task, i])
     finally:
         bar.close()
-    results = {}
-    for t, task_name in enumerate(task_names):
-        runs = [finished[k] for k in range(t * episodes, (t + 1) * episodes) if k in finished]
-        results[task_name] = summarise(runs) if runs else {"episodes": 0, "outcomes": dict.fromkeys(OUTCOMES, 0)}
+    results, records = {}, {}
+    for task in task_names:
+        rows = [episode_row(seed + i, finished[task, i]) for i in sorted(kept[task]) if (task, i) in finished]
+        summary = summarise(rows) if rows else {"episodes": 0, "outcomes": dict.fromkeys(OUTCOMES, 0)}
+        if deterministic[task]:
+            summary.update(deterministic=True, stands_for=episodes)
+        results[task], records[task] = summary, rows
     out = {"policy": policy_name, "seed": seed, "episodes": episodes, "task_kwargs": task_kwargs,
-           "tasks": results}
+           "tasks": results, "records": records}
     if failed:
         out["failed"] = sorted(failed, key=lambda f: (task_names.index(f["task"]), f["episode"]))
     return out
 
+
+def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
+                      max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
+                      workers: int = 2, **options) -> dict:
+    """`evaluate` over `workers` local processes (or a Ray cluster, `ray_address`)."""
+    return evaluate(policy_name, task_names, episodes, seed, max_steps, progress, task_kwargs, workers=workers,
+                    **options)
+
+
+def _same_episode(rows: list[dict | None]) -> bool:
+    """Whether the probe's episodes (their rows, None where one failed) are one and the same episode."""
+    traces = [row.get(TRACE) if row is not None else None for row in rows]
+    return len(traces) >= 2 and traces[0] is not None and all(t == traces[0] for t in traces)
 
 
 # --- the benchmark's cells ---------------------------------------------------------------------------------------
@@ -126,7 +189,8 @@ def run_cell_episode(policy_name: str, task: str, seed: int, task_kwargs: dict, 
     policy = policies.make_policy(policy_name, env, seed, task)
     metrics = episode_metrics(record_episode(env, policy, max_steps, task, policy_name, seed))
     return {"seed": seed, **{k: metrics[k] for k in ("success", "outcome", "collision", "safety_violation",
-                                                     "min_clearance", "path_length", "time_to_goal", "return")}}
+                                                     "min_clearance", "path_length", "time_to_goal", "duration",
+                                                     "return")}}
 
 
 def _jobs(policy_name: str, cells: Sequence[Cell], episodes: int | None, max_steps: int | None) -> list[tuple]:
@@ -145,7 +209,7 @@ def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None =
         if workers == 1 and ray_address is None:
             results = ((k, run_cell_episode(*job)) for k, job in enumerate(jobs))
         else:  # the tunnel cells' long episodes first, so that no worker is left with one at the end
-            order = sorted(range(len(jobs)), key=lambda k: jobs[k][1] != "tunnel")
+            order = sorted(range(len(jobs)), key=lambda k: not jobs[k][1].startswith("tunnel"))
             queued = [jobs[k] for k in order]
             results = ((order[k], r) for k, r in distributed.run_jobs(run_cell_episode, queued, workers=workers,
                                                                       ray_address=ray_address))
@@ -155,7 +219,7 @@ def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None =
             else:
                 rows[k] = result
             bar.update(1)
-            bar.set_postfix(success=f"{np.mean([r['success'] for r in rows.values()] or [0]):.2f}", failed=len(failed))
+            bar.set_postfix(success=_rate(list(rows.values())), failed=len(failed))
     finally:
         bar.close()
     by_cell = {c.name: [] for c in cells}
@@ -166,12 +230,13 @@ def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None =
 
 def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = None, max_steps: int | None = None,
               *, oracle: dict | None = None, workers: int = 1, ray_address: str | None = None,
-              progress: bool = True) -> dict:
-    """Runs the cells and returns the results dict that `results.json` holds."""
+              progress: bool = True, suite: Suite = SUITES["auv"]) -> dict:
+    """Runs the cells (of `suite`, suite v1 by default) and returns the results dict that `results.json` holds."""
     by_cell, failed = run_episodes(policy_name, cells, episodes, max_steps, workers=workers,
                                    ray_address=ray_address, progress=progress)
     references = oracle_times(oracle)
-    out = {"suite": SUITE_NAME, "suite_version": SUITE_VERSION, "fingerprint": fingerprint(), "policy": policy_name,
+    out = {"suite": suite.name, "suite_version": suite.version, "fingerprint": suite.fingerprint(),
+           "policy": policy_name,
            "episodes_per_cell": episodes or None, "max_steps": max_steps,
            "time_efficiency_reference": ORACLE if references else None, "cells": {}}
     for cell in cells:
@@ -192,20 +257,21 @@ def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = No
 
 def run_suite(policy_name: str, cells: Sequence[Cell] | None = None, episodes: int | None = None, *,
               max_steps: int | None = None, oracle: dict | str | None = "published", workers: int = 1,
-              ray_address: str | None = None, progress: bool = True) -> dict:
-    """The named policy on the suite's `cells` (all of suite v1 by default): the results dict of `benchmark`.
+              ray_address: str | None = None, progress: bool = True, domain: str = "auv") -> dict:
+    """The named policy on the suite's `cells` (all of the `domain`'s suite by default: suite v1 of "auv", the 3-D
+    suite of "auv3d"): the results dict of `benchmark`.
 
     `oracle`: the oracle's results that time efficiency is measured against; "published" (the default) takes the
     shipped leaderboard's, None measures none (unless the policy is the oracle itself)."""
-    from auv_mj.benchmark.leaderboard import oracle_results
-    from auv_mj.benchmark.suite import SUITE_V1
+    from auv_mj.benchmark.leaderboard import board_path, oracle_results, read_board
 
+    suite = SUITES[domain]
     if isinstance(oracle, str):
         if oracle != "published":
             raise ValueError(f"oracle must be 'published', a results dict or None, got {oracle!r}")
-        oracle = oracle_results()
-    return benchmark(policy_name, SUITE_V1 if cells is None else cells, episodes, max_steps, oracle=oracle,
-                     workers=workers, ray_address=ray_address, progress=progress)
+        oracle = oracle_results(read_board(board_path(suite)))
+    return benchmark(policy_name, suite.cells if cells is None else cells, episodes, max_steps, oracle=oracle,
+                     workers=workers, ray_address=ray_address, progress=progress, suite=suite)
 
 
 def run_cell(policy_name: str, cell: Cell, episodes: int | None = None, **options) -> dict:

@@ -1,4 +1,5 @@
-"""The held-out benchmark's definition: suite v1, one table of cells (`SUITE_V1`), and its fingerprint.
+"""The held-out benchmark's definitions: suite v1, one table of cells (`SUITE_V1`), and its fingerprint; the 3-D
+suite of the 6-DOF vehicle (`SUITE_3D_V1`, `auv-mj benchmark --domain auv3d`) with its own. `SUITES` names both.
 
 Each row (a `Cell`) is a task with its options (a procedural arena of a tier in a water), a block of held-out TEST
 seeds (`auv_mj.seeds.TEST`) and its default number of episodes. Episode i of a cell runs with seed `cell.seeds[i]`.
@@ -79,14 +80,60 @@ FINGERPRINTS = {1: "4592ab23994f2ac5"}
 ORACLE = "oracle"
 """The policy whose times are the reference of time efficiency."""
 
+SUITE_3D_NAME = "suite 3d v1"
+SUITE_3D_VERSION = 1
+SUITE_3D_V1: tuple[Cell, ...] = (
+    Cell("goal3d", "standard", "ideal", _block(3)),
+    Cell("goal3d", "standard", "ocean", _block(3)),
+    Cell("goal3d", "hard", "ideal", _block(3)),
+    Cell("goal3d", "hard", "ocean", _block(3)),
+    Cell("tunnel3d", "standard", "ideal", _block(4)),
+    Cell("tunnel3d", "standard", "ocean", _block(4)),
+    Cell("tunnel3d", "hard", "ideal", _block(4)),
+    Cell("tunnel3d", "hard", "ocean", _block(4)),
+)
+"""The 3-D benchmark, version 1: the 6-DOF vehicle's goal3d (obstacles over a seabed; hard: walls to pass over or
+under, caves, seabed relief) and tunnel3d (tubes; hard: wide tubes with plugs), each in both tiers and both waters
+(`auv_mj.sim.ocean3d`), on their own TEST seed blocks; the same metrics as suite v1."""
+FINGERPRINTS_3D = {1: "80981134ec738137"}
+"""Version -> the first 16 hex digits of the 3-D suite's fingerprint."""
 
-def definition(suite: Sequence[Cell] = SUITE_V1) -> dict:
+
+def definition(suite: Sequence[Cell] = SUITE_V1, name: str = SUITE_NAME, version: int = SUITE_VERSION) -> dict:
     """The suite's definition as plain data: what its fingerprint hashes and its JSON names."""
-    return {"name": SUITE_NAME, "version": SUITE_VERSION, "metrics": list(METRICS),
+    return {"name": name, "version": version, "metrics": list(METRICS),
             "cells": [{**asdict(c), "name": c.name, "task_kwargs": c.task_kwargs} for c in suite]}
 
 
-def fingerprint(suite: Sequence[Cell] = SUITE_V1) -> str:
+def fingerprint(suite: Sequence[Cell] = SUITE_V1, name: str = SUITE_NAME) -> str:
     """SHA-256 (first 16 hex digits) of the definition: any change to what the suite measures changes it."""
-    text = json.dumps({k: v for k, v in definition(suite).items() if k != "version"}, sort_keys=True)
+    text = json.dumps({k: v for k, v in definition(suite, name).items() if k != "version"}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class Suite:
+    """A versioned benchmark: its name, version, cells and the fingerprints of its versions."""
+
+    name: str
+    version: int
+    cells: tuple[Cell, ...]
+    fingerprints: dict
+    board: str
+    """File name of its leaderboard in the package data (`auv_mj.benchmark.leaderboard.board_path`)."""
+
+    def fingerprint(self) -> str:
+        return fingerprint(self.cells, self.name)
+
+
+SUITES = {"auv": Suite(SUITE_NAME, SUITE_VERSION, SUITE_V1, FINGERPRINTS, "leaderboard.json"),
+          "auv3d": Suite(SUITE_3D_NAME, SUITE_3D_VERSION, SUITE_3D_V1, FINGERPRINTS_3D, "leaderboard3d.json")}
+"""Domain (`auv-mj benchmark --domain`) -> its suite: the planar vehicle's suite v1, the 6-DOF vehicle's 3-D suite."""
+
+
+def suite_named(name: str) -> Suite:
+    """The suite of SUITES called `name` (a results dict's "suite"); ValueError naming it if there is none."""
+    for suite in SUITES.values():
+        if suite.name == name:
+            return suite
+    raise ValueError(f"no benchmark suite is called {name!r}; the suites are {[s.name for s in SUITES.values()]}")

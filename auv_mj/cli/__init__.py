@@ -9,6 +9,7 @@ reproduction report live here. Every subcommand module exposes `add_arguments(pa
 from __future__ import annotations
 
 import argparse
+import copy
 import importlib
 import sys
 
@@ -31,8 +32,41 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
 )
 
 
+def shows_default(action: argparse.Action) -> bool:
+    """Whether `--help` shows the default of `action`: an option that takes a value and has one (not None, not an
+    empty list as a repeatable option starts with)."""
+    default = action.default
+    if default is None or default is argparse.SUPPRESS or action.help is argparse.SUPPRESS:
+        return False
+    if isinstance(default, list | tuple | dict) and not default:
+        return False
+    return action.nargs != 0 and (bool(action.option_strings) or action.nargs in ("?", "*"))
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """argparse's help with each option's default, `(default: VALUE)`, unless its help already says it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if shows_default(action) and "%(default)" not in text and "default" not in text.lower():
+            text = f"{text} (default: %(default)s)" if text else "default: %(default)s"
+        return text
+
+    def _format_action(self, action: argparse.Action) -> str:
+        if not action.help and shows_default(action):  # argparse prints no help line for an option without help
+            action = copy.copy(action)
+            action.help = self._get_help_string(action)
+        return super()._format_action(action)
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors: `auv-mj COMMAND: error: ...` and exit status 2, no usage block."""
+    """argparse with one-line errors (`auv-mj COMMAND: error: ...` and exit status 2, no usage block) and help
+    that shows every option's default, on every subcommand and sub-subcommand (`add_subparsers` makes them of
+    this class)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
@@ -50,6 +84,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def command_parser(name: str) -> Parser:
+    """The full parser of subcommand `name` (its module imported and its arguments added)."""
+    module_name, help_text = next((module, text) for command, module, text in COMMANDS if command == name)
+    parser = Parser(prog=f"auv-mj {name}", description=help_text)
+    importlib.import_module(module_name).add_arguments(parser)
+    return parser
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the `auv-mj` console script."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -58,16 +100,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.parse_args(argv)
         parser.print_help()
         return 0 if argv else 2
-    modules = {name: (module, help_text) for name, module, help_text in COMMANDS}
+    modules = {name: module for name, module, _ in COMMANDS}
     if argv[0] not in modules:
         parser.parse_args(argv)  # prints argparse's "invalid choice" error and exits 2
-    module_name, help_text = modules[argv[0]]
-    module = importlib.import_module(module_name)
-    sub = Parser(prog=f"auv-mj {argv[0]}", description=help_text)
-    module.add_arguments(sub)
+    sub = command_parser(argv[0])
     args = sub.parse_args(argv[1:])
     args.prog = sub.prog
-    return int(module.run(args) or 0)
+    return int(importlib.import_module(modules[argv[0]]).run(args) or 0)
 
 
 if __name__ == "__main__":

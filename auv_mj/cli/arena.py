@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         command = " ".join(["auv-mj arena", shlex.quote(str(source)), "-o", shlex.quote(str(out))]
                            + (["--name", shlex.quote(args.name)] if args.name else []))
         element = shapes.element(command)
-        report = arena_check.check_arena(element, preview, need_path=shapes.path is not None)
+        report = arena_check.check_arena(element, preview, need_path=shapes.path is not None, name=str(out))
     except ValueError as e:
         usage_error(args, " ".join(str(e).split()))
     if not report.ok:
@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
         return 1
     for warning in report.warnings:
         print(f"warning: {warning}")
-    print(f"wrote {out}: {report.summary.removeprefix('<arena element>: ')}"
+    print(f"wrote {out}: {report.summary}"
           + (f"; preview {report.png}" if report.png is not None else ""))
     print(f"run it with: auv-mj eval --task obstacles --arena {out} --policy los-avoid")
     return 0

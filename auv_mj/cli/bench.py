@@ -75,12 +75,17 @@ class Measurement:
 
 Section = Callable[[BenchSettings], list[Measurement]]
 SECTIONS: dict[str, Section] = {}
+ON_REQUEST: set[str] = set()
+"""Sections run only when `--sections` names them (minutes long: the batched env's)."""
 
 
-def section(name: str) -> Callable[[Section], Section]:
-    """Registers a benchmark section under `name` (run in registration order)."""
+def section(name: str, on_request: bool = False) -> Callable[[Section], Section]:
+    """Registers a benchmark section under `name` (run in registration order); `on_request`: not in the default
+    run, only when `--sections` names it."""
     def register(function: Section) -> Section:
         SECTIONS[name] = function
+        if on_request:
+            ON_REQUEST.add(name)
         return function
     return register
 
@@ -362,6 +367,66 @@ def training_section(settings: BenchSettings) -> list[Measurement]:
                         "updates/s", "one torch thread") for name in agents]
 
 
+VECTOR_CASES = {"goal": {}, "obstacles hard": {"arena": "random", "tier": "hard"}}
+"""Tasks (and options) of the "vector" section: open water, and the hard tier's procedural arenas (resets and all)."""
+VECTOR_MEMORY_STEPS = 1_000_000
+"""Environment steps over which the "vector" section follows the batch's resident memory (N = 256)."""
+PPO_BENCH_ENVS = 64
+"""Batch size of the "vector" section's PPO run."""
+PPO_BENCH_ROLLOUTS = 4
+"""Rollouts (of 128 steps per env) of the "vector" section's PPO run, after one untimed rollout."""
+
+
+@section("vector", on_request=True)
+def vector_section(settings: BenchSettings) -> list[Measurement]:
+    """The batched planning environment (`auv_mj.tasks.vector`): env steps/s for N in {1, 16, 64, 256} on 1 and 2
+    threads beside the physics limit (plain `mj_step`, 50 substeps per env step, one thread), Gymnasium's
+    AsyncVectorEnv and SB3's SubprocVecEnv on 2 processes; the resident memory over 10^6 env steps; and recurrent
+    PPO's samples/s end to end (`auv_mj.agents.ppo`, GRU, N = 64) against the batch alone."""
+    from auv_mj.agents.ppo import PPOConfig
+    from auv_mj.agents.ppo import train as train_ppo
+    from auv_mj.tasks.vector import AUVVectorEnv
+    from auv_mj.tasks.vector_bench import MEMORY_SIZE, batch_rate, vector_bench
+
+    seconds = max(0.5, 2.0 * settings.scale)
+    measurements = []
+    for case, task_kwargs in VECTOR_CASES.items():
+        task = case.split()[0]
+        memory = settings.calls(VECTOR_MEMORY_STEPS) // MEMORY_SIZE if case == "goal" else 0
+        rows = vector_bench(task, task_kwargs, seconds=seconds, memory_steps=memory)
+        for row in rows:
+            if "rss_early" in row:
+                measurements.append(Measurement(f"{case}: resident memory after {memory * MEMORY_SIZE} env steps / "
+                                                "after a tenth of them", row["rss_late"] / row["rss_early"], "x",
+                                                f"{row['rss_early'] / 2**20:.0f} -> {row['rss_late'] / 2**20:.0f} "
+                                                "MiB"))
+            else:
+                measurements.append(Measurement(f"{case}: {row['name']}", row["steps_per_second"], "env steps/s",
+                                                f"{row['ratio']:.2f} of the physics limit, load "
+                                                f"{row['load']:.1f}"))
+        by_name = {r["name"]: r["steps_per_second"] for r in rows if "steps_per_second" in r}
+        one, two = by_name["batch N=256 threads=1"], by_name["batch N=256 threads=2"]
+        measurements.append(Measurement(f"{case}: N=256, 2 threads / 1 thread", two / one, "x"))
+        measurements.append(Measurement(f"{case}: N=256, 2 threads / AsyncVectorEnv (2 processes)",
+                                        two / by_name["AsyncVectorEnv (2 processes)"], "x"))
+    config = PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4, recurrent="gru", seed=settings.seed,
+                       checkpoint_every=10_000)
+    steps = PPO_BENCH_ENVS * config.num_steps
+    batch = batch_rate("obstacles", VECTOR_CASES["obstacles hard"], PPO_BENCH_ENVS, 2, seconds)
+    with tempfile.TemporaryDirectory() as folder:
+        env = AUVVectorEnv("obstacles", PPO_BENCH_ENVS, VECTOR_CASES["obstacles hard"], threads=2)
+        train_ppo(env, config, Path(folder) / "warm", steps, progress=False)  # one rollout: imports, first resets
+        start = time.perf_counter()
+        train_ppo(env, config, Path(folder) / "timed", steps * settings.calls(PPO_BENCH_ROLLOUTS), progress=False)
+        rate = steps * settings.calls(PPO_BENCH_ROLLOUTS) / (time.perf_counter() - start)
+        env.close()
+    measurements.append(Measurement(f"obstacles hard: PPO (GRU) end to end, N={PPO_BENCH_ENVS}", rate,
+                                    "env steps/s", "collection and updates, one torch thread"))
+    measurements.append(Measurement("obstacles hard: PPO end to end / the batch alone", rate / batch, "x",
+                                    f"batch N={PPO_BENCH_ENVS}, 2 threads: {batch:.0f} env steps/s"))
+    return measurements
+
+
 CORE_STEPS = 20_000
 """Env steps of each timed training run of the "cores" section (the collector's start, 2-3 s, is timed too)."""
 CORE_REPEATS = 3
@@ -421,7 +486,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=bounded_int(1, 1000), default=None,
                         help="timed repeats (default 7, --quick 3)")
     parser.add_argument("--sections", default=None,
-                        help=f"comma-separated sections to run (default all: {','.join(SECTIONS)})")
+                        help=f"comma-separated sections to run (default all but {','.join(sorted(ON_REQUEST))}: "
+                             f"{','.join(n for n in SECTIONS if n not in ON_REQUEST)})")
     parser.add_argument("--json", type=Path, default=None, metavar="PATH",
                         help="also write the figures as JSON")
     parser.add_argument("--seed", type=seed_int, default=0, help="seed of the wall layouts")
@@ -429,7 +495,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """`auv-mj bench`: runs the sections, prints their figures, optionally writes them as JSON."""
-    names = list(SECTIONS) if args.sections is None else [n.strip() for n in args.sections.split(",") if n]
+    names = [n for n in SECTIONS if n not in ON_REQUEST] if args.sections is None else \
+        [n.strip() for n in args.sections.split(",") if n]
     unknown = [n for n in names if n not in SECTIONS]
     if unknown:
         usage_error(args, f"--sections: unknown section(s) {', '.join(unknown)[:200]}; known: {', '.join(SECTIONS)}")

@@ -1,9 +1,10 @@
 """`auv-mj benchmark`: the versioned held-out suite of planning cells in one command (`auv_mj.benchmark`).
 
-    auv-mj benchmark --policy P [--tier standard,hard] [--water ideal,ocean] [--episodes N]
+    auv-mj benchmark [--domain auv|auv3d] --policy P [--tier standard,hard] [--water ideal,ocean] [--episodes N]
                      [--workers N | --ray ADDRESS] --out DIR
 
-The suite (`auv_mj.benchmark.suite.SUITE_V1`) is one table of cells: a task with its options (a procedural arena
+The suite (`auv_mj.benchmark.suite.SUITE_V1`; with `--domain auv3d` the 6-DOF vehicle's `SUITE_3D_V1`, its own
+suite with its own fingerprint and leaderboard) is one table of cells: a task with its options (a procedural arena
 of a tier in a water) on a block of held-out TEST seeds. Episodes run through the one episode loop and metric
 definitions of `auv-mj eval` (`auv_mj.episode`, `auv_mj.benchmark.metrics`); changing what the suite measures is a
 new version with its own fingerprint.
@@ -15,8 +16,11 @@ ratios; 0 on a failure; SPL, Anderson et al. 2018) over the seeds where the orac
 (`--oracle FILE`, by default the `oracle` entry of the leaderboard). Figures that are undefined are null.
 
 It writes into DIR: `results.json` (strict JSON: the suite name, version and fingerprint, every cell's summary
-and episodes), `leaderboard_row.md` (the policy's Markdown row) and `comparison.md` (the row beside the shipped
-policies' results in the shipped leaderboard, `auv_mj/benchmark/data/leaderboard.json`, over the same cells).
+and episodes), `episodes.csv` (one row per episode: cell, seed, outcome, duration, path length, least clearance,
+return, ...), `leaderboard_row.md` (the policy's Markdown row) and `comparison.md` (the row beside the shipped
+policies' results in the shipped leaderboard, `auv_mj/benchmark/data/leaderboard.json`, over the same cells; the
+run's row, marked "(this run)", comes first and the policy's own published entry, if it has one, right under it,
+marked "(published)").
 `--publish` adds the run to that file (or to `--leaderboard`) and regenerates the `leaderboard.md` beside it; that
 is how the shipped results are made.
 
@@ -32,8 +36,8 @@ import sys
 from pathlib import Path
 
 from auv_mj.benchmark.leaderboard import (
-    LEADERBOARD,
     ROW_HEADER,
+    board_path,
     comparison_table,
     markdown_row,
     oracle_results,
@@ -42,7 +46,8 @@ from auv_mj.benchmark.leaderboard import (
     read_json,
 )
 from auv_mj.benchmark.runner import benchmark
-from auv_mj.benchmark.suite import EPISODES, ORACLE, SEED_BLOCK, SUITE_V1, SUITE_VERSION, TIERS, WATERS
+from auv_mj.benchmark.suite import EPISODES, ORACLE, SEED_BLOCK, SUITES, TIERS, WATERS
+from auv_mj.cli.evaluate import write_episodes_csv
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     bounded_int,
@@ -53,6 +58,9 @@ from auv_mj.cli.options import (
 )
 from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
+
+EPISODES_CSV = "episodes.csv"
+"""The per-episode table in --out: one row per episode (cell, seed, outcome, duration, path length, ...)."""
 
 
 def _choices(values: tuple[str, ...], option: str):
@@ -68,6 +76,8 @@ def _choices(values: tuple[str, ...], option: str):
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj benchmark`."""
+    parser.add_argument("--domain", choices=list(SUITES), default="auv", help="the suite: auv (suite v1, the planar "
+                        "vehicle, the default) or auv3d (the 3-D suite of the 6-DOF vehicle)")
     parser.add_argument("--policy", required=True, help=policies.policy_help())
     parser.add_argument("--tier", type=_choices(TIERS, "--tier"), default=TIERS, help="tiers, e.g. standard,hard")
     parser.add_argument("--water", type=_choices(WATERS, "--water"), default=WATERS, help="waters, e.g. ideal,ocean")
@@ -78,12 +88,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run the episodes in this many local processes")
     parser.add_argument("--ray", default=None, metavar="ADDRESS", help="run the episodes as Ray tasks at ADDRESS "
                         "('local' starts Ray here, 'auto' or HOST:PORT joins a cluster)")
-    parser.add_argument("--out", type=Path, required=True, help="folder for results.json, leaderboard_row.md and "
-                        "comparison.md")
+    parser.add_argument("--out", type=Path, required=True, help="folder for results.json, episodes.csv, "
+                        "leaderboard_row.md and comparison.md")
     parser.add_argument("--oracle", type=Path, default=None, help="an oracle results.json for time efficiency "
                         f"(default: the `{ORACLE}` entry of the leaderboard)")
-    parser.add_argument("--leaderboard", type=Path, default=LEADERBOARD, help="the leaderboard to compare with and "
-                        "publish to (default: the shipped one)")
+    parser.add_argument("--leaderboard", type=Path, default=None, help="the leaderboard to compare with and "
+                        "publish to (default: the domain's shipped one)")
     parser.add_argument("--publish", action="store_true", help="add this run to --leaderboard and regenerate its "
                         "Markdown beside it")
     parser.add_argument("--record-failures", type=Path, default=None, metavar="DIR",
@@ -104,6 +114,9 @@ def _start_workers_early(workers: int) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Checks the outputs and every cell, runs the suite, writes the results and tables."""
+    suite = SUITES[args.domain]
+    if args.leaderboard is None:
+        args.leaderboard = board_path(suite)
     out = check_output_folder(args, args.out, "--out")
     if args.publish:
         check_output(args, args.leaderboard, "--leaderboard")
@@ -115,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
             distributed.require_ray()
         except ImportError as e:
             usage_error(args, f"--ray: {e}")
-    cells = [c for c in SUITE_V1 if c.tier in args.tier and c.water in args.water]
+    cells = [c for c in suite.cells if c.tier in args.tier and c.water in args.water]
     if args.workers > 1 and args.ray is None:
         _start_workers_early(args.workers)
     try:
@@ -123,19 +136,23 @@ def run(args: argparse.Namespace) -> int:
         oracle = read_json(args.oracle, "--oracle") if args.oracle else oracle_results(board)
     except ValueError as e:
         usage_error(args, str(e))
-    if oracle is not None and oracle.get("suite_version") != SUITE_VERSION:
-        usage_error(args, f"--oracle results are of suite version {oracle.get('suite_version')}, not {SUITE_VERSION}")
+    if oracle is not None and (oracle.get("suite_version") != suite.version
+                               or oracle.get("suite", SUITES["auv"].name) != suite.name):
+        usage_error(args, f"--oracle results are of {oracle.get('suite', SUITES['auv'].name)} version "
+                    f"{oracle.get('suite_version')}, not {suite.name} version {suite.version}")
     try:
         for cell in {(c.task, c.tier, c.water): c for c in cells}.values():  # refuse before the first episode
             policies.env_and_policy(args.policy, cell.task, cell.first_seed, cell.task_kwargs)
     except (ValueError, FileNotFoundError) as e:
         usage_error(args, str(e))
     results = benchmark(args.policy, cells, args.episodes, args.max_steps, oracle=oracle, workers=args.workers,
-                        ray_address=args.ray, progress=not args.no_progress)
+                        ray_address=args.ray, progress=not args.no_progress, suite=suite)
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(results, indent=1, allow_nan=False))
     row = markdown_row(results)
     (out / "leaderboard_row.md").write_text(ROW_HEADER + "\n" + row + "\n")
+    write_episodes_csv([{"cell": name, **e} for name, cell in results["cells"].items() for e in cell["episodes"]],
+                       out / EPISODES_CSV, first=("cell",))
     comparison = comparison_table(results, board)
     (out / "comparison.md").write_text(comparison)
     print(comparison)
@@ -149,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
             episodes = [(cell.task, e["seed"], e["outcome"]) for e in results["cells"][cell.name]["episodes"]]
             record_failures(args.policy, episodes, args.record_failures / cell.name.replace("/", "-"),
                             cell.task_kwargs, args.max_steps)
-    print(f"wrote {out / 'results.json'}, {out / 'leaderboard_row.md'}, {out / 'comparison.md'}")
+    print(f"wrote {out / 'results.json'}, {out / EPISODES_CSV}, {out / 'leaderboard_row.md'}, {out / 'comparison.md'}")
     for failure in results.get("failed", []):
         print(f"{args.prog}: episode seed {failure['seed']} of {failure['cell']} failed: {failure['error']}",
               file=sys.stderr)

@@ -16,6 +16,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-png", action="store_true", help="write no preview")
     parser.add_argument("--no-path", action="store_true",
                         help="the arena needs no global path (goal-reaching tasks of Tables 7-8)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar over the checks")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -26,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
         usage_error(args, f"give the preview file with --png (or --no-png): {args.arena[:60]!r} has no name")
     check_output(args, png, "--png")
     try:
-        report = check_arena(args.arena, png, need_path=not args.no_path)
+        report = check_arena(args.arena, png, need_path=not args.no_path, progress=not args.no_progress)
     except OSError as e:
         print(f"auv-mj check-arena: cannot write the preview: {e}")
         return 1

@@ -20,6 +20,7 @@ from auv_mj import render
 from auv_mj.cli import plots
 from auv_mj.cli.evaluate import table_cell
 from auv_mj.cli.options import add_episode_options, check_output, fps, pixels, task_kwargs, usage_error
+from auv_mj.console import progress_bar
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, episode_metrics, record_episode
 from auv_mj.render import glbackend
 from auv_mj.zoo import registry as policies
@@ -87,9 +88,15 @@ def run(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     recorder = EpisodeRecorder(env, task, args.policy, args.seed)
     video = args.out / f"{task}.mp4"
-    if args.no_video:
+    compared = [name for name in COMPARED  # (planar policies: none on a 6-DOF task)
+                if name != args.policy and policies.runs_on(policies.POLICIES[name], task)]
+    bar = None
+    if args.no_video:  # the table's episodes, a minute or so each: one bar over them names the one running
+        bar = progress_bar(total=1 + len(compared), desc="demo: table episodes", unit="ep")
+        bar.set_postfix(policy=args.policy)
         for _ in recorder.run(policy):
             pass
+        bar.update(1)
     else:
         try:
             glbackend.require()
@@ -103,13 +110,17 @@ def run(args: argparse.Namespace) -> int:
     episode_file = args.out / f"{task}_episode.npz"
     record.save(episode_file)
     records = {args.policy: record}
-    for name in COMPARED:
-        if name not in records:
-            try:
-                env, policy = policies.env_and_policy(name, task, args.seed, kwargs)
-                records[name] = record_episode(env, policy, task=task, policy_name=name, seed=args.seed)
-            except (FileNotFoundError, ValueError) as e:
-                print(f"{args.prog}: skipping {name}: {e}", file=sys.stderr)
+    if bar is None:  # after the video, whose episode had the renderer's bar
+        bar = progress_bar(total=len(compared), desc="demo: table episodes", unit="ep")
+    for name in compared:
+        bar.set_postfix(policy=name)
+        try:
+            env, policy = policies.env_and_policy(name, task, args.seed, kwargs)
+            records[name] = record_episode(env, policy, task=task, policy_name=name, seed=args.seed)
+        except (FileNotFoundError, ValueError) as e:
+            bar.write(f"{args.prog}: skipping {name}: {e}", file=sys.stderr)
+        bar.update(1)
+    bar.close()
     title = "Tunnel inspection (Table 12)" if task == TASK and not kwargs else task
     figure = plots.plot_trajectory(list(records.values()), args.out / f"{task}_trajectory.png",
                                    labels=list(records), title=f"{title}, seed {args.seed}")

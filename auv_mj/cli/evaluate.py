@@ -8,7 +8,14 @@ Per task the summary holds (units in brackets):
 - `min_clearance` (least over episodes) and `median_min_clearance` [m], hull to the nearest geom;
 - `path_length` [m], `time_to_goal` [s] (mean over successful episodes), `return` and `return_std`;
 - tracking tasks: `mae_speed`, `max_speed` [m/s], `mae_heading`, `max_heading` [rad], `mae_cross_track`,
-  `max_cross_track` [m], and on speed_heading `mae_speed_<phase>`, `mae_heading_<phase>` (Table 9).
+  `max_cross_track` [m], on depth_heading `mae_depth`, `max_depth` [m], and on speed_heading and depth_heading
+  `mae_speed_<phase>`, `mae_heading_<phase>` (Table 9). Their episodes end by their schedule, not at a goal:
+  `success_rate` and `time_to_goal` are null for them.
+The JSON's `records` hold every episode ({task: [rows in seed order]}: seed, outcome, duration, path length,
+least clearance, return, ...), written also one row per episode to `NAME_episodes.csv` beside --csv (or --json).
+A task whose first two seeds give the same episode bit for bit (a fixed arena in ideal water under a policy that
+draws no random number) runs no more: its summary holds that one episode, says `deterministic` and the seeds it
+`stands_for`, and the table says so under its row (`auv_mj.benchmark.runner.evaluate`).
 A figure that is undefined is null in the JSON (never NaN): `time_to_goal` when no episode succeeded,
 clearances on a task without obstacles to measure (speed_heading), tracking errors where the task
 reports none. The JSON is strict (any parser reads it); the CSV leaves such cells empty.
@@ -21,7 +28,7 @@ index and seed; the summaries cover the finished episodes, and the exit status i
 
 `--record-failures DIR` writes an MP4 and a trajectory PNG of every episode that did not reach the goal
 (`auv_mj.cli.failures`: each is run again, seeded as before, through the renderer), named
-`TASK_seedSEED_OUTCOME`; the folder is checked before the first episode.
+`TASK_seedSEED_OUTCOME`, each episode once; the folder is checked before the first episode.
 """
 
 from __future__ import annotations
@@ -53,7 +60,10 @@ SEED_LIMIT = 2**32 - 1
 
 
 TABLE_COLUMNS = ("success_rate", "collision_rate", "min_clearance", "path_length", "time_to_goal", "return",
-                 "mae_speed", "mae_heading")
+                 "mae_speed", "mae_heading", "mae_depth")
+"""The table's columns; a tracking column no task of the table reports (mae_depth outside depth_heading) is left
+out. On a tracking task success_rate and time_to_goal read n/a: its episodes end by their schedule."""
+OPTIONAL_COLUMNS = ("mae_depth",)
 
 
 def table_cell(value, width: int = 15, digits: int = 3) -> str:
@@ -68,18 +78,53 @@ def table_cell(value, width: int = 15, digits: int = 3) -> str:
 
 def format_table(results: dict) -> str:
     """A plain-text table of the headline metrics and the outcomes, one row per task."""
-    header = f"{'task':<18}" + "".join(f"{c:>15}" for c in TABLE_COLUMNS) + "   outcomes"
+    columns = [c for c in TABLE_COLUMNS if c not in OPTIONAL_COLUMNS
+               or any(s.get(c) is not None for s in results["tasks"].values())]
+    header = f"{'task':<18}" + "".join(f"{c:>15}" for c in columns) + "   outcomes"
     lines = [f"policy: {results['policy']}   episodes: {results['episodes']}   seed: {results['seed']}",
              header, "-" * len(header)]
     for task, summary in results["tasks"].items():
-        cells = "".join(table_cell(summary.get(c)) for c in TABLE_COLUMNS)
+        cells = "".join(table_cell(summary.get(c)) for c in columns)
         outcomes = ", ".join(f"{name} {n}" for name, n in summary["outcomes"].items() if n)
         lines.append(f"{task:<18}{cells}   {outcomes}")
+    for task, summary in results["tasks"].items():
+        if summary.get("deterministic"):
+            lines.append(deterministic_note(task, results["seed"], summary["stands_for"]))
     return "\n".join(lines)
 
 
-def write_outputs(results: dict, json_path: Path | None, csv_path: Path | None) -> None:
-    """Writes the results as strict JSON ({"tasks": {...}}) and as a CSV of one row per task."""
+def deterministic_note(task: str, seed: int, stands_for: int) -> str:
+    """The line under the table for a task whose episodes are one (`auv_mj.benchmark.runner.evaluate`)."""
+    return (f"{task}: deterministic: 1 episode stands for {stands_for} seeds (seeds {seed} and {seed + 1} gave the "
+            "same episode step for step, so the seed changes nothing here; a random arena or ocean water varies it)")
+
+
+EPISODE_CSV_SUFFIX = "_episodes.csv"
+"""The per-episode CSV is written beside --csv (or --json): `out.csv` -> `out_episodes.csv`."""
+
+
+def episodes_csv_path(json_path: Path | None, csv_path: Path | None) -> Path | None:
+    """Where the per-episode CSV goes: beside --csv, else beside --json; None without either."""
+    beside = csv_path or json_path
+    return None if beside is None else beside.with_name(beside.stem + EPISODE_CSV_SUFFIX)
+
+
+def write_episodes_csv(rows: list[dict], path: Path, first: tuple[str, ...] = ("task",)) -> None:
+    """One row per episode (`evaluate`'s "records", the benchmark's cell episodes): the `first` columns, then the
+    seed and every metric (the union of the rows' keys); empty cells for undefined figures."""
+    keys = list(first) + ["seed"]
+    keys += sorted({k for row in rows for k in row} - set(keys))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(keys)
+        for row in rows:
+            writer.writerow(["" if row.get(k) is None else row[k] for k in keys])
+
+
+def write_outputs(results: dict, json_path: Path | None, csv_path: Path | None) -> Path | None:
+    """Writes the results as strict JSON ({"tasks": {...}, "records": {...}}), a CSV of one row per task, and beside
+    them a CSV of one row per episode (`episodes_csv_path`); returns the last one's path (None when not written)."""
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
         json_path.write_text(json.dumps(results, indent=2, allow_nan=False))
@@ -94,6 +139,11 @@ def write_outputs(results: dict, json_path: Path | None, csv_path: Path | None) 
             writer.writerow(["task", *keys])
             for task, row in rows.items():
                 writer.writerow([task, *("" if row.get(k) is None else row[k] for k in keys)])
+    episodes_path = episodes_csv_path(json_path, csv_path)
+    if episodes_path is not None:
+        write_episodes_csv([{"task": task, **row} for task, rows in results.get("records", {}).items()
+                            for row in rows], episodes_path)
+    return episodes_path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -103,7 +153,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=positive_int, default=10, help="episodes per task")
     parser.add_argument("--max-steps", type=positive_int, default=None, help="cut episodes after this many steps")
     parser.add_argument("--json", type=Path, default=None, help="write results as JSON here")
-    parser.add_argument("--csv", type=Path, default=None, help="write results as CSV here")
+    parser.add_argument("--csv", type=Path, default=None, help="write results as CSV here (one row per task; "
+                        f"one row per episode beside it, NAME{EPISODE_CSV_SUFFIX}, also written beside --json)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--workers", type=bounded_int(1, MAX_PROCESSES), default=1,
                         help="run the episodes in this many local processes (with --ray local: Ray's CPUs)")
@@ -121,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
     """Runs the evaluation, prints the table, writes JSON/CSV (their paths checked first)."""
     check_output(args, args.json, "--json")
     check_output(args, args.csv, "--csv")
+    check_output(args, episodes_csv_path(args.json, args.csv), "--csv/--json (its per-episode CSV beside it)")
     check_output_folder(args, args.record_failures, "--record-failures")
     if args.seed + args.episodes - 1 > SEED_LIMIT:
         usage_error(args, f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {SEED_LIMIT}")
@@ -143,17 +195,22 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, FileNotFoundError) as e:
         usage_error(args, str(e))
     ended: list[tuple[str, int, str]] = []
+
+    def on_episode(task: str, seed: int, metrics: dict) -> None:
+        if metrics["success"] is not None:  # a tracking episode (no goal) is no failure to record
+            ended.append((task, seed, metrics["outcome"]))
+
     try:
         results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps,
                            progress=not args.no_progress, task_kwargs=kwargs, workers=args.workers,
                            ray_address=args.ray, retries=args.retries,
-                           on_episode=lambda task, seed, metrics: ended.append((task, seed, metrics["outcome"])))
+                           on_episode=on_episode)
     except (ValueError, FileNotFoundError) as e:
         print(f"{args.prog}: error: {e}", file=sys.stderr)
         return 1
     print(format_table(results))
-    write_outputs(results, args.json, args.csv)
-    for path in (args.json, args.csv):
+    episodes_path = write_outputs(results, args.json, args.csv)
+    for path in (args.json, args.csv, episodes_path):
         if path:
             print(f"wrote {path}")
     if args.record_failures is not None:

@@ -94,7 +94,10 @@ def record_failure(policy_name: str, task_name: str, seed: int, directory: str |
 
 def record_failures(policy_name: str, episodes: Iterable[tuple[str, int, str]], directory: str | Path,
                     task_kwargs: dict | None = None, max_steps: int | None = None, **options) -> list[FailureFiles]:
-    """`record_failure` for each (task, seed, outcome) of `episodes` whose outcome is not SUCCESS; `options` go
-    to `record_failure` (size, fps, prefix_policy). Returns what was written, in the order given."""
+    """`record_failure` for each (task, seed, outcome) of `episodes` whose outcome is not SUCCESS, each (task, seed)
+    once; `options` go to `record_failure` (size, fps, prefix_policy). Returns what was written, in the order given.
+    A deterministic evaluation lists one episode for all its seeds (`auv_mj.benchmark.runner.evaluate`), so the
+    same episode is never filmed twice."""
+    failed = dict.fromkeys((task, seed) for task, seed, episode_outcome in episodes if episode_outcome != SUCCESS)
     return [record_failure(policy_name, task, seed, directory, task_kwargs, max_steps, **options)
-            for task, seed, episode_outcome in episodes if episode_outcome != SUCCESS]
+            for task, seed in failed]

@@ -13,7 +13,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Prints every registered policy with its family, tasks, executor, protection domain and description."""
+    """Prints every registered policy with its family, the tasks it runs on (domains and kind), executor,
+    protection domain and description."""
     if args.markdown:
         print(policies.markdown_table())
         return 0
@@ -22,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{title}:")
         for name, spec in policies.POLICIES.items():
             if spec.role == role:
-                print(f"  {name:{width}s}  [{spec.family}, {spec.tasks}] {spec.description}")
+                print(f"  {name:{width}s}  [{spec.family}, {policies.runs_on_label(spec)}] {spec.description}")
         print()
     print(f"Also: a checkpoint path, or NAME=PATH for "
           f"{', '.join(n for n, s in policies.POLICIES.items() if s.accepts_path)}.")

@@ -27,6 +27,7 @@ from auv_mj.render.video import (
     DEFAULT_HOLD_END,
     DEFAULT_SIZE,
     FOLLOW_VIEW,
+    VIDEO_SUFFIXES,
     iter_frames,
     time_against_bare_renderer,
     write_video,
@@ -72,6 +73,9 @@ def make_env_and_policy(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     """`auv-mj render`: renders one episode to a video file, or runs the benchmark."""
+    if args.output is not None and args.output.suffix.lower() not in VIDEO_SUFFIXES:
+        usage_error(args, f"--output {args.output}: a video file ends in .mp4 or .gif, not "
+                          f"{repr(args.output.suffix) if args.output.suffix else 'without a suffix'}")
     try:
         glbackend.require()
         if args.bench:
@@ -91,7 +95,9 @@ def run(args: argparse.Namespace) -> int:
             if args.plots is not None:
                 check_output(args, f"{args.plots}_depth.png", "--plots")
             env, policy = make_env_and_policy(args)
-            render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task} / {args.policy}")
+            render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task} / {args.policy}",
+                      width=args.width, height=args.height, fps=args.fps, speedup=args.speedup,
+                      hold_end=args.hold_end, gif=True if args.gif else None, progress=not args.no_progress)
             return 0
         if args.output is None:
             usage_error(args, "give the video file with -o/--output")

@@ -1,7 +1,8 @@
-"""Videos and plots of 6-DOF episodes (issue 32): `python -m auv_mj.cli.render3d --task tunnel3d --policy splane`.
+"""Videos and plots of 6-DOF episodes: `python -m auv_mj.cli.render3d --task tunnel3d --policy splane`.
 
-Runs one episode of an auv3d task with a registered policy (`auv_mj.zoo.registry`), writes the three-panel
-video of `auv_mj.render.video3d` (chase | top-down | side) and, with --plots PREFIX, two figures:
+Runs one episode of an auv3d task with a registered policy (`auv_mj.zoo.registry`), writes the video of
+`auv_mj.render.video3d` (chase, top-down and side views with a heads-up display) and, with --plots PREFIX, two
+figures:
 PREFIX_depth.png (depth against time, with the command where the task has one) and PREFIX_track.png (the
 3-D track, with the tube's centreline or the goal). `auv-mj render --task tunnel3d ...` runs it (`render_3d`).
 """
@@ -14,9 +15,9 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from auv_mj.episode import EpisodeRecorder
-from auv_mj.render.video import write_video
-from auv_mj.render.video3d import PANEL_SIZE, Track3D, iter_frames_3d
+from auv_mj.episode import EpisodeRecorder, outcome
+from auv_mj.render.video import DEFAULT_FPS, DEFAULT_HOLD_END, DEFAULT_SIZE, write_video
+from auv_mj.render.video3d import Track3D, iter_frames_3d
 from auv_mj.tasks import suite
 from auv_mj.zoo.registry import env_and_policy
 
@@ -66,23 +67,33 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-steps", type=int, default=None)
     parser.add_argument("-o", "--output", default=None, help="video to write (.mp4 or .gif); none if omitted")
     parser.add_argument("--plots", default=None, metavar="PREFIX", help="write PREFIX_depth.png, PREFIX_track.png")
+    parser.add_argument("--width", type=int, default=DEFAULT_SIZE[0])
+    parser.add_argument("--height", type=int, default=DEFAULT_SIZE[1])
     args = parser.parse_args(argv)
     if args.output is None and args.plots is None:
         parser.error("give -o VIDEO and/or --plots PREFIX")
     env, policy = env_and_policy(args.policy, args.task, args.seed)
-    render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task}, {args.policy}, seed {args.seed}")
+    render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task}, {args.policy}, seed {args.seed}",
+              width=args.width, height=args.height)
     return 0
 
 
 def render_3d(env, policy, output: str | Path | None, plots: str | None, max_steps: int | None,
-              title: str) -> None:
-    """One episode of a 6-DOF task: the three-panel video to `output` and/or the depth and track figures
-    `plots`_depth.png, `plots`_track.png."""
+              title: str, *, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], fps: float = DEFAULT_FPS,
+              speedup: float | None = None, hold_end: float = DEFAULT_HOLD_END, gif: bool | None = None,
+              progress: bool = False) -> None:
+    """One episode of a 6-DOF task: the video of `auv_mj.render.video3d` (chase, top and side views, heads-up
+    display) to `output` and/or the depth and track figures `plots`_depth.png, `plots`_track.png."""
     track = Track3D()
-    frames = iter_frames_3d(env, policy, max_steps=max_steps, size=PANEL_SIZE, track=track)
     if output:
-        written = write_video(frames, output, fps=round(1.0 / env.control_timestep()))
-        print(f"wrote {written}")
+        recorder = EpisodeRecorder(env)
+        frames = iter_frames_3d(env, policy, max_steps=max_steps, width=width, height=height, fps=fps,
+                                speedup=speedup, hold_end=hold_end, title=title, track=track, recorder=recorder,
+                                progress=progress)
+        written = write_video(frames, output, fps=fps, gif=gif)
+        record = recorder.record()
+        print(f"wrote {written}: {record.steps} steps, {record.time[-1]:.1f} s simulated, outcome "
+              f"{outcome(record.event)}")
     else:  # the same episode loop, nothing drawn
         recorder = EpisodeRecorder(env)
         for _ in recorder.run(policy, max_steps):

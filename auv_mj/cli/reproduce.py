@@ -13,12 +13,12 @@ import argparse
 import datetime
 import platform
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 from auv_mj.cli.options import check_output, positive_int, usage_error
 from auv_mj.cli.report import SECTIONS, ReportSettings
+from auv_mj.console import progress_bar
 
 
 def _commit() -> str:
@@ -95,13 +95,16 @@ def run(args: argparse.Namespace) -> int:
     settings = ReportSettings(episodes=episodes, workers=args.workers, figures=figures, runs=args.runs,
                               paper_runs=args.paper_runs, peer_runs=args.peer_runs)
     header, blocks = list(lines), {}
+    bar = progress_bar(total=len(names), desc="reproduce", unit="section")
     for name in names:
-        print(f"reproduce: {name} ...", file=sys.stderr)
+        bar.set_postfix(section=name)  # a section takes minutes: the bar names the one running
         began, lines[:] = time.perf_counter(), []
         SECTIONS[name](lines, settings)
         stamp = (f"_Section `{name}` measured {datetime.date.today().isoformat()} at commit `{_commit()}` in "
                  f"{time.perf_counter() - began:.0f} s (`--episodes {episodes}`)._")
         blocks[name] = "\n".join([SECTION_START.format(name), *lines, stamp, SECTION_END.format(name)])
+        bar.update(1)
+    bar.close()
     old = args.out.read_text() if args.out.is_file() else ""
     header[header.index(next(h for h in header if h.startswith("Generated")))] = (
         f"Last updated {datetime.date.today().isoformat()} at commit `{_commit()}` on {platform.machine()} "

@@ -250,17 +250,18 @@ def seed_list(text: str) -> list[int]:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj sweep`."""
     parser.add_argument("agents", nargs="+", choices=AGENTS, help="agents to train (e.g. her-ddpg ddpg)")
-    parser.add_argument("--task", default="goal", help="suite task name or Gymnasium id [goal]")
+    parser.add_argument("--task", default="goal", help="suite task name or Gymnasium id")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON", help="task options")
     parser.add_argument("--arena", default=None, metavar="PATH", help="arena MJCF for the task")
-    parser.add_argument("--seeds", type=seed_list, nargs="+", default=[[0]], help="run seeds: 0 1 2 or 0-9 [0]")
+    parser.add_argument("--seeds", type=seed_list, nargs="+", default=[[0]],
+                        help="run seeds: 0 1 2 or 0-9 (default: 0)")
     parser.add_argument("--grid", type=json_object, default={}, metavar="JSON",
                         help='DDPGConfig fields and their values, e.g. \'{"noise_std": [0.1, 0.3]}\'')
     parser.add_argument("--steps", type=positive_int, help="env steps per trial (default: --episodes)")
     parser.add_argument("--episodes", type=positive_int, help="episodes per trial (default: max_episodes)")
     parser.add_argument("--collectors", type=bounded_int(0, MAX_PROCESSES), default=0, metavar="N",
                         help="collector processes per trial (`auv-mj train --collectors`); a trial then "
-                             "takes N + 1 CPUs [0: serial, one CPU]")
+                             "takes N + 1 CPUs (default: 0, serial on one CPU)")
     parser.add_argument("--out", type=Path, required=True, help="sweep folder: one run directory per trial")
     parser.add_argument("--resume", action="store_true", help="continue the sweep in --out from its checkpoints")
     parser.add_argument("--ray", default="local", metavar="ADDRESS",

@@ -17,6 +17,7 @@ from typing import Any
 import gymnasium as gym
 
 import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
+from auv_mj import zoo
 from auv_mj.agents import ppo
 from auv_mj.agents.checkpoint import agent_classes, config_from_dict, read_checkpoint
 from auv_mj.agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
@@ -35,6 +36,8 @@ from auv_mj.cli.options import (
 )
 from auv_mj.inputs import check_json_depth, read_text
 from auv_mj.planners.deploy import ChainConfig, deploy_env
+from auv_mj.tasks import suite
+from auv_mj.tasks.gym_adapter import gym_id
 from auv_mj.tasks.planning import REWARDS
 
 TASK_IDS: dict[str, str] = {}
@@ -42,11 +45,14 @@ TASK_IDS: dict[str, str] = {}
 
 
 def task_env_id(task: str) -> str:
-    """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, or `auv_mj/<CamelCase>-v0`."""
+    """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, the suite's own id of a task of either
+    domain (`auv_mj.tasks.gym_adapter.gym_id`: goal3d -> auv_mj/Goal3D-v0), or `auv_mj/<CamelCase>-v0`."""
     if task in TASK_IDS:
         return TASK_IDS[task]
     if "/" in task or ":" in task:
         return task
+    if task in suite.TASKS_BY_DOMAIN[suite.DOMAIN] + suite.TASKS_BY_DOMAIN[suite.DOMAIN_3D]:
+        return gym_id(task)
     camel = "".join(part[:1].upper() + part[1:] for part in re.split(r"[-_\s]+", task) if part)
     return f"auv_mj/{camel}-v0"
 
@@ -68,19 +74,7 @@ class EnvFactory:
             importlib.import_module(self.module)
         chain = {k: v for k, v in self.kwargs.items() if k in ChainConfig.__dataclass_fields__}
         rest = {k: v for k, v in self.kwargs.items() if k not in chain}
-        return deploy_env(gym.make(self.env_id, **_with_executor(rest)), **chain)
-
-
-def _with_executor(kwargs: dict) -> dict:
-    """`kwargs` with a planning task's executor named in its task_kwargs ("executor": one of
-    `policies.EXECUTORS` or a speed_heading checkpoint) built, so that a planner trains on the execution layer
-    it will run on (e.g. the learned one of the two-layer system)."""
-    task_kwargs = kwargs.get("task_kwargs")
-    if isinstance(task_kwargs, dict) and isinstance(task_kwargs.get("executor"), str):
-        from auv_mj.zoo.registry import named_executor
-
-        return {**kwargs, "task_kwargs": {**task_kwargs, "executor": named_executor(task_kwargs["executor"])}}
-    return kwargs
+        return deploy_env(gym.make(self.env_id, **rest), **chain)
 
 
 def make_env_fn(env_id: str, **kwargs: Any) -> EnvFactory:
@@ -130,8 +124,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=positive_int, help="total episodes (default: max_episodes, Table 4)")
     parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
-    parser.add_argument("--init", type=Path, metavar="CHECKPOINT",
-                        help="start a new run from this checkpoint's networks (fine-tuning)")
+    parser.add_argument("--init", metavar="CHECKPOINT",
+                        help="start a new run from this checkpoint's networks (fine-tuning): a checkpoint path or "
+                             "a learned policy's name, for its shipped checkpoint (e.g. planner-route; "
+                             "`auv-mj policies` lists them)")
     parser.add_argument("--zero-actor-head", action="store_true",
                         help="a new run's actor output layer starts at zero: a residual planner starts as its "
                              "classical skeleton (with --actor-burn-in, the critic learns it first)")
@@ -142,7 +138,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-tensorboard", action="store_true", help="no TensorBoard scalars")
     parser.add_argument("--collectors", type=bounded_int(0, MAX_PROCESSES), default=0, metavar="N",
                         help="step N environments in collector processes while this one learns (1 uses a "
-                             "second core; deterministic given --seed and N, not the serial run) [0: serial]")
+                             "second core; deterministic given --seed and N, not the serial run) (default: 0, serial)")
     add_config_options(parser)
     add_ppo_options(parser)
 
@@ -306,6 +302,7 @@ def run(args: argparse.Namespace) -> int:
             env_kwargs = _read_options(env_file)
         if args.resume and args.init:
             raise ValueError("--init starts a new run; it cannot be combined with --resume")
+        init = None if args.init is None else zoo.checkpoint_path(args.init, args.task)
         env_fn = make_env_fn(task_env_id(args.task), **({"task_kwargs": kwargs} if kwargs else {}),
                              **(env_kwargs or {}))
         env_fn().close()  # a bad task option is refused here, before the run directory is touched
@@ -319,7 +316,7 @@ def run(args: argparse.Namespace) -> int:
             base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"], run_dir, config_class)
         config = dataclasses.replace(base, **config_overrides(args))
         result = train(env_fn, args.agent, config, total_steps=args.steps, episodes=args.episodes,
-                       run_dir=run_dir, resume=args.resume, init=args.init,
+                       run_dir=run_dir, resume=args.resume, init=init,
                        checkpoint_every=args.checkpoint_every, progress=not args.no_progress,
                        tensorboard=not args.no_tensorboard, collectors=args.collectors,
                        zero_actor_head=args.zero_actor_head,

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.arenas import procedural, traps, tubes
+from auv_mj.arenas import procedural, traps, tubes, tunnels
 from auv_mj.arenas.arena_check import check_arena
 from auv_mj.arenas.tunnels import (
     BOUNDS_MARGIN,
@@ -92,9 +92,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"wall merging tolerance [m] (default {MERGE_TOLERANCE:g})")
     parser.add_argument("--name", type=model_name, default=None, help="model name (default: the output's stem)")
     parser.add_argument("--tube", action="store_true",
-                        help="the centreline has x,y,z columns (z up, below 0): write a 3-D tube arena for the 6-DOF "
-                             "vehicle (auv_mj/arenas/tubes.py) of inner diameter --width (default "
-                             f"{2 * tubes.TUBE_RADIUS:g} m)")
+                        help="the centreline has x,y,z columns (z up, below 0), or is a tube JSON: write a 3-D tube "
+                             "arena for the 6-DOF vehicle (auv_mj/arenas/tubes.py) of inner diameter --width "
+                             f"({2 * tubes.MIN_RADIUS:g} to {2 * tubes.MAX_RADIUS:g} m, default "
+                             f"{2 * tubes.TUBE_RADIUS:g} m); --obstacle X,Y,Z,RADIUS[,NAME] places a rock, --mover "
+                             "X0,Y0,Z0,X1,Y1,Z1,SPEED,RADIUS[,NAME] a moving sphere")
     group = parser.add_argument_group(
         "procedural arenas", "--random SEED writes the arena of the first episode of `--arena random --seed "
         "SEED` (the same arena as `auv-mj eval` draws), unless an option below changes the distribution")
@@ -111,7 +113,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                             help="number of movers in the tunnel")
     group.add_argument("--tier", default="standard", choices=traps.TIERS,
                        help="the task's `tier` option: today's distribution (standard, default) or the hard tier of "
-                            "certified trap arenas (issue 30, auv_mj/arenas/traps.py)")
+                            "certified trap arenas (auv_mj/arenas/traps.py)")
 
 
 def _command_line() -> str | None:
@@ -173,12 +175,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_tube(args: argparse.Namespace) -> int:
-    """`auv-mj tunnel --tube CENTRELINE`: a 3-D tube along an x, y, z centreline, checked before it is written."""
+    """`auv-mj tunnel --tube CENTRELINE`: a 3-D tube along an x, y, z centreline (CSV, or JSON with obstacles and
+    movers), `--smooth`ed if asked, with `--obstacle X,Y,Z,RADIUS` rocks and `--mover` spheres, checked before it
+    is written."""
     if args.centreline is None:
-        usage_error(args, "--tube needs a centreline CSV of x,y,z rows")
-    planar = [option for option, value in (("--obstacle", args.obstacle), ("--unknown", args.unknown),
-                                           ("--mover", args.mover), ("--closed", args.closed),
-                                           ("--smooth", args.smooth)) if value]
+        usage_error(args, "--tube needs a centreline CSV of x,y,z rows (or a tube JSON)")
+    planar = [option for option, value in (("--unknown", args.unknown), ("--closed", args.closed)) if value]
     if planar:
         usage_error(args, f"{', '.join(planar)} are planar tunnel options, not for --tube")
     output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
@@ -186,13 +188,23 @@ def _run_tube(args: argparse.Namespace) -> int:
     if output.resolve() == Path(args.centreline).resolve():
         usage_error(args, f"-o {output} would overwrite the centreline")
     try:
-        line = tubes.read_centreline(args.centreline)
-        tube = tubes.Tube(line, 0.5 * args.width if args.width else tubes.TUBE_RADIUS)
+        spec = tubes.read_tube(args.centreline)
+        line = tunnels.chaikin(spec.centreline, args.smooth_iterations) if args.smooth else spec.centreline
+        if len(line) > tubes.MAX_POINTS:
+            raise ValueError(f"{args.centreline}: --smooth makes {len(line)} centreline points, more than "
+                             f"{tubes.MAX_POINTS}: fewer --smooth-iterations")
+        width = args.width if args.width else spec.width
+        tube = tubes.Tube(line, 0.5 * width if width else tubes.TUBE_RADIUS)
         problems = tubes.check_tube(tube)
         if problems:
             raise ValueError(f"{args.centreline}: the tube would not be a usable arena: {problems[0]}"
                              + (f" (and {len(problems) - 1} more problems)" if len(problems) > 1 else ""))
-        element = tubes.tube_arena(tube, args.name or output.stem)
+        obstacles = [*spec.obstacles, *(tubes.TubeObstacle.parse(text) for text in args.obstacle)]
+        movers = [*spec.movers, *(tubes.TubeMover.parse(text) for text in args.mover)]
+        element = tubes.tube_arena(tube, args.name or output.stem, obstacles=obstacles, movers=movers)
+        report = check_arena(element)
+        if not report.ok:
+            raise ValueError(f"{args.centreline}: the tube would not be a usable arena: {report.problems[0]}")
     except ValueError as e:
         usage_error(args, " ".join(str(e).split()))
     try:
@@ -201,7 +213,8 @@ def _run_tube(args: argparse.Namespace) -> int:
         print(f"{args.prog}: error: cannot write {output}: {e.strerror or e}", file=sys.stderr)
         return 1
     print(f"wrote {output}: a tube of {tube.length():.0f} m, inner radius {tube.radius:g} m, "
-          f"{tubes.N_STAVES * (len(line) - 1)} staves; check it with: auv-mj check-arena {output}")
+          f"{tube.staves * (len(line) - 1)} staves ({tube.staves} round, {tube.stave_radius:g} m thick), "
+          f"{len(obstacles)} obstacles, {len(movers)} movers; check it with: auv-mj check-arena {output}")
     return 0
 
 

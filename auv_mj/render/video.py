@@ -9,8 +9,10 @@ north up) and/or an overview of the whole arena (full frame, or as picture-in-pi
 `--camera both`); the model's own geoms (walls, obstacles, moving obstacles where the physics puts
 them) drawn by MuJoCo; the water, the map bounds, the global path, the goal area and sub-goals, the
 trajectory trail, the nine sonar beams from the bow to their hit points coloured by range, and the vehicle
-as a scaled-up dart marker (the 1.33 m hull would be a few pixels); and a text overlay (laid out as
-MuJoCo's `mjr_overlay`).
+as a scaled-up dart marker (the 1.33 m hull would be a few pixels); a text overlay (laid out as
+MuJoCo's `mjr_overlay`); and, in the bottom right corner, a key: the sonar's range colours as a ramp from 0 m
+(red) to 120 m (green), and what each line is (beams without an echo, map bounds, global path, trail, movers'
+paths).
 
 How: OpenGL here is usually a CPU rasteriser (Mesa llvmpipe), which pays for every pixel it clears or
 fills, and numpy pays for the pixels it touches. So OpenGL draws only boxes around the model's geoms, each
@@ -47,7 +49,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from auv_mj.console import progress_bar
+from auv_mj.console import complete, progress_bar
 from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions
 from auv_mj.geometry import wrap_angle
 from auv_mj.render import glbackend, raster
@@ -113,9 +115,16 @@ EVENT_COLOURS = {"goal": (0.3, 1.0, 0.4), "collision": (1.0, 0.3, 0.3), "left_ma
 QUIET_EVENTS = ("subgoal",)
 """Events counted in the overlay but given no banner (a path's virtual sub-goals come every 10 m)."""
 CAMERAS = ("follow", "overview", "both")
+VIDEO_SUFFIXES = (".mp4", ".gif")
+"""The video files `write_video` writes: H.264 MP4 or animated GIF."""
 SCALE_RGBA = (1.0, 1.0, 1.0, 1.0)
 SCALE_FRACTION = 0.2
 """The scale bar is the 1-2-5 length nearest below this fraction of the view's width."""
+
+KEY_RAMP_CHARS = 8
+"""The key's colour ramp of sonar echoes is as wide as this many characters of the overlay's font."""
+KEY_SWATCH_CHARS = 3
+"""A line's swatch in the key is as long as this many characters."""
 
 Z_WATER = -2.0
 """Height [m] of the patches of water OpenGL draws under the model's geoms (below every geom)."""
@@ -348,6 +357,8 @@ class FrameRenderer:
         self._water_image[:] = self._water_colour()
         self._font = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_NORMAL, self.width, self.height)
         self._font_big = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_BIG, self.width, self.height)
+        self.key_labels = self._key_entries()[1]
+        self._key = self._key_patch() if self.height >= OVERLAY_MIN_HEIGHT else None
 
     def _classify_shapes(self) -> None:
         """Masks over the model's shapes (its geoms, then its sites) OpenGL draws: those that never move (the
@@ -713,6 +724,88 @@ class FrameRenderer:
             self._font.overlay(image, mujoco.mjtGridPos.mjGRID_BOTTOMRIGHT, view.rect,
                                f"overview, {window[2]:.0f} m tall")
 
+    def _key_entries(self) -> tuple[list[tuple[np.ndarray, int]], tuple[str, ...]]:
+        """The lines the key explains, as ((colour [0-255] as drawn over water, width [px]) per line, labels):
+        the sonar echo (its colour ramp), then the beams without an echo, the map bounds, the global path, the
+        trail and the moving obstacles' paths, each where the arena has it."""
+        water = self._water_image[0, 0].astype(float)
+
+        def drawn(rgba) -> np.ndarray:
+            alpha = float(_opacity(rgba[3]))
+            return np.floor(water * (1.0 - alpha) + _line(rgba) * alpha + 0.5)
+
+        a = self.arena
+        entries = [(None, 0, "sonar echo"), (drawn(NO_ECHO_RGBA), 1, "no echo")]
+        if np.all(np.isfinite(a.bounds)):
+            entries.append((drawn(BOUNDS_RGBA), 2, "map bounds"))
+        if len(a.path) > 1:
+            entries.append((drawn(PATH_RGBA), 2, "global path"))
+        entries.append((drawn(TRAIL_RGBA), 2, "trail"))
+        if len(a.mover_names):
+            entries.append((drawn(MOVER_PATH_RGBA), 1, "obstacle path"))
+        return [(c, w) for c, w, _ in entries[1:]], tuple(label for _, _, label in entries)
+
+    def _key_patch(self) -> tuple[np.ndarray, np.ndarray]:
+        """The key as (pixels (h, w, 3), mask of the lit ones (h, w)), drawn once: on its first row the sonar's
+        range colours from 0 m (red) to SONAR_RANGE (green) as a ramp, below it a swatch and a name per line, two
+        to a row."""
+        font, pad = self._font, raster.OVERLAY_PAD
+        lines, labels = self._key_entries()
+        char = max(int(font.widths[ord("0")]), 1)
+        ramp_w, swatch_w = KEY_RAMP_CHARS * char, KEY_SWATCH_CHARS * char
+        first = [font.mask("sonar echo 0 m "), None, font.mask(f" {SONAR_RANGE:g} m")]
+        items = [(colour, width, font.mask(" " + label)) for (colour, width), label in zip(lines, labels[1:],
+                                                                                             strict=True)]
+        cell = max(swatch_w + m.shape[1] for _, _, m in items) + 2 * char
+        inner = max(first[0].shape[1] + ramp_w + first[2].shape[1], 2 * cell)
+        rows = 1 + math.ceil(len(items) / 2)
+        pitch = font.height + pad
+        pixels = np.zeros((pad + rows * pitch, inner + 2 * pad, 3), np.uint8)
+        mask = np.zeros(pixels.shape[:2], bool)
+
+        def text(glyphs: np.ndarray, row: int, col: int) -> None:
+            mask[row:row + glyphs.shape[0], col:col + glyphs.shape[1]] |= glyphs
+            pixels[row:row + glyphs.shape[0], col:col + glyphs.shape[1]][glyphs] = 255
+
+        def bar(colours: np.ndarray, row: int, col: int, thickness: int) -> None:
+            top = row + font.height // 2 - thickness // 2
+            pixels[top:top + thickness, col:col + len(colours)] = colours
+            mask[top:top + thickness, col:col + len(colours)] = True
+
+        col = pad
+        text(first[0], pad, col)
+        col += first[0].shape[1]
+        ramp = np.floor(_range_colours(np.linspace(0.0, SONAR_RANGE, ramp_w))[:, :3] * 255)
+        bar(ramp, pad, col, max(font.height // 3, 3))
+        text(first[2], pad, col + ramp_w)
+        for k, (colour, width, glyphs) in enumerate(items):
+            row, col = pad + (1 + k // 2) * pitch, pad + (k % 2) * cell
+            bar(np.broadcast_to(colour, (swatch_w, 3)), row, col, max(width, 1) + (font.height > 20))
+            text(glyphs, row, col + swatch_w)
+        return pixels, mask
+
+    @property
+    def key_rect(self) -> tuple[int, int, int, int] | None:
+        """(top row, left column, height, width) [px] of the key in a frame (None below OVERLAY_MIN_HEIGHT): the
+        bottom right corner, above the overview's label when the overview fills the frame."""
+        if self._key is None:
+            return None
+        h, w = self._key[1].shape
+        pad = raster.OVERLAY_PAD
+        lifted = any(view.kind == "overview" and not view.inset for view in self.views)
+        bottom = pad + (self._font.height + 3 * pad if lifted else 0)
+        return self.height - bottom - h, self.width - pad - w, h, w
+
+    def _draw_key(self, image: np.ndarray) -> None:
+        """The key on a half-black box, as the text overlay is drawn."""
+        top, left, h, w = self.key_rect
+        if top < 0 or left < 0:  # a frame too small for it
+            return
+        pixels, mask = self._key
+        region = image[top:top + h, left:left + w]
+        raster.darken(region, 0.5)
+        region[mask] = pixels[mask]
+
     def _overview_layer(self, view: View, window: tuple[float, float, float], goal: np.ndarray,
                         subgoals: np.ndarray, reached: int) -> tuple[np.ndarray, np.ndarray | None]:
         """The overview without what moves (vehicle, trail, beams, movers), framed by its border when it is
@@ -784,6 +877,7 @@ class FrameRenderer:
                 self._draw_overview(out, clip, view, window, state, trail, goal, subgoals, reached)
             self._labels(out, view, window)
         if self.height >= OVERLAY_MIN_HEIGHT:
+            self._draw_key(out)
             self._overlay(out, state, event, reached, len(subgoals))
         return out
 
@@ -945,6 +1039,7 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
             previous = snap
             if snap.step:
                 bar.update(1)
+        complete(bar)  # an episode that ended before its time limit: the bar ends at 100 %
         for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
             yield frame.copy()
     finally:

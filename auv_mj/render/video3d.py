@@ -1,16 +1,28 @@
-"""Videos of 6-DOF episodes (issue 32): a chase camera beside a top-down and a side (depth) view.
+"""Videos of 6-DOF episodes: a chase view beside top-down and side views, with a heads-up display.
 
-All three are drawn by MuJoCo's own renderer (`mujoco.Renderer`, off-screen through `auv_mj.render.glbackend`):
-the chase view is the vehicle MJCF's tracking camera `chase` (behind and above the hull), the top-down view
-looks straight down on the vehicle from TOP_DISTANCE, the side view looks at it level from its port side at
-SIDE_DISTANCE, so that climbs and dives read as they are. The frames are written by `video.write_video`.
+`auv-mj render --task tunnel3d --policy los-avoid -o tube.mp4` runs one episode and writes it (through
+`auv_mj.cli.render3d`). A frame (DEFAULT_SIZE, 1280 x 720) holds three labelled panels drawn by MuJoCo from one
+off-screen buffer: the chase camera of the vehicle MJCF (`models/auv6.xml`, two thirds of the frame), a top-down
+view (north up, as the planar videos) and a side view from the vehicle's starboard, both centred on the vehicle.
+Every panel shows the sonar fan (its 27 beams from the bow to their echoes, coloured by range; beams without an
+echo faint and cut at FAN_DRAWN), the tube's or arena's geoms, the movers where they are, and the goal. On top, in
+numpy (`auv_mj.render.raster`, MuJoCo's bitmap fonts), a heads-up display (time, depth, altitude, speed, pitch,
+heading, the goal's distance), a banner at each event (goal, collision, ...) and a progress bar along the bottom
+(distance made good towards the goal, or the time of a tracking episode).
 
-Python API: `iter_frames_3d(env, policy)` (one frame per control step, through the episode loop of
-`auv_mj.episode.EpisodeRecorder`, gathering a `Track3D` if asked), `render_episode_3d(env, policy)`.
+Timing as the planar videos (`auv_mj.render.video`): a frame every `speedup / fps` simulation seconds, one per
+control step by default (15x real time for the 0.5 s planner at DEFAULT_FPS); a smaller `speedup` interpolates the
+states recorded at the control steps (positions linearly, the attitude by normalised linear interpolation of the
+quaternion, movers linearly; the sonar held, as the 2 Hz sonar holds it). The environment is stepped exactly as in
+evaluation, through the one episode loop (`auv_mj.episode.EpisodeRecorder`).
+
+Python API: `iter_frames_3d(env, policy, ...)` (streaming), `render_episode_3d(env, policy, ...) -> (T, H, W, 3)`,
+and `Track3D`, the 3-D track gathered beside the frames (`auv_mj.cli.render3d` plots it).
 """
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -18,48 +30,356 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from auv_mj.console import progress_bar
 from auv_mj.episode import EpisodeRecorder
-from auv_mj.render import glbackend  # noqa: F401  (picks the OpenGL backend before a context is made)
+from auv_mj.render import glbackend, raster
+from auv_mj.render.video import (
+    DEFAULT_FPS,
+    DEFAULT_HOLD_END,
+    DEFAULT_SIZE,
+    EVENT_COLOURS,
+    EVENT_HOLD,
+    WATER_RGBA,
+    _gl_context_class,  # the headless backend's GLContext, as the planar renderer makes it
+)
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, altimeter, fan_directions
+from auv_mj.sim.sonar import SONAR_RANGE
 
 CHASE_CAMERA = "chase"
+"""The vehicle MJCF's camera behind and above the hull."""
 TOP_DISTANCE = 40.0
 """Height of the top-down view's camera above the vehicle [m]."""
 SIDE_DISTANCE = 30.0
 """Distance of the side view's camera from the vehicle [m]."""
+VIEW_PER_RADIUS = 5.0
+"""In a wide tube the top and side cameras stand back this many tube radii (at least TOP_DISTANCE and
+SIDE_DISTANCE), so that the views hold the tube across."""
+CHASE_SHARE = 2.0 / 3.0
+"""Share of the frame's width the chase view takes; the top and side views share the rest, one above the other."""
+PROGRESS_SHARE = 1.0 / 45.0
+"""Height of the progress bar as a share of the frame's (16 px at 720p)."""
+MIN_HUD_HEIGHT = 240
+"""Below this frame height [px] the text is left out: MuJoCo's smallest font would cover the views."""
 MESH_SLICES, MESH_STACKS = 10, 4
-"""Capsule tessellation of the views (MuJoCo's defaults are 28 and 16)."""
-PANEL_SIZE = (320, 240)
-"""(width, height) of each of the three panels [pixels]."""
+"""Capsule tessellation of the views (MuJoCo's defaults are 28 and 16): a tube holds thousands of staves, and the
+renderer is often a CPU one."""
+FAN_DRAWN = 20.0
+"""Beams without an echo are drawn this long [m], faint: at full range they would cross the whole view."""
+FAN_WIDTH = 2.0
+"""Width of a beam [px]."""
+COLOUR_RANGE = 30.0
+"""Beams are coloured from red at zero range to green at this range [m] and beyond: the open-water protection
+domain's reach (Sec. 3.2.2); a tube's wall is always nearer, so its echoes run from red to yellow."""
+NEAR_RGBA, FAR_RGBA = np.array([1.0, 0.15, 0.1, 0.9]), np.array([0.2, 1.0, 0.4, 0.9])
+"""A beam's colour at zero range and at COLOUR_RANGE (linear between)."""
+NO_ECHO_RGBA = np.array([0.6, 0.85, 0.6, 0.25])
+CHASE_RANGE = 40.0
+"""The chase view draws the arena's geoms within this distance [m] of its camera, plus two tube radii in a tube
+(a tube holds thousands of staves)."""
+EXTRA_GEOMS = 64
+"""Room in the scene beyond the model and the fan."""
+WATER_RGB = np.floor(np.asarray(WATER_RGBA[:3]) * 255).astype(np.uint8)
+"""The water behind the geoms, as in the planar videos (OpenGL clears to black; no lit geom is exactly black)."""
+BAR_RGB, BAR_BACK_RGB = (60, 200, 255), (25, 35, 45)
+LABEL_RGB = (255, 255, 255)
+SCALES = ((200, 50), (420, 100), (800, 150), (1200, 200))
+"""(frame height [px], MuJoCo font scale [%]) up to which each scale is used; taller frames get 250 %."""
+PANELS = ("chase", "top", "side")
 
 
-def _free_camera(lookat: np.ndarray, distance: float, azimuth: float, elevation: float) -> mujoco.MjvCamera:
-    camera = mujoco.MjvCamera()
-    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-    camera.lookat[:] = lookat
-    camera.distance, camera.azimuth, camera.elevation = distance, azimuth, elevation
-    return camera
+@dataclass(frozen=True)
+class Layout:
+    """The panels' viewports (left, bottom, width, height) [px, OpenGL: rows counted from the bottom]."""
+
+    width: int
+    height: int
+    bar: int
+    panels: dict
+
+    @classmethod
+    def of(cls, width: int, height: int) -> Layout:
+        bar = max(2, round(PROGRESS_SHARE * height))
+        chase_w = round(CHASE_SHARE * width)
+        rest = height - bar
+        lower = rest // 2
+        return cls(width, height, bar, {"chase": (0, bar, chase_w, rest),
+                                        "top": (chase_w, bar + lower, width - chase_w, rest - lower),
+                                        "side": (chase_w, bar, width - chase_w, lower)})
 
 
-def frame(renderer: mujoco.Renderer, physics) -> np.ndarray:
-    """(H, 3 W, 3) uint8: chase | top-down | side of the physics' current state."""
-    data = physics.data.ptr
-    position = physics.position()
-    heading = math.degrees(physics.heading())
-    panels = []
-    for camera in (CHASE_CAMERA,
-                   _free_camera(position, TOP_DISTANCE, heading, -90.0),
-                   _free_camera(position, SIDE_DISTANCE, heading - 90.0, 0.0)):
-        renderer.update_scene(data, camera=camera)
+@dataclass
+class State3D:
+    """The state a frame shows: what the physics held at an instant, and the step's information."""
+
+    time: float
+    qpos: np.ndarray
+    mocap_pos: np.ndarray
+    sonar: np.ndarray
+    """The 27 fan ranges [m] (`auv_mj.sim.sensors3d` order)."""
+    velocity: np.ndarray
+    """nu (u, v, w, p, q, r) [m/s, rad/s]."""
+    altitude: float
+    goal_distance: float
+    progress: float
+    """Share of the episode done, in [0, 1]."""
+    event: str = ""
+
+
+def interpolate(a: State3D, b: State3D, time: float) -> State3D:
+    """The state at `time` in [a.time, b.time]: positions, velocities and movers linear, the quaternions by
+    normalised linear interpolation, the sonar and the event held from `a` (the sonar samples at 2 Hz)."""
+    span = b.time - a.time
+    if span <= 0.0 or time >= b.time:
+        return b
+    s = float(np.clip((time - a.time) / span, 0.0, 1.0))
+
+    def mix(x, y):
+        return x + s * (y - x)
+
+    return State3D(time, mix(a.qpos, b.qpos), mix(a.mocap_pos, b.mocap_pos), a.sonar, mix(a.velocity, b.velocity),
+                   mix(a.altitude, b.altitude), mix(a.goal_distance, b.goal_distance), mix(a.progress, b.progress))
+
+
+def _quaternion_slots(model: mujoco.MjModel) -> list[int]:
+    """qpos addresses of the free and ball joints' quaternions."""
+    slots = []
+    for j in range(model.njnt):
+        kind, adr = model.jnt_type[j], model.jnt_qposadr[j]
+        if kind == mujoco.mjtJoint.mjJNT_FREE:
+            slots.append(adr + 3)
+        elif kind == mujoco.mjtJoint.mjJNT_BALL:
+            slots.append(adr)
+    return slots
+
+
+def _range_colours(ranges: np.ndarray) -> np.ndarray:
+    share = np.clip(ranges / COLOUR_RANGE, 0.0, 1.0)[:, None]
+    colours = NEAR_RGBA + share * (FAR_RGBA - NEAR_RGBA)
+    colours[ranges >= SONAR_RANGE] = NO_ECHO_RGBA
+    return colours
+
+
+class FrameRenderer3D:
+    """Draws `State3D`s of a 6-DOF physics into (H, W, 3) uint8 frames (module docstring); a copy of the model
+    is posed for each frame, so the environment's own data is never touched."""
+
+    def __init__(self, physics, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], title: str = ""):
+        if width < 32 or height < 32:
+            raise ValueError(f"frame size must be at least 32 x 32 pixels, got {width} x {height}")
+        glbackend.require()
+        self.width, self.height = int(width) // 2 * 2, int(height) // 2 * 2  # even, for yuv420p
+        self.layout = Layout.of(self.width, self.height)
+        self.title = title
+        self.model = copy.copy(physics.model.ptr)
+        vis = self.model.vis
+        vis.global_.offwidth = max(vis.global_.offwidth, self.width)
+        vis.global_.offheight = max(vis.global_.offheight, self.height)
+        vis.quality.offsamples = 0
+        vis.quality.numslices, vis.quality.numstacks = MESH_SLICES, MESH_STACKS
+        self.data = mujoco.MjData(self.model)
+        self.data.qpos[:] = physics.data.qpos
+        mujoco.mj_kinematics(self.model, self.data)
+        self._quaternions = _quaternion_slots(self.model)
+        self._cull_setup()
+        self._sonar = self.model.site("sonar").id
+        self._fan = fan_directions()
+        try:
+            self._gl = _gl_context_class()(self.width, self.height)
+            self._gl.make_current()
+        except glbackend.RenderingUnavailable:
+            raise
+        except Exception as e:  # each backend raises its own error type
+            raise glbackend.RenderingUnavailable(
+                f"cannot create an OpenGL context with MUJOCO_GL={glbackend.backend}: {e}; "
+                f"{glbackend.install_hint()}, or set MUJOCO_GL to one of: {glbackend.VALID_VALUES}") from None
+        scale = next((s for limit, s in SCALES if self.height <= limit), 250)
+        self._context = mujoco.MjrContext(self.model, getattr(mujoco.mjtFontScale, f"mjFONTSCALE_{scale}"))
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
+        self.scene = mujoco.MjvScene(self.model, self.model.ngeom + self.model.nsite + len(self._fan) + EXTRA_GEOMS)
         for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION):
-            renderer.scene.flags[flag] = False  # a CPU rasteriser pays for each pass
-        panels.append(renderer.render())
-    return np.concatenate(panels, axis=1)
+            self.scene.flags[flag] = 0  # a CPU rasteriser pays for each pass
+        self.option = mujoco.MjvOption()
+        self.option.flags[mujoco.mjtVisFlag.mjVIS_RANGEFINDER] = 0
+        self.cameras = {"chase": mujoco.MjvCamera(), "top": mujoco.MjvCamera(), "side": mujoco.MjvCamera()}
+        self.cameras["chase"].type = mujoco.mjtCamera.mjCAMERA_FIXED
+        self.cameras["chase"].fixedcamid = self.model.camera(CHASE_CAMERA).id
+        tube = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_NUMERIC, "tube_radius")
+        reach = VIEW_PER_RADIUS * float(self.model.numeric_data[self.model.numeric_adr[tube]]) if tube >= 0 else 0.0
+        self._distance = {"top": max(TOP_DISTANCE, reach), "side": max(SIDE_DISTANCE, reach),
+                          "chase": CHASE_RANGE + 2.0 * reach / VIEW_PER_RADIUS}
+        for name, elevation in (("top", -90.0), ("side", 0.0)):
+            camera = self.cameras[name]
+            camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+            camera.distance, camera.elevation = self._distance[name], elevation
+        self._pixels = np.empty((self.height, self.width, 3), np.uint8)
+        self._hud = self.height >= MIN_HUD_HEIGHT
+        if self._hud:
+            self._font = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_NORMAL, self.width, self.height)
+            self._font_big = raster.BitmapFont(self._context, mujoco.mjtFont.mjFONT_BIG, self.width, self.height)
 
+    def _cull_setup(self) -> None:
+        """The arena's static geoms (not planes) and where they are: each view draws only those it can see, and
+        the top and side views cut away the half of a tube's wall between them and the vehicle."""
+        m = self.model
+        static = (m.geom_bodyid == 0) & (m.geom_type != mujoco.mjtGeom.mjGEOM_PLANE)
+        self._static = np.flatnonzero(static)
+        self._alpha = m.geom_rgba[self._static, 3].copy()
+        self._centres = self.data.geom_xpos[self._static].copy()
+        self._radii = m.geom_rbound[self._static].copy()
+        self._wall = np.array([m.geom(int(g)).name.startswith("wall") for g in self._static], dtype=bool)
 
-def _light_meshes(model: mujoco.MjModel) -> None:
-    """Fewer slices and stacks per capsule: a tube holds hundreds of them, and the renderer is often a CPU one."""
-    model.vis.quality.numslices = MESH_SLICES
-    model.vis.quality.numstacks = MESH_STACKS
+    def _window(self, name: str, distance: float) -> tuple[float, float]:
+        """Half width and half height [m] of a free camera's view at the vehicle, `distance` away."""
+        _, _, w, h = self.layout.panels[name]
+        half_h = distance * math.tan(math.radians(0.5 * self.model.vis.global_.fovy))
+        return half_h * w / max(h, 1), half_h
+
+    def _cull(self, name: str, position: np.ndarray, forward: np.ndarray) -> None:
+        """Shows only the static geoms panel `name` can see (the others get alpha 0: MuJoCo leaves them out)."""
+        offset = self._centres - position
+        r = self._radii
+        if name == "chase":
+            camera = self.data.cam_xpos[self.cameras["chase"].fixedcamid]
+            ahead = (self._centres - camera) @ forward
+            visible = (np.linalg.norm(self._centres - camera, axis=1) < self._distance["chase"] + r) & (ahead > -r)
+        elif name == "top":
+            half_w, half_h = self._window(name, self._distance[name])
+            visible = (np.abs(offset[:, 0]) < half_w + r) & (np.abs(offset[:, 1]) < half_h + r)
+            visible &= ~(self._wall & (offset[:, 2] > 0.0))  # the wall above the vehicle is cut away
+        else:
+            half_w, half_h = self._window(name, self._distance[name])
+            across = np.array([-forward[1], forward[0], 0.0]) / max(float(np.hypot(*forward[:2])), 1e-9)
+            along = np.array([across[1], -across[0], 0.0])
+            visible = (np.abs(offset @ along) < half_w + r) & (np.abs(offset[:, 2]) < half_h + r)
+            visible &= ~(self._wall & (offset @ across < 0.0))  # the starboard wall, facing the camera, cut away
+        self.model.geom_rgba[self._static, 3] = np.where(visible, self._alpha, 0.0)
+
+    def _pose(self, state: State3D) -> None:
+        self.data.qpos[:] = state.qpos
+        for slot in self._quaternions:
+            q = self.data.qpos[slot:slot + 4]
+            q /= max(float(np.linalg.norm(q)), 1e-12)
+        if self.model.nmocap:
+            self.data.mocap_pos[:] = state.mocap_pos
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+
+    def _add_fan(self, ranges: np.ndarray) -> None:
+        """The fan's beams as line geoms of the scene, from the sonar site to each echo."""
+        origin = self.data.site_xpos[self._sonar]
+        directions = self._fan @ self.data.site_xmat[self._sonar].reshape(3, 3).T
+        shown = np.where(ranges >= SONAR_RANGE, FAN_DRAWN, ranges)
+        colours = _range_colours(ranges)
+        scene = self.scene
+        for direction, length, rgba in zip(directions, shown, colours, strict=True):
+            if scene.ngeom >= scene.maxgeom:
+                return
+            geom = scene.geoms[scene.ngeom]
+            mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
+                                rgba.astype(np.float32))
+            mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_LINE, FAN_WIDTH, origin, origin + length * direction)
+            scene.ngeom += 1
+
+    def render(self, state: State3D, event: str = "") -> np.ndarray:
+        """One frame of `state`, with `event` (if any) as a banner."""
+        self._gl.make_current()
+        self._pose(state)
+        position = state.qpos[:3]
+        heading = math.degrees(math.atan2(*self._heading_vector()[::-1]))
+        self.cameras["top"].lookat[:] = position
+        self.cameras["top"].azimuth = 90.0  # north (+y) up, +x right, as the planar videos
+        self.cameras["side"].lookat[:] = position
+        self.cameras["side"].azimuth = heading + 90.0  # from starboard, looking to port: the bow to the right
+        forward = self.data.xmat[self.model.site_bodyid[self._sonar]].reshape(3, 3)[:, 0]
+        for name in PANELS:
+            self._cull(name, position, forward)
+            mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.cameras[name],
+                                   mujoco.mjtCatBit.mjCAT_ALL, self.scene)
+            self._add_fan(state.sonar)
+            mujoco.mjr_render(mujoco.MjrRect(*self.layout.panels[name]), self.scene, self._context)
+        mujoco.mjr_readPixels(self._pixels, None, mujoco.MjrRect(0, 0, self.width, self.height), self._context)
+        frame = self._pixels[::-1].copy()
+        frame[~frame.any(axis=-1)] = WATER_RGB
+        self._borders(frame)
+        self._progress(frame, state.progress)
+        if self._hud:
+            self._labels(frame)
+            self._overlay(frame, state)
+            if event:
+                self._banner(frame, event.upper().replace("_", " "), EVENT_COLOURS.get(event, (1.0, 1.0, 1.0)))
+        return frame
+
+    def _heading_vector(self) -> np.ndarray:
+        body = self.model.site_bodyid[self._sonar]
+        return self.data.xmat[body].reshape(3, 3)[:2, 0]
+
+    def _borders(self, frame: np.ndarray) -> None:
+        """A dark line between the panels."""
+        chase_w = self.layout.panels["chase"][2]
+        top = self.layout.panels["top"]
+        frame[:self.height - self.layout.bar, chase_w - 1:chase_w + 1] = 0
+        row = self.height - top[1]
+        frame[row - 1:row + 1, chase_w:] = 0
+
+    def _progress(self, frame: np.ndarray, share: float) -> None:
+        """The progress bar along the bottom of the frame."""
+        bar = frame[self.height - self.layout.bar:]
+        bar[:] = BAR_BACK_RGB
+        bar[1:-1, :int(round(float(np.clip(share, 0.0, 1.0)) * self.width))] = BAR_RGB
+
+    def _labels(self, frame: np.ndarray) -> None:
+        names = {"chase": "chase", "top": "top (north up)", "side": "side (from starboard)"}
+        for name, rect in self.layout.panels.items():
+            self._font.overlay(frame, mujoco.mjtGridPos.mjGRID_TOPRIGHT, rect, names[name])
+
+    def _overlay(self, frame: np.ndarray, state: State3D) -> None:
+        u, v, w = state.velocity[:3]
+        rotation = self.data.xmat[self.model.site_bodyid[self._sonar]].reshape(3, 3)
+        pitch = math.degrees(math.asin(float(np.clip(rotation[2, 0], -1.0, 1.0))))
+        heading = math.degrees(math.atan2(rotation[1, 0], rotation[0, 0]))
+        labels = ["time", "depth", "altitude", "speed", "pitch", "heading", "goal", "progress"]
+        values = [f"{state.time:7.1f} s", f"{-state.qpos[2]:6.1f} m",
+                  f"{state.altitude:6.1f} m" if state.altitude < ALTIMETER_RANGE else f"  > {ALTIMETER_RANGE:g} m",
+                  f"{math.sqrt(u * u + v * v + w * w):5.2f} m/s", f"{pitch:+6.1f} deg", f"{heading:+7.1f} deg",
+                  f"{state.goal_distance:6.1f} m away" if math.isfinite(state.goal_distance) else "  -",
+                  f"{100 * state.progress:5.1f} %"]
+        if self.title:
+            labels.insert(0, "task")
+            values.insert(0, self.title)
+        self._font.overlay(frame, mujoco.mjtGridPos.mjGRID_TOPLEFT, self.layout.panels["chase"], "\n".join(labels),
+                           "\n".join(values))
+
+    def _banner(self, frame: np.ndarray, text: str, colour: tuple[float, float, float]) -> None:
+        font = self._font_big
+        left, bottom, width, height = self.layout.panels["chase"]
+        text_w, text_h = font.width(text), font.height
+        pad = text_h // 2
+        x, y = left + width // 2 - text_w // 2 - pad, bottom + height // 10
+        top = self.height - y - text_h - 2 * pad
+        raster.darken(frame[max(top, 0):top + text_h + 2 * pad, max(x, 0):x + text_w + 2 * pad], 0.4)
+        font.text(frame, text, x + pad, y + pad, np.floor(np.asarray(colour) * 255))
+
+    def close(self) -> None:
+        """Frees the OpenGL resources (also done at garbage collection)."""
+        if getattr(self, "_context", None) is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._context = None
+        if getattr(self, "_gl", None) is not None:
+            self._gl.free()
+            self._gl = None
+
+    def __enter__(self) -> FrameRenderer3D:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: the GL library may already be gone
+            pass
 
 
 @dataclass
@@ -85,30 +405,86 @@ class Track3D:
         return {k: np.asarray(v, dtype=float) for k, v in vars(self).items()}
 
 
-def iter_frames_3d(env, policy: Callable, max_steps: int | None = None, size: tuple[int, int] = PANEL_SIZE,
-                   track: Track3D | None = None, recorder: EpisodeRecorder | None = None) -> Iterator[np.ndarray]:
-    """Runs one episode of `policy(time_step) -> action` on the auv3d `env` (the episode loop of
-    `auv_mj.episode.EpisodeRecorder`, `recorder` if given), yielding a frame per control step; `track` (if
-    given) gathers the 3-D track."""
-    width, height = size
+def _progress_of(env, start_distance: float, time_limit: float) -> tuple[float, float]:
+    """(distance to the goal [m] or NaN, share of the episode done): distance made good towards the goal on
+    planning tasks (along the tube on tunnel3d), the time on tracking ones."""
+    physics, task = env.physics, env.task
+    goal = getattr(task, "goal", None)
+    path = getattr(task, "path", None)
+    position = physics.position()
+    if path is not None and len(path) >= 2:
+        lengths = np.linalg.norm(np.diff(path, axis=0), axis=1)
+        a, ab = path[:-1], np.diff(path, axis=0)
+        t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
+        nearest = np.argmin(np.linalg.norm(a + t[:, None] * ab - position, axis=1))
+        along = float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
+        return float(np.linalg.norm(goal - position)), along / max(float(np.sum(lengths)), 1e-9)
+    if goal is not None and math.isfinite(start_distance) and start_distance > 0:
+        distance = float(np.linalg.norm(goal - position))
+        return distance, float(np.clip(1.0 - distance / start_distance, 0.0, 1.0))
+    return math.nan, float(np.clip(physics.time() / time_limit, 0.0, 1.0)) if time_limit > 0 else 0.0
+
+
+def _state(env, event: str, start_distance: float, time_limit: float) -> State3D:
     physics = env.physics
-    recorder = recorder or EpisodeRecorder(env)
-    renderer = None
+    data = physics.data.ptr
+    distance, share = _progress_of(env, start_distance, time_limit)
+    if event == "goal":
+        share = 1.0
+    return State3D(float(physics.time()), data.qpos.copy(), data.mocap_pos.copy(), physics.sonar(),
+                   physics.body_velocity(), altimeter(physics), distance, share, event)
+
+
+def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width: int = DEFAULT_SIZE[0],
+                   height: int = DEFAULT_SIZE[1], fps: float = DEFAULT_FPS, speedup: float | None = None,
+                   hold_end: float = DEFAULT_HOLD_END, title: str = "", track: Track3D | None = None,
+                   recorder: EpisodeRecorder | None = None, progress: bool = False) -> Iterator[np.ndarray]:
+    """Runs one episode of `policy(time_step) -> action` on the auv3d `env`, yielding (H, W, 3) uint8 frames, one
+    every `speedup / fps` simulated seconds (default: one per control step); `track` (if given) gathers the 3-D
+    track at the control steps, `recorder` keeps the episode's record."""
+    recorder = recorder if recorder is not None else EpisodeRecorder(env)
+    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
+    if not frame_dt > 0:
+        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
+    glbackend.require()
+    limit = getattr(env, "_step_limit", None)
+    total = min(limit if limit and math.isfinite(limit) else math.inf, max_steps or math.inf)
+    time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
+    bar = progress_bar(total=math.ceil(total) if math.isfinite(total) else None, unit="step", desc="render",
+                       disable=not progress)
+    renderer, previous, frame = None, None, None
+    event, event_until, next_time, start_distance = "", -math.inf, 0.0, math.nan
     try:
-        for _ in recorder.run(policy, max_steps):
-            if renderer is None or renderer.model is not physics.model.ptr:  # a task that reloads its arena
-                if renderer is not None:
-                    renderer.close()
-                _light_meshes(physics.model.ptr)
-                renderer = mujoco.Renderer(physics.model.ptr, height=height, width=width)
+        for snap in recorder.run(policy, max_steps):
+            if renderer is None:  # after the reset: the task has loaded its arena
+                renderer = FrameRenderer3D(env.physics, width, height, title)
+            if snap.step == 0:
+                goal = getattr(env.task, "goal", None)
+                start_distance = float(np.linalg.norm(goal - env.physics.position())) if goal is not None else math.nan
             if track is not None:
                 track.add(env)
-            yield frame(renderer, physics)
+            state = _state(env, snap.event, start_distance, time_limit)
+            if previous is None:
+                previous, next_time = state, state.time
+            if snap.event:
+                event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
+            while next_time <= state.time + 1e-6:
+                frame = renderer.render(interpolate(previous, state, next_time),
+                                        event if next_time <= event_until else "")
+                yield frame
+                next_time += frame_dt
+            previous = state
+            if snap.step:
+                bar.update(1)
+        for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
+            yield frame.copy()
     finally:
+        bar.close()
         if renderer is not None:
             renderer.close()
 
 
 def render_episode_3d(env, policy: Callable, **kwargs) -> np.ndarray:
-    """(T, H, 3 W, 3) uint8 frames of one episode (`iter_frames_3d`)."""
-    return np.stack(list(iter_frames_3d(env, policy, **kwargs)))
+    """(T, H, W, 3) uint8 frames of one episode (`iter_frames_3d`)."""
+    frames = list(iter_frames_3d(env, policy, **kwargs))
+    return np.stack(frames) if frames else np.zeros((0, 0, 0, 3), dtype=np.uint8)

@@ -9,8 +9,8 @@ The contract (Eq. 1-2, 12 and Sec. 2.2): slide joints `x`, `y` along the world x
 surge force) and `tau_r` (a yaw moment), in that order, instantaneous or behind a first-order lag, with finite
 control ranges around 0; rangefinders
 `sonar_1`..`sonar_9` on sites of the vehicle; a capsule `hull` on the vehicle; a positive timestep within
-TIMESTEP_RANGE and a positive mass and yaw inertia. A model that breaks it is refused with a ValueError
-naming the file and the element.
+TIMESTEP_RANGE and a mass and inertia an AUV can have (MASS_RANGE, GYRATION_RANGE). A model that breaks it is
+refused with a ValueError naming the file and the element.
 """
 
 from __future__ import annotations
@@ -48,6 +48,14 @@ LAG_DYNAMICS = (int(mujoco.mjtDyn.mjDYN_FILTER), int(mujoco.mjtDyn.mjDYN_FILTERE
 settles to the control."""
 MAX_LAG = 60.0
 """Longest actuator time constant (dynprm) [s]."""
+MASS_RANGE = (1.0, 1e5)
+"""Vehicle masses [kg] a vehicle MJCF may give: from a 1 kg model-scale vehicle to a 100 t large-displacement
+UUV (the REMUS-100 is 30.48 kg). Beyond them lies a typo or a unit slip (grams, tonnes), not an AUV, and the
+added-mass and drag coefficients, sized for a vehicle, would swamp or vanish beside it."""
+GYRATION_RANGE = (0.01, 100.0)
+"""Radii of gyration sqrt(I / m) [m] each principal moment of inertia may have: the REMUS-100's are 0.08 m (roll)
+and 0.34 m (pitch, yaw), a 30 m, 100 t vehicle's about 9 m. Outside them the inertia does not belong to the mass
+(a moment in g cm^2, or one left at MuJoCo's tiny default)."""
 
 
 @dataclass(frozen=True)
@@ -99,10 +107,7 @@ def check_vehicle(model: mujoco.MjModel, source: str) -> None:
     if not TIMESTEP_RANGE[0] <= timestep <= TIMESTEP_RANGE[1]:
         raise _fail(source, f'<option timestep="{timestep:g}"> must be in [{TIMESTEP_RANGE[0]:g}, '
                             f"{TIMESTEP_RANGE[1]:g}] s")
-    mass, izz = float(model.body_subtreemass[body]), float(model.body_inertia[body][2])
-    if not (0 < mass < math.inf and 0 < izz < math.inf):
-        raise _fail(source, f"body '{model.body(body).name}' needs a positive finite mass and yaw inertia, "
-                            f"got {mass:g} kg and {izz:g} kg m^2")
+    check_inertia(float(model.body_subtreemass[body]), model.body_inertia[body], source, model.body(body).name)
     _check_actuators(model, data, source)
     for name in SONARS:
         try:
@@ -125,6 +130,31 @@ def check_vehicle(model: mujoco.MjModel, source: str) -> None:
     if not np.all((hull.size[:2] > 0) & (hull.size[:2] <= MAX_HULL_SIZE)):
         raise _fail(source, f"hull radius and half length {hull.size[:2].tolist()} must be in (0, "
                             f"{MAX_HULL_SIZE:g}] m")
+
+
+def check_inertia(mass: float, inertia: np.ndarray, source: str, body: str) -> None:
+    """Refuses a vehicle mass [kg] outside MASS_RANGE, and principal moments of inertia [kg m^2] that are not
+    positive, break the triangle inequality (no rigid body has one moment above the sum of the other two) or give a
+    radius of gyration outside GYRATION_RANGE; the error names `source`, the body and the field."""
+    where = f"body '{body}' (<inertial>, or its geoms' mass)"
+    if not MASS_RANGE[0] <= mass <= MASS_RANGE[1]:
+        raise _fail(source, f"{where}: mass = {mass:g} kg must be in [{MASS_RANGE[0]:g}, {MASS_RANGE[1]:g}] kg, "
+                            "the masses of AUVs")
+    moments = np.asarray(inertia, dtype=float)
+    if not np.all(np.isfinite(moments) & (moments > 0)):
+        raise _fail(source, f"{where}: principal moments of inertia {_moments(moments)} kg m^2 must be positive")
+    if np.any(moments > (moments.sum() - moments) * (1 + 1e-9)):
+        raise _fail(source, f"{where}: principal moments of inertia {_moments(moments)} kg m^2 break the triangle "
+                            "inequality (each at most the sum of the other two)")
+    gyration = np.sqrt(moments / mass)
+    if np.any((gyration < GYRATION_RANGE[0]) | (gyration > GYRATION_RANGE[1])):
+        raise _fail(source, f"{where}: principal moments of inertia {_moments(moments)} kg m^2 on {mass:g} kg give "
+                            f"radii of gyration {_moments(gyration)} m, outside [{GYRATION_RANGE[0]:g}, "
+                            f"{GYRATION_RANGE[1]:g}] m")
+
+
+def _moments(values: np.ndarray) -> str:
+    return " ".join(f"{v:.4g}" for v in values)
 
 
 def _check_joints(model: mujoco.MjModel, data: mujoco.MjData, source: str) -> None:

@@ -2,7 +2,8 @@
 
 Two forms of `--policy` name are resolved here, on every command that runs episodes (eval, render, plot, demo,
 benchmark):
-- `MODULE:FACTORY`: `FACTORY(env)` of an importable module returns a callable `policy(time_step) -> action`;
+- `MODULE:FACTORY`: `FACTORY(env)` of an importable module returns a Planner (`reset()`, `act(time_step)`,
+  `auv_mj.episode.Planner`) or a plain callable `policy(time_step) -> action`;
   `env` is the suite's dm_env environment of the episode (`auv_mj.tasks.suite.load`), `time_step` its `dm_env.TimeStep`.
   A factory may also take the episode seed as a keyword, `FACTORY(env, seed=...)`.
 - `PATH.zip`: a Stable-Baselines3 model (DDPG, TD3, SAC, PPO, A2C) trained on our Gymnasium ids
@@ -32,7 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from auv_mj.zoo.spec import RESOLVERS, ActingPolicy, Deployment, PolicySpec
+from auv_mj.episode import Planner
+from auv_mj.zoo.spec import DOMAINS, RESOLVERS, Deployment, PolicySpec
 
 FACTORY_FORM = re.compile(r"^(?P<module>[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*):(?P<factory>[A-Za-z_][\w]*)$")
 """`MODULE:FACTORY`: a dotted module path, a colon and an attribute name (as entry points write them)."""
@@ -73,10 +75,10 @@ _checked: set[tuple[str, str | None]] = set()
 """(policy name, task) whose first action was checked in this process; later episodes skip the check."""
 
 
-def _checked_build(name: str, make: Callable[[Deployment], ActingPolicy]) -> Callable[[Deployment], ActingPolicy]:
+def _checked_build(name: str, make: Callable[[Deployment], Planner]) -> Callable[[Deployment], Planner]:
     """A spec's build: `make(deployment)`, whose first action on each task is checked once per process."""
 
-    def build(deployment: Deployment) -> ActingPolicy:
+    def build(deployment: Deployment) -> Planner:
         if (name, deployment.task) not in _checked:
             probe = make(deployment)
             _check_action(name, probe(_first_time_step(deployment.env)), tuple(deployment.env.action_spec().shape))
@@ -111,10 +113,10 @@ def _takes_seed(factory: Callable) -> bool:
         return False
 
 
-def _factory_build(name: str, factory: Callable) -> Callable[[Deployment], ActingPolicy]:
+def _factory_build(name: str, factory: Callable) -> Callable[[Deployment], Planner]:
     seeded = _takes_seed(factory)
 
-    def make(deployment: Deployment) -> ActingPolicy:
+    def make(deployment: Deployment) -> Planner:
         try:
             policy = factory(deployment.env, seed=deployment.seed) if seeded else factory(deployment.env)
         except Exception as e:  # noqa: BLE001  (a user's factory may raise anything; it is named, not hidden)
@@ -132,7 +134,8 @@ def _factory_spec(name: str, module_name: str, attribute: str) -> PolicySpec:
     factory = _factory(name, module_name, attribute)
     doc = (inspect.getdoc(factory) or "").split("\n")[0]
     return PolicySpec(f"outside policy {name}" + (f": {doc}" if doc else ""),
-                      _checked_build(name, _factory_build(name, factory)), family="outside")
+                      _checked_build(name, _factory_build(name, factory)), family="outside",
+                      domains=tuple(DOMAINS))
 
 
 def resolve_factory(name: str) -> tuple[PolicySpec, None] | None:
@@ -199,7 +202,7 @@ def _fits(model_space, task_space) -> bool:
     return type(model_space) is type(task_space) and tuple(model_space.shape) == tuple(task_space.shape)
 
 
-def sb3_policy(name: str, path: Path, env) -> ActingPolicy:
+def sb3_policy(name: str, path: Path, env) -> Planner:
     """The SB3 model at `path` acting on `env`'s time steps through the Gymnasium adapter's observation;
     ValueError naming both spaces when the model's observation or action space does not fit the task's."""
     from auv_mj.tasks.gym_adapter import gym_spaces
@@ -224,7 +227,7 @@ def _sb3_spec(name: str) -> PolicySpec:
     path = Path(name)
     load_sb3(path)  # refuse a file that is no model before any environment is built
     build = _checked_build(name, lambda deployment: sb3_policy(name, path, deployment.env))
-    return PolicySpec(f"Stable-Baselines3 model {path.name}", build, family="outside")
+    return PolicySpec(f"Stable-Baselines3 model {path.name}", build, family="outside", domains=tuple(DOMAINS))
 
 
 def resolve_sb3(name: str) -> tuple[PolicySpec, None] | None:

@@ -2,9 +2,11 @@
 MuJoCo Playground's registry).
 
 The one place where tasks and agents meet (the app layer). A spec holds what a name means: how its policy is built,
-its shipped checkpoint, the executor it runs on, its protection domain (Sec. 3.2.2), the tasks it runs on and a
-one-line description. Everything else derives from `POLICIES`: the names, the `--policy` help of every command, the
-README's policy table (`auv-mj policies --markdown`), `resolve_tasks`, `make_env` and `make_policy`.
+its shipped checkpoint, the executor it runs on, its protection domain (Sec. 3.2.2), the suite domains (planar,
+6-DOF) and kind of task it runs on and a one-line description. Everything else derives from `POLICIES`: the names,
+the `--policy` help of every command, the README's policy table (`auv-mj policies --markdown`), `resolve_tasks`
+(which tasks of 'all', a tag or a domain a policy runs), `check_runs_on` (the one-line refusal of a task it cannot
+run), `make_env` and `make_policy`.
 
 Adding a policy is one entry: `register("my-planner", PolicySpec("what it is", build=...))`, in this file or in a
 module imported by it.
@@ -18,7 +20,9 @@ Besides the names:
 On the planning tasks the executor under any planner without an executor of its own is chosen in the task
 options, `--task-kwargs '{"executor": NAME}'`, NAME one of EXECUTORS (or a speed_heading checkpoint path), e.g.
 the general planner on the learned ocean executor:
-`--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`.
+`--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`. On the 6-DOF planning tasks (goal3d,
+tunnel3d) NAME is one of EXECUTORS_3D (or a depth_heading checkpoint path), e.g. `--policy los-avoid --task goal3d
+--task-kwargs '{"executor": "depth-executor"}'`.
 """
 
 from __future__ import annotations
@@ -37,23 +41,30 @@ from auv_mj.agents.policy import Policy
 from auv_mj.agents.ppo import FORMAT as PPO_FORMAT
 from auv_mj.agents.ppo import PPOPolicy
 from auv_mj.arenas import arena
+from auv_mj.episode import FunctionPlanner, Planner, as_planner
 from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsion
 from auv_mj.planners.bug import bug_planner
 from auv_mj.planners.deploy import Chain, ChainConfig, deployed
 from auv_mj.planners.guidance import classical, is_goal_task, line_of_sight
-from auv_mj.planners.los3d import classical_3d
+from auv_mj.planners.los3d import classical_3d, los_policy
 from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
+from auv_mj.planners.map_planner3d import sonar_voxel_planner, true_voxel_planner
 from auv_mj.tasks import suite
-from auv_mj.tasks.auv3d import SUITE3D, is_3d
+from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
+from auv_mj.tasks.auv3d import SUITE3D, DepthHeading, Physics3D, is_3d, splane_policy
+from auv_mj.tasks.auv3d_control import OCEAN_DEPTH_GAINS
+from auv_mj.tasks.depth_executor import DepthExecutorMemory
+from auv_mj.tasks.depth_executor import executor_options as depth_executor_options
+from auv_mj.tasks.executors import EXECUTORS, named_executor  # noqa: F401  (EXECUTORS: the zoo's face)
 from auv_mj.tasks.gym_adapter import gym_spaces
+from auv_mj.tasks.registry import SUITE
 from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
-from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController
 from auv_mj.zoo.spec import (
+    DOMAINS,
     POLICIES,
     RESOLVERS,
     ROLES,
     RUNS_ON,  # noqa: F401  (re-exported)
-    ActingPolicy,
     Deployment,
     PolicySpec,
     register,
@@ -82,6 +93,21 @@ def shipped_checkpoint(name: str, task: str | None = None) -> Path:
     return path
 
 
+def checkpoint_path(name: str | Path, task: str | None = None) -> Path:
+    """The checkpoint file that `name` stands for: a registered learned policy's shipped checkpoint (its own on
+    `task` where it has one per task, e.g. `planner` on `tunnel`), or an existing checkpoint path as it is. What
+    `auv-mj train --init NAME` starts from, so that a shipped network is fine-tuned by its name.
+    ValueError naming the learned policies for anything else."""
+    text = str(name)
+    if text in POLICIES and POLICIES[text].checkpoint is not None:
+        return shipped_checkpoint(text, task)
+    if Path(text).is_file():
+        return Path(text)
+    learned = [n for n, s in POLICIES.items() if s.checkpoint is not None]
+    what = "has no checkpoint (a classical policy)" if text in POLICIES else "is not a checkpoint file"
+    raise ValueError(f"{text!r} {what}; give a checkpoint path or a learned policy: {', '.join(learned)}")
+
+
 class LearnedExecutor:
     """A trained speed_heading policy as a planning task's executor: (command, state) -> (tau_u, tau_r).
 
@@ -89,43 +115,57 @@ class LearnedExecutor:
     exactly as in the speed_heading task (Eq. 28-29; a residual executor's output corrects the S-plane's),
     through the task's own `ExecutorMemory` (integrals, command history, the S-plane), set up from the
     checkpoint's training options. Call it once per executor step, as the tasks do; `reset` starts an episode.
+    `three_d`: a depth_heading policy instead, (V, psi, depth), State3D -> (thrust, rudder, stern), through
+    `auv_mj.tasks.depth_executor.DepthExecutorMemory`.
     """
 
-    def __init__(self, policy, low: np.ndarray, high: np.ndarray):
+    def __init__(self, policy, low: np.ndarray, high: np.ndarray, three_d: bool = False):
         self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
         kwargs = getattr(policy, "metadata", {}).get("run_info", {}).get("task_kwargs", {})
-        self.memory = ExecutorMemory(**executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
+        if three_d:
+            self.memory = DepthExecutorMemory(**depth_executor_options(policy.obs_dim, kwargs), low=self.low,
+                                              high=self.high)
+            self._act = self.memory.controls
+        else:
+            self.memory = ExecutorMemory(**executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
+            self._act = self.memory.forces
 
     def reset(self) -> None:
         """Zeroes the memories (the start of an episode)."""
         self.memory.reset()
 
     def __call__(self, command, state) -> np.ndarray:
-        return self.memory.forces(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
+        return self._act(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
 
 
-def learned_executor(path: Path | None = None) -> LearnedExecutor:
-    """The shipped (or given) learned execution layer as a task executor."""
+def learned_executor(path: Path | None = None, three_d: bool = False) -> LearnedExecutor:
+    """The shipped (or given) learned execution layer as a task executor (`three_d`: a depth executor of the
+    6-DOF vehicle)."""
+    if three_d:
+        low, high = Physics3D.load().model.actuator_ctrlrange.T
+        return LearnedExecutor(Policy.load(path or shipped_checkpoint("depth-executor")), low, high, three_d=True)
     low, high = arena.load().model.actuator_ctrlrange.T
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
 
 
-EXECUTORS: dict[str, Callable[[], Any]] = {
-    "splane": SPlaneController,
-    "splane-ocean": lambda: SPlaneController(OCEAN_GAINS),
-    "executor": lambda: learned_executor(shipped_checkpoint("executor")),
-    "ocean-executor": lambda: learned_executor(shipped_checkpoint("ocean-executor")),
-}
-"""Executor names a planning task's `executor` option takes on the command line -> the executor."""
+def paper_executor() -> LearnedExecutor:
+    """The paper's learned execution layer (`executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
+    return learned_executor(shipped_checkpoint("executor"))
 
 
-def named_executor(name: str):
-    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path) as `executor(command, state)`."""
-    if name in EXECUTORS:
-        return EXECUTORS[name]()
-    if Path(name).is_file():
-        return learned_executor(Path(name))
-    raise ValueError(f"task_kwargs executor {name!r}: not one of {list(EXECUTORS)} nor a checkpoint file")
+def ocean_executor() -> LearnedExecutor:
+    """The learned ocean executor (`ocean-executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
+    return learned_executor(shipped_checkpoint("ocean-executor"))
+
+
+def depth_executor() -> LearnedExecutor:
+    """The learned depth executor (`depth-executor`), by name in `auv_mj.tasks.executors.EXECUTORS_3D`."""
+    return learned_executor(shipped_checkpoint("depth-executor"), three_d=True)
+
+
+def learned_depth_executor(path: Path) -> LearnedExecutor:
+    """A depth_heading checkpoint file as a 6-DOF task's executor (`auv_mj.tasks.executors`)."""
+    return learned_executor(path, three_d=True)
 
 
 # --- building policies ------------------------------------------------------------------------------------------
@@ -145,7 +185,7 @@ def loaded_policy(path: Path) -> Policy:
 
 
 def checkpoint_policy(path: Path, env, protection: bool | str | None = None, guide: str | None = None,
-                      zeroed: bool = False, speed: str | None = None) -> ActingPolicy:
+                      zeroed: bool = False, speed: str | None = None) -> Planner:
     """The checkpoint's policy on time steps of `env`; a planner trained with a protection domain in the loop
     (`--env-kwargs '{"protection": true}'`, or "speed-aware") runs with that domain, as it was trained, a
     residual planner (`"residual": R`, `"speed"`) through line of sight (`auv_mj.planners.guidance.guided_action`),
@@ -188,17 +228,20 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
             return policy(np.asarray(observation["observation"]))
         return policy({k: np.asarray(v) for k, v in observation.items()})
 
-    return act if config.is_identity else deployed(act, Chain(config, env))
+    return FunctionPlanner(act) if config.is_identity else deployed(act, Chain(config, env))
 
 
-def _from_checkpoint(deployment: Deployment) -> ActingPolicy:
+def _from_checkpoint(deployment: Deployment) -> Planner:
     """A learned spec's build: its checkpoint under its protection domain."""
     return checkpoint_policy(deployment.checkpoint, deployment.env, deployment.spec.protection)
 
 
-def _splane_ocean(deployment: Deployment) -> ActingPolicy:
-    """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading."""
+def _splane_ocean(deployment: Deployment) -> Planner:
+    """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading
+    (`OCEAN_GAINS`) and on depth_heading (`OCEAN_DEPTH_GAINS`)."""
     env = deployment.env
+    if is_3d(env):
+        return splane_policy(env, OCEAN_DEPTH_GAINS) if isinstance(env.task, DepthHeading) else los_policy(env)
     return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
 
 
@@ -206,15 +249,20 @@ def _learned(description: str, checkpoint: str, **kwargs: Any) -> PolicySpec:
     return PolicySpec(description, _from_checkpoint, family="learned", checkpoint=checkpoint, **kwargs)
 
 
+BOTH = tuple(DOMAINS)
+"""`PolicySpec.domains` of a policy that runs on the planar and the 6-DOF vehicle's tasks."""
+
 PAPER_PLANNER = {"checkpoint": "planner.pt", "checkpoint_on": {"tunnel": "planner_tunnel.pt"}, "tasks": "planning",
                  "accepts_path": True}
 """The paper's HER-DDPG planner: one checkpoint per environment (`planner_tunnel.pt` on the tunnel task)."""
 
 register("planner", _learned("the paper's HER-DDPG planner with its protection domain (Sec. 3.2.2), on the task's "
-                             "executor", protection=True, **PAPER_PLANNER, role="paper"))
+                             "executor; trained on the paper's scenarios, it fails on tunnels of your own",
+                             protection=True, **PAPER_PLANNER, role="paper"))
 register("planner-raw", _learned("the paper's planner without the protection domain", protection=False,
                                  **PAPER_PLANNER, role="paper"))
-register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3)",
+register("two-layer", _learned("the paper's planner (protection domain) on the learned DDPG executor (Sec. 4.3); "
+                               "it fails on tunnels of your own",
                                protection=True, executor="executor", **PAPER_PLANNER, role="paper"))
 GENERAL_DEPLOYMENT = {"tasks": "planning", "protection": "speed-aware"}
 """How the general planners are deployed: on every planning task, inside the speed-aware domain with the geofence."""
@@ -226,7 +274,7 @@ small final goal), its network steering only. Chosen on validation seeds over th
 (docs/runs/planner-top/selection.md)."""
 
 
-def _general(speed: str, zeroed: bool = False) -> Callable[[Deployment], ActingPolicy]:
+def _general(speed: str, zeroed: bool = False) -> Callable[[Deployment], Planner]:
     """The build of planner_general.pt at `speed`, its output zeroed if `zeroed`."""
     return lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", zeroed=zeroed, speed=speed)
 
@@ -259,20 +307,31 @@ register("executor", _learned("the paper's DDPG execution layer (speed_heading)"
                               role="paper"))
 register("ocean-executor", _learned("TD3 scheduling the S-plane's gains every step, trained in ocean water "
                                     "(speed_heading)", "executor_ocean.pt", tasks="executor"))
+register("depth-executor", _learned("TD3 scheduling the depth-heading S-plane's gains every step, trained in ocean "
+                                    "water (depth_heading, the 6-DOF vehicle); kept for comparison: on held-out "
+                                    "schedules it tracks less closely than splane-ocean", "depth_executor.pt",
+                                    tasks="executor", domains=("auv3d",), role="comparison"))
+register("two-layer-3d", PolicySpec("the two-layer system in 3-D: 3-D line of sight with the protection domain on the "
+                                    "3-D fan (los-avoid) on the learned depth executor (goal3d, tunnel3d)",
+                                    lambda d: classical_3d(d.env, avoid=True), tasks="planning",
+                                    executor="depth-executor", protection="paper", domains=("auv3d",),
+                                    role="comparison"))
 register("los-executor", PolicySpec("line of sight on the learned DDPG executor: the execution layer alone",
                                     lambda d: line_of_sight(d.env), tasks="planning", executor="executor",
                                     role="paper"))
 register("splane", PolicySpec("the classical baseline: line of sight + the S-plane (Eq. 32), or the S-plane alone "
                               "on speed_heading (auv3d: the depth-heading S-plane, with 3-D line of sight on "
                               "goal3d/tunnel3d)",
-                              lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env)))
+                              lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env),
+                              domains=BOTH))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
-                                    "(`auv_mj.tasks.splane.OCEAN_GAINS`)", _splane_ocean,
-                                    default_executor="splane-ocean", role="reference"))
+                                    "(`auv_mj.tasks.splane.OCEAN_GAINS`; auv3d: the depth-heading S-plane's, "
+                                    "`OCEAN_DEPTH_GAINS`)", _splane_ocean,
+                                    default_executor="splane-ocean", role="reference", domains=BOTH))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner (auv3d: 3-D line of sight, the domain on the 3-D fan)",
                                  lambda d: classical_3d(d.env, avoid=True) if is_3d(d.env) else line_of_sight(d.env),
-                                 tasks="planning", protection="paper", role="paper"))
+                                 tasks="planning", protection="paper", role="paper", domains=BOTH))
 register("planner-map", PolicySpec(
     "planner-route on the sonar map's path without training on it (`guide=\"map\"`): what planner-general's "
     "training on the map adds over it", lambda d: checkpoint_policy(d.checkpoint, d.env, "speed-aware", guide="map"),
@@ -293,7 +352,7 @@ def is_ppo_checkpoint(path: Path) -> bool:
         and payload["metadata"].get("format") == PPO_FORMAT
 
 
-def recurrent_policy(path: Path, env, protection: str | None = None) -> ActingPolicy:
+def recurrent_policy(path: Path, env, protection: str | None = None) -> Planner:
     """A PPO checkpoint's deterministic policy on time steps of `env`, its memory (GRU state) carried through
     the episode and zeroed on `time_step.first()`; the task's planning observation and desired goal are its
     input. `protection` (a domain of `auv_mj.planners.avoidance.PROTECTIONS`) runs it under that domain through
@@ -312,7 +371,8 @@ def recurrent_policy(path: Path, env, protection: str | None = None) -> ActingPo
             policy.reset()
         return policy(observe(time_step.observation))
 
-    return act if protection is None else deployed(act, Chain(ChainConfig(protection=protection), env))
+    planner = FunctionPlanner(act, policy.reset)
+    return planner if protection is None else deployed(planner, Chain(ChainConfig(protection=protection), env))
 
 
 MEMORY_PLANNER = "planner_memory.pt"
@@ -333,20 +393,25 @@ register("los-fast", PolicySpec("line of sight along the route at 2 m/s inside t
                                 role="reference"))
 register("map-replan", PolicySpec("the mapping local planner: a sonar occupancy grid searched again as it changes, "
                                   "followed by line of sight at 2 m/s (speed-aware domain; "
-                                  "`auv_mj.planners.map_planner`)",
-                                  lambda d: sonar_map_planner(d.env), tasks="planning", protection="speed-aware"))
+                                  "`auv_mj.planners.map_planner`; auv3d: a voxel map of the 3-D fan and the "
+                                  "altimeter, a pitch-limited search, 3-D line of sight, "
+                                  "`auv_mj.planners.map_planner3d`)",
+                                  lambda d: sonar_voxel_planner(d.env) if is_3d(d.env) else sonar_map_planner(d.env),
+                                  tasks="planning", protection="speed-aware", domains=BOTH))
 register("bug", PolicySpec("a complete sensor-based planner of the Bug family (DistBug's leave rule) on the "
                            "sonar's remembered echoes, at 2 m/s inside the speed-aware domain (`auv_mj.planners.bug`)",
                            lambda d: bug_planner(d.env), tasks="planning", protection="speed-aware"))
 register("oracle", PolicySpec("plans on the true map (every geom, movers where they are) and follows the plan as "
-                              "map-replan does: certifies arenas, the reference of time efficiency",
-                              lambda d: true_map_planner(d.env), family="reference", tasks="planning",
-                              protection="speed-aware", role="reference"))
+                              "map-replan does: certifies arenas, the reference of time efficiency (auv3d: on the "
+                              "true voxel map)",
+                              lambda d: true_voxel_planner(d.env) if is_3d(d.env) else true_map_planner(d.env),
+                              family="reference", tasks="planning",
+                              protection="speed-aware", role="reference", domains=BOTH))
 register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference",
-                              role="reference"))
+                              role="reference", domains=BOTH))
 
 CHECKPOINT = PolicySpec("a trained checkpoint (`auv-mj train`), with the protection domain it trained with",
-                        _from_checkpoint, family="learned")
+                        _from_checkpoint, family="learned", domains=BOTH)
 """The spec of a checkpoint path given as the name."""
 
 
@@ -391,74 +456,132 @@ def _checkpoint_of(spec: PolicySpec, path: Path | None, task: str | None) -> Pat
 
 
 def executor_tasks() -> tuple[str, ...]:
-    """The suite's execution-layer tasks (tagged "executor"): the tasks with no executor option."""
-    return tuple(t for _, t in suite.tasks_by_tag("executor"))
+    """The suite's execution-layer tasks of both domains (tagged "executor"): the tasks with no executor option."""
+    return tuple(t for _, t in suite.tasks_by_tag("executor")) + tuple(SUITE3D.tagged("executor"))
+
+
+def domain_tasks(domain: str, runs_on: str = "any") -> list[str]:
+    """The task names of suite domain `domain` tagged `runs_on` ("planning", "executor"), or all of them ("any")."""
+    names = suite.TASKS_BY_DOMAIN[domain]
+    if runs_on == "any":
+        return list(names)
+    tagged = set((SUITE3D if domain == DOMAIN_3D else SUITE).tagged(runs_on))
+    return [t for t in names if t in tagged]
+
+
+def runs_on(spec: PolicySpec, task_name: str) -> bool:
+    """Whether a policy of `spec` runs on suite task `task_name` (its domains and `PolicySpec.tasks`)."""
+    domain = suite.domain_of(task_name)
+    return domain in spec.domains and task_name in domain_tasks(domain, spec.tasks)
+
+
+def task_policies(task_name: str) -> list[str]:
+    """The registered policies that run on `task_name`."""
+    return [name for name, spec in POLICIES.items() if runs_on(spec, task_name)]
+
+
+def _kind(runs: str) -> str:
+    return {"any": "", "planning": "planning ", "executor": "tracking "}[runs]
+
+
+def check_runs_on(policy_name: str, task_name: str) -> None:
+    """ValueError, one line, when the policy does not run on the task: naming the policy, the task, what the policy
+    runs on and which registered policies run on the task."""
+    spec = resolve(policy_name)[0]
+    if runs_on(spec, task_name):
+        return
+    domain = suite.domain_of(task_name)
+    kind = next((k for k in ("planning", "executor") if task_name in domain_tasks(domain, k)), "any")
+    raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(spec)}; {task_name!r} is a {DOMAINS[domain]} "
+                     f"{_kind(kind)}task: its policies are {', '.join(task_policies(task_name))}")
+
+
+def _runs_on_text(spec: PolicySpec) -> str:
+    """What a spec runs on, in words: "the planar planning tasks (goal, ...)"."""
+    where = " and ".join(DOMAINS[d] for d in spec.domains)
+    tasks = [t for d in spec.domains for t in domain_tasks(d, spec.tasks)]
+    return f"the {where} {_kind(spec.tasks)}tasks ({', '.join(tasks)})"
 
 
 def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     """The suite environment for one episode; a spec with an executor plugs it in, and a checkpoint gets the
-    observation it was trained on (read from its metadata)."""
+    observation it was trained on (read from its metadata). Only what the policy needs is set (an executor, a
+    checkpoint's observation), never an option its task does not take. ValueError (`check_runs_on`) for a policy
+    that does not run on the task."""
+    check_runs_on(policy_name, task_name)
     spec, path = resolve(policy_name)
     task_kwargs["random"] = seed
     executor = task_kwargs.get("executor")
     planning = task_name not in executor_tasks()
+    three_d = suite.domain_of(task_name) == DOMAIN_3D
     if spec.executor is not None and planning:
         if executor is not None:
             raise ValueError(f"policy {policy_name!r} runs the learned executor {spec.executor!r}; leave 'executor' "
                              f"out of task_kwargs (or use a planner policy with it)")
-        task_kwargs["executor"] = named_executor(spec.executor)
+        task_kwargs["executor"] = named_executor(spec.executor, three_d)
     elif isinstance(executor, str):
-        task_kwargs["executor"] = named_executor(executor)
+        task_kwargs["executor"] = named_executor(executor, three_d)
     elif spec.default_executor is not None and planning:
-        task_kwargs["executor"] = named_executor(spec.default_executor)
+        task_kwargs["executor"] = named_executor(spec.default_executor, three_d)
     checkpoint = _checkpoint_of(spec, path, task_name)
     if checkpoint is not None and "observation" not in task_kwargs and not is_ppo_checkpoint(checkpoint):
         meta = read_checkpoint(checkpoint)[1]
         if not planning:  # the executor's observation (residual, gains, base) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})
-            memory = executor_options(int(meta["obs_dim"]), trained)
+            options = depth_executor_options if three_d else executor_options
+            memory = options(int(meta["obs_dim"]), trained)
             task_kwargs.update({k: v for k, v in memory.items() if k not in task_kwargs})
-        elif meta["spec"].get("kind") == "goal":  # a planner reading the goal beside the paper's vector
+        elif meta["spec"].get("kind") == "goal" and not three_d:  # a planar planner reading the goal beside the
+            # paper's vector
             task_kwargs["observation"] = "paper" if meta["spec"].get("goal_input", True) else "relative"
     return suite.load(suite.domain_of(task_name), task_name, task_kwargs=task_kwargs)
 
 
-def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> ActingPolicy:
-    """A callable `policy(time_step) -> action` for `env` (of suite task `task`, which picks the checkpoint)."""
+def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -> Planner:
+    """The named policy as a Planner (`reset()`, `act(time_step)`) for `env` (of suite task `task`, which picks the
+    checkpoint). ValueError (`check_runs_on`) for a policy that does not run on `task`, or on `env`'s domain when no
+    task is named."""
     spec, path = resolve(policy_name)
+    domain = DOMAIN_3D if is_3d(env) else suite.DOMAIN
+    if task is not None:
+        check_runs_on(policy_name, task)
+    elif domain not in spec.domains:
+        raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(spec)}, not on a {DOMAINS[domain]} task")
     checkpoint = _checkpoint_of(spec, path, task)
-    act = spec.build(Deployment(env, task, seed, checkpoint, spec))
+    planner = as_planner(spec.build(Deployment(env, task, seed, checkpoint, spec)))
     if checkpoint is None and spec.protection and not is_3d(env):  # a classical policy inside a protection domain
         # (an auv3d policy carries its own domain on the 3-D fan)
-        act = with_repulsion(act, protection_field(spec.protection), map_fence(env))
-    return act
+        planner = with_repulsion(planner, protection_field(spec.protection), map_fence(env))
+    return planner
 
 
 def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
-    """A task name, a tag or 'all' -> the task names the policy runs on (`PolicySpec.tasks`).
+    """A task name, a tag, a domain ("auv", "auv3d") or 'all' -> the task names the policy runs on (its
+    `PolicySpec.domains` and `PolicySpec.tasks`).
 
-    'all' and the tags are the planar domain's tasks; the 6-DOF tasks (domain auv3d) are chosen by name, or all
-    of them by 'auv3d', since only some policies (splane, los-avoid, random) know the 6-DOF vehicle."""
-    names = [task for _, task in suite.PLANAR_TASKS]
-    names_3d = [task for _, task in suite.TASKS_3D]
+    'all' and the tags cover both domains, the planar tasks first; a group keeps the tasks the policy runs on, and
+    a task named alone that it does not run on is refused in one line (`check_runs_on`)."""
+    domains = {d: list(names) for d, names in suite.TASKS_BY_DOMAIN.items()}
+    names = [t for group in domains.values() for t in group]
+    tags = sorted(set(suite.TAGS) | set(SUITE3D.tags()))
+    if spec in names:
+        check_runs_on(policy_name, spec)
+        return [spec]
     if spec == "all":
         chosen = names
-    elif spec in names or spec in names_3d:
-        chosen = [spec]
-    elif spec == "auv3d":
-        chosen = names_3d
+    elif spec in domains:
+        chosen = domains[spec]
+    elif spec in tags:
+        chosen = [t for d in domains for t in domain_tasks(d, spec)]
     else:
-        chosen = [t for d, t in suite.tasks_by_tag(spec) if d == "auv"] if spec in suite.TAGS else []
-        if not chosen:
-            raise ValueError(f"unknown task or tag {spec!r}; tasks: {names + names_3d}; tags: "
-                             f"{sorted(suite.TAGS)}; auv3d (the 6-DOF tasks)")
-    runs_on = resolve(policy_name)[0].tasks
-    if runs_on != "any":
-        tagged = {t for _, t in suite.tasks_by_tag(runs_on)} | set(SUITE3D.tagged(runs_on))
-        chosen = [t for t in chosen if t in tagged]
-    if not chosen:
-        raise ValueError(f"policy {policy_name!r} cannot run any task of {spec!r}")
-    return chosen
+        raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {tags}; domains: {list(domains)}; "
+                         "or all")
+    policy = resolve(policy_name)[0]
+    kept = [t for t in chosen if runs_on(policy, t)]
+    if not kept:
+        raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(policy)}, none of {spec!r} "
+                         f"({', '.join(chosen)})")
+    return kept
 
 
 def env_and_policy(policy_name: str, task_name: str, seed: int, task_kwargs: dict | None = None):
@@ -489,6 +612,14 @@ def policy_help() -> str:
             f"policy(time_step) -> action) or PATH.zip (a Stable-Baselines3 model)")
 
 
+def runs_on_label(spec: PolicySpec) -> str:
+    """The "runs on" cell of a spec: its domains' words and its kind of task ("planar + 6-DOF planning tasks"), or
+    the tracking tasks by name."""
+    if spec.tasks == "executor":
+        return ", ".join(t for d in spec.domains for t in domain_tasks(d, "executor"))
+    return f"{' + '.join(DOMAINS[d] for d in spec.domains)} {_kind(spec.tasks)}tasks"
+
+
 def markdown_table() -> str:
     """The README's policy tables, one per role (`ROLES`): name, family, tasks, executor, protection, description."""
     lines = []
@@ -498,7 +629,7 @@ def markdown_table() -> str:
         for name, spec in POLICIES.items():
             if spec.role != role:
                 continue
-            tasks = {"any": "every task", "planning": "planning tasks", "executor": "speed_heading"}[spec.tasks]
+            tasks = runs_on_label(spec)
             executor = spec.executor or spec.default_executor or ("task's" if spec.tasks != "executor" else "-")
             protection = {None: "as trained" if spec.checkpoint else "-", True: "paper's (or its own)",
                           False: "none"}.get(spec.protection, spec.protection)
@@ -510,9 +641,9 @@ def markdown_table() -> str:
 from auv_mj.zoo import outside  # noqa: E402, F401, I001  (registers MODULE:FACTORY and PATH.zip in RESOLVERS)
 
 
-def load_policy(name: str, env, task: str | None = None, seed: int = 0) -> ActingPolicy:
+def load_policy(name: str, env, task: str | None = None, seed: int = 0) -> Planner:
     """The named policy (any `--policy` form) acting in `env`, a suite environment of task `task` (which picks a
-    per-task checkpoint), as `policy(time_step) -> action` with `reset()` where it keeps state. For an environment
+    per-task checkpoint), as a Planner: `reset()` at an episode's start, `act(time_step) -> action`. For an environment
     that the policy needs set up (its executor, the observation a checkpoint was trained on), build both with
     `env_and_policy`."""
     return make_policy(name, env, seed, task)

@@ -11,10 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-ActingPolicy = Callable[[Any], np.ndarray]
-"""`policy(time_step) -> action`, what every command runs."""
+from auv_mj.episode import Planner
 
 ROLES = {"use": "To use", "paper": "The paper's", "reference": "References and ablations",
          "comparison": "Kept for comparison"}
@@ -22,6 +19,9 @@ ROLES = {"use": "To use", "paper": "The paper's", "reference": "References and a
 use, the paper's own, the references and ablations that measure others, and earlier ones kept for comparison."""
 RUNS_ON = ("planning", "executor", "any")
 """What a spec's `tasks` may be: the suite's tasks tagged "planning", those tagged "executor", or every task."""
+DOMAINS = {"auv": "planar", "auv3d": "6-DOF"}
+"""The suite's domains a spec may run on (`PolicySpec.domains`) -> the word the tables and refusals use: "auv", the
+planar vehicle of the paper (surge, sway, yaw), and "auv3d", the 6-DOF REMUS-100."""
 
 
 @dataclass(frozen=True)
@@ -42,7 +42,7 @@ class PolicySpec:
 
     description: str
     """One line for `--help` and the README's policy table."""
-    build: Callable[[Deployment], ActingPolicy]
+    build: Callable[[Deployment], Planner]
     """Makes the acting policy for one episode's environment."""
     family: str = "classical"
     """"learned", "classical" or "reference" (random, oracle): the column of the README's table."""
@@ -65,12 +65,17 @@ class PolicySpec:
     """Whether `NAME=PATH` runs checkpoint PATH in its place."""
     role: str = "use"
     """What it is for: one of ROLES."""
+    domains: tuple[str, ...] = ("auv",)
+    """The suite domains whose tasks it runs on (keys of DOMAINS): a policy built for the planar vehicle reads its
+    observation, pose and map, which the 6-DOF vehicle's tasks do not have, so a spec names the domains it knows."""
 
     def __post_init__(self):
         if self.tasks not in RUNS_ON:
             raise ValueError(f"PolicySpec.tasks {self.tasks!r}: not one of {RUNS_ON}")
         if self.role not in ROLES:
             raise ValueError(f"PolicySpec.role {self.role!r}: not one of {list(ROLES)}")
+        if isinstance(self.domains, str) or not self.domains or not set(self.domains) <= set(DOMAINS):
+            raise ValueError(f"PolicySpec.domains {self.domains!r}: a non-empty tuple of {list(DOMAINS)}")
 
 
 POLICIES: dict[str, PolicySpec] = {}

@@ -64,7 +64,7 @@ def executors(lines: list[str], episodes: int, workers: int = 1) -> None:
               "strongest classical executor we have, re-tuned in ocean water on training seeds.", ""]
     n_exec = max(10, min(episodes, 20))
     results = _executor_table9(lines, n_exec)
-    lines += ["Target (issue 17): the learned executor's MAE of speed and heading at most the S-plane's in every "
+    lines += ["Target: the learned executor's MAE of speed and heading at most the S-plane's in every "
               "phase, in ocean water.", "", "| learned executor | against | ocean: at most in every phase? | "
               "ideal: at most in every phase? |", "| --- | --- | --- | --- |"]
     for name in ("ocean-executor", "executor"):

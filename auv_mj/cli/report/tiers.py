@@ -215,7 +215,7 @@ def tiers(lines: list[str], leaderboard: Path = LEADERBOARD) -> None:
               "moving_obstacles, tunnel) per tier and water, paired by seed (seeds in brackets).", "",
               *time_split(board, names), "",
               f"### Ablation: `{LEARNED}` against its learned output zeroed (`{ABLATION}`)", "", *ablation(board),
-              "", f"### Targets (`{LEARNED}`, issue 30)", "", *verdicts(board), "",
+              "", f"### Targets (`{LEARNED}`)", "", *verdicts(board), "",
               "Commands: `auv-mj benchmark --policy P --episodes N --workers 2 --out runs/benchmark/P --publish` for "
               "each P above (the oracle first: it is the reference of time efficiency), then `auv-mj reproduce "
               "--sections benchmark`.", ""]

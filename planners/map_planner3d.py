@@ -1,0 +1,320 @@
+"""The mapping planner and the oracle in 3-D: `map-replan` and `oracle` on goal3d and tunnel3d.
+
+Both are `factory(env) -> policy(time_step) -> action` on an auv3d planning environment, the 3-D counterparts of
+`auv_mj.planners.map_planner`'s (Choset et al., *Principles of Robot Motion*, Ch. 2 and 5; LaValle, *Planning
+Algorithms*, Ch. 5-6):
+
+- The map is a voxel grid of the water (`auv_mj.arenas.voxels.VoxelGrid`): OPEN_CELL (2 m across, 1 m high) in open
+  water, TUBE_CELL (1 m, 0.5 m) in a tube (`auv_mj.arenas.traps3d.map_cells`). `map_replan` fills it online from the
+  27-beam fan and the altimeter (unknown water free; log-odds counts as in the plane: +HIT for an echo's voxel,
+  -MISS for each voxel a beam crossed, occupied at >= OCCUPIED); the `oracle` from the true geoms
+  (`auv_mj.arenas.traps3d.true_map`). Both know the surface: water shallower than the task's MIN_DEPTH is closed.
+- The search (`auv_mj.arenas.voxels.shortest_path`) is Dijkstra's algorithm on the flyable lattice: level moves,
+  and climbs or dives no steeper than the executor's pitch limit (read from the task's executor,
+  `DepthHeadingGains.max_pitch`) times CLIMB_MARGIN. A voxel nearer than the hard clearance (OPEN_CLEARANCE 2.5 m,
+  TUBE_CLEARANCE 1 m) to an occupied one is closed, and one within SOFT_CELLS voxels of it costs more, so a path
+  keeps to open water. It runs in a box round the vehicle and its target grown by WINDOW (TUBE_WINDOW in a tube).
+- Replanning, as in the plane: the search runs again when the map changed near the path (new occupied voxels
+  within the soft clearance of the path left), at most every REPLAN_STEPS planner steps; when the target moved on;
+  when the vehicle is further than OFF_PATH (TUBE_OFF_PATH) from its path; and every REPLAN_PERIOD steps regardless.
+  The target is the goal (goal3d) or the centreline's point ROUTE_HORIZON metres on from the vehicle's nearest one,
+  moved on in ROUTE_STEP steps, and on past any obstacle the map holds there (tunnel3d).
+- The follower is 3-D line of sight on the planned path (`auv_mj.tasks.auv3d_control.los_command`: heading to the
+  point LOOKAHEAD metres along it, its depth as the depth command) at the classical planners' CRUISE_SPEED, inside
+  the protection domain on the 3-D fan (`auv_mj.planners.los3d.protect_command`) with PATH_FIELD in open water and
+  the tube's TUBE_FIELD in a tube.
+
+The oracle is no competitor: it certifies the hard 3-D arenas (`auv_mj.arenas.traps3d.certify`, the same map and
+search) and gives the reference time of the 3-D suite's time efficiency.
+"""
+
+from __future__ import annotations
+
+import dm_env
+import numpy as np
+
+from auv_mj.arenas import grid, traps3d, voxels
+from auv_mj.episode import VEHICLE_BODY, Planner, PlannerBase
+from auv_mj.planners.avoidance import RepulsiveField
+from auv_mj.planners.los3d import TUBE_FIELD, command_action, protect_command
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_AZIMUTHS, FAN_ELEVATIONS, fan_directions
+from auv_mj.sim.sonar import SONAR_RANGE
+from auv_mj.tasks.auv3d import CRUISE_SPEED, GOAL_RADIUS, MIN_DEPTH, Tunnel3D
+from auv_mj.tasks.auv3d import LOOKAHEAD as TUBE_LOS_LOOKAHEAD
+from auv_mj.tasks.auv3d_control import los_command
+
+HIT, MISS, OCCUPIED, SATURATION = 2, 1, 2, 6
+"""Log-odds counts of a voxel, as in the plane (`auv_mj.planners.map_planner`)."""
+SOFT_CELLS = 3.0
+"""Voxels (horizontal size) beyond the hard clearance within which a voxel costs more."""
+REPLAN_STEPS = 4
+"""Least planner steps (2 s) between two searches when the map changed near the path ..."""
+REPLAN_PERIOD = 40
+"""... and a search every this many steps (20 s) regardless."""
+OFF_PATH, TUBE_OFF_PATH = 8.0, 2.0
+"""A vehicle this far [m] from its planned path plans again (open water, tube)."""
+LOOKAHEAD = 10.0
+"""Line of sight aims at the path's point this far [m] along it (chosen on validation seeds, docs/benchmark.md) ..."""
+TUBE_LOOKAHEAD = TUBE_LOS_LOOKAHEAD
+"""... in a tube, as far as `los-avoid` aims along the centreline."""
+SMOOTH_SPACING = 0.5
+SMOOTH_WINDOW = 4.0
+"""A planned path is resampled every SMOOTH_SPACING metres and averaged over SMOOTH_WINDOW voxels
+(`auv_mj.arenas.voxels.smooth`)."""
+PATH_FIELD = RepulsiveField(influence=15.0)
+"""The protection domain in open water while following a planned path: the paper's gain, echoes repelling within
+15 m (chosen on validation seeds over the open-water 30 m of `los-avoid`, which turns the vehicle along a wall it
+is planned to climb over)."""
+ROUTE_HORIZON = 12.0
+"""In a tube the search goes to the centreline's point this far [m] on (the chord of a 20 m bend over it strays
+0.9 m from the centreline: unseen wall beyond the fan's reach round a bend does not pull the path into it) ..."""
+ORACLE_ROUTE_HORIZON = 30.0
+"""... the oracle's, which no unseen wall can mislead, this far ..."""
+ROUTE_STEP = 4.0
+"""... moved on in steps of this many metres (each a new target, a new search)."""
+WINDOW = np.array([20.0, 20.0, 12.0])
+"""The open-water search stays within the box round vehicle and target grown by this [m] ..."""
+TUBE_WINDOW = np.array([8.0, 8.0, 8.0])
+"""... in a tube, by this."""
+MAP_MARGIN = np.array([60.0, 60.0, 25.0])
+"""The open-water map covers start and goal grown by this [m] (below the surface) ..."""
+TUBE_MAP_MARGIN = np.array([12.0, 12.0, 10.0])
+"""... a tube's map its centreline grown by this."""
+
+
+def _nearest(path: np.ndarray, position: np.ndarray) -> tuple[float, float]:
+    """(distance [m] of `position` from the polyline `path`, arc length [m] of its nearest point)."""
+    if len(path) < 2:
+        return float(np.linalg.norm(path[0] - position)), 0.0
+    a, d = path[:-1], np.diff(path, axis=0)
+    lengths2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
+    t = np.clip(np.einsum("ij,ij->i", position - a, d) / lengths2, 0.0, 1.0)
+    gaps = np.linalg.norm(a + t[:, None] * d - position, axis=1)
+    k = int(np.argmin(gaps))
+    arc = np.concatenate([[0.0], np.cumsum(np.sqrt(lengths2))])
+    return float(gaps[k]), float(arc[k] + t[k] * np.sqrt(lengths2[k]))
+
+
+def _point_at(path: np.ndarray, s: float) -> np.ndarray:
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    if s >= arc[-1]:
+        return path[-1].copy()
+    j = int(np.searchsorted(arc, s, side="right") - 1)
+    return path[j] + (s - arc[j]) / max(arc[j + 1] - arc[j], 1e-12) * (path[j + 1] - path[j])
+
+
+class VoxelFollower(PlannerBase):
+    """A search on a voxel map, replanned when it must, followed by 3-D line of sight (module docstring).
+
+    Subclasses fill `self.occupied` (`start`, `update`) and say when the map changed near the path."""
+
+    replan_steps = REPLAN_STEPS
+    route_horizon = ROUTE_HORIZON
+
+    def __init__(self, env):
+        self.env = env
+        self.task, self.physics = env.task, env.physics
+        self.grid: voxels.VoxelGrid | None = None
+
+    def reset(self) -> None:
+        """Forgets the map and the path (the next step starts a new episode)."""
+        self.grid = None
+
+    @property
+    def in_tube(self) -> bool:
+        return isinstance(self.task, Tunnel3D) and len(self.task.path) >= 2
+
+    def start(self) -> None:
+        """A new episode: an empty map over the episode's water, the surface closed."""
+        task = self.task
+        self.max_slope = task.executor.gains.max_pitch * voxels.CLIMB_MARGIN
+        cell, self.hard = traps3d.map_cells(task.path if self.in_tube else np.zeros((0, 3)))
+        points = np.vstack([self.physics.position(), task.goal, task.path.reshape(-1, 3)])
+        margin = TUBE_MAP_MARGIN if self.in_tube else MAP_MARGIN
+        high = points.max(axis=0) + margin
+        high[2] = min(high[2], 0.0)
+        self.grid = voxels.VoxelGrid.covering(points.min(axis=0) - margin, high, *cell)
+        self.surface = np.zeros(self.grid.shape, bool)
+        self.surface[:, :, self.grid.centres()[2] > -MIN_DEPTH] = True
+        self.occupied = self.surface.copy()
+        self.path: np.ndarray | None = None
+        self.since_plan = 0
+        self.target_key = None
+
+    def update(self) -> bool:
+        """Brings the map up to date; whether it changed near the path."""
+        raise NotImplementedError
+
+    def near_path(self, fresh: np.ndarray) -> bool:
+        """Whether any of the voxels `fresh` (n, 3) lies within the soft clearance of the path left."""
+        if self.path is None or not len(fresh):
+            return self.path is None and bool(len(fresh))
+        centres = self.grid.centre(fresh)
+        ahead = self.path[self.progress_index():]
+        reach = self.hard + SOFT_CELLS * float(self.grid.cell[0])
+        return bool(np.min(np.linalg.norm(centres[:, None, :] - ahead[None, ::2, :], axis=2)) < reach)
+
+    def progress_index(self) -> int:
+        """Index of the path vertex nearest the vehicle."""
+        return int(np.argmin(np.linalg.norm(self.path - self.physics.position(), axis=1)))
+
+    def target(self) -> tuple[np.ndarray, float, object]:
+        """The search's target, its radius [m] and a key that changes when the target does."""
+        task = self.task
+        if not self.in_tube:
+            return task.goal, GOAL_RADIUS, 0
+        _, s = _nearest(task.path, self.physics.position())
+        step = int((s + self.route_horizon) // ROUTE_STEP)
+        point = _point_at(task.path, step * ROUTE_STEP)
+        while self.blocked(point) and np.linalg.norm(point - task.path[-1]) > 1e-9:  # on to water past an obstacle
+            step += 1
+            point = _point_at(task.path, step * ROUTE_STEP)
+        return point, GOAL_RADIUS, step if np.linalg.norm(point - task.path[-1]) > 1e-9 else "end"
+
+    def blocked(self, point: np.ndarray) -> bool:
+        """Whether an occupied voxel lies within the hard clearance of `point`'s voxel (box neighbourhood)."""
+        cells, inside = self.grid.index(point)
+        if not inside[0]:
+            return False
+        reach = np.ceil(self.hard / self.grid.cell).astype(int)
+        lo = np.maximum(cells[0] - reach, 0)
+        hi = np.minimum(cells[0] + reach + 1, self.grid.shape)
+        return bool(self.occupied[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]].any())
+
+    def plan(self, position: np.ndarray, goal: np.ndarray, radius: float) -> None:
+        """Searches the map round the vehicle and the target; keeps the old path when none is found."""
+        self.since_plan = 0
+        space = self.grid
+        window = TUBE_WINDOW if self.in_tube else WINDOW
+        soft = self.hard + SOFT_CELLS * float(space.cell[0])
+        ends = np.vstack([position, goal])
+        lo = np.maximum(np.floor((ends.min(axis=0) - window - soft - space.origin) / space.cell).astype(int), 0)
+        hi = np.minimum(np.ceil((ends.max(axis=0) + window + soft - space.origin) / space.cell).astype(int),
+                        space.shape)
+        crop = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
+        local = voxels.VoxelGrid(space.origin + lo * space.cell, space.cell, tuple(int(v) for v in hi - lo))
+        cost = grid.cost_field(voxels.clearance(local, self.occupied[crop]), self.hard, soft)
+        box = (ends.min(axis=0) - window, ends.max(axis=0) + window)
+        path = voxels.shortest_path(local, cost, position, goal, self.max_slope, radius, box)
+        if path is not None:
+            if np.linalg.norm(path[-1] - goal) <= radius:
+                path[-1] = goal
+            self.path = voxels.smooth(np.vstack([position, path]), SMOOTH_SPACING, SMOOTH_WINDOW * space.cell[0])
+
+    def command(self) -> tuple[float, float, float]:
+        """Brings the map and the plan up to date; the (V, psi, depth) command of line of sight on the path."""
+        position = self.physics.position()
+        if self.grid is None:
+            self.start()
+        changed = self.update()
+        goal, radius, key = self.target()
+        self.since_plan += 1
+        if (self.path is None or key != self.target_key or self.since_plan >= REPLAN_PERIOD
+                or (changed and self.since_plan >= self.replan_steps)):
+            self.target_key = key
+            self.plan(position, goal, radius)
+        if self.path is not None and self.since_plan >= self.replan_steps:
+            off = TUBE_OFF_PATH if self.in_tube else OFF_PATH
+            if _nearest(self.path, position)[0] > off:
+                self.plan(position, goal, radius)
+        path = self.path if self.path is not None else np.vstack([position, goal])
+        return los_command(position, path, TUBE_LOOKAHEAD if self.in_tube else LOOKAHEAD, CRUISE_SPEED)
+
+    def act(self, time_step: dm_env.TimeStep) -> np.ndarray:
+        if time_step.first():
+            self.reset()
+        command = self.command()
+        field = TUBE_FIELD if isinstance(self.task, Tunnel3D) else PATH_FIELD
+        command = protect_command(command, self.physics.heading(), self.task.sensors.read(self.physics)["sonar"],
+                                  field)
+        return command_action(command, self.physics)
+
+
+_FAN = fan_directions()
+_NEIGHBOURS = np.array([(r * len(FAN_AZIMUTHS) + c, r * len(FAN_AZIMUTHS) + c + 1) for r in range(len(FAN_ELEVATIONS))
+                        for c in range(len(FAN_AZIMUTHS) - 1)]
+                       + [(r * len(FAN_AZIMUTHS) + c, (r + 1) * len(FAN_AZIMUTHS) + c)
+                          for r in range(len(FAN_ELEVATIONS) - 1) for c in range(len(FAN_AZIMUTHS))])
+"""Pairs of neighbouring fan beams (in azimuth within a row, in elevation within a column)."""
+JOIN_POINTS = 8
+"""Points marked along the segment between two joined echoes (`SonarVoxelMap.update`)."""
+
+
+class SonarVoxelMap(VoxelFollower):
+    """`map-replan`'s map: log-odds counts of the fan's and the altimeter's echoes and clear beams.
+
+    Two neighbouring beams' echoes nearer each other than twice the hard clearance plus a voxel are joined (the
+    voxels along the segment between them are hit too): the search could not pass between them anyway, and a wall
+    seen by a sparse fan has no holes between its beams."""
+
+    def start(self) -> None:
+        super().start()
+        self.odds = np.zeros(self.grid.shape, np.int8)
+
+    def beams(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(origins (28, 3), unit directions (28, 3), ranges (28,)) [m] of the fan's 27 beams and the altimeter's
+        in the world, from the held samples and the vehicle's pose; a beam without an echo reads its range limit."""
+        model, data = self.physics.model.ptr, self.physics.data.ptr
+        sensed = self.task.sensors.read(self.physics)
+        sonar, altimeter = model.site("sonar").id, model.site("altimeter").id
+        fan = _FAN @ data.site_xmat[sonar].reshape(3, 3).T
+        down = -data.site_xmat[altimeter].reshape(3, 3)[:, 2]
+        origins = np.vstack([np.repeat(data.site_xpos[sonar][None], len(fan), axis=0), data.site_xpos[altimeter]])
+        return origins, np.vstack([fan, down]), np.append(np.asarray(sensed["sonar"], dtype=float),
+                                                          float(sensed["altimeter"]))
+
+    def update(self) -> bool:
+        """Marks the beams: voxels along each beam short of its range clear, its echo's voxel hit."""
+        origins, directions, ranges = self.beams()
+        limits = np.append(np.full(len(ranges) - 1, SONAR_RANGE), ALTIMETER_RANGE)
+        step = 0.5 * float(np.min(self.grid.cell))
+        samples = np.arange(0.0, SONAR_RANGE, step)
+        clear = samples[None, :] < (ranges[:, None] - float(self.grid.cell[0]))
+        points = origins[:, None, :] + samples[None, :, None] * directions[:, None, :]
+        cells, inside = self.grid.index(points[clear])
+        missed = np.unique(np.ravel_multi_index(cells[inside].T, self.grid.shape))
+        hit = ranges < limits - 1e-6
+        echoes = origins + np.minimum(ranges, limits)[:, None] * directions
+        a, b = _NEIGHBOURS[:, 0], _NEIGHBOURS[:, 1]
+        join = hit[a] & hit[b] & (np.linalg.norm(echoes[a] - echoes[b], axis=1)
+                                  < 2.0 * self.hard + float(self.grid.cell[0]))
+        t = np.linspace(0.0, 1.0, JOIN_POINTS)[None, :, None]
+        joined = (echoes[a[join]][:, None, :] * (1.0 - t) + echoes[b[join]][:, None, :] * t).reshape(-1, 3)
+        cells, inside = self.grid.index(np.vstack([echoes[hit], joined]))
+        echoed = np.unique(np.ravel_multi_index(cells[inside].T, self.grid.shape))
+        touched = np.union1d(missed, echoed)
+        odds = self.odds.flat[touched].astype(np.int16)
+        odds -= MISS * np.isin(touched, missed)
+        odds += HIT * np.isin(touched, echoed)
+        odds = np.clip(odds, -SATURATION, SATURATION)
+        self.odds.flat[touched] = odds
+        occupied = (odds >= OCCUPIED) | self.surface.flat[touched]
+        new = touched[occupied & ~self.occupied.flat[touched]]
+        self.occupied.flat[touched] = occupied
+        return self.near_path(np.column_stack(np.unravel_index(new, self.grid.shape)))
+
+
+class TrueVoxelMap(VoxelFollower):
+    """The oracle's map: every geom of the arena (the 3-D arenas are static) and the surface. Knowing the walls, it
+    looks ORACLE_ROUTE_HORIZON along a tube: time to climb, dive or sidestep to pass a plug at a flyable slope."""
+
+    route_horizon = ORACLE_ROUTE_HORIZON
+
+    def start(self) -> None:
+        super().start()
+        physics = self.physics
+        vehicle = physics.model.ptr.body(VEHICLE_BODY).id
+        self.occupied = traps3d.true_map(self.grid, physics.model.ptr, physics.data.ptr, MIN_DEPTH, vehicle)
+
+    def update(self) -> bool:
+        return False
+
+
+def sonar_voxel_planner(env) -> Planner:
+    """`map-replan` on an auv3d planning environment (module docstring)."""
+    return SonarVoxelMap(env)
+
+
+def true_voxel_planner(env) -> Planner:
+    """The `oracle` on an auv3d planning environment (module docstring)."""
+    return TrueVoxelMap(env)

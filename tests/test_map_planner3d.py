@@ -1,0 +1,129 @@
+"""The 3-D mapping planner, the 3-D oracle and the hard 3-D arenas: certificates, the voxel map, a trap escaped."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+from dm_control.rl import control
+
+from auv_mj.arenas import traps3d, voxels
+from auv_mj.arenas.arena3d import arena_root, seabed
+from auv_mj.planners.los3d import classical_3d
+from auv_mj.planners.map_planner3d import SonarVoxelMap, sonar_voxel_planner
+from auv_mj.sim.sensors3d import FAN_AZIMUTHS
+from auv_mj.sim.sonar import SONAR_RANGE
+from auv_mj.tasks.auv3d import GOAL_RADIUS, MIN_DEPTH, WATER_DEPTH, Goal3D, Physics3D, Tunnel3D
+from auv_mj.tasks.auv3d_control import DepthHeadingGains
+
+MAX_PITCH = DepthHeadingGains().max_pitch
+SEEDS = (20_000, 20_001, 20_002)
+"""Validation seeds (`auv_mj.seeds.VALIDATION`)."""
+
+
+def _assert_flyable(path: np.ndarray, start, goal, radius: float) -> None:
+    """A certificate's path starts at the start's voxel, ends within the goal's radius (and a voxel), and no segment
+    climbs or dives more steeply than the pitch limit allows (independent of the lattice)."""
+    assert np.linalg.norm(path[0] - start) < 2.0
+    assert np.linalg.norm(path[-1] - goal) <= radius + 2.0
+    steps = np.diff(path, axis=0)
+    slopes = np.abs(steps[:, 2]) / np.maximum(np.hypot(steps[:, 0], steps[:, 1]), 1e-9)
+    assert np.all(slopes <= math.tan(MAX_PITCH * voxels.CLIMB_MARGIN) + 1e-9)
+
+
+def test_hard_goal_arenas_are_certified_by_the_oracle():
+    kinds = set()
+    for seed in SEEDS:
+        task = Goal3D(tier="hard", random=seed)
+        root, start, heading, goal, path = task.draw_arena(np.random.RandomState(seed))
+        arena = traps3d.Arena3D(root, start, heading, goal, path, "")
+        plan = traps3d.certify(arena, task.executor.gains.max_pitch, MIN_DEPTH, GOAL_RADIUS)
+        assert plan is not None
+        _assert_flyable(plan, start, goal, GOAL_RADIUS)
+        names = {g.get("name") for g in root.iter("geom")}
+        kinds |= {k for k in traps3d.KINDS if any(k in (n or "") for n in names)} | {"relief" for n in names
+                                                                                        if "ridge" in (n or "")}
+        # The same seed draws the same arena.
+        again = task.draw_arena(np.random.RandomState(seed))[0]
+        assert ET.tostring(again) == ET.tostring(root)
+    assert kinds, "the hard tier holds traps"
+
+
+def test_hard_tube_is_certified_inside_the_tube():
+    task = Tunnel3D(tier="hard", random=SEEDS[0])
+    root, start, _, goal, line = task.draw_arena(np.random.RandomState(SEEDS[0]))
+    arena = traps3d.Arena3D(root, start, 0.0, goal, line, "plugs")
+    assert any((g.get("name") or "").startswith("plug_") for g in root.iter("geom"))
+    plan = traps3d.certify(arena, MAX_PITCH, None, 2.0, corridor=(line, traps3d.HARD_TUBE_RADIUS))
+    assert plan is not None
+    _assert_flyable(plan, start, goal, 2.0)
+    # Independently: every waypoint lies inside the tube, and a plug stands across the centreline.
+    distance = np.min(np.linalg.norm(plan[:, None, :] - line[None, :, :], axis=2), axis=1)
+    assert np.all(distance < traps3d.HARD_TUBE_RADIUS + 2.0)
+    model, data = traps3d.arena_model(root)
+    plug = next(g for g in range(model.ngeom) if model.geom(g).name.startswith("plug_"))
+    centre = data.geom_xpos[plug]
+    near = line[np.argmin(np.linalg.norm(line - centre, axis=1))]
+    local = data.geom_xmat[plug].reshape(3, 3).T @ (near - centre)
+    assert np.all(np.abs(local[1:]) <= model.geom_size[plug][1:] + 1.0)  # the centreline runs into the plug
+
+
+def test_true_map_marks_voxels_within_half_a_diagonal_of_a_sphere():
+    root = arena_root("sphere", [ET.Element("geom", name="ball", type="sphere", size="4", pos="10.3 0.2 -20.1")])
+    model, data = traps3d.arena_model(root)
+    space = voxels.VoxelGrid.covering((0, -10, -30), (20, 10, -10), 2.0, 1.0)
+    occupied = voxels.geom_occupancy(space, model, data)
+    x, y, z = np.meshgrid(*space.centres(), indexing="ij")
+    expected = np.sqrt((x - 10.3) ** 2 + (y - 0.2) ** 2 + (z + 20.1) ** 2) <= 4.0 + 0.5 * math.sqrt(2 ** 2 * 2 + 1)
+    np.testing.assert_array_equal(occupied, expected)
+
+
+def _wall_task(depth_below_top: float = 10.0):
+    """A wall across the route from the seabed up to `depth_below_top` metres above start and goal (30 m deep)."""
+
+    class WallTask(Goal3D):
+        def draw_arena(self, random):
+            top = 30.0 - depth_below_top
+            half = 0.5 * (WATER_DEPTH - top)
+            wall = ET.Element("geom", name="wall", type="box", size=f"1 150 {half}", pos=f"60 0 {-WATER_DEPTH + half}")
+            root = arena_root("wall", [seabed(WATER_DEPTH), wall])
+            return root, np.array([0.0, 0.0, -30.0]), 0.0, np.array([120.0, 0.0, -30.0]), np.zeros((0, 3))
+
+    task = WallTask(random=0)
+    return control.Environment(Physics3D.load(None, "ideal"), task, time_limit=200.0, control_timestep=0.5)
+
+
+def test_sonar_map_marks_echoes_on_the_wall():
+    env = _wall_task()
+    env.reset()
+    mapper = SonarVoxelMap(env)
+    for _ in range(12):  # towards the wall
+        env.step([0.0, 0.0, 0.0])
+    mapper.start()
+    mapper.update()
+    marked = np.argwhere(mapper.occupied & ~mapper.surface)
+    ahead = 59.0 - env.physics.position()[0]
+    reaching = int(np.sum(ahead / np.cos(FAN_AZIMUTHS) < 0.95 * SONAR_RANGE))  # level beams with the wall in range
+    assert reaching >= 5
+    centres = mapper.grid.centre(marked)
+    # Every echo voxel holds a point of the wall's face (x = 59) or of the seabed: its centre is within half a voxel.
+    half = 0.5 * mapper.grid.cell
+    on_wall = np.abs(centres[:, 0] - 59.0) <= half[0] + 1e-9
+    on_bed = np.abs(centres[:, 2] + WATER_DEPTH) <= half[2] + 1e-9
+    assert np.all(on_wall | on_bed)
+    assert on_wall.sum() >= reaching
+
+
+def test_map_replan_passes_over_a_wall_that_los_avoid_stalls_at():
+    outcomes = {}
+    for name, make in (("los-avoid", lambda env: classical_3d(env, avoid=True)), ("map-replan", sonar_voxel_planner)):
+        env = _wall_task()
+        policy = make(env)
+        time_step = env.reset()
+        while not time_step.last():
+            time_step = env.step(policy(time_step))
+        outcomes[name] = (env.task.last_info.get("event"), env.physics.position())
+    assert outcomes["map-replan"][0] == "goal"
+    assert outcomes["los-avoid"][0] != "goal"
+    assert outcomes["los-avoid"][1][0] < 60.0  # it never got past the wall
