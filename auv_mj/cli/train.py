@@ -161,10 +161,9 @@ def add_ppo_options(parser: argparse.ArgumentParser) -> None:
                                                                f"[{mix.collision_penalty}]")
     group.add_argument("--reward-scale", type=float, help=f"multiplies every reward [{mix.reward_scale}]")
     group.add_argument("--validate-every", type=positive_int, default=1_000_000, metavar="STEPS",
-                       help="env steps between validations and snapshots (rounded up to checkpoint periods) "
-                            "[1000000]")
+                       help="env steps between validations and snapshots (rounded up to checkpoint periods)")
     group.add_argument("--validation-episodes", type=positive_int, default=16, metavar="N",
-                       help="validation-seed episodes per hard-tier cell [16]")
+                       help="validation-seed episodes per hard-tier cell")
     group.add_argument("--validation-max-steps", type=positive_int, metavar="N",
                        help="cut validation episodes after N steps (counted as failures) [the tasks' time limits]")
     group.add_argument("--threads", type=positive_int, help="threads of the batched physics [this process's CPUs]")
