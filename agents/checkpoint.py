@@ -131,9 +131,10 @@ MAX_OBS_DIM, MAX_ACT_DIM = 10_000, 100
 SPEC_KINDS = ("goal", "box")
 
 
-def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
-    """(tensors, metadata) of a checkpoint, checked against the schema (`check_checkpoint`) before any
-    network is built; ValueError naming the file if it is unreadable, foreign or inconsistent."""
+def read_payload(path: str | Path, fmt: str, kind: str) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
+    """(tensors, metadata) of an auv-mj checkpoint file of format `fmt` (a `kind` one: "DDPG", "PPO"), loaded with
+    `weights_only=True`; FileNotFoundError, or ValueError naming the file if it is too large, unreadable or of
+    another format. The schema of its contents is the caller's to check."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no checkpoint at {path}")
@@ -145,11 +146,18 @@ def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str
         raise ValueError(f"checkpoint {path} is corrupt or truncated, or holds more than plain tensors "
                          f"(torch.load with weights_only=True raised {type(exc).__name__})") from exc
     ok = (isinstance(payload, dict) and isinstance(payload.get("tensors"), dict)
-          and isinstance(payload.get("metadata"), dict) and payload["metadata"].get("format") == FORMAT)
+          and isinstance(payload.get("metadata"), dict) and payload["metadata"].get("format") == fmt)
     if not ok:
-        raise ValueError(f"checkpoint {path} is not an auv-mj DDPG checkpoint (format {FORMAT!r} expected)")
-    check_checkpoint(payload["tensors"], payload["metadata"], path)
+        raise ValueError(f"checkpoint {path} is not an auv-mj {kind} checkpoint (format {fmt!r} expected)")
     return payload["tensors"], payload["metadata"]
+
+
+def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
+    """(tensors, metadata) of a checkpoint, checked against the schema (`check_checkpoint`) before any
+    network is built; ValueError naming the file if it is unreadable, foreign or inconsistent."""
+    tensors, meta = read_payload(path, FORMAT, "DDPG")
+    check_checkpoint(tensors, meta, Path(path))
+    return tensors, meta
 
 
 def _whole(value: Any, low: int, high: int) -> bool:

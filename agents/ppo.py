@@ -50,7 +50,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from torch import nn
 
-from auv_mj.agents.checkpoint import atomic_write, config_from_dict, config_to_dict, load_module
+from auv_mj.agents.checkpoint import atomic_write, config_from_dict, config_to_dict, load_module, read_payload
 from auv_mj.agents.networks import Normalizer
 from auv_mj.console import progress_bar
 from auv_mj.seeds import train_seed
@@ -64,8 +64,6 @@ LOG_FIELDS = ("iteration", "env_steps", "episodes", "mean_return", "policy_loss"
 OBS_KEYS = ("observation", "desired_goal")
 """The keys of a goal Dict observation that form the network input, concatenated in this order."""
 RECURRENT_KINDS = (None, "gru", "lstm")
-MAX_CHECKPOINT_BYTES = 2**30
-"""Largest checkpoint file read (1 GiB)."""
 ACTOR_OUT_GAIN, CRITIC_OUT_GAIN, HIDDEN_GAIN = 0.01, 1.0, math.sqrt(2.0)
 """Orthogonal initialisation gains of the policy head, value head and hidden layers (Huang et al. 2022, "The 37
 implementation details of PPO", detail 2)."""
@@ -638,20 +636,7 @@ def save_checkpoint(path: str | Path, model: ActorCritic, optimizer: torch.optim
 def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any], PPOConfig]:
     """(tensors, metadata, config) of a PPO checkpoint; ValueError naming the file if it is unreadable or foreign."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no checkpoint at {path}")
-    if path.stat().st_size > MAX_CHECKPOINT_BYTES:
-        raise ValueError(f"checkpoint {path} is larger than {MAX_CHECKPOINT_BYTES // 2**20} MiB")
-    try:
-        payload = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:  # torch raises many types for corrupt or truncated files
-        raise ValueError(f"checkpoint {path} is corrupt or truncated, or holds more than plain tensors "
-                         f"(torch.load with weights_only=True raised {type(exc).__name__})") from exc
-    ok = (isinstance(payload, dict) and isinstance(payload.get("tensors"), dict)
-          and isinstance(payload.get("metadata"), dict) and payload["metadata"].get("format") == FORMAT)
-    if not ok:
-        raise ValueError(f"checkpoint {path} is not an auv-mj PPO checkpoint (format {FORMAT!r} expected)")
-    tensors, meta = payload["tensors"], payload["metadata"]
+    tensors, meta = read_payload(path, FORMAT, "PPO")
     config = config_from_dict(meta.get("config"), f"checkpoint {path}: config", PPOConfig)
     spec = meta.get("spec")
     if not (isinstance(spec, Mapping) and isinstance(spec.get("obs_dim"), int) and isinstance(spec.get("act_dim"), int)

@@ -144,16 +144,24 @@ def shortest_path(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float 
         weights.append(math.hypot(di, dj) * grid.cell * 0.5 * (local[a][ok] + local[b][ok]))
     graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
                        shape=(nx * ny, nx * ny)).tocsr()
-    source = int(ids[si, sj])
-    distance, previous = dijkstra(graph, directed=False, indices=source, return_predecessors=True)
     centres = grid.centre(*np.divmod(np.arange(nx * ny), ny)) + lo * grid.cell
     near_goal = np.hypot(*(centres - np.asarray(goal, dtype=float)[:2]).T)
-    targets = np.flatnonzero((near_goal <= max(goal_radius, grid.cell)) & np.isfinite(distance))
+    return path_to_goal(graph, int(ids[si, sj]), centres, near_goal, max(goal_radius, grid.cell), 4 * grid.cell)
+
+
+def path_to_goal(graph, source: int, centres: np.ndarray, near_goal: np.ndarray, reach: float,
+                  spare: float) -> np.ndarray | None:
+    """The node centres of the shortest path in `graph` (Dijkstra) from node `source` to the nearest node (by path
+    length) within `reach` of the goal (`near_goal`: each node's distance to it), else to the reachable node nearest
+    the goal within `reach + spare`; None if there is none. The planar grid's and the voxel map's search share it."""
+    distance, previous = dijkstra(graph, directed=False, indices=source, return_predecessors=True)
+    reached = np.isfinite(distance)
+    targets = np.flatnonzero((near_goal <= reach) & reached)
     if targets.size == 0:
-        reachable = np.flatnonzero(np.isfinite(distance) & (near_goal <= max(goal_radius, grid.cell) + 4 * grid.cell))
-        if reachable.size == 0:
+        nearby = np.flatnonzero(reached & (near_goal <= reach + spare))
+        if nearby.size == 0:
             return None
-        targets = reachable[[int(np.argmin(near_goal[reachable]))]]
+        targets = nearby[[int(np.argmin(near_goal[nearby]))]]
     node = int(targets[np.argmin(distance[targets])])
     path = [node]
     while node != source:

@@ -21,9 +21,8 @@ import mujoco
 import numpy as np
 from scipy import ndimage
 from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
-from auv_mj.arenas.grid import SOFT_WEIGHT
+from auv_mj.arenas.grid import SOFT_WEIGHT, path_to_goal
 
 CLIMB_MARGIN = 0.8
 """Share of the vehicle's pitch limit a planned climb or dive may use: the flight path of the buoyant REMUS is
@@ -217,26 +216,10 @@ def shortest_path(grid: VoxelGrid, cost: np.ndarray, start, goal, max_slope: flo
         return None
     graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
                        shape=(local.size, local.size)).tocsr()
-    source = int(ids[si])
-    distance, previous = dijkstra(graph, directed=False, indices=source, return_predecessors=True)
     centres = grid.centre(np.column_stack(np.unravel_index(np.arange(local.size), n)) + lo)
     near_goal = np.linalg.norm(centres - np.asarray(goal, dtype=float)[:3], axis=1)
-    reach = max(goal_radius, float(np.max(grid.cell)))
-    reached = np.isfinite(distance)
-    targets = np.flatnonzero((near_goal <= reach) & reached)
-    if targets.size == 0:
-        nearby = np.flatnonzero(reached & (near_goal <= reach + 4 * float(np.max(grid.cell))))
-        if nearby.size == 0:
-            return None
-        targets = nearby[[int(np.argmin(near_goal[nearby]))]]
-    node = int(targets[np.argmin(distance[targets])])
-    path = [node]
-    while node != source:
-        node = int(previous[node])
-        if node < 0:
-            return None
-        path.append(node)
-    return centres[np.array(path[::-1])]
+    cell = float(np.max(grid.cell))
+    return path_to_goal(graph, int(ids[si]), centres, near_goal, max(goal_radius, cell), 4 * cell)
 
 
 def smooth(path: np.ndarray, spacing: float, window: float) -> np.ndarray:
