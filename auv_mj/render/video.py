@@ -274,7 +274,34 @@ def _range_colours(distance: np.ndarray) -> np.ndarray:
                     axis=1)
 
 
-class FrameRenderer:
+class GLOwner:
+    """Frees a renderer's OpenGL context (`_gl`) and MuJoCo render context (`_context`): on `close()`, at the end of
+    a `with` block, and at garbage collection. The planar and the 6-DOF frame renderers both hold them."""
+
+    def close(self) -> None:
+        """Frees the OpenGL resources (also done at garbage collection)."""
+        if getattr(self, "_context", None) is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._context = None
+        if getattr(self, "_gl", None) is not None:
+            self._gl.free()
+            self._gl = None
+
+    def __enter__(self) -> GLOwner:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: the GL library may already be gone
+            pass
+
+
+class FrameRenderer(GLOwner):
     """Draws frames of one model; owns one OpenGL context, one MjrContext and one scene, reused per frame.
 
     The renderer works on its own copy of the model and data (visual settings changed, physics untouched)
@@ -936,27 +963,6 @@ class FrameRenderer:
         font.text(image, text, left + pad, bottom + pad, np.floor(np.asarray(colour) * 255))
 
 
-    def close(self) -> None:
-        """Frees the OpenGL resources (also done at garbage collection)."""
-        if getattr(self, "_context", None) is not None:
-            self._gl.make_current()
-            self._context.free()
-            self._context = None
-        if getattr(self, "_gl", None) is not None:
-            self._gl.free()
-            self._gl = None
-
-    def __enter__(self) -> FrameRenderer:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def __del__(self):
-        try:
-            self.close()
-        except Exception:  # interpreter shutdown: the GL library may already be gone
-            pass
 
 
 # --- episodes -----------------------------------------------------------------------------------------

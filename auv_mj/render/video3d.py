@@ -40,6 +40,7 @@ from auv_mj.render.video import (
     EVENT_COLOURS,
     EVENT_HOLD,
     WATER_RGBA,
+    GLOwner,
     _gl_context_class,  # the headless backend's GLContext, as the planar renderer makes it
 )
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, altimeter, fan_directions
@@ -159,7 +160,7 @@ def _range_colours(ranges: np.ndarray) -> np.ndarray:
     return colours
 
 
-class FrameRenderer3D:
+class FrameRenderer3D(GLOwner):
     """Draws `State3D`s of a 6-DOF physics into (H, W, 3) uint8 frames (module docstring); a copy of the model
     is posed for each frame, so the environment's own data is never touched."""
 
@@ -359,27 +360,6 @@ class FrameRenderer3D:
         raster.darken(frame[max(top, 0):top + text_h + 2 * pad, max(x, 0):x + text_w + 2 * pad], 0.4)
         font.text(frame, text, x + pad, y + pad, np.floor(np.asarray(colour) * 255))
 
-    def close(self) -> None:
-        """Frees the OpenGL resources (also done at garbage collection)."""
-        if getattr(self, "_context", None) is not None:
-            self._gl.make_current()
-            self._context.free()
-            self._context = None
-        if getattr(self, "_gl", None) is not None:
-            self._gl.free()
-            self._gl = None
-
-    def __enter__(self) -> FrameRenderer3D:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def __del__(self):
-        try:
-            self.close()
-        except Exception:  # interpreter shutdown: the GL library may already be gone
-            pass
 
 
 @dataclass
