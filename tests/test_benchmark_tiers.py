@@ -25,6 +25,29 @@ def _polygons(boxes) -> list:
     return [shapely.polygons(b.corners()) for b in boxes]
 
 
+def test_certified_decides_as_the_certificate_search():
+    """`traps.certified` (a connected-component labelling, `grid.reaches`) says yes exactly when `traps.certify`
+    (Dijkstra) returns a path, on random boxes dense enough that about half the draws have none, with goal radii
+    from the tunnel's 2 m to the planning tasks' 12.5 m and clearances up to 15 m."""
+    rng = np.random.default_rng(7)
+    x0, y0, x1, y1 = BOUNDS
+    answers = []
+    for _ in range(60):
+        boxes = []
+        for _ in range(rng.integers(5, 45)):
+            centre = rng.uniform((x0, y0), (x1, y1))
+            half = rng.uniform(5.0, 60.0, 2)
+            c, s = math.cos(a := rng.uniform(0, math.pi)), math.sin(a)
+            corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half
+            boxes.append(centre + corners @ np.array([[c, s], [-s, c]]))
+        start, goal = rng.uniform((x0, y0), (x1, y1), (2, 2))
+        radius, clearance = rng.choice([2.0, 12.5]), rng.uniform(2.0, 15.0)
+        found = traps.certify(boxes, start, goal, BOUNDS, radius, clearance)
+        assert traps.certified(boxes, start, goal, BOUNDS, radius, clearance) == (found is not None)
+        answers.append(found is not None)
+    assert 10 <= sum(answers) <= 50, "the draws test both answers"
+
+
 @pytest.mark.parametrize("spec", [traps.HARD_OBSTACLES, traps.HARD_MOVING], ids=["obstacles", "moving"])
 def test_hard_layout_is_deterministic_and_certified(spec):
     for seed in SEEDS:

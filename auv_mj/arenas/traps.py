@@ -283,7 +283,7 @@ def _draw_layout(random, bounds, spec: HardSpec, goal_radius: float, seed, draw:
         shapes += new
     _check_clear(shapes, start, goal, bounds)
     movers = _movers(random, spec, start, goal, shapes)
-    if certify([b.corners() for b in obstacles], start, goal, bounds, goal_radius) is None:
+    if not certified([b.corners() for b in obstacles], start, goal, bounds, goal_radius):
         raise _Redraw("no path keeps d_s from the obstacles (not certified)")
     return HardLayout(seed, start, heading, goal, bounds, tuple(obstacles), tuple(movers), tuple(kinds), draw)
 
@@ -342,11 +342,25 @@ def certify(polygons, start, goal, bounds, goal_radius: float, clearance: float 
             walls=()) -> np.ndarray | None:
     """The oracle's certificate: a grid path (m, 2) from `start` to within `goal_radius` of `goal` keeping
     `clearance` [m] from every polygon (k, 2) and from the map's edge, or None when there is none."""
+    area, cost = _certificate_cost(polygons, bounds, clearance, walls)
+    return grid.shortest_path(area, cost, start, goal, goal_radius)
+
+
+def certified(polygons, start, goal, bounds, goal_radius: float, clearance: float = CERTIFY_CLEARANCE,
+              walls=()) -> bool:
+    """Whether `certify` would return a certificate (the same arguments), decided without searching the path
+    (`grid.reaches`): what the hard tier's draws check at every reset."""
+    area, cost = _certificate_cost(polygons, bounds, clearance, walls)
+    return grid.reaches(area, cost, start, goal, goal_radius)
+
+
+def _certificate_cost(polygons, bounds, clearance: float, walls) -> tuple[grid.Grid, np.ndarray]:
+    """The certificate's grid over `bounds` and its cost field: the polygons and walls rasterised, the map's
+    edge occupied, and `clearance` [m] the hard clearance."""
     area = grid.Grid.covering(bounds, grid.CELL)
     occupied = grid.rasterise(area, [*polygons, *walls])
     occupied[[0, -1], :] = occupied[:, [0, -1]] = True
-    cost = grid.cost_field(grid.clearance(area, occupied), clearance)
-    return grid.shortest_path(area, cost, start, goal, goal_radius)
+    return area, grid.cost_field(grid.clearance(area, occupied), clearance)
 
 
 # --- tunnels ------------------------------------------------------------------------------------------
@@ -420,8 +434,8 @@ def _tunnel_traps(random, tunnel: ProceduralTunnel) -> list[Obstacle]:
     walls = [box_polygon(*centre, *half, yaw) for centre, half, yaw in
              (wall_box(w, WALL_THICKNESS) for w in layout.walls)]
     wall_outlines = [np.asarray(w.exterior.coords)[:-1] for w in walls]
-    if certify([b.corners() for b in [*tunnel.unknown, *traps]], path[0], path[-1], layout.bounds, 2.0,
-               walls=wall_outlines) is None:
+    if not certified([b.corners() for b in [*tunnel.unknown, *traps]], path[0], path[-1], layout.bounds, 2.0,
+                     walls=wall_outlines):
         raise _Redraw("no path keeps d_s from the walls and traps (not certified)")
     return traps
 

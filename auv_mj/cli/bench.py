@@ -373,8 +373,11 @@ VECTOR_MEMORY_STEPS = 1_000_000
 """Environment steps over which the "vector" section follows the batch's resident memory (N = 256)."""
 PPO_BENCH_ENVS = 64
 """Batch size of the "vector" section's PPO run."""
-PPO_BENCH_ROLLOUTS = 4
-"""Rollouts (of 128 steps per env) of the "vector" section's PPO run, after one untimed rollout."""
+PPO_BENCH_ROLLOUTS = 20
+"""Rollouts (of 128 steps per env) of the "vector" section's timed PPO run, after one untimed rollout: one whole
+checkpoint cycle of the `planner-memory` run (`--ppo-checkpoint-every 20`). PPO resets every env at each checkpoint
+(so that resuming is exact), and on the hard tier a reset draws and certifies an arena; timing a whole cycle weighs
+those resets as training meets them, neither more (a cycle of 4 rollouts would count them 5 times over) nor less."""
 
 
 @section("vector", on_request=True)
@@ -409,19 +412,21 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
         measurements.append(Measurement(f"{case}: N=256, 2 threads / 1 thread", two / one, "x"))
         measurements.append(Measurement(f"{case}: N=256, 2 threads / AsyncVectorEnv (2 processes)",
                                         two / by_name["AsyncVectorEnv (2 processes)"], "x"))
+    rollouts = settings.calls(PPO_BENCH_ROLLOUTS)
     config = PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4, recurrent="gru", seed=settings.seed,
-                       checkpoint_every=10_000)
+                       checkpoint_every=rollouts)
     steps = PPO_BENCH_ENVS * config.num_steps
     batch = batch_rate("obstacles", VECTOR_CASES["obstacles hard"], PPO_BENCH_ENVS, 2, seconds)
     with tempfile.TemporaryDirectory() as folder:
         env = AUVVectorEnv("obstacles", PPO_BENCH_ENVS, VECTOR_CASES["obstacles hard"], threads=2)
         train_ppo(env, config, Path(folder) / "warm", steps, progress=False)  # one rollout: imports, first resets
         start = time.perf_counter()
-        train_ppo(env, config, Path(folder) / "timed", steps * settings.calls(PPO_BENCH_ROLLOUTS), progress=False)
-        rate = steps * settings.calls(PPO_BENCH_ROLLOUTS) / (time.perf_counter() - start)
+        train_ppo(env, config, Path(folder) / "timed", steps * rollouts, progress=False)
+        rate = steps * rollouts / (time.perf_counter() - start)
         env.close()
     measurements.append(Measurement(f"obstacles hard: PPO (GRU) end to end, N={PPO_BENCH_ENVS}", rate,
-                                    "env steps/s", "collection and updates, one torch thread"))
+                                    "env steps/s", f"one checkpoint cycle ({rollouts} rollouts): resets, collection, "
+                                    "updates, checkpoint; one torch thread"))
     measurements.append(Measurement("obstacles hard: PPO end to end / the batch alone", rate / batch, "x",
                                     f"batch N={PPO_BENCH_ENVS}, 2 threads: {batch:.0f} env steps/s"))
     return measurements
