@@ -196,3 +196,15 @@ def test_decomposition_pairs_by_seed_and_counts_the_shared_successes():
     assert d["speed_ratio"] == pytest.approx((1.0 + 0.5 + 2.0 / 3.0) / 3)
     assert metrics.decomposition(ours, oracle, [cell])["seeds"] == 2  # only the cells asked for
     assert metrics.decomposition(ours, oracle, ["moving_obstacles/hard/ideal"]) is None
+
+
+def test_the_oracle_is_its_own_time_reference_beside_a_published_oracle():
+    """A new oracle run is measured against itself (time efficiency 1 on its successes), never against an older
+    published oracle's times: those may be from an earlier planner, here 1 s to the goal, which would score it
+    near 0."""
+    cell = next(c for c in suite.SUITE_V1 if c.name == "obstacles/standard/ideal")
+    older = {"cells": {cell.name: {"episodes": [{"seed": cell.first_seed, "success": True, "time_to_goal": 1.0}]}}}
+    results = runner.benchmark("oracle", [cell], episodes=1, oracle=older, progress=False)
+    summary = results["cells"][cell.name]["summary"]
+    assert results["cells"][cell.name]["episodes"][0]["success"]
+    assert results["time_efficiency_reference"] == "oracle" and summary["time_efficiency"] == 1.0

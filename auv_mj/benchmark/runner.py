@@ -238,12 +238,11 @@ def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = No
     out = {"suite": suite.name, "suite_version": suite.version, "fingerprint": suite.fingerprint(),
            "policy": policy_name,
            "episodes_per_cell": episodes or None, "max_steps": max_steps,
-           "time_efficiency_reference": ORACLE if references else None, "cells": {}}
+           "time_efficiency_reference": ORACLE if references or policy_name == ORACLE else None, "cells": {}}
     for cell in cells:
         rows = by_cell[cell.name]
-        if policy_name == ORACLE and not references:  # the oracle is its own reference
+        if policy_name == ORACLE:  # the oracle is always its own reference, never an older oracle run's
             reference = {r["seed"]: r["time_to_goal"] for r in rows if r["success"]}
-            out["time_efficiency_reference"] = ORACLE
         else:
             reference = references.get(cell.name)
         out["cells"][cell.name] = {"task": cell.task, "tier": cell.tier, "water": cell.water,
