@@ -161,7 +161,7 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
 
 def test_a_tube_from_a_csv_through_check_arena_and_eval_to_its_end(tmp_path):
     """A 30 m tube, smoothed, from an x,y,z CSV: built, checked (with its preview), and flown to its end by the
-    classical planner, line of sight inside the protection domain."""
+    mapping planner (`map-replan`: its voxel map of the 3-D fan, a pitch-limited search, line of sight)."""
     corners = np.array([[0.0, 0.0, -40.0], [40.0, 0.0, -40.0], [80.0, 15.0, -37.0], [120.0, 15.0, -36.0]])
     csv = tmp_path / "my_xyz.csv"
     csv.write_text("x,y,z\n" + "\n".join(",".join(f"{v:g}" for v in p) for p in corners) + "\n")
@@ -172,7 +172,7 @@ def test_a_tube_from_a_csv_through_check_arena_and_eval_to_its_end(tmp_path):
     assert checked.returncode == 0 and checked.stdout.strip().endswith(f"wrote preview {tube.with_suffix('.png')}")
     assert tube.with_suffix(".png").stat().st_size > 20_000
     out = tmp_path / "eval.json"
-    flown = run_cli("eval", "--task", "tunnel3d", "--arena", str(tube), "--policy", "los-avoid", "--episodes", "1",
+    flown = run_cli("eval", "--task", "tunnel3d", "--arena", str(tube), "--policy", "map-replan", "--episodes", "1",
                     "--json", str(out))
     assert flown.returncode == 0, flown.stderr
     result = json.loads(out.read_text())["tasks"]["tunnel3d"]
