@@ -371,8 +371,9 @@ VECTOR_CASES = {"goal": {}, "obstacles hard": {"arena": "random", "tier": "hard"
 """Tasks (and options) of the "vector" section: open water, and the hard tier's procedural arenas (resets and all)."""
 VECTOR_MEMORY_STEPS = 1_000_000
 """Environment steps over which the "vector" section follows the batch's resident memory (N = 256)."""
-PPO_BENCH_ENVS = 64
-"""Batch size of the "vector" section's PPO run."""
+PPO_BENCH_ENVS = (64, 256)
+"""Batch sizes of the "vector" section's PPO runs: the planner's size (96) rounded, and the batch's own target
+size. A recurrent update's cost is mostly per time step, not per vehicle, so it falls per sample as N grows."""
 PPO_BENCH_ROLLOUTS = 20
 """Rollouts (of 128 steps per env) of the "vector" section's timed PPO run, after one untimed rollout: one whole
 checkpoint cycle of the `planner-memory` run (`--ppo-checkpoint-every 20`). PPO resets every env at each checkpoint
@@ -385,7 +386,7 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
     """The batched planning environment (`auv_mj.tasks.vector`): env steps/s for N in {1, 16, 64, 256} on 1 and 2
     threads beside the physics limit (plain `mj_step`, 50 substeps per env step, one thread), Gymnasium's
     AsyncVectorEnv and SB3's SubprocVecEnv on 2 processes; the resident memory over 10^6 env steps; and recurrent
-    PPO's samples/s end to end (`auv_mj.agents.ppo`, GRU, N = 64) against the batch alone."""
+    PPO's samples/s end to end (`auv_mj.agents.ppo`, GRU, N = 64 and 256) against the batch alone."""
     from auv_mj.agents.ppo import PPOConfig
     from auv_mj.agents.ppo import train as train_ppo
     from auv_mj.tasks.vector import AUVVectorEnv
@@ -415,20 +416,21 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
     rollouts = settings.calls(PPO_BENCH_ROLLOUTS)
     config = PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4, recurrent="gru", seed=settings.seed,
                        checkpoint_every=rollouts)
-    steps = PPO_BENCH_ENVS * config.num_steps
-    batch = batch_rate("obstacles", VECTOR_CASES["obstacles hard"], PPO_BENCH_ENVS, 2, seconds)
-    with tempfile.TemporaryDirectory() as folder:
-        env = AUVVectorEnv("obstacles", PPO_BENCH_ENVS, VECTOR_CASES["obstacles hard"], threads=2)
-        train_ppo(env, config, Path(folder) / "warm", steps, progress=False)  # one rollout: imports, first resets
-        start = time.perf_counter()
-        train_ppo(env, config, Path(folder) / "timed", steps * rollouts, progress=False)
-        rate = steps * rollouts / (time.perf_counter() - start)
-        env.close()
-    measurements.append(Measurement(f"obstacles hard: PPO (GRU) end to end, N={PPO_BENCH_ENVS}", rate,
-                                    "env steps/s", f"one checkpoint cycle ({rollouts} rollouts): resets, collection, "
-                                    "updates, checkpoint; one torch thread"))
-    measurements.append(Measurement("obstacles hard: PPO end to end / the batch alone", rate / batch, "x",
-                                    f"batch N={PPO_BENCH_ENVS}, 2 threads: {batch:.0f} env steps/s"))
+    for size in PPO_BENCH_ENVS:
+        steps = size * config.num_steps
+        batch = batch_rate("obstacles", VECTOR_CASES["obstacles hard"], size, 2, seconds)
+        with tempfile.TemporaryDirectory() as folder:
+            env = AUVVectorEnv("obstacles", size, VECTOR_CASES["obstacles hard"], threads=2)
+            train_ppo(env, config, Path(folder) / "warm", steps, progress=False)  # one rollout: imports, resets
+            start = time.perf_counter()
+            train_ppo(env, config, Path(folder) / "timed", steps * rollouts, progress=False)
+            rate = steps * rollouts / (time.perf_counter() - start)
+            env.close()
+        measurements.append(Measurement(f"obstacles hard: PPO (GRU) end to end, N={size}", rate, "env steps/s",
+                                        f"one checkpoint cycle ({rollouts} rollouts): resets, collection, "
+                                        "updates, checkpoint; one torch thread"))
+        measurements.append(Measurement(f"obstacles hard: PPO end to end / the batch alone, N={size}", rate / batch,
+                                        "x", f"batch N={size}, 2 threads: {batch:.0f} env steps/s"))
     return measurements
 
 
