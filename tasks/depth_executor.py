@@ -48,10 +48,6 @@ HISTORY_NAMES = tuple(f"{name}_cmd_{k}" for k in range(1, HISTORY_STEPS + 1) for
 RESIDUAL_NAMES = ("splane_thrust", "splane_rudder", "splane_stern")
 """Entries a residual executor's observation ends with: the S-plane's normalised controls."""
 OBSERVATIONS = ("sensors", "history")
-MAX_RESIDUAL = 2.0
-"""Largest `residual`: the correction's span as a multiple of the normalised actuator range."""
-MAX_GAIN_OCTAVES = 4.0
-"""Largest `gains`: a gain-scheduling action of +-1 multiplies a gain by 2^(+-gains)."""
 BASES = {"nominal": DepthHeadingGains(), "ocean": OCEAN_DEPTH_GAINS}
 """The S-plane a residual or gain-scheduling executor builds on (`base`)."""
 
@@ -80,11 +76,8 @@ class DepthExecutorMemory:
     def __init__(self, observation: str = "sensors", residual: float = 0.0, gains: float = 0.0, base: str = "nominal",
                  low: Sequence[float] = (-1.0, -1.0, -1.0), high: Sequence[float] = (1.0, 1.0, 1.0)):
         self.observation = options.choice("observation", observation, OBSERVATIONS)
-        self.residual = options.number("residual", residual, 0.0, MAX_RESIDUAL)
-        self.gains = options.number("gains", gains, 0.0, MAX_GAIN_OCTAVES)
+        self.residual, self.gains = options.splane_building(residual, gains)
         self.base = options.choice("base", base, tuple(BASES))
-        if self.residual and self.gains:
-            raise ValueError("residual and gains are two ways of building on the S-plane: set one of them")
         if not (self.residual or self.gains) and (self.base != "nominal" or self.observation != "sensors"):
             raise ValueError(f"base {self.base!r} and observation {self.observation!r} concern the inner S-plane of "
                              "a residual or gain-scheduling executor: set residual or gains too")

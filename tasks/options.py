@@ -108,3 +108,19 @@ def pair(option: str, value: Any, ranges: Sequence[tuple[float, float, str]]) ->
         raise _refuse(option, f"a pair {form}", value)
     return tuple(float(v) for v in items)
 
+
+MAX_RESIDUAL = 2.0
+"""Largest `residual` of an executor built on an S-plane: the correction's span as a multiple of the normalised
+actuator range (the planar `speed_heading` and the 6-DOF `depth_executor` alike)."""
+MAX_GAIN_OCTAVES = 4.0
+"""Largest `gains` of a gain-scheduling executor: an action of +-1 multiplies a gain by 2^(+-gains)."""
+
+
+def splane_building(residual: Any, gains: Any) -> tuple[float, float]:
+    """(residual, gains) of a learned executor, each 0 or within its range: the two ways of building on an S-plane
+    (a residual correction, or gain scheduling), of which at most one is set."""
+    residual = number("residual", residual, 0.0, MAX_RESIDUAL)
+    gains = number("gains", gains, 0.0, MAX_GAIN_OCTAVES)
+    if residual and gains:
+        raise ValueError("residual and gains are two ways of building on the S-plane: set one of them")
+    return residual, gains

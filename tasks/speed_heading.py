@@ -133,10 +133,6 @@ thruster lags of the ocean conditions (0.4 s surge, 0.2 s yaw)."""
 HISTORY_NAMES = tuple(f"{name}_cmd_{k}" for k in range(1, HISTORY_STEPS + 1) for name in ("tau_u", "tau_r"))
 RESIDUAL_NAMES = ("splane_tau_u", "splane_tau_r")
 """Entries a residual executor's observation ends with: the S-plane's normalised command."""
-MAX_RESIDUAL = 2.0
-"""Largest `residual`: the correction's span as a multiple of the normalised actuator range."""
-MAX_GAIN_OCTAVES = 4.0
-"""Largest `gains`: a gain-scheduling action of +-1 multiplies a gain by 2^(+-gains)."""
 GAIN_NAMES = ("k1_speed", "k2_speed", "k1_heading", "k2_heading")
 """The S-plane gains a gain-scheduling executor sets, one action each."""
 BASES = {"nominal": SPlaneGains(), "ocean": OCEAN_GAINS}
@@ -212,11 +208,8 @@ class ExecutorMemory:
     def __init__(self, observation: str = "paper", residual: float = 0.0, gains: float = 0.0,
                  low: Sequence[float] = (-1.0, -1.0), high: Sequence[float] = (1.0, 1.0), base: str = "nominal"):
         self.observation = options.choice("observation", observation, OBSERVATIONS)
-        self.residual = options.number("residual", residual, 0.0, MAX_RESIDUAL)
-        self.gains = options.number("gains", gains, 0.0, MAX_GAIN_OCTAVES)
+        self.residual, self.gains = options.splane_building(residual, gains)
         self.base = options.choice("base", base, tuple(BASES))
-        if self.residual and self.gains:
-            raise ValueError("residual and gains are two ways of building on the S-plane: set one of them")
         if self.base != "nominal" and not (self.residual or self.gains):
             raise ValueError(f"base {self.base!r} is the S-plane a residual or gain-scheduling executor builds on: "
                              "set residual or gains too")
@@ -369,8 +362,8 @@ class SpeedHeading(base.Task):
         (Eq. 27 and the error integrals of `ErrorIntegral`); `random`: seed, RandomState or None;
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.sim.ocean.conditions`; the
         sonar's play no part here); `residual`: 0 (the action is the command, Eq. 28-29) or the span of the
-        agent's correction to the S-plane's command, in (0, MAX_RESIDUAL]; `gains`: 0 or the octaves by which
-        a gain-scheduling action moves the S-plane's gains, in (0, MAX_GAIN_OCTAVES] (module docstring);
+        agent's correction to the S-plane's command, in (0, options.MAX_RESIDUAL]; `gains`: 0 or the octaves by which
+        a gain-scheduling action moves the S-plane's gains, in (0, options.MAX_GAIN_OCTAVES] (module docstring);
         `base`: the S-plane those two build on, "nominal" or "ocean" (BASES)."""
         if isinstance(command, str):
             options.choice("command", command, COMMANDS)

@@ -160,3 +160,16 @@ def test_a_short_tuning_writes_its_best_gains_and_they_read_back(tmp_path):
     (tmp_path / "bad.json").write_text("{}")
     with pytest.raises(ValueError, match="bad.json"):
         depth_tuning.read_gains(tmp_path / "bad.json")
+
+
+def test_residual_and_gains_are_refused_together_and_out_of_range():
+    """The depth executor takes the planar executor's rule for the two ways of building on an S-plane
+    (`auv_mj.tasks.options.splane_building`): one of them, each within its range."""
+    from auv_mj.tasks import options
+    from auv_mj.tasks.depth_executor import DepthExecutorMemory
+
+    with pytest.raises(ValueError, match="set one of them"):
+        DepthExecutorMemory(residual=0.5, gains=1.0)
+    with pytest.raises(ValueError, match="gains"):
+        DepthExecutorMemory(gains=options.MAX_GAIN_OCTAVES + 1.0)
+    assert DepthExecutorMemory(gains=options.MAX_GAIN_OCTAVES).gains == options.MAX_GAIN_OCTAVES
