@@ -177,8 +177,10 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
 
 
 PLANNER_CONFIG = ppo.PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4, hidden_sizes=(128, 128),
-                               recurrent="gru", recurrent_size=128, clip_vloss=False, checkpoint_every=40)
+                               recurrent="gru", recurrent_size=128, clip_vloss=False, checkpoint_every=40,
+                               torch_threads=2)
 """The planner's PPO defaults (`auv-mj train ppo`): 128-step rollouts of the 96 vehicles (12,288 transitions),
 4 epochs of 4 minibatches of whole vehicles' sequences, a 128-128 tanh encoder and a 128-unit GRU, no value
 clipping (the returns are not on the policy ratio's scale), a checkpoint (and reset of the envs) every 40
-rollouts, about 0.5 M steps. Others are CleanRL's (`ppo.PPOConfig`)."""
+rollouts, about 0.5 M steps, and the update on two threads (the batch's physics threads are idle while it runs).
+Others are CleanRL's (`ppo.PPOConfig`)."""

@@ -16,6 +16,7 @@ import torch
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
+from torch import nn
 
 from auv_mj.agents.ppo import (
     ActorCritic,
@@ -29,6 +30,7 @@ from auv_mj.agents.ppo import (
     env_spec,
     flatten_obs,
     gae,
+    gru_sequence,
     make_optimizer,
     ppo_loss,
     read_checkpoint,
@@ -193,6 +195,96 @@ def test_memory_is_zeroed_at_an_episode_start_and_nothing_before_it_leaks(kind):
     torch.testing.assert_close(after, after_zero, rtol=0, atol=1e-6)
     # the env without a start keeps its memory: its past does change its outputs
     assert (mean_other[reset_at:, 1] - mean[reset_at:, 1]).abs().max() > 1e-4
+
+
+def _starts(T: int, B: int) -> torch.Tensor:
+    """Episode starts at t = 0 in env 0, two in a row in env 1, none in env 2, and a scatter elsewhere."""
+    starts = (torch.rand(T, B, generator=torch.Generator().manual_seed(4)) < 0.25).double()
+    starts[0, 0], starts[4:6, 1], starts[:, 2] = 1.0, 1.0, 0.0
+    return starts
+
+
+def test_the_update_gru_is_grucell_through_time_in_its_states_and_every_gradient():
+    """`gru_sequence` (the update's GRU, backward written out) against T calls of nn.GRUCell under autograd, and
+    against finite differences (gradcheck), with the state zeroed at episode starts."""
+    torch.manual_seed(0)
+    T, B, F, H = 11, 4, 5, 3
+    cell = nn.GRUCell(F, H).double()
+    x = torch.randn(T, B, F, dtype=torch.float64, requires_grad=True)
+    h0 = torch.randn(B, H, dtype=torch.float64, requires_grad=True)
+    starts = _starts(T, B)
+    state, states = h0, []
+    for t in range(T):
+        state = cell(x[t], state * (1.0 - starts[t]).unsqueeze(-1))
+        states.append(state)
+    want = torch.stack(states)
+    got = gru_sequence(cell, x, starts, h0)
+    torch.testing.assert_close(got, want, rtol=0, atol=1e-12)
+    upstream = torch.randn(T, B, H, dtype=torch.float64)
+    inputs = [x, h0, *cell.parameters()]
+    grads = torch.autograd.grad((got * upstream).sum(), inputs)
+    for a, b in zip(torch.autograd.grad((want * upstream).sum(), inputs), grads, strict=True):
+        torch.testing.assert_close(b, a, rtol=0, atol=1e-12)
+    # the memory before a start gets no gradient through it: env 0 starts at t = 0, env 2 never
+    assert grads[1][0].abs().max() == 0 and grads[1][2].abs().min() > 0
+    assert torch.autograd.gradcheck(lambda x_, h_, wi, wh, bi, bh: gru_sequence(
+        _cell_with(cell, wi, wh, bi, bh), x_, starts, h_), (x, h0, *(p.detach().requires_grad_() for p in
+                                                                     cell.parameters())))
+
+
+def _cell_with(cell: nn.GRUCell, w_ih, w_hh, b_ih, b_hh) -> nn.GRUCell:
+    """A stand-in for `cell` with the given weights (so that gradcheck differentiates through them)."""
+    class Weights:
+        weight_ih, weight_hh, bias_ih, bias_hh = w_ih, w_hh, b_ih, b_hh
+    return Weights()  # type: ignore[return-value]
+
+
+def test_the_update_forward_gives_the_rollouts_actions_and_values():
+    """The update replays a rollout with `gru_sequence`, the rollout ran `nn.GRUCell` step by step (no grad): the
+    same means, values and final memory, in float32, so that the first ratio of an update is 1 to rounding."""
+    config = PPOConfig(recurrent="gru", hidden_sizes=(16,), recurrent_size=12, norm_obs=False)
+    model = build_model({"obs_dim": 3, "act_dim": 2}, config)
+    T, B = 40, 4
+    obs = torch.randn(T, B, 3, generator=torch.Generator().manual_seed(5))
+    starts, state0 = _starts(T, B).float(), torch.randn(B, 12, generator=torch.Generator().manual_seed(6))
+    with torch.no_grad():  # the rollout: one step at a time, carrying the memory
+        state, means, values = state0, [], []
+        for t in range(T):
+            mean, value, state = model(obs[t:t + 1], starts[t:t + 1], state)
+            means.append(mean[0])
+            values.append(value[0])
+    mean_b, value_b, state_b = model(obs, starts, state0)  # the update's replay
+    assert mean_b.requires_grad
+    for a, b in ((torch.stack(means), mean_b), (torch.stack(values), value_b), (state, state_b)):
+        torch.testing.assert_close(b.detach(), a, rtol=0, atol=1e-6)
+
+
+def test_train_runs_rollouts_on_one_thread_the_update_on_torch_threads_and_gives_the_callers_back(monkeypatch,
+                                                                                                    tmp_path):
+    from auv_mj.agents import ppo
+
+    seen: dict[str, set[int]] = {"rollout": set(), "update": set()}
+    rollout, step = ppo.Collector.rollout, ppo.update
+
+    def recorded_rollout(self, num_steps):
+        seen["rollout"].add(torch.get_num_threads())
+        return rollout(self, num_steps)
+
+    def recorded_update(*args):
+        seen["update"].add(torch.get_num_threads())
+        return step(*args)
+
+    monkeypatch.setattr(ppo.Collector, "rollout", recorded_rollout)
+    monkeypatch.setattr(ppo, "update", recorded_update)
+    before = torch.get_num_threads()
+    config = dataclasses.replace(TOY_CONFIG, num_steps=5, torch_threads=2)
+    try:
+        torch.set_num_threads(3)
+        train(CueEnv(4), config, tmp_path / "run", total_steps=4 * 5 * 2, progress=False)
+        assert torch.get_num_threads() == 3
+    finally:
+        torch.set_num_threads(before)
+    assert seen == {"rollout": {1}, "update": {2}}
 
 
 @pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)

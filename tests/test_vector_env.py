@@ -168,3 +168,17 @@ def test_bad_actions_are_refused():
         env.step(np.array([[0.0, 0.0], [np.nan, 0.0]]))
     with pytest.raises(ValueError, match="AUVGymEnv"):
         gymnasium.make_vec("auv_mj/Goal-v0", num_envs=2, protection=True)
+
+
+def test_the_bench_times_the_batch_over_a_learners_cycle_and_refuses_a_seed_count_that_does_not_fit(monkeypatch):
+    """`vector_bench.cycle_rate` resets with the learner's seeds (once untimed, once timed) and then steps."""
+    from auv_mj.tasks import vector_bench
+
+    resets, steps = [], []
+    reset, step = AUVVectorEnv.reset, AUVVectorEnv.step
+    monkeypatch.setattr(AUVVectorEnv, "reset", lambda self, **kw: resets.append(kw["seed"]) or reset(self, **kw))
+    monkeypatch.setattr(AUVVectorEnv, "step", lambda self, a: steps.append(a.shape) or step(self, a))
+    with pytest.raises(ValueError, match="one seed per env: 1 seeds for 2 envs"):
+        vector_bench.cycle_rate("goal", {}, 2, 1, [1_000_000], 3)
+    assert vector_bench.cycle_rate("goal", {}, 2, 1, [1_000_000, 1_000_001], 3) > 0
+    assert resets == [[1_000_000, 1_000_001]] * 2 and steps == [(2, 2)] * 3

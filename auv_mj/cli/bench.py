@@ -16,7 +16,7 @@ import tempfile
 import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import gymnasium
@@ -378,7 +378,9 @@ PPO_BENCH_ROLLOUTS = 20
 """Rollouts (of 128 steps per env) of the "vector" section's timed PPO run, after one untimed rollout: one whole
 checkpoint cycle of the `planner-memory` run (`--ppo-checkpoint-every 20`). PPO resets every env at each checkpoint
 (so that resuming is exact), and on the hard tier a reset draws and certifies an arena; timing a whole cycle weighs
-those resets as training meets them, neither more (a cycle of 4 rollouts would count them 5 times over) nor less."""
+those resets as training meets them, neither more (a cycle of 4 rollouts would count them 5 times over) nor less.
+The batch alone is timed over the same cycle (`vector_bench.cycle_rate`: the same resets, as many steps, random
+actions), the learner's network and update are the planner's own (`ppo_planner.PLANNER_CONFIG`)."""
 
 
 @section("vector", on_request=True)
@@ -386,11 +388,13 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
     """The batched planning environment (`auv_mj.tasks.vector`): env steps/s for N in {1, 16, 64, 256} on 1 and 2
     threads beside the physics limit (plain `mj_step`, 50 substeps per env step, one thread), Gymnasium's
     AsyncVectorEnv and SB3's SubprocVecEnv on 2 processes; the resident memory over 10^6 env steps; and recurrent
-    PPO's samples/s end to end (`auv_mj.agents.ppo`, GRU, N = 64 and 256) against the batch alone."""
-    from auv_mj.agents.ppo import PPOConfig
+    PPO's samples/s end to end (`auv_mj.agents.ppo`, the planner's GRU network, N = 64 and 256) against the batch
+    alone over the same checkpoint cycle."""
+    from auv_mj.agents.ppo import reset_seeds
     from auv_mj.agents.ppo import train as train_ppo
+    from auv_mj.agents.ppo_planner import PLANNER_CONFIG
     from auv_mj.tasks.vector import AUVVectorEnv
-    from auv_mj.tasks.vector_bench import MEMORY_SIZE, batch_rate, vector_bench
+    from auv_mj.tasks.vector_bench import MEMORY_SIZE, cycle_rate, vector_bench
 
     seconds = max(0.5, 2.0 * settings.scale)
     measurements = []
@@ -414,11 +418,12 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
         measurements.append(Measurement(f"{case}: N=256, 2 threads / AsyncVectorEnv (2 processes)",
                                         two / by_name["AsyncVectorEnv (2 processes)"], "x"))
     rollouts = settings.calls(PPO_BENCH_ROLLOUTS)
-    config = PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4, recurrent="gru", seed=settings.seed,
-                       checkpoint_every=rollouts)
+    config = replace(PLANNER_CONFIG, seed=settings.seed, checkpoint_every=rollouts)
     for size in PPO_BENCH_ENVS:
         steps = size * config.num_steps
-        batch = batch_rate("obstacles", VECTOR_CASES["obstacles hard"], size, 2, seconds)
+        first = reset_seeds(config.seed, 0, size)  # the timed run's first reset (it is a fresh run)
+        batch = cycle_rate("obstacles", VECTOR_CASES["obstacles hard"], size, 2, first, config.num_steps * rollouts,
+                           seed=settings.seed)
         with tempfile.TemporaryDirectory() as folder:
             env = AUVVectorEnv("obstacles", size, VECTOR_CASES["obstacles hard"], threads=2)
             train_ppo(env, config, Path(folder) / "warm", steps, progress=False)  # one rollout: imports, resets
@@ -428,9 +433,11 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
             env.close()
         measurements.append(Measurement(f"obstacles hard: PPO (GRU) end to end, N={size}", rate, "env steps/s",
                                         f"one checkpoint cycle ({rollouts} rollouts): resets, collection, "
-                                        "updates, checkpoint; one torch thread"))
+                                        f"updates, checkpoint; the planner's network, {config.torch_threads} "
+                                        "torch threads in the update"))
         measurements.append(Measurement(f"obstacles hard: PPO end to end / the batch alone, N={size}", rate / batch,
-                                        "x", f"batch N={size}, 2 threads: {batch:.0f} env steps/s"))
+                                        "x", f"batch N={size}, 2 threads, over the same cycle: {batch:.0f} env "
+                                        "steps/s"))
     return measurements
 
 
