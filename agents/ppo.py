@@ -607,17 +607,15 @@ class Collector:
             torch.zeros(T, N, **f32) for _ in range(8))
         initial_state = self.state.clone()
         act_shape = (N, *self.spec["act_shape"])
-        std = model.log_std.exp()  # the policy's std; its log-density's constant part:
-        log_norm = model.log_std.sum() + 0.5 * math.log(2.0 * math.pi) * model.act_dim
         for t in range(T):
             obs = self._tensor(self.obs)
             obs_buf[t], starts[t] = obs, self._tensor(self.starts)
             valid[t] = self._tensor(~self.pending_reset)
             mean, value, self.state = model(obs[None], starts[t][None], self.state)
+            dist = model.distribution(mean[0])
             noise = torch.randn(mean.shape[1:], generator=self.generator, device=self.generator.device)
-            action = mean[0] + std * noise.to(self.device)
-            # log N(action; mean, std), written out: (action - mean) / std is the noise
-            actions[t], logprobs[t], values[t] = action, noise.square().sum(-1).mul(-0.5).sub_(log_norm), value[0]
+            action = mean[0] + dist.stddev * noise.to(self.device)
+            actions[t], logprobs[t], values[t] = action, dist.log_prob(action).sum(-1), value[0]
             sent = env_action(action.cpu().numpy(), self.spec).reshape(act_shape)
             next_obs, reward, term, trunc, info = self.env.step(sent.astype(self.env.single_action_space.dtype))
             reward, term, trunc = (np.asarray(reward, np.float64), np.asarray(term, bool), np.asarray(trunc, bool))

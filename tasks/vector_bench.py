@@ -63,13 +63,18 @@ def physics_limit(task: str, task_kwargs: Mapping[str, Any], seconds: float) -> 
     return _timed(lambda: mujoco.mj_step(model, data, PHYSICS_STEPS), seconds, 1)
 
 
+def _random_actions(env: AUVVectorEnv, seed: int) -> np.ndarray:
+    """64 batches of uniform random actions in the env's action box, cycled through by the timed loops."""
+    space = env.action_space
+    return np.random.default_rng(seed).uniform(space.low, space.high, (64, *space.shape))
+
+
 def batch_rate(task: str, task_kwargs: Mapping[str, Any], size: int, threads: int, seconds: float,
                seed: int = 0) -> float:
     """Environment steps per second of an `AUVVectorEnv` of `size` on `threads` threads, random actions."""
     env = AUVVectorEnv(task, size, task_kwargs, threads=threads)
     env.reset(seed=seed)
-    rng = np.random.default_rng(seed)
-    actions = rng.uniform(-1.0, 1.0, (64, size, 2))
+    actions = _random_actions(env, seed)
     counter = iter(range(1 << 62))
     rate = _timed(lambda: env.step(actions[next(counter) % len(actions)]), seconds, size)
     env.close()
@@ -83,14 +88,14 @@ def cycle_rate(task: str, task_kwargs: Mapping[str, Any], size: int, threads: in
     `steps_per_env` steps of uniform random actions with their autoresets.
 
     The batch's own rate over the very work that a learner's cycle asks of it, so that the two are compared like
-    for like. A window of a few seconds from a reset is not that: it holds the episodes' cheap first steps and few
-    of their ends (at N = 256 and 2 s, 128 steps a vehicle, it read 37 % above the cycle's rate)."""
+    for like. `batch_rate`'s window of a few seconds is not that: it runs on other arenas (a step's cost depends on
+    the arena) and holds few of the episodes' ends and resets (at N = 256 and 2 s, 128 steps a vehicle, it read
+    37 % above the cycle's rate)."""
     if len(seeds) != size:
         raise ValueError(f"cycle_rate needs one seed per env: {len(seeds)} seeds for {size} envs")
     env = AUVVectorEnv(task, size, task_kwargs, threads=threads)
     env.reset(seed=list(seeds))  # untimed, as a learner's warm-up run before its timed cycle
-    rng = np.random.default_rng(seed)
-    actions = rng.uniform(-1.0, 1.0, (64, size, 2))
+    actions = _random_actions(env, seed)
     start = time.perf_counter()
     env.reset(seed=list(seeds))
     for k in range(steps_per_env):

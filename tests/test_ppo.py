@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -227,16 +228,13 @@ def test_the_update_gru_is_grucell_through_time_in_its_states_and_every_gradient
         torch.testing.assert_close(b, a, rtol=0, atol=1e-12)
     # the memory before a start gets no gradient through it: env 0 starts at t = 0, env 2 never
     assert grads[1][0].abs().max() == 0 and grads[1][2].abs().min() > 0
-    assert torch.autograd.gradcheck(lambda x_, h_, wi, wh, bi, bh: gru_sequence(
-        _cell_with(cell, wi, wh, bi, bh), x_, starts, h_), (x, h0, *(p.detach().requires_grad_() for p in
-                                                                     cell.parameters())))
+    weights = [p.detach().requires_grad_() for p in cell.parameters()]  # weight_ih, weight_hh, bias_ih, bias_hh
 
+    def sequence(x_, h_, w_ih, w_hh, b_ih, b_hh):
+        stand_in = SimpleNamespace(weight_ih=w_ih, weight_hh=w_hh, bias_ih=b_ih, bias_hh=b_hh)
+        return gru_sequence(stand_in, x_, starts, h_)
 
-def _cell_with(cell: nn.GRUCell, w_ih, w_hh, b_ih, b_hh) -> nn.GRUCell:
-    """A stand-in for `cell` with the given weights (so that gradcheck differentiates through them)."""
-    class Weights:
-        weight_ih, weight_hh, bias_ih, bias_hh = w_ih, w_hh, b_ih, b_hh
-    return Weights()  # type: ignore[return-value]
+    assert torch.autograd.gradcheck(sequence, (x, h0, *weights))
 
 
 def test_the_update_forward_gives_the_rollouts_actions_and_values():
