@@ -23,12 +23,12 @@ import math
 import dm_env
 import numpy as np
 
+from auv_mj.control.splane import SPlaneController
 from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import with_repulsion
 from auv_mj.tasks.planning import ACTION_HEADING_RANGE, MAX_SPEED, TARGET_SPEED, speed_action
 from auv_mj.tasks.speed_heading import executor_policy
-from auv_mj.tasks.splane import SPlaneController
 
 CRUISE_ACTION = speed_action(TARGET_SPEED)
 """The speed action a0 commanding the target velocity of Tables 6-8 and 12 (Table 3, forward only)."""

@@ -1,7 +1,7 @@
 """Line of sight in 3-D and the protection domain on the 3-D fan: the classical planners of the 6-DOF domain.
 
 - `los_policy`: line-of-sight guidance in 3-D (Fossen 2011, Ch. 10; the geometry is the task's
-  `auv_mj.tasks.auv3d_control.los_command`) to the goal, or along the tube, as a planning policy.
+  `auv_mj.control.depth_heading.los_command`) to the goal, or along the tube, as a planning policy.
 - `protect_command`: the protection domain of Sec. 3.2.2 (`auv_mj.planners.avoidance.RepulsiveField`) on the 3-D
   fan: the level row's echoes bend the heading as in the plane, the down and up rows' echoes push the depth command
   up or down.
@@ -15,6 +15,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from auv_mj.control.depth_heading import los_command
 from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import RepulsiveField
@@ -31,7 +32,6 @@ from auv_mj.tasks.auv3d import (
     Tunnel3D,
     splane_policy,
 )
-from auv_mj.tasks.auv3d_control import los_command
 
 TUBE_FIELD = RepulsiveField(influence=TUBE_INFLUENCE)
 """The protection domain inside a tube: echoes of the near wall repel only within TUBE_INFLUENCE."""

@@ -19,7 +19,7 @@ Algorithms*, Ch. 5-6):
   when the vehicle is further than OFF_PATH (TUBE_OFF_PATH) from its path; and every REPLAN_PERIOD steps regardless.
   The target is the goal (goal3d) or the centreline's point ROUTE_HORIZON metres on from the vehicle's nearest one,
   moved on in ROUTE_STEP steps, and on past any obstacle the map holds there (tunnel3d).
-- The follower is 3-D line of sight on the planned path (`auv_mj.tasks.auv3d_control.los_command`: heading to the
+- The follower is 3-D line of sight on the planned path (`auv_mj.control.depth_heading.los_command`: heading to the
   point LOOKAHEAD metres along it, its depth as the depth command) at the classical planners' CRUISE_SPEED, inside
   the protection domain on the 3-D fan (`auv_mj.planners.los3d.protect_command`) with PATH_FIELD in open water and
   the tube's TUBE_FIELD in a tube.
@@ -34,6 +34,7 @@ import dm_env
 import numpy as np
 
 from auv_mj.arenas import grid, traps3d, voxels
+from auv_mj.control.depth_heading import los_command
 from auv_mj.episode import VEHICLE_BODY, Planner, PlannerBase
 from auv_mj.planners.avoidance import RepulsiveField
 from auv_mj.planners.los3d import TUBE_FIELD, command_action, protect_command
@@ -41,7 +42,6 @@ from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_AZIMUTHS, FAN_ELEVATIONS, 
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import CRUISE_SPEED, GOAL_RADIUS, MIN_DEPTH, Tunnel3D
 from auv_mj.tasks.auv3d import LOOKAHEAD as TUBE_LOS_LOOKAHEAD
-from auv_mj.tasks.auv3d_control import los_command
 
 HIT, MISS, OCCUPIED, SATURATION = 2, 1, 2, 6
 """Log-odds counts of a voxel, as in the plane (`auv_mj.planners.map_planner`)."""

@@ -31,12 +31,7 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
     fi
   fi
   echo "installing auv-mj and its dependencies..." >&2
-  # setuptools ends every editable build with an "Editable installation" box, a notice that a folder named like
-  # the package in the working directory may shadow it; pip 25+ shows it as a BuildBackendWarning. This filter,
-  # inherited by pip's build subprocess, drops that one notice (its message, category and module); every other
-  # warning and error of the install still shows.
-  PYTHONWARNINGS="ignore:Editable installation.:UserWarning:setuptools.command.editable_wheel" \
-    "$venv/bin/python" -m pip install --progress-bar on -e ".[test]" 2>&1 \
+  "$venv/bin/python" -m pip install --progress-bar on -e ".[test]" 2>&1 \
     | { grep -v "^Requirement already satisfied" || true; } >&2
   touch "$stamp"
 fi
@@ -59,7 +54,7 @@ case "$job" in
   demo) exec "$venv/bin/auv-mj" demo "$@" ;;
   test)
     "$venv/bin/ruff" check .
-    "$venv/bin/lint-imports" --no-cache --no-logo
+    "$venv/bin/python" scripts/lint_imports.py --no-logo
     exec "$venv/bin/python" -m pytest -q -n 2 "$@" ;;
   *) echo "usage: bash scripts/run.sh demo|test|link [args...]" >&2; exit 2 ;;
 esac

@@ -18,7 +18,7 @@
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
 (up to DEPTH_RANGE) for the depth-heading executor, which runs at 10 Hz inside the step: the classical one
-(`auv_mj.tasks.auv3d_control`) unless the `executor` option names or gives another (`auv_mj.tasks.executors`).
+(`auv_mj.control.depth_heading`) unless the `executor` option names or gives another (`auv_mj.tasks.executors`).
 Their observation is the Gymnasium-Robotics goal dict, as the planar goal tasks': "observation" is what the vehicle
 can know (its motion and attitude, depth and altitude, the goal, or the tube's look-ahead point, relative to
 itself, and the 27 fan ranges), "achieved_goal" and "desired_goal" are (x, y, z, cos psi, sin psi): where the vehicle
@@ -51,6 +51,15 @@ from dm_control.utils import containers, rewards
 from dm_env import specs
 
 from auv_mj.arenas import arena3d, arena_check, traps3d, tubes
+from auv_mj.control.clock import ExecutorClock
+from auv_mj.control.depth_heading import (
+    EXECUTOR_DT,
+    SCHEDULED_GAINS,
+    DepthHeadingController,
+    DepthHeadingGains,
+    State3D,
+    los_command,
+)
 from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
@@ -60,15 +69,6 @@ from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_BEAMS, Sensors3D
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
-from auv_mj.tasks.auv3d_control import (
-    EXECUTOR_DT,
-    SCHEDULED_GAINS,
-    DepthHeadingController,
-    DepthHeadingGains,
-    State3D,
-    los_command,
-)
-from auv_mj.tasks.clock import ExecutorClock
 from auv_mj.tasks.depth_executor import SENSOR_NAMES, DepthExecutorMemory
 from auv_mj.tasks.planning import info_field
 
@@ -160,7 +160,7 @@ the 3-D oracle's search."""
 
 
 class Physics3D(ExecutorClock, AUV6Physics):
-    """AUV6Physics with the executor's clock (`auv_mj.tasks.clock.ExecutorClock`): `set_tick(callback)` calls it every
+    """AUV6Physics with the executor's clock (`auv_mj.control.clock.ExecutorClock`): `set_tick(callback)` calls it every
     EXECUTOR_DT while stepping."""
 
     TICK_PERIOD = EXECUTOR_DT

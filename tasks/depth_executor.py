@@ -25,15 +25,15 @@ from typing import Any
 
 import numpy as np
 
-from auv_mj.geometry import wrap_angle
-from auv_mj.tasks import options
-from auv_mj.tasks.auv3d_control import (
+from auv_mj.control.depth_heading import (
     OCEAN_DEPTH_GAINS,
     SCHEDULED_GAINS,
     DepthHeadingController,
     DepthHeadingGains,
     State3D,
 )
+from auv_mj.geometry import wrap_angle
+from auv_mj.tasks import options
 
 SENSOR_NAMES = ("V_cmd", "u", "v", "w", "p", "q", "r", "e_V", "cos_e_psi", "sin_e_psi", "e_depth", "roll", "pitch",
                 "depth")

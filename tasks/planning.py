@@ -106,14 +106,14 @@ from dm_env import specs
 
 from auv_mj.arenas import arena, arena_check
 from auv_mj.arenas.arena import SAFETY_DISTANCE
+from auv_mj.control.clock import ExecutorClock
+from auv_mj.control.splane import EXECUTOR_DT, SPlaneController
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean
 from auv_mj.sim.physics import AUVPhysics
 from auv_mj.sim.sonar import SONAR_NAMES, SONAR_RANGE, fence_ranges
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
-from auv_mj.tasks.clock import ExecutorClock
-from auv_mj.tasks.splane import EXECUTOR_DT, SPlaneController
 
 PLANNER_DT = 0.5
 """Planner period [s]: one dm_env step, the 2 Hz of the sonar (Sec. 2.2)."""
@@ -375,7 +375,7 @@ def open_water_arena(bounds: Sequence[float] = MAP_BOUNDS) -> ET.Element:
 
 
 class Physics(ExecutorClock, AUVPhysics):
-    """AUVPhysics with the executor layer's clock (`auv_mj.tasks.clock.ExecutorClock`): `set_tick(callback)` calls the
+    """AUVPhysics with the executor layer's clock (`auv_mj.control.clock.ExecutorClock`): `set_tick(callback)` calls the
     low-level controller every EXECUTOR_DT while it steps; the callback sets the controls and moves the obstacles.
     """
 

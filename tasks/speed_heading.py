@@ -55,6 +55,7 @@ from dm_control.utils import rewards
 from dm_env import specs
 
 from auv_mj.arenas import arena
+from auv_mj.control.splane import EXECUTOR_DT, OCEAN_GAINS, SPlaneController, SPlaneGains
 from auv_mj.episode import FunctionPlanner, Planner, record_episode
 from auv_mj.episode import phase_mae as _phase_mae
 from auv_mj.geometry import wrap_angle
@@ -63,7 +64,6 @@ from auv_mj.sim.vehicle import vehicle_facts
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
 from auv_mj.tasks.registry import SUITE
-from auv_mj.tasks.splane import EXECUTOR_DT, OCEAN_GAINS, SPlaneController, SPlaneGains
 
 EPISODE_STEPS = 1100
 """Length of the Sec. 4.2 experiment, in executor steps."""
@@ -137,7 +137,7 @@ GAIN_NAMES = ("k1_speed", "k2_speed", "k1_heading", "k2_heading")
 """The S-plane gains a gain-scheduling executor sets, one action each."""
 BASES = {"nominal": SPlaneGains(), "ocean": OCEAN_GAINS}
 """The S-plane a residual or gain-scheduling executor builds on (`base`): the gains tuned on the nominal model
-(`auv_mj.tasks.splane_tuning`) or re-tuned in ocean water (`OCEAN_GAINS`, `--conditions ocean`)."""
+(`experiments/splane_tuning.py`) or re-tuned in ocean water (`OCEAN_GAINS`, `--conditions ocean`)."""
 OBSERVATIONS = ("paper", "integral", "history")
 REWARDS = ("suite", "paper")
 COMMANDS = ("paper", "random")

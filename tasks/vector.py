@@ -52,6 +52,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from auv_mj.arenas.arena import SAFETY_DISTANCE
+from auv_mj.control.splane import SPlaneController
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import batch
 from auv_mj.sim.sonar import SONAR_RANGE, clip_ranges
@@ -59,7 +60,6 @@ from auv_mj.tasks import options as checks
 from auv_mj.tasks import planning, suite
 from auv_mj.tasks.actions import ActionClipped
 from auv_mj.tasks.gym_adapter import GOAL_TASK_REWARD, VECTOR_TASKS, gym_spaces
-from auv_mj.tasks.splane import SPlaneController
 
 TASKS = VECTOR_TASKS
 """The planning tasks the batch runs."""
@@ -138,7 +138,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         task = first.task
         if type(task.executor) is not SPlaneController:
             raise ValueError("task option executor: the vector env runs the S-plane executor "
-                             "(auv_mj.tasks.splane.SPlaneController, any gains) only")
+                             "(auv_mj.control.splane.SPlaneController, any gains) only")
         self.single_observation_space, self.single_action_space, self._observe = gym_spaces(first)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import auv_mj  # noqa: F401  (picks the OpenGL backend before dm_control is imported)
-from auv_mj.tasks import auv3d, suite
-from auv_mj.tasks.auv3d_control import (
+from auv_mj.control.depth_heading import (
     OCEAN_DEPTH_GAINS,
     SCHEDULED_GAINS,
     DepthHeadingController,
     DepthHeadingGains,
 )
+from auv_mj.tasks import auv3d, suite
 from auv_mj.tasks.depth_executor import (
     HISTORY_NAMES,
     INTEGRAL_NAMES,
@@ -151,7 +151,7 @@ def test_registry_entries_run_a_few_steps(policy, task):
 
 
 def test_a_short_tuning_writes_its_best_gains_and_they_read_back(tmp_path):
-    from auv_mj.tasks import depth_tuning
+    from experiments import depth_tuning
 
     best = tmp_path / "best.json"
     gains = depth_tuning.tune(max_evaluations=2, seeds=[depth_tuning.train_seed(1, 0)], best_file=best)

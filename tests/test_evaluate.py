@@ -137,8 +137,8 @@ def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp
 
 
 def test_eval_task_kwargs_reach_every_episode_and_bad_ones_are_named():
+    from auv_mj.control.splane import SPlaneController
     from auv_mj.tasks.speed_heading import rollout
-    from auv_mj.tasks.splane import SPlaneController
 
     kwargs = {"command": "random", "disturbances": "random", "reward": "paper"}
     results = runner.evaluate("splane", ["speed_heading"], 2, seed=5, max_steps=40, progress=False,
@@ -239,8 +239,8 @@ def test_executors_by_name_on_planning_tasks():
 
 
 def test_the_ocean_gains_lower_the_ocean_tuning_cost_and_not_the_ideal_one():
-    from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneGains
-    from auv_mj.tasks.splane_tuning import tuning_cost
+    from auv_mj.control.splane import OCEAN_GAINS, SPlaneGains
+    from experiments.splane_tuning import tuning_cost
 
     assert tuning_cost(OCEAN_GAINS, conditions="ocean") < 0.8 * tuning_cost(SPlaneGains(), conditions="ocean")
     assert tuning_cost(SPlaneGains()) < tuning_cost(OCEAN_GAINS)  # each set is best in the water it was tuned in

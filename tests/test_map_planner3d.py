@@ -10,12 +10,12 @@ from dm_control.rl import control
 
 from auv_mj.arenas import traps3d, voxels
 from auv_mj.arenas.arena3d import arena_root, seabed
+from auv_mj.control.depth_heading import DepthHeadingGains
 from auv_mj.planners.los3d import classical_3d
 from auv_mj.planners.map_planner3d import SonarVoxelMap, sonar_voxel_planner
 from auv_mj.sim.sensors3d import FAN_AZIMUTHS
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import GOAL_RADIUS, MIN_DEPTH, WATER_DEPTH, Goal3D, Physics3D, Tunnel3D
-from auv_mj.tasks.auv3d_control import DepthHeadingGains
 
 MAX_PITCH = DepthHeadingGains().max_pitch
 SEEDS = (20_000, 20_001, 20_002)

@@ -20,6 +20,7 @@ from vehicle_reference import ReferenceAUV, read_numerics
 
 from auv_mj import cli
 from auv_mj.arenas import arena
+from auv_mj.control.splane import SPlaneGains
 from auv_mj.episode import record_episode
 from auv_mj.sim import ocean
 from auv_mj.sim.hydrodynamics import HydroCoefficients
@@ -27,7 +28,6 @@ from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.sim.vehicle import vehicle_facts
 from auv_mj.tasks import planning, suite
 from auv_mj.tasks.gym_adapter import GYM_IDS
-from auv_mj.tasks.splane import SPlaneGains
 from auv_mj.zoo import registry as policies
 
 NOMINAL = HydroCoefficients.from_mapping(read_numerics())

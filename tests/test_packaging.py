@@ -77,39 +77,3 @@ def test_run_script_changes_nothing_outside_its_checkout(tmp_path):
     linked = subprocess.run(["bash", str(script), "link"], capture_output=True, text=True, env=env, timeout=60)
     assert linked.returncode == 0, linked.stderr
     assert (home / ".local" / "bin" / "auv-mj").resolve() == command.resolve()
-
-
-BACKEND_WARNINGS = """import warnings
-warnings.warn_explicit("Editable installation.\\n!!\\n  Please be careful with folders in your working directory "
-                       "with the same name as your package", UserWarning, "editable_wheel.py", 354,
-                       module="setuptools.command.editable_wheel")
-warnings.warn_explicit("License classifiers are deprecated.", UserWarning, "dist.py", 1, module="setuptools.dist")
-"""
-
-
-def test_run_script_installs_without_setuptools_editable_box_but_with_other_warnings(tmp_path):
-    """The first run's `pip install -e` shows no "Editable installation ... Please be careful" box, and every other
-    warning of the build still shows. A stand-in `python3` makes the venv and plays pip: on `pip install -e` it
-    emits, as setuptools does inside pip's build subprocess, that box and another warning through Python's
-    warnings, under the environment run.sh gives the install (so nothing is installed)."""
-    checkout, stubs = tmp_path / "checkout", tmp_path / "stubs"
-    for folder in (checkout / "scripts", stubs):
-        folder.mkdir(parents=True)
-    (checkout / "pyproject.toml").write_text((ROOT / "pyproject.toml").read_text())
-    (checkout / "scripts" / "run.sh").write_text((ROOT / "scripts" / "run.sh").read_text())
-    (stubs / "backend.py").write_text(BACKEND_WARNINGS)
-    stub = stubs / "python3"
-    stub.write_text(f"""#!/bin/bash
-case "$*" in
-  "-m venv "*) mkdir -p "$3/bin" && cp "$0" "$3/bin/python" ;;
-  *"pip install"*" -e "*) exec {sys.executable} {stubs / 'backend.py'} ;;
-esac
-exit 0
-""")
-    stub.chmod(0o755)
-    env = {"HOME": str(tmp_path), "PATH": f"{stubs}:/usr/bin:/bin"}
-    done = subprocess.run(["bash", str(checkout / "scripts" / "run.sh"), "nothing"], capture_output=True, text=True,
-                          env=env, timeout=60)
-    assert done.returncode == 2 and "installing auv-mj" in done.stderr, done.stderr
-    assert "License classifiers are deprecated" in done.stderr, done.stderr
-    assert "Editable installation" not in done.stderr and "Please be careful" not in done.stderr, done.stderr

@@ -58,17 +58,22 @@ def test_the_episode_loop_resets_the_planner_once_then_acts_every_step():
 
 
 def test_suite_load_takes_every_executor_name():
-    """Executor names resolve below the zoo (`auv_mj.tasks.executors`): `suite.load` takes the learned ones too, and
-    an episode on a named executor is the zoo's episode on it."""
+    """`suite.load` takes every executor name: the tasks' own S-planes, and the learned ones through the declared
+    entry points (the tasks name no layer above them); an episode on a named executor is the zoo's episode on it,
+    and both know the same names."""
     from auv_mj.benchmark.runner import run_episode
     from auv_mj.episode import episode_metrics
-    from auv_mj.tasks.executors import EXECUTORS
+    from auv_mj.tasks.executors import executor_names
+    from auv_mj.zoo.executors import EXECUTORS, EXECUTORS_3D
 
-    for name in EXECUTORS:
+    assert executor_names() == list(EXECUTORS) and executor_names(three_d=True) == list(EXECUTORS_3D)
+    for name in executor_names():
         env = suite.load("auv", "path_line", task_kwargs={"random": 0, "executor": name})
         assert callable(env.task.executor)
     with pytest.raises(ValueError, match="executor 'warp'"):
         suite.load("auv", "path_line", task_kwargs={"random": 0, "executor": "warp"})
+    with pytest.raises(ValueError, match="did you mean 'ocean-executor'"):
+        suite.load("auv", "path_line", task_kwargs={"random": 0, "executor": "ocean-executer"})
     env = suite.load("auv", "path_line", task_kwargs={"random": 0, "executor": "ocean-executor"})
     ours = episode_metrics(record_episode(env, registry.make_policy("splane", env, 0, "path_line"), 40))
     zoo = run_episode("splane", "path_line", 0, {"executor": "ocean-executor"}, 40)

@@ -6,10 +6,10 @@ import dm_env
 import numpy as np
 import pytest
 
+from auv_mj.control.splane import OCEAN_GAINS, SPlaneController, SPlaneGains
 from auv_mj.geometry import wrap_angle
 from auv_mj.tasks import speed_heading as sh
 from auv_mj.tasks.registry import SUITE
-from auv_mj.tasks.splane import OCEAN_GAINS, SPlaneController, SPlaneGains
 
 
 @pytest.fixture(scope="module")

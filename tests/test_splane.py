@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
+from auv_mj.control.splane import EXECUTOR_DT, SPlaneController, SPlaneGains, s_plane
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim.vehicle import vehicle_facts
-from auv_mj.tasks.splane import EXECUTOR_DT, SPlaneController, SPlaneGains, s_plane
-from auv_mj.tasks.splane_tuning import step_response
+from experiments.splane_tuning import step_response
 
 SURGE_LIMIT = vehicle_facts().surge_limit
 YAW_LIMIT = vehicle_facts().yaw_limit

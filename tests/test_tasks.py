@@ -522,7 +522,7 @@ def test_a_collision_penalty_is_subtracted_on_the_collision_step_only(reward):
                                   lambda: __import__("auv_mj.tasks.auv3d", fromlist=["Physics3D"]).Physics3D.load()],
                          ids=["planar", "6dof"])
 def test_the_executor_clock_ticks_before_the_first_step_and_then_every_period(load):
-    """`auv_mj.tasks.clock.ExecutorClock`: over n physics steps of dt, a period of k steps ticks ceil(n / k) times, in
+    """`auv_mj.control.clock.ExecutorClock`: over n physics steps of dt, a period of k steps ticks ceil(n / k) times, in
     whatever chunks `step` is called, a copy keeps the clock and a reset starts it at a tick."""
     physics = load()
     ticks: list[float] = []

@@ -172,7 +172,7 @@ def test_bad_actions_are_refused():
 
 def test_the_bench_times_the_batch_over_a_learners_cycle_and_refuses_a_seed_count_that_does_not_fit(monkeypatch):
     """`vector_bench.cycle_rate` resets with the learner's seeds (once untimed, once timed) and then steps."""
-    from auv_mj.tasks import vector_bench
+    from auv_mj.speed import vector as vector_bench
 
     resets, steps = [], []
     reset, step = AUVVectorEnv.reset, AUVVectorEnv.step

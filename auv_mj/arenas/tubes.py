@@ -59,7 +59,7 @@ MIN_BEND_RADIUS = 20.0
 """Tightest bend of a tube's centreline [m]: the REMUS turns on about 15 m at full rudder and 1.5 m/s."""
 MAX_SLOPE = math.radians(12.0)
 """Steepest climb or dive of a centreline segment [rad]: below the classical executor's 14 deg pitch limit
-(`auv_mj.tasks.auv3d_control.DepthHeadingGains.max_pitch`), so that a vehicle can follow it with margin."""
+(`auv_mj.control.depth_heading.DepthHeadingGains.max_pitch`), so that a vehicle can follow it with margin."""
 MIN_COVER = 2.0
 """Water above the top of a tube [m]."""
 SEGMENT_LENGTH = 4.0

@@ -393,8 +393,8 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
     from auv_mj.agents.ppo import reset_seeds
     from auv_mj.agents.ppo import train as train_ppo
     from auv_mj.agents.ppo_planner import PLANNER_CONFIG
+    from auv_mj.speed.vector import MEMORY_SIZE, cycle_rate, vector_bench
     from auv_mj.tasks.vector import AUVVectorEnv
-    from auv_mj.tasks.vector_bench import MEMORY_SIZE, cycle_rate, vector_bench
 
     seconds = max(0.5, 2.0 * settings.scale)
     measurements = []

@@ -44,7 +44,7 @@ PARAMETERS = ("k1_speed", "k2_speed", "ki_speed", "k1_heading", "k2_heading", "k
               "band_heading", "integral_limit", "surge_drag", "surge_limit", "yaw_limit", "dt",
               "speed_mean", "speed_sigma", "speed_time_constant", "speed_low", "speed_high",
               "direction_mean", "direction_sigma", "direction_time_constant", "direction_low", "direction_high")
-"""A vehicle's constant row: the S-plane gains (`auv_mj.tasks.splane.SPlaneGains` fields) and the current's
+"""A vehicle's constant row: the S-plane gains (`auv_mj.control.splane.SPlaneGains` fields) and the current's
 Gauss-Markov parameters (`auv_mj.sim.ocean.GaussMarkov`: mean, sigma, time constant, low, high)."""
 OUTPUTS = ("x", "y", "psi", "cos_psi", "sin_psi", "u", "v", "r", "time", "collided", "invalid", "clearance",
            *SONAR_NAMES)

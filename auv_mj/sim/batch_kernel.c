@@ -6,7 +6,7 @@
  * so that a vehicle stepped here follows the single environment's trajectory to the bit:
  *   - the ocean current (auv_mj/sim/ocean.py `Ocean.tick`, `Current.advance`, `GaussMarkov.advance`), its normal
  *     draws taken from a buffer the caller fills from the episode's own generator;
- *   - the S-plane executor of Eq. (32) (tasks/splane.py `SPlaneController.__call__`) into ctrl;
+ *   - the S-plane executor of Eq. (32) (auv_mj/control/splane.py `SPlaneController.__call__`) into ctrl;
  *   - the moving obstacles (auv_mj/arenas/arena.py `Mover.position`, numpy.interp on a polyline);
  *   - the contact check of the vehicle.
  * Then the hydrodynamic substeps of hydro_kernel.c (included below: the same function the single physics calls).

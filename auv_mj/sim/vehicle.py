@@ -214,3 +214,15 @@ def _check_actuators(model: mujoco.MjModel, data: mujoco.MjData, source: str) ->
             raise _fail(source, f"actuator {name} must apply {what} equal to its control (Eq. 12: gear, gain 1, "
                                 f"no bias; dynamics none, or a first-order lag with a time constant in (0, "
                                 f"{MAX_LAG:g}] s)")
+
+
+@functools.lru_cache(maxsize=8)
+def _ctrlranges(name: str) -> np.ndarray:
+    return mujoco.MjModel.from_xml_path(str(model_path(name))).actuator_ctrlrange.copy()
+
+
+def actuator_ranges(name: str = "auv.xml") -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) of the actuators' ctrlranges of the shipped vehicle `name` (`auv.xml`, or `auv6.xml` for the
+    6-DOF vehicle), read from the compiled vehicle alone: what an executor built outside a task scales its output by."""
+    low, high = _ctrlranges(name).T.copy()
+    return low, high

@@ -40,7 +40,7 @@ from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.agents.policy import Policy
 from auv_mj.agents.ppo import FORMAT as PPO_FORMAT
 from auv_mj.agents.ppo import PPOPolicy
-from auv_mj.arenas import arena
+from auv_mj.control.depth_heading import OCEAN_DEPTH_GAINS
 from auv_mj.episode import FunctionPlanner, Planner, as_planner
 from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsion
 from auv_mj.planners.bug import bug_planner
@@ -51,14 +51,23 @@ from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_
 from auv_mj.planners.map_planner3d import sonar_voxel_planner, true_voxel_planner
 from auv_mj.tasks import suite
 from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
-from auv_mj.tasks.auv3d import SUITE3D, DepthHeading, Physics3D, is_3d, splane_policy
-from auv_mj.tasks.auv3d_control import OCEAN_DEPTH_GAINS
-from auv_mj.tasks.depth_executor import DepthExecutorMemory
+from auv_mj.tasks.auv3d import SUITE3D, DepthHeading, is_3d, splane_policy
 from auv_mj.tasks.depth_executor import executor_options as depth_executor_options
-from auv_mj.tasks.executors import EXECUTORS, named_executor  # noqa: F401  (EXECUTORS: the zoo's face)
 from auv_mj.tasks.gym_adapter import gym_spaces
 from auv_mj.tasks.registry import SUITE
-from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options, executor_policy
+from auv_mj.tasks.speed_heading import executor_options, executor_policy
+from auv_mj.zoo.checkpoints import _checkpoint_dir, checkpoint_path, shipped_checkpoint  # noqa: F401  (re-exported)
+from auv_mj.zoo.executors import (  # noqa: F401  (re-exported: the zoo's face, and the entry points' targets)
+    EXECUTORS,
+    EXECUTORS_3D,
+    LearnedExecutor,
+    depth_executor,
+    learned_depth_executor,
+    learned_executor,
+    named_executor,
+    ocean_executor,
+    paper_executor,
+)
 from auv_mj.zoo.spec import (
     DOMAINS,
     POLICIES,
@@ -71,101 +80,6 @@ from auv_mj.zoo.spec import (
 )
 
 # --- checkpoints and executors ----------------------------------------------------------------------------------
-
-
-def _checkpoint_dir() -> Path:
-    """The shipped checkpoints' folder: `checkpoints/` of the `auv_mj.agents` package (agents/ in a checkout)."""
-    import auv_mj.agents
-
-    return Path(auv_mj.agents.__file__).resolve().parent / "checkpoints"
-
-
-def shipped_checkpoint(name: str, task: str | None = None) -> Path:
-    """Path of policy `name`'s shipped checkpoint (on `task`), with a clear error when it is missing."""
-    spec = POLICIES[name]
-    file = spec.checkpoint_on.get(task, spec.checkpoint) if task is not None else spec.checkpoint
-    if file is None:
-        raise ValueError(f"policy {name!r} has no checkpoint")
-    path = _checkpoint_dir() / file
-    if not path.is_file():
-        raise FileNotFoundError(f"the shipped {name} checkpoint {path} is missing; train one with "
-                                f"`auv-mj train` (see README) or pass a checkpoint path")
-    return path
-
-
-def checkpoint_path(name: str | Path, task: str | None = None) -> Path:
-    """The checkpoint file that `name` stands for: a registered learned policy's shipped checkpoint (its own on
-    `task` where it has one per task, e.g. `planner` on `tunnel`), or an existing checkpoint path as it is. What
-    `auv-mj train --init NAME` starts from, so that a shipped network is fine-tuned by its name.
-    ValueError naming the learned policies for anything else."""
-    text = str(name)
-    if text in POLICIES and POLICIES[text].checkpoint is not None:
-        return shipped_checkpoint(text, task)
-    if Path(text).is_file():
-        return Path(text)
-    learned = [n for n, s in POLICIES.items() if s.checkpoint is not None]
-    what = "has no checkpoint (a classical policy)" if text in POLICIES else "is not a checkpoint file"
-    raise ValueError(f"{text!r} {what}; give a checkpoint path or a learned policy: {', '.join(learned)}")
-
-
-class LearnedExecutor:
-    """A trained speed_heading policy as a planning task's executor: (command, state) -> (tau_u, tau_r).
-
-    Its input is the speed_heading observation it was trained on and its output becomes the actuator command
-    exactly as in the speed_heading task (Eq. 28-29; a residual executor's output corrects the S-plane's),
-    through the task's own `ExecutorMemory` (integrals, command history, the S-plane), set up from the
-    checkpoint's training options. Call it once per executor step, as the tasks do; `reset` starts an episode.
-    `three_d`: a depth_heading policy instead, (V, psi, depth), State3D -> (thrust, rudder, stern), through
-    `auv_mj.tasks.depth_executor.DepthExecutorMemory`.
-    """
-
-    def __init__(self, policy, low: np.ndarray, high: np.ndarray, three_d: bool = False):
-        self.policy, self.low, self.high = policy, np.asarray(low), np.asarray(high)
-        kwargs = getattr(policy, "metadata", {}).get("run_info", {}).get("task_kwargs", {})
-        if three_d:
-            self.memory = DepthExecutorMemory(**depth_executor_options(policy.obs_dim, kwargs), low=self.low,
-                                              high=self.high)
-            self._act = self.memory.controls
-        else:
-            self.memory = ExecutorMemory(**executor_options(policy.obs_dim, kwargs), low=self.low, high=self.high)
-            self._act = self.memory.forces
-
-    def reset(self) -> None:
-        """Zeroes the memories (the start of an episode)."""
-        self.memory.reset()
-
-    def __call__(self, command, state) -> np.ndarray:
-        return self._act(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
-
-
-def learned_executor(path: Path | None = None, three_d: bool = False) -> LearnedExecutor:
-    """The shipped (or given) learned execution layer as a task executor (`three_d`: a depth executor of the
-    6-DOF vehicle)."""
-    if three_d:
-        low, high = Physics3D.load().model.actuator_ctrlrange.T
-        return LearnedExecutor(Policy.load(path or shipped_checkpoint("depth-executor")), low, high, three_d=True)
-    low, high = arena.load().model.actuator_ctrlrange.T
-    return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
-
-
-def paper_executor() -> LearnedExecutor:
-    """The paper's learned execution layer (`executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
-    return learned_executor(shipped_checkpoint("executor"))
-
-
-def ocean_executor() -> LearnedExecutor:
-    """The learned ocean executor (`ocean-executor`), by name in `auv_mj.tasks.executors.EXECUTORS`."""
-    return learned_executor(shipped_checkpoint("ocean-executor"))
-
-
-def depth_executor() -> LearnedExecutor:
-    """The learned depth executor (`depth-executor`), by name in `auv_mj.tasks.executors.EXECUTORS_3D`."""
-    return learned_executor(shipped_checkpoint("depth-executor"), three_d=True)
-
-
-def learned_depth_executor(path: Path) -> LearnedExecutor:
-    """A depth_heading checkpoint file as a 6-DOF task's executor (`auv_mj.tasks.executors`)."""
-    return learned_executor(path, three_d=True)
 
 
 # --- building policies ------------------------------------------------------------------------------------------
@@ -325,7 +239,7 @@ register("splane", PolicySpec("the classical baseline: line of sight + the S-pla
                               lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env),
                               domains=BOTH))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
-                                    "(`auv_mj.tasks.splane.OCEAN_GAINS`; auv3d: the depth-heading S-plane's, "
+                                    "(`auv_mj.control.splane.OCEAN_GAINS`; auv3d: the depth-heading S-plane's, "
                                     "`OCEAN_DEPTH_GAINS`)", _splane_ocean,
                                     default_executor="splane-ocean", role="reference", domains=BOTH))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "

@@ -12,7 +12,7 @@ QUICK = bool(os.environ.get("QUICK"))
 SIZES, THREADS, SECONDS, N = ((16,), (1, 2), 0.3, 16) if QUICK else ((256, 1024), (1, 2, 4, 8, 16), 3.0, 256)
 results = {"cpus": os.cpu_count(), "torch": torch.__version__, "cuda": torch.cuda.is_available()}
 
-from auv_mj.tasks.vector_bench import batch_rate, physics_limit  # noqa: E402
+from auv_mj.speed.vector import batch_rate, physics_limit  # noqa: E402
 
 for case, kwargs in (("goal", {}), ("obstacles", {"arena": "random", "tier": "hard"})):
     rows = {"physics_limit_1_thread": physics_limit(case, kwargs, 2.0)}

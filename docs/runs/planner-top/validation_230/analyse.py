@@ -1,6 +1,6 @@
 """The 230-episode validation of planner-general's two deployments (issue 30): success, time efficiency and the
 paired differences with their 95 % bootstrap intervals, from the JSON files beside this script
-(`scripts/benchmark_tiers.py --seed 20000`, validation seeds).
+(`experiments/benchmark_tiers.py --seed 20000`, validation seeds).
 
     python docs/runs/planner-top/validation_230/analyse.py
 """

@@ -1,7 +1,7 @@
 """Validation of the fixed-speed fine-tuning runs (fx0, fx1; issue 30): each candidate's time efficiency per set and
 its paired difference, with a 95 % bootstrap interval, against `map-replan` and the shipped `planner-general` on
 the same validation seeds. The candidates' episodes are the JSON files beside this script
-(`scripts/benchmark_tiers.py --seed 20000 --policies CHECKPOINT`); the references are those of `../validation_230/`.
+(`experiments/benchmark_tiers.py --seed 20000 --policies CHECKPOINT`); the references are those of `../validation_230/`.
 
     python docs/runs/planner-top/validation_fixed/analyse.py
     python docs/runs/planner-top/validation_fixed/analyse.py FOLDER NAME...   # other candidates: FOLDER/*_NAME.json

@@ -5,7 +5,7 @@ command schedules in ocean water, on the validation seeds 20000 on (never the te
 MAE of speed, heading and depth over all of them is printed, with the mean of the three ratios to the reference
 policy's (`splane-ocean`, the S-plane re-tuned in ocean water) and how many of the three are below it.
 
-    python scripts/select_depth_executor.py runs/depth/gains-ocean/snapshots/*.pt --episodes 10
+    python experiments/select_depth_executor.py runs/depth/gains-ocean/snapshots/*.pt --episodes 10
 """
 
 from __future__ import annotations

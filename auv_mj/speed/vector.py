@@ -9,7 +9,7 @@ Rows (environment steps per second, random actions, autoresets included):
 - "rss": the batch's resident memory over many steps (it should stay flat).
 The machine's load average is recorded beside the figures: on a shared machine they move with it.
 
-`python -m auv_mj.tasks.vector_bench [--task obstacles] [--seconds 2]` prints the table.
+`python -m auv_mj.speed.vector [--task obstacles] [--seconds 2]` prints the table.
 """
 
 from __future__ import annotations

@@ -5,9 +5,9 @@ the difference A - B of the per-episode time efficiency (oracle time / own time,
 `auv_mj.benchmark.metrics.cell_summary` scores it), its mean, a 95 % bootstrap interval (seeded) and the seeds each
 policy was the faster on.
 
-    python scripts/paired_efficiency.py runs/hard100/planner-general/results.json \
+    python experiments/paired_efficiency.py runs/hard100/planner-general/results.json \
         runs/hard100/map-replan/results.json --oracle runs/hard100/oracle/results.json --tier hard --water ideal
-    python scripts/paired_efficiency.py planner-general map-replan --tier hard     # the published leaderboard's
+    python experiments/paired_efficiency.py planner-general map-replan --tier hard     # the published leaderboard's
 
 A or B (and --oracle) is a results file or the name of a policy published on the leaderboard
 (`docs/benchmark/leaderboard.json`); --oracle defaults to the leaderboard's `oracle`.

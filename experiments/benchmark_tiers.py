@@ -5,7 +5,7 @@ Each cell is a policy on a task's hard tier (`tier="hard"`, `arena="random"`) ov
 goal, time efficiency against `oracle` on the same seed (oracle time / own time on a success, capped at 1 as SPL
 caps path ratios; 0 on a failure), and the least and median of the episodes' least clearances.
 
-    python scripts/benchmark_tiers.py --episodes 20 --seed 10000 --json docs/runs/benchmark/hard.json
+    python experiments/benchmark_tiers.py --episodes 20 --seed 10000 --json docs/runs/benchmark/hard.json
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The benchmark's figure (issue 30): a few hard arenas of held-out seeds with each policy's track.
 
-    python scripts/benchmark_figure.py --task obstacles --seeds 10000,10001,10002 --out docs/figures/hard_tier.png
+    python experiments/benchmark_figure.py --task obstacles --seeds 10000,10001,10002 --out docs/figures/hard_tier.png
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ steps), each scored by the mean absolute speed and heading error, plus penalties
 and on output chatter (so that the search does not drift to bang-bang gains).
 The defaults are the printed optimum (cost 0.654 -> 0.288); reproduce with (about 17 min on one core)
 
-    python -m auv_mj.tasks.splane_tuning --tune
+    python experiments/splane_tuning.py --tune
 
 which prints the cost breakdown of the current defaults, then the optimum and its breakdown. The optimum
 is a steep S-surface (it saturates at |e_psi| ~ 0.03 rad) with strong rate damping.
@@ -85,7 +85,7 @@ class SPlaneGains:
 OCEAN_GAINS = SPlaneGains(k1_speed=62.893, k2_speed=0.566, ki_speed=0.381,
                           k1_heading=48.005, k2_heading=23.423, ki_heading=0.62)
 """The gains re-tuned in ocean conditions (lagged thrusters, current, scaled vehicle) from the nominal optimum,
-the printed optimum of `python -m auv_mj.tasks.splane_tuning --tune --conditions ocean --max-evaluations 200` (training
+the printed optimum of `python experiments/splane_tuning.py --tune --conditions ocean --max-evaluations 200` (training
 seeds only; cost 0.827 -> 0.514, about 12 min on one core). The heading gain k_psi1 drops from 148 to 48: with
 the 0.2 s yaw-moment lag the nominal steep S-surface keeps a heading limit cycle (output chatter 0.25 -> 0.04).
 The strongest classical executor where the water is not ideal; policy `splane-ocean`."""

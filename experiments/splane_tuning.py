@@ -1,10 +1,10 @@
-"""Offline tuning of the S-plane gains (Eq. 32) on the nominal vehicle: `python -m auv_mj.tasks.splane_tuning --tune`.
+"""Offline tuning of the S-plane gains (Eq. 32) on the nominal vehicle: `python experiments/splane_tuning.py --tune`.
 
-The cost and the search behind the defaults of `auv_mj.tasks.splane.SPlaneGains` (see that module's docstring).
+The cost and the search behind the defaults of `auv_mj.control.splane.SPlaneGains` (see that module's docstring).
 `--conditions ocean` re-tunes them where the water is not ideal (lagged thrusters, current, a scaled vehicle;
 `auv_mj.sim.ocean`): the same scenarios, each run on OCEAN_TUNING_EPISODES ocean draws of training seeds (never a
 validation or test seed), starting from the nominal optimum as a practitioner would. Its optimum is
-`auv_mj.tasks.splane.OCEAN_GAINS`, the strongest classical executor the learned ones are compared with (issue 17).
+`auv_mj.control.splane.OCEAN_GAINS`, the strongest classical executor the learned ones are compared with (issue 17).
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from dataclasses import asdict, replace
 import numpy as np
 
 from auv_mj.arenas import arena
+from auv_mj.control.splane import SPlaneController, SPlaneGains
 from auv_mj.geometry import wrap_angle
 from auv_mj.seeds import train_seed
 from auv_mj.tasks.speed_heading import phase_mae, rollout
-from auv_mj.tasks.splane import SPlaneController, SPlaneGains
 
 TUNED_FIELDS = ("k1_speed", "k2_speed", "ki_speed", "k1_heading", "k2_heading", "ki_heading")
 """The gains `--tune` searches over; bands, bounds and limits stay as set."""
@@ -30,7 +30,7 @@ INITIAL_GAINS = {"k1_speed": 5.5, "k2_speed": 2.0, "ki_speed": 0.12,
 """Hand-set start of the `--tune` search (an S-plane that tracks, but sluggishly under disturbances)."""
 
 
-# --- offline tuning (python -m auv_mj.tasks.splane_tuning --tune) --------------------------------------------------
+# --- offline tuning (python experiments/splane_tuning.py --tune) --------------------------------------------------
 
 STEP_SECONDS = 30.0
 """Length of each step-response scenario of the tuning cost [s]."""
@@ -140,8 +140,8 @@ def tune(start: SPlaneGains | None = None, max_evaluations: int = 400, condition
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m auv_mj.tasks.splane_tuning [--tune]`: prints the cost breakdown of the defaults (and tunes)."""
-    parser = argparse.ArgumentParser(prog="python -m auv_mj.tasks.splane_tuning", description=__doc__.splitlines()[0])
+    """`python experiments/splane_tuning.py [--tune]`: prints the cost breakdown of the defaults (and tunes)."""
+    parser = argparse.ArgumentParser(prog="python experiments/splane_tuning.py", description=__doc__.splitlines()[0])
     parser.add_argument("--tune", action="store_true", help="run the Nelder-Mead search from INITIAL_GAINS")
     parser.add_argument("--max-evaluations", type=int, default=400)
     parser.add_argument("--conditions", choices=("ideal", "ocean"), default="ideal",

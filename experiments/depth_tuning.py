@@ -1,7 +1,7 @@
-"""Tuning the 6-DOF depth-heading S-plane in ocean water: `python -m auv_mj.tasks.depth_tuning --tune`.
+"""Tuning the 6-DOF depth-heading S-plane in ocean water: `python experiments/depth_tuning.py --tune`.
 
-The search behind `auv_mj.tasks.auv3d_control.OCEAN_DEPTH_GAINS`, the fair classical baseline of a learned depth
-executor, made as the planar `splane-ocean` was (`auv_mj.tasks.splane_tuning`): Nelder-Mead over the log-gains
+The search behind `auv_mj.control.depth_heading.OCEAN_DEPTH_GAINS`, the fair classical baseline of a learned depth
+executor, made as the planar `splane-ocean` was (`experiments/splane_tuning.py`): Nelder-Mead over the log-gains
 (TUNED_FIELDS, within TUNING_BOUNDS) from the hand-set defaults (`DepthHeadingGains`), on training seeds only.
 
 The cost is the evaluation's own distribution: TUNING_EPISODES episodes of `depth_heading` with random command
@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
+from auv_mj.control.depth_heading import OCEAN_DEPTH_GAINS, DepthHeadingGains
 from auv_mj.episode import episode_metrics, record_episode
 from auv_mj.seeds import VALIDATION, train_seed
 from auv_mj.tasks.auv3d import depth_heading, splane_policy
-from auv_mj.tasks.auv3d_control import OCEAN_DEPTH_GAINS, DepthHeadingGains
 
 TUNED_FIELDS = ("k1_speed", "k2_speed", "ki_speed", "k1_heading", "k2_heading", "ki_heading", "k1_depth",
                 "k2_depth", "ki_depth", "max_pitch", "k1_pitch", "k2_pitch")
@@ -135,8 +135,8 @@ def read_gains(path: Path) -> DepthHeadingGains:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m auv_mj.tasks.depth_tuning [--tune] [--validate N]`."""
-    parser = argparse.ArgumentParser(prog="python -m auv_mj.tasks.depth_tuning", description=__doc__.splitlines()[0])
+    """`python experiments/depth_tuning.py [--tune] [--validate N]`."""
+    parser = argparse.ArgumentParser(prog="python experiments/depth_tuning.py", description=__doc__.splitlines()[0])
     parser.add_argument("--tune", action="store_true", help="run the Nelder-Mead search from the hand-set gains")
     parser.add_argument("--max-evaluations", type=int, default=400)
     parser.add_argument("--validate", type=int, default=0, metavar="N",

@@ -1,7 +1,7 @@
 """Classical control of the 6-DOF vehicle: the executor the 3-D tasks run, and the baseline learned 3-D control
 must beat.
 
-- `DepthHeadingController`: the S-plane of Eq. (32) (`auv_mj.tasks.splane.s_plane`) on three channels: surge speed
+- `DepthHeadingController`: the S-plane of Eq. (32) (`auv_mj.control.splane.s_plane`) on three channels: surge speed
   through the thrust (with the planar drag feed-forward and integrator), heading through the rudder, and depth
   through the pitch and the stern planes, cascaded: the depth error sets a pitch command, the pitch error sets
   the stern planes. A slow depth integrator finds the nose-down trim that holds the positively buoyant REMUS
@@ -12,7 +12,7 @@ must beat.
 Gains were set by hand on `depth_heading` (paper schedule, ideal conditions), comparing sets by their
 MAE (speed, heading, depth): the defaults give (0.003 m/s, 0.036 rad, 0.198 m); the first heading gains
 (k1 6, k2 8, ki 0.05) gave 0.084 rad. They are `DepthHeadingGains`. `OCEAN_DEPTH_GAINS` are the same controller
-re-tuned in ocean water (`auv_mj.tasks.depth_tuning`), the fair baseline of a learned depth executor.
+re-tuned in ocean water (`experiments/depth_tuning.py`), the fair baseline of a learned depth executor.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from auv_mj.control.splane import s_plane
 from auv_mj.geometry import wrap_angle
-from auv_mj.tasks.splane import s_plane
 
 EXECUTOR_DT = 0.1
 """The 3-D executor's period [s], as the planar executor's."""
@@ -71,7 +71,7 @@ OCEAN_DEPTH_GAINS = DepthHeadingGains(k1_speed=25.56, k2_speed=1.006, ki_speed=0
                                       k2_heading=20.87, ki_heading=0.09276, k1_depth=1.466, k2_depth=0.9919,
                                       ki_depth=0.007252, max_pitch=0.4973, k1_pitch=14.57, k2_pitch=6.808)
 """The gains re-tuned in ocean water from the hand-set ones, the printed optimum of `python -m
-auv_mj.tasks.depth_tuning --tune --max-evaluations 250` (4 training episodes of random command schedules in ocean
+experiments/depth_tuning.py --tune --max-evaluations 250` (4 training episodes of random command schedules in ocean
 water; cost 1.012 -> 0.835: MAE speed 0.031 -> 0.029 m/s, heading 0.251 -> 0.197 rad, depth 1.17 -> 0.80 m, 237
 evaluations). The largest change is the pitch limit, 0.25 -> 0.50 rad: the re-tuned loop dives and climbs twice as
 steeply, which the cascade's stern loop (k_pitch1 10 -> 14.6) still holds. The strongest classical depth executor
