@@ -134,19 +134,27 @@ def shortest_path(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float 
     local[si, sj] = min(local[si, sj], 1.0 + SOFT_WEIGHT)
     nx, ny = local.shape
     ids = np.arange(nx * ny).reshape(nx, ny)
+    graph = cell_graph(grid.cell, local)
+    centres = grid.centre(*np.divmod(np.arange(nx * ny), ny)) + lo * grid.cell
+    near_goal = np.hypot(*(centres - np.asarray(goal, dtype=float)[:2]).T)
+    return path_to_goal(graph, int(ids[si, sj]), centres, near_goal, *_goal_reach(grid, goal_radius))
+
+
+def cell_graph(cell: float, cost: np.ndarray):
+    """The 8-connected graph (a scipy CSR matrix over the cells in C order) of the cells of finite `cost` (nx, ny),
+    each edge weighted by its length times the mean of its two cells' costs [m]."""
+    nx, ny = cost.shape
+    ids = np.arange(nx * ny).reshape(nx, ny)
     rows, cols, weights = [], [], []
     for di, dj in _STEPS:
         a = (slice(0, nx - di), slice(max(0, -dj), ny - max(0, dj)))
         b = (slice(di, nx), slice(max(0, dj), ny - max(0, -dj)) if dj >= 0 else slice(0, ny + dj))
-        ok = np.isfinite(local[a]) & np.isfinite(local[b])
+        ok = np.isfinite(cost[a]) & np.isfinite(cost[b])
         rows.append(ids[a][ok])
         cols.append(ids[b][ok])
-        weights.append(math.hypot(di, dj) * grid.cell * 0.5 * (local[a][ok] + local[b][ok]))
-    graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
-                       shape=(nx * ny, nx * ny)).tocsr()
-    centres = grid.centre(*np.divmod(np.arange(nx * ny), ny)) + lo * grid.cell
-    near_goal = np.hypot(*(centres - np.asarray(goal, dtype=float)[:2]).T)
-    return path_to_goal(graph, int(ids[si, sj]), centres, near_goal, *_goal_reach(grid, goal_radius))
+        weights.append(math.hypot(di, dj) * cell * 0.5 * (cost[a][ok] + cost[b][ok]))
+    return coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(nx * ny, nx * ny)).tocsr()
 
 
 def _goal_reach(grid: Grid, goal_radius: float) -> tuple[float, float]:
