@@ -210,22 +210,22 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if current is None:
             return
         state[at_state["current_on"]] = 1.0
-        state[at_state["ocean_time"]] = ocean._time
+        state[at_state["ocean_time"]] = ocean.time
         for process, name in ((current.speed, "speed"), (current.direction, "direction")):
             for field, value in (("mean", process.mean), ("sigma", process.sigma),
                                  ("time_constant", process.time_constant), ("low", process.low),
                                  ("high", process.high)):
                 parameters[at_parameter[f"{name}_{field}"]] = value
             key = "current_speed" if name == "speed" else "current_direction"
-            state[at_state[key]], state[at_state[f"{key}_dt"]] = process.value, process._dt
-            state[at_state[f"{key}_a"]], state[at_state[f"{key}_b"]] = process._a, process._b
-        normals = current.speed._normal
-        if current.direction._normal is not normals:
+            state[at_state[key]] = process.value
+            state[at_state[f"{key}_dt"]], state[at_state[f"{key}_a"]], state[at_state[f"{key}_b"]] = process.transition
+        normals = current.speed.normal
+        if current.direction.normal is not normals:
             raise RuntimeError("the current's two processes must share one stream of normal draws")
-        pending = normals._draws[::-1]  # Normals pops from the end: the next draws, in order
+        pending = normals.pending()
         self._stepper.normals[i, :len(pending)] = pending
         self._stepper.normals_end[i] = len(pending)
-        self._current_rngs[i] = normals._rng
+        self._current_rngs[i] = normals.rng
 
     # --- Gymnasium API ------------------------------------------------------------------------------
 
