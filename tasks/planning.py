@@ -716,6 +716,8 @@ class StepOutcome:
     """`PlanningTask.last_info`'s keys (STEP_INFO_KEYS), each an array over the batch."""
 
 
+ONE_ROW = slice(0, 1)
+"""The rows of a task's own batch of one episode (N = 1)."""
 STEP_INFO_KEYS = ("previous_achieved_goal", "goal_independent_reward", "reward_following", "reward_avoid",
                   "reward_navigation", "paper_reward", "collision", "left_map", "safety_violation", "success",
                   "is_success", "min_clearance", "min_sonar_range", "event", "goals_reached", "num_goals",
@@ -736,21 +738,21 @@ def executor_command(action: np.ndarray, psi: np.ndarray, heading_command: np.nd
     return np.stack([speed_command(action[:, 0]), psi + difference], axis=1)
 
 
-def step_outcome(routes: RouteBatch, rows: np.ndarray, reached: np.ndarray, steps_left: np.ndarray,
+def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, steps_left: np.ndarray,
                  previous: np.ndarray, readout: Readout, command: np.ndarray, rules: StepRules) -> StepOutcome:
     """Goals, events and rewards of a planner step of the episodes `rows` of `routes` (the module docstring).
 
-    `reached` (N,) goals reached before the step, `steps_left` (N,) the success bonus's K (this step included),
-    `previous` (N, 2) where the step began, `readout` the vehicles after it, `command` (N, 2) the step's command.
+    `rows` indexes N rows of `routes` (an index array, or a slice), `reached` (N,) goals reached before the step,
+    `steps_left` (N,) the success bonus's K (this step included), `previous` (N, 2) where the step began,
+    `readout` the vehicles after it, `command` (N, 2) the step's command.
     """
     goals, n = routes.goals[rows], routes.n_goals[rows]
     position, radius = readout.position, rules.goal_radius
-    line = np.arange(len(rows))
+    count = len(reached)
+    line = np.arange(count)
     bounds = routes.bounds[rows]
-    x, y = position[:, 0], position[:, 1]
     collision = np.asarray(readout.collision, dtype=bool)
-    left_map = routes.has_bounds[rows] & ~((bounds[:, 0] <= x) & (x <= bounds[:, 2])
-                                           & (bounds[:, 1] <= y) & (y <= bounds[:, 3]))
+    left_map = routes.has_bounds[rows] & ~np.all((bounds[:, :2] <= position) & (position <= bounds[:, 2:]), axis=1)
     failed = collision | left_map
     desired = goals[line, reached]
     now = goals_hit(goals, n, reached, position, radius)
@@ -762,8 +764,11 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray, reached: np.ndarray, step
     k1, k2, k3 = REWARD_WEIGHTS
     independent = k2 * r_avoid + k3 * NAVIGATION_REWARD - rules.collision_penalty * failed
     paper = k1 * r_follow + independent + np.where(success, success_bonus("paper", steps_left), 0.0)
-    event = np.where(collision, "collision", np.where(left_map, "left_map", np.where(
-        now > reached, np.where(now == n, "goal", "subgoal"), ""))).astype(object)
+    event = np.full(count, "", dtype=object)
+    event[now > reached] = "subgoal"
+    event[(now > reached) & (now == n)] = "goal"
+    event[left_map] = "left_map"
+    event[collision] = "collision"
     if rules.reward_kind == "paper":
         reward = paper
     elif rules.reward_kind == "progress":
@@ -776,7 +781,7 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray, reached: np.ndarray, step
         "goal_independent_reward": independent,
         "reward_following": r_follow,
         "reward_avoid": r_avoid,
-        "reward_navigation": np.full(len(rows), NAVIGATION_REWARD),
+        "reward_navigation": np.full(count, NAVIGATION_REWARD),
         "paper_reward": paper,
         "collision": collision,
         "left_map": left_map,
@@ -790,7 +795,7 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray, reached: np.ndarray, step
         "num_goals": n,
         "last_goal": reached == n - 1,
         "steps_left": steps_left,
-        "goal_radius": np.full(len(rows), radius),
+        "goal_radius": np.full(count, radius),
         "cross_track_error": distances_to_polylines(position, routes.path[rows]),
         "command": command,
         "tracked": (n == 1) | (now >= 1),
@@ -815,20 +820,19 @@ def goals_passed(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position
                  corridor: np.ndarray) -> np.ndarray:
     """The passing rule: how many goals are behind the vehicle, of those PASS_WINDOW from the current one but the
     last -- ahead of a goal along the route, within `corridor` across it (0 where none is, or NaN corridor)."""
-    line = np.arange(len(n))
-    last = np.minimum(reached + PASS_WINDOW, n - 1)
-    passed = np.zeros(len(n), dtype=int)
-    with np.errstate(invalid="ignore"):
-        for k in range(PASS_WINDOW):
-            slot = reached + k
-            at = np.minimum(slot, goals.shape[1] - 1)
-            offset = position - goals[line, at]
-            tangent = tangents[line, at]
-            along = offset[:, 0] * tangent[:, 0] + offset[:, 1] * tangent[:, 1]
-            across = offset[:, 0] * tangent[:, 1] - offset[:, 1] * tangent[:, 0]
-            valid = (slot < last) & ~np.isnan(corridor)
-            passed = np.where(valid & (along > 0) & (np.abs(across) < corridor), slot + 1, passed)
-    return passed
+    if np.all(np.isnan(corridor)):
+        return np.zeros(len(n), dtype=int)
+    line = np.arange(len(n))[:, None]
+    slots = reached[:, None] + np.arange(PASS_WINDOW)
+    at = np.minimum(slots, goals.shape[1] - 1)
+    offset = position[:, None, :] - goals[line, at]
+    tangent = tangents[line, at]
+    along = offset[..., 0] * tangent[..., 0] + offset[..., 1] * tangent[..., 1]
+    across = offset[..., 0] * tangent[..., 1] - offset[..., 1] * tangent[..., 0]
+    passed = (slots < np.minimum(reached + PASS_WINDOW, n - 1)[:, None]) & (along > 0) \
+        & (np.abs(across) < corridor[:, None])
+    last = PASS_WINDOW - 1 - np.argmax(passed[:, ::-1], axis=1)
+    return np.where(passed.any(axis=1), reached + last + 1, 0)
 
 
 def suite_reward(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position: np.ndarray, failed: np.ndarray,
@@ -842,21 +846,22 @@ def suite_reward(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position
     return np.where(failed, 0.0, np.where(success, success_bonus("suite", steps_left), (reached + near) / n))
 
 
-def observe(routes: RouteBatch, rows: np.ndarray, reached: np.ndarray, readout: Readout, command: np.ndarray,
+def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, readout: Readout, command: np.ndarray,
             relative: bool) -> dict[str, np.ndarray]:
-    """`PlanningTask.get_observation` of N vehicles: "observation" (RELATIVE_FIELDS if `relative`, else
-    OBSERVATION_FIELDS), "achieved_goal" and "desired_goal", each (N, k)."""
+    """`PlanningTask.get_observation` of N vehicles, rows `rows` of `routes`: "observation" (RELATIVE_FIELDS if
+    `relative`, else OBSERVATION_FIELDS), "achieved_goal" and "desired_goal", each (N, k)."""
     psi, (u, v, r) = readout.psi, readout.velocity.T
     motion = np.stack([u / MAX_SPEED, v / MAX_SPEED, r, wrap_angle(command[:, 1] - psi) / MAX_HEADING_DIFFERENCE,
                        command[:, 0] / MAX_SPEED], axis=1)
     at = np.minimum(reached, routes.n_goals[rows] - 1)
-    goal = routes.goals[rows, at]
+    line = np.arange(len(reached))
+    goal = routes.goals[rows][line, at]
     x, y = readout.position[:, 0], readout.position[:, 1]
     c, s = readout.cos_psi, readout.sin_psi
     sonar = readout.sonar / SONAR_RANGE
     if relative:
         achieved = np.stack([x, y, c, s], axis=1)
-        desired = np.concatenate([goal, routes.goal_cos_sin[rows, at]], axis=1)
+        desired = np.concatenate([goal, routes.goal_cos_sin[rows][line, at]], axis=1)
         vector = np.concatenate([relative_goal(achieved, desired), motion, sonar], axis=1)
     else:
         achieved, desired = np.stack([x, y], axis=1), goal
@@ -870,13 +875,11 @@ def info_row(info: Mapping[str, np.ndarray], k: int) -> dict:
     tuple, points as arrays."""
     row = {}
     for key, value in info.items():
-        item = value[k]
-        if key == "command":
-            row[key] = (float(item[0]), float(item[1]))
-        elif isinstance(item, np.ndarray):
-            row[key] = item.copy()
+        if value.ndim > 1:
+            row[key] = value[k].copy()
         else:
-            row[key] = item.item() if isinstance(item, np.generic) else item
+            row[key] = value[k] if value.dtype == object else value.tolist()[k]
+    row["command"] = tuple(info["command"][k].tolist())
     return row
 
 
@@ -1007,25 +1010,32 @@ class PlanningTask(base.Task):
 
     def after_step(self, physics: Physics) -> None:
         """Senses, then `step_outcome` (N = 1): events, goals, the step's reward and `last_info`."""
-        data, qpos, episode = physics.data.ptr, self.binding.qpos, self.episode
+        data, episode = physics.data.ptr, self.episode
         true_ranges = physics.sonar()
         episode.sonar = self.ocean.sense(true_ranges)
         episode.collided = episode.collided or (data.ncon > 0 and self._vehicle_contact(physics))
         episode.steps += 1
-        psi = float(data.qpos[qpos[2]])
-        readout = Readout(position=data.qpos[qpos[:2]][None], psi=np.array([psi]), cos_psi=np.array([math.cos(psi)]),
-                          sin_psi=np.array([math.sin(psi)]),
-                          velocity=np.asarray(physics.hydrodynamics.body_velocity(data), dtype=float)[None],
-                          sonar=episode.sonar[None], true_ranges=np.asarray(true_ranges, dtype=float)[None],
-                          collision=np.array([episode.collided]), clearance=np.array([self._clearance(physics)]))
+        readout = self._readout(physics, true_ranges=np.asarray(true_ranges, dtype=float)[None],
+                                collision=np.array([episode.collided]), clearance=np.array([self._clearance(physics)]))
         steps_left = max(self.step_limit - episode.steps + 1, 1)
-        outcome = step_outcome(self._routes, np.zeros(1, dtype=int), np.array([episode.reached]),
+        outcome = step_outcome(self._routes, ONE_ROW, np.array([episode.reached]),
                                np.array([steps_left]), episode.previous[None], readout,
                                np.array([episode.command]), self.rules)
         episode.reached = int(outcome.reached[0])
         episode.terminal = bool(outcome.terminal[0])
         episode.reward = float(outcome.reward[0])
         self.last_info = info_row(outcome.info, 0)
+
+    def _readout(self, physics: Physics, **after_step) -> Readout:
+        """The vehicle as `step_outcome` and `observe` read it (N = 1): cos and sin of the heading by `math`, as
+        the C batch takes them from libm."""
+        data = physics.data.ptr
+        pose = data.qpos[self.binding.qpos]
+        psi = float(pose[2])
+        return Readout(position=pose[None, :2], psi=pose[2:], cos_psi=np.array([math.cos(psi)]),
+                       sin_psi=np.array([math.sin(psi)]),
+                       velocity=np.asarray(physics.hydrodynamics.body_velocity(data), dtype=float)[None],
+                       sonar=self.episode.sonar[None], **after_step)
 
     @property
     def rules(self) -> StepRules:
@@ -1093,15 +1103,11 @@ class PlanningTask(base.Task):
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
         """Vehicle state, command and sonar, normalised (`observe`, N = 1); the goals in metres."""
-        data, qpos, episode = physics.data.ptr, self.binding.qpos, self.episode
+        episode = self.episode
         if episode.sonar is None:
             episode.sonar = self.ocean.sense(physics.sonar())
-        psi = float(data.qpos[qpos[2]])
-        readout = Readout(position=data.qpos[qpos[:2]][None], psi=np.array([psi]), cos_psi=np.array([math.cos(psi)]),
-                          sin_psi=np.array([math.sin(psi)]),
-                          velocity=np.asarray(physics.hydrodynamics.body_velocity(data), dtype=float)[None],
-                          sonar=episode.sonar[None])
-        observation = observe(self._routes, np.zeros(1, dtype=int), np.array([episode.reached]), readout,
+        readout = self._readout(physics)
+        observation = observe(self._routes, ONE_ROW, np.array([episode.reached]), readout,
                               np.array([episode.command]), self.goal_in_observation)
         return collections.OrderedDict((key, observation[key][0]) for key in ("observation", "achieved_goal",
                                                                               "desired_goal"))
