@@ -17,6 +17,14 @@ The executor (`executor(command, state)`, default the S-plane controller of Eq. 
 physics steps, so `control.Environment` still owns the 50 physics steps of a planner step and the time
 limit; moving obstacles are moved on the same 10 Hz tick.
 
+One step over a batch axis. What the task does around the physics is written once, on arrays whose leading axis
+is a batch of episodes: `executor_command` (the action map above), `step_outcome` (goals, the passing rule, events,
+the rewards below, the metrics) and `observe` (the observation). `PlanningTask` calls them with N = 1 on its own
+episode, the batched env (`auv_mj.tasks.vector.AUVVectorEnv`) with N, so that a change to a reward, an event or the
+observation is one edit. The task's episode state is a record it exports, `PlanningTask.episode` (`Episode`: the
+route, the command, goals reached, steps, the collision flag, the sonar), beside the model's addresses
+(`PlanningTask.binding`); the batched env reads these, not the task's internals.
+
 Goals. Every task is a sequence of goals g_0..g_n (Sec. 3.2.4): `desired_goal` is the current one, and
 reaching it (within the task's goal radius) makes the next one current; reaching a later one kills every
 goal before it. Reaching the last is success. GOAL_RADIUS = 12.5 m is the 25 m target area of Tables 6-8
@@ -887,7 +895,8 @@ class PlanningTask(base.Task):
     """A planner task: action (V, heading offset) -> executor -> dynamics; goals, events, rewards.
 
     Subclasses implement `route(physics, info) -> Route` (and may move obstacles there); everything else,
-    including `compute_reward` / `compute_terminated` for hindsight relabelling, lives here.
+    including `compute_reward` / `compute_terminated` for hindsight relabelling, lives here. A step is the batch
+    functions (`executor_command`, `step_outcome`, `observe`) at N = 1 on `episode`.
     """
 
     def __init__(self, executor: Callable | str | None = None, reward: str = "suite",
@@ -1050,7 +1059,7 @@ class PlanningTask(base.Task):
 
     @property
     def _command(self) -> tuple[float, float]:
-        """`episode.command` (tests drive the executor through it)."""
+        """`episode.command`, under the name tests written before the record set it by."""
         return self.episode.command
 
     @_command.setter
@@ -1059,7 +1068,7 @@ class PlanningTask(base.Task):
 
     @property
     def _route(self) -> Route:
-        """`episode.route`."""
+        """`episode.route`, under the name tests written before the record read it by."""
         return self.episode.route
 
     def _clearance(self, physics: Physics) -> float:
