@@ -203,8 +203,8 @@ def test_a_reward_constant_changes_the_suite_task_and_the_batch_alike(monkeypatc
 
     sizes = []
     step_outcome = planning.step_outcome
-    monkeypatch.setattr(planning, "step_outcome", lambda routes, rows, *args: sizes.append(len(rows))
-                        or step_outcome(routes, rows, *args))
+    monkeypatch.setattr(planning, "step_outcome", lambda routes, rows, reached, *args: sizes.append(len(reached))
+                        or step_outcome(routes, rows, reached, *args))
     single, batched = rewards()
     assert sizes == [1] * len(actions) + [2] * len(actions)
     np.testing.assert_allclose(batched, np.stack([single, single], axis=1), rtol=0, atol=TOLERANCE)
