@@ -678,7 +678,7 @@ class RouteBatch:
 
 
 def _grown(array: np.ndarray, length: int) -> np.ndarray:
-    """`array` with its axis 1 grown to at least `length` (new entries repeat nothing: zeros)."""
+    """`array` with its axis 1 grown to at least `length` (new entries zero)."""
     if array.shape[1] >= length:
         return array
     grown = np.zeros((array.shape[0], length, *array.shape[2:]), dtype=array.dtype)

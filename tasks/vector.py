@@ -133,7 +133,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._low = self.single_action_space.low.astype(float)
         self._high = self.single_action_space.high.astype(float)
-        tick_steps = first.physics._tick_steps if first.physics._tick else None
+        tick_steps = first.physics.tick_steps
         substeps = first._n_sub_steps
         self._substeps = int(round(planning.EXECUTOR_DT / first.physics.timestep()))
         if tick_steps not in (None, self._substeps) or substeps % self._substeps:
@@ -169,9 +169,9 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         """Reads sub-environment i's freshly reset episode into the batch (see the module docstring)."""
         env = self.envs[i]
         task, physics = env.task, env.physics
-        if physics._disturbances:
+        if physics.disturbances:
             raise ValueError("the vector env steps vehicles without disturbances")
-        if physics._steps_to_tick != 0:
+        if not physics.at_tick:
             raise RuntimeError("the sub-environment's executor clock is not at a tick after its reset")
         episode, binding = task.episode, task.binding
         self._routes.put(i, episode, binding.repulsion_range)
@@ -202,7 +202,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if last_u is not None:
             state[at_state["last_u"]], state[at_state["has_last_u"]] = last_u, 1.0
         state[at_state["collided"]] = float(task.episode.collided)
-        state[at_state["ready"]] = float(task_physics_ready(self.envs[i].physics))
+        state[at_state["ready"]] = float(self.envs[i].physics.step_ready)
         ocean = task.ocean
         current = ocean.current if ocean.conditions.current is not None else None
         self._current_rngs[i] = None
@@ -406,11 +406,6 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
     def close_extras(self, **kwargs) -> None:
         """Drops the sub-environments."""
         self.envs = []
-
-
-def task_physics_ready(physics) -> bool:
-    """Whether the physics' next step may skip `mj_step1` (`AUVPhysics.step`'s flag)."""
-    return bool(physics._step_ready)
 
 
 SINGLE_ENV_OPTIONS = ("protection", "residual", "guide", "speed", "render_mode", "render_size", "render_distance")
