@@ -163,9 +163,9 @@ def arena_geometry(physics, task=None) -> ArenaGeometry:
     Call it after the environment's reset: tasks draw their route (goals, path, movers) there.
     """
     info = arena_lib.arena_info(physics)
-    # Planning tasks keep the episode's layout in `_route` (auv_mj.tasks.planning.Route); the arena's own
+    # Planning tasks export the episode's layout (`episode.route`, an auv_mj.tasks.planning.Route); the arena's own
     # convention (path_* sites, mover_* numerics) is the fallback.
-    route = getattr(task, "_route", None)
+    route = getattr(getattr(task, "episode", None), "route", None)
     movers = tuple(getattr(route, "movers", ()) or ()) or info.movers
     model, data = physics.model.ptr, physics.data.ptr
     vehicle = model.body(VEHICLE_BODY).id if VEHICLE_BODY in _body_names(model) else -1

@@ -17,6 +17,14 @@ The executor (`executor(command, state)`, default the S-plane controller of Eq. 
 physics steps, so `control.Environment` still owns the 50 physics steps of a planner step and the time
 limit; moving obstacles are moved on the same 10 Hz tick.
 
+One step over a batch axis. What the task does around the physics is written once, on arrays whose leading axis
+is a batch of episodes: `executor_command` (the action map above), `step_outcome` (goals, the passing rule, events,
+the rewards below, the metrics) and `observe` (the observation). `PlanningTask` calls them with N = 1 on its own
+episode, the batched env (`auv_mj.tasks.vector.AUVVectorEnv`) with N, so that a change to a reward, an event or the
+observation is one edit. The task's episode state is a record it exports, `PlanningTask.episode` (`Episode`: the
+route, the command, goals reached, steps, the collision flag, the sonar), beside the model's addresses
+(`PlanningTask.binding`); the batched env reads these, not the task's internals.
+
 Goals. Every task is a sequence of goals g_0..g_n (Sec. 3.2.4): `desired_goal` is the current one, and
 reaching it (within the task's goal radius) makes the next one current; reaching a later one kills every
 goal before it. Reaching the last is success. GOAL_RADIUS = 12.5 m is the 25 m target area of Tables 6-8
@@ -260,13 +268,12 @@ def relative_goal(achieved_goal, desired_goal) -> np.ndarray:
                     axis=-1)
 
 
-def avoid_reward(nearest_echo: float, repulsion_range: float) -> float:
-    """r_avoid of Eq. (24) for the nearest sonar echo [m] and d0 = `repulsion_range` [m]."""
-    if nearest_echo <= SAFETY_DISTANCE:
-        return COLLISION_REWARD
-    if nearest_echo < repulsion_range:
-        return -AVOID_GAIN * (1.0 / nearest_echo - 1.0 / repulsion_range)
-    return 0.0
+def avoid_reward(nearest_echo, repulsion_range) -> np.ndarray:
+    """r_avoid of Eq. (24) for the nearest sonar echo [m] and d0 = `repulsion_range` [m], elementwise."""
+    nearest, reach = np.asarray(nearest_echo, dtype=float), np.asarray(repulsion_range, dtype=float)
+    with np.errstate(divide="ignore"):
+        graded = -AVOID_GAIN * (1.0 / nearest - 1.0 / reach)
+    return np.where(nearest <= SAFETY_DISTANCE, COLLISION_REWARD, np.where(nearest < reach, graded, 0.0))
 
 
 def repulsion_range(physics: AUVPhysics) -> float:
@@ -325,11 +332,21 @@ def path_length(polyline: np.ndarray) -> float:
 
 def distance_to_polyline(point: np.ndarray, polyline: np.ndarray) -> float:
     """Shortest distance from `point` to the polyline [m] (the cross-track error)."""
-    a, b = polyline[:-1], polyline[1:]
+    point, polyline = np.asarray(point, dtype=float), np.asarray(polyline, dtype=float)
+    return float(distances_to_polylines(point[None], polyline[None])[0])
+
+
+def distances_to_polylines(points: np.ndarray, polylines: np.ndarray) -> np.ndarray:
+    """`distance_to_polyline` of N points (N, 2) to N polylines (N, P, 2) of as many vertices (a shorter one
+    padded with its last vertex: a zero-length segment changes no distance)."""
+    a, b = polylines[:, :-1], polylines[:, 1:]
     d = b - a
-    t = np.clip(np.einsum("ij,ij->i", point - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-12), 0, 1)
-    closest = a + t[:, None] * d
-    return float(np.min(np.hypot(closest[:, 0] - point[0], closest[:, 1] - point[1])))
+    point = points[:, None, :]
+    pa = point - a
+    dot = pa[..., 0] * d[..., 0] + pa[..., 1] * d[..., 1]
+    length = np.maximum(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1], 1e-12)
+    closest = a + np.clip(dot / length, 0, 1)[..., None] * d
+    return np.min(np.hypot(closest[..., 0] - point[..., 0], closest[..., 1] - point[..., 1]), axis=1)
 
 
 def random_point(random: np.random.RandomState, bounds: Sequence[float], margin: float = MAP_MARGIN,
@@ -514,11 +531,372 @@ class Route:
     """If set, goals but the last also die when passed within this distance across the route [m]."""
 
 
+# --- one planning step over a batch axis ----------------------------------------------------------------
+# What the task does around the physics of a planner step -- the action map, goals, the passing rule, events,
+# Eq. (23)-(26), the suite and progress rewards, the observation -- written once, on arrays whose leading axis is
+# the batch: `PlanningTask` calls it with N = 1, `auv_mj.tasks.vector.AUVVectorEnv` with N.
+
+
+@dataclass(frozen=True)
+class Binding:
+    """Addresses of a compiled model that a task reads every step (cached per model: a procedural tunnel
+    recompiles it)."""
+
+    qpos: np.ndarray
+    """qpos addresses of the x, y and yaw joints."""
+    qvel: np.ndarray
+    """qvel addresses of the x, y and yaw joints."""
+    hull: int
+    """The HULL geom."""
+    vehicle_body: int
+    """The vehicle's body: a contact with any of its geoms is a collision."""
+    others: np.ndarray
+    """The geoms whose distance to the hull counts for the clearance (all but the vehicle's and planes)."""
+    goal_site: int
+    """The arena's `goal` site (-1 where it has none)."""
+    sonar_site: int
+    """The bow sonar's site (SONAR_SITE)."""
+    repulsion_range: float
+    """d0 of Eq. (21)-(24) [m] (`repulsion_range`)."""
+
+
+@dataclass
+class Episode:
+    """A planning task's episode state, the record it exports (`PlanningTask.episode`): the route and its derived
+    geometry, which stay, and what each step advances (command, goals reached, steps, collision, sonar)."""
+
+    route: Route
+    """The layout drawn for the episode."""
+    goals: np.ndarray
+    """(n, 2) goals [m], the route's."""
+    goal_headings: np.ndarray
+    """(n,) the route's direction at each goal [rad] (the relative observation's desired heading)."""
+    tangents: np.ndarray | None
+    """(n - 1, 2) unit directions from each goal to the next, for the passing rule; None without a corridor."""
+    path: np.ndarray
+    """The reference polyline of the cross-track error [m]."""
+    bounds: np.ndarray | None
+    """The arena's `arena_bounds` (xmin, ymin, xmax, ymax) [m], None without."""
+    mover_slots: np.ndarray
+    """Each mover's mocap slot (`arena.mover_slots`)."""
+    command: tuple[float, float]
+    """The executor's command (V_cmd [m/s], psi_cmd [rad]) of the step in progress."""
+    previous: np.ndarray
+    """(x, y) [m] where the step in progress began (Eq. 23's previous distance)."""
+    reached: int = 0
+    """Goals reached (or passed) so far; the current goal is goals[min(reached, n - 1)]."""
+    steps: int = 0
+    """Planner steps taken."""
+    collided: bool = False
+    """Whether the vehicle has touched anything since the episode began (checked at every executor tick)."""
+    sonar: np.ndarray | None = None
+    """The nine ranges as perceived at the last planner step [m] (None before the first observation)."""
+    terminal: bool = False
+    """Whether the last step ended the episode (success, collision, left the map)."""
+    reward: float = 0.0
+    """The last step's reward."""
+
+    @property
+    def goal_index(self) -> int:
+        """Index in `goals` of the current goal (the last one once all are reached)."""
+        return min(self.reached, len(self.goals) - 1)
+
+
+@dataclass(frozen=True)
+class StepRules:
+    """The task options a planning step reads, the same for every episode of a batch."""
+
+    reward_kind: str
+    """One of REWARDS."""
+    goal_radius: float
+    """Radius of every goal [m]."""
+    collision_penalty: float
+    """Subtracted from "paper" and "progress" on a collision or on leaving the map."""
+    relative: bool
+    """The relative observation (RELATIVE_FIELDS), else the paper's (OBSERVATION_FIELDS)."""
+
+
+@dataclass
+class RouteBatch:
+    """The routes of N episodes as arrays padded along axis 1: what `step_outcome` and `observe` read."""
+
+    goals: np.ndarray
+    """(N, G, 2) [m]."""
+    goal_cos_sin: np.ndarray
+    """(N, G, 2) cos and sin of each goal's heading (`Episode.goal_headings`, by `math`)."""
+    n_goals: np.ndarray
+    """(N,) goals of each route."""
+    tangents: np.ndarray
+    """(N, G, 2) `Episode.tangents`."""
+    corridor: np.ndarray
+    """(N,) `Route.pass_corridor` [m], NaN where the passing rule is off."""
+    path: np.ndarray
+    """(N, P, 2) `Episode.path`, a short one padded with its last vertex."""
+    bounds: np.ndarray
+    """(N, 4) `Episode.bounds`."""
+    has_bounds: np.ndarray
+    """(N,) whether the arena has bounds."""
+    repulsion: np.ndarray
+    """(N,) d0 of Eq. (24) [m]."""
+
+    @classmethod
+    def empty(cls, n: int) -> RouteBatch:
+        """N rows of one goal at the origin, to be filled by `put`."""
+        return cls(goals=np.zeros((n, 1, 2)), goal_cos_sin=np.zeros((n, 1, 2)), n_goals=np.ones(n, dtype=int),
+                   tangents=np.zeros((n, 1, 2)), corridor=np.full(n, np.nan), path=np.zeros((n, 2, 2)),
+                   bounds=np.zeros((n, 4)), has_bounds=np.zeros(n, dtype=bool), repulsion=np.zeros(n))
+
+    @classmethod
+    def of(cls, episode: Episode, repulsion_range: float) -> RouteBatch:
+        """The batch of one episode (N = 1)."""
+        batch = cls.empty(1)
+        batch.put(0, episode, repulsion_range)
+        return batch
+
+    def put(self, i: int, episode: Episode, repulsion_range: float) -> None:
+        """Row i becomes `episode`'s route (the arrays grow when it has more goals or vertices)."""
+        count = len(episode.goals)
+        self.goals, self.goal_cos_sin, self.tangents = (_grown(a, count) for a in
+                                                        (self.goals, self.goal_cos_sin, self.tangents))
+        self.goals[i] = 0.0
+        self.goals[i, :count] = episode.goals
+        self.goal_cos_sin[i, :count] = [(math.cos(h), math.sin(h)) for h in episode.goal_headings]
+        corridor = episode.route.pass_corridor
+        if episode.tangents is not None:
+            self.tangents[i, :count - 1] = episode.tangents
+            self.corridor[i] = corridor
+        else:
+            self.corridor[i] = np.nan
+        path = episode.path
+        self.path = _grown(self.path, len(path))
+        self.path[i, :len(path)] = path
+        self.path[i, len(path):] = path[-1]
+        self.n_goals[i] = count
+        self.has_bounds[i] = episode.bounds is not None
+        self.bounds[i] = episode.bounds if episode.bounds is not None else 0.0
+        self.repulsion[i] = repulsion_range
+
+
+def _grown(array: np.ndarray, length: int) -> np.ndarray:
+    """`array` with its axis 1 grown to at least `length` (new entries zero)."""
+    if array.shape[1] >= length:
+        return array
+    grown = np.zeros((array.shape[0], length, *array.shape[2:]), dtype=array.dtype)
+    grown[:, :array.shape[1]] = array
+    return grown
+
+
+@dataclass(frozen=True)
+class Readout:
+    """What a planning step reads of N vehicles once the physics has run (arrays over the batch axis)."""
+
+    position: np.ndarray
+    """(N, 2) x, y [m]."""
+    psi: np.ndarray
+    """(N,) heading [rad]."""
+    cos_psi: np.ndarray
+    """(N,) cos psi, by libm (`math`, or the C batch), for the observation."""
+    sin_psi: np.ndarray
+    """(N,) sin psi, likewise."""
+    velocity: np.ndarray
+    """(N, 3) body velocity u, v [m/s], r [rad/s]."""
+    sonar: np.ndarray
+    """(N, 9) ranges as perceived (the ocean's noisy sonar) [m]: the observation and r_avoid."""
+    true_ranges: np.ndarray | None = None
+    """(N, 9) true ranges [m] (safety_violation, min_sonar_range); None for an observation alone."""
+    collision: np.ndarray | None = None
+    """(N,) whether the vehicle touched anything since the episode began."""
+    clearance: np.ndarray | None = None
+    """(N,) the hull's exact distance to the nearest other geom [m], capped at SONAR_RANGE."""
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """What `step_outcome` gives for N vehicles."""
+
+    reward: np.ndarray
+    """(N,) the step's reward of `StepRules.reward_kind`."""
+    terminal: np.ndarray
+    """(N,) success, a collision or leaving the map: the episode ends (discount 0)."""
+    reached: np.ndarray
+    """(N,) goals reached after the step."""
+    info: dict[str, np.ndarray]
+    """`PlanningTask.last_info`'s keys (STEP_INFO_KEYS), each an array over the batch."""
+
+
+ONE_ROW = slice(0, 1)
+"""The rows of a task's own batch of one episode (N = 1)."""
+STEP_INFO_KEYS = ("previous_achieved_goal", "goal_independent_reward", "reward_following", "reward_avoid",
+                  "reward_navigation", "paper_reward", "collision", "left_map", "safety_violation", "success",
+                  "is_success", "min_clearance", "min_sonar_range", "event", "goals_reached", "num_goals",
+                  "last_goal", "steps_left", "goal_radius", "cross_track_error", "command", "tracked", "speed_error",
+                  "heading_error")
+"""The keys of a step's info (`PlanningTask.last_info`, the module docstring's events and metrics)."""
+
+
+def executor_command(action: np.ndarray, psi: np.ndarray, heading_command: np.ndarray) -> np.ndarray:
+    """The action map: the executor's commands (V_cmd, psi_cmd) (N, 2) of actions (N, 2) in [-1, 1], from the
+    heading psi (N,) and the previous heading command (N,) (Table 3, Table 1; the module docstring)."""
+    action = np.asarray(action, dtype=float)
+    offset = np.minimum(np.maximum(ACTION_HEADING_RANGE * action[:, 1], -MAX_HEADING_DIFFERENCE),
+                        MAX_HEADING_DIFFERENCE)
+    turn = np.minimum(np.maximum(wrap_angle(psi + offset - heading_command), -MAX_HEADING_CHANGE), MAX_HEADING_CHANGE)
+    difference = np.minimum(np.maximum(wrap_angle(heading_command + turn - psi), -MAX_HEADING_DIFFERENCE),
+                            MAX_HEADING_DIFFERENCE)
+    return np.stack([speed_command(action[:, 0]), psi + difference], axis=1)
+
+
+def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, steps_left: np.ndarray,
+                 previous: np.ndarray, readout: Readout, command: np.ndarray, rules: StepRules) -> StepOutcome:
+    """Goals, events and rewards of a planner step of the episodes `rows` of `routes` (the module docstring).
+
+    `rows` indexes N rows of `routes` (an index array, or a slice), `reached` (N,) goals reached before the step,
+    `steps_left` (N,) the success bonus's K (this step included), `previous` (N, 2) where the step began,
+    `readout` the vehicles after it, `command` (N, 2) the step's command.
+    """
+    goals, n = routes.goals[rows], routes.n_goals[rows]
+    position, radius = readout.position, rules.goal_radius
+    count = len(reached)
+    line = np.arange(count)
+    bounds = routes.bounds[rows]
+    collision = np.asarray(readout.collision, dtype=bool)
+    left_map = routes.has_bounds[rows] & ~np.all((bounds[:, :2] <= position) & (position <= bounds[:, 2:]), axis=1)
+    failed = collision | left_map
+    desired = goals[line, reached]
+    now = goals_hit(goals, n, reached, position, radius)
+    now = np.maximum(now, goals_passed(goals, n, now, position, routes.tangents[rows], routes.corridor[rows]))
+    success = (now == n) & ~failed
+    nearest, true_nearest = readout.sonar.min(axis=1), readout.true_ranges.min(axis=1)
+    r_follow = following_reward(previous, position, desired, radius)
+    r_avoid = np.where(failed, COLLISION_REWARD, avoid_reward(nearest, routes.repulsion[rows]))
+    k1, k2, k3 = REWARD_WEIGHTS
+    independent = k2 * r_avoid + k3 * NAVIGATION_REWARD - rules.collision_penalty * failed
+    paper = k1 * r_follow + independent + np.where(success, success_bonus("paper", steps_left), 0.0)
+    event = np.full(count, "", dtype=object)
+    event[now > reached] = "subgoal"
+    event[(now > reached) & (now == n)] = "goal"
+    event[left_map] = "left_map"
+    event[collision] = "collision"
+    if rules.reward_kind == "paper":
+        reward = paper
+    elif rules.reward_kind == "progress":
+        reward = (k1 * progress_reward(previous, position, desired, radius) + independent
+                  + success_bonus("progress", steps_left) * success)
+    else:
+        reward = suite_reward(goals, n, now, position, failed, success, steps_left, radius)
+    info = {
+        "previous_achieved_goal": previous,
+        "goal_independent_reward": independent,
+        "reward_following": r_follow,
+        "reward_avoid": r_avoid,
+        "reward_navigation": np.full(count, NAVIGATION_REWARD),
+        "paper_reward": paper,
+        "collision": collision,
+        "left_map": left_map,
+        "safety_violation": true_nearest < SAFETY_DISTANCE,
+        "success": success,
+        "is_success": success,
+        "min_clearance": readout.clearance,
+        "min_sonar_range": true_nearest,
+        "event": event,
+        "goals_reached": now,
+        "num_goals": n,
+        "last_goal": reached == n - 1,
+        "steps_left": steps_left,
+        "goal_radius": np.full(count, radius),
+        "cross_track_error": distances_to_polylines(position, routes.path[rows]),
+        "command": command,
+        "tracked": (n == 1) | (now >= 1),
+        "speed_error": command[:, 0] - readout.velocity[:, 0],
+        "heading_error": wrap_angle(command[:, 1] - readout.psi),
+    }
+    return StepOutcome(reward=reward, terminal=failed | (now == n), reached=now, info=info)
+
+
+def goals_hit(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position: np.ndarray,
+              radius: float) -> np.ndarray:
+    """Goals reached after reaching any of them: one past the last goal (not before `reached`) within `radius`
+    of `position`, which kills every goal before it; `reached` where none is (Sec. 3.2.4)."""
+    distance = np.hypot(goals[..., 0] - position[:, None, 0], goals[..., 1] - position[:, None, 1])
+    slots = np.arange(goals.shape[1])
+    hit = (slots >= reached[:, None]) & (slots < n[:, None]) & (distance <= radius)
+    last = goals.shape[1] - 1 - np.argmax(hit[:, ::-1], axis=1)
+    return np.where(hit.any(axis=1), last + 1, reached)
+
+
+def goals_passed(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position: np.ndarray, tangents: np.ndarray,
+                 corridor: np.ndarray) -> np.ndarray:
+    """The passing rule: how many goals are behind the vehicle, of those PASS_WINDOW from the current one but the
+    last -- ahead of a goal along the route, within `corridor` across it (0 where none is, or NaN corridor)."""
+    if np.all(np.isnan(corridor)):
+        return np.zeros(len(n), dtype=int)
+    line = np.arange(len(n))[:, None]
+    slots = reached[:, None] + np.arange(PASS_WINDOW)
+    at = np.minimum(slots, goals.shape[1] - 1)
+    offset = position[:, None, :] - goals[line, at]
+    tangent = tangents[line, at]
+    along = offset[..., 0] * tangent[..., 0] + offset[..., 1] * tangent[..., 1]
+    across = offset[..., 0] * tangent[..., 1] - offset[..., 1] * tangent[..., 0]
+    passed = (slots < np.minimum(reached + PASS_WINDOW, n - 1)[:, None]) & (along > 0) \
+        & (np.abs(across) < corridor[:, None])
+    last = PASS_WINDOW - 1 - np.argmax(passed[:, ::-1], axis=1)
+    return np.where(passed.any(axis=1), reached + last + 1, 0)
+
+
+def suite_reward(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position: np.ndarray, failed: np.ndarray,
+                 success: np.ndarray, steps_left: np.ndarray, radius: float) -> np.ndarray:
+    """reward="suite": 0 on a failure, the success bonus (module docstring) on success, else (goals reached +
+    tolerance(distance to the current goal)) / goals, in [0, 1)."""
+    goal = goals[np.arange(len(n)), np.minimum(reached, n - 1)]
+    distance = np.hypot(goal[:, 0] - position[:, 0], goal[:, 1] - position[:, 1])
+    near = rewards.tolerance(distance, bounds=(0.0, radius), margin=SUITE_REWARD_MARGIN, sigmoid="long_tail",
+                             value_at_margin=0.1)
+    return np.where(failed, 0.0, np.where(success, success_bonus("suite", steps_left), (reached + near) / n))
+
+
+def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, readout: Readout, command: np.ndarray,
+            relative: bool) -> dict[str, np.ndarray]:
+    """`PlanningTask.get_observation` of N vehicles, rows `rows` of `routes`: "observation" (RELATIVE_FIELDS if
+    `relative`, else OBSERVATION_FIELDS), "achieved_goal" and "desired_goal", each (N, k)."""
+    psi, (u, v, r) = readout.psi, readout.velocity.T
+    motion = np.stack([u / MAX_SPEED, v / MAX_SPEED, r, wrap_angle(command[:, 1] - psi) / MAX_HEADING_DIFFERENCE,
+                       command[:, 0] / MAX_SPEED], axis=1)
+    at = np.minimum(reached, routes.n_goals[rows] - 1)
+    line = np.arange(len(reached))
+    goal = routes.goals[rows][line, at]
+    x, y = readout.position[:, 0], readout.position[:, 1]
+    c, s = readout.cos_psi, readout.sin_psi
+    sonar = readout.sonar / SONAR_RANGE
+    if relative:
+        achieved = np.stack([x, y, c, s], axis=1)
+        desired = np.concatenate([goal, routes.goal_cos_sin[rows][line, at]], axis=1)
+        vector = np.concatenate([relative_goal(achieved, desired), motion, sonar], axis=1)
+    else:
+        achieved, desired = np.stack([x, y], axis=1), goal
+        vector = np.concatenate([np.stack([x / POSITION_SCALE, y / POSITION_SCALE, c, s], axis=1), motion, sonar],
+                                axis=1)
+    return {"observation": vector, "achieved_goal": achieved, "desired_goal": desired}
+
+
+def info_row(info: Mapping[str, np.ndarray], k: int) -> dict:
+    """Row k of a batch's step info as a single step's `last_info`: numbers as Python scalars, the command as a
+    tuple, points as arrays."""
+    row = {}
+    for key, value in info.items():
+        if value.ndim > 1:
+            row[key] = value[k].copy()
+        else:
+            row[key] = value[k] if value.dtype == object else value.tolist()[k]
+    row["command"] = tuple(info["command"][k].tolist())
+    return row
+
+
 class PlanningTask(base.Task):
     """A planner task: action (V, heading offset) -> executor -> dynamics; goals, events, rewards.
 
     Subclasses implement `route(physics, info) -> Route` (and may move obstacles there); everything else,
-    including `compute_reward` / `compute_terminated` for hindsight relabelling, lives here.
+    including `compute_reward` / `compute_terminated` for hindsight relabelling, lives here. A step is the batch
+    functions (`executor_command`, `step_outcome`, `observe`) at N = 1 on `episode`.
     """
 
     def __init__(self, executor: Callable | str | None = None, reward: str = "suite",
@@ -545,8 +923,12 @@ class PlanningTask(base.Task):
         self.last_info: dict = {}
         self.time_limit_steps: int | None = None
         """Planner steps of the environment's time limit, set by `environment` (None: not known)."""
+        self.episode: Episode | None = None
+        """The episode's state (`Episode`), set by `initialize_episode`: what the batched env reads of it."""
+        self.binding: Binding | None = None
+        """The model's addresses (`Binding`), set with the first episode of a model."""
         self._model_ptr = None
-        self._steps = 0
+        self._routes: RouteBatch | None = None
 
     # --- subclass API -------------------------------------------------------------------------------
 
@@ -562,15 +944,16 @@ class PlanningTask(base.Task):
         if self._model_ptr is model:
             return
         self._model_ptr = model
-        self._qpos = np.array([model.jnt_qposadr[model.joint(n).id] for n in ("x", "y", "yaw")])
-        self._qvel = np.array([model.jnt_dofadr[model.joint(n).id] for n in ("x", "y", "yaw")])
-        self._hull = model.geom(HULL).id
-        self._vehicle_body = int(model.geom_bodyid[self._hull])
-        vehicle_geoms = model.geom_bodyid == self._vehicle_body
-        self._others = np.flatnonzero(~vehicle_geoms & (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE))
-        self._repulsion_range = repulsion_range(physics)
-        self._goal_site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "goal")
-        self._sonar_site = model.site(SONAR_SITE).id
+        hull = model.geom(HULL).id
+        vehicle_body = int(model.geom_bodyid[hull])
+        vehicle_geoms = model.geom_bodyid == vehicle_body
+        self.binding = Binding(
+            qpos=np.array([model.jnt_qposadr[model.joint(n).id] for n in ("x", "y", "yaw")]),
+            qvel=np.array([model.jnt_dofadr[model.joint(n).id] for n in ("x", "y", "yaw")]),
+            hull=hull, vehicle_body=vehicle_body,
+            others=np.flatnonzero(~vehicle_geoms & (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE)),
+            goal_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "goal"),
+            sonar_site=model.site(SONAR_SITE).id, repulsion_range=repulsion_range(physics))
 
     def initialize_episode(self, physics: Physics) -> None:
         """Draws the route, places the vehicle at rest and the movers at t = 0, resets the executor."""
@@ -580,32 +963,29 @@ class PlanningTask(base.Task):
         goals = np.asarray(route.goals, dtype=float).reshape(-1, 2)
         if len(goals) == 0:
             raise ValueError("a route needs at least one goal")
-        self._route, self._goals, self._bounds = route, goals, info.bounds
         legs = np.diff(np.vstack([route.start, goals]), axis=0)
-        self._goal_headings = np.arctan2(legs[:, 1], legs[:, 0])  # the route's direction at each goal
-        self._path = np.vstack([route.start, goals]) if route.path is None else np.asarray(route.path, float)
-        self._reached = 0
+        tangents = None
         if route.pass_corridor is not None and len(goals) > 1:
             tangents = np.diff(goals, axis=0)
-            self._tangents = tangents / np.hypot(tangents[:, :1], tangents[:, 1:])
+            tangents = tangents / np.hypot(tangents[:, :1], tangents[:, 1:])
+        binding = self.binding
         data = physics.data.ptr
-        data.qpos[self._qpos] = (route.start[0], route.start[1], route.heading)
-        data.qvel[self._qvel] = 0.0
+        data.qpos[binding.qpos] = (route.start[0], route.start[1], route.heading)
+        data.qvel[binding.qvel] = 0.0
         data.ctrl[:] = 0.0
-        if self._goal_site >= 0:
-            physics.model.ptr.site_pos[self._goal_site][:2] = goals[-1]
-        self._mover_slots = arena.mover_slots(physics, route.movers)
-        arena.move_movers(physics, route.movers, 0.0, self._mover_slots)
+        if binding.goal_site >= 0:
+            physics.model.ptr.site_pos[binding.goal_site][:2] = goals[-1]
+        slots = arena.mover_slots(physics, route.movers)
+        arena.move_movers(physics, route.movers, 0.0, slots)
         reset = getattr(self.executor, "reset", None)
         if reset is not None:
             reset()
-        self._command = (0.0, float(route.heading))
-        self._previous = np.array(route.start, dtype=float)
-        self._collided = False
-        self._terminal = False
-        self._reward = 0.0
-        self._steps = 0
-        self._sonar = None
+        self.episode = Episode(
+            route=route, goals=goals, goal_headings=np.arctan2(legs[:, 1], legs[:, 0]), tangents=tangents,
+            path=np.vstack([route.start, goals]) if route.path is None else np.asarray(route.path, float),
+            bounds=info.bounds, mover_slots=slots, command=(0.0, float(route.heading)),
+            previous=np.array(route.start, dtype=float))
+        self._routes = RouteBatch.of(self.episode, binding.repulsion_range)
         self.last_info = {}
         physics.set_tick(self._tick, EXECUTOR_DT)
         self.ocean.start(physics, self.random, len(SONAR_NAMES))
@@ -613,141 +993,95 @@ class PlanningTask(base.Task):
     def _tick(self, physics: Physics) -> None:
         """The executor's 10 Hz tick: controls from the command, movers moved, contacts checked."""
         data = physics.data.ptr
+        episode = self.episode
         self.ocean.tick(physics)
-        psi = data.qpos[self._qpos[2]]
+        psi = data.qpos[self.binding.qpos[2]]
         u, v, r = physics.hydrodynamics.body_velocity(data)
-        data.ctrl[:] = self.executor(self._command, (u, v, r, psi))
-        if self._route.movers:
-            arena.move_movers(physics, self._route.movers, data.time, self._mover_slots)
-        if data.ncon and not self._collided:
-            self._collided = self._vehicle_contact(physics)
+        data.ctrl[:] = self.executor(episode.command, (u, v, r, psi))
+        if episode.route.movers:
+            arena.move_movers(physics, episode.route.movers, data.time, episode.mover_slots)
+        if data.ncon and not episode.collided:
+            episode.collided = self._vehicle_contact(physics)
 
     def _vehicle_contact(self, physics: Physics) -> bool:
         data = physics.data.ptr
         bodies = physics.model.ptr.geom_bodyid[data.contact.geom[:data.ncon]]
-        return bool(np.any(bodies == self._vehicle_body))
+        return bool(np.any(bodies == self.binding.vehicle_body))
 
     def before_step(self, action, physics: Physics) -> None:
-        """Turns the action into the executor's command (V_cmd, psi_cmd) (Table 3, Table 1)."""
+        """Turns the action into the executor's command (V_cmd, psi_cmd) (`executor_command`, N = 1)."""
         a0, a1 = checked_action(action, self.action_spec(physics), self)
-        data = physics.data.ptr
-        psi = float(data.qpos[self._qpos[2]])
-        offset = min(max(ACTION_HEADING_RANGE * a1, -MAX_HEADING_DIFFERENCE), MAX_HEADING_DIFFERENCE)
-        previous = self._command[1]
-        turn = min(max(wrap_angle(psi + offset - previous), -MAX_HEADING_CHANGE), MAX_HEADING_CHANGE)
-        difference = min(max(wrap_angle(previous + turn - psi), -MAX_HEADING_DIFFERENCE), MAX_HEADING_DIFFERENCE)
-        self._command = (speed_command(float(a0)), psi + float(difference))
-        self._previous = data.qpos[self._qpos[:2]].copy()
+        data, qpos, episode = physics.data.ptr, self.binding.qpos, self.episode
+        command = executor_command(np.array([[a0, a1]], dtype=float), data.qpos[qpos[2:]],
+                                   np.array([episode.command[1]]))
+        episode.command = (float(command[0, 0]), float(command[0, 1]))
+        episode.previous = data.qpos[qpos[:2]].copy()
 
     def after_step(self, physics: Physics) -> None:
-        """Senses, detects events, advances the goals and computes the step's reward and `last_info`."""
-        data = physics.data.ptr
-        position = data.qpos[self._qpos[:2]].copy()
+        """Senses, then `step_outcome` (N = 1): events, goals, the step's reward and `last_info`."""
+        data, episode = physics.data.ptr, self.episode
         true_ranges = physics.sonar()
-        self._sonar = sonar = self.ocean.sense(true_ranges)
-        collision = self._collided or (data.ncon > 0 and self._vehicle_contact(physics))
-        self._collided = collision
-        bounds = self._bounds
-        left_map = bounds is not None and not (bounds[0] <= position[0] <= bounds[2]
-                                               and bounds[1] <= position[1] <= bounds[3])
-        n = len(self._goals)
-        reached_before = self._reached
-        self._steps += 1
-        steps_left = max(self.step_limit - self._steps + 1, 1)
-        desired = self._goals[self._reached]
-        hits = np.flatnonzero(goal_distance(self._goals[self._reached:], position) <= self.goal_radius)
-        if hits.size:
-            self._reached += int(hits[-1]) + 1
-        passed = self._passed(position)
-        if passed > self._reached:
-            self._reached = passed
-        success = self._reached == n and not (collision or left_map)
-        nearest, true_nearest = float(np.min(sonar)), float(np.min(true_ranges))
-        r_follow = float(following_reward(self._previous, position, desired, self.goal_radius))
-        r_avoid = COLLISION_REWARD if collision or left_map else avoid_reward(nearest, self._repulsion_range)
-        k1, k2, k3 = REWARD_WEIGHTS
-        independent = k2 * r_avoid + k3 * NAVIGATION_REWARD - self.collision_penalty * (collision or left_map)
-        bonus = float(success_bonus("paper", steps_left)) if success else 0.0
-        paper = k1 * r_follow + independent + bonus
-        if collision:
-            event = "collision"
-        elif left_map:
-            event = "left_map"
-        elif self._reached > reached_before:
-            event = "goal" if self._reached == n else "subgoal"
-        else:
-            event = ""
-        self._terminal = collision or left_map or self._reached == n
-        if self.reward_kind == "paper":
-            self._reward = paper
-        elif self.reward_kind == "progress":
-            self._reward = float(k1 * progress_reward(self._previous, position, desired, self.goal_radius)
-                                 + independent + float(success_bonus("progress", steps_left)) * success)
-        else:
-            self._reward = self._suite_reward(position, collision or left_map, success, steps_left)
-        self.last_info = {
-            "previous_achieved_goal": self._previous,
-            "goal_independent_reward": independent,
-            "reward_following": r_follow,
-            "reward_avoid": r_avoid,
-            "reward_navigation": NAVIGATION_REWARD,
-            "paper_reward": paper,
-            "collision": collision,
-            "left_map": left_map,
-            "safety_violation": true_nearest < SAFETY_DISTANCE,
-            "success": success,
-            "is_success": success,
-            "min_clearance": self._clearance(physics),
-            "min_sonar_range": true_nearest,
-            "event": event,
-            "goals_reached": self._reached,
-            "num_goals": n,
-            "last_goal": reached_before == n - 1,
-            "steps_left": steps_left,
-            "goal_radius": self.goal_radius,
-            "cross_track_error": distance_to_polyline(position, self._path),
-            "command": self._command,
-            "tracked": n == 1 or self._reached >= 1,
-            "speed_error": self._command[0] - physics.hydrodynamics.body_velocity(data)[0],
-            "heading_error": wrap_angle(self._command[1] - data.qpos[self._qpos[2]]),
-        }
+        episode.sonar = self.ocean.sense(true_ranges)
+        episode.collided = episode.collided or (data.ncon > 0 and self._vehicle_contact(physics))
+        episode.steps += 1
+        readout = self._readout(physics, true_ranges=np.asarray(true_ranges, dtype=float)[None],
+                                collision=np.array([episode.collided]), clearance=np.array([self._clearance(physics)]))
+        steps_left = max(self.step_limit - episode.steps + 1, 1)
+        outcome = step_outcome(self._routes, ONE_ROW, np.array([episode.reached]),
+                               np.array([steps_left]), episode.previous[None], readout,
+                               np.array([episode.command]), self.rules)
+        episode.reached = int(outcome.reached[0])
+        episode.terminal = bool(outcome.terminal[0])
+        episode.reward = float(outcome.reward[0])
+        self.last_info = info_row(outcome.info, 0)
 
-    def _passed(self, position: np.ndarray) -> int:
-        """How many goals are behind the vehicle by the passing rule (0 when the route has none)."""
-        corridor = self._route.pass_corridor
-        first = self._reached
-        last = min(first + PASS_WINDOW, len(self._goals) - 1)
-        if corridor is None or first >= last:
-            return 0
-        offset = position - self._goals[first:last]
-        tangent = self._tangents[first:last]
-        along = offset[:, 0] * tangent[:, 0] + offset[:, 1] * tangent[:, 1]
-        across = offset[:, 0] * tangent[:, 1] - offset[:, 1] * tangent[:, 0]
-        passed = np.flatnonzero((along > 0) & (np.abs(across) < corridor))
-        return first + int(passed[-1]) + 1 if passed.size else 0
+    def _readout(self, physics: Physics, **after_step) -> Readout:
+        """The vehicle as `step_outcome` and `observe` read it (N = 1): cos and sin of the heading by `math`, as
+        the C batch takes them from libm."""
+        data = physics.data.ptr
+        pose = data.qpos[self.binding.qpos]
+        psi = float(pose[2])
+        return Readout(position=pose[None, :2], psi=pose[2:], cos_psi=np.array([math.cos(psi)]),
+                       sin_psi=np.array([math.sin(psi)]),
+                       velocity=np.asarray(physics.hydrodynamics.body_velocity(data), dtype=float)[None],
+                       sonar=self.episode.sonar[None], **after_step)
 
-    def _suite_reward(self, position: np.ndarray, failed: bool, success: bool, steps_left: int) -> float:
-        """reward="suite": 0 on a failure, the success bonus (module docstring) on success, else in [0, 1)."""
-        if failed:
-            return 0.0
-        if success:
-            return float(success_bonus("suite", steps_left))
-        distance = float(np.hypot(*(self._goals[self._reached] - position)))
-        near = rewards.tolerance(distance, bounds=(0.0, self.goal_radius), margin=SUITE_REWARD_MARGIN,
-                                 sigmoid="long_tail", value_at_margin=0.1)
-        return float((self._reached + near) / len(self._goals))
+    @property
+    def rules(self) -> StepRules:
+        """The options `step_outcome` and `observe` read."""
+        return StepRules(reward_kind=self.reward_kind, goal_radius=self.goal_radius,
+                         collision_penalty=self.collision_penalty, relative=self.goal_in_observation)
+
+    @property
+    def episode_time_limit(self) -> float | None:
+        """The episode's own time limit [s] where it has one shorter than the environment's (None: none)."""
+        return None
+
+    @property
+    def _command(self) -> tuple[float, float]:
+        """`episode.command`, under the name tests written before the record set it by."""
+        return self.episode.command
+
+    @_command.setter
+    def _command(self, command: tuple[float, float]) -> None:
+        self.episode.command = command
+
+    @property
+    def _route(self) -> Route:
+        """`episode.route`, under the name tests written before the record read it by."""
+        return self.episode.route
 
     def _clearance(self, physics: Physics) -> float:
         """Exact distance [m] from the hull to the nearest other geom, capped at SONAR_RANGE."""
         model, data = physics.model.ptr, physics.data.ptr
-        others = self._others
+        others, hull = self.binding.others, self.binding.hull
         if others.size == 0:
             return SONAR_RANGE
-        gap = (np.linalg.norm(data.geom_xpos[others] - data.geom_xpos[self._hull], axis=1)
-               - model.geom_rbound[others] - model.geom_rbound[self._hull])
+        gap = (np.linalg.norm(data.geom_xpos[others] - data.geom_xpos[hull], axis=1)
+               - model.geom_rbound[others] - model.geom_rbound[hull])
         best = SONAR_RANGE
         for geom in others[gap < best]:
-            best = min(best, mujoco.mj_geomDistance(model, data, self._hull, int(geom), best, None))
+            best = min(best, mujoco.mj_geomDistance(model, data, hull, int(geom), best, None))
         return float(best)
 
     # --- dm_control Task API ------------------------------------------------------------------------
@@ -777,35 +1111,25 @@ class PlanningTask(base.Task):
             desired_goal=specs.Array((goal,), float, name="desired_goal"))
 
     def get_observation(self, physics: Physics) -> collections.OrderedDict:
-        """Vehicle state, command and sonar, normalised (OBSERVATION_FIELDS); the goals in metres."""
-        data = physics.data.ptr
-        if self._sonar is None:
-            self._sonar = self.ocean.sense(physics.sonar())
-        x, y, psi = data.qpos[self._qpos]
-        u, v, r = physics.hydrodynamics.body_velocity(data)
-        speed_command, heading_command = self._command
-        motion = (u / MAX_SPEED, v / MAX_SPEED, r, wrap_angle(heading_command - psi) / MAX_HEADING_DIFFERENCE,
-                  speed_command / MAX_SPEED)
-        goal = self._goals[self.goal_index]
-        if not self.goal_in_observation:
-            vector = np.concatenate([(x / POSITION_SCALE, y / POSITION_SCALE, math.cos(psi), math.sin(psi)),
-                                     motion, self._sonar / SONAR_RANGE])
-            return collections.OrderedDict(observation=vector, achieved_goal=np.array([x, y]),
-                                           desired_goal=goal.copy())
-        heading = self._goal_headings[self.goal_index]
-        achieved = np.array([x, y, math.cos(psi), math.sin(psi)])
-        desired = np.array([goal[0], goal[1], math.cos(heading), math.sin(heading)])
-        vector = np.concatenate([relative_goal(achieved, desired), motion, self._sonar / SONAR_RANGE])
-        return collections.OrderedDict(observation=vector, achieved_goal=achieved, desired_goal=desired)
+        """Vehicle state, command and sonar, normalised (`observe`, N = 1); the goals in metres."""
+        episode = self.episode
+        if episode.sonar is None:
+            episode.sonar = self.ocean.sense(physics.sonar())
+        readout = self._readout(physics)
+        observation = observe(self._routes, ONE_ROW, np.array([episode.reached]), readout,
+                              np.array([episode.command]), self.goal_in_observation)
+        return collections.OrderedDict((key, observation[key][0]) for key in ("observation", "achieved_goal",
+                                                                              "desired_goal"))
 
     def map_fence(self, physics: Physics) -> np.ndarray:
         """The map's edge as the nine beams would read it were it a wall, from where the sonars are now
         (`auv_mj.sim.sonar.fence_ranges`): what a protection domain with a geofence adds to the echoes. SONAR_RANGE on
         every beam in an arena without `arena_bounds`."""
-        if self._bounds is None:
+        bounds = self.episode.bounds
+        if bounds is None:
             return np.full(len(SONAR_NAMES), SONAR_RANGE)
         data = physics.data.ptr
-        return fence_ranges(data.site_xpos[self._sonar_site], data.qpos[self._qpos[2]], self._bounds)
+        return fence_ranges(data.site_xpos[self.binding.sonar_site], data.qpos[self.binding.qpos[2]], bounds)
 
     def relabel_observation(self, observation, achieved_goal, desired_goal) -> np.ndarray:
         """The observation had `desired_goal` been the goal (hindsight relabelling; vectorised over rows).
@@ -820,11 +1144,11 @@ class PlanningTask(base.Task):
 
     def get_reward(self, physics: Physics) -> float:
         """The reward of the step just taken (`reward_kind`, see the module docstring)."""
-        return self._reward
+        return self.episode.reward
 
     def get_termination(self, physics: Physics) -> float | None:
         """0.0 after success, a collision or leaving the map; None otherwise."""
-        return 0.0 if self._terminal else None
+        return 0.0 if self.episode.terminal else None
 
     # --- goal-conditioned API (hindsight relabelling) -----------------------------------------------
 
@@ -880,9 +1204,9 @@ class PlanningTask(base.Task):
     @property
     def goals(self) -> np.ndarray:
         """The episode's goal sequence (n, 2) [m]."""
-        return self._goals.copy()
+        return self.episode.goals.copy()
 
     @property
     def goal_index(self) -> int:
         """Index in `goals` of the current goal (the last one once all are reached)."""
-        return min(self._reached, len(self._goals) - 1)
+        return self.episode.goal_index

@@ -139,6 +139,11 @@ class Tunnel(planning.PlanningTask):
                               movers=info.movers, pass_corridor=planning.PASS_CORRIDOR)
 
     @property
+    def episode_time_limit(self) -> float | None:
+        """A procedural tunnel's own time limit [s] (`route_limit`), None on a fixed arena."""
+        return self._time_limit
+
+    @property
     def step_limit(self) -> int:
         """As `PlanningTask`, or the steps of a procedural tunnel's own time limit where fewer (`get_termination`)."""
         if self._time_limit is None:

@@ -12,16 +12,19 @@ How, without one Python step per environment:
 - Each sub-environment keeps its own suite environment (task, physics, RandomState, ocean). A reset is that
   environment's own reset, in Python, so routes, arenas and the ocean are drawn by the same code from the same
   generators.
-- A step is one call of the C batch (`auv_mj.sim.batch`) over all stepped vehicles, across `threads` threads:
+- What the task does before and after the physics is the task's own code, run once over the batch: the action map
+  (`planning.executor_command`), then goals, the passing rule, events, Eq. (23)-(26), the suite and progress
+  rewards (`planning.step_outcome`) and the observation (`planning.observe`) -- the functions `PlanningTask` calls
+  with N = 1. Only the time limits (`control.Environment`'s part) are here, and the ocean's sonar noise stays per
+  environment (its generator is the episode's own).
+- The physics is one call of the C batch (`auv_mj.sim.batch`) over all stepped vehicles, across `threads` threads:
   the five 10 Hz executor ticks (current, S-plane executor, movers, contacts) and the 50 physics steps, then the
   sonar and the clearance. NumPy's tanh and exp differ from libm's in the last bit, which a closed loop of 1,800
-  steps would grow, so the executor runs in C with libm as the Python executor does with `math`.
-- What the task does after the step (`PlanningTask.after_step`, `get_observation`, the time limits) is written
-  here once more, vectorised over the batch with NumPy: goals, the passing rule, events, Eq. (23)-(26), the
-  suite reward, the observation. Only the ocean's sonar noise stays per environment (its generator is the
-  episode's own).
-The batch reads the task's episode state after each reset (its command, route, movers, executor gains, the
-current's processes); that coupling to `auv_mj.tasks.planning`'s internals is checked by the identity test.
+  steps would grow, so the executor runs in C with libm as the Python executor does with `math`; the C code reads
+  the S-plane gains from the task's controller (`SPlaneController.parameters`).
+After each reset the batch reads the episode's record (`PlanningTask.episode`: route, command, goals reached,
+collision, sonar; `PlanningTask.binding`: the model's addresses), the controller's memory
+(`SPlaneController.memory`) and the current's processes.
 
 Autoreset: `metadata["autoreset_mode"]` is `AutoresetMode.NEXT_STEP` by default, Gymnasium's own: the step
 after a sub-environment's episode ended resets it (its action ignored) and returns the first observation with
@@ -38,7 +41,7 @@ and Stable-Baselines3's process-parallel vectors (`auv-mj bench --sections vecto
 
 from __future__ import annotations
 
-import math
+import dataclasses
 import os
 import warnings
 from collections.abc import Mapping, Sequence
@@ -47,13 +50,10 @@ from typing import Any
 import gymnasium
 import numpy as np
 from dm_control.rl.control import PhysicsError
-from dm_control.utils import rewards
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from auv_mj.arenas.arena import SAFETY_DISTANCE
-from auv_mj.control.splane import SPlaneController
-from auv_mj.geometry import wrap_angle
+from auv_mj.control.splane import SPlaneController, SPlaneGains
 from auv_mj.sim import batch
 from auv_mj.sim.sonar import SONAR_RANGE, clip_ranges
 from auv_mj.tasks import options as checks
@@ -69,11 +69,7 @@ MAX_THREADS = 64
 """Most threads of the C batch step (batch_kernel.c's MAX_THREADS)."""
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 """The autoreset modes this env implements."""
-STEP_INFO_KEYS = ("previous_achieved_goal", "goal_independent_reward", "reward_following", "reward_avoid",
-                  "reward_navigation", "paper_reward", "collision", "left_map", "safety_violation", "success",
-                  "is_success", "min_clearance", "min_sonar_range", "event", "goals_reached", "num_goals",
-                  "last_goal", "steps_left", "goal_radius", "cross_track_error", "command", "tracked", "speed_error",
-                  "heading_error")
+STEP_INFO_KEYS = planning.STEP_INFO_KEYS
 """The keys of a step's info: `PlanningTask.last_info`'s."""
 
 
@@ -83,15 +79,6 @@ def default_threads() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
         return max(1, os.cpu_count() or 1)
-
-
-def _fit(array: np.ndarray, length: int, fill: float = 0.0) -> np.ndarray:
-    """`array` with its axis 1 grown to at least `length` (new entries `fill`)."""
-    if array.shape[1] >= length:
-        return array
-    grown = np.full((array.shape[0], length, *array.shape[2:]), fill, dtype=array.dtype)
-    grown[:, :array.shape[1]] = array
-    return grown
 
 
 class AUVVectorEnv(gymnasium.vector.VectorEnv):
@@ -139,12 +126,14 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if type(task.executor) is not SPlaneController:
             raise ValueError("task option executor: the vector env runs the S-plane executor "
                              "(auv_mj.control.splane.SPlaneController, any gains) only")
+        if tuple(f.name for f in dataclasses.fields(SPlaneGains)) != batch.GAINS:
+            raise RuntimeError("auv_mj.sim.batch.GAINS is out of step with SPlaneGains' fields")
         self.single_observation_space, self.single_action_space, self._observe = gym_spaces(first)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._low = self.single_action_space.low.astype(float)
         self._high = self.single_action_space.high.astype(float)
-        tick_steps = first.physics._tick_steps if first.physics._tick else None
+        tick_steps = first.physics.tick_steps
         substeps = first._n_sub_steps
         self._substeps = int(round(planning.EXECUTOR_DT / first.physics.timestep()))
         if tick_steps not in (None, self._substeps) or substeps % self._substeps:
@@ -152,10 +141,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
                              f"{self._substeps}")
         self._ticks = substeps // self._substeps
         self._step_limit = first._step_limit
-        self.goal_radius = task.goal_radius
-        self.reward_kind = task.reward_kind
-        self.relative = task.goal_in_observation
-        self.collision_penalty = task.collision_penalty
+        self.rules = task.rules
+        """The task options of every step (`planning.StepRules`)."""
         self._stepper = batch.BatchStepper(self.num_envs)
         self._allocate()
         self._warned_clip = False
@@ -165,24 +152,14 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
 
     def _allocate(self) -> None:
         n = self.num_envs
-        self._goals = np.zeros((n, 1, 2))
-        self._goal_cos_sin = np.zeros((n, 1, 2))
-        self._tangents = np.zeros((n, 1, 2))
-        self._path = np.zeros((n, 2, 2))
-        self._n_goals = np.ones(n, dtype=int)
+        self._routes = planning.RouteBatch.empty(n)
         self._reached = np.zeros(n, dtype=int)
-        self._corridor = np.full(n, np.nan)
-        self._bounds = np.zeros((n, 4))
-        self._has_bounds = np.zeros(n, dtype=bool)
-        self._repulsion = np.zeros(n)
         self._position = np.zeros((n, 2))
         self._psi = np.zeros(n)
-        self._previous = np.zeros((n, 2))
         self._steps = np.zeros(n, dtype=int)
         self._task_step_limit = np.zeros(n, dtype=int)
         """Each episode's `PlanningTask.step_limit` (a procedural tunnel's is its own): the success bonus's K."""
         self._time_limit = np.full(n, np.inf)
-        self._sonar = np.zeros((n, len(planning.SONAR_NAMES)))
         self._autoreset = np.zeros(n, dtype=bool)
         self._oceans: list = [None] * n
         self._current_rngs: list = [None] * n
@@ -192,68 +169,40 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         """Reads sub-environment i's freshly reset episode into the batch (see the module docstring)."""
         env = self.envs[i]
         task, physics = env.task, env.physics
-        if physics._disturbances:
+        if physics.disturbances:
             raise ValueError("the vector env steps vehicles without disturbances")
-        if physics._steps_to_tick != 0:
+        if not physics.at_tick:
             raise RuntimeError("the sub-environment's executor clock is not at a tick after its reset")
-        route = task._route
-        goals = task._goals
-        count = len(goals)
-        self._goals = _fit(self._goals, count)
-        self._goal_cos_sin = _fit(self._goal_cos_sin, count)
-        self._tangents = _fit(self._tangents, count)
-        self._goals[i] = 0.0
-        self._goals[i, :count] = goals
-        self._goal_cos_sin[i, :count] = [(math.cos(h), math.sin(h)) for h in task._goal_headings]
-        corridor = route.pass_corridor
-        if corridor is not None and count > 1:
-            self._tangents[i, :count - 1] = task._tangents
-            self._corridor[i] = corridor
-        else:
-            self._corridor[i] = np.nan
-        path = task._path
-        self._path = _fit(self._path, len(path))
-        self._path[i, :len(path)] = path
-        self._path[i, len(path):] = path[-1]  # a zero-length tail changes no distance
-        self._n_goals[i] = count
-        self._reached[i] = task._reached
+        episode, binding = task.episode, task.binding
+        self._routes.put(i, episode, binding.repulsion_range)
+        self._reached[i] = episode.reached
         self._task_step_limit[i] = task.step_limit
-        bounds = task._bounds
-        self._has_bounds[i] = bounds is not None
-        self._bounds[i] = bounds if bounds is not None else 0.0
-        self._repulsion[i] = task._repulsion_range
         data = physics.data.ptr
-        qpos = task._qpos
-        self._position[i] = data.qpos[qpos[:2]]
-        self._psi[i] = data.qpos[qpos[2]]
+        self._position[i] = data.qpos[binding.qpos[:2]]
+        self._psi[i] = data.qpos[binding.qpos[2]]
         self._steps[i] = 0
-        limit = getattr(task, "_time_limit", None)
+        limit = task.episode_time_limit
         self._time_limit[i] = np.inf if limit is None else limit
-        self._sonar[i] = task._sonar
         movers = [batch.mover_record(int(slot), m.start, m.end, m.speed,
                                      m.waypoints if m.via is not None and len(m.via) else None)
-                  for m, slot in zip(route.movers, task._mover_slots, strict=True)]
-        self._stepper.bind(i, physics, np.concatenate(movers) if movers else np.zeros(0), task._others,
-                           task._hull, task._vehicle_body)
+                  for m, slot in zip(episode.route.movers, episode.mover_slots, strict=True)]
+        self._stepper.bind(i, physics, task.executor.parameters, np.concatenate(movers) if movers else np.zeros(0),
+                           binding.others, binding.hull, binding.vehicle_body)
         self._load_executor(i, task)
         self._oceans[i] = None if task.ocean.sonar is None else task.ocean
 
     def _load_executor(self, i: int, task) -> None:
-        """The executor's gains and state, and the current's processes, into the stepper's rows."""
+        """The episode's command, the executor's memory and the current's processes into the stepper's rows."""
         at_state, at_parameter = batch.STATE_INDEX, batch.PARAMETER_INDEX
         state, parameters = self._stepper.state[i], self._stepper.parameters[i]
-        executor = task.executor
-        gains = executor.gains
-        for name in ("k1_speed", "k2_speed", "ki_speed", "k1_heading", "k2_heading", "ki_heading", "band_speed",
-                     "band_heading", "integral_limit", "surge_drag", "surge_limit", "yaw_limit", "dt"):
-            parameters[at_parameter[name]] = getattr(gains, name)
         state[:] = 0.0
-        state[at_state["speed_command"]], state[at_state["heading_command"]] = task._command
-        state[at_state["int_speed"]], state[at_state["int_heading"]] = executor._int_speed, executor._int_heading
-        if executor._last_u is not None:
-            state[at_state["last_u"]], state[at_state["has_last_u"]] = executor._last_u, 1.0
-        state[at_state["collided"]] = float(task._collided)
-        state[at_state["ready"]] = float(task_physics_ready(self.envs[i].physics))
+        state[at_state["speed_command"]], state[at_state["heading_command"]] = task.episode.command
+        int_speed, int_heading, last_u = task.executor.memory
+        state[at_state["int_speed"]], state[at_state["int_heading"]] = int_speed, int_heading
+        if last_u is not None:
+            state[at_state["last_u"]], state[at_state["has_last_u"]] = last_u, 1.0
+        state[at_state["collided"]] = float(task.episode.collided)
+        state[at_state["ready"]] = float(self.envs[i].physics.step_ready)
         ocean = task.ocean
         current = ocean.current if ocean.conditions.current is not None else None
         self._current_rngs[i] = None
@@ -261,22 +210,22 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if current is None:
             return
         state[at_state["current_on"]] = 1.0
-        state[at_state["ocean_time"]] = ocean._time
+        state[at_state["ocean_time"]] = ocean.time
         for process, name in ((current.speed, "speed"), (current.direction, "direction")):
             for field, value in (("mean", process.mean), ("sigma", process.sigma),
                                  ("time_constant", process.time_constant), ("low", process.low),
                                  ("high", process.high)):
                 parameters[at_parameter[f"{name}_{field}"]] = value
             key = "current_speed" if name == "speed" else "current_direction"
-            state[at_state[key]], state[at_state[f"{key}_dt"]] = process.value, process._dt
-            state[at_state[f"{key}_a"]], state[at_state[f"{key}_b"]] = process._a, process._b
-        normals = current.speed._normal
-        if current.direction._normal is not normals:
+            state[at_state[key]] = process.value
+            state[at_state[f"{key}_dt"]], state[at_state[f"{key}_a"]], state[at_state[f"{key}_b"]] = process.transition
+        normals = current.speed.normal
+        if current.direction.normal is not normals:
             raise RuntimeError("the current's two processes must share one stream of normal draws")
-        pending = normals._draws[::-1]  # Normals pops from the end: the next draws, in order
+        pending = normals.pending()
         self._stepper.normals[i, :len(pending)] = pending
         self._stepper.normals_end[i] = len(pending)
-        self._current_rngs[i] = normals._rng
+        self._current_rngs[i] = normals.rng
 
     # --- Gymnasium API ------------------------------------------------------------------------------
 
@@ -387,21 +336,11 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
     def _step_batch(self, index: np.ndarray, actions: np.ndarray):
         at_state, at_out = batch.STATE_INDEX, batch.OUTPUT_INDEX
         stepper = self._stepper
-        psi = self._psi[index]
-        a0, a1 = actions[:, 0], actions[:, 1]
-        offset = np.minimum(np.maximum(planning.ACTION_HEADING_RANGE * a1, -planning.MAX_HEADING_DIFFERENCE),
-                            planning.MAX_HEADING_DIFFERENCE)
-        previous = stepper.state[index, at_state["heading_command"]]
-        turn = np.minimum(np.maximum(wrap_angle(psi + offset - previous), -planning.MAX_HEADING_CHANGE),
-                          planning.MAX_HEADING_CHANGE)
-        difference = np.minimum(np.maximum(wrap_angle(previous + turn - psi), -planning.MAX_HEADING_DIFFERENCE),
-                                planning.MAX_HEADING_DIFFERENCE)
-        speed = planning.MIN_SPEED + 0.5 * (a0 + 1.0) * (planning.MAX_SPEED - planning.MIN_SPEED)
-        command = np.stack([speed, psi + difference], axis=1)
+        heading_command = stepper.state[index, at_state["heading_command"]]
+        command = planning.executor_command(actions, self._psi[index], heading_command)
         stepper.state[index, at_state["speed_command"]] = command[:, 0]
         stepper.state[index, at_state["heading_command"]] = command[:, 1]
-        previous_position = self._position[index].copy()
-        self._previous[index] = previous_position
+        previous = self._position[index].copy()
         for i in index:
             rng = self._current_rngs[i]
             if rng is not None:
@@ -413,88 +352,31 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
             raise PhysicsError(f"Physics state is invalid in sub-environment(s) {bad[:8].tolist()}: MuJoCo warned "
                                "or reset the state during the step")
         position = out[:, [at_out["x"], at_out["y"]]]
-        psi = out[:, at_out["psi"]]
-        self._position[index], self._psi[index] = position, psi
+        self._position[index], self._psi[index] = position, out[:, at_out["psi"]]
         true_ranges = clip_ranges(out[:, at_out["sonar_1"]:at_out["sonar_1"] + len(planning.SONAR_NAMES)])
         sensed = true_ranges.copy()
         for k, i in enumerate(index):
             ocean = self._oceans[i]
             if ocean is not None:
                 sensed[k] = ocean.sense(true_ranges[k])
-        self._sonar[index] = sensed
-        collision = out[:, at_out["collided"]] != 0
-        bounds = self._bounds[index]
-        x, y = position[:, 0], position[:, 1]
-        left_map = self._has_bounds[index] & ~((bounds[:, 0] <= x) & (x <= bounds[:, 2])
-                                               & (bounds[:, 1] <= y) & (y <= bounds[:, 3]))
-        failed = collision | left_map
-        rows = np.arange(len(index))
-        goals = self._goals[index]
-        n = self._n_goals[index]
-        reached_before = self._reached[index]
-        desired = goals[rows, reached_before]
-        reached = self._hits(goals, n, reached_before, position)
-        reached = np.maximum(reached, self._passed(index, goals, n, reached, position))
-        self._reached[index] = reached
-        success = (reached == n) & ~failed
-        nearest, true_nearest = sensed.min(axis=1), true_ranges.min(axis=1)
-        radius = self.goal_radius
-        r_follow = planning.following_reward(previous_position, position, desired, radius)
-        repulsion = self._repulsion[index]
-        with np.errstate(divide="ignore"):
-            graded = -planning.AVOID_GAIN * (1.0 / nearest - 1.0 / repulsion)
-        avoid = np.where(nearest <= SAFETY_DISTANCE, planning.COLLISION_REWARD,
-                         np.where(nearest < repulsion, graded, 0.0))
-        r_avoid = np.where(failed, planning.COLLISION_REWARD, avoid)
-        k1, k2, k3 = planning.REWARD_WEIGHTS
-        independent = k2 * r_avoid + k3 * planning.NAVIGATION_REWARD - self.collision_penalty * failed
+        readout = planning.Readout(position=position, psi=out[:, at_out["psi"]], cos_psi=out[:, at_out["cos_psi"]],
+                                   sin_psi=out[:, at_out["sin_psi"]],
+                                   velocity=out[:, [at_out["u"], at_out["v"], at_out["r"]]], sonar=sensed,
+                                   true_ranges=true_ranges, collision=out[:, at_out["collided"]] != 0,
+                                   clearance=out[:, at_out["clearance"]])
         steps_left = np.maximum(self._task_step_limit[index] - self._steps[index], 1)  # this step included
-        paper = k1 * r_follow + independent + np.where(success, planning.success_bonus("paper", steps_left), 0.0)
-        progressed = reached > reached_before
-        event = np.where(collision, "collision", np.where(left_map, "left_map", np.where(
-            progressed, np.where(reached == n, "goal", "subgoal"), ""))).astype(object)
-        terminal = failed | (reached == n)
-        if self.reward_kind == "paper":
-            reward = paper
-        elif self.reward_kind == "progress":
-            reward = (k1 * planning.progress_reward(previous_position, position, desired, radius) + independent
-                      + planning.success_bonus("progress", steps_left) * success)
-        else:
-            reward = self._suite_reward(goals, n, reached, position, failed, success, steps_left)
-        u = out[:, at_out["u"]]
-        infos = {
-            "previous_achieved_goal": previous_position,
-            "goal_independent_reward": independent,
-            "reward_following": r_follow,
-            "reward_avoid": r_avoid,
-            "reward_navigation": np.full(len(index), planning.NAVIGATION_REWARD),
-            "paper_reward": paper,
-            "collision": collision,
-            "left_map": left_map,
-            "safety_violation": true_nearest < SAFETY_DISTANCE,
-            "success": success,
-            "is_success": success,
-            "min_clearance": out[:, at_out["clearance"]],
-            "min_sonar_range": true_nearest,
-            "event": event,
-            "goals_reached": reached,
-            "num_goals": n,
-            "last_goal": reached_before == n - 1,
-            "steps_left": steps_left,
-            "goal_radius": np.full(len(index), radius),
-            "cross_track_error": self._cross_track(index, position),
-            "command": command,
-            "tracked": (n == 1) | (reached >= 1),
-            "speed_error": command[:, 0] - u,
-            "heading_error": wrap_angle(command[:, 1] - psi),
-        }
-        self._observe_batch(index, out, command, sensed)
+        outcome = planning.step_outcome(self._routes, index, self._reached[index], steps_left, previous, readout,
+                                        command, self.rules)
+        self._reached[index] = outcome.reached
+        observation = planning.observe(self._routes, index, outcome.reached, readout, command, self.rules.relative)
+        for key, value in observation.items():
+            self._last_obs[key][index] = value
         self._steps[index] += 1
         at_limit = self._steps[index] >= self._step_limit
-        route_limit = ~terminal & (out[:, at_out["time"]] >= self._time_limit[index] - planning.PLANNER_DT / 2)
+        route_limit = ~outcome.terminal & (out[:, at_out["time"]] >= self._time_limit[index] - planning.PLANNER_DT / 2)
         truncated = at_limit | route_limit
-        terminated = ~at_limit & terminal
-        return reward, terminated, truncated, self._batched_infos(index, infos)
+        terminated = ~at_limit & outcome.terminal
+        return outcome.reward, terminated, truncated, self._batched_infos(index, outcome.info)
 
     def _batched_infos(self, index: np.ndarray, infos: dict) -> dict:
         """Rows of the stepped sub-environments -> Gymnasium's dict of arrays with "_key" masks."""
@@ -511,82 +393,6 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
             batched["_" + key] = mask.copy()
         return batched
 
-    def _hits(self, goals, n, reached, position) -> np.ndarray:
-        """`PlanningTask.after_step`'s goal rule: past the last goal (not before `reached`) within the radius."""
-        distance = np.hypot(goals[..., 0] - position[:, None, 0], goals[..., 1] - position[:, None, 1])
-        slots = np.arange(goals.shape[1])
-        hit = (slots >= reached[:, None]) & (slots < n[:, None]) & (distance <= self.goal_radius)
-        last = goals.shape[1] - 1 - np.argmax(hit[:, ::-1], axis=1)
-        return np.where(hit.any(axis=1), last + 1, reached)
-
-    def _passed(self, index, goals, n, reached, position) -> np.ndarray:
-        """`PlanningTask._passed`: goals behind the vehicle along the route, within its corridor (0 if none)."""
-        corridor = self._corridor[index]
-        tangents = self._tangents[index]
-        rows = np.arange(len(index))
-        last = np.minimum(reached + planning.PASS_WINDOW, n - 1)
-        passed = np.zeros(len(index), dtype=int)
-        with np.errstate(invalid="ignore"):
-            for k in range(planning.PASS_WINDOW):
-                slot = reached + k
-                valid = (slot < last) & ~np.isnan(corridor)
-                at = np.minimum(slot, goals.shape[1] - 1)
-                offset = position - goals[rows, at]
-                tangent = tangents[rows, at]
-                along = offset[:, 0] * tangent[:, 0] + offset[:, 1] * tangent[:, 1]
-                across = offset[:, 0] * tangent[:, 1] - offset[:, 1] * tangent[:, 0]
-                passed = np.where(valid & (along > 0) & (np.abs(across) < corridor), slot + 1, passed)
-        return passed
-
-    def _suite_reward(self, goals, n, reached, position, failed, success, steps_left) -> np.ndarray:
-        """`PlanningTask._suite_reward`, vectorised (the success bonus of `steps_left` steps on success)."""
-        at = np.minimum(reached, n - 1)
-        goal = goals[np.arange(len(n)), at]
-        distance = np.hypot(goal[:, 0] - position[:, 0], goal[:, 1] - position[:, 1])
-        near = rewards.tolerance(distance, bounds=(0.0, self.goal_radius), margin=planning.SUITE_REWARD_MARGIN,
-                                 sigmoid="long_tail", value_at_margin=0.1)
-        bonus = planning.success_bonus("suite", steps_left)
-        return np.where(failed, 0.0, np.where(success, bonus, (reached + near) / n))
-
-    def _cross_track(self, index, position) -> np.ndarray:
-        """`planning.distance_to_polyline` of each vehicle to its route's reference path."""
-        path = self._path[index]
-        a, b = path[:, :-1], path[:, 1:]
-        d = b - a
-        point = position[:, None, :]
-        pa = point - a
-        dot = pa[..., 0] * d[..., 0] + pa[..., 1] * d[..., 1]
-        length = np.maximum(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1], 1e-12)
-        t = np.clip(dot / length, 0, 1)
-        closest = a + t[..., None] * d
-        return np.min(np.hypot(closest[..., 0] - point[..., 0], closest[..., 1] - point[..., 1]), axis=1)
-
-    def _observe_batch(self, index, out, command, sensed) -> None:
-        """`PlanningTask.get_observation` of the stepped vehicles into the batch's last observation."""
-        at_out = batch.OUTPUT_INDEX
-        psi = out[:, at_out["psi"]]
-        c, s = out[:, at_out["cos_psi"]], out[:, at_out["sin_psi"]]
-        motion = np.stack([out[:, at_out["u"]] / planning.MAX_SPEED, out[:, at_out["v"]] / planning.MAX_SPEED,
-                           out[:, at_out["r"]],
-                           wrap_angle(command[:, 1] - psi) / planning.MAX_HEADING_DIFFERENCE,
-                           command[:, 0] / planning.MAX_SPEED], axis=1)
-        at = np.minimum(self._reached[index], self._n_goals[index] - 1)
-        goal = self._goals[index, at]
-        x, y = out[:, at_out["x"]], out[:, at_out["y"]]
-        if self.relative:
-            heading = self._goal_cos_sin[index, at]
-            achieved = np.stack([x, y, c, s], axis=1)
-            desired = np.concatenate([goal, heading], axis=1)
-            vector = np.concatenate([planning.relative_goal(achieved, desired), motion, sensed / SONAR_RANGE], axis=1)
-        else:
-            achieved = np.stack([x, y], axis=1)
-            desired = goal
-            vector = np.concatenate([np.stack([x / planning.POSITION_SCALE, y / planning.POSITION_SCALE, c, s],
-                                              axis=1), motion, sensed / SONAR_RANGE], axis=1)
-        self._last_obs["observation"][index] = vector
-        self._last_obs["achieved_goal"][index] = achieved
-        self._last_obs["desired_goal"][index] = desired
-
     # --- goal-conditioned API -----------------------------------------------------------------------
 
     def compute_reward(self, achieved_goal, desired_goal, info):
@@ -600,11 +406,6 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
     def close_extras(self, **kwargs) -> None:
         """Drops the sub-environments."""
         self.envs = []
-
-
-def task_physics_ready(physics) -> bool:
-    """Whether the physics' next step may skip `mj_step1` (`AUVPhysics.step`'s flag)."""
-    return bool(physics._step_ready)
 
 
 SINGLE_ENV_OPTIONS = ("protection", "residual", "guide", "speed", "render_mode", "render_size", "render_distance")

@@ -182,3 +182,33 @@ def test_the_bench_times_the_batch_over_a_learners_cycle_and_refuses_a_seed_coun
         vector_bench.cycle_rate("goal", {}, 2, 1, [1_000_000], 3)
     assert vector_bench.cycle_rate("goal", {}, 2, 1, [1_000_000, 1_000_001], 3) > 0
     assert resets == [[1_000_000, 1_000_001]] * 2 and steps == [(2, 2)] * 3
+
+
+def test_a_reward_constant_changes_the_suite_task_and_the_batch_alike(monkeypatch):
+    """The planning step is written once (`planning.step_outcome`, called with N = 1 by the suite task and with N by
+    the batch): a constant at the head of the task file, here Eq. (25)'s r_navigation, changes the suite task's
+    reward and the batched env's by the same amount."""
+    from auv_mj.tasks import planning, suite
+
+    actions = np.array([[0.5, 0.2], [1.0, -0.3], [0.0, 0.0], [0.8, 0.1]])
+
+    def rewards() -> tuple[np.ndarray, np.ndarray]:
+        env = suite.load("auv", "goal", task_kwargs={"reward": "paper", "random": 7})
+        env.reset()
+        single = np.array([env.step(a).reward for a in actions])
+        batch = AUVVectorEnv("goal", 2, task_kwargs={"reward": "paper"}, threads=1)
+        batch.reset(seed=[7, 7])
+        batched = np.array([batch.step(np.stack([a, a]))[1] for a in actions])
+        return single, batched
+
+    sizes = []
+    step_outcome = planning.step_outcome
+    monkeypatch.setattr(planning, "step_outcome", lambda routes, rows, reached, *args: sizes.append(len(reached))
+                        or step_outcome(routes, rows, reached, *args))
+    single, batched = rewards()
+    assert sizes == [1] * len(actions) + [2] * len(actions)
+    np.testing.assert_allclose(batched, np.stack([single, single], axis=1), rtol=0, atol=TOLERANCE)
+    monkeypatch.setattr(planning, "NAVIGATION_REWARD", planning.NAVIGATION_REWARD - 0.25)
+    changed_single, changed_batched = rewards()
+    np.testing.assert_allclose(changed_single - single, -0.25, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(changed_batched - batched, -0.25, rtol=0, atol=1e-12)

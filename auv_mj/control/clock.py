@@ -26,6 +26,16 @@ class ExecutorClock:
     _tick_steps = 1
     _steps_to_tick = 0
 
+    @property
+    def tick_steps(self) -> int | None:
+        """Physics steps per tick, None without a callback."""
+        return self._tick_steps if self._tick is not None else None
+
+    @property
+    def at_tick(self) -> bool:
+        """Whether the next step begins with a tick."""
+        return self._steps_to_tick == 0
+
     def set_tick(self, callback: Callable | None, period: float | None = None) -> None:
         """Calls `callback(physics)` before the first step and then every `period` s (`TICK_PERIOD` by default)
         of stepping; None removes it."""

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import astuple, dataclass, field
 
 import numpy as np
 
@@ -101,6 +101,17 @@ class SPlaneController:
     def __init__(self, gains: SPlaneGains | None = None):
         self.gains = gains if gains is not None else SPlaneGains()
         self.reset()
+
+    @property
+    def parameters(self) -> np.ndarray:
+        """The gains as one array in `SPlaneGains`' field order: what the batched C step reads (`auv_mj.sim.batch`)."""
+        return np.array(astuple(self.gains), dtype=float)
+
+    @property
+    def memory(self) -> tuple[float, float, float | None]:
+        """What Eq. (32) carries from one call to the next: the integrals of e_V and e_psi, and the last surge
+        speed u (None before the first call)."""
+        return self._int_speed, self._int_heading, self._last_u
 
     def reset(self) -> None:
         """Forgets the integrators and the previous surge speed."""

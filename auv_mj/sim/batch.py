@@ -9,9 +9,10 @@ The C tick is the planning tasks' own (`auv_mj.tasks.planning.PlanningTask._tick
 step, the S-plane executor of Eq. (32), the movers and the contact check, written again in the same order of
 floating-point operations and built like `hydro_kernel.c` (whose step it includes), so that a vehicle follows
 the single environment's trajectory to the bit. What the tick needs that is not MuJoCo's comes as numbers: the
-executor's gains and the current's parameters (`PARAMETERS`), its mutable state (`STATE`: command,
-integrators, current), the current's normal draws (`normals`, filled by the caller from the episode's own
-generator, since NumPy's stream cannot be drawn in C) and the movers' paths (`mover_record`).
+executor's gains, read from the array its controller gives (`SPlaneController.parameters`, in the order GAINS),
+the current's parameters (`PARAMETERS`), the mutable state (`STATE`: command, integrators, current), the current's
+normal draws (`normals`, filled by the caller from the episode's own generator, since NumPy's stream cannot be
+drawn in C) and the movers' paths (`mover_record`).
 
 The library is compiled against the MuJoCo headers and shared library of the `mujoco` package (the same
 library the bindings loaded), into the cache of `auv_mj.sim.native`. `kernel()` is None where it cannot be
@@ -40,12 +41,14 @@ STATE = ("speed_command", "heading_command", "int_speed", "int_heading", "last_u
          "current_speed_b", "current_direction", "current_direction_dt", "current_direction_a",
          "current_direction_b", "normal_position")
 """A vehicle's mutable row, in batch_kernel.c's order."""
-PARAMETERS = ("k1_speed", "k2_speed", "ki_speed", "k1_heading", "k2_heading", "ki_heading", "band_speed",
-              "band_heading", "integral_limit", "surge_drag", "surge_limit", "yaw_limit", "dt",
-              "speed_mean", "speed_sigma", "speed_time_constant", "speed_low", "speed_high",
+GAINS = ("k1_speed", "k2_speed", "ki_speed", "k1_heading", "k2_heading", "ki_heading", "band_speed", "band_heading",
+         "integral_limit", "surge_drag", "surge_limit", "yaw_limit", "dt")
+"""The S-plane gains as batch_kernel.c reads them from a vehicle's controller (`bind`'s `gains`): the fields of
+`auv_mj.control.splane.SPlaneGains`, in their order (the batched env checks that they are)."""
+PARAMETERS = ("speed_mean", "speed_sigma", "speed_time_constant", "speed_low", "speed_high",
               "direction_mean", "direction_sigma", "direction_time_constant", "direction_low", "direction_high")
-"""A vehicle's constant row: the S-plane gains (`auv_mj.control.splane.SPlaneGains` fields) and the current's
-Gauss-Markov parameters (`auv_mj.sim.ocean.GaussMarkov`: mean, sigma, time constant, low, high)."""
+"""A vehicle's constant row: the current's Gauss-Markov parameters (`auv_mj.sim.ocean.GaussMarkov`: mean, sigma,
+time constant, low, high)."""
 OUTPUTS = ("x", "y", "psi", "cos_psi", "sin_psi", "u", "v", "r", "time", "collided", "invalid", "clearance",
            *SONAR_NAMES)
 """What a step reports per vehicle: pose, cos and sin of the heading (libm's, as `math`), body velocity
@@ -66,7 +69,8 @@ class Slot(ctypes.Structure):
     """batch_kernel.c's `auv_slot`: what stays the same through an episode (pointers into kept arrays)."""
 
     _fields_ = [("model", ctypes.c_void_p), ("data", ctypes.c_void_p), ("hydro", ctypes.c_void_p),
-                ("hydro_ix", ctypes.c_void_p), ("movers", ctypes.c_void_p), ("others", ctypes.c_void_p),
+                ("gains", ctypes.c_void_p), ("hydro_ix", ctypes.c_void_p), ("movers", ctypes.c_void_p),
+                ("others", ctypes.c_void_p),
                 ("nmover", ctypes.c_int), ("nothers", ctypes.c_int), ("hull", ctypes.c_int),
                 ("vehicle_body", ctypes.c_int), ("qpos_x", ctypes.c_int), ("qpos_y", ctypes.c_int),
                 ("qpos_psi", ctypes.c_int), ("dof_x", ctypes.c_int), ("dof_y", ctypes.c_int),
@@ -102,8 +106,8 @@ def _load() -> tuple[ctypes.CDLL | None, str]:
         lib = ctypes.CDLL(str(path))
     except (OSError, subprocess.SubprocessError) as e:
         return None, str(e)
-    sizes = tuple(lib.auv_batch_sizes(k) for k in range(5))
-    expected = (len(STATE), len(PARAMETERS), len(OUTPUTS), ctypes.sizeof(Slot), len(SONAR_NAMES))
+    sizes = tuple(lib.auv_batch_sizes(k) for k in range(6))
+    expected = (len(STATE), len(PARAMETERS), len(OUTPUTS), ctypes.sizeof(Slot), len(SONAR_NAMES), len(GAINS))
     if sizes != expected:
         raise RuntimeError(f"batch_kernel.c has sizes {sizes}, auv_mj.sim.batch {expected}: the two are out of step")
     lib.auv_batch_step.restype = ctypes.c_int
@@ -153,12 +157,17 @@ class BatchStepper:
         """Index past the last valid draw of each vehicle's buffer (its next draw is `state[:, normal_position]`)."""
         self._keep: list = [None] * num
 
-    def bind(self, i: int, physics, movers: np.ndarray, others: np.ndarray, hull: int, vehicle_body: int) -> None:
-        """Points slot `i` at `physics` (an `AUVPhysics` after its episode's reset), its packed `movers`
-        (concatenated `mover_record`s), the geoms whose clearance counts and the hull geom."""
+    def bind(self, i: int, physics, gains: np.ndarray, movers: np.ndarray, others: np.ndarray, hull: int,
+             vehicle_body: int) -> None:
+        """Points slot `i` at `physics` (an `AUVPhysics` after its episode's reset), its executor's `gains` (GAINS,
+        the controller's own array, read in place), its packed `movers` (concatenated `mover_record`s), the geoms
+        whose clearance counts and the hull geom."""
         model, data = physics.model.ptr, physics.data.ptr
         hydro = physics.hydrodynamics
         coefficients, addresses = hydro.kernel_arguments()
+        if np.shape(gains) != (len(GAINS),):
+            raise ValueError(f"gains must be the {len(GAINS)} numbers {GAINS}, got shape {np.shape(gains)}")
+        gains = np.ascontiguousarray(gains, dtype=float)
         others = np.ascontiguousarray(others, dtype=np.intc)
         movers = np.ascontiguousarray(movers, dtype=float)
         count = 0
@@ -169,6 +178,7 @@ class BatchStepper:
         slot = self.slots[i]
         slot.model, slot.data = model._address, data._address
         slot.hydro, slot.hydro_ix = coefficients.ctypes.data, addresses.ctypes.data
+        slot.gains = gains.ctypes.data
         slot.movers, slot.nmover = movers.ctypes.data, count
         slot.others, slot.nothers = others.ctypes.data, len(others)
         slot.hull, slot.vehicle_body = int(hull), int(vehicle_body)
@@ -178,7 +188,7 @@ class BatchStepper:
         slot.dof_x, slot.dof_y, slot.dof_r = dofs
         for k, name in enumerate(SONAR_NAMES):
             slot.sonar_adr[k] = int(model.sensor_adr[model.sensor(name).id])
-        self._keep[i] = (model, data, coefficients, addresses, movers, others)
+        self._keep[i] = (model, data, coefficients, addresses, gains, movers, others)
 
     def top_up(self, i: int, rng: np.random.Generator, needed: int) -> None:
         """Makes at least `needed` normal draws of vehicle `i` ready, drawing blocks of NORMALS_BLOCK from `rng`

@@ -6,7 +6,8 @@
  * so that a vehicle stepped here follows the single environment's trajectory to the bit:
  *   - the ocean current (auv_mj/sim/ocean.py `Ocean.tick`, `Current.advance`, `GaussMarkov.advance`), its normal
  *     draws taken from a buffer the caller fills from the episode's own generator;
- *   - the S-plane executor of Eq. (32) (auv_mj/control/splane.py `SPlaneController.__call__`) into ctrl;
+ *   - the S-plane executor of Eq. (32) (auv_mj/control/splane.py `SPlaneController.__call__`) into ctrl, its gains read from
+ *     the controller's own array (`SPlaneController.parameters`, in `SPlaneGains`' field order);
  *   - the moving obstacles (auv_mj/arenas/arena.py `Mover.position`, numpy.interp on a polyline);
  *   - the contact check of the vehicle.
  * Then the hydrodynamic substeps of hydro_kernel.c (included below: the same function the single physics calls).
@@ -34,6 +35,7 @@ typedef struct {
     mjModel *m;
     mjData *d;
     const double *hydro;      /* hydro_kernel.c's coefficients */
+    const double *gains;      /* the S-plane controller's `parameters`, in the order of the G_ names below */
     const long *hydro_ix;     /* hydro_kernel.c's addresses */
     const double *movers;     /* packed mover records, see `mover_position` */
     const int *others;        /* geoms whose clearance to the hull counts */
@@ -48,10 +50,13 @@ enum {
     S_OCEAN_TIME, S_CURRENT_ON, S_CUR_SPEED, S_CUR_SPEED_DT, S_CUR_SPEED_A, S_CUR_SPEED_B,
     S_CUR_DIR, S_CUR_DIR_DT, S_CUR_DIR_A, S_CUR_DIR_B, S_NORMAL_POS, N_STATE
 };
-/* Per-vehicle constants (a row of doubles), in the order auv_mj.sim.batch.PARAMETERS gives. */
+/* The S-plane gains (`auv_slot.gains`), in the order auv_mj.sim.batch.GAINS gives (`SPlaneGains`' fields). */
 enum {
-    P_K1_SPEED, P_K2_SPEED, P_KI_SPEED, P_K1_HEADING, P_K2_HEADING, P_KI_HEADING, P_BAND_SPEED, P_BAND_HEADING,
-    P_INTEGRAL_LIMIT, P_SURGE_DRAG, P_SURGE_LIMIT, P_YAW_LIMIT, P_DT,
+    G_K1_SPEED, G_K2_SPEED, G_KI_SPEED, G_K1_HEADING, G_K2_HEADING, G_KI_HEADING, G_BAND_SPEED, G_BAND_HEADING,
+    G_INTEGRAL_LIMIT, G_SURGE_DRAG, G_SURGE_LIMIT, G_YAW_LIMIT, G_DT, N_GAINS
+};
+/* Per-vehicle constants of the current (a row of doubles), in the order auv_mj.sim.batch.PARAMETERS gives. */
+enum {
     P_SPEED_MEAN, P_SPEED_SIGMA, P_SPEED_T, P_SPEED_LOW, P_SPEED_HIGH,
     P_DIR_MEAN, P_DIR_SIGMA, P_DIR_T, P_DIR_LOW, P_DIR_HIGH, N_PARAMETERS
 };
@@ -70,7 +75,8 @@ int auv_batch_sizes(int which) {
         case 1: return N_PARAMETERS;
         case 2: return N_OUTPUTS;
         case 3: return (int)sizeof(auv_slot);
-        default: return N_SONAR;
+        case 4: return N_SONAR;
+        default: return N_GAINS;
     }
 }
 
@@ -103,10 +109,10 @@ static void gauss_markov(double *state, int value, int gdt, int ga, int gb, cons
 }
 
 /* SPlaneController._integrate. */
-static double integrate(double integral, double error, double ki, double band, const double *p) {
-    if (fabs(error) < band) integral += error * p[P_DT];
+static double integrate(double integral, double error, double ki, double band, const double *g) {
+    if (fabs(error) < band) integral += error * g[G_DT];
     if (ki > 0) {
-        const double bound = p[P_INTEGRAL_LIMIT] / ki;
+        const double bound = g[G_INTEGRAL_LIMIT] / ki;
         integral = -bound > integral ? -bound : integral;
         integral = bound < integral ? bound : integral;
     }
@@ -198,26 +204,27 @@ static void tick(const auv_slot *slot, double *st, const double *p, double *norm
             m->opt.wind[1] = st[S_CUR_SPEED] * sin(st[S_CUR_DIR]);
         }
     }
+    const double *g = slot->gains;
     const double psi = d->qpos[slot->qpos_psi];
     const double xd = d->qvel[slot->dof_x], yd = d->qvel[slot->dof_y], r = d->qvel[slot->dof_r];
     const double c = cos(psi), s = sin(psi);
     const double u = c * xd + s * yd;
     const double v_cmd = st[S_SPEED_CMD], psi_cmd = st[S_HEADING_CMD];
     const double e_v = v_cmd - u;
-    const double edot_v = st[S_HAS_LAST_U] != 0.0 ? -(u - st[S_LAST_U]) / p[P_DT] : 0.0;
+    const double edot_v = st[S_HAS_LAST_U] != 0.0 ? -(u - st[S_LAST_U]) / g[G_DT] : 0.0;
     st[S_LAST_U] = u;
     st[S_HAS_LAST_U] = 1.0;
     const double e_psi = wrap_angle(psi_cmd - psi);
     const double edot_psi = -r;
-    st[S_INT_SPEED] = integrate(st[S_INT_SPEED], e_v, p[P_KI_SPEED], p[P_BAND_SPEED], p);
-    st[S_INT_HEADING] = integrate(st[S_INT_HEADING], e_psi, p[P_KI_HEADING], p[P_BAND_HEADING], p);
-    const double feed_forward = p[P_SURGE_DRAG] * v_cmd * fabs(v_cmd) / p[P_SURGE_LIMIT];
-    const double du_v = feed_forward + p[P_KI_SPEED] * st[S_INT_SPEED];
-    const double du_psi = p[P_KI_HEADING] * st[S_INT_HEADING];
-    const double u_v = tanh(0.5 * (p[P_K1_SPEED] * e_v + p[P_K2_SPEED] * edot_v)) + du_v;
-    const double u_psi = tanh(0.5 * (p[P_K1_HEADING] * e_psi + p[P_K2_HEADING] * edot_psi)) + du_psi;
-    d->ctrl[0] = p[P_SURGE_LIMIT] * clip_unit(u_v);
-    d->ctrl[1] = p[P_YAW_LIMIT] * clip_unit(u_psi);
+    st[S_INT_SPEED] = integrate(st[S_INT_SPEED], e_v, g[G_KI_SPEED], g[G_BAND_SPEED], g);
+    st[S_INT_HEADING] = integrate(st[S_INT_HEADING], e_psi, g[G_KI_HEADING], g[G_BAND_HEADING], g);
+    const double feed_forward = g[G_SURGE_DRAG] * v_cmd * fabs(v_cmd) / g[G_SURGE_LIMIT];
+    const double du_v = feed_forward + g[G_KI_SPEED] * st[S_INT_SPEED];
+    const double du_psi = g[G_KI_HEADING] * st[S_INT_HEADING];
+    const double u_v = tanh(0.5 * (g[G_K1_SPEED] * e_v + g[G_K2_SPEED] * edot_v)) + du_v;
+    const double u_psi = tanh(0.5 * (g[G_K1_HEADING] * e_psi + g[G_K2_HEADING] * edot_psi)) + du_psi;
+    d->ctrl[0] = g[G_SURGE_LIMIT] * clip_unit(u_v);
+    d->ctrl[1] = g[G_YAW_LIMIT] * clip_unit(u_psi);
     const double *rec = slot->movers;
     for (int k = 0; k < slot->nmover; ++k) {
         mover_position(rec, d->time, d->mocap_pos);

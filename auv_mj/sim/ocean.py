@@ -348,6 +348,15 @@ class Normals:
         self._rng, self._block = rng, block
         self._draws: list[float] = []
 
+    @property
+    def rng(self) -> np.random.Generator:
+        """The generator the draws come from."""
+        return self._rng
+
+    def pending(self) -> list[float]:
+        """The draws already taken from `rng` and not yet used, the next first (a batched step continues them)."""
+        return self._draws[::-1]
+
     def __call__(self) -> float:
         if not self._draws:
             self._draws = self._rng.standard_normal(self._block).tolist()[::-1]
@@ -369,6 +378,16 @@ class GaussMarkov:
         self._normal = normal
         self._dt, self._a, self._b = 0.0, 1.0, 0.0
         self.value = min(max(self.mean + self.sigma * normal(), self.low), self.high)
+
+    @property
+    def normal(self) -> Normals:
+        """The stream of normal draws w."""
+        return self._normal
+
+    @property
+    def transition(self) -> tuple[float, float, float]:
+        """(dt, a, sigma sqrt(1 - a^2)) of the last `advance`: the exact transition, kept while dt stays."""
+        return self._dt, self._a, self._b
 
     def advance(self, dt: float) -> float:
         """Moves the process on by `dt` [s] and returns its new value."""
@@ -444,6 +463,11 @@ class Ocean:
         """This episode's factors: "mass" and each hydrodynamic coefficient's name (empty: nominal)."""
         self._time = 0.0
         self._clock: tuple | None = None  # (MjData, memoryview of opt.wind) of the episode's physics
+
+    @property
+    def time(self) -> float:
+        """The physics time [s] the current was last moved on to."""
+        return self._time
 
     @property
     def ideal(self) -> bool:

@@ -193,6 +193,17 @@ class AUVPhysics(engine.Physics):
                          f"{units[terms[k][0]]} per step)" for k in ranked)
 
     @property
+    def disturbances(self) -> tuple[Disturbance, ...]:
+        """The disturbances applied while stepping (`add_disturbance`)."""
+        return tuple(self._disturbances)
+
+    @property
+    def step_ready(self) -> bool:
+        """Whether the next step may skip `mj_step1` (M and the passive forces are the current state's): a batched
+        step that continues this physics starts the same way."""
+        return self._step_ready
+
+    @property
     def hydrodynamics(self) -> Hydrodynamics:
         """The hydrodynamic model of this physics (coefficients, body-frame force)."""
         return self._hydro
