@@ -1,4 +1,4 @@
-"""TD3 (agents/td3.py): twin-critic target, delayed actor, clipped target smoothing, and it learns.
+"""TD3 (agents/offpolicy/td3.py): twin-critic target, delayed actor, clipped target smoothing, and it learns.
 
 The update pieces are checked against hand-built networks whose outputs are known in closed form; the
 learning test is a one-step regression bandit whose optimal policy a*(x) = 0.6 x is known exactly.

@@ -132,40 +132,38 @@ class PPOConfig:
     torch thread, spinning between operations, slowed a 2-core batch's steps by a quarter)."""
 
     def __post_init__(self):
-        positive_ints = ("num_steps", "num_minibatches", "update_epochs", "recurrent_size", "checkpoint_every",
-                         "torch_threads")
-        for name in positive_ints:
-            value = getattr(self, name)
-            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
-                raise ValueError(f"PPOConfig.{name} must be a whole number >= 1, got {value!r}")
-        for name in ("learning_rate", "adam_eps", "clip_coef", "max_grad_norm"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 < value < math.inf):
-                raise ValueError(f"PPOConfig.{name} must be a finite number > 0, got {value!r}")
-        for name in ("gamma", "gae_lambda"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 <= value <= 1):
-                raise ValueError(f"PPOConfig.{name} must be in [0, 1], got {value!r}")
-        for name in ("ent_coef", "vf_coef"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 <= value < math.inf):
-                raise ValueError(f"PPOConfig.{name} must be a finite number >= 0, got {value!r}")
-        if self.target_kl is not None and not (isinstance(self.target_kl, (int, float)) and self.target_kl > 0):
-            raise ValueError(f"PPOConfig.target_kl must be None or a number > 0, got {self.target_kl!r}")
-        if not (isinstance(self.hidden_sizes, tuple)
-                and all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in self.hidden_sizes)):
-            raise ValueError(f"PPOConfig.hidden_sizes must be a tuple of whole numbers >= 1, got {self.hidden_sizes!r}")
-        if self.recurrent not in RECURRENT_KINDS:
-            raise ValueError(f"PPOConfig.recurrent must be one of {RECURRENT_KINDS}, got {self.recurrent!r}")
-        if not (isinstance(self.init_log_std, (int, float)) and -20 <= self.init_log_std <= 2):
-            raise ValueError(f"PPOConfig.init_log_std must be in [-20, 2], got {self.init_log_std!r}")
-        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
-            raise ValueError(f"PPOConfig.seed must be a whole number >= 0, got {self.seed!r}")
-        for name in ("clip_vloss", "norm_adv", "norm_obs"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
-        if not isinstance(self.device, str) or not self.device:
-            raise ValueError(f"PPOConfig.device must be a torch device name, got {self.device!r}")
+        for names, valid, what in _CONFIG_CHECKS:
+            for name in names:
+                value = getattr(self, name)
+                if not valid(value):
+                    raise ValueError(f"PPOConfig.{name} must be {what}, got {value!r}")
+
+
+def _whole(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, (int, float))
+
+
+_CONFIG_CHECKS: tuple[tuple[tuple[str, ...], Callable[[Any], bool], str], ...] = (
+    (("num_steps", "num_minibatches", "update_epochs", "recurrent_size", "checkpoint_every", "torch_threads"),
+     lambda v: _whole(v) and v >= 1, "a whole number >= 1"),
+    (("learning_rate", "adam_eps", "clip_coef", "max_grad_norm"), lambda v: _number(v) and 0 < v < math.inf,
+     "a finite number > 0"),
+    (("gamma", "gae_lambda"), lambda v: _number(v) and 0 <= v <= 1, "in [0, 1]"),
+    (("ent_coef", "vf_coef"), lambda v: _number(v) and 0 <= v < math.inf, "a finite number >= 0"),
+    (("target_kl",), lambda v: v is None or (_number(v) and v > 0), "None or a number > 0"),
+    (("hidden_sizes",), lambda v: isinstance(v, tuple) and all(_whole(n) and n >= 1 for n in v),
+     "a tuple of whole numbers >= 1"),
+    (("recurrent",), lambda v: v in RECURRENT_KINDS, f"one of {RECURRENT_KINDS}"),
+    (("init_log_std",), lambda v: _number(v) and -20 <= v <= 2, "in [-20, 2]"),
+    (("seed",), lambda v: _whole(v) and v >= 0, "a whole number >= 0"),
+    (("clip_vloss", "norm_adv", "norm_obs"), lambda v: isinstance(v, bool), "True or False"),
+    (("device",), lambda v: isinstance(v, str) and bool(v), "a torch device name"),
+)
+"""PPOConfig's fields, checked in this order: (names, the test each value passes, what it must be)."""
 
 
 # ---------------------------------------------------------------------------------------------------------------------

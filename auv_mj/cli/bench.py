@@ -380,7 +380,7 @@ checkpoint cycle of the `planner-memory` run (`--ppo-checkpoint-every 20`). PPO 
 (so that resuming is exact), and on the hard tier a reset draws and certifies an arena; timing a whole cycle weighs
 those resets as training meets them, neither more (a cycle of 4 rollouts would count them 5 times over) nor less.
 The batch alone is timed over the same cycle (`vector_bench.cycle_rate`: the same resets, as many steps, random
-actions), the learner's network and update are the planner's own (`ppo_planner.PLANNER_CONFIG`)."""
+actions), the learner's network and update are the planner's own (`auv_mj.agents.ppo.planner.PLANNER_CONFIG`)."""
 
 
 @section("vector", on_request=True)

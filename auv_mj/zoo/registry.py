@@ -91,7 +91,7 @@ def _loaded(path: str, mtime_ns: int, size: int) -> Policy:
 
 
 @lru_cache(maxsize=16)
-def _kind(path: str, mtime_ns: int, size: int) -> str:
+def _checkpoint_kind(path: str, mtime_ns: int, size: int) -> str:
     return read_checkpoint(path).kind
 
 
@@ -99,7 +99,7 @@ def checkpoint_kind(path: Path) -> str:
     """The kind of checkpoint `path` (`auv_mj.agents.checkpoint.KINDS`: "ppo" or an off-policy agent), read once
     per version of the file in a process; what a checkpoint builds is dispatched on it."""
     stat = Path(path).stat()
-    return _kind(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
+    return _checkpoint_kind(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
 
 
 def loaded_policy(path: Path) -> Policy:
