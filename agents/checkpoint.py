@@ -4,7 +4,7 @@ A checkpoint is `torch.save({"tensors": {name: Tensor}, "metadata": {...}})`: pl
 normaliser statistics, Adam moments, random generator states) and a JSON-able metadata dict. The metadata names
 the checkpoint's `kind`, the agent that wrote it (KINDS: "ddpg", "her-ddpg", "executor", "td3" of
 `auv_mj.agents.offpolicy`, "ppo" of `auv_mj.agents.ppo`), and its `format`, the tensor layout of that kind's stack
-(FORMATS). Files are written atomically (`atomic_write`) and read with `torch.load(path, weights_only=True)`.
+(`KINDS[kind]`). Files are written atomically (`atomic_write`) and read with `torch.load(path, weights_only=True)`.
 
 `read_checkpoint(path)` is the one loader: it returns what the file is (`Checkpoint`: its tensors, its metadata
 and `.kind`), checked against its kind's schema before any network is built. The stacks build their agents and
@@ -137,7 +137,7 @@ def checkpoint_kind(meta: Mapping[str, Any], path: str | Path) -> str:
         kind = "ppo"
     else:
         kind = "ddpg" if agent is None else agent
-    if kind not in KINDS or KINDS[kind] != fmt:
+    if not isinstance(kind, str) or kind not in KINDS or KINDS[kind] != fmt:
         raise ValueError(f"checkpoint {path}: kind {shown(kind)} is not one of the {fmt} kinds "
                          f"{[k for k, f in KINDS.items() if f == fmt]}")
     if agent is not None and agent != kind:
