@@ -1,8 +1,11 @@
-"""Learned planning and control of Lyu et al. 2023: DDPG, HER-DDPG and the executor (Sec. 3, Table 4)."""
+"""Learned planning and control: two learning stacks over one checkpoint format.
 
-from auv_mj.agents.ddpg import DDPG, DDPGConfig
-from auv_mj.agents.her import HerReplayBuffer
-from auv_mj.agents.policy import Policy
-from auv_mj.agents.replay import Batch, ReplayBuffer
+- `auv_mj.agents.offpolicy`: DDPG, HER-DDPG and the executor of Lyu et al. 2023 (Sec. 3, Table 4), and TD3;
+- `auv_mj.agents.ppo`: PPO with an optional GRU or LSTM memory, and the planner trained with it;
+- `auv_mj.agents.checkpoint`: the one checkpoint format (atomic, weights-only, tagged with its kind) and its one
+  loader, `read_checkpoint`;
+- `auv_mj.agents.normalizer`: the running input normaliser both stacks use; `auv_mj.agents.baselines`: policies
+  that act on observations alone.
 
-__all__ = ["DDPG", "Batch", "DDPGConfig", "HerReplayBuffer", "Policy", "ReplayBuffer"]
+The shipped checkpoints are in `checkpoints/` beside this file.
+"""

@@ -7,7 +7,7 @@ and the 6-DOF goal3d and tunnel3d draw an episode's arena from its task seed).
 
 - TEST: held-out seeds that figures are reported on (`auv-mj eval --seed 10000`, `auv-mj reproduce`);
 - VALIDATION: seeds that models are chosen on (checkpoints, hyper-parameters), never reported as results;
-- TRAIN: every seed a training run resets its environment with (`auv_mj.agents.train.episode_seed`).
+- TRAIN: every seed a training run resets its environment with (`auv_mj.agents.offpolicy.train.episode_seed`).
 """
 
 from __future__ import annotations

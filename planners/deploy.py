@@ -96,7 +96,7 @@ class Chain:
     @property
     def inserted_inputs(self) -> tuple[int, int] | None:
         """(index, count) of the inputs the guide puts into the observation vector (guide="map-memory"), so that
-        a network trained without them can be widened (`auv_mj.agents.train`, `--init`); None otherwise."""
+        a network trained without them can be widened (`auv_mj.agents.offpolicy.train`, `--init`); None otherwise."""
         return None if self.guide is None else self.guide.inserted_inputs
 
     @property

@@ -19,12 +19,13 @@ import torch
 from gymnasium import spaces
 from gymnasium.wrappers import TimeLimit
 
-from auv_mj.agents.checkpoint import load_agent, read_checkpoint, read_replay
-from auv_mj.agents.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, epsilon_at, soft_update, td_target
-from auv_mj.agents.her import HerReplayBuffer, flatten_goal_obs
-from auv_mj.agents.policy import Policy
-from auv_mj.agents.replay import Batch, ReplayBuffer
-from auv_mj.agents.train import env_spec, episode_seed, train
+from auv_mj.agents.checkpoint import read_checkpoint, read_replay
+from auv_mj.agents.offpolicy import Policy
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, epsilon_at, soft_update, td_target
+from auv_mj.agents.offpolicy.her import HerReplayBuffer, flatten_goal_obs
+from auv_mj.agents.offpolicy.learners import load_agent
+from auv_mj.agents.offpolicy.replay import Batch, ReplayBuffer
+from auv_mj.agents.offpolicy.train import env_spec, episode_seed, train
 from auv_mj.cli.train import task_env_id
 from auv_mj.planners.deploy import deploy_env
 
@@ -281,7 +282,7 @@ def test_ddpg_update_functions_follow_eq_17_to_19():
 def test_zero_actor_head_and_critic_burn_in(agent_name):
     """A zero-headed actor outputs 0 (a residual planner's classical skeleton) and, during `actor_burn_in`
     gradient steps, stays so while the critic learns; after it, the actor moves (Silver et al. 2018)."""
-    from auv_mj.agents.td3 import TD3, TD3Config
+    from auv_mj.agents.offpolicy.td3 import TD3, TD3Config
 
     learner, config = (DDPG, dataclasses.replace(FAST, actor_burn_in=4)) if agent_name == "ddpg" else \
         (TD3, TD3Config(hidden_sizes=(64, 64), actor_burn_in=4))
@@ -318,7 +319,7 @@ def test_a_deployed_policy_is_its_network_in_float64():
     """`Policy` (the shipped executor) computes tanh(W3 tanh(W2 tanh(W1 x_n + b1) + b2) + b3) on the clipped
     standardised input x_n in float64 (numpy's arithmetic here, to 1e-12), rescaled to the action bounds."""
     from auv_mj.agents.checkpoint import read_checkpoint
-    from auv_mj.agents.networks import NORM_CLIP
+    from auv_mj.agents.normalizer import NORM_CLIP
 
     path = Path(__file__).resolve().parents[1] / "agents" / "checkpoints" / "executor.pt"
     policy = Policy.load(path)

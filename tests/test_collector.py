@@ -1,5 +1,5 @@
-"""Training with collector processes (auv_mj.agents.collector): it learns, it is deterministic given the seed and the
-number of collectors, it keeps the update-to-data ratio, and HER stores each collector's episodes whole."""
+"""Training with collector processes (auv_mj.agents.offpolicy.collector): it learns, it is deterministic given the seed
+and the number of collectors, it keeps the update-to-data ratio, and HER stores each collector's episodes whole."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ import torch
 from test_agents import FAST, evaluate, make_env
 
 from auv_mj.agents.checkpoint import read_checkpoint, read_replay
-from auv_mj.agents.collector import LEARNER_SHARE, Collectors, episode_seed
-from auv_mj.agents.ddpg import DDPG, DDPGConfig
-from auv_mj.agents.policy import Policy
-from auv_mj.agents.train import _owed_updates, env_spec, train
+from auv_mj.agents.offpolicy import Policy
+from auv_mj.agents.offpolicy.collector import LEARNER_SHARE, Collectors, episode_seed
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.offpolicy.train import _owed_updates, env_spec, train
 
 
 def _log(run_dir):

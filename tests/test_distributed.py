@@ -135,8 +135,8 @@ def _log(run_dir: Path) -> list[list[str]]:
 
 
 def test_a_two_trial_sweep_trains_like_train_and_resumes(tmp_path, ray_session):
-    from auv_mj.agents.ddpg import DDPGConfig
-    from auv_mj.agents.train import train
+    from auv_mj.agents.offpolicy.ddpg import DDPGConfig
+    from auv_mj.agents.offpolicy.train import train
     from auv_mj.cli import sweep
     from auv_mj.cli.train import make_env_fn
 

@@ -117,9 +117,9 @@ def test_training_speed_ratio_from_peer_logs(tmp_path):
 
 
 def test_eval_gives_an_executor_checkpoint_the_observation_it_was_trained_on(tmp_path):
-    from auv_mj.agents.ddpg import DDPGConfig
-    from auv_mj.agents.policy import Policy
-    from auv_mj.agents.train import train
+    from auv_mj.agents.offpolicy import Policy
+    from auv_mj.agents.offpolicy.ddpg import DDPGConfig
+    from auv_mj.agents.offpolicy.train import train
     from auv_mj.cli.train import make_env_fn, task_env_id
     from auv_mj.tasks.speed_heading import run_executor
 

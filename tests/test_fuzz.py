@@ -30,9 +30,10 @@ from hypothesis import strategies as st
 
 from auv_mj import AUVPhysics, model_path
 from auv_mj import cli as auv_mj_cli
-from auv_mj.agents.checkpoint import load_agent, read_checkpoint, save_checkpoint
-from auv_mj.agents.ddpg import DDPG, DDPGConfig
-from auv_mj.agents.policy import Policy
+from auv_mj.agents.checkpoint import read_checkpoint
+from auv_mj.agents.offpolicy import Policy
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.offpolicy.learners import load_agent, save_agent
 from auv_mj.arenas import arena_check
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import GYM_IDS, MIX_ID, AUVGymEnv
@@ -374,7 +375,7 @@ SPEC = {"act_dim": 2, "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0], "ki
 @pytest.fixture(scope="module")
 def checkpoint_parts(tmp_path_factory):
     path = tmp_path_factory.mktemp("fuzz") / "small.pt"
-    save_checkpoint(path, DDPG(4, 2, DDPGConfig(hidden_sizes=(8, 8))),
+    save_agent(path, DDPG(4, 2, DDPGConfig(hidden_sizes=(8, 8))),
                     {"agent": "ddpg", "spec": SPEC, "replay_file": "replay.npz",
                      "counters": {"env_steps": 0, "episodes": 0}})
     return read_checkpoint(path)

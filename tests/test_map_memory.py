@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 import torch
 
-from auv_mj.agents.networks import Actor, Critic, Normalizer, widen_inputs
+from auv_mj.agents.normalizer import Normalizer
+from auv_mj.agents.offpolicy.networks import Actor, Critic, widen_inputs
 from auv_mj.arenas import grid
 from auv_mj.planners.deploy import deploy_env
 from auv_mj.planners.map_planner import MEMORY_BEAMS, MEMORY_RANGE, MapGuide
@@ -141,8 +142,8 @@ def test_a_widened_network_computes_what_it_did_whatever_the_new_inputs(at):
 def test_init_widens_planner_general_to_the_memory_input_and_it_drives_as_before(tmp_path):
     """`auv-mj train --init planner_general.pt` on guide="map-memory": the run's first checkpoint (no gradient step
     yet) acts as the shipped network, action for action on a cup, where the memory scan is not all 1s."""
-    from auv_mj.agents.ddpg import DDPGConfig
-    from auv_mj.agents.train import train
+    from auv_mj.agents.offpolicy.ddpg import DDPGConfig
+    from auv_mj.agents.offpolicy.train import train
     from auv_mj.zoo.registry import checkpoint_policy
 
     options = {"residual": 1.0, "speed": "fixed", "guide": "map-memory", "protection": "speed-aware"}

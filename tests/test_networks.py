@@ -1,5 +1,5 @@
-"""The gradient steps of auv_mj.agents.ddpg and auv_mj.agents.td3 (autograd's) against the numbers of the hand-written
-code before them and against torch.optim.Adam on plain modules.
+"""The gradient steps of auv_mj.agents.offpolicy.ddpg and auv_mj.agents.offpolicy.td3 (autograd's) against the numbers
+of the hand-written code before them and against torch.optim.Adam on plain modules.
 
 `ParameterVector` moves each network's parameters into one vector and `VectorAdam` is torch.optim.Adam(fused=True)
 on those vectors.
@@ -9,7 +9,7 @@ before the gradient steps went through autograd (they were then the hand-written
 Adam), by the steps the tests below repeat: `reference_steps` (DDPG and TD3 agents of the sizes and seeds
 there, updated on `random_batch` batches of the seeds there, their flat parameters and gradient vectors after
 the first and the third step) and, for the checkpoint, DDPG(6, 2, hidden (16, 16), batch 8, tau 0.05, seed 7)
-after `update_many(random_batch(24, 6, 2, seed=20), 3)`, saved by `save_checkpoint`, loaded by `load_agent`,
+after `update_many(random_batch(24, 6, 2, seed=20), 3)`, saved by `save_agent`, loaded by `load_agent`,
 then `update_many(random_batch(16, 6, 2, seed=21), 2)`: the `resumed_*` arrays.
 """
 
@@ -23,12 +23,13 @@ import numpy as np
 import pytest
 import torch
 
-from auv_mj.agents.checkpoint import FORMAT as CHECKPOINT_FORMAT
-from auv_mj.agents.checkpoint import agent_tensors, load_agent, read_checkpoint, save_checkpoint
-from auv_mj.agents.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, soft_update, td_target
-from auv_mj.agents.networks import Critic, ParameterVector, VectorAdam, mlp
-from auv_mj.agents.replay import Batch
-from auv_mj.agents.td3 import TD3, TD3Config, smoothed_target_action, twin_td_target
+from auv_mj.agents.checkpoint import OFFPOLICY_FORMAT as CHECKPOINT_FORMAT
+from auv_mj.agents.checkpoint import read_checkpoint
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig, actor_loss, critic_loss, soft_update, td_target
+from auv_mj.agents.offpolicy.learners import agent_tensors, load_agent, save_agent
+from auv_mj.agents.offpolicy.networks import Critic, ParameterVector, VectorAdam, mlp
+from auv_mj.agents.offpolicy.replay import Batch
+from auv_mj.agents.offpolicy.td3 import TD3, TD3Config, smoothed_target_action, twin_td_target
 
 torch.set_num_threads(1)
 
@@ -257,7 +258,7 @@ def test_checkpoint_round_trips_the_vectors_and_resumes_their_steps(tmp_path):
     agent = DDPG(6, 2, CONFIG)
     batch = random_batch(32, 6, 2, seed=5)
     agent.update_many(batch, 2)
-    save_checkpoint(tmp_path / "a.pt", agent, {"agent": "ddpg", "spec": {
+    save_agent(tmp_path / "a.pt", agent, {"agent": "ddpg", "spec": {
         "kind": "box", "obs_dim": 6, "act_dim": 2, "obs_shape": [6], "action_low": [-1, -1], "action_high": [1, 1]}})
     loaded, _ = load_agent(tmp_path / "a.pt")
     assert loaded.actor_opt.steps == loaded.critic_opt.steps == 2

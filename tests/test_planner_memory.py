@@ -12,11 +12,12 @@ import torch
 
 from auv_mj import seeds
 from auv_mj.agents import ppo
+from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.cli import main
 from auv_mj.tasks import suite
 from auv_mj.tasks.mixture import PlanningMixtureVectorEnv, mixture_cells
 from auv_mj.tasks.vector import AUVVectorEnv
-from auv_mj.zoo.registry import is_ppo_checkpoint, make_env, make_policy, recurrent_policy
+from auv_mj.zoo.registry import checkpoint_kind, make_env, make_policy, recurrent_policy
 
 SHORT = {"time_limit": 1.0}
 """Episodes of two planner steps, so that autoresets come at once."""
@@ -86,13 +87,13 @@ def _tiny_checkpoint(tmp_path, recurrent):
         head = model.actor_head if recurrent else model.actor[-1]
         head.weight.normal_(0.0, 2.0, generator=torch.Generator().manual_seed(1))
     path = tmp_path / "planner.pt"
-    ppo.save_checkpoint(path, model, None, None, config, spec, {"iteration": 0, "env_steps": 0})
+    ppo.save_ppo(path, model, None, None, config, spec, {"iteration": 0, "env_steps": 0})
     return path
 
 
 def test_registered_policy_resets_its_memory_at_episode_start(tmp_path):
     path = _tiny_checkpoint(tmp_path, "gru")
-    assert is_ppo_checkpoint(path)
+    assert checkpoint_kind(path) == "ppo" and read_checkpoint(path).metadata["kind"] == "ppo"
     name = f"planner-memory={path}"
     env = make_env(name, "obstacles", 20_000, arena="random", tier="hard")
     act = make_policy(name, env, task="obstacles").act
@@ -130,8 +131,8 @@ def test_train_ppo_checkpoints_validates_and_resumes_exactly(tmp_path):
     assert [r["env_steps"] for r in _rows(tmp_path / "a" / "validation.csv")] == ["96", "192"]
     assert _train(tmp_path / "a", 288, "--resume") == 0
     assert _train(tmp_path / "b", 288) == 0
-    resumed, meta, config = ppo.read_checkpoint(tmp_path / "a" / "checkpoint.pt")
-    straight, meta_b, _ = ppo.read_checkpoint(tmp_path / "b" / "checkpoint.pt")
+    (resumed, meta), config = ppo.read_ppo(tmp_path / "a" / "checkpoint.pt")
+    straight = read_checkpoint(tmp_path / "b" / "checkpoint.pt", "ppo").tensors
     assert config.recurrent == "gru" and meta["counters"]["env_steps"] == 288
     for key, value in straight.items():
         if key.startswith("model."):

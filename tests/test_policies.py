@@ -15,8 +15,8 @@ AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 RECORDED = json.loads((ROOT / "tests" / "data" / "policy_outcomes_d7f506e_float64.json").read_text())
 """Outcome and path length of 60-step episodes of each name that existed before the registry, recorded at
 d7f506e (the parallel tables of names) with `runner.run_episode(name, task, seed, {}, 60)`, its `Policy` run in
-float64 as `auv_mj.agents.policy.Policy` is now (the float32 record, `policy_outcomes_d7f506e.json`, holds only on the
-kind of CPU it was made on)."""
+float64 as `auv_mj.agents.offpolicy.Policy` is now (the float32 record, `policy_outcomes_d7f506e.json`, holds only on
+the kind of CPU it was made on)."""
 RENAMED = {"planner-general": "planner-route", "two-layer-general": "two-layer-route"}
 """Names whose policy moved to another name since (issue 30 shipped a new general planner; the old one, on the
 same checkpoint file, is `planner-route`)."""

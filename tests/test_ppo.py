@@ -1,4 +1,4 @@
-"""PPO with memory (agents/ppo.py): GAE, the recurrent state's resets, the loss step, a memory toy, resume.
+"""PPO with memory (agents/ppo/): GAE, the recurrent state's resets, the loss step, a memory toy, resume.
 
 The toy (`CueEnv`) shows a cue c = +-1 at t = 0 and blank observations for DELAY steps; the action at t = DELAY
 earns c * a. A feed-forward policy sees the same blank observation whatever c was, so its best expected return
@@ -34,7 +34,7 @@ from auv_mj.agents.ppo import (
     gru_sequence,
     make_optimizer,
     ppo_loss,
-    read_checkpoint,
+    read_ppo,
     train,
     update,
 )
@@ -259,7 +259,7 @@ def test_the_update_forward_gives_the_rollouts_actions_and_values():
 
 def test_train_runs_rollouts_on_one_thread_the_update_on_torch_threads_and_gives_the_callers_back(monkeypatch,
                                                                                                     tmp_path):
-    from auv_mj.agents import ppo
+    from auv_mj.agents.ppo import ppo  # the module whose loop calls them
 
     seen: dict[str, set[int]] = {"rollout": set(), "update": set()}
     rollout, step = ppo.Collector.rollout, ppo.update
@@ -467,8 +467,8 @@ def test_resumed_run_equals_an_uninterrupted_one(tmp_path):
     resumed = train(CueEnv(4), None, tmp_path / "cut", total_steps=steps, resume=True, progress=False)
     assert (resumed.iterations, resumed.env_steps, resumed.episodes) == (whole.iterations, whole.env_steps,
                                                                         whole.episodes)
-    a, meta_a, _ = read_checkpoint(whole.checkpoint)
-    b, meta_b, _ = read_checkpoint(resumed.checkpoint)
+    (a, meta_a), _ = read_ppo(whole.checkpoint)
+    (b, meta_b), _ = read_ppo(resumed.checkpoint)
     assert sorted(a) == sorted(b) and any(k.startswith("optimizer.") for k in a) and "generator" in a
     for name in a:
         torch.testing.assert_close(a[name], b[name], rtol=0, atol=0, msg=name)

@@ -1,4 +1,4 @@
-"""TD3 (agents/td3.py): twin-critic target, delayed actor, clipped target smoothing, and it learns.
+"""TD3 (agents/offpolicy/td3.py): twin-critic target, delayed actor, clipped target smoothing, and it learns.
 
 The update pieces are checked against hand-built networks whose outputs are known in closed form; the
 learning test is a one-step regression bandit whose optimal policy a*(x) = 0.6 x is known exactly.
@@ -14,12 +14,13 @@ import pytest
 import torch
 from gymnasium import spaces
 
-from auv_mj.agents.checkpoint import load_agent, read_checkpoint
-from auv_mj.agents.ddpg import DDPGConfig
-from auv_mj.agents.policy import Policy
-from auv_mj.agents.replay import Batch
-from auv_mj.agents.td3 import TD3, TD3Config, smoothed_target_action, twin_td_target
-from auv_mj.agents.train import train
+from auv_mj.agents.checkpoint import read_checkpoint
+from auv_mj.agents.offpolicy import Policy
+from auv_mj.agents.offpolicy.ddpg import DDPGConfig
+from auv_mj.agents.offpolicy.learners import load_agent
+from auv_mj.agents.offpolicy.replay import Batch
+from auv_mj.agents.offpolicy.td3 import TD3, TD3Config, smoothed_target_action, twin_td_target
+from auv_mj.agents.offpolicy.train import train
 from auv_mj.cli.train import config_overrides
 
 torch.set_num_threads(1)

@@ -25,10 +25,11 @@ import torch
 import auv_mj  # noqa: F401  (registers the Gymnasium ids)
 from auv_mj import AUVPhysics, inputs, model_path
 from auv_mj import cli as auv_mj_cli
-from auv_mj.agents import policy as policy_module
-from auv_mj.agents.checkpoint import load_agent, read_checkpoint, save_checkpoint
-from auv_mj.agents.ddpg import DDPG, DDPGConfig
-from auv_mj.agents.policy import Policy
+from auv_mj.agents.checkpoint import read_checkpoint
+from auv_mj.agents.offpolicy import Policy
+from auv_mj.agents.offpolicy import policy as policy_module
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.offpolicy.learners import load_agent, save_agent
 from auv_mj.arenas import arena_check, tunnels
 from auv_mj.cli.options import json_object
 from auv_mj.tasks import suite
@@ -263,7 +264,7 @@ SPEC = {"act_dim": 2, "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0], "ki
 def small_checkpoint(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("checkpoint") / "small.pt"
     agent = DDPG(4, 2, DDPGConfig(hidden_sizes=(8, 8)))
-    save_checkpoint(path, agent, {"agent": "ddpg", "spec": SPEC, "replay_file": "replay.npz",
+    save_agent(path, agent, {"agent": "ddpg", "spec": SPEC, "replay_file": "replay.npz",
                                   "counters": {"env_steps": 0, "episodes": 0}})
     return path
 

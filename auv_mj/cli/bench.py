@@ -26,10 +26,10 @@ import torch
 
 import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from auv_mj import model_path, render
-from auv_mj.agents.ddpg import DDPG, DDPGConfig
-from auv_mj.agents.replay import Batch
-from auv_mj.agents.td3 import TD3, TD3Config
-from auv_mj.agents.train import env_spec, train
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig
+from auv_mj.agents.offpolicy.replay import Batch
+from auv_mj.agents.offpolicy.td3 import TD3, TD3Config
+from auv_mj.agents.offpolicy.train import env_spec, train
 from auv_mj.arenas.arena import load
 from auv_mj.cli.options import bounded_int, check_output, seed_int, usage_error
 from auv_mj.cli.train import make_env_fn
@@ -380,7 +380,7 @@ checkpoint cycle of the `planner-memory` run (`--ppo-checkpoint-every 20`). PPO 
 (so that resuming is exact), and on the hard tier a reset draws and certifies an arena; timing a whole cycle weighs
 those resets as training meets them, neither more (a cycle of 4 rollouts would count them 5 times over) nor less.
 The batch alone is timed over the same cycle (`vector_bench.cycle_rate`: the same resets, as many steps, random
-actions), the learner's network and update are the planner's own (`ppo_planner.PLANNER_CONFIG`)."""
+actions), the learner's network and update are the planner's own (`auv_mj.agents.ppo.planner.PLANNER_CONFIG`)."""
 
 
 @section("vector", on_request=True)
@@ -392,7 +392,7 @@ def vector_section(settings: BenchSettings) -> list[Measurement]:
     alone over the same checkpoint cycle."""
     from auv_mj.agents.ppo import reset_seeds
     from auv_mj.agents.ppo import train as train_ppo
-    from auv_mj.agents.ppo_planner import PLANNER_CONFIG
+    from auv_mj.agents.ppo.planner import PLANNER_CONFIG
     from auv_mj.speed.vector import MEMORY_SIZE, cycle_rate, vector_bench
     from auv_mj.tasks.vector import AUVVectorEnv
 

@@ -9,7 +9,7 @@
   the runs of each group with a min-max or standard-deviation band (Fig. 8).
 
 Inputs are `EpisodeRecord`s (or their .npz files, see `auv_mj.episode`), per-step tracking CSVs
-(TRACKING_COLUMNS, as `tracking_csv` writes them) and training logs (`auv_mj.agents.train`'s progress.csv:
+(TRACKING_COLUMNS, as `tracking_csv` writes them) and training logs (`auv_mj.agents.offpolicy.train`'s progress.csv:
 episode, steps, return, success, wall_time, ...). `auv-mj plot trajectory|tracking|learning` wraps them.
 """
 
@@ -44,7 +44,7 @@ TRACKING_COLUMNS = ("step", "time", "speed", "speed_command", "heading", "headin
                     "speed_error", "heading_error", "cross_track_error", "phase")
 """Columns of a per-step tracking CSV (heading in rad; errors = command - measured, heading wrapped)."""
 LEARNING_COLUMNS = ("episode", "return", "success")
-"""Columns a training log must have (auv_mj.agents.train writes episode, steps, length, return, success,
+"""Columns a training log must have (auv_mj.agents.offpolicy.train writes episode, steps, length, return, success,
 wall_time)."""
 RUN_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown")
 LEGEND_BELOW_ASPECT = 0.75

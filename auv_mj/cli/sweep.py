@@ -1,7 +1,7 @@
 """`auv-mj sweep`: training over seeds, agents and a grid of hyper-parameters as Ray Tune trials.
 
-One trial is one `auv_mj.agents.train.train` run, built from the same Gymnasium factory as `auv-mj train`, in its
-own run directory `OUT/<agent>[-<field>=<value>...]-seed<S>` (checkpoints, replay, progress.csv), so
+One trial is one `auv_mj.agents.offpolicy.train.train` run, built from the same Gymnasium factory as `auv-mj train`, in
+its own run directory `OUT/<agent>[-<field>=<value>...]-seed<S>` (checkpoints, replay, progress.csv), so
 `auv-mj reproduce --runs OUT` and `auv-mj plot learning` read a sweep as they read single runs.
 
 A trial that finds a checkpoint in its directory continues it (`train(resume=True)`): a trial Ray retries
@@ -33,8 +33,8 @@ from typing import Any
 import numpy as np
 
 from auv_mj.agents.checkpoint import read_checkpoint
-from auv_mj.agents.ddpg import DDPGConfig
-from auv_mj.agents.train import AGENTS, CHECKPOINT_NAME, LOG_NAME
+from auv_mj.agents.offpolicy.ddpg import DDPGConfig
+from auv_mj.agents.offpolicy.train import AGENTS, CHECKPOINT_NAME, LOG_NAME
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     MAX_RETRIES,
@@ -98,8 +98,8 @@ def check_grid(grid: dict[str, Any]) -> dict[str, list]:
 def run_trial(config: dict[str, Any], *, env_id: str, env_kwargs: dict, base: dict[str, Any], root: str,
               steps: int | None, episodes: int | None, collectors: int, checkpoint_every: int) -> dict[str, Any]:
     """One trial (in a Ray worker): train in ROOT/<trial name>, resuming its checkpoint if there is one."""
-    from auv_mj.agents.checkpoint import agent_classes
-    from auv_mj.agents.train import train
+    from auv_mj.agents.offpolicy.learners import agent_classes
+    from auv_mj.agents.offpolicy.train import train
 
     agent, seed, params = config["agent"], config["seed"], config["params"]
     overrides = {k: tuple(v) if isinstance(v, list) else v for k, v in {**base, **params}.items()}

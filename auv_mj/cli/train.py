@@ -1,4 +1,4 @@
-"""`auv-mj train AGENT --task TASK`: a thin command over `auv_mj.agents.train.train` (the training library).
+"""`auv-mj train AGENT --task TASK`: a thin command over `auv_mj.agents.offpolicy.train.train` (the training library).
 
 It parses the options (every `DDPGConfig` field is one), builds the Gymnasium factory of the task with
 its `--task-kwargs` / `--arena`, and hands both to the library.
@@ -19,12 +19,13 @@ import gymnasium as gym
 import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from auv_mj import zoo
 from auv_mj.agents import ppo
-from auv_mj.agents.checkpoint import agent_classes, config_from_dict, read_checkpoint
-from auv_mj.agents.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
+from auv_mj.agents.checkpoint import read_checkpoint, saved_config
+from auv_mj.agents.offpolicy.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
+from auv_mj.agents.offpolicy.learners import agent_classes
+from auv_mj.agents.offpolicy.td3 import TD3Config
+from auv_mj.agents.offpolicy.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
 from auv_mj.agents.ppo import PPOConfig
-from auv_mj.agents.ppo_planner import MIXTURE_NAME, PLANNER_CONFIG, MixtureConfig, train_planner
-from auv_mj.agents.td3 import TD3Config
-from auv_mj.agents.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
+from auv_mj.agents.ppo.planner import MIXTURE_NAME, PLANNER_CONFIG, MixtureConfig, train_planner
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     bounded_int,
@@ -149,7 +150,7 @@ PPO_TASK = "planning-mix"
 
 def add_ppo_options(parser: argparse.ArgumentParser) -> None:
     """Options of `auv-mj train ppo --task planning-mix`: the mixture, validation, and one `--ppo-FIELD` per
-    PPOConfig field but seed and device (defaults: `auv_mj.agents.ppo_planner.PLANNER_CONFIG`)."""
+    PPOConfig field but seed and device (defaults: `auv_mj.agents.ppo.planner.PLANNER_CONFIG`)."""
     group = parser.add_argument_group("ppo (--task planning-mix: obstacles, moving_obstacles, tunnel on random arenas, "
                                       "both tiers, both waters, training seeds only; validation on the hard tier's "
                                       "validation seeds)")
@@ -194,7 +195,7 @@ def _boolean(text: str) -> bool:
 
 
 def _run_ppo(args: argparse.Namespace) -> int:
-    """`auv-mj train ppo --task planning-mix`: `auv_mj.agents.ppo_planner.train_planner`."""
+    """`auv-mj train ppo --task planning-mix`: `auv_mj.agents.ppo.planner.train_planner`."""
     try:
         if args.task != PPO_TASK:
             raise ValueError(f"agent ppo trains on --task {PPO_TASK} (the batched mixture), got {args.task!r}")
@@ -216,7 +217,7 @@ def _run_ppo(args: argparse.Namespace) -> int:
         if args.resume:
             saved = _read_options(run_dir / MIXTURE_NAME)
             base_mix = MixtureConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in saved.items()})
-            base = ppo.read_checkpoint(run_dir / ppo.CHECKPOINT_NAME)[2]
+            base = ppo.read_ppo(run_dir / ppo.CHECKPOINT_NAME)[1]
         else:
             base_mix, base = MixtureConfig(), PLANNER_CONFIG
             if (run_dir / ppo.CHECKPOINT_NAME).exists():
@@ -312,7 +313,7 @@ def run(args: argparse.Namespace) -> int:
         config_class = agent_classes(args.agent)[1]
         base = config_class()
         if args.resume:
-            base = config_from_dict(read_checkpoint(run_dir / CHECKPOINT_NAME)[1]["config"], run_dir, config_class)
+            base = saved_config(read_checkpoint(run_dir / CHECKPOINT_NAME), run_dir, config_class)
         config = dataclasses.replace(base, **config_overrides(args))
         result = train(env_fn, args.agent, config, total_steps=args.steps, episodes=args.episodes,
                        run_dir=run_dir, resume=args.resume, init=init,

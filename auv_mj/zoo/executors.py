@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.agents.policy import Policy
+from auv_mj.agents.offpolicy import Policy
 from auv_mj.sim.vehicle import actuator_ranges
 from auv_mj.tasks import executors as task_executors
 from auv_mj.tasks.depth_executor import DepthExecutorMemory

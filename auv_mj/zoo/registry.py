@@ -12,7 +12,8 @@ Adding a policy is one entry: `register("my-planner", PolicySpec("what it is", b
 module imported by it.
 
 Besides the names:
-- a checkpoint path runs that trained `auv_mj.agents.policy.Policy`, with the protection domain it trained with;
+- a checkpoint path runs that trained policy (by its kind: `auv_mj.agents.offpolicy.Policy` with the protection domain
+  it trained with, or `auv_mj.agents.ppo.PPOPolicy` with its memory);
 - `NAME=PATH` runs the checkpoint PATH in place of the shipped one, for a spec with `accepts_path` (`planner`,
   `planner-raw`, `two-layer`), to compare or choose candidates on validation seeds;
 - `RESOLVERS` turn other forms of name into specs (e.g. a module's factory, `MODULE:FACTORY`).
@@ -37,8 +38,7 @@ import torch
 
 from auv_mj.agents.baselines import uniform_random
 from auv_mj.agents.checkpoint import read_checkpoint
-from auv_mj.agents.policy import Policy
-from auv_mj.agents.ppo import FORMAT as PPO_FORMAT
+from auv_mj.agents.offpolicy import Policy
 from auv_mj.agents.ppo import PPOPolicy
 from auv_mj.control.depth_heading import OCEAN_DEPTH_GAINS
 from auv_mj.episode import FunctionPlanner, Planner, as_planner
@@ -88,6 +88,18 @@ from auv_mj.zoo.spec import (
 @lru_cache(maxsize=16)
 def _loaded(path: str, mtime_ns: int, size: int) -> Policy:
     return Policy.load(path)
+
+
+@lru_cache(maxsize=16)
+def _checkpoint_kind(path: str, mtime_ns: int, size: int) -> str:
+    return read_checkpoint(path).kind
+
+
+def checkpoint_kind(path: Path) -> str:
+    """The kind of checkpoint `path` (`auv_mj.agents.checkpoint.KINDS`: "ppo" or an off-policy agent), read once
+    per version of the file in a process; what a checkpoint builds is dispatched on it."""
+    stat = Path(path).stat()
+    return _checkpoint_kind(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
 
 
 def loaded_policy(path: Path) -> Policy:
@@ -146,7 +158,10 @@ def checkpoint_policy(path: Path, env, protection: bool | str | None = None, gui
 
 
 def _from_checkpoint(deployment: Deployment) -> Planner:
-    """A learned spec's build: its checkpoint under its protection domain."""
+    """A learned spec's build: its checkpoint under its protection domain; a PPO one (a checkpoint path given as
+    the name) with its memory, as `planner-memory` runs."""
+    if checkpoint_kind(deployment.checkpoint) == "ppo":
+        return recurrent_policy(deployment.checkpoint, deployment.env)
     return checkpoint_policy(deployment.checkpoint, deployment.env, deployment.spec.protection)
 
 
@@ -253,17 +268,6 @@ register("planner-map", PolicySpec(
 @lru_cache(maxsize=8)
 def _loaded_ppo(path: str, mtime_ns: int, size: int) -> PPOPolicy:
     return PPOPolicy.load(path)
-
-
-def is_ppo_checkpoint(path: Path) -> bool:
-    """Whether `path` is a PPO checkpoint (`auv_mj.agents.ppo`), whose planners read the task's default
-    observation."""
-    try:
-        payload = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception:  # not a readable checkpoint: the DDPG reader says why
-        return False
-    return isinstance(payload, dict) and isinstance(payload.get("metadata"), dict) \
-        and payload["metadata"].get("format") == PPO_FORMAT
 
 
 def recurrent_policy(path: Path, env, protection: str | None = None) -> Planner:
@@ -438,8 +442,9 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     elif spec.default_executor is not None and planning:
         task_kwargs["executor"] = named_executor(spec.default_executor, three_d)
     checkpoint = _checkpoint_of(spec, path, task_name)
-    if checkpoint is not None and "observation" not in task_kwargs and not is_ppo_checkpoint(checkpoint):
-        meta = read_checkpoint(checkpoint)[1]
+    if checkpoint is not None and "observation" not in task_kwargs and checkpoint_kind(checkpoint) != "ppo":
+        # an off-policy checkpoint gets the observation it was trained on; a PPO one reads the task's default
+        meta = read_checkpoint(checkpoint).metadata
         if not planning:  # the executor's observation (residual, gains, base) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})
             options = depth_executor_options if three_d else executor_options

@@ -21,8 +21,10 @@ import numpy as np
 import torch
 from torch import nn
 
-from auv_mj.agents.networks import Actor, Critic, Normalizer, ParameterVector, VectorAdam
-from auv_mj.agents.replay import Batch
+from auv_mj.agents.checkpoint import check_hidden_sizes
+from auv_mj.agents.normalizer import Normalizer
+from auv_mj.agents.offpolicy.networks import Actor, Critic, ParameterVector, VectorAdam
+from auv_mj.agents.offpolicy.replay import Batch
 from auv_mj.inputs import shown
 
 EPSILON_UNITS = ("steps", "episodes")
@@ -90,10 +92,6 @@ class DDPGConfig:
         check_config(self)
 
 
-MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH = 8, 8192
-"""Deepest and widest hidden layers a config may ask for."""
-
-
 def check_numeric_fields(config) -> None:
     """ValueError naming the first `bounded` field of `config` of the wrong type or out of its range."""
     for f in fields(config):
@@ -115,12 +113,9 @@ def check_config(config: DDPGConfig) -> None:
     check_numeric_fields(config)
     if config.epsilon_unit not in EPSILON_UNITS:
         raise ValueError(f"DDPGConfig.epsilon_unit must be one of {EPSILON_UNITS}, got {shown(config.epsilon_unit)}")
-    sizes = config.hidden_sizes
-    if not (isinstance(sizes, tuple) and 1 <= len(sizes) <= MAX_HIDDEN_LAYERS
-            and all(isinstance(w, (int, np.integer)) and not isinstance(w, bool) and 1 <= w <= MAX_HIDDEN_WIDTH
-                    for w in sizes)):
-        raise ValueError(f"DDPGConfig.hidden_sizes must be 1 to {MAX_HIDDEN_LAYERS} whole numbers in "
-                         f"[1, {MAX_HIDDEN_WIDTH}], got {shown(sizes)}")
+    if not isinstance(config.hidden_sizes, tuple):
+        raise ValueError(f"{type(config).__name__}.hidden_sizes must be a tuple, got {shown(config.hidden_sizes)}")
+    check_hidden_sizes(config.hidden_sizes, type(config).__name__)  # the bounds a checkpoint is read with
     if not isinstance(config.device, str):
         raise ValueError(f"DDPGConfig.device must be a torch device name like 'cpu' or 'cuda', "
                          f"got {shown(config.device)}")
@@ -203,7 +198,7 @@ class DDPG:
         self.critic = Critic(obs_dim, act_dim, config.hidden_sizes).to(self.device)
         self.actor_target = copy.deepcopy(self.actor).requires_grad_(False)
         self.critic_target = copy.deepcopy(self.critic).requires_grad_(False)
-        # Each network's parameters in one vector (`auv_mj.agents.networks`), so that Adam and the soft target
+        # Each network's parameters in one vector (`auv_mj.agents.offpolicy.networks`), so that Adam and the soft target
         # updates take one call per network; backward passes fill the vectors' gradients.
         self.vectors = {name: ParameterVector(getattr(self, name))
                         for name in ("actor", "critic", "actor_target", "critic_target")}

@@ -7,14 +7,14 @@ collect an episode, learn from the buffer every `train_every` steps, log the epi
 Goal tasks (dict observations with observation / achieved_goal / desired_goal) train `her-ddpg` with a
 `HerReplayBuffer`, or `ddpg` on the flat [observation, desired_goal] without relabelling; Box tasks train
 `ddpg`, `executor` (the execution layer of Sec. 3.3) or `td3` (DDPG with TD3's twin critics, delayed actor
-and target smoothing, `auv_mj.agents.td3`; on either kind of task, as `ddpg`). Every `train_every` env steps the agent
-does round(train_every * updates_per_step) gradient steps on one batched sample. Episodes end on
+and target smoothing, `auv_mj.agents.offpolicy.td3`; on either kind of task, as `ddpg`). Every `train_every` env
+steps the agent does round(train_every * updates_per_step) gradient steps on one batched sample. Episodes end on
 `terminated` (goal, collision: no bootstrap) or `truncated` (time limit: bootstrap).
 
 `collectors=N` (N >= 1) uses more cores: the environments are stepped, and the actor learnt, in N collector
 processes while this process learns the critic (and, with one collector, steps a share of the environment
-steps itself), in lock-step rounds (`auv_mj.agents.collector`); a run is then deterministic given its seed and N,
-and the update-to-data ratio is the serial one.
+steps itself), in lock-step rounds (`auv_mj.agents.offpolicy.collector`); a run is then deterministic given its
+seed and N, and the update-to-data ratio is the serial one.
 
 A run directory holds `checkpoint.pt` (atomic, see auv_mj.agents.checkpoint), `replay-<steps>.npz`,
 `progress.csv` (one row per episode), `config.json` and TensorBoard scalars in `tb/`. `resume=True`
@@ -41,25 +41,16 @@ import numpy as np
 import torch
 from gymnasium import spaces
 
-from auv_mj.agents.checkpoint import (
-    AGENT_CLASSES,
-    agent_classes,
-    config_to_dict,
-    load_agent,
-    read_replay,
-    save_checkpoint,
-    save_replay,
-)
-from auv_mj.agents.collector import CATCH_UP, Collectors, env_action, episode_seed, flat_observation
-from auv_mj.agents.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
-from auv_mj.agents.her import HerReplayBuffer
-from auv_mj.agents.networks import widen_inputs
-from auv_mj.agents.replay import Batch, ReplayBuffer
+from auv_mj.agents.checkpoint import config_to_dict, read_replay, save_replay
+from auv_mj.agents.offpolicy.collector import CATCH_UP, Collectors, env_action, episode_seed, flat_observation
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
+from auv_mj.agents.offpolicy.her import HerReplayBuffer
+from auv_mj.agents.offpolicy.learners import AGENTS, agent_classes, load_agent, save_agent
+from auv_mj.agents.offpolicy.networks import widen_inputs
+from auv_mj.agents.offpolicy.replay import Batch, ReplayBuffer
 from auv_mj.console import progress_bar
 from auv_mj.goals import GOAL_KEYS
 
-AGENTS = tuple(AGENT_CLASSES)
-"""Agent names of `auv-mj train AGENT`: her-ddpg needs a goal task, executor a Box task; td3 takes either."""
 CHECKPOINT_NAME = "checkpoint.pt"
 LOG_NAME = "progress.csv"
 LOG_FIELDS = ("episode", "steps", "length", "return", "success", "wall_time")
@@ -158,7 +149,7 @@ def _make_buffer(agent_name: str, spec: dict[str, Any], env: gym.Env,
 def _initialise_from(agent: DDPG, path: Path, spec: dict[str, Any]) -> None:
     """Copies the networks and the observation normaliser of checkpoint `path` into `agent`; a checkpoint
     trained without the inputs that the env's guide inserts (`inserted_inputs`) is widened to them
-    (`auv_mj.agents.networks.widen_inputs`)."""
+    (`auv_mj.agents.offpolicy.networks.widen_inputs`)."""
     source, meta = load_agent(path, device=agent.config.device)
     saved_spec = {k: v for k, v in meta["spec"].items() if k != "env_id"}
     ours = {k: v for k, v in spec.items() if k != "env_id"}
@@ -408,8 +399,8 @@ def _critic_round(run: _Run, n_updates: int) -> tuple[Any, torch.Tensor | None]:
 
 def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env], count: int,
                            total_steps: int | None, episodes: int | None, checkpoint_every: int, bar: Any) -> None:
-    """The lock-step rounds of `auv_mj.agents.collector`: `count` collector processes (and this one, for its share)
-    step their environments, and collector 0 learns the actor, while this process learns the critic.
+    """The lock-step rounds of `auv_mj.agents.offpolicy.collector`: `count` collector processes (and this one, for its
+    share) step their environments, and collector 0 learns the actor, while this process learns the critic.
 
     The rounds are pipelined so that neither side waits on the other's bookkeeping: while round k is
     stepped, this process does the critic steps owed by round k - 1 and samples the batch of round k + 1
@@ -524,9 +515,9 @@ def _save(run: _Run) -> None:
     replay_name = f"replay-{steps:012d}.npz"
     save_replay(run.run_dir / replay_name, run.buffer.state_dict())
     counts = {**run.counters, "wall_time": run.wall_time()}
-    save_checkpoint(run.run_dir / CHECKPOINT_NAME, run.agent, {"agent": run.agent_name, "spec": run.spec,
-                                                              "replay_file": replay_name, "counters": counts,
-                                                              "run_info": run.run_info})
+    save_agent(run.run_dir / CHECKPOINT_NAME, run.agent, {"agent": run.agent_name, "spec": run.spec,
+                                                         "replay_file": replay_name, "counters": counts,
+                                                         "run_info": run.run_info})
     for old in run.run_dir.glob("replay-*.npz"):
         if old.name != replay_name:
             old.unlink()
@@ -561,7 +552,7 @@ def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | N
     Checkpoints every `checkpoint_every` episodes and at the end (also on Ctrl-C). `run_info` (JSON-able:
     the task and its options, say) is kept in every checkpoint's metadata; a resumed run keeps its own.
     `collectors` >= 1 steps that many environments in collector processes while this process learns
-    (`auv_mj.agents.collector`: deterministic given the seed and the count, but not the serial run); `env_fn`
+    (`auv_mj.agents.offpolicy.collector`: deterministic given the seed and the count, but not the serial run); `env_fn`
     must then pickle.
     """
     for name, value, least in (("total_steps", total_steps, 0), ("episodes", episodes, 0),

@@ -1,22 +1,22 @@
 """Proximal Policy Optimisation (Schulman et al. 2017) with an optional GRU or LSTM memory, on Gymnasium vector envs.
 
-The file reads top to bottom as CleanRL's `ppo_continuous_action.py` and `ppo_atari_lstm.py` do: a frozen config,
-the actor-critic, the rollout, GAE, the clipped losses, the update, the training loop and a deployable policy.
-Every step of the update is a function that tests call.
+This file reads top to bottom as CleanRL's `ppo_continuous_action.py` and `ppo_atari_lstm.py` do: a frozen config,
+the actor-critic, the rollout, GAE, the clipped losses, the update, the checkpoint and the training loop. Every step
+of the update is a function that tests call. Beside it: `spaces` (what the networks see of the env's spaces),
+`gru` (the update's GRU), `policy` (the deployable `PPOPolicy`) and `planner` (the planner trained with it).
 
 - Actions: a Gaussian with a state-independent log std, in a normalised action space whose [-1, 1] is the env's
   Box; the sampled action is clipped to [-1, 1] and rescaled to the Box only when it is sent to the env, and the
   loss uses the unclipped sample (as CleanRL's `ClipAction`). The deployable policy takes the clipped mean.
-- Observations: a Box (flattened), or a goal Dict whose `observation` and `desired_goal` are concatenated in
-  that order (OBS_KEYS; `achieved_goal` is not an input). A running mean/std normaliser (`auv_mj.agents.networks.
-  Normalizer`, in every checkpoint) standardises them; it is updated from each rollout after the update, so a
-  rollout is replayed with the statistics it was collected with (the first ratio of an update is 1, to float
-  rounding).
+- Observations: a Box, or a goal Dict's `observation` and `desired_goal` (`auv_mj.agents.ppo.spaces`). A running
+  mean/std normaliser (`auv_mj.agents.normalizer.Normalizer`, in every checkpoint) standardises them; it is updated
+  from each rollout after the update, so a rollout is replayed with the statistics it was collected with (the
+  first ratio of an update is 1, to float rounding).
 - Memory (`recurrent="gru"` or `"lstm"`): an MLP encoder, one GRU/LSTM cell, then linear policy and value heads.
   The state is carried across a rollout and zeroed before the first observation of each episode (`starts`);
   minibatches are whole environments, and the update re-runs each sequence from the rollout's initial state
   with the same `starts`. A rollout steps `nn.GRUCell`; the update runs the same GRU over the whole sequence
-  with its backward pass written out (`gru_sequence`), 2.2x faster on a CPU than autograd through the cell.
+  with its backward pass written out (`auv_mj.agents.ppo.gru.gru_sequence`).
 - Episode ends and autoreset (Gymnasium >= 1.0, `gymnasium.vector.AutoresetMode`): `env.metadata
   ["autoreset_mode"]`, NEXT_STEP when absent (the default of SyncVectorEnv and AsyncVectorEnv).
   NEXT_STEP: the step that ends an episode returns its final observation; the next `step` resets that env and
@@ -26,7 +26,7 @@ Every step of the update is a function that tests call.
   `info["final_obs"]`; V(final observation) is computed from the episode's memory for truncated envs.
   DISABLED is refused. GAE bootstraps truncations (time limits) from V(final observation) and not
   terminations, through a separate `next_values` array (`gae`).
-- Checkpoints (`checkpoint.pt`, atomic, `torch.load(weights_only=True)`) fall every `checkpoint_every` rollouts
+- Checkpoints (`checkpoint.pt`, kind "ppo" of `auv_mj.agents.checkpoint`) fall every `checkpoint_every` rollouts
   and at the end of a `train` call. At every multiple of `checkpoint_every`, and at the start of each `train`
   call, the envs are reset with seeds derived from (seed, rollout index) (`auv_mj.seeds.train_seed`): env
   states cannot be saved, so no run carries one past a periodic checkpoint, and a run resumed from one (after a
@@ -48,23 +48,30 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import torch
-from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from torch import nn
 
-from auv_mj.agents.checkpoint import atomic_write, config_from_dict, config_to_dict, load_module, read_payload
-from auv_mj.agents.networks import Normalizer
+from auv_mj.agents.checkpoint import (
+    Checkpoint,
+    config_to_dict,
+    load_module,
+    load_optimizer,
+    module_tensors,
+    optimizer_tensors,
+    read_checkpoint,
+    save_checkpoint,
+    saved_config,
+)
+from auv_mj.agents.normalizer import Normalizer
+from auv_mj.agents.ppo.gru import gru_sequence
+from auv_mj.agents.ppo.spaces import autoreset_mode, env_action, env_spec, final_observation, flatten_obs
 from auv_mj.console import progress_bar
 from auv_mj.seeds import train_seed
 
-FORMAT = "auv-mj-ppo/1"
-"""Format tag in every PPO checkpoint's metadata."""
 CHECKPOINT_NAME = "checkpoint.pt"
 LOG_NAME = "progress.csv"
 LOG_FIELDS = ("iteration", "env_steps", "episodes", "mean_return", "policy_loss", "value_loss", "entropy",
               "approx_kl", "clip_fraction", "explained_variance", "samples_per_s")
-OBS_KEYS = ("observation", "desired_goal")
-"""The keys of a goal Dict observation that form the network input, concatenated in this order."""
 RECURRENT_KINDS = (None, "gru", "lstm")
 ACTOR_OUT_GAIN, CRITIC_OUT_GAIN, HIDDEN_GAIN = 0.01, 1.0, math.sqrt(2.0)
 """Orthogonal initialisation gains of the policy head, value head and hidden layers (Huang et al. 2022, "The 37
@@ -125,107 +132,38 @@ class PPOConfig:
     torch thread, spinning between operations, slowed a 2-core batch's steps by a quarter)."""
 
     def __post_init__(self):
-        positive_ints = ("num_steps", "num_minibatches", "update_epochs", "recurrent_size", "checkpoint_every",
-                         "torch_threads")
-        for name in positive_ints:
-            value = getattr(self, name)
-            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
-                raise ValueError(f"PPOConfig.{name} must be a whole number >= 1, got {value!r}")
-        for name in ("learning_rate", "adam_eps", "clip_coef", "max_grad_norm"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 < value < math.inf):
-                raise ValueError(f"PPOConfig.{name} must be a finite number > 0, got {value!r}")
-        for name in ("gamma", "gae_lambda"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 <= value <= 1):
-                raise ValueError(f"PPOConfig.{name} must be in [0, 1], got {value!r}")
-        for name in ("ent_coef", "vf_coef"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0 <= value < math.inf):
-                raise ValueError(f"PPOConfig.{name} must be a finite number >= 0, got {value!r}")
-        if self.target_kl is not None and not (isinstance(self.target_kl, (int, float)) and self.target_kl > 0):
-            raise ValueError(f"PPOConfig.target_kl must be None or a number > 0, got {self.target_kl!r}")
-        if not (isinstance(self.hidden_sizes, tuple)
-                and all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in self.hidden_sizes)):
-            raise ValueError(f"PPOConfig.hidden_sizes must be a tuple of whole numbers >= 1, got {self.hidden_sizes!r}")
-        if self.recurrent not in RECURRENT_KINDS:
-            raise ValueError(f"PPOConfig.recurrent must be one of {RECURRENT_KINDS}, got {self.recurrent!r}")
-        if not (isinstance(self.init_log_std, (int, float)) and -20 <= self.init_log_std <= 2):
-            raise ValueError(f"PPOConfig.init_log_std must be in [-20, 2], got {self.init_log_std!r}")
-        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
-            raise ValueError(f"PPOConfig.seed must be a whole number >= 0, got {self.seed!r}")
-        for name in ("clip_vloss", "norm_adv", "norm_obs"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"PPOConfig.{name} must be True or False, got {getattr(self, name)!r}")
-        if not isinstance(self.device, str) or not self.device:
-            raise ValueError(f"PPOConfig.device must be a torch device name, got {self.device!r}")
+        for names, valid, what in _CONFIG_CHECKS:
+            for name in names:
+                value = getattr(self, name)
+                if not valid(value):
+                    raise ValueError(f"PPOConfig.{name} must be {what}, got {value!r}")
 
 
-# ---------------------------------------------------------------------------------------------------------------------
-# Spaces
+def _whole(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
 
 
-def env_spec(observation_space: spaces.Space, action_space: spaces.Space) -> dict[str, Any]:
-    """The JSON-able description of one env's spaces that a network and a checkpoint need; ValueError for spaces
-    PPO here cannot take (not a Box or goal Dict observation, not a bounded Box action)."""
-    if isinstance(observation_space, spaces.Dict):
-        missing = [k for k in OBS_KEYS if k not in observation_space.spaces]
-        if missing or not all(isinstance(observation_space[k], spaces.Box) for k in OBS_KEYS):
-            raise ValueError(f"a Dict observation space needs Box entries {OBS_KEYS}, got {observation_space}")
-        parts = [int(np.prod(observation_space[k].shape)) for k in OBS_KEYS]
-        spec: dict[str, Any] = {"kind": "goal", "obs_keys": list(OBS_KEYS), "obs_parts": parts,
-                                "obs_shape": [sum(parts)]}
-    elif isinstance(observation_space, spaces.Box):
-        spec = {"kind": "box", "obs_shape": list(observation_space.shape)}
-    else:
-        raise ValueError(f"observation space must be a Box or a goal Dict, got {type(observation_space).__name__}")
-    if not isinstance(action_space, spaces.Box):
-        raise ValueError(f"action space must be a Box (continuous actions), got {type(action_space).__name__}")
-    low, high = action_space.low.reshape(-1), action_space.high.reshape(-1)
-    if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low < high)):
-        raise ValueError(f"action space bounds must be finite with low < high, got {action_space}")
-    spec.update(obs_dim=int(np.prod(spec["obs_shape"])), act_dim=int(low.size), act_shape=list(action_space.shape),
-                action_low=low.astype(float).tolist(), action_high=high.astype(float).tolist())
-    if spec["obs_dim"] < 1:
-        raise ValueError(f"observation space has no entries: {observation_space}")
-    return spec
+def _number(value: Any) -> bool:
+    return isinstance(value, (int, float))
 
 
-def flatten_obs(obs: np.ndarray | Mapping[str, np.ndarray], spec: Mapping[str, Any]) -> np.ndarray:
-    """The network input of an observation or a batch (leading dims kept): a Box flattened, a goal Dict's
-    OBS_KEYS flattened and concatenated."""
-    if spec["kind"] == "goal":
-        if not isinstance(obs, Mapping):
-            raise ValueError(f"a goal policy takes a dict observation with keys {OBS_KEYS}, got {type(obs).__name__}")
-        arrays = [np.asarray(obs[k], np.float32) for k in spec["obs_keys"]]
-        lead = arrays[0].shape[:-1] if arrays[0].ndim else ()
-        flat = np.concatenate([a.reshape(*lead, -1) for a in arrays], axis=-1)
-    else:
-        arr = np.asarray(obs, np.float32)
-        flat = arr.reshape(*arr.shape[: arr.ndim - len(spec["obs_shape"])], -1)
-    if flat.shape[-1] != spec["obs_dim"]:
-        raise ValueError(f"observation of size {flat.shape[-1]}, the policy expects {spec['obs_dim']}")
-    return flat
-
-
-def env_action(action: np.ndarray, spec: Mapping[str, Any]) -> np.ndarray:
-    """A normalised action (..., act_dim), clipped to [-1, 1] and rescaled to the env's Box."""
-    low, high = np.asarray(spec["action_low"]), np.asarray(spec["action_high"])
-    a = np.clip(action, -1.0, 1.0)
-    return low + (a + 1.0) * 0.5 * (high - low)
-
-
-def autoreset_mode(env: VectorEnv) -> AutoresetMode:
-    """The env's autoreset mode from `env.metadata["autoreset_mode"]` (NEXT_STEP, Gymnasium's default, when
-    absent); ValueError for DISABLED or an unknown value."""
-    mode = (getattr(env, "metadata", None) or {}).get("autoreset_mode", AutoresetMode.NEXT_STEP)
-    try:
-        mode = mode if isinstance(mode, AutoresetMode) else AutoresetMode(mode)
-    except ValueError:
-        raise ValueError(f"unknown autoreset_mode {mode!r} in the env's metadata") from None
-    if mode == AutoresetMode.DISABLED:
-        raise ValueError("autoreset_mode DISABLED is not supported: PPO needs an autoresetting vector env")
-    return mode
+_CONFIG_CHECKS: tuple[tuple[tuple[str, ...], Callable[[Any], bool], str], ...] = (
+    (("num_steps", "num_minibatches", "update_epochs", "recurrent_size", "checkpoint_every", "torch_threads"),
+     lambda v: _whole(v) and v >= 1, "a whole number >= 1"),
+    (("learning_rate", "adam_eps", "clip_coef", "max_grad_norm"), lambda v: _number(v) and 0 < v < math.inf,
+     "a finite number > 0"),
+    (("gamma", "gae_lambda"), lambda v: _number(v) and 0 <= v <= 1, "in [0, 1]"),
+    (("ent_coef", "vf_coef"), lambda v: _number(v) and 0 <= v < math.inf, "a finite number >= 0"),
+    (("target_kl",), lambda v: v is None or (_number(v) and v > 0), "None or a number > 0"),
+    (("hidden_sizes",), lambda v: isinstance(v, tuple) and all(_whole(n) and n >= 1 for n in v),
+     "a tuple of whole numbers >= 1"),
+    (("recurrent",), lambda v: v in RECURRENT_KINDS, f"one of {RECURRENT_KINDS}"),
+    (("init_log_std",), lambda v: _number(v) and -20 <= v <= 2, "in [-20, 2]"),
+    (("seed",), lambda v: _whole(v) and v >= 0, "a whole number >= 0"),
+    (("clip_vloss", "norm_adv", "norm_obs"), lambda v: isinstance(v, bool), "True or False"),
+    (("device",), lambda v: isinstance(v, str) and bool(v), "a torch device name"),
+)
+"""PPOConfig's fields, checked in this order: (names, the test each value passes, what it must be)."""
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -247,75 +185,6 @@ def _tanh_mlp(n_in: int, hidden_sizes: Sequence[int], n_out: int | None = None, 
     if n_out is not None:
         layers.append(_linear(n_in, n_out, out_gain))
     return nn.Sequential(*layers)
-
-
-class _GRUSequence(torch.autograd.Function):
-    """A GRU cell run over a whole sequence, with the backward pass through time written out (not taped).
-
-    The same recurrence as `nn.GRUCell` (Cho et al. 2014, as torch writes it), with the state zeroed where keep is 0:
-        h'_t = keep_t h_{t-1},   g_t = W_hh h'_t + b_hh,   [r, z] = sigmoid(gi_t[:2H] + g_t[:2H]),
-        n_t = tanh(gi_t[2H:] + r g_t[2H:]),   h_t = (h'_t - n_t) z + n_t,
-    where gi_t = W_ih x_t + b_ih is computed for every step at once outside (one matrix product). The forward
-    keeps each step's gates; the backward runs the recurrence in reverse with six or seven tensor operations a step
-    and forms dW_hh and db_hh in one product over all steps. Autograd through T `GRUCell` calls records some twenty
-    nodes a step, and on a CPU those per-node costs, not the arithmetic, were most of a recurrent PPO update (twice
-    as slow at 128 units). Checked against `nn.GRUCell` under autograd in tests/test_ppo.py.
-    """
-
-    @staticmethod
-    def forward(ctx, gi: torch.Tensor, keep: torch.Tensor, h0: torch.Tensor, w_hh: torch.Tensor,
-                b_hh: torch.Tensor) -> torch.Tensor:
-        T, B, H = gi.shape[0], gi.shape[1], h0.shape[-1]
-        outputs, diffs, n_all = (gi.new_empty(T, B, H) for _ in range(3))
-        gates, hidden = gi.new_empty(T, B, 2 * H), gi.new_empty(T, B, 3 * H)
-        zeroed = (keep == 0).flatten(1).any(1).tolist()  # steps where some env's state is zeroed
-        w_t, h = w_hh.t().contiguous(), h0  # a contiguous W_hh^T: its products are a third faster than the view's
-        steps = zip(zeroed, gi[..., : 2 * H].unbind(0), gi[..., 2 * H:].unbind(0), keep.unbind(0),
-                    outputs.unbind(0), diffs.unbind(0), n_all.unbind(0), gates.unbind(0), hidden.unbind(0),
-                    strict=True)
-        for any_zeroed, gi_rz, gi_n, keep_t, out, diff, n, rz, gh in steps:
-            hp = h * keep_t if any_zeroed else h
-            torch.addmm(b_hh, hp, w_t, out=gh)
-            torch.add(gh[:, : 2 * H], gi_rz, out=rz).sigmoid_()
-            torch.addcmul(gi_n, gh[:, 2 * H:], rz[:, :H], out=n).tanh_()
-            h = torch.addcmul(n, torch.sub(hp, n, out=diff), rz[:, H:], out=out)
-        kept = torch.cat((h0[None], outputs[:-1])) * keep  # h'_t for every step
-        z = gates[..., H:]
-        # d[r, z] = [dn g_n, dh (h' - n)] sigmoid'; dn = dh (1 - z) tanh'
-        gate_coef = torch.cat((hidden[..., 2 * H:], diffs), -1).mul_(gates * (1.0 - gates))
-        ctx.zeroed = zeroed
-        ctx.save_for_backward(keep, w_hh, kept, gates, gate_coef, (1.0 - z) * (1.0 - n_all * n_all))
-        return outputs
-
-    @staticmethod
-    def backward(ctx, d_outputs: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
-        keep, w_hh, kept, gates, gate_coef, dn_coef = ctx.saved_tensors
-        T, B, H = kept.shape
-        d_hidden = d_outputs.new_empty(T, B, 3 * H)  # d g_t = d [r, z] (through the sigmoids), d g_t[2H:]
-        carried = d_outputs.new_empty(T, B, 2 * H)  # [dn_t, dh_t]
-        dh = d_outputs.new_zeros(B, H)
-        for t in reversed(range(T)):
-            dg, rz, dn_dh = d_hidden[t], gates[t], carried[t]
-            dh = torch.add(dh, d_outputs[t], out=dn_dh[:, H:])
-            dn = torch.mul(dh, dn_coef[t], out=dn_dh[:, :H])
-            torch.mul(dn_dh, gate_coef[t], out=dg[:, : 2 * H])
-            torch.mul(dn, rz[:, :H], out=dg[:, 2 * H:])
-            dh = torch.addmm(dh * rz[:, H:], dg, w_hh)
-            if ctx.zeroed[t]:
-                dh = dh * keep[t]
-        d_gi = torch.cat((d_hidden[..., : 2 * H], carried[..., :H]), -1) if ctx.needs_input_grad[0] else None
-        flat = d_hidden.reshape(-1, 3 * H)
-        d_w = flat.t() @ kept.reshape(-1, H) if ctx.needs_input_grad[3] else None
-        d_b = flat.sum(0) if ctx.needs_input_grad[4] else None
-        return d_gi, None, dh if ctx.needs_input_grad[2] else None, d_w, d_b
-
-
-def gru_sequence(cell: nn.GRUCell, inputs: torch.Tensor, starts: torch.Tensor, state: torch.Tensor) -> torch.Tensor:
-    """The GRU cell's states (T, B, H) over inputs (T, B, F), from state (B, H), zeroed before each step where
-    starts is 1: what T calls of `cell(inputs[t], state * (1 - starts[t]))` give, differentiated by `_GRUSequence`."""
-    gi = nn.functional.linear(inputs, cell.weight_ih, cell.bias_ih)
-    keep = (1.0 - starts).unsqueeze(-1)
-    return _GRUSequence.apply(gi, keep, state, cell.weight_hh, cell.bias_hh)
 
 
 class ActorCritic(nn.Module):
@@ -394,7 +263,130 @@ class ActorCritic(nn.Module):
 
 
 # ---------------------------------------------------------------------------------------------------------------------
-# GAE and the losses
+# The rollout
+
+
+@dataclasses.dataclass
+class Rollout:
+    """num_steps x num_envs transitions, (T, N, ...) tensors, with the memory before the first."""
+
+    obs: torch.Tensor
+    starts: torch.Tensor
+    valid: torch.Tensor
+    actions: torch.Tensor
+    logprobs: torch.Tensor
+    values: torch.Tensor
+    rewards: torch.Tensor
+    terminations: torch.Tensor
+    truncations: torch.Tensor
+    next_values: torch.Tensor
+    """V(s_{t+1}) of the same episode (`gae`)."""
+    initial_state: torch.Tensor
+
+    def advantages(self, config: PPOConfig) -> tuple[torch.Tensor, torch.Tensor]:
+        """GAE (advantages, returns), zero on the steps that are not in the loss."""
+        adv, ret = gae(self.rewards, self.values, self.terminations, self.truncations, self.next_values,
+                       config.gamma, config.gae_lambda)
+        return adv * self.valid, ret * self.valid
+
+
+class Collector:
+    """Steps a vector env with the policy, carrying each env's memory and its episode bookkeeping."""
+
+    def __init__(self, env: VectorEnv, model: ActorCritic, spec: Mapping[str, Any], config: PPOConfig,
+                 generator: torch.Generator):
+        self.env, self.model, self.spec, self.config, self.generator = env, model, spec, config, generator
+        self.mode = autoreset_mode(env)
+        self.num_envs = int(env.num_envs)
+        self.device = torch.device(config.device)
+        self.obs: np.ndarray | None = None
+        self.state = model.initial_state(self.num_envs)
+        self.starts = np.ones(self.num_envs, bool)
+        self.pending_reset = np.zeros(self.num_envs, bool)
+        """NEXT_STEP: envs whose last step ended an episode; their next step is a reset, not a transition."""
+        self.episode_returns = np.zeros(self.num_envs)
+        self.episode_lengths = np.zeros(self.num_envs, int)
+        self.finished: list[tuple[float, int]] = []
+        """(return, length) of the episodes ended since the last `take_finished`."""
+
+    def reset(self, seeds: list[int]) -> None:
+        """Resets every env (new episodes, zero memory)."""
+        obs, _ = self.env.reset(seed=seeds)
+        self.obs = flatten_obs(obs, self.spec)
+        self.state = self.model.initial_state(self.num_envs)
+        self.starts[:] = True
+        self.pending_reset[:] = False
+        self.episode_returns[:] = 0.0
+        self.episode_lengths[:] = 0
+
+    def _tensor(self, x: np.ndarray, dtype: torch.dtype = torch.float32) -> torch.Tensor:
+        return torch.as_tensor(x, dtype=dtype, device=self.device)
+
+    @torch.no_grad()
+    def rollout(self, num_steps: int) -> Rollout:
+        """num_steps steps of every env; the observations are also added to the normaliser's pending stats."""
+        T, N, model = num_steps, self.num_envs, self.model
+        f32 = {"dtype": torch.float32, "device": self.device}
+        obs_buf = torch.zeros(T, N, self.spec["obs_dim"], **f32)
+        actions = torch.zeros(T, N, self.spec["act_dim"], **f32)
+        starts, valid, logprobs, values, rewards, terms, truncs, next_values = (
+            torch.zeros(T, N, **f32) for _ in range(8))
+        initial_state = self.state.clone()
+        act_shape = (N, *self.spec["act_shape"])
+        for t in range(T):
+            obs = self._tensor(self.obs)
+            obs_buf[t], starts[t] = obs, self._tensor(self.starts)
+            valid[t] = self._tensor(~self.pending_reset)
+            mean, value, self.state = model(obs[None], starts[t][None], self.state)
+            dist = model.distribution(mean[0])
+            noise = torch.randn(mean.shape[1:], generator=self.generator, device=self.generator.device)
+            action = mean[0] + dist.stddev * noise.to(self.device)
+            actions[t], logprobs[t], values[t] = action, dist.log_prob(action).sum(-1), value[0]
+            sent = env_action(action.cpu().numpy(), self.spec).reshape(act_shape)
+            next_obs, reward, term, trunc, info = self.env.step(sent.astype(self.env.single_action_space.dtype))
+            reward, term, trunc = (np.asarray(reward, np.float64), np.asarray(term, bool), np.asarray(trunc, bool))
+            rewards[t], terms[t], truncs[t] = self._tensor(reward), self._tensor(term), self._tensor(trunc)
+            ended = term | trunc
+            was_transition = ~self.pending_reset
+            self.episode_returns += np.where(was_transition, reward, 0.0)
+            self.episode_lengths += was_transition
+            for i in np.flatnonzero(ended & was_transition):
+                self.finished.append((float(self.episode_returns[i]), int(self.episode_lengths[i])))
+            self.episode_returns[ended] = 0.0
+            self.episode_lengths[ended] = 0
+            if self.mode == AutoresetMode.SAME_STEP:
+                bootstrap = trunc & ~term
+                if bootstrap.any():
+                    final = np.stack([flatten_obs(final_observation(info, i), self.spec) if bootstrap[i]
+                                      else self.obs[i] for i in range(N)])
+                    # V(final observation) continues the episode's memory, so no start here
+                    _, final_value, _ = model(self._tensor(final)[None], torch.zeros(1, N, **f32), self.state)
+                    next_values[t] = torch.where(self._tensor(bootstrap).bool(), final_value[0], next_values[t])
+                self.starts = ended
+            else:
+                # NEXT_STEP: an env that just ended shows its final observation now and resets at its next step
+                self.starts = self.pending_reset.copy()
+                self.pending_reset = ended
+            self.obs = flatten_obs(next_obs, self.spec)
+        _, last_value, _ = model(self._tensor(self.obs)[None], self._tensor(self.starts)[None], self.state)
+        following = torch.cat([values[1:], last_value], dim=0)
+        if self.mode == AutoresetMode.SAME_STEP:
+            next_values = torch.where(truncs.bool() & ~terms.bool(), next_values, following)
+        else:
+            next_values = following
+        if self.config.norm_obs:
+            model.obs_norm.update(obs_buf.reshape(-1, self.spec["obs_dim"]).cpu().numpy())
+        return Rollout(obs_buf, starts, valid, actions, logprobs, values, rewards, terms, truncs, next_values,
+                       initial_state)
+
+    def take_finished(self) -> list[tuple[float, int]]:
+        """The (return, length) of the episodes finished since the last call."""
+        out, self.finished = self.finished, []
+        return out
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# GAE and the clipped losses
 
 
 def gae(rewards: torch.Tensor, values: torch.Tensor, terminations: torch.Tensor, truncations: torch.Tensor,
@@ -483,31 +475,7 @@ def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig) -> tuple[t
 
 
 # ---------------------------------------------------------------------------------------------------------------------
-# Rollouts and the update
-
-
-@dataclasses.dataclass
-class Rollout:
-    """num_steps x num_envs transitions, (T, N, ...) tensors, with the memory before the first."""
-
-    obs: torch.Tensor
-    starts: torch.Tensor
-    valid: torch.Tensor
-    actions: torch.Tensor
-    logprobs: torch.Tensor
-    values: torch.Tensor
-    rewards: torch.Tensor
-    terminations: torch.Tensor
-    truncations: torch.Tensor
-    next_values: torch.Tensor
-    """V(s_{t+1}) of the same episode (`gae`)."""
-    initial_state: torch.Tensor
-
-    def advantages(self, config: PPOConfig) -> tuple[torch.Tensor, torch.Tensor]:
-        """GAE (advantages, returns), zero on the steps that are not in the loss."""
-        adv, ret = gae(self.rewards, self.values, self.terminations, self.truncations, self.next_values,
-                       config.gamma, config.gae_lambda)
-        return adv * self.valid, ret * self.valid
+# The update
 
 
 def minibatches(rollout: Rollout, advantages: torch.Tensor, returns: torch.Tensor, config: PPOConfig,
@@ -564,113 +532,8 @@ def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollou
     return out
 
 
-class Collector:
-    """Steps a vector env with the policy, carrying each env's memory and its episode bookkeeping."""
-
-    def __init__(self, env: VectorEnv, model: ActorCritic, spec: Mapping[str, Any], config: PPOConfig,
-                 generator: torch.Generator):
-        self.env, self.model, self.spec, self.config, self.generator = env, model, spec, config, generator
-        self.mode = autoreset_mode(env)
-        self.num_envs = int(env.num_envs)
-        self.device = torch.device(config.device)
-        self.obs: np.ndarray | None = None
-        self.state = model.initial_state(self.num_envs)
-        self.starts = np.ones(self.num_envs, bool)
-        self.pending_reset = np.zeros(self.num_envs, bool)
-        """NEXT_STEP: envs whose last step ended an episode; their next step is a reset, not a transition."""
-        self.episode_returns = np.zeros(self.num_envs)
-        self.episode_lengths = np.zeros(self.num_envs, int)
-        self.finished: list[tuple[float, int]] = []
-        """(return, length) of the episodes ended since the last `take_finished`."""
-
-    def reset(self, seeds: list[int]) -> None:
-        """Resets every env (new episodes, zero memory)."""
-        obs, _ = self.env.reset(seed=seeds)
-        self.obs = flatten_obs(obs, self.spec)
-        self.state = self.model.initial_state(self.num_envs)
-        self.starts[:] = True
-        self.pending_reset[:] = False
-        self.episode_returns[:] = 0.0
-        self.episode_lengths[:] = 0
-
-    def _tensor(self, x: np.ndarray, dtype: torch.dtype = torch.float32) -> torch.Tensor:
-        return torch.as_tensor(x, dtype=dtype, device=self.device)
-
-    @torch.no_grad()
-    def rollout(self, num_steps: int) -> Rollout:
-        """num_steps steps of every env; the observations are also added to the normaliser's pending stats."""
-        T, N, model = num_steps, self.num_envs, self.model
-        f32 = {"dtype": torch.float32, "device": self.device}
-        obs_buf = torch.zeros(T, N, self.spec["obs_dim"], **f32)
-        actions = torch.zeros(T, N, self.spec["act_dim"], **f32)
-        starts, valid, logprobs, values, rewards, terms, truncs, next_values = (
-            torch.zeros(T, N, **f32) for _ in range(8))
-        initial_state = self.state.clone()
-        act_shape = (N, *self.spec["act_shape"])
-        for t in range(T):
-            obs = self._tensor(self.obs)
-            obs_buf[t], starts[t] = obs, self._tensor(self.starts)
-            valid[t] = self._tensor(~self.pending_reset)
-            mean, value, self.state = model(obs[None], starts[t][None], self.state)
-            dist = model.distribution(mean[0])
-            noise = torch.randn(mean.shape[1:], generator=self.generator, device=self.generator.device)
-            action = mean[0] + dist.stddev * noise.to(self.device)
-            actions[t], logprobs[t], values[t] = action, dist.log_prob(action).sum(-1), value[0]
-            sent = env_action(action.cpu().numpy(), self.spec).reshape(act_shape)
-            next_obs, reward, term, trunc, info = self.env.step(sent.astype(self.env.single_action_space.dtype))
-            reward, term, trunc = (np.asarray(reward, np.float64), np.asarray(term, bool), np.asarray(trunc, bool))
-            rewards[t], terms[t], truncs[t] = self._tensor(reward), self._tensor(term), self._tensor(trunc)
-            ended = term | trunc
-            was_transition = ~self.pending_reset
-            self.episode_returns += np.where(was_transition, reward, 0.0)
-            self.episode_lengths += was_transition
-            for i in np.flatnonzero(ended & was_transition):
-                self.finished.append((float(self.episode_returns[i]), int(self.episode_lengths[i])))
-            self.episode_returns[ended] = 0.0
-            self.episode_lengths[ended] = 0
-            if self.mode == AutoresetMode.SAME_STEP:
-                bootstrap = trunc & ~term
-                if bootstrap.any():
-                    final = np.stack([flatten_obs(_final_observation(info, i), self.spec) if bootstrap[i]
-                                      else self.obs[i] for i in range(N)])
-                    # V(final observation) continues the episode's memory, so no start here
-                    _, final_value, _ = model(self._tensor(final)[None], torch.zeros(1, N, **f32), self.state)
-                    next_values[t] = torch.where(self._tensor(bootstrap).bool(), final_value[0], next_values[t])
-                self.starts = ended
-            else:
-                # NEXT_STEP: an env that just ended shows its final observation now and resets at its next step
-                self.starts = self.pending_reset.copy()
-                self.pending_reset = ended
-            self.obs = flatten_obs(next_obs, self.spec)
-        _, last_value, _ = model(self._tensor(self.obs)[None], self._tensor(self.starts)[None], self.state)
-        following = torch.cat([values[1:], last_value], dim=0)
-        if self.mode == AutoresetMode.SAME_STEP:
-            next_values = torch.where(truncs.bool() & ~terms.bool(), next_values, following)
-        else:
-            next_values = following
-        if self.config.norm_obs:
-            model.obs_norm.update(obs_buf.reshape(-1, self.spec["obs_dim"]).cpu().numpy())
-        return Rollout(obs_buf, starts, valid, actions, logprobs, values, rewards, terms, truncs, next_values,
-                       initial_state)
-
-    def take_finished(self) -> list[tuple[float, int]]:
-        """The (return, length) of the episodes finished since the last call."""
-        out, self.finished = self.finished, []
-        return out
-
-
-def _final_observation(info: Mapping[str, Any], i: int) -> Any:
-    """Env i's final observation from a SAME_STEP info dict (an object array, or a dict of arrays for Dict spaces)."""
-    if "final_obs" not in info:
-        raise ValueError("a SAME_STEP vector env must return info['final_obs'] for the envs that ended")
-    final = info["final_obs"]
-    if isinstance(final, Mapping):
-        return {k: v[i] for k, v in final.items()}
-    return final[i]
-
-
 # ---------------------------------------------------------------------------------------------------------------------
-# Checkpoints
+# Building, saving and loading a run
 
 
 def _generator(config: PPOConfig) -> torch.Generator:
@@ -692,38 +555,25 @@ def make_optimizer(model: ActorCritic, config: PPOConfig) -> torch.optim.Adam:
     return torch.optim.Adam(model.parameters(), lr=config.learning_rate, eps=config.adam_eps)
 
 
-def save_checkpoint(path: str | Path, model: ActorCritic, optimizer: torch.optim.Optimizer | None,
-                    generator: torch.Generator | None, config: PPOConfig, spec: Mapping[str, Any],
-                    counters: Mapping[str, Any]) -> None:
-    """Atomically writes the model (normaliser included), Adam's moments and the RNG with JSON-able metadata."""
-    tensors = {f"model.{k}": v.detach().cpu().clone() for k, v in model.state_dict().items()}
+def save_ppo(path: str | Path, model: ActorCritic, optimizer: torch.optim.Optimizer | None,
+             generator: torch.Generator | None, config: PPOConfig, spec: Mapping[str, Any],
+             counters: Mapping[str, Any]) -> None:
+    """Atomically writes a checkpoint of kind "ppo": the model (normaliser included), Adam's moments and the
+    generator (either None for a deployable file), with the config, the spaces and the counters."""
+    tensors = module_tensors(model, "model")
     if optimizer is not None:
-        for index, state in optimizer.state_dict()["state"].items():
-            for name, value in state.items():
-                tensors[f"optimizer.{index}.{name}"] = torch.as_tensor(value).detach().cpu().clone()
+        tensors.update(optimizer_tensors(optimizer, "optimizer"))
     if generator is not None:
         tensors["generator"] = generator.get_state().cpu()
-    meta = {"format": FORMAT, "agent": "ppo", "config": config_to_dict(config), "spec": dict(spec),
-            "counters": dict(counters)}
-    payload = {"tensors": tensors, "metadata": meta}
-    atomic_write(path, lambda f: torch.save(payload, f))
+    save_checkpoint(path, "ppo", tensors, {"agent": "ppo", "config": config_to_dict(config), "spec": dict(spec),
+                                           "counters": dict(counters)})
 
 
-def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any], PPOConfig]:
-    """(tensors, metadata, config) of a PPO checkpoint; ValueError naming the file if it is unreadable or foreign."""
-    path = Path(path)
-    tensors, meta = read_payload(path, FORMAT, "PPO")
-    config = config_from_dict(meta.get("config"), f"checkpoint {path}: config", PPOConfig)
-    spec = meta.get("spec")
-    if not (isinstance(spec, Mapping) and isinstance(spec.get("obs_dim"), int) and isinstance(spec.get("act_dim"), int)
-            and 1 <= spec["obs_dim"] <= 10**6 and 1 <= spec["act_dim"] <= 10**4):
-        raise ValueError(f"checkpoint {path}: its metadata has no valid 'spec' (obs_dim, act_dim)")
-    for name, value in tensors.items():
-        if not isinstance(value, torch.Tensor):
-            raise ValueError(f"checkpoint {path}: entry {name!r:.60} is not a tensor")
-        if value.is_floating_point() and not bool(torch.isfinite(value).all()):
-            raise ValueError(f"checkpoint {path}: tensor {name} holds NaN or infinite values")
-    return tensors, meta, config
+def read_ppo(path: str | Path) -> tuple[Checkpoint, PPOConfig]:
+    """A checkpoint of kind "ppo" (`auv_mj.agents.checkpoint.read_checkpoint`) and its config; ValueError naming
+    the file if it is unreadable, of another kind or its config is not a PPOConfig."""
+    checkpoint = read_checkpoint(path, "ppo")
+    return checkpoint, saved_config(checkpoint, path, PPOConfig)
 
 
 def load_model(path: str | Path, tensors: Mapping[str, torch.Tensor], spec: Mapping[str, Any],
@@ -734,24 +584,8 @@ def load_model(path: str | Path, tensors: Mapping[str, torch.Tensor], spec: Mapp
     return model.to(config.device)
 
 
-def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: Mapping[str, torch.Tensor], path: Path) -> None:
-    state: dict[int, dict[str, torch.Tensor]] = {}
-    for key, value in tensors.items():
-        if key.startswith("optimizer."):
-            index, _, name = key[len("optimizer."):].partition(".")
-            if not (index.isdigit() and name):
-                raise ValueError(f"checkpoint {path}: tensor {key!r:.80} is not an optimiser state entry")
-            state.setdefault(int(index), {})[name] = value
-    full = optimizer.state_dict()
-    full["state"] = state
-    try:
-        optimizer.load_state_dict(full)
-    except (RuntimeError, ValueError, KeyError) as exc:
-        raise ValueError(f"checkpoint {path}: its optimiser state does not fit: {' '.join(str(exc).split())}") from None
-
-
 # ---------------------------------------------------------------------------------------------------------------------
-# Training
+# The training loop
 
 
 @dataclasses.dataclass
@@ -811,7 +645,7 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
         spec = env_spec(vec_env.single_observation_space, vec_env.single_action_space)
         autoreset_mode(vec_env)
         if resume:
-            tensors, meta, saved = read_checkpoint(ckpt_path)
+            (tensors, meta), saved = read_ppo(ckpt_path)
             if config is not None and config != saved:
                 raise ValueError(f"checkpoint {ckpt_path} was trained with {saved}, not {config}")
             config = saved
@@ -834,7 +668,7 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
         if resume:
             model = load_model(ckpt_path, tensors, spec, config)
             optimizer = make_optimizer(model, config)
-            _load_optimizer(optimizer, tensors, ckpt_path)
+            load_optimizer(optimizer, tensors, "optimizer", ckpt_path)
             if "generator" in tensors:
                 generator.set_state(tensors["generator"])
         else:
@@ -909,7 +743,7 @@ def _train_loop(vec_env: VectorEnv, model: ActorCritic, optimizer: torch.optim.O
             bar.set_postfix(ret=f"{mean_return:.3g}", sps=f"{sps:.0f}")
             if counters["iteration"] % config.checkpoint_every == 0 or counters["iteration"] == iterations:
                 counters["wall_time"] = wall_before + time.perf_counter() - started
-                save_checkpoint(run_dir / CHECKPOINT_NAME, model, optimizer, generator, config, spec, counters)
+                save_ppo(run_dir / CHECKPOINT_NAME, model, optimizer, generator, config, spec, counters)
     finally:
         bar.close()
         log_file.close()
@@ -919,48 +753,3 @@ def _train_loop(vec_env: VectorEnv, model: ActorCritic, optimizer: torch.optim.O
                      counters["episodes"], mean_return)
 
 
-# ---------------------------------------------------------------------------------------------------------------------
-# The deployable policy
-
-
-class PPOPolicy:
-    """A trained PPO policy as a deterministic controller: observation -> the clipped mean action in the env's Box.
-
-    Runs in float64 (as `auv_mj.agents.policy.Policy`, so that a closed loop does not depend on the CPU's float32
-    kernels) and carries the memory from call to call; `reset()` before each episode. It takes one observation
-    (a Box array or goal dict) or a batch of them with a leading env dimension; the memory is sized on the first
-    call after a reset.
-    """
-
-    def __init__(self, model: ActorCritic, spec: Mapping[str, Any], device: str = "cpu"):
-        self.model = model.to(device).double().eval()
-        self.spec = dict(spec)
-        self.device = torch.device(device)
-        self.state: torch.Tensor | None = None
-
-    @classmethod
-    def load(cls, path: str | Path, device: str = "cpu") -> PPOPolicy:
-        """The policy of PPO checkpoint `path`; ValueError naming the file if it is unusable."""
-        tensors, meta, config = read_checkpoint(path)
-        model = load_model(path, tensors, meta["spec"], dataclasses.replace(config, device="cpu"))
-        return cls(model, meta["spec"], device)
-
-    def reset(self) -> None:
-        """Forgets the memory: the next call starts an episode."""
-        self.state = None
-
-    @torch.no_grad()
-    def __call__(self, obs: np.ndarray | Mapping[str, np.ndarray]) -> np.ndarray:
-        """The action for `obs`, continuing the episode since the last reset."""
-        flat = flatten_obs(obs, self.spec)
-        single = flat.ndim == 1
-        x = torch.as_tensor(np.asarray(flat, np.float64).reshape(-1, self.spec["obs_dim"]), device=self.device)
-        starts = torch.zeros(1, x.shape[0], dtype=torch.float64, device=self.device)
-        if self.state is None:
-            self.state = self.model.initial_state(x.shape[0])
-        elif self.state.shape[0] != x.shape[0]:
-            raise ValueError(f"a batch of {x.shape[0]} observations, the policy's memory holds {self.state.shape[0]} "
-                             "envs: reset() before changing the batch size")
-        mean, _, self.state = self.model(x[None], starts, self.state)
-        action = env_action(mean[0].cpu().numpy(), self.spec).reshape(-1, *self.spec["act_shape"])
-        return action[0] if single else action

@@ -27,8 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from auv_mj.agents import ppo
 from auv_mj.agents.checkpoint import config_to_dict
+from auv_mj.agents.ppo import ppo
+from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.seeds import VALIDATION
 from auv_mj.tasks.mixture import MIXTURE_TASKS, TIERS, WATERS, PlanningMixtureVectorEnv
 from auv_mj.tasks.vector import AUVVectorEnv
@@ -71,7 +72,7 @@ class MixtureConfig:
                                         threads=threads)
 
 
-def validate(policy: ppo.PPOPolicy, episodes: int, tasks: Sequence[str] = MIXTURE_TASKS, tier: str = "hard",
+def validate(policy: PPOPolicy, episodes: int, tasks: Sequence[str] = MIXTURE_TASKS, tier: str = "hard",
              waters: Sequence[str] = WATERS, first_seed: int = VALIDATION_FIRST_SEED,
              threads: int | None = None, max_steps: int | None = None) -> dict[str, float]:
     """Success rate of the deterministic `policy` on `episodes` VALIDATION-seed episodes of each (task, water)
@@ -123,7 +124,7 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
         saved = json.loads(mixture_path.read_text())
         if saved != config_to_dict(mixture):
             raise ValueError(f"{mixture_path}: the run was trained on {saved}, not {config_to_dict(mixture)}")
-        _, meta, saved_config = ppo.read_checkpoint(run_dir / ppo.CHECKPOINT_NAME)
+        (_, meta), saved_config = ppo.read_ppo(run_dir / ppo.CHECKPOINT_NAME)
         config = saved_config if config is None else config
         done_steps = int(meta["counters"]["env_steps"])
     else:
@@ -155,11 +156,11 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
         result = ppo.train(lambda: mixture.make_env(threads), config, run_dir, goal, resume=steps > 0,
                            progress=progress, tensorboard=tensorboard)
         steps = result.env_steps
-        _, meta, _ = ppo.read_checkpoint(result.checkpoint)
+        meta = ppo.read_ppo(result.checkpoint)[0].metadata
         snapshot = snapshots / f"steps_{steps}.pt"
         shutil.copyfile(result.checkpoint, snapshot)
         started = time.perf_counter()
-        rates = validate(ppo.PPOPolicy.load(snapshot), validation_episodes, mixture.tasks, threads=threads,
+        rates = validate(PPOPolicy.load(snapshot), validation_episodes, mixture.tasks, threads=threads,
                          max_steps=validation_max_steps)
         row = {"env_steps": steps, "train_wall_s": round(float(meta["counters"]["wall_time"]), 1),
                "hard_success": round(float(np.mean(list(rates.values()))), 4), **rates}

@@ -23,7 +23,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from auv_mj.agents.replay import Batch, rng_from_array, rng_state_to_array
+from auv_mj.agents.offpolicy.replay import Batch, rng_from_array, rng_state_to_array
 
 GoalFn = Callable[[np.ndarray, np.ndarray, dict[str, np.ndarray]], np.ndarray]
 """Signature of the env's vectorised compute_reward / compute_terminated(achieved, desired, info)."""

@@ -9,9 +9,11 @@ from typing import Any
 import numpy as np
 import torch
 
-from auv_mj.agents.checkpoint import load_module, read_checkpoint
-from auv_mj.agents.her import policy_input
-from auv_mj.agents.networks import Actor, Normalizer
+from auv_mj.agents.checkpoint import load_module, read_checkpoint, saved_config
+from auv_mj.agents.normalizer import Normalizer
+from auv_mj.agents.offpolicy.her import policy_input
+from auv_mj.agents.offpolicy.learners import AGENTS, agent_classes
+from auv_mj.agents.offpolicy.networks import Actor
 
 
 class Policy:
@@ -39,9 +41,11 @@ class Policy:
     def load(cls, path: str | Path, device: str = "cpu") -> Policy:
         """The policy saved in checkpoint `path`; ValueError naming the file if it is unusable."""
         path = Path(path)
-        tensors, meta = read_checkpoint(path)
+        checkpoint = read_checkpoint(path, AGENTS)
+        tensors, meta = checkpoint
+        config = saved_config(checkpoint, path, agent_classes(checkpoint.kind)[1])
         obs_dim, act_dim = int(meta["obs_dim"]), int(meta["act_dim"])
-        actor = Actor(obs_dim, act_dim, tuple(meta["config"]["hidden_sizes"]))
+        actor = Actor(obs_dim, act_dim, config.hidden_sizes)
         obs_norm = Normalizer(obs_dim)
         for prefix, module in (("actor", actor), ("obs_norm", obs_norm)):
             load_module(module, tensors, prefix, path)

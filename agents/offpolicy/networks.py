@@ -1,11 +1,8 @@
-"""Actor and critic MLPs of Sec. 4 (two tanh hidden layers of 256) and a running input normaliser.
+"""Actor and critic MLPs of Sec. 4 (two tanh hidden layers of 256); their input normaliser is
+`auv_mj.agents.normalizer.Normalizer`, shared with PPO.
 
-The normaliser follows the HER paper (Andrychowicz et al. 2017): inputs are standardised with running
-statistics and clipped to [-NORM_CLIP, NORM_CLIP]; its statistics are module buffers, so they travel
-with every checkpoint.
-
-The gradient steps of `auv_mj.agents.ddpg` and `auv_mj.agents.td3` are autograd's: their losses are code and
-`loss.backward()` gives the gradients. Each network's parameters live in one `ParameterVector`, so that
+The gradient steps of `auv_mj.agents.offpolicy.ddpg` and `auv_mj.agents.offpolicy.td3` are autograd's: their losses
+are code and `loss.backward()` gives the gradients. Each network's parameters live in one `ParameterVector`, so that
 `VectorAdam` (torch.optim.Adam(fused=True) on the vectors) and the soft target updates (Eq. 19) take one call
 per network: at Table 4's sizes on a CPU, Adam on the six tensors of a network costs about three times its step
 on one vector. The backward passes written out by hand that these steps used before (`DensePass`, until issue
@@ -18,14 +15,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-import numpy as np
 import torch
 from torch import nn
-
-NORM_CLIP = 5.0
-"""Standardised inputs are clipped to +-NORM_CLIP (HER paper)."""
-NORM_MIN_STD = 1e-2
-"""Lower bound on the running standard deviation, so constant inputs do not blow up (HER paper)."""
 
 
 def mlp(in_dim: int, hidden_sizes: Sequence[int], out_dim: int) -> nn.Sequential:
@@ -36,60 +27,6 @@ def mlp(in_dim: int, hidden_sizes: Sequence[int], out_dim: int) -> nn.Sequential
         in_dim = width
     layers.append(nn.Linear(in_dim, out_dim))
     return nn.Sequential(*layers)
-
-
-class Normalizer(nn.Module):
-    """Running mean/std standardisation of network inputs, clipped to +-NORM_CLIP.
-
-    `update` only accumulates numpy sums on the host (cheap, once per environment step); `sync`
-    folds them into the buffers used by `forward`, once per round of gradient steps.
-    """
-
-    def __init__(self, size: int, clip: float = NORM_CLIP, min_std: float = NORM_MIN_STD):
-        super().__init__()
-        self.size, self.clip, self.min_std = size, clip, min_std
-        self.register_buffer("count", torch.zeros((), dtype=torch.float64))
-        self.register_buffer("sum", torch.zeros(size, dtype=torch.float64))
-        self.register_buffer("sumsq", torch.zeros(size, dtype=torch.float64))
-        self.register_buffer("mean", torch.zeros(size))
-        self.register_buffer("std", torch.ones(size))
-        self._pending = [0.0, np.zeros(size), np.zeros(size)]
-
-    def update(self, x: np.ndarray) -> None:
-        """Accumulates one input (size,) or a batch (n, size); takes effect at the next `sync`."""
-        x = np.asarray(x, dtype=np.float64).reshape(-1, self.size)
-        self._pending[0] += x.shape[0]
-        self._pending[1] += x.sum(axis=0)
-        self._pending[2] += np.square(x).sum(axis=0)
-
-    @torch.no_grad()
-    def sync(self) -> None:
-        """Folds pending statistics into mean and std."""
-        count, total, total_sq = self._pending
-        if count == 0:
-            return
-        self.count += count
-        self.sum += torch.as_tensor(total, device=self.sum.device)
-        self.sumsq += torch.as_tensor(total_sq, device=self.sumsq.device)
-        mean = self.sum / self.count
-        var = (self.sumsq / self.count - mean.square()).clamp_min(self.min_std**2)
-        self.mean.copy_(mean)
-        self.std.copy_(var.sqrt())
-        self._pending = [0.0, np.zeros(self.size), np.zeros(self.size)]
-
-    def pending_state(self) -> dict[str, torch.Tensor]:
-        """Statistics accumulated since the last `sync`, as CPU tensors (so a resumed run syncs alike)."""
-        count, total, total_sq = self._pending
-        return {"count": torch.tensor(count, dtype=torch.float64), "sum": torch.from_numpy(total.copy()),
-                "sumsq": torch.from_numpy(total_sq.copy())}
-
-    def load_pending_state(self, state: dict[str, torch.Tensor]) -> None:
-        """Restores what `pending_state` returned."""
-        self._pending = [float(state["count"]), state["sum"].double().numpy().copy(),
-                         state["sumsq"].double().numpy().copy()]
-
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return ((x - self.mean) / self.std).clamp(-self.clip, self.clip)
 
 
 class Actor(nn.Module):
@@ -189,7 +126,7 @@ class VectorAdam(torch.optim.Adam):
     Its state dict has the per-parameter layout of torch.optim.Adam on the modules' own parameters (a state
     per parameter, in order, none before the first step), so checkpoints read and write as they did before
     the parameters moved into vectors. The state exists from the start (zero moments, step 0), so that the
-    collectors (`auv_mj.agents.collector`) can copy it through shared memory before the first step.
+    collectors (`auv_mj.agents.offpolicy.collector`) can copy it through shared memory before the first step.
     """
 
     def __init__(self, vectors: Sequence[ParameterVector], lr: float, betas: tuple[float, float] = (0.9, 0.999),

@@ -1,6 +1,6 @@
 """Environments stepped, and the actor learnt, in collector processes while the learner learns the critic.
 
-`auv_mj.agents.train.train(..., collectors=N)` uses the second core (and more) in lock-step rounds of
+`auv_mj.agents.offpolicy.train.train(..., collectors=N)` uses the second core (and more) in lock-step rounds of
 train_every * N env steps. In a round the collector processes step their own environments with the actor
 and normaliser of the round's start (exploring as `DDPG.act`), and with one collector the learner steps a
 share of the round in an environment of its own too (`LEARNER_SHARE`); collector 0 then does the round's
@@ -19,7 +19,7 @@ TD targets use an actor target up to one round old, the actor collects with weig
 round's batch comes from the transitions of the rounds before the one before it, and exploration draws
 come from a stream per (seed, stream, round). The update-to-data ratio is the serial one:
 round(train_every * updates_per_step) gradient steps per train_every env steps, with the steps owed before
-anything could be sampled taken later, as the serial loop does (`auv_mj.agents.train._learn`).
+anything could be sampled taken later, as the serial loop does (`auv_mj.agents.offpolicy.train._learn`).
 
 This module sees environments only through the factory it is given (`env_fn`, picklable: it is sent to the
 collector processes), never a task.
@@ -35,8 +35,8 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from auv_mj.agents.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
-from auv_mj.agents.her import policy_input
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig, epsilon_at, updates_per_round
+from auv_mj.agents.offpolicy.her import policy_input
 from auv_mj.seeds import train_seed
 
 LEARNER_SHARE: dict[int, float] = {1: 0.375}
@@ -47,8 +47,8 @@ learner also stores and samples, so without a share of its own the learner waits
 about a third of each round. A fixed fraction (not one set by timing) keeps a run deterministic. With
 more collectors than spare cores, the learner steps none."""
 CATCH_UP = 2
-"""A round takes at most this many times its own gradient steps: `auv_mj.agents.train` catches up on steps owed
-while nothing could be sampled yet. The batch slot of `shared_layout` is sized for it."""
+"""A round takes at most this many times its own gradient steps: `auv_mj.agents.offpolicy.train` catches up on steps
+owed while nothing could be sampled yet. The batch slot of `shared_layout` is sized for it."""
 ROUND_STREAM = 2
 """Tag of the per-round exploration streams in SeedSequence([seed, ROUND_STREAM, collector, env steps])."""
 
@@ -61,7 +61,7 @@ def episode_seed(seed: int, episode: int) -> int:
 
 def flat_observation(spec: dict[str, Any], obs: Any) -> np.ndarray:
     """The actor's input: [observation, desired_goal] on goal tasks (the observation alone where it holds
-    the goal, `auv_mj.agents.her.policy_input`), the flat observation otherwise."""
+    the goal, `auv_mj.agents.offpolicy.her.policy_input`), the flat observation otherwise."""
     if spec["kind"] == "goal":
         return policy_input(obs["observation"], obs["desired_goal"], spec.get("goal_input", True))
     return np.asarray(obs, np.float32).ravel()

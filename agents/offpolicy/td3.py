@@ -2,7 +2,7 @@
 
 The paper's learner is DDPG (Sec. 3.1.2, Eq. 13-19); TD3 is the same actor-critic with three changes
 against DDPG's over-estimated Q (Fujimoto et al. 2018, Algorithm 1), and shares every other piece of
-`auv_mj.agents.ddpg` (networks, normaliser, exploration, soft updates, checkpoints, the training loop):
+`auv_mj.agents.offpolicy.ddpg` (networks, normaliser, exploration, soft updates, checkpoints, the training loop):
 
 1. **Twin critics.** Two critics Q_1, Q_2 learn the same target, which takes the smaller of their two
    target estimates: y = r + gamma (1 - terminated) min_j Q'_j(s', a') (clipped double Q-learning).
@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
-from auv_mj.agents.ddpg import DDPG, DDPGConfig, bounded, critic_loss, soft_update
-from auv_mj.agents.networks import Actor, Critic, ParameterVector, VectorAdam
-from auv_mj.agents.replay import Batch
+from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig, bounded, critic_loss, soft_update
+from auv_mj.agents.offpolicy.networks import Actor, Critic, ParameterVector, VectorAdam
+from auv_mj.agents.offpolicy.replay import Batch
 
 MAX_POLICY_DELAY = 1000
 """Largest `policy_delay` a config may ask for."""

@@ -1,0 +1,42 @@
+"""PPO with an optional GRU or LSTM memory, on Gymnasium vector envs, and the planner trained with it.
+
+- `ppo`: the algorithm in one file, top to bottom as CleanRL's: config, actor-critic, rollout, GAE, clipped losses,
+  update, checkpoint (kind "ppo" of `auv_mj.agents.checkpoint`) and training loop;
+- `gru`: the update's GRU over whole sequences, its backward pass written out (`gru_sequence`);
+- `spaces`: one env's spaces as the networks see them (`env_spec`, `flatten_obs`, `env_action`);
+- `policy`: the deployable deterministic policy (`PPOPolicy.load`);
+- `planner`: the planner learned on the batched training mixture, chosen on validation seeds (`train_planner`);
+- `export`: a training checkpoint's network alone, for `agents/checkpoints/` (`python -m auv_mj.agents.ppo.export`).
+"""
+
+from auv_mj.agents.ppo.gru import gru_sequence
+from auv_mj.agents.ppo.policy import PPOPolicy
+from auv_mj.agents.ppo.ppo import (
+    CHECKPOINT_NAME,
+    LOG_NAME,
+    ActorCritic,
+    Collector,
+    Minibatch,
+    PPOConfig,
+    PPOResult,
+    Rollout,
+    build_model,
+    clipped_surrogate,
+    gae,
+    load_model,
+    make_optimizer,
+    minibatches,
+    ppo_loss,
+    read_ppo,
+    reset_seeds,
+    save_ppo,
+    train,
+    update,
+    value_loss,
+)
+from auv_mj.agents.ppo.spaces import OBS_KEYS, autoreset_mode, env_action, env_spec, flatten_obs
+
+__all__ = ["CHECKPOINT_NAME", "LOG_NAME", "OBS_KEYS", "ActorCritic", "Collector", "Minibatch", "PPOConfig", "PPOPolicy",
+           "PPOResult", "Rollout", "autoreset_mode", "build_model", "clipped_surrogate", "env_action", "env_spec",
+           "flatten_obs", "gae", "gru_sequence", "load_model", "make_optimizer", "minibatches", "ppo_loss", "read_ppo",
+           "reset_seeds", "save_ppo", "train", "update", "value_loss"]
