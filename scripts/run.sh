@@ -4,14 +4,31 @@
 #   bash scripts/run.sh test    the test suite (ruff, import-linter, pytest)
 #   bash scripts/run.sh link    (optional) link this checkout's auv-mj into ~/.local/bin
 # The first run creates .venv (override with AUV_MJ_VENV) and installs PyTorch (its CPU build without an NVIDIA GPU)
-# and auv-mj. The C kernels are compiled on first use into ~/.cache/auv-mj (AUV_MJ_CACHE moves it).
+# and auv-mj: `demo` and `link` what auv-mj needs to run, `test` also the test extra (pytest, ruff, Ray, SB3). The
+# C kernels are compiled on first use into ~/.cache/auv-mj (AUV_MJ_CACHE moves it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv="${AUV_MJ_VENV:-.venv}"
 TORCH_CPU_INDEX="https://download.pytorch.org/whl/cpu"
+job="${1:-}"
+case "$job" in
+  demo|link) want="run" ;;
+  test) want="test" ;;
+  *) echo "usage: bash scripts/run.sh demo|test|link [args...]" >&2; exit 2 ;;
+esac
+# The stamp names what the venv holds: "run" (auv-mj) or "test" (auv-mj and its test extra). A stamp of an older
+# run.sh is empty: that one always installed the test extra. A venv set up for the tests serves the demo as it is;
+# one set up for the demo gets the test extra on the first `test`.
 stamp="$venv/.auv-mj-installed"
-if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
-  echo "setting up $venv (first run only)..." >&2
+have=""
+if [ -f "$stamp" ]; then have="$(cat "$stamp")"; have="${have:-test}"; fi
+if [ "$have" = "test" ]; then want="test"; fi
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$have" != "$want" ]; then
+  if [ "$have" = "run" ]; then
+    echo "adding the test extra to $venv (first test run only)..." >&2
+  else
+    echo "setting up $venv (first run only)..." >&2
+  fi
   python3 -m venv "$venv"
   "$venv/bin/python" -m pip install --quiet --upgrade pip
   # PyTorch first, or pip pulls a multi-GB CUDA build. Without an NVIDIA GPU, the CPU build from PyTorch's own CPU
@@ -30,10 +47,12 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
       fi
     fi
   fi
-  echo "installing auv-mj and its dependencies..." >&2
-  "$venv/bin/python" -m pip install --progress-bar on -e ".[test]" 2>&1 \
+  extra=""
+  if [ "$want" = "test" ]; then extra="[test]"; fi
+  echo "installing auv-mj${extra:+ with its test extra} and its dependencies..." >&2
+  "$venv/bin/python" -m pip install --progress-bar on -e ".$extra" 2>&1 \
     | { grep -v "^Requirement already satisfied" || true; } >&2
-  touch "$stamp"
+  echo "$want" > "$stamp"
 fi
 # Nothing outside this checkout changes: `auv-mj` lives in $venv/bin. `bash scripts/run.sh link` puts a link to it
 # in ~/.local/bin (opt-in, for one checkout you use every day).
@@ -48,7 +67,6 @@ if [ "$(command -v auv-mj || true)" != "$(cd "$venv/bin" && pwd)/auv-mj" ]; then
   echo "auv-mj: run '. $venv/bin/activate' to put this checkout's auv-mj on your PATH" >&2
 fi
 export MUJOCO_GL="${MUJOCO_GL:-egl}" PYTHONUNBUFFERED=1
-job="${1:-}"
 shift || true
 case "$job" in
   demo) exec "$venv/bin/auv-mj" demo "$@" ;;
@@ -56,5 +74,4 @@ case "$job" in
     "$venv/bin/ruff" check .
     "$venv/bin/python" scripts/lint_imports.py --no-logo
     exec "$venv/bin/python" -m pytest -q -n 2 "$@" ;;
-  *) echo "usage: bash scripts/run.sh demo|test|link [args...]" >&2; exit 2 ;;
 esac
