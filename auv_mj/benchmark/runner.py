@@ -4,6 +4,10 @@
 Every episode goes through the one episode loop (`auv_mj.episode.record_episode`) and the one definition of each
 metric (`auv_mj.episode.episode_metrics`, `auv_mj.benchmark.metrics`).
 
+Resuming. With a `journal` (a file, `auv_mj.benchmark.journal`) each finished episode is kept there as it ends, and
+the same call made again runs only the episodes the journal lacks: the results are the uninterrupted run's. Ctrl-C
+raises `Interrupted` (a KeyboardInterrupt) saying how many episodes were kept and where.
+
 Speed. A worker process builds each cell's environment once and reseeds it per episode (`run_cell_episode`), and the
 episodes are queued longest cells first, so that two workers are busy to the end.
 """
@@ -12,10 +16,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import closing, nullcontext
+from pathlib import Path
 
 import numpy as np
 
+from auv_mj.benchmark.journal import Interrupted, Journal, policy_identity
 from auv_mj.benchmark.metrics import cell_summary, oracle_times, success_rate, summarise
 from auv_mj.benchmark.suite import ORACLE, SUITES, Cell, Suite
 from auv_mj.console import progress_bar
@@ -70,7 +77,7 @@ def episode_row(seed: int, metrics: dict) -> dict:
 def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
              max_steps: int | None = None, progress: bool = True, task_kwargs: dict | None = None, *,
              workers: int = 1, ray_address: str | None = None, retries: int = distributed.RETRIES,
-             episode_fn=None, on_episode=None) -> dict:
+             episode_fn=None, on_episode=None, journal: str | Path | None = None, force: bool = False) -> dict:
     """Evaluates `policy_name` on each task over `episodes` seeded episodes (episode i: task and policy seed
     `seed` + i); returns {"policy", "seed", "episodes", "task_kwargs", "tasks": {task: summary}, "records": {task:
     [episode rows in seed order]}} (rows: `episode_row`).
@@ -89,34 +96,48 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
     parallel run equals the serial one. Episodes that gave no result (parallel runs only) are listed under "failed"
     ({task, episode, seed, error}); the summaries cover the others. `on_episode(task, seed, metrics)` is called for
     every episode kept (e.g. to find the failures): once for a deterministic task.
+
+    `journal`: a file that keeps every finished episode as it ends (`auv_mj.benchmark.journal`); called again with
+    the same arguments, `evaluate` runs only the episodes it lacks and returns the uninterrupted run's results. A
+    journal of another run is refused (JournalMismatch) unless `force`, which starts it afresh. Ctrl-C raises
+    `Interrupted`, with the count of episodes kept.
     """
     task_kwargs = dict(task_kwargs or {})
     episode_fn = episode_fn or run_episode
     parallel = workers > 1 or ray_address is not None
-    finished: dict[tuple[str, int], dict] = {}
+    run_name = {"command": "eval", **policy_identity(policy_name), "tasks": list(task_names), "episodes": episodes,
+                "seed": seed, "max_steps": max_steps, "task_kwargs": task_kwargs, "episode_fn": _name(episode_fn)}
+    log = Journal(journal, run_name, force=force) if journal is not None else None
+    finished: dict[tuple[str, int], dict] = dict(log.episodes) if log else {}
     failed: list[dict] = []
     desc = f"eval {task_names[0]}" if len(task_names) == 1 and not parallel else f"eval {len(task_names)} task(s)"
-    bar = progress_bar(total=len(task_names) * episodes, desc=desc, unit="ep", disable=not progress)
+    bar = progress_bar(total=len(task_names) * episodes, desc=desc, unit="ep", disable=not progress,
+                       initial=len(finished))
 
-    def run(keys: list[tuple[str, int]]):
+    def run(keys: list[tuple[str, int]]) -> Iterator[tuple[str, int]]:
+        """Runs the episodes `keys` the journal lacks; yields every key of `keys` with a result."""
+        yield from (key for key in keys if key in finished)
+        keys = [key for key in keys if key not in finished]
         jobs = [(policy_name, task, seed + i, task_kwargs, max_steps) for task, i in keys]
-        if not jobs:  # every task deterministic: no workers (nor Ray) to start
+        if not jobs:  # every task deterministic, or every episode in the journal: no workers (nor Ray) to start
             return
         if parallel:
             results = distributed.run_jobs(episode_fn, jobs, workers=workers, ray_address=ray_address,
                                            retries=retries)
         else:
             results = ((k, episode_fn(*job)) for k, job in enumerate(jobs))
-        for k, result in results:
-            task, i = keys[k]
-            if isinstance(result, distributed.JobFailed):
-                failed.append({"task": task, "episode": i, "seed": seed + i, "error": result.error})
-            else:
-                finished[task, i] = result
-            bar.update(1)
-            bar.set_postfix(success=_rate(list(finished.values())),
-                            failed=len(failed))
-            yield task, i
+        with closing(results):  # stops the workers at once, however the loop ends (Ctrl-C included)
+            for k, result in results:
+                task, i = keys[k]
+                if isinstance(result, distributed.JobFailed):
+                    failed.append({"task": task, "episode": i, "seed": seed + i, "error": result.error})
+                else:
+                    if log is not None:
+                        log.add((task, i), result)
+                    finished[task, i] = result
+                bar.update(1)
+                bar.set_postfix(success=_rate(list(finished.values())), failed=len(failed))
+                yield task, i
 
     try:
         probe = min(episodes, PROBE_EPISODES)
@@ -131,14 +152,18 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
                     if (task, i) in finished:
                         on_episode(task, seed + i, finished[task, i])
         rest = [(task, i) for task in task_names if not deterministic[task] for i in range(probe, episodes)]
-        bar.total = bar.n + len(rest)  # a deterministic task's other seeds are not run: the bar ends at 100 %
-        bar.refresh()
+        bar.total = bar.n + sum(key not in finished for key in rest)  # a deterministic task's other seeds are not
+        bar.refresh()  # run: the bar ends at 100 %
         for task, i in run(rest):
             kept[task].append(i)
             if on_episode is not None and (task, i) in finished:
                 on_episode(task, seed + i, finished[task, i])
+    except KeyboardInterrupt:
+        raise Interrupted(log.path if log else None, len(finished), bar.total) from None
     finally:
         bar.close()
+        if log is not None:
+            log.close()
     results, records = {}, {}
     for task in task_names:
         rows = [episode_row(seed + i, finished[task, i]) for i in sorted(kept[task]) if (task, i) in finished]
@@ -151,6 +176,12 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
     if failed:
         out["failed"] = sorted(failed, key=lambda f: (task_names.index(f["task"]), f["episode"]))
     return out
+
+
+def _name(fn: Callable) -> str:
+    """The module and name of an episode function (of a partial's function), for a journal's first line."""
+    fn = getattr(fn, "func", fn)
+    return f"{fn.__module__}:{fn.__qualname__}"
 
 
 def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,
@@ -198,28 +229,40 @@ def _jobs(policy_name: str, cells: Sequence[Cell], episodes: int | None, max_ste
 
 
 def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None = None, max_steps: int | None = None,
-                 *, workers: int = 1, ray_address: str | None = None, progress: bool = True) -> tuple[dict, list]:
-    """({cell name: [episode rows in seed order]}, failed jobs) of every cell's episodes."""
+                 *, workers: int = 1, ray_address: str | None = None, progress: bool = True,
+                 journal: Journal | None = None) -> tuple[dict, list]:
+    """({cell name: [episode rows in seed order]}, failed jobs) of every cell's episodes; those `journal` holds are
+    not run again, and each one run is kept there as it ends. Ctrl-C raises `Interrupted`."""
     jobs = _jobs(policy_name, cells, episodes, max_steps)
     owner = [c.name for c in cells for _ in c.seeds(episodes)]
-    rows: dict[int, dict] = {}
+    kept = journal.episodes if journal is not None else {}
+    rows: dict[int, dict] = {k: kept[owner[k], job[2]] for k, job in enumerate(jobs) if (owner[k], job[2]) in kept}
+    todo = [k for k in range(len(jobs)) if k not in rows]
     failed = []
-    bar = progress_bar(total=len(jobs), desc=f"benchmark {policy_name}", unit="ep", disable=not progress)
+    bar = progress_bar(total=len(jobs), desc=f"benchmark {policy_name}", unit="ep", disable=not progress,
+                       initial=len(rows))
     try:
-        if workers == 1 and ray_address is None:
-            results = ((k, run_cell_episode(*job)) for k, job in enumerate(jobs))
+        if not todo:
+            results = iter(())
+        elif workers == 1 and ray_address is None:
+            results = ((k, run_cell_episode(*jobs[k])) for k in todo)
         else:  # the tunnel cells' long episodes first, so that no worker is left with one at the end
-            order = sorted(range(len(jobs)), key=lambda k: not jobs[k][1].startswith("tunnel"))
+            order = sorted(todo, key=lambda k: not jobs[k][1].startswith("tunnel"))
             queued = [jobs[k] for k in order]
             results = ((order[k], r) for k, r in distributed.run_jobs(run_cell_episode, queued, workers=workers,
                                                                       ray_address=ray_address))
-        for k, result in results:
-            if isinstance(result, distributed.JobFailed):
-                failed.append({"cell": owner[k], "seed": jobs[k][2], "error": result.error})
-            else:
-                rows[k] = result
-            bar.update(1)
-            bar.set_postfix(success=_rate(list(rows.values())), failed=len(failed))
+        with closing(results):  # stops the workers at once, however the loop ends (Ctrl-C included)
+            for k, result in results:
+                if isinstance(result, distributed.JobFailed):
+                    failed.append({"cell": owner[k], "seed": jobs[k][2], "error": result.error})
+                else:
+                    if journal is not None:
+                        journal.add((owner[k], jobs[k][2]), result)
+                    rows[k] = result
+                bar.update(1)
+                bar.set_postfix(success=_rate(list(rows.values())), failed=len(failed))
+    except KeyboardInterrupt:
+        raise Interrupted(journal.path if journal else None, len(rows), len(jobs)) from None
     finally:
         bar.close()
     by_cell = {c.name: [] for c in cells}
@@ -230,10 +273,20 @@ def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None =
 
 def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = None, max_steps: int | None = None,
               *, oracle: dict | None = None, workers: int = 1, ray_address: str | None = None,
-              progress: bool = True, suite: Suite = SUITES["auv"]) -> dict:
-    """Runs the cells (of `suite`, suite v1 by default) and returns the results dict that `results.json` holds."""
-    by_cell, failed = run_episodes(policy_name, cells, episodes, max_steps, workers=workers,
-                                   ray_address=ray_address, progress=progress)
+              progress: bool = True, suite: Suite = SUITES["auv"], journal: str | Path | None = None,
+              force: bool = False) -> dict:
+    """Runs the cells (of `suite`, suite v1 by default) and returns the results dict that `results.json` holds.
+
+    `journal`: a file that keeps every finished episode as it ends (`auv_mj.benchmark.journal`); called again with
+    the same policy, cells, episodes and max_steps on the same suite version, `benchmark` runs only the episodes it
+    lacks and returns the uninterrupted run's results (workers and oracle may differ). A journal of another run is
+    refused (JournalMismatch) unless `force`, which starts it afresh. Ctrl-C raises `Interrupted`."""
+    run_name = {"command": "benchmark", "suite": suite.name, "suite_version": suite.version,
+                "fingerprint": suite.fingerprint(), **policy_identity(policy_name), "cells": [c.name for c in cells],
+                "episodes": episodes or None, "max_steps": max_steps}
+    with Journal(journal, run_name, force=force) if journal is not None else nullcontext() as log:
+        by_cell, failed = run_episodes(policy_name, cells, episodes, max_steps, workers=workers,
+                                       ray_address=ray_address, progress=progress, journal=log)
     references = oracle_times(oracle)
     out = {"suite": suite.name, "suite_version": suite.version, "fingerprint": suite.fingerprint(),
            "policy": policy_name,
@@ -256,12 +309,14 @@ def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = No
 
 def run_suite(policy_name: str, cells: Sequence[Cell] | None = None, episodes: int | None = None, *,
               max_steps: int | None = None, oracle: dict | str | None = "published", workers: int = 1,
-              ray_address: str | None = None, progress: bool = True, domain: str = "auv") -> dict:
+              ray_address: str | None = None, progress: bool = True, domain: str = "auv",
+              journal: str | Path | None = None, force: bool = False) -> dict:
     """The named policy on the suite's `cells` (all of the `domain`'s suite by default: suite v1 of "auv", the 3-D
     suite of "auv3d"): the results dict of `benchmark`.
 
     `oracle`: the oracle's results that time efficiency is measured against; "published" (the default) takes the
-    shipped leaderboard's, None measures none (unless the policy is the oracle itself)."""
+    shipped leaderboard's, None measures none (unless the policy is the oracle itself). `journal`: a file that keeps
+    each finished episode, from which the same call resumes (`benchmark`)."""
     from auv_mj.benchmark.leaderboard import board_path, oracle_results, read_board
 
     suite = SUITES[domain]
@@ -270,7 +325,8 @@ def run_suite(policy_name: str, cells: Sequence[Cell] | None = None, episodes: i
             raise ValueError(f"oracle must be 'published', a results dict or None, got {oracle!r}")
         oracle = oracle_results(read_board(board_path(suite)))
     return benchmark(policy_name, suite.cells if cells is None else cells, episodes, max_steps, oracle=oracle,
-                     workers=workers, ray_address=ray_address, progress=progress, suite=suite)
+                     workers=workers, ray_address=ray_address, progress=progress, suite=suite, journal=journal,
+                     force=force)
 
 
 def run_cell(policy_name: str, cell: Cell, episodes: int | None = None, **options) -> dict:

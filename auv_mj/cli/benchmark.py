@@ -21,6 +21,10 @@ return, ...), `leaderboard_row.md` (the policy's Markdown row) and `comparison.m
 policies' results in the shipped leaderboard, `auv_mj/benchmark/data/leaderboard.json`, over the same cells; the
 run's row, marked "(this run)", comes first and the policy's own published entry, if it has one, right under it,
 marked "(published)").
+Resuming. Each episode is kept as it ends in `DIR/journal.jsonl` (`auv_mj.benchmark.journal`); Ctrl-C (or a kill)
+loses none that finished, and the same command run again runs only the others and writes what the uninterrupted
+run would have (with any --workers). The journal goes once the outputs are written; one of another run (other
+policy, cells, episodes, max steps or suite version) is refused unless `--force`.
 `--publish` adds the run to that file (or to `--leaderboard`) and regenerates the `leaderboard.md` beside it; that
 is how the shipped results are made.
 
@@ -35,6 +39,7 @@ import json
 import sys
 from pathlib import Path
 
+from auv_mj.benchmark.journal import JOURNAL, JournalMismatch
 from auv_mj.benchmark.leaderboard import (
     ROW_HEADER,
     board_path,
@@ -47,7 +52,7 @@ from auv_mj.benchmark.leaderboard import (
 )
 from auv_mj.benchmark.runner import benchmark
 from auv_mj.benchmark.suite import EPISODES, ORACLE, SEED_BLOCK, SUITES, TIERS, WATERS
-from auv_mj.cli.evaluate import write_episodes_csv
+from auv_mj.cli.evaluate import interrupted, write_episodes_csv
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     bounded_int,
@@ -100,6 +105,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="write an MP4 and a trajectory PNG of every episode that did not reach the goal here, "
                              "a folder per cell")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--force", action="store_true", help=f"start afresh where --out holds a {JOURNAL} of "
+                        "another run (the same command resumes its own)")
 
 
 def _start_workers_early(workers: int) -> None:
@@ -113,7 +120,15 @@ def _start_workers_early(workers: int) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Checks the outputs and every cell, runs the suite, writes the results and tables."""
+    """Checks the outputs and every cell, runs the suite, writes the results and tables. Ctrl-C ends it in one line
+    saying what was kept (`auv_mj.cli.evaluate.interrupted`)."""
+    try:
+        return _run(args)
+    except KeyboardInterrupt as error:
+        return interrupted(args, error, args.out / JOURNAL)
+
+
+def _run(args: argparse.Namespace) -> int:
     suite = SUITES[args.domain]
     if args.leaderboard is None:
         args.leaderboard = board_path(suite)
@@ -145,8 +160,12 @@ def run(args: argparse.Namespace) -> int:
             policies.env_and_policy(args.policy, cell.task, cell.first_seed, cell.task_kwargs)
     except (ValueError, FileNotFoundError) as e:
         usage_error(args, str(e))
-    results = benchmark(args.policy, cells, args.episodes, args.max_steps, oracle=oracle, workers=args.workers,
-                        ray_address=args.ray, progress=not args.no_progress, suite=suite)
+    try:
+        results = benchmark(args.policy, cells, args.episodes, args.max_steps, oracle=oracle, workers=args.workers,
+                            ray_address=args.ray, progress=not args.no_progress, suite=suite, journal=out / JOURNAL,
+                            force=args.force)
+    except JournalMismatch as e:
+        usage_error(args, str(e))
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(results, indent=1, allow_nan=False))
     row = markdown_row(results)
@@ -170,4 +189,9 @@ def run(args: argparse.Namespace) -> int:
     for failure in results.get("failed", []):
         print(f"{args.prog}: episode seed {failure['seed']} of {failure['cell']} failed: {failure['error']}",
               file=sys.stderr)
+    if results.get("failed"):
+        print(f"{args.prog}: the finished episodes stay in {out / JOURNAL}: the same command runs the failed ones "
+              "again", file=sys.stderr)
+    else:
+        (out / JOURNAL).unlink(missing_ok=True)  # results.json holds every episode now
     return 1 if results.get("failed") else 0

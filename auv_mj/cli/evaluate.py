@@ -26,6 +26,11 @@ taken over the episodes in index order, so the JSON is the serial one. An episod
 (its worker died more than `--retries` times, or it raised) is listed under "failed" by task, episode
 index and seed; the summaries cover the finished episodes, and the exit status is 1.
 
+Resuming. With --json or --csv, each episode is kept as it ends in a journal beside them (`NAME_journal.jsonl`,
+`auv_mj.benchmark.journal`); Ctrl-C (or a kill) loses none that finished, and the same command run again runs only
+the others and writes what the uninterrupted run would have. The journal goes once the outputs are written; one of
+another run (other policy, tasks, episodes, seed or options) is refused unless `--force`.
+
 `--record-failures DIR` writes an MP4 and a trajectory PNG of every episode that did not reach the goal
 (`auv_mj.cli.failures`: each is run again, seeded as before, through the renderer), named
 `TASK_seedSEED_OUTCOME`, each episode once; the folder is checked before the first episode.
@@ -39,6 +44,7 @@ import json
 import sys
 from pathlib import Path
 
+from auv_mj.benchmark.journal import Interrupted, JournalMismatch
 from auv_mj.benchmark.runner import evaluate
 from auv_mj.cli import failures
 from auv_mj.cli.options import (
@@ -109,6 +115,32 @@ def episodes_csv_path(json_path: Path | None, csv_path: Path | None) -> Path | N
     return None if beside is None else beside.with_name(beside.stem + EPISODE_CSV_SUFFIX)
 
 
+JOURNAL_SUFFIX = "_journal.jsonl"
+"""The journal of finished episodes is kept beside --csv (or --json) while the run is unfinished: `out.json` ->
+`out_journal.jsonl`."""
+
+
+def journal_path(json_path: Path | None, csv_path: Path | None) -> Path | None:
+    """Where the journal goes: beside --csv, else beside --json; None without either (nothing is kept)."""
+    beside = csv_path or json_path
+    return None if beside is None else beside.with_name(beside.stem + JOURNAL_SUFFIX)
+
+
+def interrupted(args: argparse.Namespace, error: KeyboardInterrupt, journal: Path | None) -> int:
+    """The one line that ends a run stopped by Ctrl-C: what was kept and how to resume; exit status 130."""
+    if isinstance(error, Interrupted) and error.journal is not None:
+        print(f"{args.prog}: interrupted: {error.kept} of {error.total} episodes kept in {error.journal}; run the "
+              "same command again to resume", file=sys.stderr)
+    elif journal is not None and journal.exists():
+        print(f"{args.prog}: interrupted: the finished episodes are kept in {journal}; run the same command again "
+              "to resume", file=sys.stderr)
+    else:
+        kept = f" after {error.kept} of {error.total} episodes" if isinstance(error, Interrupted) else ""
+        print(f"{args.prog}: interrupted{kept}; nothing was kept (give --json or --csv to keep finished episodes "
+              "and resume)", file=sys.stderr)
+    return 130
+
+
 def write_episodes_csv(rows: list[dict], path: Path, first: tuple[str, ...] = ("task",)) -> None:
     """One row per episode (`evaluate`'s "records", the benchmark's cell episodes): the `first` columns, then the
     seed and every metric (the union of the rows' keys); empty cells for undefined figures."""
@@ -166,13 +198,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--record-failures", type=Path, default=None, metavar="DIR",
                         help="write an MP4 and a trajectory PNG of each episode that does not reach the goal "
                              "here, named TASK_seedSEED_OUTCOME")
+    parser.add_argument("--force", action="store_true", help="start afresh where a journal of another run lies "
+                        f"beside --csv/--json (NAME{JOURNAL_SUFFIX}; the same command resumes its own)")
 
 
 def run(args: argparse.Namespace) -> int:
-    """Runs the evaluation, prints the table, writes JSON/CSV (their paths checked first)."""
+    """Runs the evaluation, prints the table, writes JSON/CSV (their paths checked first). Ctrl-C ends it in one
+    line saying what was kept (`interrupted`)."""
+    journal = journal_path(args.json, args.csv)
+    try:
+        return _run(args, journal)
+    except KeyboardInterrupt as error:
+        return interrupted(args, error, journal)
+
+
+def _run(args: argparse.Namespace, journal: Path | None) -> int:
     check_output(args, args.json, "--json")
     check_output(args, args.csv, "--csv")
     check_output(args, episodes_csv_path(args.json, args.csv), "--csv/--json (its per-episode CSV beside it)")
+    check_output(args, journal, "--csv/--json (the journal beside it)")
     check_output_folder(args, args.record_failures, "--record-failures")
     if args.seed + args.episodes - 1 > SEED_LIMIT:
         usage_error(args, f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {SEED_LIMIT}")
@@ -204,7 +248,9 @@ def run(args: argparse.Namespace) -> int:
         results = evaluate(args.policy, task_names, args.episodes, args.seed, args.max_steps,
                            progress=not args.no_progress, task_kwargs=kwargs, workers=args.workers,
                            ray_address=args.ray, retries=args.retries,
-                           on_episode=on_episode)
+                           on_episode=on_episode, journal=journal, force=args.force)
+    except JournalMismatch as e:
+        usage_error(args, str(e))
     except (ValueError, FileNotFoundError) as e:
         print(f"{args.prog}: error: {e}", file=sys.stderr)
         return 1
@@ -219,4 +265,9 @@ def run(args: argparse.Namespace) -> int:
     for failure in results.get("failed", []):
         print(f"{args.prog}: episode {failure['episode']} of {failure['task']} (seed {failure['seed']}) failed: "
               f"{failure['error']}", file=sys.stderr)
+    if journal is not None and results.get("failed"):
+        print(f"{args.prog}: the finished episodes stay in {journal}: the same command runs the failed ones again",
+              file=sys.stderr)
+    elif journal is not None:
+        journal.unlink(missing_ok=True)  # the outputs hold every episode now
     return 1 if results.get("failed") else 0

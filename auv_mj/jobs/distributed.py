@@ -12,15 +12,26 @@ whole pool breaks), so the jobs in flight at a death are run again one at a time
 runs alone is held against that job.
 
 Workers use one torch thread (small MLPs are fastest on one; N workers must not fight over the cores).
+
+Run as written from a script. Local workers start from a forkserver, which (as `spawn` does) runs the caller's main
+script again in each worker, unless the script guards its work with `if __name__ == "__main__":`; unguarded, each
+worker would start the whole run again. Where neither `fn` nor the jobs need anything defined in that script, the
+workers are started without it (`_without_main_script`), so a script calling `run_jobs` (or `evaluate`, `run_suite`
+with `workers`) runs as it is written, guard or not. Ctrl-C stops the run in the main process alone: the workers
+ignore it and are ended there, with the jobs they had in hand (no traceback from each of them).
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import pickle
+import signal
+import sys
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,9 +51,46 @@ class JobFailed:
 
 
 def _init_worker() -> None:
+    """A local worker: one torch thread, and Ctrl-C left to the main process, which ends the workers itself."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     import torch
 
     torch.set_num_threads(1)
+
+
+def _uses_main_script(fn: Callable[..., Any], jobs: Sequence[tuple]) -> bool:
+    """Whether `fn` or the jobs refer to something defined in the main script (`__main__`), which the workers then
+    need (pickle names each function and class it refers to by its module)."""
+    try:
+        return b"__main__" in pickle.dumps((fn, list(jobs)))
+    except Exception:  # what does not pickle fails in the pool, and says why there
+        return True
+
+
+@contextmanager
+def _without_main_script(hidden: bool) -> Iterator[None]:
+    """While `hidden`, workers started here do not run the main script again: multiprocessing finds the script by
+    the main module's `__file__` (or `__spec__`, under `python -m`), so both are set aside while they start."""
+    main = sys.modules.get("__main__")
+    if not hidden or main is None:
+        yield
+        return
+    saved = {name: getattr(main, name) for name in ("__file__", "__spec__") if hasattr(main, name)}
+    try:
+        main.__spec__ = None
+        if "__file__" in saved:
+            del main.__file__
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(main, name, value)
+
+
+def _end(pool: ProcessPoolExecutor) -> None:
+    """Ends a pool's workers now, with the jobs they hold (on Ctrl-C, or when the caller stops reading)."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _in_worker(fn: Callable[..., Any], *job: Any) -> Any:
@@ -76,15 +124,19 @@ def _pool_jobs(fn: Callable[..., Any], jobs: Sequence[tuple], workers: int,
     # broken pool is replaced at once), and no copy of this process's MuJoCo, torch or GL state.
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([getattr(fn, "func", fn).__module__])
+    no_main = not _uses_main_script(fn, jobs)
     while todo or alone:
         lane, size = (alone, 1) if alone else (todo, min(workers, len(todo)))
-        with ProcessPoolExecutor(size, mp_context=context, initializer=_init_worker) as pool:
+        pool = ProcessPoolExecutor(size, mp_context=context, initializer=_init_worker)
+        ended = False
+        try:
             running: dict[Any, int] = {}
             broken = False
             while (lane or running) and not broken:
                 while lane and len(running) < size:
                     i = lane.popleft()
-                    running[pool.submit(fn, *jobs[i])] = i
+                    with _without_main_script(no_main):  # workers start on a submit
+                        running[pool.submit(fn, *jobs[i])] = i
                 done, _ = wait(running, return_when=FIRST_COMPLETED)
                 if any(isinstance(f.exception(), BrokenProcessPool) for f in done):
                     broken = True
@@ -104,6 +156,12 @@ def _pool_jobs(fn: Callable[..., Any], jobs: Sequence[tuple], workers: int,
                             yield i, JobFailed(f"its worker process died {deaths[i]} times", deaths[i])
                         else:
                             alone.appendleft(i)
+            ended = True
+        finally:
+            if ended:
+                pool.shutdown(wait=True)
+            else:  # Ctrl-C, or the caller closed this generator: end the workers rather than wait for them
+                _end(pool)
 
 
 RAY_MISSING = "Ray is not installed: it is an extra of auv-mj, pip install 'auv-mj[ray]' (or -e '.[ray]' in a checkout)"
