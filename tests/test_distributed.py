@@ -189,3 +189,30 @@ def test_without_ray_the_ray_jobs_name_the_extra(monkeypatch, capsys):
     with pytest.raises(SystemExit) as refused:
         main(["eval", "--policy", "splane", "--task", "goal", "--episodes", "1", "--ray", "local"])
     assert refused.value.code == 2 and "auv-mj[ray]" in capsys.readouterr().err
+
+
+UNGUARDED = """import sys
+from auv_mj.benchmark import SUITE_V1, run_suite
+from auv_mj.benchmark.runner import evaluate
+
+results = run_suite("los-fast", [c for c in SUITE_V1 if c.water == "ideal"][:2], episodes=1, max_steps=10,
+                    workers=2, progress=False)
+run = evaluate("random", ["goal"], episodes=3, seed=5, max_steps=12, workers=2, progress=False)
+print(len(results["cells"]), run["tasks"]["goal"]["episodes"], file=sys.stdout)
+"""
+
+
+@pytest.mark.parametrize("how", ["script", "module"])
+def test_a_script_that_starts_workers_runs_as_written_without_a_main_guard(tmp_path, how):
+    """The README's examples with `workers=2`, pasted into a script with no `if __name__ == "__main__":`: the workers
+    do not run the script again (which would start the run again in each), so it prints its results and nothing
+    on stderr; as `python script.py` and as `python -m script`."""
+    (tmp_path / "unguarded.py").write_text(UNGUARDED)
+    command = [sys.executable, "unguarded.py"] if how == "script" else [sys.executable, "-m", "unguarded"]
+    root = str(Path(__file__).resolve().parents[1])
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
+           "PYTHONPATH": os.pathsep.join([root, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["2", "3"]
+    assert done.stderr == "", done.stderr  # no "bootstrapping phase", no leaked semaphores

@@ -169,6 +169,24 @@ def test_demo_table_prints_a_contact_clearance_as_zero():
     assert row == ["splane", "0.00", "1.23", "nan"]
 
 
+def test_the_eval_table_shows_the_safety_violations_of_episodes_that_reached_the_goal():
+    """An episode can reach its goal after coming within d_s of a wall: the table's safety column says so (the JSON's
+    `safety_violation_rate`, by its one definition in `metrics.summarise`), beside the outcome "goal"."""
+    from auv_mj.benchmark.metrics import summarise
+    from auv_mj.cli.evaluate import format_table
+
+    rows = [{"seed": s, "success": True, "outcome": "goal", "collision": False, "safety_violation": violated,
+             "min_clearance": clearance, "path_length": 700.0, "time_to_goal": 350.0, "duration": 350.0,
+             "return": 2500.0} for s, violated, clearance in ((0, True, 1.08), (1, False, 6.5))]
+    summary = summarise(rows)
+    table = format_table({"policy": "planner-general", "episodes": 2, "seed": 0, "tasks": {"tunnel": summary}})
+    header, rule, row = table.splitlines()[1:4]
+    assert len(header) == len(rule) == len(row) - len("goal 2") + len("outcomes")  # the columns line up
+    cells = dict(zip(header.split()[1:-1], row.split()[1:], strict=False))
+    assert cells["safety_violation_rate"] == "0.500" and cells["min_clearance"] == "1.080"
+    assert row.split()[-2:] == ["goal", "2"]
+
+
 @pytest.mark.parametrize("command", ["train", "eval"])
 @pytest.mark.parametrize(("text", "message"), [("x", "not valid JSON"), ("[1]", "must be a JSON object")])
 def test_task_kwargs_that_are_not_a_json_object_are_usage_errors(command, text, message):

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import closing, nullcontext
 from pathlib import Path
 
@@ -106,7 +106,7 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
     episode_fn = episode_fn or run_episode
     parallel = workers > 1 or ray_address is not None
     run_name = {"command": "eval", **policy_identity(policy_name), "tasks": list(task_names), "episodes": episodes,
-                "seed": seed, "max_steps": max_steps, "task_kwargs": task_kwargs, "episode_fn": _name(episode_fn)}
+                "seed": seed, "max_steps": max_steps, "task_kwargs": task_kwargs}
     log = Journal(journal, run_name, force=force) if journal is not None else None
     finished: dict[tuple[str, int], dict] = dict(log.episodes) if log else {}
     failed: list[dict] = []
@@ -139,10 +139,12 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
                 bar.set_postfix(success=_rate(list(finished.values())), failed=len(failed))
                 yield task, i
 
+    planned = len(task_names) * episodes
     try:
         probe = min(episodes, PROBE_EPISODES)
-        for _ in run([(task, i) for task in task_names for i in range(probe)]):
-            pass  # on_episode waits until it is known whether the probe's episodes are one
+        with closing(run([(task, i) for task in task_names for i in range(probe)])) as steps:
+            for _ in steps:
+                pass  # on_episode waits until it is known whether the probe's episodes are one
         deterministic = {task: _same_episode([finished.get((task, i)) for i in range(probe)])
                          for task in task_names} if episodes >= PROBE_EPISODES else dict.fromkeys(task_names, False)
         kept = {task: [0] if deterministic[task] else list(range(probe)) for task in task_names}
@@ -152,14 +154,16 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
                     if (task, i) in finished:
                         on_episode(task, seed + i, finished[task, i])
         rest = [(task, i) for task in task_names if not deterministic[task] for i in range(probe, episodes)]
-        bar.total = bar.n + sum(key not in finished for key in rest)  # a deterministic task's other seeds are not
-        bar.refresh()  # run: the bar ends at 100 %
-        for task, i in run(rest):
-            kept[task].append(i)
-            if on_episode is not None and (task, i) in finished:
-                on_episode(task, seed + i, finished[task, i])
+        planned = len(task_names) * probe + len(rest)  # a deterministic task's other seeds are not run
+        bar.total = bar.n + sum(key not in finished for key in rest)  # so that the bar ends at 100 %
+        bar.refresh()
+        with closing(run(rest)) as steps:  # closed at once on Ctrl-C, and its workers with it
+            for task, i in steps:
+                kept[task].append(i)
+                if on_episode is not None and (task, i) in finished:
+                    on_episode(task, seed + i, finished[task, i])
     except KeyboardInterrupt:
-        raise Interrupted(log.path if log else None, len(finished), bar.total) from None
+        raise Interrupted(log.path if log else None, len(finished), planned) from None
     finally:
         bar.close()
         if log is not None:
@@ -176,12 +180,6 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
     if failed:
         out["failed"] = sorted(failed, key=lambda f: (task_names.index(f["task"]), f["episode"]))
     return out
-
-
-def _name(fn: Callable) -> str:
-    """The module and name of an episode function (of a partial's function), for a journal's first line."""
-    fn = getattr(fn, "func", fn)
-    return f"{fn.__module__}:{fn.__qualname__}"
 
 
 def evaluate_parallel(policy_name: str, task_names: list[str], episodes: int, seed: int = 0,

@@ -65,10 +65,12 @@ SEED_LIMIT = 2**32 - 1
 """Largest task seed (NumPy's RandomState); episode i of a run uses --seed + i."""
 
 
-TABLE_COLUMNS = ("success_rate", "collision_rate", "min_clearance", "path_length", "time_to_goal", "return",
-                 "mae_speed", "mae_heading", "mae_depth")
+TABLE_COLUMNS = ("success_rate", "collision_rate", "safety_violation_rate", "min_clearance", "path_length",
+                 "time_to_goal", "return", "mae_speed", "mae_heading", "mae_depth")
 """The table's columns; a tracking column no task of the table reports (mae_depth outside depth_heading) is left
-out. On a tracking task success_rate and time_to_goal read n/a: its episodes end by their schedule."""
+out. On a tracking task success_rate and time_to_goal read n/a: its episodes end by their schedule.
+safety_violation_rate is the share of episodes that came within the safety distance d_s of an obstacle
+(`auv_mj.episode.episode_metrics`), which an episode that reached its goal may have done."""
 OPTIONAL_COLUMNS = ("mae_depth",)
 
 
@@ -86,11 +88,12 @@ def format_table(results: dict) -> str:
     """A plain-text table of the headline metrics and the outcomes, one row per task."""
     columns = [c for c in TABLE_COLUMNS if c not in OPTIONAL_COLUMNS
                or any(s.get(c) is not None for s in results["tasks"].values())]
-    header = f"{'task':<18}" + "".join(f"{c:>15}" for c in columns) + "   outcomes"
+    widths = [max(15, len(c) + 2) for c in columns]
+    header = f"{'task':<18}" + "".join(f"{c:>{w}}" for c, w in zip(columns, widths, strict=True)) + "   outcomes"
     lines = [f"policy: {results['policy']}   episodes: {results['episodes']}   seed: {results['seed']}",
              header, "-" * len(header)]
     for task, summary in results["tasks"].items():
-        cells = "".join(table_cell(summary.get(c)) for c in columns)
+        cells = "".join(table_cell(summary.get(c), w) for c, w in zip(columns, widths, strict=True))
         outcomes = ", ".join(f"{name} {n}" for name, n in summary["outcomes"].items() if n)
         lines.append(f"{task:<18}{cells}   {outcomes}")
     for task, summary in results["tasks"].items():
