@@ -1,5 +1,6 @@
 """The built wheel is one package, `auv_mj`, with its models, checkpoints and leaderboard; the run script."""
 
+import os
 import subprocess
 import sys
 import zipfile
@@ -69,11 +70,49 @@ def test_run_script_changes_nothing_outside_its_checkout(tmp_path):
     (checkout / ".venv" / ".auv-mj-installed").touch()  # after pyproject.toml: set up, nothing to install
     env = {"HOME": str(home), "PATH": f"{home}/.local/bin:{bin_dir}:/usr/bin:/bin"}
     done = subprocess.run(["bash", str(script), "nothing"], capture_output=True, text=True, env=env, timeout=60)
-    assert done.returncode == 2 and "usage" in done.stderr
-    assert "setting up" not in done.stderr and "activate" in done.stderr
+    assert done.returncode == 2 and "usage" in done.stderr and "setting up" not in done.stderr
     demo = subprocess.run(["bash", str(script), "demo", "--x"], capture_output=True, text=True, env=env, timeout=60)
     assert demo.returncode == 0 and demo.stdout.strip() == "ran auv-mj demo --x"
+    assert "setting up" not in demo.stderr and "activate" in demo.stderr
     assert not (home / ".local").exists() and not list(bin_dir.iterdir())
     linked = subprocess.run(["bash", str(script), "link"], capture_output=True, text=True, env=env, timeout=60)
     assert linked.returncode == 0, linked.stderr
     assert (home / ".local" / "bin" / "auv-mj").resolve() == command.resolve()
+
+
+def test_the_demo_installs_auv_mj_alone_and_the_first_test_run_adds_the_test_extra(tmp_path):
+    """`run.sh demo` installs auv-mj without its test extra (Ray, pyarrow, pandas, SB3: 0.6 GB it does not use);
+    `run.sh test` installs the extra, in a fresh venv or on top of the demo's, once; a venv set up for the tests
+    (or by an older run.sh, whose stamp is empty) serves the demo as it is; a newer pyproject.toml installs again
+    what the venv holds. A stand-in `python3` (and the venv's python, auv-mj, ruff, lint-imports) logs each call."""
+    checkout, stubs, venv = tmp_path / "checkout", tmp_path / "stubs", tmp_path / "checkout" / ".venv"
+    for folder in (checkout / "scripts", stubs, venv / "bin"):
+        folder.mkdir(parents=True)
+    (checkout / "pyproject.toml").write_text((ROOT / "pyproject.toml").read_text())
+    (checkout / "scripts" / "run.sh").write_text((ROOT / "scripts" / "run.sh").read_text())
+    log = tmp_path / "calls.log"
+    for stub in (stubs / "python3", *(venv / "bin" / name for name in ("python", "auv-mj", "ruff", "lint-imports"))):
+        stub.write_text(f'#!/bin/bash\necho "$(basename "$0") $*" >> {log}\nexit 0\n')
+        stub.chmod(0o755)
+    env = {"HOME": str(tmp_path), "PATH": f"{stubs}:/usr/bin:/bin"}
+    stamp = venv / ".auv-mj-installed"
+
+    def run(job: str) -> tuple[list[str], str]:
+        log.write_text("")
+        done = subprocess.run(["bash", str(checkout / "scripts" / "run.sh"), job], capture_output=True, text=True,
+                              env=env, timeout=60)
+        assert done.returncode == 0, done.stderr
+        return [line for line in log.read_text().splitlines() if " -e " in line], done.stderr
+
+    installs, _ = run("demo")
+    assert installs == ["python -m pip install --progress-bar on -e ."] and stamp.read_text().strip() == "run"
+    assert run("demo")[0] == []
+    installs, said = run("test")
+    assert installs == ["python -m pip install --progress-bar on -e .[test]"] and "adding the test extra" in said
+    assert stamp.read_text().strip() == "test" and run("test")[0] == [] and run("demo")[0] == []
+    future = stamp.stat().st_mtime + 10
+    os.utime(checkout / "pyproject.toml", (future, future))
+    assert run("demo")[0] == ["python -m pip install --progress-bar on -e .[test]"]  # the extra stays
+    stamp.write_text("")  # set up by an older run.sh, which always installed the test extra
+    os.utime(stamp, (future + 10, future + 10))
+    assert run("demo")[0] == [] and run("test")[0] == []
