@@ -87,7 +87,11 @@ def _without_main_script(hidden: bool) -> Iterator[None]:
 
 
 def _end(pool: ProcessPoolExecutor) -> None:
-    """Ends a pool's workers now, with the jobs they hold (on Ctrl-C, or when the caller stops reading)."""
+    """Ends a pool's workers now, with the jobs they hold (on Ctrl-C, or when the caller stops reading): Python
+    3.14's `terminate_workers`, or before it the same on the pool's processes."""
+    if hasattr(pool, "terminate_workers"):
+        pool.terminate_workers()
+        return
     for process in list((getattr(pool, "_processes", None) or {}).values()):
         process.terminate()
     pool.shutdown(wait=True, cancel_futures=True)
