@@ -137,6 +137,8 @@ def interrupted(args: argparse.Namespace, error: KeyboardInterrupt, journal: Pat
     elif journal is not None and journal.exists():
         print(f"{args.prog}: interrupted: the finished episodes are kept in {journal}; run the same command again "
               "to resume", file=sys.stderr)
+    elif journal is not None:
+        print(f"{args.prog}: interrupted before the first episode; nothing to resume", file=sys.stderr)
     else:
         kept = f" after {error.kept} of {error.total} episodes" if isinstance(error, Interrupted) else ""
         print(f"{args.prog}: interrupted{kept}; nothing was kept (give --json or --csv to keep finished episodes "
