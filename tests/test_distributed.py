@@ -6,6 +6,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -216,3 +217,18 @@ def test_a_script_that_starts_workers_runs_as_written_without_a_main_guard(tmp_p
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["2", "3"]
     assert done.stderr == "", done.stderr  # no "bootstrapping phase", no leaked semaphores
+
+
+def test_workers_still_run_the_main_script_where_the_jobs_need_what_it_defines(monkeypatch):
+    """Only jobs that need nothing of the main script start their workers without it; a function of `__main__` (a
+    script's own episode function) keeps the usual rule, for which the script needs its `__main__` guard."""
+    assert not distributed._uses_main_script(runner.run_episode, [("random", "goal", 0, {}, 5)])
+
+    def own_episode(*job):
+        return job
+
+    own_episode.__module__, own_episode.__qualname__ = "__main__", "own_episode"
+    monkeypatch.setattr(sys.modules["__main__"], "own_episode", own_episode, raising=False)
+    assert b"__main__" in pickle.dumps(own_episode)  # it pickles, by its module's name
+    assert distributed._uses_main_script(own_episode, [])
+    assert distributed._uses_main_script(runner.run_episode, [("random", "goal", 0, {"fn": own_episode}, 5)])
