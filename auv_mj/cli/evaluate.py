@@ -69,8 +69,8 @@ TABLE_COLUMNS = ("success_rate", "collision_rate", "safety_violation_rate", "min
                  "time_to_goal", "return", "mae_speed", "mae_heading", "mae_depth")
 """The table's columns; a tracking column no task of the table reports (mae_depth outside depth_heading) is left
 out. On a tracking task success_rate and time_to_goal read n/a: its episodes end by their schedule.
-safety_violation_rate is the share of episodes that came within the safety distance d_s of an obstacle
-(`auv_mj.episode.episode_metrics`), which an episode that reached its goal may have done."""
+safety_violation_rate is the share of episodes in which a sonar range fell below the safety distance d_s = 5 m
+(`auv_mj.episode.episode_metrics`), as an episode that reached its goal may have done."""
 OPTIONAL_COLUMNS = ("mae_depth",)
 
 
