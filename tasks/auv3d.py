@@ -1,4 +1,4 @@
-"""The suite domain "auv3d" (issue 32): the 6-DOF REMUS-100 (`models/auv6.xml`) in depth.
+"""The suite domain "auv3d" (issue 32): the 6-DOF REMUS-100 (`models/auv3d.xml`) in depth.
 
 - `depth_heading`: the execution layer in 3-D. Each EXECUTOR_DT = 0.1 s the agent sees the command (V, psi,
   depth) and the vehicle's sensors and sets (thrust, rudder, stern), scaled from [-1, 1]^3 by the actuator
@@ -64,7 +64,7 @@ from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
 from auv_mj.sim import ocean3d
-from auv_mj.sim.physics6 import AUV6Physics, euler_angles, set_pose
+from auv_mj.sim.physics3d import AUV3DPhysics, euler_angles, set_pose
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_BEAMS, Sensors3D
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import options
@@ -159,9 +159,9 @@ TIERS = ("standard", "hard")
 the 3-D oracle's search."""
 
 
-class Physics3D(ExecutorClock, AUV6Physics):
-    """AUV6Physics with the executor's clock (`auv_mj.control.clock.ExecutorClock`): `set_tick(callback)` calls it every
-    EXECUTOR_DT while stepping."""
+class Physics3D(ExecutorClock, AUV3DPhysics):
+    """AUV3DPhysics with the executor's clock (`auv_mj.control.clock.ExecutorClock`): `set_tick(callback)` calls it
+    every EXECUTOR_DT while stepping."""
 
     TICK_PERIOD = EXECUTOR_DT
 
@@ -172,7 +172,7 @@ class Physics3D(ExecutorClock, AUV6Physics):
         return cls.from_xml_string(xml, source=source)
 
 
-def read_state(physics: AUV6Physics, sensed: dict[str, np.ndarray]) -> State3D:
+def read_state(physics: AUV3DPhysics, sensed: dict[str, np.ndarray]) -> State3D:
     """The executor's State3D from the sensors: DVL (u, v, w), gyro (p, q, r), AHRS attitude, pressure depth."""
     u, v, w = (float(x) for x in sensed["dvl"])
     p, q, r = (float(x) for x in sensed["gyro"])
@@ -182,7 +182,7 @@ def read_state(physics: AUV6Physics, sensed: dict[str, np.ndarray]) -> State3D:
     return State3D(u, v, w, p, q, r, float(roll), float(pitch), float(heading), float(sensed["depth"]))
 
 
-def _normalise(control_values: np.ndarray, physics: AUV6Physics) -> np.ndarray:
+def _normalise(control_values: np.ndarray, physics: AUV3DPhysics) -> np.ndarray:
     low, high = physics.model.actuator_ctrlrange.T
     return np.clip(2.0 * (np.asarray(control_values, dtype=float) - low) / (high - low) - 1.0, -1.0, 1.0)
 
@@ -215,7 +215,7 @@ class DepthHeading(base.Task):
         self._observation = np.zeros(self.memory.size)
         super().__init__(random=options.seed(random))
 
-    def initialize_episode(self, physics: AUV6Physics) -> None:
+    def initialize_episode(self, physics: AUV3DPhysics) -> None:
         if self._command_mode == "random":
             heading = self.random.uniform(-math.pi, math.pi)
             depth = self.random.uniform(*RANDOM_DEPTH)
@@ -687,4 +687,4 @@ def tunnel3d(time_limit: float = TUNNEL_TIME_LIMIT, random=None, environment_kwa
 
 def is_3d(env) -> bool:
     """Whether `env` is an environment of the "auv3d" domain (the 6-DOF vehicle)."""
-    return isinstance(getattr(env, "physics", None), AUV6Physics)
+    return isinstance(getattr(env, "physics", None), AUV3DPhysics)

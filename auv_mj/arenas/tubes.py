@@ -750,7 +750,7 @@ def tube_report(source: str | Path | ET.Element) -> tuple[str, list[str]]:
     6-DOF vehicle compiled inside it, placed at the start, free of contacts."""
     from auv_mj.arenas.arena3d import compose_xml
     from auv_mj.inputs import parse_xml
-    from auv_mj.sim.physics6 import AUV6Physics, set_pose
+    from auv_mj.sim.physics3d import AUV3DPhysics, set_pose
 
     if isinstance(source, ET.Element):
         root = source
@@ -769,7 +769,7 @@ def tube_report(source: str | Path | ET.Element) -> tuple[str, list[str]]:
         problems.append(f"{staves} wall staves where the centreline needs {expected}")
     try:
         xml, name = compose_xml(root)
-        physics = AUV6Physics.from_xml_string(xml, source=name)
+        physics = AUV3DPhysics.from_xml_string(xml, source=name)
         set_pose(physics, tube.centreline[0], yaw=tube.start_heading())
         physics.forward()
         if physics.data.ncon:

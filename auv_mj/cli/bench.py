@@ -35,9 +35,9 @@ from auv_mj.cli.options import bounded_int, check_output, seed_int, usage_error
 from auv_mj.cli.train import make_env_fn
 from auv_mj.planners.guidance import line_of_sight
 from auv_mj.render import glbackend
-from auv_mj.sim import native, native6
+from auv_mj.sim import native, native3d
 from auv_mj.sim.physics import AUVPhysics
-from auv_mj.sim.physics6 import AUV6Physics, set_pose
+from auv_mj.sim.physics3d import AUV3DPhysics, set_pose
 from auv_mj.tasks import suite
 
 SUB_STEPS = 10
@@ -168,11 +168,11 @@ def physics_section(settings: BenchSettings) -> list[Measurement]:
     ]
 
 
-@section("physics6")
-def physics6_section(settings: BenchSettings) -> list[Measurement]:
-    """AUV6Physics.step (the 6-DOF water forces of `auv_mj.sim.hydro6` in the step) against plain mj_step of the
+@section("physics3d")
+def physics3d_section(settings: BenchSettings) -> list[Measurement]:
+    """AUV3DPhysics.step (the 6-DOF water forces of `auv_mj.sim.hydro3d` in the step) against plain mj_step of the
     same compiled model (issue 32: at most 1.5x), and its NumPy reference loop."""
-    physics = AUV6Physics.from_xml_path(model_path("auv6.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
     set_pose(physics, (0.0, 0.0, -20.0), nu=(1.5, 0.0, 0.0, 0.0, 0.0, 0.0))
     physics.set_control([10.0, 0.1, 0.05])
     physics.step(1000)  # a moving, turning, diving vehicle
@@ -201,10 +201,10 @@ def physics6_section(settings: BenchSettings) -> list[Measurement]:
     calls = settings.calls(400)
     times = interleaved_times([plain_steps, hydro_steps, python_steps], [calls] * 3, settings.repeats) / SUB_STEPS
     median = np.median(times, axis=0) * 1e6
-    loop = "C loop" if native6.kernel() is not None else "Python loop: no C compiler"
+    loop = "C loop" if native3d.kernel() is not None else "Python loop: no C compiler"
     return [
         Measurement("mj_step (plain, same 6-DOF model)", median[0], "us/step", "the limit"),
-        Measurement(f"AUV6Physics.step({SUB_STEPS})", median[1], "us/step", loop),
+        Measurement(f"AUV3DPhysics.step({SUB_STEPS})", median[1], "us/step", loop),
         Measurement(f"6-DOF NumPy loop, {SUB_STEPS} steps per call", median[2], "us/step", "the reference"),
         Measurement("6-DOF step / plain mj_step", median_ratio(times, 1, 0), "x", loop),
         Measurement("6-DOF NumPy loop / plain mj_step", median_ratio(times, 2, 0), "x", "the reference"),

@@ -10,7 +10,7 @@ four effects, in 3-D:
   servo slew coming after it;
 - sensors: the planar sonar noise, dropouts and latency on the 27 fan ranges (`ocean.NoisySonar`), and
   Gaussian noise on depth, DVL and gyro (SENSOR_NOISE), with DVL dropouts (the held sample stays);
-- model uncertainty: each episode scales every `hydro_*` coefficient and the rigid body (`AUV6Physics.
+- model uncertainty: each episode scales every `hydro_*` coefficient and the rigid body (`AUV3DPhysics.
   scale_vehicle`) within the planar bounds; the controllers are not told.
 """
 
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from auv_mj.sim import ocean
-from auv_mj.sim.hydro6 import Hydro6Coefficients
+from auv_mj.sim.hydro3d import Hydro3DCoefficients
 from auv_mj.sim.sensors3d import FAN_BEAMS
 
 conditions = ocean.conditions
@@ -33,7 +33,7 @@ SENSOR_NOISE = {"depth": 0.02, "dvl": 0.01, "gyro": 0.002, "accelerometer": 0.02
 strain-gauge depth cell of 0.1 % of a 20 m range, a 1 cm/s DVL, a MEMS gyro's 0.1 deg/s."""
 DVL_DROPOUT = 0.05
 """Chance that a DVL ping is lost (no bottom lock): the previous sample is held."""
-COEFFICIENT_NAMES = tuple(f.name for f in fields(Hydro6Coefficients) if f.name != "B")
+COEFFICIENT_NAMES = tuple(f.name for f in fields(Hydro3DCoefficients) if f.name != "B")
 """What model uncertainty scales: every coefficient but the buoyancy (which `mass` moves with the weight)."""
 
 

@@ -58,7 +58,7 @@ def learned_executor(path: Path | None = None, three_d: bool = False) -> Learned
     """The shipped (or given) learned execution layer as a task executor (`three_d`: a depth executor of the
     6-DOF vehicle)."""
     if three_d:
-        low, high = actuator_ranges("auv6.xml")
+        low, high = actuator_ranges("auv3d.xml")
         return LearnedExecutor(Policy.load(path or shipped_checkpoint("depth-executor")), low, high, three_d=True)
     low, high = actuator_ranges("auv.xml")
     return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)

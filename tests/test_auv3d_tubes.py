@@ -14,7 +14,7 @@ import pytest
 from auv_mj.arenas import tubes
 from auv_mj.arenas.arena3d import compose_xml
 from auv_mj.arenas.arena_check import check_arena
-from auv_mj.sim.physics6 import AUV6Physics
+from auv_mj.sim.physics3d import AUV3DPhysics
 
 
 def straight(length: float = 40.0, depth: float = 15.0, slope: float = 0.0) -> np.ndarray:
@@ -41,7 +41,7 @@ def test_the_wall_is_closed_round_the_centreline():
     """Rays from the centreline in every direction across it hit a stave between radius and wall radius."""
     tube = tubes.Tube(bend(30.0))
     xml, _ = compose_xml(tubes.tube_arena(tube))
-    physics = AUV6Physics.from_xml_string(xml, source="tube")
+    physics = AUV3DPhysics.from_xml_string(xml, source="tube")
     model, data = physics.model.ptr, physics.data.ptr
     mujoco.mj_forward(model, data)
     vehicle = model.body("auv").id

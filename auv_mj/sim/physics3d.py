@@ -1,9 +1,9 @@
-"""`AUV6Physics`: a dm_control Physics for the 6-DOF REMUS-100 (`models/auv6.xml`) with `auv_mj.sim.hydro6` on.
+"""`AUV3DPhysics`: a dm_control Physics for the 6-DOF REMUS-100 (`models/auv3d.xml`) with `auv_mj.sim.hydro3d` on.
 
 The contract of a 6-DOF vehicle MJCF (checked at load, a ValueError names the file and the element): one free
 joint `root` on the vehicle body and no other joint; actuators `thrust` [N], `rudder` [rad] and `stern` [rad] in
 that order, with finite control ranges around 0; a colliding capsule `hull` on the vehicle; the `hydro_*`
-coefficients and `fin_rate` of `auv_mj.sim.hydro6`; sites `sonar`, `altimeter`, `pressure`, `dvl`, `imu` and the
+coefficients and `fin_rate` of `auv_mj.sim.hydro3d`; sites `sonar`, `altimeter`, `pressure`, `dvl`, `imu` and the
 sensors of `auv_mj.sim.sensors3d`; a timestep within TIMESTEP_RANGE and the Euler or implicitfast integrator.
 """
 
@@ -21,7 +21,7 @@ from dm_control.mujoco import engine
 from dm_control.rl.control import PhysicsError
 
 from auv_mj.inputs import MAX_XML_BYTES, read_text, source_name
-from auv_mj.sim.hydro6 import ACTUATORS, Hydro6, slew, spec_from_xml
+from auv_mj.sim.hydro3d import ACTUATORS, Hydro3D, slew, spec_from_xml
 from auv_mj.sim.sensors3d import sonar_fan
 
 SUPPORTED_INTEGRATORS = (mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
@@ -38,7 +38,7 @@ def _fail(source: str, message: str) -> ValueError:
     return ValueError(f"{source}: the 6-DOF vehicle model breaks its contract: {message}")
 
 
-class AUV6Physics(engine.Physics):
+class AUV3DPhysics(engine.Physics):
     """Physics of one 6-DOF AUV: free joint `root`, actuators thrust, rudder, stern (module docstring).
 
     The water's forces go in between `mj_step1` and `mj_step2`, as for the planar vehicle, with no global
@@ -47,7 +47,7 @@ class AUV6Physics(engine.Physics):
     the actuators' ctrlrange (the fin angle limit). The current is `model.opt.wind` (world frame, m/s).
     """
 
-    _hydro: Hydro6 | None = None
+    _hydro: Hydro3D | None = None
     _bound: tuple | None = None
     _step_ready = False
 
@@ -97,7 +97,7 @@ class AUV6Physics(engine.Physics):
         model = self.model.ptr
         self.source = source
         _check_contract(model, source)
-        self._hydro = Hydro6(model, spec, source)
+        self._hydro = Hydro3D(model, spec, source)
         body = self._hydro.body
         self._nominal = (spec, (float(model.body_mass[body]), model.body_inertia[body].copy()))
         self.fin_rate = spec.fin_rate
@@ -114,7 +114,7 @@ class AUV6Physics(engine.Physics):
         self.forward()
 
     @property
-    def hydrodynamics(self) -> Hydro6:
+    def hydrodynamics(self) -> Hydro3D:
         """The 6-DOF water model of this physics."""
         return self._hydro
 
@@ -217,7 +217,7 @@ class AUV6Physics(engine.Physics):
         model.body_mass[body] = body_mass * mass
         model.body_inertia[body] = body_inertia * mass
         mujoco.mj_setConst(model, mujoco.MjData(model))
-        self._hydro = Hydro6(model, spec, self.source)
+        self._hydro = Hydro3D(model, spec, self.source)
         self._bound, self._step_ready = None, False
 
     def reset_fins(self, rudder: float = 0.0, stern: float = 0.0) -> None:
@@ -280,7 +280,7 @@ class AUV6Physics(engine.Physics):
         finally:
             model.opt.disableflags = flags
 
-    def copy(self, share_model: bool = False) -> AUV6Physics:
+    def copy(self, share_model: bool = False) -> AUV3DPhysics:
         """A copy of this physics with the same vehicle, fins and disturbance."""
         new = super().copy(share_model=share_model)
         new._hydro, new.source, new.fin_rate, new._nominal = self._hydro, self.source, self.fin_rate, self._nominal
@@ -311,7 +311,7 @@ def quaternion(roll: float = 0.0, pitch: float = 0.0, yaw: float = 0.0) -> np.nd
     return out
 
 
-def set_pose(physics: AUV6Physics, position=(0.0, 0.0, 0.0), roll: float = 0.0, pitch: float = 0.0,
+def set_pose(physics: AUV3DPhysics, position=(0.0, 0.0, 0.0), roll: float = 0.0, pitch: float = 0.0,
              yaw: float = 0.0, nu=None) -> None:
     """Puts the vehicle at `position` [m] with this attitude [rad] and body velocity `nu` (FLU, 6), at rest if None."""
     with physics.reset_context():

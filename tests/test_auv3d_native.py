@@ -1,4 +1,4 @@
-"""The C 6-DOF step (`hydro6_kernel.c`) against its Python reference (`Hydro6.bind`)."""
+"""The C 6-DOF step (`hydro3d_kernel.c`) against its Python reference (`Hydro3D.bind`)."""
 
 from __future__ import annotations
 
@@ -9,16 +9,16 @@ import pytest
 
 from auv_mj import model_path
 from auv_mj.arenas.arena3d import compose_xml
-from auv_mj.sim import native6
-from auv_mj.sim.physics6 import AUV6Physics, set_pose
+from auv_mj.sim import native3d
+from auv_mj.sim.physics3d import AUV3DPhysics, set_pose
 
 
 def trajectory(native: bool, lagged: bool = False) -> np.ndarray:
     if lagged:
         xml, source = compose_xml(None, thruster_lag=True)
-        physics = AUV6Physics.from_xml_string(xml, source=source)
+        physics = AUV3DPhysics.from_xml_string(xml, source=source)
     else:
-        physics = AUV6Physics.from_xml_path(model_path("auv6.xml"))
+        physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
     if not native:
         physics.hydrodynamics.bind_native = lambda *args, **kwargs: None
         physics._bound = None  # rebind: the Python loop
@@ -35,7 +35,7 @@ def trajectory(native: bool, lagged: bool = False) -> np.ndarray:
 
 @pytest.mark.parametrize("lagged", [False, True])
 def test_the_c_step_follows_the_python_reference(lagged):
-    assert native6.kernel() is not None  # the machine has a C compiler: the C step is the default
+    assert native3d.kernel() is not None  # the machine has a C compiler: the C step is the default
     fast, reference = trajectory(True, lagged), trajectory(False, lagged)
     assert np.ptp(reference[:, :3], axis=0).max() > 10.0
     np.testing.assert_allclose(fast, reference, rtol=0, atol=1e-9)

@@ -1,8 +1,8 @@
-/* The 6-DOF hydrodynamic step of auv_mj.sim.hydro6 in C (issue 32): the loop of `Hydro6.bind`, one call per
- * `AUV6Physics.step(n)` and none into MuJoCo from Python. The Python loop stays the reference; the two agree
- * to rounding (tests/test_auv6_native.py compares their trajectories).
+/* The 6-DOF hydrodynamic step of auv_mj.sim.hydro3d in C (issue 32): the loop of `Hydro3D.bind`, one call per
+ * `AUV3DPhysics.step(n)` and none into MuJoCo from Python. The Python loop stays the reference; the two agree
+ * to rounding (tests/test_auv3d_native.py compares their trajectories).
  *
- * Per step: the fins slew towards their commands at the rate limit; the body force of hydro6.force_frd is
+ * Per step: the fins slew towards their commands at the rate limit; the body force of hydro3d.force_frd is
  * evaluated in Prestero's FRD frame at the velocity relative to the water; it, the buoyancy and an optional
  * world wrench go into qfrc_passive; J^T (M_A + dt K) J goes into the joint-space inertia M, which MuJoCo
  * re-factors; then mj_step2 and mj_step1. nstep = 0 applies once, with no step (mj_forward's accelerations).
@@ -12,7 +12,7 @@
 
 typedef void (*mj_function)(const void *model, void *data);
 
-/* The parameters, in the order auv_mj.sim.native6.PARAMETERS gives them. */
+/* The parameters, in the order auv_mj.sim.native3d.PARAMETERS gives them. */
 enum {
     MA_FRD = 0,          /* 36: M_A in FRD, row major */
     MA_FLU = 36,         /* 36: M_A in FLU */
@@ -29,7 +29,7 @@ enum {
  * row by row), and the index of the rudder's command in `source` (the stern's follows it). */
 enum { QPOS, DOF, M_INDEX, FIN_SOURCE = M_INDEX + 21, N_INDICES };
 
-int auv6_kernel_sizes(int which) { return which == 0 ? N_PARAMETERS : N_INDICES; }
+int auv3d_kernel_sizes(int which) { return which == 0 ? N_PARAMETERS : N_INDICES; }
 
 static double slew(double angle, double command, double low, double high, double step) {
     if (command < low) command = low;
@@ -40,7 +40,7 @@ static double slew(double angle, double command, double low, double high, double
     return angle + change;
 }
 
-void auv6_hydro_advance(const void *model, void *data, mj_function factor, mj_function step1,
+void auv3d_hydro_advance(const void *model, void *data, mj_function factor, mj_function step1,
                         mj_function step2, const double *p, const long *ix, const double *qpos, double *qvel,
                         double *qfrc, double *M, const double *wind, const double *wrench, double *fins,
                         const double *source, int nstep, double dt) {

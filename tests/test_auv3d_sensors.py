@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from auv_mj.arenas.arena3d import arena_root, compose_xml, seabed
-from auv_mj.sim.physics6 import AUV6Physics, set_pose
+from auv_mj.sim.physics3d import AUV3DPhysics, set_pose
 from auv_mj.sim.sensors3d import (
     ALTIMETER_RANGE,
     FAN_AZIMUTHS,
@@ -28,9 +28,9 @@ from auv_mj.sim.sonar import SONAR_RANGE
 BED = 40.0
 
 
-def physics_over_seabed(*extra: ET.Element) -> AUV6Physics:
+def physics_over_seabed(*extra: ET.Element) -> AUV3DPhysics:
     xml, source = compose_xml(arena_root("bed", [seabed(BED), *extra]))
-    return AUV6Physics.from_xml_string(xml, source=source)
+    return AUV3DPhysics.from_xml_string(xml, source=source)
 
 
 def test_fan_has_three_rows_of_the_planar_nine_beams():

@@ -1,4 +1,4 @@
-"""An independent linear model of the 6-DOF REMUS (`models/auv6.xml`) and the simulator probes that test it.
+"""An independent linear model of the 6-DOF REMUS (`models/auv3d.xml`) and the simulator probes that test it.
 
 The linear model (`Linear6`) is Fossen's (2011) body-frame equation
 
@@ -12,8 +12,8 @@ g(eta) of Eq. 4.6, and Prestero's drag, lift and fin terms. It calls no auv_mj c
 from the project's reader and the rigid body from the compiled model (`Linear6.from_physics`), as numbers.
 
 The probes (`simulated_jacobian`, `release_pitch_period`, `open_loop_run`) run the simulator itself, MuJoCo's
-rigid body with `auv_mj.sim.hydro6` inside its step, so that tests/test_auv6_stability.py can hold the two
-against each other. `python tests/vehicle6_linear.py` prints every figure of docs/physics.md, "The 6-DOF
+rigid body with `auv_mj.sim.hydro3d` inside its step, so that tests/test_auv3d_stability.py can hold the two
+against each other. `python tests/vehicle3d_linear.py` prints every figure of docs/physics.md, "The 6-DOF
 vehicle: trim, stability and sources".
 """
 
@@ -52,7 +52,7 @@ class Linear6:
     """The REMUS of a coefficient set, linearised (module docstring). Every matrix is in Prestero's FRD frame."""
 
     c: Any
-    """The coefficients, with attributes X_udot, ..., M_uuds, B (a `Hydro6Coefficients`)."""
+    """The coefficients, with attributes X_udot, ..., M_uuds, B (a `Hydro3DCoefficients`)."""
     m: float
     inertia: np.ndarray
     """Principal moments of inertia about the centre of gravity (I_xx, I_yy, I_zz) [kg m^2]."""
@@ -62,7 +62,7 @@ class Linear6:
 
     @classmethod
     def from_physics(cls, physics) -> Linear6:
-        """From an `AUV6Physics`: its coefficients as the project reads them, its compiled rigid body."""
+        """From an `AUV3DPhysics`: its coefficients as the project reads them, its compiled rigid body."""
         model = physics.model.ptr
         body = physics.hydrodynamics.body
         com = model.body_ipos[body]
@@ -229,7 +229,7 @@ class Linear6:
         return 2.0 * math.pi / math.sqrt(inertia * (zg * weight + surge))
 
     def pitch_alone_period(self) -> float:
-        """[s] 2 pi sqrt((I_yy - M_qdot) / (z_g W)): pitch with every other motion held, as models/auv6.xml's
+        """[s] 2 pi sqrt((I_yy - M_qdot) / (z_g W)): pitch with every other motion held, as models/auv3d.xml's
         header used to give for the vehicle (its I_yy about the CG; the centre of buoyancy adds m z_g^2)."""
         return 2.0 * math.pi * math.sqrt((self.inertia[1] - self.c.M_qdot) / (self.z_g * self.weight))
 
@@ -246,7 +246,7 @@ def simulated_acceleration(physics, x: np.ndarray, thrust: float) -> np.ndarray:
     MuJoCo's free joint moves in qvel = (world linear velocity, body angular velocity); the body-frame linear
     acceleration is R^T v_dot - omega x nu1 (both FLU).
     """
-    from auv_mj.sim.physics6 import set_pose
+    from auv_mj.sim.physics3d import set_pose
 
     nu = FLIP * np.asarray(x[:6], dtype=float)
     set_pose(physics, (0.0, 0.0, -RELEASE_DEPTH), roll=float(x[6]), pitch=float(x[7]), nu=nu)
@@ -289,7 +289,7 @@ def release_pitch_period(physics, pitch: float = RELEASE_PITCH, duration: float 
     """(period [s], pitch amplitude [rad]) of the vehicle released at rest at `pitch`, thrust and fins at zero:
     the mean interval between upward zero crossings of the pitch rate after `settle` (the rate's mean is zero,
     where the pitch angle's drifts with the rise), and half the pitch's range over the last period."""
-    from auv_mj.sim.physics6 import set_pose
+    from auv_mj.sim.physics3d import set_pose
 
     set_pose(physics, (0.0, 0.0, -RELEASE_DEPTH), pitch=pitch)
     physics.reset_fins()
@@ -311,7 +311,7 @@ def release_pitch_period(physics, pitch: float = RELEASE_PITCH, duration: float 
 def open_loop_run(physics, u0: float, thrust: float, duration: float, every: float = 1.0) -> np.ndarray:
     """Rows (t, x, y, depth, roll, pitch, heading, u) [s, m, rad, m/s] every `every` s of a straight, level run
     started at u0 with this thrust and the fins held at zero (MuJoCo's frames: heading counter-clockwise)."""
-    from auv_mj.sim.physics6 import set_pose
+    from auv_mj.sim.physics3d import set_pose
 
     set_pose(physics, (0.0, 0.0, -RELEASE_DEPTH), nu=(u0, 0.0, 0.0, 0.0, 0.0, 0.0))
     physics.reset_fins()
@@ -333,9 +333,9 @@ def _roots(matrix: np.ndarray) -> str:
 def main() -> None:
     """Prints the figures of docs/physics.md's 6-DOF section."""
     from auv_mj import model_path
-    from auv_mj.sim.physics6 import AUV6Physics
+    from auv_mj.sim.physics3d import AUV3DPhysics
 
-    physics = AUV6Physics.from_xml_path(model_path("auv6.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
     model = Linear6.from_physics(physics)
     c, u0 = model.c, CRUISE_SPEED
     print(f"m = {model.m} kg, W = {model.weight:.3f} N, B = {c.B} N, B - W = {c.B - model.weight:.3f} N, "
@@ -365,7 +365,7 @@ def main() -> None:
     print(f"  as built, about the rising equilibrium                 {period:.3f} s  (roots {roots})")
     print(f"  formula at the rise rate sqrt((B - W) / -Z_ww)         "
           f"{model.pitch_period_formula(math.sqrt((c.B - model.weight) / -c.Z_ww)):.3f} s")
-    measured, amplitude = release_pitch_period(AUV6Physics.from_xml_path(model_path("auv6.xml")))
+    measured, amplitude = release_pitch_period(AUV3DPhysics.from_xml_path(model_path("auv3d.xml")))
     print(f"  simulator, released at rest at {RELEASE_PITCH} rad                {measured:.3f} s  "
           f"(pitch amplitude {amplitude:.4f} rad after {RELEASE_TIME:g} s)")
     heavy_drag = model.replace(Z_ww=c.Y_vv)
@@ -374,7 +374,7 @@ def main() -> None:
           f"{heavy_drag.pitch_period(rise[0], rise[1]):.3f} s")
 
     duration = 300.0
-    run = open_loop_run(AUV6Physics.from_xml_path(model_path("auv6.xml")), u0, thrust, duration)
+    run = open_loop_run(AUV3DPhysics.from_xml_path(model_path("auv3d.xml")), u0, thrust, duration)
     late = run[:, 0] >= 100.0
     t, heading = run[late, 0], np.unwrap(run[late, 6])
     turn = np.polyfit(t, heading, 1)[0]
@@ -385,20 +385,20 @@ def main() -> None:
           f"{descent:.3f} m/s, u {speed:.3f} m/s, radius u / r = {speed / abs(turn):.1f} m, "
           f"roll {np.degrees(run[late, 4]).mean():+.1f} deg, pitch {np.degrees(run[late, 5]).min():+.1f} to "
           f"{np.degrees(run[late, 5]).max():+.1f} deg")
-    from vehicle6_reference import Reference6
+    from vehicle3d_reference import Reference3D
 
     start = np.zeros(12)
     start[2], start[6] = RELEASE_DEPTH, u0
-    reference = Reference6.from_xml().solve(start, duration, lambda t: (thrust, 0.0, 0.0))
-    print(f"  the scipy reference (tests/vehicle6_reference.py): depth {reference(duration)[2]:.2f} m against the "
+    reference = Reference3D.from_xml().solve(start, duration, lambda t: (thrust, 0.0, 0.0))
+    print(f"  the scipy reference (tests/vehicle3d_reference.py): depth {reference(duration)[2]:.2f} m against the "
           f"simulator's {run[-1, 3]:.2f} m")
-    text = model_path("auv6.xml").read_text()
+    text = model_path("auv3d.xml").read_text()
     for name, old, new in (("B = W", f'name="hydro_B" data="{c.B!r}"', f'name="hydro_B" data="{model.weight!r}"'),
                            ("B = W and no propeller torque", 'gear="1 0 0 -0.1407 0 0"', 'gear="1 0 0 0 0 0"')):
         if old not in text:
-            raise RuntimeError(f"models/auv6.xml has no {old}")
+            raise RuntimeError(f"models/auv3d.xml has no {old}")
         text = text.replace(old, new)
-        run = open_loop_run(AUV6Physics.from_xml_string(text), u0, thrust, duration)
+        run = open_loop_run(AUV3DPhysics.from_xml_string(text), u0, thrust, duration)
         print(f"  and with {name}: depth change {run[-1, 3] - run[0, 3]:+.3f} m, heading change "
               f"{np.unwrap(run[:, 6])[-1] - run[0, 6]:+.3f} rad")
 

@@ -1,7 +1,7 @@
-"""Open-loop stability and trim of the 6-DOF REMUS (`models/auv6.xml`) against an analytic linear model (issue 44).
+"""Open-loop stability and trim of the 6-DOF REMUS (`models/auv3d.xml`) against an analytic linear model (issue 44).
 
-The linear model is tests/vehicle6_linear.py: Fossen's body-frame equations linearised by hand from the coefficient
-set the project reads. Here it is held against the simulator (MuJoCo's step with `auv_mj.sim.hydro6` in it):
+The linear model is tests/vehicle3d_linear.py: Fossen's body-frame equations linearised by hand from the coefficient
+set the project reads. Here it is held against the simulator (MuJoCo's step with `auv_mj.sim.hydro3d` in it):
 its Jacobian, the signs of its roots at Prestero's 1.54 m/s (the vehicle is open-loop unstable in both planes),
 the pitch period of a release at rest with the shipped positive trim, and the descending spiral of an open-loop
 straight run. docs/physics.md ("The 6-DOF vehicle: trim, stability and sources") gives the figures.
@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from vehicle6_linear import (
+from vehicle3d_linear import (
     CRUISE_SPEED,
     HORIZONTAL,
     LATERAL,
@@ -27,7 +27,7 @@ from vehicle6_linear import (
 )
 
 from auv_mj import model_path
-from auv_mj.sim.physics6 import AUV6Physics
+from auv_mj.sim.physics3d import AUV3DPhysics
 
 JACOBIAN_TOLERANCE = 1e-7
 """[1/s, m/s^2 per unit] `simulated_jacobian` against the analytic A, entry by entry. Its difference formula is exact
@@ -44,8 +44,8 @@ PLANE_TOLERANCE = 0.02
 """[1/s] How far the whole vehicle's unstable roots may lie from the plane models' (held surge and roll)."""
 
 
-def physics() -> AUV6Physics:
-    return AUV6Physics.from_xml_path(model_path("auv6.xml"))
+def physics() -> AUV3DPhysics:
+    return AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
 
 
 def vehicle() -> Linear6:

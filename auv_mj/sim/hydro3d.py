@@ -10,7 +10,7 @@ Y_rdot, Z_qdot), its Coriolis C_A(nu_r), the quadratic drag, the body and fin li
 angle and rate limits) and the buoyancy B at the centre of buoyancy (the other half of g(eta)). Thrust is a
 MuJoCo actuator (`thrust`).
 
-How it enters MuJoCo's step (`Hydro6.bind`), the planar scheme of `auv_mj.sim.hydrodynamics` in 6-DOF.
+How it enters MuJoCo's step (`Hydro3D.bind`), the planar scheme of `auv_mj.sim.hydrodynamics` in 6-DOF.
 The free joint's velocity is qvel = (v_world, omega_body): the linear velocity of the body origin in the
 world frame and the angular velocity in the body frame, so nu = J qvel with J = diag(R^T, I) (R the body's
 rotation). Then nu1_dot = R^T v_world_dot - omega x nu1 and, for an irrotational current constant in the world,
@@ -33,9 +33,9 @@ planar model: K = 2 |X_uu| |u_r| in surge, 2 |N_rr| |r| in yaw, and by symmetry 
 2 |M_qq| |q| in pitch; sway and heave stay explicit except K = max(0, |c| |v_r| - m / dt). So the held-planar
 6-DOF model and the planar model take the same steps.
 
-The stepper runs in C by default (`bind_native`, `hydro6_kernel.c`: one call per `AUV6Physics.step(n)`); this
+The stepper runs in C by default (`bind_native`, `hydro3d_kernel.c`: one call per `AUV3DPhysics.step(n)`); this
 module's NumPy loop (`bind`) is the reference and the fallback (`AUV_MJ_NATIVE=0`, or no C compiler), several
-times slower (`auv-mj bench --section physics6`).
+times slower (`auv-mj bench --section physics3d`).
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ import mujoco
 import numpy as np
 
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
-from auv_mj.sim import native6
+from auv_mj.sim import native3d
 
 NUMERIC_PREFIX = "hydro_"
 FIN_RATE_NUMERIC = "fin_rate"
@@ -72,8 +72,8 @@ SYMMETRY_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
-class Hydro6Coefficients:
-    """Prestero's derivatives in SNAME notation, SI units, FRD frame (the tables are cited in models/auv6.xml)."""
+class Hydro3DCoefficients:
+    """Prestero's derivatives in SNAME notation, SI units, FRD frame (the tables are cited in models/auv3d.xml)."""
 
     X_udot: float
     Y_vdot: float
@@ -120,7 +120,7 @@ class Hydro6Coefficients:
         return a
 
     @classmethod
-    def from_mapping(cls, values: dict[str, object], source: str = "<dict>") -> Hydro6Coefficients:
+    def from_mapping(cls, values: dict[str, object], source: str = "<dict>") -> Hydro3DCoefficients:
         """Coefficients from {"X_udot": ..., ...}; a ValueError names the file and any missing or bad field."""
         kwargs = {}
         for f in fields(cls):
@@ -147,20 +147,20 @@ class Hydro6Coefficients:
 
 
 @dataclass(frozen=True)
-class VehicleSpec6:
+class VehicleSpec3D:
     """What the MJCF says of the 6-DOF vehicle beyond MuJoCo's own model: coefficients and fin rate limit."""
 
-    coefficients: Hydro6Coefficients
+    coefficients: Hydro3DCoefficients
     fin_rate: float
     """Largest fin slew rate [rad/s] (`<numeric name="fin_rate">`)."""
 
 
-def spec_from_xml(xml: str, source: str = "<string>") -> VehicleSpec6 | None:
+def spec_from_xml(xml: str, source: str = "<string>") -> VehicleSpec3D | None:
     """The `hydro_*` numerics and `fin_rate` of MJCF text, or None when it has no `hydro_*` numeric."""
     root = parse_xml(xml, source, "6-DOF vehicle MJCF")
     values: dict[str, str] = {}
     fin_rate = None
-    known = {f.name for f in fields(Hydro6Coefficients)}
+    known = {f.name for f in fields(Hydro3DCoefficients)}
     for numeric in root.iter("numeric"):
         name = numeric.get("name", "")
         data = numeric.get("data")
@@ -177,7 +177,7 @@ def spec_from_xml(xml: str, source: str = "<string>") -> VehicleSpec6 | None:
         values[key] = data
     if not values:
         return None
-    coefficients = Hydro6Coefficients.from_mapping(values, source)
+    coefficients = Hydro3DCoefficients.from_mapping(values, source)
     try:
         rate = float(fin_rate)
     except (TypeError, ValueError):
@@ -185,16 +185,16 @@ def spec_from_xml(xml: str, source: str = "<string>") -> VehicleSpec6 | None:
                          f"got {fin_rate!r}") from None
     if not (math.isfinite(rate) and rate > 0):
         raise ValueError(f'{source}: <numeric name="{FIN_RATE_NUMERIC}"> = {rate!r} must be a positive rate [rad/s]')
-    return VehicleSpec6(coefficients, rate)
+    return VehicleSpec3D(coefficients, rate)
 
 
-def spec_from_path(path: str | Path) -> VehicleSpec6 | None:
+def spec_from_path(path: str | Path) -> VehicleSpec3D | None:
     """`spec_from_xml` for a file."""
     path = Path(path)
     return spec_from_xml(read_text(path, "6-DOF vehicle MJCF", MAX_XML_BYTES), str(path))
 
 
-def force_frd(c: Hydro6Coefficients, added_mass: np.ndarray, nu: np.ndarray, rudder: float,
+def force_frd(c: Hydro3DCoefficients, added_mass: np.ndarray, nu: np.ndarray, rudder: float,
               stern: float) -> np.ndarray:
     """The body force f of the module docstring, in Prestero's FRD frame, at relative velocity `nu` (FRD).
 
@@ -223,7 +223,7 @@ def force_frd(c: Hydro6Coefficients, added_mass: np.ndarray, nu: np.ndarray, rud
     return np.array([X, Y, Z, K, M, N])
 
 
-def fin_forces_frd(c: Hydro6Coefficients, u: float, rudder: float, stern: float) -> np.ndarray:
+def fin_forces_frd(c: Hydro3DCoefficients, u: float, rudder: float, stern: float) -> np.ndarray:
     """The fins' part of `force_frd` alone (Table C.10): (0, Y_uudr, Z_uuds, 0, M_uuds, N_uudr) u^2 delta."""
     uu = u * u
     return np.array([0.0, c.Y_uudr * uu * rudder, c.Z_uuds * uu * stern, 0.0, c.M_uuds * uu * stern,
@@ -236,10 +236,10 @@ def slew(angle: float, command: float, rate: float, dt: float) -> float:
     return angle + min(step, max(-step, command - angle))
 
 
-class Hydro6:
+class Hydro3D:
     """Applies the water's forces of the module docstring to the free-jointed vehicle of a compiled model."""
 
-    def __init__(self, model: mujoco.MjModel, spec: VehicleSpec6, source: str = "model"):
+    def __init__(self, model: mujoco.MjModel, spec: VehicleSpec3D, source: str = "model"):
         self.spec = spec
         self.coefficients = c = spec.coefficients
         try:
@@ -354,24 +354,24 @@ class Hydro6:
 
     def bind_native(self, model: mujoco.MjModel, data: mujoco.MjData, fins: np.ndarray, source: np.ndarray,
                     source_index: int, limits: np.ndarray, rate: float) -> Callable[..., None] | None:
-        """`bind`'s stepper on the C loop (`auv_mj.sim.native6`), or None where it cannot be built.
+        """`bind`'s stepper on the C loop (`auv_mj.sim.native3d`), or None where it cannot be built.
 
         The C loop slews the fin angles itself: `fins` (2,) is their state, updated in place, towards the
         commands source[source_index], source[source_index + 1] (data.ctrl, or data.act when lagged), within
         `limits` (2, 2) at `rate` [rad/s]; the `fins` callable `advance` is given is not called.
         """
-        compiled = native6.kernel()
+        compiled = native3d.kernel()
         if compiled is None:
             return None
         c = self.coefficients
         parameters = np.concatenate([self.added_mass_frd.ravel(), self.added_mass.ravel(),
-                                     [getattr(c, name) for name in native6.COEFFICIENTS], self._drag,
+                                     [getattr(c, name) for name in native3d.COEFFICIENTS], self._drag,
                                      self._explicit.astype(float), self._mass_diagonal,
                                      [rate, *np.asarray(limits, dtype=float).ravel()]])
         indices = np.array([self.qpos_adr, self.dof_adr, *self._m_index, source_index],
                            dtype=np.dtype(ctypes.c_long))
         if (len(parameters), len(indices)) != compiled.sizes:
-            raise RuntimeError(f"hydro6_kernel.c expects {compiled.sizes} values, auv_mj gives "
+            raise RuntimeError(f"hydro3d_kernel.c expects {compiled.sizes} values, auv_mj gives "
                                f"{(len(parameters), len(indices))}: the two are out of step")
         vp = ctypes.c_void_p
         wrench_now = np.zeros(6)

@@ -8,7 +8,7 @@ import pytest
 from auv_mj import model_path
 from auv_mj.arenas.arena3d import compose_xml
 from auv_mj.sim.ocean3d import CurrentProfile, Ocean3D
-from auv_mj.sim.physics6 import AUV6Physics, set_pose
+from auv_mj.sim.physics3d import AUV3DPhysics, set_pose
 
 
 def test_the_current_profile_is_the_seventh_power_law_above_the_bed():
@@ -19,7 +19,7 @@ def test_the_current_profile_is_the_seventh_power_law_above_the_bed():
 
 def test_ocean_writes_the_current_at_the_vehicles_depth_and_moves_it():
     xml, source = compose_xml(None, thruster_lag=True)
-    physics = AUV6Physics.from_xml_string(xml, source=source)
+    physics = AUV3DPhysics.from_xml_string(xml, source=source)
     set_pose(physics, (0.0, 0.0, -30.0))
     ocean = Ocean3D({"sonar": False, "model_uncertainty": False})
     ocean.start(physics, np.random.RandomState(0))
@@ -33,8 +33,8 @@ def test_ocean_writes_the_current_at_the_vehicles_depth_and_moves_it():
 
 def test_a_neutral_vehicle_moving_with_the_water_drifts_with_it_exactly():
     """At zero velocity through the water there is no water force: the vehicle keeps the current's velocity."""
-    xml = model_path("auv6.xml").read_text().replace('data="302.34"', f'data="{30.48 * 9.81!r}"')
-    physics = AUV6Physics.from_xml_string(xml, source="neutral")
+    xml = model_path("auv3d.xml").read_text().replace('data="302.34"', f'data="{30.48 * 9.81!r}"')
+    physics = AUV3DPhysics.from_xml_string(xml, source="neutral")
     current = np.array([0.3, -0.2, 0.0])
     physics.model.opt.wind[:] = current
     set_pose(physics, (0.0, 0.0, -20.0), yaw=0.6)
@@ -47,9 +47,9 @@ def test_a_neutral_vehicle_moving_with_the_water_drifts_with_it_exactly():
 
 
 def test_fin_lag_delays_the_fins_and_model_uncertainty_scales_and_restores_the_vehicle():
-    ideal = AUV6Physics.from_xml_path(model_path("auv6.xml"))
+    ideal = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
     xml, source = compose_xml(None, thruster_lag=True)
-    lagged = AUV6Physics.from_xml_string(xml, source=source)
+    lagged = AUV3DPhysics.from_xml_string(xml, source=source)
     for physics in (ideal, lagged):
         physics.set_control([0.0, 0.2, 0.0])
         physics.step(50)  # 0.5 s: the servo alone gets there in 0.38 s

@@ -1,4 +1,4 @@
-"""An independent 6-DOF reference for the tests of `models/auv6.xml`: Fossen's equations integrated by scipy.
+"""An independent 6-DOF reference for the tests of `models/auv3d.xml`: Fossen's equations integrated by scipy.
 
 Nothing here calls auv_mj: the coefficients and the rigid body are read from the MJCF with ElementTree, and the
 equations are written in Prestero's frames (body x forward, y starboard, z down; world north, east, down) with
@@ -24,19 +24,19 @@ from scipy.integrate import solve_ivp
 
 from auv_mj import model_path
 
-VEHICLE6_XML = model_path("auv6.xml")
+VEHICLE3D_XML = model_path("auv3d.xml")
 GRAVITY = 9.81
 FLIP = np.array([1.0, -1.0, -1.0])
 """MuJoCo's frames (body x forward, y port, z up; world z up) to Prestero's (FRD; NED): a half turn about x."""
 
 
-def read_numerics(xml_path=VEHICLE6_XML) -> dict[str, float]:
+def read_numerics(xml_path=VEHICLE3D_XML) -> dict[str, float]:
     root = ET.parse(xml_path).getroot()
     return {n.get("name")[len("hydro_"):]: float(n.get("data")) for n in root.iter("numeric")
             if n.get("name", "").startswith("hydro_")}
 
 
-def read_rigid_body(xml_path=VEHICLE6_XML) -> tuple[float, np.ndarray, np.ndarray, float]:
+def read_rigid_body(xml_path=VEHICLE3D_XML) -> tuple[float, np.ndarray, np.ndarray, float]:
     """(m, principal inertia about the CG, CG in FRD [m], roll torque per newton of thrust [m])."""
     root = ET.parse(xml_path).getroot()
     inertial = root.find(".//body[@name='auv']/inertial")
@@ -78,7 +78,7 @@ def euler_rates(phi: float, theta: float) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Reference6:
+class Reference3D:
     """REMUS-100 per Prestero's equations; state (n, e, d, phi, theta, psi, u, v, w, p, q, r), FRD / NED."""
 
     c: dict[str, float]
@@ -88,7 +88,7 @@ class Reference6:
     prop_roll: float
 
     @classmethod
-    def from_xml(cls, xml_path=VEHICLE6_XML) -> Reference6:
+    def from_xml(cls, xml_path=VEHICLE3D_XML) -> Reference3D:
         m, inertia, com, prop = read_rigid_body(xml_path)
         return cls(read_numerics(xml_path), m, inertia, com, prop)
 
