@@ -12,10 +12,12 @@
 from auv_mj.agents.ppo.gru import gru_sequence
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.agents.ppo.ppo import (
+    CELLS_LOG_NAME,
     CHECKPOINT_NAME,
     LOG_NAME,
     ActorCritic,
     Collector,
+    Episode,
     Minibatch,
     PPOConfig,
     PPOResult,
@@ -30,13 +32,16 @@ from auv_mj.agents.ppo.ppo import (
     read_ppo,
     reset_seeds,
     save_ppo,
+    schedule_at,
+    scheduled,
     train,
     update,
     value_loss,
 )
 from auv_mj.agents.ppo.spaces import OBS_KEYS, autoreset_mode, env_action, env_spec, flatten_obs
 
-__all__ = ["CHECKPOINT_NAME", "LOG_NAME", "OBS_KEYS", "ActorCritic", "Collector", "Minibatch", "PPOConfig", "PPOPolicy",
-           "PPOResult", "Rollout", "autoreset_mode", "build_model", "clipped_surrogate", "env_action", "env_spec",
-           "flatten_obs", "gae", "gru_sequence", "load_model", "make_optimizer", "minibatches", "ppo_loss", "read_ppo",
-           "reset_seeds", "save_ppo", "train", "update", "value_loss"]
+__all__ = ["CELLS_LOG_NAME", "CHECKPOINT_NAME", "LOG_NAME", "OBS_KEYS", "ActorCritic", "Collector", "Episode",
+           "Minibatch", "PPOConfig", "PPOPolicy", "PPOResult", "Rollout", "autoreset_mode", "build_model",
+           "clipped_surrogate", "env_action", "env_spec", "flatten_obs", "gae", "gru_sequence", "load_model",
+           "make_optimizer", "minibatches", "ppo_loss", "read_ppo", "reset_seeds", "save_ppo", "schedule_at",
+           "scheduled", "train", "update", "value_loss"]

@@ -19,9 +19,9 @@ class PPOPolicy:
 
     Runs in float64 (as `auv_mj.agents.offpolicy.Policy`, so that a closed loop does not depend on the CPU's float32
     kernels) and carries the actor's memory from call to call; `reset()` before each episode. It runs the actor
-    alone (`ActorCritic.act`): a policy trained with a privileged critic needs no privileged input here. It takes one observation
-    (a Box array or goal dict) or a batch of them with a leading env dimension; the memory is sized on the first
-    call after a reset.
+    alone (`ActorCritic.act`): a policy trained with a privileged critic needs no privileged input here. It takes
+    one observation (a Box array or goal dict) or a batch of them with a leading env dimension; the memory is sized
+    on the first call after a reset.
     """
 
     def __init__(self, model: ActorCritic, spec: Mapping[str, Any], device: str = "cpu"):
