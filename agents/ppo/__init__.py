@@ -1,11 +1,13 @@
 """PPO with an optional GRU or LSTM memory, on Gymnasium vector envs, and the planner trained with it.
 
-- `ppo`: the algorithm in one file, top to bottom as CleanRL's: config, actor-critic, rollout, GAE, clipped losses,
-  update, checkpoint (kind "ppo" of `auv_mj.agents.checkpoint`) and training loop;
+- `ppo`: the algorithm in one file, top to bottom as CleanRL's: config and schedules, actor-critic (an optional
+  critic of its own with privileged inputs), rollout, GAE, clipped losses, update (an optional KL limit),
+  checkpoint (kind "ppo" of `auv_mj.agents.checkpoint`) and training loop with per-cell logs;
 - `gru`: the update's GRU over whole sequences, its backward pass written out (`gru_sequence`);
 - `spaces`: one env's spaces as the networks see them (`env_spec`, `flatten_obs`, `env_action`);
 - `policy`: the deployable deterministic policy (`PPOPolicy.load`);
-- `planner`: the planner learned on the batched training mixture, chosen on validation seeds (`train_planner`);
+- `planner`: the planner learned on the batched training mixture (hard cells oversampled by `cell_weights`), chosen
+  on a windowed mean of validations (`train_planner`, `windowed_choice`; `LEARNED_CONFIG`, `LEARNED_MIXTURE`);
 - `export`: a training checkpoint's network alone, for `agents/checkpoints/` (`python -m auv_mj.agents.ppo.export`).
 """
 

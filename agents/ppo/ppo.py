@@ -12,6 +12,10 @@ of the update is a function that tests call. Beside it: `spaces` (what the netwo
   mean/std normaliser (`auv_mj.agents.normalizer.Normalizer`, in every checkpoint) standardises them; it is updated
   from each rollout after the update, so a rollout is replayed with the statistics it was collected with (the
   first ratio of an update is 1, to float rounding).
+- Critic: by default the recurrent actor and critic share the encoder and cell; `separate_critic` gives the critic
+  its own (sb3-contrib's RecurrentPPO's default), and `privileged_critic` feeds it the env's info["privileged"]
+  (N, P) beside the observation (an asymmetric critic, Pinto et al. 2018). The actor's network never reads them:
+  `ActorCritic.act`, what the deployed `PPOPolicy` runs, takes no privileged input.
 - Memory (`recurrent="gru"` or `"lstm"`): an MLP encoder, one GRU/LSTM cell, then linear policy and value heads.
   The state is carried across a rollout and zeroed before the first observation of each episode (`starts`);
   minibatches are whole environments, and the update re-runs each sequence from the rollout's initial state
@@ -26,6 +30,12 @@ of the update is a function that tests call. Beside it: `spaces` (what the netwo
   `info["final_obs"]`; V(final observation) is computed from the episode's memory for truncated envs.
   DISABLED is refused. GAE bootstraps truncations (time limits) from V(final observation) and not
   terminations, through a separate `next_values` array (`gae`).
+- Schedules: the learning rate and the clip range fall to their floors over the run's planned env steps
+  (`lr_schedule`, `clip_schedule`: constant, linear as CleanRL's, or cosine), as functions of the global step
+  (`schedule_at`); the planned steps are in the checkpoint, so a resumed run continues the same schedule. An
+  optional `target_kl` stops an update's epochs early (CleanRL's approx_kl stop); both are off by default.
+- Logs: progress.csv a row per rollout; cells.csv, per cell of the env (`Collector`), the success, collision rate,
+  speed and return of the episodes that ended; TensorBoard the same, where it is installed.
 - Checkpoints (`checkpoint.pt`, kind "ppo" of `auv_mj.agents.checkpoint`) fall every `checkpoint_every` rollouts
   and at the end of a `train` call. At every multiple of `checkpoint_every`, and at the start of each `train`
   call, the envs are reset with seeds derived from (seed, rollout index) (`auv_mj.seeds.train_seed`): env
