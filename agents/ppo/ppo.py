@@ -52,6 +52,7 @@ import dataclasses
 import json
 import math
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -99,7 +100,8 @@ implementation details of PPO", detail 2)."""
 
 @dataclasses.dataclass(frozen=True)
 class PPOConfig:
-    """Hyper-parameters of PPO; defaults are CleanRL's `ppo_continuous_action.py` (Huang et al. 2022)."""
+    """Hyper-parameters of PPO; defaults are CleanRL's `ppo_continuous_action.py` (Huang et al. 2022), but the
+    schedules, the KL limit and the critic of its own are off, as in the runs made before them."""
 
     learning_rate: float = 3e-4
     """Adam step size."""
@@ -804,8 +806,13 @@ class PPOResult:
 
 
 def _tensorboard(run_dir: Path, purge_step: int | None) -> Any:
-    from torch.utils.tensorboard import SummaryWriter  # slow import, only when asked for
-
+    """A TensorBoard writer in run_dir/tb, or None with a warning where TensorBoard is not installed (the CSV logs
+    are written either way)."""
+    try:
+        from torch.utils.tensorboard import SummaryWriter  # slow import, only when asked for
+    except ImportError:
+        warnings.warn("TensorBoard is not installed: the training curves go to the CSV logs only", stacklevel=3)
+        return None
     return SummaryWriter(str(run_dir / "tb"), purge_step=purge_step)
 
 
