@@ -444,6 +444,14 @@ def privileged_inputs(info: Mapping[str, Any], num_envs: int, size: int) -> np.n
     return values if mask is None else np.where(np.asarray(mask, bool)[:, None], values, 0.0).astype(np.float32)
 
 
+def _info_flag(info: Mapping[str, Any], key: str, i: int) -> float:
+    """Row i's info[key] as 1.0 or 0.0, nan where the env did not report it."""
+    mask = info.get("_" + key)
+    if key not in info or (mask is not None and not mask[i]):
+        return float("nan")
+    return float(bool(np.asarray(info[key])[i]))
+
+
 class Collector:
     """Steps a vector env with the policy, carrying each env's memory and its episode bookkeeping.
 
@@ -495,17 +503,12 @@ class Collector:
 
     def _record_ends(self, ended: np.ndarray, info: Mapping[str, Any]) -> None:
         """Adds the episodes of rows `ended` to `finished`, with their last step's success and collision."""
-        def last(key: str, i: int) -> float:
-            mask = info.get("_" + key)
-            if key not in info or (mask is not None and not mask[i]):
-                return float("nan")
-            return float(bool(np.asarray(info[key])[i]))
-
         for i in np.flatnonzero(ended):
             length = int(self.episode_lengths[i])
             speed = self.episode_distance[i] / length if self.step_speed is not None and length else float("nan")
             self.finished.append(Episode(float(self.episode_returns[i]), length, int(self.cell_of_row[i]),
-                                         last("is_success", i), last("collision", i), float(speed)))
+                                         _info_flag(info, "is_success", i), _info_flag(info, "collision", i),
+                                         float(speed)))
 
     @torch.no_grad()
     def rollout(self, num_steps: int) -> Rollout:
