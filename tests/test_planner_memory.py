@@ -4,6 +4,7 @@ short `auv-mj train ppo` run that checkpoints, validates and resumes exactly."""
 from __future__ import annotations
 
 import csv
+import json
 
 import dm_env
 import numpy as np
@@ -218,3 +219,21 @@ def test_train_planner_validates_on_validation_seeds_and_copies_the_windowed_cho
     progress = _rows(tmp_path / "progress.csv")  # one schedule over the five chunks: lr falls by a fifth a rollout
     assert [float(r["learning_rate"]) for r in progress] == pytest.approx([3e-4 * (1 - k / 5) for k in range(5)])
     assert (tmp_path / "cells.csv").is_file()
+
+
+def test_train_ppo_takes_the_new_options_and_a_resume_may_change_validation_but_not_training(tmp_path, capsys):
+    run = tmp_path / "run"
+    extra = ("--ppo-lr-schedule", "linear", "--ppo-separate-critic", "true", "--cell-weights", "hard=2",
+             "--validation-window", "2")
+    assert _train(run, 288, *extra) == 0  # 18 vehicles (the hard cells doubled), 144 steps a rollout
+    mixture = json.loads((run / "mixture.json").read_text())
+    assert (mixture["cell_weights"], mixture["validation_window"]) == (["hard=2"], 2)
+    (_, meta), config = ppo.read_ppo(run / "checkpoint.pt")
+    assert config.separate_critic and config.lr_schedule == "linear" and meta["counters"]["schedule_steps"] == 288
+    assert [float(r["learning_rate"]) for r in _rows(run / "progress.csv")] == pytest.approx([3e-4, 1.5e-4])
+    assert "mean of its window" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        _train(run, 432, "--resume", "--cell-weights", "hard=3")  # a training field: refused
+    assert _train(run, 432, "--resume", "--validation-window", "3") == 0  # the schedule stays the run's own
+    assert json.loads((run / "mixture.json").read_text())["validation_window"] == 3
+    assert float(_rows(run / "progress.csv")[-1]["learning_rate"]) == 0.0  # past the planned 288 steps: the floor

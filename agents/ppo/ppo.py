@@ -865,7 +865,7 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
     follow their schedules (`schedule_at`): by default `total_steps` of the call that starts the run. It is kept
     in the checkpoint's counters, and a resumed run continues it (a different value given on resume is refused),
     so a run trained in pieces (`auv_mj.agents.ppo.planner`, or after an interruption) has at every update the
-    learning rate of the uninterrupted run.
+    learning rate of the uninterrupted run; steps past the planned ones train at the floors.
 
     Logs: a row per rollout to `progress.csv` (`LOG_FIELDS`), and per cell of the env (`Collector`) the episodes
     that ended in the rollout to `cells.csv` (`CELL_FIELDS`; rows after the checkpoint, from a crashed run, are
