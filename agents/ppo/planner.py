@@ -289,7 +289,8 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
         print(f"validation at {steps} steps ({time.perf_counter() - started:.0f} s): hard-tier success "
               f"{row['hard_success']:.3f} (mean of the last {mixture.validation_window}: "
               f"{row['hard_success_window']:.3f}) {rates}; chosen: {rows[chosen]['env_steps']} steps", flush=True)
-        _replace_file(snapshots / f"steps_{rows[chosen]['env_steps']}.pt", run_dir / BEST_NAME)
+        if (snapshots / f"steps_{rows[chosen]['env_steps']}.pt").is_file():  # an old run's may have been removed
+            _replace_file(snapshots / f"steps_{rows[chosen]['env_steps']}.pt", run_dir / BEST_NAME)
     chosen = windowed_choice(scores, mixture.validation_window)
     best = rows[chosen] if chosen is not None else None
     return {"env_steps": steps, "best_steps": int(best["env_steps"]) if best else None,
