@@ -3,8 +3,10 @@
 `PlanningMixtureVectorEnv` holds `envs_per_cell` vehicles of each combination of MIXTURE_TASKS (random
 obstacles, random moving obstacles, random tunnels: every task with `arena="random"`), the two tiers and the two
 waters of the held-out benchmark, and presents them as one `gymnasium.vector.VectorEnv` whose sub-environments
-are the cells' concatenated (cell k holds rows k * envs_per_cell ... (k + 1) * envs_per_cell - 1). A policy
-trained on it sees every kind of arena in every water in each rollout, in equal shares.
+are the cells' concatenated (cell k holds rows `cell_start[k]` ... `cell_start[k + 1] - 1`; `cell_of_row` maps a
+row to its cell). A policy trained on it sees every kind of arena in every water in each rollout: in equal shares,
+or, with one vehicle count per cell (`envs_per_cell` a list; `cell_counts` makes one from weights), with the hard
+cells oversampled.
 
 Seeds: it is a training env and draws every episode from `auv_mj.seeds.TRAIN` only. `reset(seed=s)` (an int)
 starts row i with `train_seed(s, i)`; a list of seeds must lie in TRAIN (ValueError otherwise: validation and
@@ -59,6 +61,22 @@ def mixture_cells(tasks: Sequence[str] = MIXTURE_TASKS, tiers: Sequence[str] = T
     return list(itertools.product(tasks, tiers, waters))
 
 
+def cell_counts(envs_per_cell: int, cells: Sequence[tuple[str, str, str]],
+                weights: Mapping[str, float] | None = None) -> list[int]:
+    """Vehicles per cell, in `cells`' order, for oversampling: round(envs_per_cell x the product of the weights of
+    the cell's task, tier and water) (a name without a weight weighs 1), at least 1 each; ValueError for a weight
+    that is not a finite number > 0 or names no task, tier or water of the cells."""
+    weights = dict(weights or {})
+    names = {name for cell in cells for name in cell}
+    for name, weight in weights.items():
+        if name not in names:
+            raise ValueError(f"cell weight {checks.shown(name)} names no task, tier or water of the mixture "
+                             f"({sorted(names)})")
+        if isinstance(weight, bool) or not isinstance(weight, int | float) or not 0 < weight < np.inf:
+            raise ValueError(f"cell weight of {name!r} must be a finite number > 0, got {checks.shown(weight)}")
+    return [max(1, round(envs_per_cell * float(np.prod([weights.get(n, 1.0) for n in cell])))) for cell in cells]
+
+
 def _merged_box(boxes: Sequence[spaces.Box], name: str) -> spaces.Box:
     shapes = {b.shape for b in boxes}
     if len(shapes) != 1:
@@ -73,16 +91,21 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, envs_per_cell: int = 8, tasks: Sequence[str] = MIXTURE_TASKS,
+    def __init__(self, envs_per_cell: int | Sequence[int] = 8, tasks: Sequence[str] = MIXTURE_TASKS,
                  tiers: Sequence[str] = TIERS, waters: Sequence[str] = WATERS,
                  task_kwargs: Mapping[str, Any] | None = None, reward_scale: float = 1.0,
                  threads: int | None = None):
-        """`task_kwargs` go to every cell's tasks (e.g. {"reward": "progress"}), beside the cell's own arena,
+        """`envs_per_cell` is the vehicles of every cell, or a list of one count per cell in `mixture_cells`
+        order; `task_kwargs` go to every cell's tasks (e.g. {"reward": "progress"}), beside the cell's own arena,
         tier and conditions; `threads` are each cell's C batch threads (default: this process's CPUs)."""
-        if isinstance(envs_per_cell, bool) or not isinstance(envs_per_cell, int | np.integer) \
-                or not 1 <= envs_per_cell <= MAX_ENVS_PER_CELL:
-            raise ValueError(f"envs_per_cell must be a whole number in [1, {MAX_ENVS_PER_CELL}], got "
-                             f"{checks.shown(envs_per_cell)}")
+        self.cells = mixture_cells(tasks, tiers, waters)
+        counts = [envs_per_cell] * len(self.cells) if isinstance(envs_per_cell, int | np.integer) \
+            else list(envs_per_cell) if isinstance(envs_per_cell, Sequence) else [envs_per_cell]
+        if len(counts) != len(self.cells) or any(
+                isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n <= MAX_ENVS_PER_CELL
+                for n in counts):
+            raise ValueError(f"envs_per_cell must be a whole number in [1, {MAX_ENVS_PER_CELL}] or a list of "
+                             f"{len(self.cells)} of them (one per cell), got {checks.shown(envs_per_cell)}")
         if isinstance(reward_scale, bool) or not isinstance(reward_scale, int | float) \
                 or not 0 < reward_scale < np.inf:
             raise ValueError(f"reward_scale must be a finite number > 0, got {checks.shown(reward_scale)}")
@@ -93,14 +116,17 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         if own:
             raise ValueError(f"task_kwargs: {', '.join(own)} are set by the mixture per cell (arena 'random', its "
                              "tier and water; seeds through reset)")
-        self.cells = mixture_cells(tasks, tiers, waters)
-        self.envs_per_cell = int(envs_per_cell)
+        self.cell_sizes = [int(n) for n in counts]
+        """Vehicles of each cell."""
+        self.cell_start = np.concatenate([[0], np.cumsum(self.cell_sizes)]).astype(int)
+        """Cell k's rows are cell_start[k] ... cell_start[k + 1] - 1."""
+        self.envs_per_cell = self.cell_sizes[0] if len(set(self.cell_sizes)) == 1 else self.cell_sizes
         self.reward_scale = float(reward_scale)
         self.task_kwargs = task_kwargs
-        self.subenvs = [AUVVectorEnv(task, num_envs=self.envs_per_cell, threads=threads,
+        self.subenvs = [AUVVectorEnv(task, num_envs=n, threads=threads,
                                      task_kwargs={**task_kwargs, "arena": "random", "tier": tier, "conditions": water})
-                        for task, tier, water in self.cells]
-        self.num_envs = self.envs_per_cell * len(self.subenvs)
+                        for (task, tier, water), n in zip(self.cells, self.cell_sizes, strict=True)]
+        self.num_envs = int(self.cell_start[-1])
         first = self.subenvs[0].single_observation_space
         for sub in self.subenvs[1:]:
             if set(sub.single_observation_space.spaces) != set(first.spaces):
@@ -115,7 +141,7 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
             raise ValueError("the mixture's tasks have different action bounds")
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.cell_of_row = np.repeat(np.arange(len(self.subenvs)), self.envs_per_cell)
+        self.cell_of_row = np.repeat(np.arange(len(self.subenvs)), self.cell_sizes)
         """Row -> index into `cells`."""
         self._base: int | None = None
         self._episodes = 0
@@ -155,9 +181,8 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
             self._base, self._episodes = seed_list[0], 0
         self.episode_seeds[:] = seed_list
         observations, infos = [], []
-        n = self.envs_per_cell
         for k, sub in enumerate(self.subenvs):
-            obs, info = sub.reset(seed=seed_list[k * n:(k + 1) * n])
+            obs, info = sub.reset(seed=seed_list[self.cell_start[k]:self.cell_start[k + 1]])
             observations.append(obs)
             infos.append(info)
         return self._concat_obs(observations), self._concat_infos(infos)
@@ -170,16 +195,18 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         actions = np.asarray(actions)
         if actions.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
-        n = self.envs_per_cell
-        parts = [sub.step(actions[k * n:(k + 1) * n]) for k, sub in enumerate(self.subenvs)]
+        start = self.cell_start
+        parts = [sub.step(actions[start[k]:start[k + 1]]) for k, sub in enumerate(self.subenvs)]
         reward = np.concatenate([p[1] for p in parts]) * self.reward_scale
         terminated = np.concatenate([p[2] for p in parts])
         truncated = np.concatenate([p[3] for p in parts])
         for row in np.flatnonzero(terminated | truncated):
             seed = self._next_seed()
             self.episode_seeds[row] = seed
-            sub = self.subenvs[row // n]
-            sub.envs[row % n].task.random.seed(seed)  # the sub-env's autoreset is then reset(seed=seed)
+            cell = self.cell_of_row[row]
+            sub = self.subenvs[cell]
+            # the sub-env's autoreset is then reset(seed=seed)
+            sub.envs[row - self.cell_start[cell]].task.random.seed(seed)
         infos = self._concat_infos([p[4] for p in parts])
         return self._concat_obs([p[0] for p in parts]), reward, terminated, truncated, infos
 
@@ -190,7 +217,7 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
     def _concat_infos(self, infos: list[dict]) -> dict:
         """Gymnasium's dict of arrays over all rows; a key some cells lack is masked out for their rows."""
         keys = [k for k in dict.fromkeys(itertools.chain.from_iterable(infos)) if not k.startswith("_")]
-        n = self.envs_per_cell
+        start = self.cell_start
         merged: dict[str, Any] = {}
         for key in keys:
             sample = next(np.asarray(info[key]) for info in infos if key in info)
@@ -200,8 +227,9 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
             mask = np.zeros(self.num_envs, dtype=bool)
             for k, info in enumerate(infos):
                 if key in info:
-                    values[k * n:(k + 1) * n] = info[key]
-                    mask[k * n:(k + 1) * n] = info.get("_" + key, np.ones(n, bool))
+                    rows = slice(start[k], start[k + 1])
+                    values[rows] = info[key]
+                    mask[rows] = info.get("_" + key, np.ones(start[k + 1] - start[k], bool))
             merged[key], merged["_" + key] = values, mask
         return merged
 

@@ -4,6 +4,7 @@ short `auv-mj train ppo` run that checkpoints, validates and resumes exactly."""
 from __future__ import annotations
 
 import csv
+import json
 
 import dm_env
 import numpy as np
@@ -141,3 +142,98 @@ def test_train_ppo_checkpoints_validates_and_resumes_exactly(tmp_path):
     with pytest.raises(SystemExit):
         _train(tmp_path / "b", 288)  # the run exists: --resume or another directory
     assert suite.DOMAIN == "auv"
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Oversampling and the snapshot choice (issue 51, item 4)
+
+
+def test_cell_weights_oversample_the_hard_cells_and_the_mixture_takes_a_count_per_cell():
+    from auv_mj.agents.ppo.planner import LEARNED_MIXTURE, MixtureConfig
+    from auv_mj.tasks.mixture import cell_counts
+
+    cells = mixture_cells()
+    counts = dict(zip(cells, cell_counts(8, cells, {"hard": 1.5, "standard": 0.5, "tunnel": 1.5}), strict=True))
+    assert counts[("obstacles", "standard", "ideal")] == 4 and counts[("moving_obstacles", "hard", "ocean")] == 12
+    assert counts[("tunnel", "standard", "ocean")] == 6 and counts[("tunnel", "hard", "ideal")] == 18
+    assert MixtureConfig().counts() == [8] * 12  # the shipped run's mixture, unchanged
+    assert LEARNED_MIXTURE.num_envs == sum(counts.values()) == 112
+    for bad in (("hard",), ("deep=2",), ("hard=0",), ("hard=x",)):
+        with pytest.raises(ValueError, match="cell weight|NAME=WEIGHT"):
+            MixtureConfig(cell_weights=bad)
+    env = PlanningMixtureVectorEnv(envs_per_cell=[1, 2], tasks=("obstacles",), tiers=("hard",),
+                                   waters=("ideal", "ocean"), task_kwargs=SHORT)
+    assert env.num_envs == 3 and env.cell_of_row.tolist() == [0, 1, 1]
+    obs, _ = env.reset(seed=7)
+    ended = np.zeros(3, dtype=bool)
+    while not ended.all():
+        _, _, term, trunc, _ = env.step(np.zeros(env.action_space.shape))
+        ended |= term | trunc
+    obs, _, _, _, _ = env.step(np.zeros(env.action_space.shape))  # NEXT_STEP: the autoreset, row 2 = cell 1's 2nd
+    alone, _ = AUVVectorEnv("obstacles", 1, task_kwargs={**SHORT, "arena": "random", "tier": "hard",
+                                                         "conditions": "ocean"}).reset(seed=[int(env.episode_seeds[2])])
+    np.testing.assert_array_equal(obs["observation"][2], alone["observation"][0])
+    with pytest.raises(ValueError, match="one per cell"):
+        PlanningMixtureVectorEnv(envs_per_cell=[1, 2, 3], tasks=("obstacles",), tiers=("hard",))
+
+
+def test_windowed_choice_takes_the_last_snapshot_of_the_best_window_not_the_single_best_point():
+    from auv_mj.agents.ppo.planner import windowed_choice, windowed_means
+
+    # a lucky spike at index 1, a plateau at 3-5, then a fall: the single best is the spike
+    scores = [0.30, 0.62, 0.35, 0.50, 0.55, 0.52, 0.30]
+    assert windowed_choice(scores, 1) == 1
+    assert windowed_means(scores, 3)[:3] == pytest.approx([0.30, 0.46, 0.42333333])
+    assert windowed_choice(scores, 3) == 5  # (0.50 + 0.55 + 0.52) / 3 = 0.523, the best full window
+    assert windowed_choice(scores, 2) == 5  # (0.55 + 0.52) / 2 = 0.535 > (0.50 + 0.55) / 2 > (0.62 + 0.35) / 2
+    assert windowed_choice(scores[:2], 3) == 1  # partial windows while fewer than 3 exist: 0.46 > 0.30
+    assert windowed_choice([0.5, 0.5, 0.5], 2) == 1  # ties: the earlier window
+    assert windowed_choice([], 3) is None
+
+
+def test_train_planner_validates_on_validation_seeds_and_copies_the_windowed_choice_to_best(tmp_path, monkeypatch):
+    from auv_mj.agents.ppo import planner
+
+    scripted = iter([0.30, 0.62, 0.50, 0.55, 0.20])
+    seen = []
+
+    def scripted_validate(policy, episodes, tasks, threads=None, max_steps=None, **kwargs):
+        seen.append(episodes)
+        return {f"{task}/hard/ideal": next(scripted) for task in tasks}
+
+    monkeypatch.setattr(planner, "validate", scripted_validate)
+    mixture = planner.MixtureConfig(envs_per_cell=1, tasks=("obstacles",), tiers=("hard",), waters=("ideal",),
+                                    validate_every=8, validation_episodes=50, validation_window=2)
+    config = ppo.PPOConfig(num_steps=8, num_minibatches=1, update_epochs=1, hidden_sizes=(8,), recurrent="gru",
+                           recurrent_size=8, checkpoint_every=1, lr_schedule="linear")
+    result = planner.train_planner(tmp_path, config, mixture, 40, progress=False, tensorboard=False)
+    assert seen == [50] * 5
+    rows = _rows(tmp_path / "validation.csv")
+    assert [float(r["hard_success_window"]) for r in rows] == pytest.approx([0.30, 0.46, 0.56, 0.525, 0.375])
+    # the single best point is 0.62 at 16 steps; the best window of two ends at 24 steps
+    assert (result["best_steps"], result["best_point"]) == (24, 0.50)
+    assert result["best_success"] == pytest.approx(0.56)
+    best = read_checkpoint(tmp_path / "best.pt").tensors
+    chosen = read_checkpoint(tmp_path / "snapshots" / "steps_24.pt").tensors
+    assert all(torch.equal(best[k], chosen[k]) for k in chosen)
+    progress = _rows(tmp_path / "progress.csv")  # one schedule over the five chunks: lr falls by a fifth a rollout
+    assert [float(r["learning_rate"]) for r in progress] == pytest.approx([3e-4 * (1 - k / 5) for k in range(5)])
+    assert (tmp_path / "cells.csv").is_file()
+
+
+def test_train_ppo_takes_the_new_options_and_a_resume_may_change_validation_but_not_training(tmp_path, capsys):
+    run = tmp_path / "run"
+    extra = ("--ppo-lr-schedule", "linear", "--ppo-separate-critic", "true", "--cell-weights", "hard=2",
+             "--validation-window", "2")
+    assert _train(run, 288, *extra) == 0  # 18 vehicles (the hard cells doubled), 144 steps a rollout
+    mixture = json.loads((run / "mixture.json").read_text())
+    assert (mixture["cell_weights"], mixture["validation_window"]) == (["hard=2"], 2)
+    (_, meta), config = ppo.read_ppo(run / "checkpoint.pt")
+    assert config.separate_critic and config.lr_schedule == "linear" and meta["counters"]["schedule_steps"] == 288
+    assert [float(r["learning_rate"]) for r in _rows(run / "progress.csv")] == pytest.approx([3e-4, 1.5e-4])
+    assert "mean of its window" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        _train(run, 432, "--resume", "--cell-weights", "hard=3")  # a training field: refused
+    assert _train(run, 432, "--resume", "--validation-window", "3") == 0  # the schedule stays the run's own
+    assert json.loads((run / "mixture.json").read_text())["validation_window"] == 3
+    assert float(_rows(run / "progress.csv")[-1]["learning_rate"]) == 0.0  # past the planned 288 steps: the floor

@@ -35,6 +35,8 @@ from auv_mj.agents.ppo import (
     make_optimizer,
     ppo_loss,
     read_ppo,
+    schedule_at,
+    scheduled,
     train,
     update,
 )
@@ -579,3 +581,191 @@ def test_make_optimizer_trains_every_parameter():
     model = build_model({"obs_dim": 2, "act_dim": 1}, PPOConfig(recurrent="lstm"))
     optimizer = make_optimizer(model, PPOConfig())
     assert sum(len(g["params"]) for g in optimizer.param_groups) == len(list(model.parameters()))
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# 6. Keeping the peak (issue 51, item 4): schedules across resumes, the KL limit, the privileged critic, per-cell logs
+
+
+def test_schedules_fall_from_their_value_to_their_floor_over_the_planned_steps():
+    assert [scheduled("constant", 3.0, 1.0, p) for p in (0.0, 0.5, 1.0)] == [3.0, 3.0, 3.0]
+    assert [scheduled("linear", 3.0, 1.0, p) for p in (0.0, 0.25, 1.0, 2.0)] == [3.0, 2.5, 1.0, 1.0]
+    assert [scheduled("cosine", 3.0, 1.0, p) for p in (0.0, 0.5, 1.0)] == pytest.approx([3.0, 2.0, 1.0])
+    config = PPOConfig(lr_schedule="linear", clip_schedule="cosine", min_clip_coef=0.1)
+    # CleanRL's anneal: the update after the rollout starting at step s of S has lr (1 - s / S) lr0
+    assert schedule_at(config, 250, 1000) == pytest.approx((0.75 * 3e-4, 0.1 + 0.1 * 0.5 * (1 + np.cos(np.pi / 4))))
+    for bad in ({"lr_schedule": "step"}, {"min_learning_rate": 1e-3}, {"min_clip_coef": 0.3},
+                {"privileged_critic": True, "recurrent": "gru"}):
+        with pytest.raises(ValueError, match="PPOConfig"):
+            PPOConfig(**bad)
+
+
+def _log_rows(run_dir) -> list[dict[str, str]]:
+    with open(run_dir / "progress.csv") as f:
+        return [{k: v for k, v in row.items() if k != "samples_per_s"} for row in csv.DictReader(f)]
+
+
+def test_a_resumed_run_has_the_uninterrupted_runs_learning_rate_at_every_update_and_its_parameters(tmp_path):
+    config = dataclasses.replace(TOY_CONFIG, num_steps=10, checkpoint_every=2, lr_schedule="cosine",
+                                 min_learning_rate=3e-4, clip_schedule="linear", min_clip_coef=0.05)
+    per_rollout, rollouts = 4 * 10, 6
+    steps = per_rollout * rollouts
+    whole = train(CueEnv(4), config, tmp_path / "whole", total_steps=steps, progress=False)
+    # the run planned for `steps`, stopped after 4 rollouts (a crash, or a piece of a run trained in pieces)
+    train(CueEnv(4), config, tmp_path / "cut", total_steps=per_rollout * 4, schedule_steps=steps, progress=False)
+    with pytest.raises(ValueError, match="schedule"):
+        train(CueEnv(4), None, tmp_path / "cut", total_steps=steps, resume=True, schedule_steps=steps + 1)
+    resumed = train(CueEnv(4), None, tmp_path / "cut", total_steps=steps, resume=True, progress=False)
+    rows = _log_rows(tmp_path / "whole")
+    assert rows == _log_rows(tmp_path / "cut")
+    want = [schedule_at(config, k * per_rollout, steps) for k in range(rollouts)]
+    got = [(float(r["learning_rate"]), float(r["clip_coef"])) for r in rows]
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+    assert float(rows[0]["learning_rate"]) == config.learning_rate > float(rows[-1]["learning_rate"]) > 3e-4
+    (a, _), _ = read_ppo(whole.checkpoint)
+    (b, meta), _ = read_ppo(resumed.checkpoint)
+    assert meta["counters"]["schedule_steps"] == steps
+    for name in a:
+        torch.testing.assert_close(a[name], b[name], rtol=0, atol=0, msg=name)
+
+
+def _cue_rollout(config: PPOConfig) -> tuple[ActorCritic, Rollout]:
+    env = CueEnv(4)
+    spec = env_spec(env.single_observation_space, env.single_action_space)
+    model = build_model(spec, config)
+    collector = Collector(env, model, spec, config, torch.Generator().manual_seed(0))
+    collector.reset([0, 1, 2, 3])
+    return model, collector.rollout(config.num_steps)
+
+
+def test_target_kl_stops_the_epochs_after_the_first_that_exceeds_it_and_is_off_by_default():
+    config = dataclasses.replace(TOY_CONFIG, num_steps=20, num_minibatches=2, update_epochs=5, learning_rate=1e-2)
+    assert PPOConfig().target_kl is None
+    for target_kl, epochs in ((None, 5), (1e-12, 1), (1e6, 5)):
+        limited = dataclasses.replace(config, target_kl=target_kl)
+        model, rollout = _cue_rollout(limited)
+        stats = update(model, make_optimizer(model, limited), rollout, limited, torch.Generator().manual_seed(0))
+        assert (stats["epochs"], stats["gradient_steps"]) == (epochs, 2 * epochs), target_kl
+        if target_kl == 1e-12:
+            assert stats["approx_kl"] > target_kl
+
+
+class PrivilegedCueEnv(CueEnv):
+    """CueEnv whose info holds info["privileged"] (N, 2): the cue and the time left, for every row it returns
+    an observation for (reset rows included), as a planning env reports the geodesic distance or time left."""
+
+    def _privileged(self) -> dict[str, np.ndarray]:
+        return {"privileged": np.stack([self.cue, (DELAY - self.t) / DELAY], axis=1).astype(np.float32)}
+
+    def reset(self, *, seed=None, options=None):
+        obs, info = super().reset(seed=seed, options=options)
+        return obs, {**info, **self._privileged()}
+
+    def step(self, actions):
+        *out, info = super().step(actions)
+        return (*out, {**info, **self._privileged()})
+
+
+@pytest.mark.parametrize("kind", [None, "gru", "lstm"])
+def test_the_critics_privileged_inputs_never_reach_the_actor(kind):
+    config = PPOConfig(recurrent=kind, hidden_sizes=(8,), recurrent_size=6, separate_critic=True,
+                       privileged_critic=True)
+    model = build_model({"obs_dim": 3, "act_dim": 2, "privileged_dim": 4}, config).double()
+    with torch.no_grad():  # statistics that are not the identity, so the normaliser is on the way too
+        model.privileged_norm.mean.fill_(0.3)
+        model.privileged_norm.std.fill_(2.0)
+    g = torch.Generator().manual_seed(0)
+    T, B = 7, 3
+    obs = torch.randn(T, B, 3, generator=g, dtype=torch.float64)
+    starts = torch.zeros(T, B, dtype=torch.float64)
+    starts[3, 1] = 1.0
+    state = torch.randn(B, model.state_size, generator=g, dtype=torch.float64)
+    privileged = torch.randn(T, B, 4, generator=g, dtype=torch.float64, requires_grad=True)
+    mean, value, final = model(obs, starts, state, privileged)
+    assert model.state_size == model.actor_state_size * (1 if kind is None else 2)
+    # the actor's gradient w.r.t. the privileged inputs is zero (no path at all); the critic's is not
+    assert torch.autograd.grad(mean.sum(), privileged, allow_unused=True)[0] is None
+    assert torch.autograd.grad(value.sum(), privileged)[0].abs().max() > 0
+    # other privileged inputs: the same actions and actor memory, other values
+    other = privileged.detach() * -3.0 + 1.0
+    mean2, value2, final2 = model(obs, starts, state, other)
+    torch.testing.assert_close(mean2, mean, rtol=0, atol=0)
+    torch.testing.assert_close(final2[:, :model.actor_state_size], final[:, :model.actor_state_size], rtol=0, atol=0)
+    assert (value2 - value).abs().max() > 1e-6
+    # the actor alone (a deployed policy) takes no privileged input and gives the same actions
+    act_mean, act_state = model.act(obs, starts, state[:, :model.actor_state_size])
+    torch.testing.assert_close(act_mean, mean, rtol=0, atol=0)
+    torch.testing.assert_close(act_state, final[:, :model.actor_state_size], rtol=0, atol=0)
+    with pytest.raises(ValueError, match="privileged"):
+        model(obs, starts, state)
+
+
+@pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
+def test_a_privileged_critic_trains_resumes_and_its_policy_and_export_act_without_the_privileged_inputs(mode,
+                                                                                                       tmp_path):
+    from auv_mj.agents.ppo.export import export
+
+    config = dataclasses.replace(TOY_CONFIG, num_steps=10, num_minibatches=2, checkpoint_every=1,
+                                 separate_critic=True, privileged_critic=True)
+    result = train(PrivilegedCueEnv(4, mode), config, tmp_path / "run", total_steps=80, progress=False)
+    (tensors, meta), _ = read_ppo(result.checkpoint)
+    assert meta["spec"]["privileged_dim"] == 2
+    assert any(k.startswith("model.critic_core.") for k in tensors) and "model.privileged_norm.count" in tensors
+    assert float(tensors["model.privileged_norm.count"]) > 0
+    train(PrivilegedCueEnv(4, mode), None, tmp_path / "run", total_steps=120, resume=True, progress=False)
+    shipped = export(result.checkpoint, tmp_path / "shipped.pt")
+    for path in (result.checkpoint, shipped):
+        policy = PPOPolicy.load(path)
+        assert policy.model.privileged_dim == 2
+        first = [policy(o) for o in np.array([[1.0], [0.0], [0.0]], np.float32)]
+        with torch.no_grad():
+            mean, _ = policy.model.act(torch.tensor([[[1.0]], [[0.0]], [[0.0]]], dtype=torch.float64),
+                                       torch.zeros(3, 1, dtype=torch.float64), policy.model.initial_state(1, True))
+        np.testing.assert_allclose(np.concatenate(first), np.clip(mean[:, 0, 0].numpy(), -1, 1), rtol=0, atol=1e-15)
+    with pytest.raises(ValueError, match="privileged"):
+        train(CueEnv(4), config, tmp_path / "no-privileged", total_steps=40, progress=False)
+
+
+class CellCueEnv(CueEnv):
+    """CueEnv in two cells of two rows, as the planning mixture: cell "easy/ideal" always succeeds, cell
+    "hard/ocean" always collides; the ground speed is 1 m/s in the first cell and 3 m/s in the second."""
+
+    cells = [("easy", "ideal"), ("hard", "ocean")]
+    cell_of_row = np.array([0, 0, 1, 1])
+
+    def __init__(self, mode: AutoresetMode = AutoresetMode.NEXT_STEP):
+        super().__init__(4, mode)
+
+    def step(self, actions):
+        last = (self.t == DELAY) & ~self.pending
+        obs, reward, term, trunc, info = super().step(actions)
+        easy = self.cell_of_row == 0
+        return obs, reward, term, trunc, {**info, "is_success": last & easy, "collision": last & ~easy,
+                                          "speed": np.where(easy, 1.0, 3.0)}
+
+
+def test_per_cell_success_collisions_speed_and_return_go_to_csv_and_tensorboard(tmp_path):
+    config = dataclasses.replace(TOY_CONFIG, num_steps=20, num_minibatches=2, checkpoint_every=1)
+    result = train(CellCueEnv(), config, tmp_path, total_steps=4 * 20 * 3, progress=False, tensorboard=True,
+                   step_speed=lambda obs, info: info["speed"])
+    with open(tmp_path / "cells.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["cell"] for r in rows] == ["easy/ideal", "hard/ocean"] * 3
+    for row in rows:
+        easy = row["cell"] == "easy/ideal"
+        assert int(row["episodes"]) == 4  # two episodes of DELAY + 1 steps (and a reset step) in each of 2 rows
+        assert (float(row["success_rate"]), float(row["collision_rate"])) == ((1.0, 0.0) if easy else (0.0, 1.0))
+        assert float(row["mean_speed"]) == (1.0 if easy else 3.0)
+        assert np.isfinite(float(row["mean_return"]))
+    progress_rows = _log_rows(tmp_path)
+    assert [float(r["success_rate"]) for r in progress_rows] == [0.5] * 3
+    assert [float(r["mean_speed"]) for r in progress_rows] == [2.0] * 3
+    assert result.episodes == 24
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    board = EventAccumulator(str(tmp_path / "tb"))
+    board.Reload()
+    tags = set(board.Tags()["scalars"])
+    assert {"cells/hard/ocean/collision_rate", "cells/easy/ideal/mean_speed", "ppo/learning_rate",
+            "ppo/success_rate"} <= tags
+    assert [e.value for e in board.Scalars("cells/hard/ocean/collision_rate")] == [1.0] * 3

@@ -2,15 +2,28 @@
 
 `train_planner(run_dir, config, mixture, total_steps)` trains `auv_mj.agents.ppo` on
 `auv_mj.tasks.mixture.PlanningMixtureVectorEnv` (random obstacles, moving obstacles and tunnels, both tiers, both
-waters, TRAIN seeds only) in chunks of `validate_every` env steps. After each chunk the checkpoint is copied to
-`snapshots/steps_<N>.pt` and the deterministic policy is run on the hard tier's cells with VALIDATION seeds
-(`validate`); a row per chunk goes to `validation.csv` (env steps, training wall-clock, success per cell).
-`best.pt` is the snapshot of the highest mean hard-tier validation success (ties: the earlier one). Test seeds
+waters, TRAIN seeds only; `MixtureConfig.cell_weights` oversamples the hard cells) in chunks of
+`MixtureConfig.validate_every` env steps. The learning rate and clip range follow their schedules over the whole
+`total_steps` (`ppo.train`'s `schedule_steps`), across the chunks and across resumes. PPO logs every rollout to
+`progress.csv` and, per cell of the mixture, the success, collision and return of the episodes that ended and their
+mean speed over the ground to `cells.csv` (and TensorBoard where it is installed).
+
+After each chunk the checkpoint is copied to `snapshots/steps_<N>.pt` and the deterministic policy is run on
+`validation_episodes` episodes of each of the hard tier's cells with VALIDATION seeds (`validate`); a row per chunk
+goes to `validation.csv` (env steps, training wall-clock, the mean success, its mean over the last
+`validation_window` validations, success per cell). `best.pt` is the snapshot chosen on that windowed mean
+(`windowed_choice`): the last snapshot of the window of `validation_window` consecutive validations with the highest
+mean. The single best validation is biased upward by the choice itself (the shipped run: validation 0.54 and 0.57,
+test 0.50 and 0.52); a mean over a window of snapshots, each on 50 or more episodes a cell, is less so. Test seeds
 are never touched here.
 
 The planner reads the task's planning observation (goal distance and bearing, its velocity, its command, the nine
 sonars) and the desired goal, as every planner does; nothing classical steers it. Its memory is PPO's GRU
-(`PPOConfig(recurrent="gru")`); `recurrent=None` is the ablation without memory.
+(`PPOConfig(recurrent="gru")`); `recurrent=None` is the ablation without memory. `PLANNER_CONFIG` and
+`MixtureConfig()` are the shipped run's settings (docs/runs/planner-memory-ppo); `LEARNED_CONFIG` and
+`LEARNED_MIXTURE` those of the new learning problem (issue 51): the geodesic reward, a longer discount, an annealed
+learning rate, a KL limit, a critic of its own with privileged inputs, the hard cells oversampled, and the windowed
+choice.
 """
 
 from __future__ import annotations
@@ -21,7 +34,7 @@ import json
 import math
 import shutil
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +44,8 @@ from auv_mj.agents.checkpoint import config_to_dict
 from auv_mj.agents.ppo import ppo
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.seeds import VALIDATION
-from auv_mj.tasks.mixture import MIXTURE_TASKS, TIERS, WATERS, PlanningMixtureVectorEnv
+from auv_mj.tasks.mixture import MIXTURE_TASKS, TIERS, WATERS, PlanningMixtureVectorEnv, cell_counts, mixture_cells
+from auv_mj.tasks.planning import PLANNER_DT
 from auv_mj.tasks.vector import AUVVectorEnv
 
 VALIDATION_NAME = "validation.csv"
@@ -39,14 +53,18 @@ BEST_NAME = "best.pt"
 MIXTURE_NAME = "mixture.json"
 VALIDATION_FIRST_SEED = VALIDATION.start + 7000
 """Validation episodes use seeds VALIDATION_FIRST_SEED + i (inside `auv_mj.seeds.VALIDATION`)."""
+SELECTION_FIELDS = ("validate_every", "validation_episodes", "validation_window", "validation_max_steps")
+"""MixtureConfig's fields of validation and the snapshot choice: they do not touch training, so a resumed run may
+change them (the shipped run validated more sparsely after 3.9 M steps); the others must equal the saved ones."""
 
 
 @dataclasses.dataclass(frozen=True)
 class MixtureConfig:
-    """The training mixture and its reward; frozen into `mixture.json` of the run."""
+    """The planner's training beside PPO's: the mixture, its reward, the oversampling of hard cells, validation and
+    the snapshot choice; frozen into `mixture.json` of the run. Defaults are the shipped run's training."""
 
     envs_per_cell: int = 8
-    """Vehicles per (task, tier, water) cell: 3 x 2 x 2 cells, 96 vehicles by default."""
+    """Vehicles per (task, tier, water) cell before cell_weights: 3 x 2 x 2 cells, 96 vehicles by default."""
     tasks: tuple[str, ...] = MIXTURE_TASKS
     """Planning tasks, each on procedural arenas."""
     tiers: tuple[str, ...] = TIERS
@@ -56,20 +74,105 @@ class MixtureConfig:
     reward: str = "progress"
     """The tasks' reward: "progress" pays 0.5 per metre gained on the current goal, +4 on reaching it, and Eq.
     (24)-(25)'s avoidance and time costs; its sum depends on where the vehicle ends, not how slowly it went."""
-    collision_penalty: float = 10.0
-    """Subtracted on a collision or leaving the map (the task option of that name)."""
+    collision_penalty: float | None = 10.0
+    """Subtracted on a collision or leaving the map (the task option of that name; None: the task's own)."""
     reward_scale: float = 0.1
     """Multiplies every reward (keeps PPO's value targets near 1)."""
+    cell_weights: tuple[str, ...] = ()
+    """Oversampling, as "NAME=WEIGHT" entries naming a task, tier or water: a cell gets round(envs_per_cell x the
+    product of its names' weights) vehicles (a name without an entry weighs 1; `cell_counts`)."""
+    validate_every: int = 1_000_000
+    """Env steps between validations and snapshots (rounded up to whole checkpoint periods)."""
+    validation_episodes: int = 50
+    """Validation-seed episodes per hard-tier cell at each validation."""
+    validation_window: int = 1
+    """Validations whose mean chooses the snapshot (`windowed_choice`); 1 is the single best, the shipped run's."""
+    validation_max_steps: int | None = None
+    """Cut validation episodes after this many steps (counted as failures); None: the tasks' time limits."""
+
+    def __post_init__(self):
+        checks = (("envs_per_cell", 1), ("validate_every", 1), ("validation_episodes", 1), ("validation_window", 1))
+        for name, low in checks:
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"MixtureConfig.{name} must be a whole number >= {low}, got {value!r}")
+        limit = self.validation_max_steps
+        if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
+            raise ValueError(f"MixtureConfig.validation_max_steps must be None or a whole number >= 1, got {limit!r}")
+        last = VALIDATION_FIRST_SEED + self.validation_episodes - 1
+        if last not in VALIDATION:
+            raise ValueError(f"MixtureConfig.validation_episodes {self.validation_episodes}: seeds "
+                             f"{VALIDATION_FIRST_SEED}..{last} leave auv_mj.seeds.VALIDATION")
+        cell_counts(self.envs_per_cell, self.cells(), self.weights())
+
+    def weights(self) -> dict[str, float]:
+        """cell_weights as {name: weight}; ValueError for an entry that is not "NAME=WEIGHT"."""
+        out = {}
+        for entry in self.cell_weights:
+            name, sep, weight = str(entry).partition("=")
+            try:
+                out[name.strip()] = float(weight)
+            except ValueError:
+                sep = ""
+            if not sep:
+                raise ValueError(f"MixtureConfig.cell_weights entries are NAME=WEIGHT (e.g. hard=1.5), got {entry!r}")
+        return out
+
+    def cells(self) -> list[tuple[str, str, str]]:
+        """The (task, tier, water) cells in row order."""
+        return mixture_cells(self.tasks, self.tiers, self.waters)
+
+    def counts(self) -> list[int]:
+        """Vehicles per cell, in row order (`cell_counts`)."""
+        return cell_counts(self.envs_per_cell, self.cells(), self.weights())
+
+    @property
+    def num_envs(self) -> int:
+        """Vehicles in the mixture."""
+        return sum(self.counts())
 
     def task_kwargs(self) -> dict[str, Any]:
         """The task options every cell shares."""
-        return {"reward": self.reward, "collision_penalty": self.collision_penalty}
+        kwargs: dict[str, Any] = {"reward": self.reward}
+        if self.collision_penalty is not None:
+            kwargs["collision_penalty"] = self.collision_penalty
+        return kwargs
 
     def make_env(self, threads: int | None = None) -> PlanningMixtureVectorEnv:
         """The training env."""
-        return PlanningMixtureVectorEnv(self.envs_per_cell, self.tasks, self.tiers, self.waters,
-                                        task_kwargs=self.task_kwargs(), reward_scale=self.reward_scale,
+        counts = self.counts()
+        return PlanningMixtureVectorEnv(counts[0] if len(set(counts)) == 1 else counts, self.tasks, self.tiers,
+                                        self.waters, task_kwargs=self.task_kwargs(), reward_scale=self.reward_scale,
                                         threads=threads)
+
+
+def mixture_from_dict(values: Mapping[str, Any]) -> MixtureConfig:
+    """A MixtureConfig from `mixture.json` (lists become tuples; fields an older run lacks take their defaults)."""
+    return MixtureConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+
+
+def ground_speed(next_obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
+    """Each vehicle's speed over the ground in the step just taken (m/s): from where it began
+    (info["previous_achieved_goal"], (x, y)) to where it is (the observation's achieved_goal, whose first two
+    entries are (x, y)), over PLANNER_DT."""
+    moved = np.asarray(next_obs["achieved_goal"], float)[:, :2] - np.asarray(info["previous_achieved_goal"], float)
+    return np.linalg.norm(moved, axis=-1) / PLANNER_DT
+
+
+def windowed_means(scores: Sequence[float], window: int) -> list[float]:
+    """The mean of the last `window` scores (fewer at the start) at each index."""
+    return [float(np.mean(scores[max(0, i - window + 1):i + 1])) for i in range(len(scores))]
+
+
+def windowed_choice(scores: Sequence[float], window: int) -> int | None:
+    """The index of the snapshot to choose among validations `scores` (in order): the last of the `window`
+    consecutive validations with the highest mean (ties: the earlier). While fewer than `window` validations exist,
+    the partial windows at the start compete; after that only full ones. None if there are no scores."""
+    if not scores:
+        return None
+    means = windowed_means(scores, window)
+    first = min(window, len(scores)) - 1
+    return max(range(first, len(scores)), key=lambda i: (means[i], -i))
 
 
 def validate(policy: PPOPolicy, episodes: int, tasks: Sequence[str] = MIXTURE_TASKS, tier: str = "hard",
@@ -111,19 +214,32 @@ def _validation_rows(path: Path, up_to_steps: int) -> list[dict[str, str]]:
         return [row for row in csv.DictReader(f) if int(row["env_steps"]) <= up_to_steps]
 
 
+def _training_fields(mixture: MixtureConfig) -> dict[str, Any]:
+    return {k: v for k, v in config_to_dict(mixture).items() if k not in SELECTION_FIELDS}
+
+
+def _replace_file(source: Path, target: Path) -> None:
+    tmp = target.with_name(target.name + ".tmp")
+    shutil.copyfile(source, tmp)
+    tmp.replace(target)
+
+
 def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: MixtureConfig, total_steps: int,
-                  *, validate_every: int = 1_000_000, validation_episodes: int = 16, resume: bool = False,
-                  progress: bool = True, tensorboard: bool = True, threads: int | None = None,
-                  validation_max_steps: int | None = None) -> dict[str, Any]:
-    """Trains the planner (see the module docstring); returns {"env_steps", "best_steps", "best_success",
-    "checkpoint", "best"}. Resuming continues from the last chunk's checkpoint (`ppo.train`'s exact resume when
-    `validate_every` is a whole number of checkpoint periods)."""
+                  *, resume: bool = False, progress: bool = True, tensorboard: bool = True,
+                  threads: int | None = None) -> dict[str, Any]:
+    """Trains the planner (see the module docstring) for `total_steps` env steps, the steps its schedules span;
+    returns {"env_steps", "best_steps", "best_success" (the chosen window's mean), "best_point" (the chosen
+    snapshot's own validation), "checkpoint", "best"}.
+
+    Resuming continues from the last chunk's checkpoint (`ppo.train`'s exact resume when `validate_every` is a whole
+    number of checkpoint periods) with the schedules the run started with. The mixture's training fields must be the
+    saved ones; its validation fields (SELECTION_FIELDS) may change, and are saved anew."""
     run_dir = Path(run_dir)
     mixture_path = run_dir / MIXTURE_NAME
     if resume:
-        saved = json.loads(mixture_path.read_text())
-        if saved != config_to_dict(mixture):
-            raise ValueError(f"{mixture_path}: the run was trained on {saved}, not {config_to_dict(mixture)}")
+        saved = _training_fields(mixture_from_dict(json.loads(mixture_path.read_text())))
+        if saved != _training_fields(mixture):
+            raise ValueError(f"{mixture_path}: the run was trained on {saved}, not {_training_fields(mixture)}")
         (_, meta), saved_config = ppo.read_ppo(run_dir / ppo.CHECKPOINT_NAME)
         config = saved_config if config is None else config
         done_steps = int(meta["counters"]["env_steps"])
@@ -132,48 +248,54 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
             raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: resume it or choose another run "
                                   "directory")
         run_dir.mkdir(parents=True, exist_ok=True)
-        mixture_path.write_text(json.dumps(config_to_dict(mixture), indent=2))
         config = config or ppo.PPOConfig()
         done_steps = 0
-    per_rollout = config.num_steps * mixture.envs_per_cell * len(mixture.tasks) * len(mixture.tiers) \
-        * len(mixture.waters)
+    mixture_path.write_text(json.dumps(config_to_dict(mixture), indent=2))
+    per_rollout = config.num_steps * mixture.num_envs
     period = per_rollout * config.checkpoint_every
-    chunk = max(1, math.ceil(validate_every / period)) * period
+    chunk = max(1, math.ceil(mixture.validate_every / period)) * period
     target = math.ceil(total_steps / per_rollout) * per_rollout
     rows = _validation_rows(run_dir / VALIDATION_NAME, done_steps)
     snapshots = run_dir / "snapshots"
     snapshots.mkdir(exist_ok=True)
-    fields = ["env_steps", "train_wall_s", "hard_success", *(
+    fields = ["env_steps", "train_wall_s", "episodes", "hard_success", "hard_success_window", *(
         f"{task}/hard/{water}" for task in mixture.tasks for water in WATERS)]
     with open(run_dir / VALIDATION_NAME, "w", newline="") as f:
-        writer = csv.DictWriter(f, fields)
+        writer = csv.DictWriter(f, fields, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-    best = max(rows, key=lambda r: float(r["hard_success"]), default=None)
+    scores = [float(r["hard_success"]) for r in rows]
     steps = done_steps
     while steps < target:
         goal = min(target, (steps // chunk + 1) * chunk)
         result = ppo.train(lambda: mixture.make_env(threads), config, run_dir, goal, resume=steps > 0,
-                           progress=progress, tensorboard=tensorboard)
+                           progress=progress, tensorboard=tensorboard, schedule_steps=None if steps else target,
+                           step_speed=ground_speed)
         steps = result.env_steps
         meta = ppo.read_ppo(result.checkpoint)[0].metadata
         snapshot = snapshots / f"steps_{steps}.pt"
         shutil.copyfile(result.checkpoint, snapshot)
         started = time.perf_counter()
-        rates = validate(PPOPolicy.load(snapshot), validation_episodes, mixture.tasks, threads=threads,
-                         max_steps=validation_max_steps)
+        rates = validate(PPOPolicy.load(snapshot), mixture.validation_episodes, mixture.tasks, threads=threads,
+                         max_steps=mixture.validation_max_steps)
+        scores.append(round(float(np.mean(list(rates.values()))), 4))
         row = {"env_steps": steps, "train_wall_s": round(float(meta["counters"]["wall_time"]), 1),
-               "hard_success": round(float(np.mean(list(rates.values()))), 4), **rates}
+               "episodes": mixture.validation_episodes, "hard_success": scores[-1],
+               "hard_success_window": round(windowed_means(scores, mixture.validation_window)[-1], 4), **rates}
+        rows.append(row)
         with open(run_dir / VALIDATION_NAME, "a", newline="") as f:
             csv.DictWriter(f, fields).writerow(row)
+        chosen = windowed_choice(scores, mixture.validation_window)
         print(f"validation at {steps} steps ({time.perf_counter() - started:.0f} s): hard-tier success "
-              f"{row['hard_success']:.3f} {rates}", flush=True)
-        if best is None or float(row["hard_success"]) > float(best["hard_success"]):
-            best = row
-            shutil.copyfile(snapshot, run_dir / (BEST_NAME + ".tmp"))
-            (run_dir / (BEST_NAME + ".tmp")).replace(run_dir / BEST_NAME)
+              f"{row['hard_success']:.3f} (mean of the last {mixture.validation_window}: "
+              f"{row['hard_success_window']:.3f}) {rates}; chosen: {rows[chosen]['env_steps']} steps", flush=True)
+        if (snapshots / f"steps_{rows[chosen]['env_steps']}.pt").is_file():  # an old run's may have been removed
+            _replace_file(snapshots / f"steps_{rows[chosen]['env_steps']}.pt", run_dir / BEST_NAME)
+    chosen = windowed_choice(scores, mixture.validation_window)
+    best = rows[chosen] if chosen is not None else None
     return {"env_steps": steps, "best_steps": int(best["env_steps"]) if best else None,
-            "best_success": float(best["hard_success"]) if best else None,
+            "best_success": windowed_means(scores, mixture.validation_window)[chosen] if best else None,
+            "best_point": scores[chosen] if best else None,
             "checkpoint": run_dir / ppo.CHECKPOINT_NAME, "best": run_dir / BEST_NAME}
 
 
@@ -185,3 +307,28 @@ PLANNER_CONFIG = ppo.PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4
 clipping (the returns are not on the policy ratio's scale), a checkpoint (and reset of the envs) every 40
 rollouts, about 0.5 M steps, and the update on two threads (the batch's physics threads are idle while it runs).
 Others are CleanRL's (`ppo.PPOConfig`)."""
+
+
+LEARNED_GAMMA = 0.997
+"""The discount of the new learning problem (issue 51: 0.995-0.999, to look across the hard tier's 100-300 m
+detours at 2 Hz). The geodesic reward's own constant, once tasks/planning.py defines one, replaces this."""
+
+LEARNED_CONFIG = dataclasses.replace(
+    PLANNER_CONFIG, gamma=LEARNED_GAMMA, lr_schedule="linear", min_learning_rate=3e-5, target_kl=0.03,
+    separate_critic=True, privileged_critic=True)
+"""PPO for the new learning problem (issue 51, item 4): PLANNER_CONFIG with the discount LEARNED_GAMMA, the
+learning rate annealed linearly to a tenth over the whole run (CleanRL anneals to 0; the floor keeps the late
+snapshots learning), a KL limit of 0.03 (an update stops after the first epoch past it), and a critic of its own
+(an encoder and GRU of its own, sb3-contrib's default) that reads the env's info["privileged"] (the geodesic
+distance to the goal, the true clearance, the cell and the time left), which the actor never sees."""
+
+LEARNED_MIXTURE = MixtureConfig(
+    reward="geodesic", collision_penalty=None, cell_weights=("standard=0.5", "hard=1.5", "tunnel=1.5"),
+    validate_every=500_000, validation_episodes=50, validation_window=3)
+"""The training mixture of the new learning problem (issue 51): the geodesic reward with the task's own success
+bonus and collision penalty (item 1; this config needs that reward in the tasks). The hard cells are oversampled: a
+hard cell weighs 1.5 and a standard one 0.5 (kept, as the standard tier is half of the benchmark's targets, but a
+third as often), a tunnel 1.5 more (the cells the shipped planner fails): 4 vehicles in each standard obstacles
+and movers cell, 6 in each standard tunnel cell, 12 in each hard obstacles and movers cell and 18 in each hard
+tunnel cell, 112 in all, three quarters of them on the hard tier. Validation on 50 episodes a hard cell every
+0.5 M steps, the snapshot chosen on the mean of 3 validations."""

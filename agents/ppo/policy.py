@@ -18,9 +18,10 @@ class PPOPolicy:
     """A trained PPO policy as a deterministic controller: observation -> the clipped mean action in the env's Box.
 
     Runs in float64 (as `auv_mj.agents.offpolicy.Policy`, so that a closed loop does not depend on the CPU's float32
-    kernels) and carries the memory from call to call; `reset()` before each episode. It takes one observation
-    (a Box array or goal dict) or a batch of them with a leading env dimension; the memory is sized on the first
-    call after a reset.
+    kernels) and carries the actor's memory from call to call; `reset()` before each episode. It runs the actor
+    alone (`ActorCritic.act`): a policy trained with a privileged critic needs no privileged input here. It takes
+    one observation (a Box array or goal dict) or a batch of them with a leading env dimension; the memory is sized
+    on the first call after a reset.
     """
 
     def __init__(self, model: ActorCritic, spec: Mapping[str, Any], device: str = "cpu"):
@@ -48,10 +49,10 @@ class PPOPolicy:
         x = torch.as_tensor(np.asarray(flat, np.float64).reshape(-1, self.spec["obs_dim"]), device=self.device)
         starts = torch.zeros(1, x.shape[0], dtype=torch.float64, device=self.device)
         if self.state is None:
-            self.state = self.model.initial_state(x.shape[0])
+            self.state = self.model.initial_state(x.shape[0], actor_only=True)
         elif self.state.shape[0] != x.shape[0]:
             raise ValueError(f"a batch of {x.shape[0]} observations, the policy's memory holds {self.state.shape[0]} "
                              "envs: reset() before changing the batch size")
-        mean, _, self.state = self.model(x[None], starts, self.state)
+        mean, self.state = self.model.act(x[None], starts, self.state)
         action = env_action(mean[0].cpu().numpy(), self.spec).reshape(-1, *self.spec["act_shape"])
         return action[0] if single else action

@@ -25,7 +25,16 @@ from auv_mj.agents.offpolicy.learners import agent_classes
 from auv_mj.agents.offpolicy.td3 import TD3Config
 from auv_mj.agents.offpolicy.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
 from auv_mj.agents.ppo import PPOConfig
-from auv_mj.agents.ppo.planner import MIXTURE_NAME, PLANNER_CONFIG, MixtureConfig, train_planner
+from auv_mj.agents.ppo.planner import (
+    LEARNED_CONFIG,
+    LEARNED_MIXTURE,
+    MIXTURE_NAME,
+    PLANNER_CONFIG,
+    MixtureConfig,
+    mixture_from_dict,
+    train_planner,
+)
+from auv_mj.agents.ppo.ppo import SCHEDULES
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     bounded_int,
@@ -144,6 +153,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_ppo_options(parser)
 
 
+PPO_PRESETS = {"shipped": (PLANNER_CONFIG, MixtureConfig()), "learned": (LEARNED_CONFIG, LEARNED_MIXTURE)}
+"""`auv-mj train ppo --preset`: the PPOConfig and MixtureConfig every option defaults to."""
 PPO_TASK = "planning-mix"
 """The task name of `auv-mj train ppo`: `auv_mj.tasks.mixture.PlanningMixtureVectorEnv`."""
 
@@ -155,16 +166,27 @@ def add_ppo_options(parser: argparse.ArgumentParser) -> None:
                                       "both tiers, both waters, training seeds only; validation on the hard tier's "
                                       "validation seeds)")
     mix = MixtureConfig()
+    group.add_argument("--preset", choices=tuple(PPO_PRESETS), default="shipped",
+                       help="the defaults of every option below: shipped (PLANNER_CONFIG and MixtureConfig(), the "
+                            "published planner-memory run) or learned (LEARNED_CONFIG and LEARNED_MIXTURE: the "
+                            "geodesic reward, annealed learning rate, KL limit, privileged critic, hard cells "
+                            "oversampled, windowed choice) [shipped; on --resume, the run's own]")
     group.add_argument("--envs-per-cell", type=positive_int,
-                       help=f"vehicles per (task, tier, water) [{mix.envs_per_cell}]")
+                       help=f"vehicles per (task, tier, water) before --cell-weights [{mix.envs_per_cell}]")
+    group.add_argument("--cell-weights", nargs="+", metavar="NAME=WEIGHT",
+                       help="oversample cells: weights of tasks, tiers or waters, multiplied per cell, e.g. "
+                            "hard=1.5 standard=0.5 tunnel=1.5 [none]")
     group.add_argument("--reward", choices=REWARDS, help=f"the tasks' reward [{mix.reward}]")
     group.add_argument("--collision-penalty", type=float, help=f"penalty on a collision or leaving the map "
                                                                f"[{mix.collision_penalty}]")
     group.add_argument("--reward-scale", type=float, help=f"multiplies every reward [{mix.reward_scale}]")
-    group.add_argument("--validate-every", type=positive_int, default=1_000_000, metavar="STEPS",
-                       help="env steps between validations and snapshots (rounded up to checkpoint periods)")
-    group.add_argument("--validation-episodes", type=positive_int, default=16, metavar="N",
-                       help="validation-seed episodes per hard-tier cell")
+    group.add_argument("--validate-every", type=positive_int, metavar="STEPS",
+                       help=f"env steps between validations and snapshots (rounded up to checkpoint periods) "
+                            f"[{mix.validate_every}]")
+    group.add_argument("--validation-episodes", type=positive_int, metavar="N",
+                       help=f"validation-seed episodes per hard-tier cell [{mix.validation_episodes}]")
+    group.add_argument("--validation-window", type=positive_int, metavar="K",
+                       help=f"choose best.pt on the mean of K consecutive validations [{mix.validation_window}]")
     group.add_argument("--validation-max-steps", type=positive_int, metavar="N",
                        help="cut validation episodes after N steps (counted as failures) [the tasks' time limits]")
     group.add_argument("--threads", type=positive_int, help="threads of the batched physics [this process's CPUs]")
@@ -180,6 +202,8 @@ def add_ppo_options(parser: argparse.ArgumentParser) -> None:
             group.add_argument(flag, choices=("gru", "lstm", "none"), help=help_text + " (none: no memory)")
         elif field.name == "target_kl":
             group.add_argument(flag, type=float, help=help_text)
+        elif field.name in ("lr_schedule", "clip_schedule"):
+            group.add_argument(flag, choices=SCHEDULES, help=help_text)
         elif isinstance(default, bool):
             group.add_argument(flag, type=_boolean, help=help_text)
         else:
@@ -212,26 +236,28 @@ def _run_ppo(args: argparse.Namespace) -> int:
             if getattr(args, name) is not None:
                 overrides[name] = getattr(args, name)
         mix_fields = {"envs_per_cell": args.envs_per_cell, "reward": args.reward,
-                      "collision_penalty": args.collision_penalty, "reward_scale": args.reward_scale}
+                      "collision_penalty": args.collision_penalty, "reward_scale": args.reward_scale,
+                      "cell_weights": tuple(args.cell_weights) if args.cell_weights else None,
+                      "validate_every": args.validate_every, "validation_episodes": args.validation_episodes,
+                      "validation_window": args.validation_window,
+                      "validation_max_steps": args.validation_max_steps}
         mix_overrides = {k: v for k, v in mix_fields.items() if v is not None}
         if args.resume:
-            saved = _read_options(run_dir / MIXTURE_NAME)
-            base_mix = MixtureConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in saved.items()})
+            base_mix = mixture_from_dict(_read_options(run_dir / MIXTURE_NAME))
             base = ppo.read_ppo(run_dir / ppo.CHECKPOINT_NAME)[1]
         else:
-            base_mix, base = MixtureConfig(), PLANNER_CONFIG
+            base, base_mix = PPO_PRESETS[args.preset]
             if (run_dir / ppo.CHECKPOINT_NAME).exists():
                 raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: give --resume or another --run-dir")
         mixture = dataclasses.replace(base_mix, **mix_overrides)
         config = dataclasses.replace(base, **overrides)
-        result = train_planner(run_dir, config, mixture, args.steps, validate_every=args.validate_every,
-                               validation_episodes=args.validation_episodes, resume=args.resume,
+        result = train_planner(run_dir, config, mixture, args.steps, resume=args.resume,
                                progress=not args.no_progress, tensorboard=not args.no_tensorboard,
-                               threads=args.threads, validation_max_steps=args.validation_max_steps)
+                               threads=args.threads)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
-    print(f"{result['env_steps']} steps; best hard-tier validation success {result['best_success']:.3f} at "
-          f"{result['best_steps']} steps")
+    print(f"{result['env_steps']} steps; chosen: the snapshot at {result['best_steps']} steps, hard-tier "
+          f"validation success {result['best_point']:.3f} (mean of its window {result['best_success']:.3f})")
     print(f"checkpoint: {result['checkpoint']}  best: {result['best']}")
     return 0
 
