@@ -25,6 +25,7 @@ import numpy as np
 
 from auv_mj import inputs
 from auv_mj.arenas import arena as arena_lib
+from auv_mj.sim.vehicle_physics import VehiclePhysics
 
 VEHICLE_BODY = "auv"
 CIRCLE_SEGMENTS = 32
@@ -157,7 +158,7 @@ class ArenaGeometry:
     goal_radius: float
 
 
-def arena_geometry(physics, task=None) -> ArenaGeometry:
+def arena_geometry(physics: VehiclePhysics, task=None) -> ArenaGeometry:
     """The arena of `physics` (composed per `auv_mj.arenas.arena`) with the task's goals, path and movers if any.
 
     Call it after the environment's reset: tasks draw their route (goals, path, movers) there.
@@ -219,7 +220,7 @@ def _root_body(model, body: int) -> int:
     return body
 
 
-def mover_positions(physics, names: tuple[str, ...]) -> np.ndarray:
+def mover_positions(physics: VehiclePhysics, names: tuple[str, ...]) -> np.ndarray:
     """(M, 2) current positions of the named mocap bodies."""
     model, data = physics.model.ptr, physics.data.ptr
     out = np.empty((len(names), 2))

@@ -280,3 +280,32 @@ def test_model_path_finds_the_vehicle():
     assert AUVPhysics.from_xml_path(path).model.nu == 2
     with pytest.raises(FileNotFoundError, match="no_such.xml"):
         model_path("no_such.xml")
+
+
+@pytest.mark.parametrize("model", ["auv.xml", "auv3d.xml"])
+def test_both_vehicles_satisfy_the_vehicle_physics_protocol_with_its_signatures(model):
+    """`VehiclePhysics` is what code may ask of any vehicle: the planar and the 6-DOF physics both have every method
+    under the Protocol's parameter names, and their read-outs have the documented sizes."""
+    import inspect
+
+    from auv_mj.sim.physics3d import AUV3DPhysics
+    from auv_mj.sim.vehicle_physics import VehiclePhysics
+
+    cls = AUVPhysics if model == "auv.xml" else AUV3DPhysics
+    physics = cls.from_xml_path(model_path(model))
+    assert isinstance(physics, VehiclePhysics)
+    members = [n for n, v in vars(VehiclePhysics).items()
+               if not n.startswith("_") and (callable(v) or isinstance(v, classmethod | property))]
+    assert len(members) == 13
+    for name in members:
+        if isinstance(vars(VehiclePhysics)[name], property):
+            assert isinstance(getattr(cls, name), property), (cls.__name__, name)
+            continue
+        wanted = list(inspect.signature(getattr(VehiclePhysics, name)).parameters)
+        got = list(inspect.signature(getattr(cls, name)).parameters)
+        assert got[:len(wanted)] == wanted, (cls.__name__, name, got, wanted)
+    physics.forward()
+    assert physics.pose().shape == (3,)
+    assert physics.body_velocity().shape == ((3,) if model == "auv.xml" else (6,))
+    assert physics.sonar().shape == ((9,) if model == "auv.xml" else (27,))
+    assert physics.speed() == pytest.approx(0.0)
