@@ -93,8 +93,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run the episodes in this many local processes")
     parser.add_argument("--ray", default=None, metavar="ADDRESS", help="run the episodes as Ray tasks at ADDRESS "
                         "('local' starts Ray here, 'auto' or HOST:PORT joins a cluster)")
-    parser.add_argument("--out", type=Path, required=True, help="folder for results.json, episodes.csv, "
-                        f"leaderboard_row.md and comparison.md ({JOURNAL} keeps the finished episodes until then)")
+    parser.add_argument("-o", "--out", type=Path, required=True, metavar="DIR",
+                        help="folder for results.json, episodes.csv, leaderboard_row.md and comparison.md "
+                             f"({JOURNAL} keeps the finished episodes until then)")
     parser.add_argument("--oracle", type=Path, default=None, help="an oracle results.json for time efficiency "
                         f"(default: the `{ORACLE}` entry of the leaderboard)")
     parser.add_argument("--leaderboard", type=Path, default=None, help="the leaderboard to compare with and "

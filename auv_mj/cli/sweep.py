@@ -262,7 +262,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--collectors", type=bounded_int(0, MAX_PROCESSES), default=0, metavar="N",
                         help="collector processes per trial (`auv-mj train --collectors`); a trial then "
                              "takes N + 1 CPUs (default: 0, serial on one CPU)")
-    parser.add_argument("--out", type=Path, required=True, help="sweep folder: one run directory per trial")
+    parser.add_argument("-o", "--out", type=Path, required=True, metavar="DIR",
+                        help="sweep folder: one run directory per trial")
     parser.add_argument("--resume", action="store_true", help="continue the sweep in --out from its checkpoints")
     parser.add_argument("--ray", default="local", metavar="ADDRESS",
                         help="'local' (default) starts Ray here; 'auto' or HOST:PORT joins a cluster")
