@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import argparse
 import copy
-import difflib
 import importlib
 import os
 import platform
 import select
 import sys
-from collections.abc import Iterable
+
+from auv_mj.inputs import did_you_mean
 
 # (subcommand, module, one-line help)
 COMMANDS: tuple[tuple[str, str, str], ...] = (
@@ -59,12 +59,6 @@ def version_text() -> str:
     from auv_mj import __version__
 
     return f"auv-mj {__version__} (MuJoCo {mujoco.__version__}, Python {platform.python_version()})"
-
-
-def suggestion(name: str, valid: Iterable[str]) -> str:
-    """" (did you mean 'x'?)" for the valid name nearest to `name` (difflib), or "" when none is near."""
-    close = difflib.get_close_matches(str(name), [str(v) for v in valid], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def shows_default(action: argparse.Action) -> bool:
@@ -110,7 +104,7 @@ class Parser(argparse.ArgumentParser):
         """argparse's check of `choices`, with the nearest valid choice suggested."""
         if action.choices is not None and value not in action.choices:
             choices = ", ".join(map(repr, action.choices))
-            raise argparse.ArgumentError(action, f"invalid choice: {value!r}{suggestion(value, action.choices)}; "
+            raise argparse.ArgumentError(action, f"invalid choice: {value!r}{did_you_mean(value, action.choices)}; "
                                                  f"choose from {choices}")
         return super()._check_value(action, value)
 

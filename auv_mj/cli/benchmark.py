@@ -61,6 +61,7 @@ from auv_mj.cli.options import (
     positive_int,
     usage_error,
 )
+from auv_mj.inputs import did_you_mean
 from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
 
@@ -73,7 +74,8 @@ def _choices(values: tuple[str, ...], option: str):
         chosen = tuple(dict.fromkeys(v.strip() for v in text.split(",") if v.strip()))
         wrong = [v for v in chosen if v not in values]
         if wrong or not chosen:
-            raise argparse.ArgumentTypeError(f"comma-separated values of {values}, got {text!r}")
+            hint = did_you_mean(wrong[0], values) if wrong else ""
+            raise argparse.ArgumentTypeError(f"comma-separated values of {', '.join(values)}, got {text!r}{hint}")
         return chosen
 
     return parse

@@ -35,7 +35,7 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
-from auv_mj.inputs import check_json_depth, read_text
+from auv_mj.inputs import check_json_depth, did_you_mean, read_text, unknown_name
 from auv_mj.planners.deploy import ChainConfig, deploy_env
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
@@ -47,7 +47,8 @@ TASK_IDS: dict[str, str] = {}
 
 def task_env_id(task: str) -> str:
     """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, the suite's own id of a task of either
-    domain (`auv_mj.tasks.gym_adapter.gym_id`: goal3d -> auv_mj/Goal3D-v0), or `auv_mj/<CamelCase>-v0`."""
+    domain (`auv_mj.tasks.gym_adapter.gym_id`: goal3d -> auv_mj/Goal3D-v0), or `auv_mj/<CamelCase>-v0` where that
+    is registered; ValueError naming the nearest task otherwise."""
     if task in TASK_IDS:
         return TASK_IDS[task]
     if "/" in task or ":" in task:
@@ -55,7 +56,12 @@ def task_env_id(task: str) -> str:
     if task in suite.TASKS_BY_DOMAIN[suite.DOMAIN] + suite.TASKS_BY_DOMAIN[suite.DOMAIN_3D]:
         return gym_id(task)
     camel = "".join(part[:1].upper() + part[1:] for part in re.split(r"[-_\s]+", task) if part)
-    return f"auv_mj/{camel}-v0"
+    env_id = f"auv_mj/{camel}-v0"
+    if env_id not in gym.registry:  # a mistyped task name is refused as one, with the nearest
+        tasks = [t for names in suite.TASKS_BY_DOMAIN.values() for t in names]
+        raise ValueError(unknown_name("task", task, tasks, " (domains auv, then auv3d); or a Gymnasium id, "
+                                      "auv_mj/NAME-v0"))
+    return env_id
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,8 +98,8 @@ def make_env_fn(env_id: str, **kwargs: Any) -> EnvFactory:
             raise ValueError(f"Gymnasium id {module}:{env_id}: cannot import {module!r} ({exc})") from None
     if env_id not in gym.registry:
         known = sorted(k for k in gym.registry if k.startswith("auv_mj/"))
-        raise ValueError(f"Gymnasium id {env_id!r} is not registered; "
-                         f"registered auv_mj ids: {known or 'none'}")
+        raise ValueError(f"Gymnasium id {env_id!r} is not registered{did_you_mean(env_id, known)}; "
+                         f"registered auv_mj ids: {', '.join(known) or 'none'}")
     return EnvFactory(env_id, kwargs, module)
 
 
