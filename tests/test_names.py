@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -159,3 +160,104 @@ def test_every_output_is_named_o_out(command):
 def test_the_preview_is_named_preview(command):
     text = _run(*command, "--help").stdout
     assert "--preview PNG" in text and "--no-preview" in text, text
+
+
+# --- item 7: every refused name suggests the nearest and lists the valid set ------------------------------------
+
+
+def test_a_mistyped_policy_task_or_domain_suggests_the_nearest_and_lists_them():
+    from auv_mj.tasks import suite
+    from auv_mj.zoo import registry
+
+    with pytest.raises(ValueError, match=r"unknown policy 'map-replann' \(did you mean 'map-replan'\?\); valid "
+                                         r"policies: planner, .*, random; or a checkpoint file"):
+        registry.resolve("map-replann")
+    with pytest.raises(ValueError, match=r"unknown task, tag or domain 'obstacle' \(did you mean 'obstacles'\?\); "
+                                         r"tasks of domain auv \(the planar vehicle\): goal, .*of domain auv3d "
+                                         r"\(the 6-DOF vehicle\): depth_heading"):
+        registry.resolve_tasks("obstacle")
+    with pytest.raises(ValueError, match=r"unknown domain 'auv3' \(did you mean 'auv3d'\?\); valid domains: auv, "
+                                         r"auv3d"):
+        suite.load("auv3", "goal3d")
+    with pytest.raises(ValueError, match=r"task 'goal3d' is not in domain 'auv' but in domain 'auv3d'"):
+        suite.load("auv", "goal3d")
+    with pytest.raises(ValueError, match=r"unknown task 'tunel' \(did you mean 'tunnel'\?\); valid tasks: goal,"):
+        suite.domain_of("tunel")
+    with pytest.raises(ValueError, match=r"unknown tag 'plannig' \(did you mean 'planning'\?\)"):
+        suite.tasks_by_tag("plannig")
+
+
+@pytest.mark.parametrize(("task", "options"), [
+    ("obstacles", ["arena", "conditions", "goal_radius", "reward", "scenario", "tier"]),
+    ("tunnel", ["arena", "arena_spec", "conditions", "tier"]),
+    ("goal3d", ["arena", "conditions", "tier"]),
+])
+def test_a_mistyped_task_option_suggests_the_nearest_and_lists_the_options(task, options):
+    from auv_mj.tasks import suite
+
+    with pytest.raises(ValueError) as error:
+        suite.load(suite.domain_of(task), task, {"teir": "hard"})
+    text = str(error.value)
+    assert f"task {task!r} has no option 'teir' (did you mean 'tier'?); its options: " in text
+    listed = text.split("its options: ")[1].split(", ")
+    assert set(options) <= set(listed)
+    assert "given twice" not in text
+
+
+def test_a_mistyped_option_value_suggests_the_nearest():
+    from auv_mj.tasks import suite
+
+    with pytest.raises(ValueError, match=r"tier must be one of 'standard', 'hard', got 'hrad' \(did you mean "
+                                         r"'hard'\?\)"):
+        suite.load("auv", "obstacles", {"tier": "hrad"})
+
+
+def test_the_cli_suggests_for_policies_tasks_and_agents(tmp_path):
+    _refused(_run("eval", "--policy", "map-replann", "--task", "obstacles"), "did you mean 'map-replan'?",
+             "valid policies:")
+    _refused(_run("eval", "--policy", "splane", "--task", "obstacle"), "did you mean 'obstacles'?", "auv3d")
+    _refused(_run("train", "td3", "--task", "obstacle", "--run-dir", tmp_path / "r"), "unknown task 'obstacle'",
+             "did you mean 'obstacles'?", "valid tasks:")
+    _refused(_run("train", "td4", "--task", "goal"), "did you mean 'td3'?")
+    _refused(_run("benchmark", "--policy", "splane", "--tier", "hrad", "--out", tmp_path / "b"),
+             "did you mean 'hard'?")
+
+
+def test_a_tube_arena_given_to_a_planar_task_points_to_tunnel3d(tmp_path):
+    from auv_mj.arenas import tubes
+    from auv_mj.arenas.tunnels import save
+    from auv_mj.tasks import suite
+
+    line = np.array([[0.0, 0.0, -20.0], [60.0, 0.0, -22.0], [120.0, 10.0, -25.0]])
+    path = tmp_path / "my_tube.xml"
+    save(tubes.tube_arena(tubes.Tube(line, tubes.TUBE_RADIUS), "my_tube"), path)
+    for task in ("tunnel", "obstacles"):
+        with pytest.raises(ValueError, match=r"my_tube\.xml: a tube arena .* --task tunnel3d"):
+            suite.load("auv", task, {"arena": str(path)})
+    (tmp_path / "tube.csv").write_text("x,y,z\n0,0,-20\n60,0,-22\n")
+    _refused(_run("tunnel", "tube.csv", cwd=tmp_path), "tube.csv: row 1", "auv-mj tunnel --tube")
+
+
+def test_a_tube_above_the_surface_says_so():
+    from auv_mj.arenas import tubes
+
+    line = np.array([[0.0, 0.0, -1.0], [60.0, 0.0, -1.0], [120.0, 0.0, -1.0]])
+    problems = " ".join(tubes.check_tube(tubes.Tube(line, tubes.TUBE_RADIUS)))
+    assert "m above the surface" in problems and "-" not in problems.split("top reaches ")[1][:4], problems
+
+
+# --- item 8: a tube CSV reads as a planar one does --------------------------------------------------------------
+
+
+def test_a_tube_csv_takes_comments_and_keeps_the_users_text(tmp_path):
+    from auv_mj.arenas import tubes
+
+    path = tmp_path / "tube.csv"
+    path.write_text("# my tube, dives and climbs\nx,y,z\n0,0,-20\n# the dive\n60,0,-30\n\n120,10,-25\n")
+    assert tubes.read_centreline(path).tolist() == [[0, 0, -20], [60, 0, -30], [120, 10, -25]]
+    path.write_text("# mine\nX,Y,Depth\n0,0,-20\n")
+    with pytest.raises(ValueError, match=r"row 2: the header must start x,y,z, got 'X,Y,Depth'"):
+        tubes.read_centreline(path)
+    path.write_text("X,Y,Z\n0,0,-20\n# a comment\n10,0,Deep\n")
+    with pytest.raises(ValueError, match=r"row 4: z = 'Deep' is not a coordinate"):
+        tubes.read_centreline(path)

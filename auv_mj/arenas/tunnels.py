@@ -274,6 +274,9 @@ def _parse_csv(text: str, source: str) -> Centreline:
         if not any(cells) or cells[0].startswith("#"):
             continue
         if not rows and not any(_is_number(c) for c in cells):
+            if [c.lower() for c in cells[:3]] == ["x", "y", "z"]:
+                raise ValueError(f"{source}: row {lineno}: the columns are x,y,z, a tube's centreline (a planar one "
+                                 "is x,y[,width]): build it with `auv-mj tunnel --tube`")
             continue  # the header
         if len(cells) not in (2, 3):
             raise ValueError(f"{source}: row {lineno} has {len(cells)} cells; expected x,y or x,y,width")
