@@ -261,3 +261,30 @@ def test_a_tube_csv_takes_comments_and_keeps_the_users_text(tmp_path):
     path.write_text("X,Y,Z\n0,0,-20\n# a comment\n10,0,Deep\n")
     with pytest.raises(ValueError, match=r"row 4: z = 'Deep' is not a coordinate"):
         tubes.read_centreline(path)
+
+
+def test_benchmark_help_shows_its_defaults_as_typed_and_task_picks_cells(tmp_path):
+    text = " ".join(_run("benchmark", "--help").stdout.split())
+    assert "(default: standard,hard)" in text and "(default: ideal,ocean)" in text and "('standard'" not in text
+    assert "--task TASKS" in text and "auv3d: goal3d,tunnel3d" in text
+    _refused(_run("benchmark", "--policy", "splane", "--task", "goal3d", "-o", tmp_path / "b"),
+             "--task goal3d has no cell in the auv suite", "is in --domain auv3d")
+    _refused(_run("benchmark", "--policy", "splane", "--task", "tunel", "-o", tmp_path / "b"),
+             "did you mean 'tunnel'?")
+
+
+def test_benchmark_task_runs_only_its_cells(tmp_path):
+    import json
+
+    out = tmp_path / "b"
+    done = _run("benchmark", "--policy", "los-fast", "--task", "tunnel", "--tier", "standard", "--water", "ideal",
+                "--episodes", "1", "--max-steps", "5", "--no-progress", "-o", out, "--leaderboard",
+                tmp_path / "board.json", timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert list(json.loads((out / "results.json").read_text())["cells"]) == ["tunnel/standard/ideal"]
+
+
+@pytest.mark.parametrize("command", [["eval"], ["render"], ["demo"], ["train"], ["plot", "trajectory"]])
+def test_task_help_names_the_domains(command):
+    text = " ".join(_run(*command, "--help").stdout.split())
+    assert "auv3d" in text and "depth_heading" in text and "goal, obstacles" in text, text

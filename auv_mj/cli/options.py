@@ -103,13 +103,15 @@ fps = bounded_float(0.0, MAX_FPS, "frames/s", low_open=True)
 
 
 def add_episode_options(parser: argparse.ArgumentParser, *, task: str | None = "goal",
-                        task_help: str = "suite task name (goal, obstacles, tunnel, ...)",
+                        task_help: str = "suite task name",
                         policy: str | None = "splane", policy_required: bool = False, with_policy: bool = True,
                         seed_help: str = "task and policy seed", task_required: bool | None = None) -> None:
     """--task, --task-kwargs, --arena, --seed and (with_policy) --policy, the same on every command. --task is
     required where it has no default, unless `task_required` is False (a command that can read its episodes)."""
+    from auv_mj.zoo.registry import tasks_text  # the suite's names by domain (imported only by episode commands)
+
     required = task is None if task_required is None else task_required
-    parser.add_argument("--task", default=task, required=required, help=task_help)
+    parser.add_argument("--task", default=task, required=required, help=f"{task_help}; {tasks_text()}")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
                         help="task options as a JSON object, e.g. '{\"reward\": \"paper\"}'")
     parser.add_argument("--arena", default=None, metavar="PATH",

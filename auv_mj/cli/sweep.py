@@ -250,7 +250,8 @@ def seed_list(text: str) -> list[int]:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj sweep`."""
     parser.add_argument("agents", nargs="+", choices=AGENTS, help="agents to train (e.g. her-ddpg ddpg)")
-    parser.add_argument("--task", default="goal", help="suite task name or Gymnasium id")
+    parser.add_argument("--task", default="goal", help="suite task name (domain auv: planar, auv3d: 6-DOF; "
+                        "`auv-mj eval --help` lists them) or Gymnasium id")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON", help="task options")
     parser.add_argument("--arena", default=None, metavar="PATH", help="arena MJCF for the task")
     parser.add_argument("--seeds", type=seed_list, nargs="+", default=[[0]],

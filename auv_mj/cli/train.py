@@ -116,7 +116,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading) | td3 (DDPG with twin "
                              "critics, delayed actor, target smoothing; any task) | ppo (--task planning-mix: "
                              "the batched mixture of planning tasks, tiers and waters; options under 'ppo')")
-    parser.add_argument("--task", required=True, help="suite task name or Gymnasium id (auv_mj/...-v0)")
+    parser.add_argument("--task", required=True, help="suite task name ("
+                        + "; ".join(f"domain {d}: {', '.join(names)}" for d, names in suite.TASKS_BY_DOMAIN.items())
+                        + f"), {PPO_TASK} (ppo) or a Gymnasium id (auv_mj/...-v0)")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
                         help='task options, e.g. \'{"command": "random", "disturbances": "random"}\'; '
                              "kept in the run directory and reused by --resume")
