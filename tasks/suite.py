@@ -77,7 +77,7 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
         other = [d for d, r in _REGISTRIES.items() if isinstance(task_name, str) and task_name in r]
         raise ValueError(f"task {shown(task_name)} is not in domain {domain_name!r}"
                          + (f" but in domain {other[0]!r}" if other else did_you_mean(task_name, registry))
-                         + f"; valid tasks of {domain_name!r}: {', '.join(registry)}")
+                         + f"; valid tasks: {', '.join(registry)} (domain {domain_name!r})")
     if task_kwargs is not None and not isinstance(task_kwargs, dict):
         raise ValueError(f"task_kwargs must be a dict of task options, got {type(task_kwargs).__name__}")
     task_kwargs = dict(task_kwargs or {})

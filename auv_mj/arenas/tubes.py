@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from auv_mj.arenas.arena3d import arena_root, seabed
-from auv_mj.inputs import csv_rows, read_text
+from auv_mj.inputs import csv_rows, did_you_mean, read_text
 
 N_STAVES = 20
 """Staves round the ring of a tube written before the ring was sized to the tube (no `tube_staves` numeric)."""
@@ -562,7 +562,8 @@ def read_tube(path: str | Path) -> TubeSpec:
         raise ValueError(f"{path}: a tube's JSON is an object with a \"centreline\" of [x, y, z] points")
     unknown = sorted(set(data) - set(TUBE_JSON_KEYS))
     if unknown:
-        raise ValueError(f"{path}: unknown key {unknown[0]!r:.60} (a tube's JSON may hold {', '.join(TUBE_JSON_KEYS)})")
+        raise ValueError(f"{path}: unknown key {unknown[0]!r:.60}{did_you_mean(unknown[0], TUBE_JSON_KEYS)} (a tube's "
+                         f"JSON may hold {', '.join(TUBE_JSON_KEYS)})")
     points = data.get("centreline")
     if not (isinstance(points, list) and 2 <= len(points) <= MAX_POINTS and all(
             isinstance(p, list) and len(p) == 3 and all(_real(v) and abs(v) <= MAX_EXTENT for v in p) for p in points)):

@@ -331,8 +331,8 @@ def _check_json_keys(data: dict, source: str) -> None:
     """A JSON centreline object holds JSON_KEYS only, and one spelling of "centreline"."""
     unknown = [k for k in data if k not in JSON_KEYS]
     if unknown:
-        raise ValueError(f"{source}: unknown keys {unknown[:5]!r:.80} in the JSON object; it may hold "
-                         f"{', '.join(JSON_KEYS)}")
+        raise ValueError(f"{source}: unknown keys {unknown[:5]!r:.80} in the JSON object"
+                         f"{inputs.did_you_mean(unknown[0], JSON_KEYS)}; it may hold {', '.join(JSON_KEYS)}")
     if "centreline" in data and "centerline" in data:
         raise ValueError(f"{source}: give \"centreline\" or \"centerline\", not both")
 
