@@ -143,14 +143,14 @@ def test_check_arena_replaces_its_own_preview_but_not_a_users_image(tmp_path):
 
 @pytest.mark.parametrize(("command", "old"), [(["tunnel"], "--output"), (["render"], "--output"),
                                               (["plot", "trajectory"], "--output"), (["check-arena"], "--png"),
-                                              (["check-arena"], "--no-png")])
+                                              (["check-arena"], "--no-png"), (["train"], "--run-dir")])
 def test_old_option_names_are_said_in_the_help(command, old):
     text = " ".join(_run(*command, "--help").stdout.split())
     assert f"({old}: its old name, accepted until 0.3)" in text
 
 
 @pytest.mark.parametrize("command", [["tunnel"], ["arena"], ["render"], ["plot", "trajectory"], ["demo"],
-                                     ["benchmark"], ["sweep"], ["reproduce"]])
+                                     ["benchmark"], ["sweep"], ["reproduce"], ["train"]])
 def test_every_output_is_named_o_out(command):
     text = _run(*command, "--help").stdout
     assert "-o FILE, --out FILE" in text or "-o DIR, --out DIR" in text, text

@@ -28,6 +28,7 @@ from auv_mj.agents.ppo import PPOConfig
 from auv_mj.agents.ppo.planner import MIXTURE_NAME, PLANNER_CONFIG, MixtureConfig, train_planner
 from auv_mj.cli.options import (
     MAX_PROCESSES,
+    add_output_option,
     bounded_int,
     json_object,
     positive_int,
@@ -131,8 +132,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "{\"arena\": \"random\"}}}'; kept in the run directory and reused by --resume")
     parser.add_argument("--steps", type=positive_int, help="total env steps (default: --episodes)")
     parser.add_argument("--episodes", type=positive_int, help="total episodes (default: max_episodes, Table 4)")
-    parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
-    parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
+    add_output_option(parser, "the run directory: checkpoints, logs, options (default "
+                      "runs/<task>/<agent>-seed<seed>)", old="--run-dir", type=Path, metavar="DIR")
+    parser.add_argument("--resume", action="store_true", help="continue the run in -o/--out")
     parser.add_argument("--init", metavar="CHECKPOINT",
                         help="start a new run from this checkpoint's networks (fine-tuning): a checkpoint path or "
                              "a learned policy's name, for its shipped checkpoint (e.g. planner-route; "
@@ -229,7 +231,7 @@ def _run_ppo(args: argparse.Namespace) -> int:
         else:
             base_mix, base = MixtureConfig(), PLANNER_CONFIG
             if (run_dir / ppo.CHECKPOINT_NAME).exists():
-                raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: give --resume or another --run-dir")
+                raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: give --resume or another -o/--out")
         mixture = dataclasses.replace(base_mix, **mix_overrides)
         config = dataclasses.replace(base, **overrides)
         result = train_planner(run_dir, config, mixture, args.steps, validate_every=args.validate_every,
