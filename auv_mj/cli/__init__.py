@@ -44,7 +44,7 @@ BROKEN_PIPE_STATUS = 128 + 13
 TRAIN_AGENTS = ("ddpg", "her-ddpg", "executor", "td3", "ppo")
 """The agents `auv-mj train` takes, as the top-level help names them: the agent registry's names
 (`auv_mj.agents.train.AGENTS`) and PPO, written out because importing that registry imports torch and doubles the
-time of `auv-mj --help`; tests/test_cli.py keeps the two equal."""
+time of `auv-mj --help`; tests/test_names.py keeps the two equal."""
 
 
 def command_help(text: str) -> str:
@@ -168,6 +168,7 @@ def _poll_errors(fd: int) -> int:
 
 
 def _main(argv: list[str] | None) -> int:
+    """Parses the command line and runs its subcommand (its module imported only now)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     if not argv or argv[0].startswith("-"):
