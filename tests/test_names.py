@@ -63,7 +63,7 @@ def test_version():
 
 
 def test_the_top_level_help_names_both_vehicles_and_every_agent():
-    from auv_mj.agents.train import AGENTS
+    from auv_mj.agents.offpolicy.learners import AGENTS
     from auv_mj.cli import TRAIN_AGENTS
 
     assert TRAIN_AGENTS == (*AGENTS, "ppo")
