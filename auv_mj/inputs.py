@@ -10,10 +10,12 @@ level, MuJoCo's compiler once per body). The checks themselves are scans and can
 from __future__ import annotations
 
 import csv
+import difflib
 import io
 import os
 import stat
 import xml.etree.ElementTree as ET
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +44,21 @@ def shown(value: Any, limit: int = 60) -> str:
         text = f"<{type(value).__name__}>"
     text = " ".join(text.split())
     return text if len(text) <= limit else text[:limit] + f"... ({type(value).__name__})"
+
+
+def did_you_mean(name: Any, valid: Iterable[Any]) -> str:
+    """" (did you mean 'x'?)" for the valid name nearest to `name` (difflib's ratio), or "" when none is near: every
+    refusal of a name says it, beside the valid set."""
+    close = difflib.get_close_matches(str(name), [str(v) for v in valid], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def unknown_name(what: str, name: Any, valid: Iterable[Any], also: str = "", plural: str | None = None) -> str:
+    """The refusal of a name: "unknown policy 'map-replann' (did you mean 'map-replan'?); valid policies: a, b[also]"
+    (`plural` where the plural of `what` is not `what` + "s")."""
+    valid = [str(v) for v in valid]
+    return (f"unknown {what} {shown(name)}{did_you_mean(name, valid)}; valid {plural or what + 's'}: "
+            f"{', '.join(valid)}{also}")
 
 
 def source_name(path: str | Path) -> str:

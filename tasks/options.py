@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_mj.inputs import shown
+from auv_mj.inputs import did_you_mean, shown
 
 MAX_TIME_LIMIT = 100_000.0
 """Longest episode a task accepts [s] (28 hours simulated; the paper's longest run is minutes)."""
@@ -48,7 +48,9 @@ def number(option: str, value: Any, low: float, high: float, unit: str = "", *, 
 def choice(option: str, value: Any, choices: Sequence[str]) -> str:
     """`value` if it is one of the strings `choices`; ValueError naming `option` and the choices otherwise."""
     if not isinstance(value, str) or value not in choices:
-        raise _refuse(option, "one of " + ", ".join(repr(c) for c in choices), value)
+        hint = did_you_mean(value, choices) if isinstance(value, str) else ""
+        raise ValueError(f"task option {option} must be one of {', '.join(map(repr, choices))}, got {shown(value)}"
+                         f"{hint}")
     return value
 
 

@@ -112,7 +112,7 @@ from dm_control.suite import base
 from dm_control.utils import rewards
 from dm_env import specs
 
-from auv_mj.arenas import arena, arena_check
+from auv_mj.arenas import arena, arena_check, tubes
 from auv_mj.arenas.arena import SAFETY_DISTANCE
 from auv_mj.control.clock import ExecutorClock
 from auv_mj.control.splane import EXECUTOR_DT, SPlaneController
@@ -440,9 +440,16 @@ def check_timestep(physics: AUVPhysics, *periods: float) -> None:
 def load_arena(source: str | Path | ET.Element, need_path: bool, conditions=None) -> Physics:
     """Physics of the vehicle in an arena file or element, refused unless `auv-mj check-arena` finds it usable.
 
-    The arena is checked once where it enters a task, by `arena_check.require_usable` (cached by content).
+    The arena is checked once where it enters a task, by `arena_check.require_usable` (cached by content). A tube
+    arena (`auv-mj tunnel --tube`) is the 6-DOF vehicle's and is refused naming the file and the task that flies it.
     """
-    arena_check.require_usable(options.arena_source(source), need_path)
+    source = options.arena_source(source)
+    if tubes.is_tube_arena(source):
+        name = "the arena element" if isinstance(source, ET.Element) else str(source)
+        raise ValueError(f"{name}: a tube arena (`auv-mj tunnel --tube`) is for the 6-DOF vehicle: fly it with "
+                         "--task tunnel3d; the planar tasks take arenas from `auv-mj tunnel` (without --tube) or "
+                         "`auv-mj arena`")
+    arena_check.require_usable(source, need_path)
     return Physics.load(source, conditions)
 
 

@@ -13,12 +13,15 @@ domain's, `TASKS_3D` the 6-DOF one's.
 from __future__ import annotations
 
 import argparse
+import inspect
 import re
 import time
+from collections.abc import Callable
 
 import numpy as np
 from dm_control.rl import control
 
+from auv_mj.inputs import did_you_mean, shown, unknown_name
 from auv_mj.tasks import goal, obstacles, path_following, speed_heading, tunnel, waypoints  # noqa: F401 (registers)
 from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
 from auv_mj.tasks.auv3d import SUITE3D
@@ -45,7 +48,8 @@ def domain_of(task_name: str) -> str:
     for domain, registry in _REGISTRIES.items():
         if task_name in registry:
             return domain
-    raise ValueError(f"task {task_name!r} does not exist; valid tasks: {', '.join([*SUITE, *SUITE3D])}")
+    domains = "; ".join(f"{domain}: {', '.join(registry)}" for domain, registry in _REGISTRIES.items())
+    raise ValueError(unknown_name("task", task_name, [*SUITE, *SUITE3D], f" (by domain: {domains})"))
 TAGS = tuple(sorted(SUITE.tags()))
 """Every tag in use."""
 
@@ -53,7 +57,7 @@ TAGS = tuple(sorted(SUITE.tags()))
 def tasks_by_tag(tag: str) -> tuple[tuple[str, str], ...]:
     """The (domain, task) pairs carrying `tag`; ValueError for an unknown tag."""
     if tag not in TAGS:
-        raise ValueError(f"unknown tag {tag!r}; valid tags: {', '.join(TAGS)}")
+        raise ValueError(unknown_name("tag", tag, TAGS))
     return tuple((DOMAIN, name) for name in SUITE.tagged(tag))
 
 
@@ -67,11 +71,13 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     the task refuses (`auv_mj.tasks.options`).
     """
     if domain_name not in _REGISTRIES:
-        raise ValueError(f"domain {domain_name!r} does not exist; valid domains: {', '.join(_REGISTRIES)}")
+        raise ValueError(unknown_name("domain", domain_name, _REGISTRIES))
     registry = _REGISTRIES[domain_name]
     if not isinstance(task_name, str) or task_name not in registry:
-        raise ValueError(f"task {task_name!r} does not exist in domain {domain_name!r}; "
-                         f"valid tasks: {', '.join(registry)}")
+        other = [d for d, r in _REGISTRIES.items() if isinstance(task_name, str) and task_name in r]
+        raise ValueError(f"task {shown(task_name)} is not in domain {domain_name!r}"
+                         + (f" but in domain {other[0]!r}" if other else did_you_mean(task_name, registry))
+                         + f"; valid tasks: {', '.join(registry)} (domain {domain_name!r})")
     if task_kwargs is not None and not isinstance(task_kwargs, dict):
         raise ValueError(f"task_kwargs must be a dict of task options, got {type(task_kwargs).__name__}")
     task_kwargs = dict(task_kwargs or {})
@@ -82,12 +88,62 @@ def load(domain_name: str, task_name: str, task_kwargs: dict | None = None,
     try:
         env = registry[task_name](**task_kwargs)
     except TypeError as e:  # an option the task does not take: a bad option, as any other
-        unknown = re.search(r"keyword argument '([^']*)'", str(e))
+        unknown = re.search(r"(unexpected|multiple values for) keyword argument '([^']*)'", str(e))
         if unknown is None:
             raise
-        raise ValueError(f"task {task_name!r} has no option {unknown.group(1)!r} (or it is given twice)") from None
+        option = unknown.group(2)
+        if unknown.group(1) != "unexpected":
+            raise ValueError(f"task {task_name!r}: option {option!r} is given twice (it is also set by another "
+                             "option or by the command)") from None
+        valid = task_options(registry[task_name], e)
+        raise ValueError(f"task {task_name!r} has no option {option!r}{did_you_mean(option, valid)}; its options: "
+                         f"{', '.join(valid)}") from None
     env.task.visualize_reward = visualize_reward
     return env
+
+
+def task_options(factory: Callable, error: TypeError | None = None) -> list[str]:
+    """The option names a task factory takes: its own keyword parameters and, where it passes `**task_kwargs` on,
+    those of the functions they reach. `error` (the TypeError of an option none of them took) has their frames:
+    each function it passed through, and the one that refused, found from the last frame's globals or `self`."""
+    names = _parameters(factory)
+    traceback = error.__traceback__ if error is not None else None
+    frames = []
+    while traceback is not None:
+        frames.append(traceback.tb_frame)
+        traceback = traceback.tb_next
+    codes = [frame.f_code for frame in frames]
+    start = next((i for i, code in enumerate(codes) if code is getattr(factory, "__code__", None)), len(frames))
+    for frame in frames[start:]:
+        code = frame.f_code
+        names += code.co_varnames[:code.co_argcount + code.co_kwonlyargcount]
+    refusing = re.match(r"([\w.]+)\(\)", str(error)) if error is not None else None
+    if refusing and len(frames) > start:
+        callee = _find(refusing.group(1), frames[-1])
+        if callee is not None:
+            names += _parameters(callee)
+    return sorted({name for name in names if not name.startswith("_") and name not in ("self", "cls")})
+
+
+def _parameters(function: Callable) -> list[str]:
+    """The names `function` takes by keyword (`__init__`'s for a class)."""
+    try:
+        parameters = inspect.signature(function).parameters.values()
+    except (TypeError, ValueError):
+        return []
+    return [p.name for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+
+
+def _find(qualname: str, frame) -> Callable | None:
+    """The function of `qualname` ("Class.__init__", "function") as seen from `frame`: through its globals, or
+    the MRO of its `self` (a `super().__init__(**kwargs)`)."""
+    first, *rest = qualname.split(".")
+    owner = frame.f_globals.get(first)
+    if owner is None and "self" in frame.f_locals:
+        owner = next((c for c in type(frame.f_locals["self"]).__mro__ if c.__name__ == first), None)
+    for part in rest:
+        owner = getattr(owner, part, None)
+    return owner if callable(owner) else None
 
 
 def steps_per_second(task_name: str, steps: int = 2000, seed: int = 0) -> float:

@@ -80,4 +80,4 @@ def test_auv_mj_render_draws_a_6dof_task_and_its_plots(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "auv_mj.cli", "render", "--task", "nope", "-o", str(out)],
                          capture_output=True, text=True, timeout=300, env={"PATH": "/usr/bin:/bin",
                                                                           "MUJOCO_GL": "egl"})
-    assert bad.returncode == 2 and "task 'nope' does not exist" in bad.stderr and "Traceback" not in bad.stderr
+    assert bad.returncode == 2 and "unknown task 'nope'" in bad.stderr and "Traceback" not in bad.stderr

@@ -52,8 +52,8 @@ def test_unwritable_outputs_are_refused_before_the_first_episode(tmp_path):
     assert "eval goal" not in done.stderr  # no progress bar: no episode ran
     _refused(_run("eval", "--policy", "splane", "--task", "goal", "--csv", tmp_path, timeout=60),
              "--csv", "is a folder")
-    _refused(_run("render", "--task", "goal", "-o", blocker / "v.mp4", timeout=60), "--output")
-    _refused(_run("plot", "trajectory", "--task", "goal", "-o", blocker / "p.png", timeout=60), "--output")
+    _refused(_run("render", "--task", "goal", "-o", blocker / "v.mp4", timeout=60), "-o ")
+    _refused(_run("plot", "trajectory", "--task", "goal", "-o", blocker / "p.png", timeout=60), "-o ")
     _refused(_run("demo", "--out", blocker, "--no-video", timeout=60), "--out")
     _refused(_run("reproduce", "--out", blocker / "r.md", timeout=60), "--out")
 

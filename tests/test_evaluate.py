@@ -49,7 +49,7 @@ def test_task_resolution_and_bad_names():
     assert "speed_heading" not in policies.resolve_tasks("all", "planner")
     assert policies.resolve_tasks("all", "executor") == ["speed_heading"]
     assert set(policies.resolve_tasks("benchmarking")) <= set(policies.resolve_tasks("all"))
-    with pytest.raises(ValueError, match="unknown task or tag 'nope'"):
+    with pytest.raises(ValueError, match="unknown task, tag or domain 'nope'"):
         policies.resolve_tasks("nope")
     env = policies.make_env("splane", "goal", 0)
     with pytest.raises(ValueError, match="unknown policy 'no-such-policy'"):

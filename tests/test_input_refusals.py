@@ -66,7 +66,7 @@ def test_render_refuses_a_video_suffix_it_cannot_write_before_work(tmp_path, nam
     done = subprocess.run([sys.executable, "-m", "auv_mj.cli", "render", "--task", "goal", "--policy", "no-such-policy",
                            "-o", str(out)], capture_output=True, text=True, timeout=120)
     assert done.returncode == 2, done.stderr
-    assert done.stderr.count("\n") == 1 and "--output" in done.stderr and ".mp4 or .gif" in done.stderr, done.stderr
+    assert done.stderr.count("\n") == 1 and "-o " in done.stderr and ".mp4 or .gif" in done.stderr, done.stderr
     assert not out.exists()
 
 

@@ -132,8 +132,8 @@ def test_plot_learning_cli(tmp_path):
     assert result.returncode == 0, result.stderr
     _png(out, 400, 300)
     missing = subprocess.run([sys.executable, "-m", "auv_mj.cli", "plot", "learning", "--runs",
-                              str(tmp_path / "none*.csv"), "-o", str(out)], capture_output=True, text=True,
-                             timeout=120)
+                              str(tmp_path / "none*.csv"), "-o", str(tmp_path / "none.png")], capture_output=True,
+                             text=True, timeout=120)
     assert missing.returncode != 0 and "no training logs match" in missing.stderr
 
 

@@ -30,7 +30,7 @@ from auv_mj.agents.checkpoint import (
 )
 from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig
 from auv_mj.agents.offpolicy.td3 import TD3, TD3Config
-from auv_mj.inputs import shown
+from auv_mj.inputs import unknown_name
 
 AGENT_CLASSES: dict[str, tuple[type[DDPG], type[DDPGConfig]]] = {
     "ddpg": (DDPG, DDPGConfig), "her-ddpg": (DDPG, DDPGConfig), "executor": (DDPG, DDPGConfig), "td3": (TD3, TD3Config),
@@ -44,7 +44,7 @@ executor a Box task; ddpg and td3 take either."""
 def agent_classes(agent_name: Any) -> tuple[type[DDPG], type[DDPGConfig]]:
     """(learner class, config class) of `agent_name`."""
     if agent_name not in AGENT_CLASSES:
-        raise ValueError(f"unknown agent {shown(agent_name, 40)}; choose one of {AGENTS}")
+        raise ValueError(unknown_name("agent", agent_name, AGENTS))
     return AGENT_CLASSES[agent_name]
 
 

@@ -50,6 +50,7 @@ from auv_mj.agents.offpolicy.networks import widen_inputs
 from auv_mj.agents.offpolicy.replay import Batch, ReplayBuffer
 from auv_mj.console import progress_bar
 from auv_mj.goals import GOAL_KEYS
+from auv_mj.inputs import unknown_name
 
 CHECKPOINT_NAME = "checkpoint.pt"
 LOG_NAME = "progress.csv"
@@ -120,7 +121,7 @@ def wrapper_attr(env: gym.Env, name: str, default: Any) -> Any:
 
 def _check_agent_env(agent_name: str, kind: str) -> None:
     if agent_name not in AGENTS:
-        raise ValueError(f"unknown agent {agent_name!r}; choose one of {AGENTS}")
+        raise ValueError(unknown_name("agent", agent_name, AGENTS))
     if agent_name == "her-ddpg" and kind != "goal":
         raise ValueError("her-ddpg needs a goal task (dict observation with achieved/desired goals)")
     if agent_name == "executor" and kind != "box":

@@ -91,6 +91,22 @@ CHECK_STAGES = ("load", "numbers and sites", "extent", "geoms", "walls", "route"
 """The stages of `check_arena`, in order: what its progress bar counts."""
 
 
+PREVIEW_SOFTWARE = "auv-mj arena preview"
+"""The PNG `Software` text of every preview drawn here, by which `is_preview` knows one: a command may replace a
+preview it drew without --force, never an image of the user's."""
+
+
+def is_preview(path: str | Path) -> bool:
+    """Whether `path` is a PNG preview drawn here (its `Software` text is PREVIEW_SOFTWARE)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as image:
+            return image.format == "PNG" and image.info.get("Software") == PREVIEW_SOFTWARE
+    except (OSError, UnidentifiedImageError, ValueError):
+        return False
+
+
 def check_arena(source: str | Path | ET.Element, png: str | Path | None = None,
                 need_path: bool = True, name: str | None = None, progress: bool = False) -> ArenaReport:
     """Checks an arena (a file or an element); writes a top-down preview to `png` if given.
@@ -744,7 +760,7 @@ def plot_arena(physics: AUVPhysics, info: ArenaInfo | None, png: str | Path, tit
 
     fig = arena_figure(physics, info, title, skip)
     png = Path(png)
-    fig.savefig(png, dpi=110, bbox_inches="tight")
+    fig.savefig(png, dpi=110, bbox_inches="tight", metadata={"Software": PREVIEW_SOFTWARE})
     plt.close(fig)
     return png
 
@@ -873,6 +889,6 @@ def plot_tube(tube, obstacles, movers, png: str | Path, title: str = "") -> Path
     top.legend(loc="best", fontsize=8)
     fig.tight_layout()
     png = Path(png)
-    fig.savefig(png, dpi=110, bbox_inches="tight")
+    fig.savefig(png, dpi=110, bbox_inches="tight", metadata={"Software": PREVIEW_SOFTWARE})
     plt.close(fig)
     return png

@@ -104,7 +104,8 @@ def _role(value, what: str) -> str:
     if value is None:
         return "obstacle"
     if value not in ROLES:
-        raise ValueError(f"{what}: role {str(value)[:40]!r} must be one of {', '.join(ROLES)}")
+        raise ValueError(f"{what}: role {str(value)[:40]!r} must be one of {', '.join(ROLES)}"
+                         f"{inputs.did_you_mean(value, ROLES)}")
     return value
 
 
@@ -296,7 +297,8 @@ def make_shape(fields: dict, what: str) -> Shape | MoverPath:
         raise ValueError(f"{what} must be an object with a \"type\", got {str(fields)[:60]!r}")
     kind = fields.get("type")
     if kind not in SHAPE_FIELDS:
-        raise ValueError(f"{what}: type {str(kind)[:40]!r} must be one of {', '.join(SHAPE_FIELDS)}")
+        raise ValueError(f"{what}: type {str(kind)[:40]!r} must be one of {', '.join(SHAPE_FIELDS)}"
+                         f"{inputs.did_you_mean(kind, SHAPE_FIELDS)}")
     unknown = sorted(set(fields) - set(SHAPE_FIELDS[kind]))
     if unknown:
         raise ValueError(f"{what}: a {kind} has no field(s) {', '.join(map(str, unknown))[:80]}; it takes "

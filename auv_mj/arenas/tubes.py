@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from auv_mj.arenas.arena3d import arena_root, seabed
-from auv_mj.inputs import csv_rows, read_text
+from auv_mj.inputs import csv_rows, did_you_mean, read_text
 
 N_STAVES = 20
 """Staves round the ring of a tube written before the ring was sized to the tube (no `tube_staves` numeric)."""
@@ -498,24 +498,27 @@ def goal_arena(random: np.random.RandomState, water_depth: float):
 
 
 def read_centreline(path: str | Path) -> np.ndarray:
-    """(K, 3) x, y, z [m] rows of a CSV (header optional: its names must start x, y, z); ValueError naming the
-    file, row and field of a bad entry."""
+    """(K, 3) x, y, z [m] rows of a CSV (header optional: its names must start x, y, z, in either case; rows
+    starting with `#` are comments, as in a planar centreline); ValueError naming the file, the row (its line) and
+    the field of a bad entry, with the text as the file has it."""
     path = Path(path)
     text = read_text(path, "tube centreline CSV", 10_000_000)
-    rows = [row for row in csv_rows(text, str(path), "x,y,z") if row and any(cell.strip() for cell in row)]
-    if rows and not _is_number(rows[0][0]):
-        header = [cell.strip().lower() for cell in rows[0]]
-        if header[:3] != ["x", "y", "z"]:
-            raise ValueError(f"{path}: the header must start x,y,z, got {','.join(header)[:60]!r}")
+    rows = [(line, row) for line, row in enumerate(csv_rows(text, str(path), "x,y,z"), start=1)
+            if row and any(cell.strip() for cell in row) and not row[0].strip().startswith("#")]
+    if rows and not _is_number(rows[0][1][0]):
+        header = [cell.strip() for cell in rows[0][1]]
+        if [name.lower() for name in header[:3]] != ["x", "y", "z"]:
+            raise ValueError(f"{path}: row {rows[0][0]}: the header must start x,y,z, got "
+                             f"{','.join(header)[:60]!r}")
         rows = rows[1:]
     points = []
-    for number, row in enumerate(rows, start=1):
+    for line, row in rows:
         if len(row) < 3:
-            raise ValueError(f"{path}: row {number} needs x,y,z [m], got {','.join(row)[:60]!r}")
+            raise ValueError(f"{path}: row {line} needs x,y,z [m], got {','.join(row)[:60]!r}")
         values = []
         for name, cell in zip("xyz", row[:3], strict=True):
             if not _is_number(cell) or not abs(float(cell)) <= MAX_EXTENT:
-                raise ValueError(f"{path}: row {number}: {name} = {cell.strip()[:30]!r} is not a coordinate within "
+                raise ValueError(f"{path}: row {line}: {name} = {cell.strip()[:30]!r} is not a coordinate within "
                                  f"+-{MAX_EXTENT:g} m")
             values.append(float(cell))
         points.append(values)
@@ -559,7 +562,8 @@ def read_tube(path: str | Path) -> TubeSpec:
         raise ValueError(f"{path}: a tube's JSON is an object with a \"centreline\" of [x, y, z] points")
     unknown = sorted(set(data) - set(TUBE_JSON_KEYS))
     if unknown:
-        raise ValueError(f"{path}: unknown key {unknown[0]!r:.60} (a tube's JSON may hold {', '.join(TUBE_JSON_KEYS)})")
+        raise ValueError(f"{path}: unknown key {unknown[0]!r:.60}{did_you_mean(unknown[0], TUBE_JSON_KEYS)} (a tube's "
+                         f"JSON may hold {', '.join(TUBE_JSON_KEYS)})")
     points = data.get("centreline")
     if not (isinstance(points, list) and 2 <= len(points) <= MAX_POINTS and all(
             isinstance(p, list) and len(p) == 3 and all(_real(v) and abs(v) <= MAX_EXTENT for v in p) for p in points)):
@@ -646,7 +650,10 @@ def check_tube(tube: Tube, water_depth: float | None = None) -> list[str]:
                         f"{2 * tube.stave_radius:.2f} m thick, at centreline point {gap[1]}")
     top = float(np.max(ends[..., 2])) + tube.stave_radius
     if top > -MIN_COVER + 1e-9:
-        problems.append(f"the tube's top reaches {-top:.1f} m depth: it needs {MIN_COVER:g} m of water above it")
+        where = (f"{top:.1f} m above the surface" if top > 0.0 else "the surface" if top == 0.0
+                 else f"{-top:.1f} m below the surface")
+        problems.append(f"the tube's top reaches {where}: it needs {MIN_COVER:g} m of water above it (lower the "
+                        f"centreline by {top + MIN_COVER:.1f} m, z is up and 0 at the surface)")
     if water_depth is not None and float(np.min(ends[..., 2])) - tube.stave_radius < -water_depth:
         problems.append(f"the tube goes below the seabed at {water_depth:g} m")
     crossing = _crossing(points, lengths, 2.0 * (tube.wall_radius + tube.stave_radius))

@@ -274,6 +274,9 @@ def _parse_csv(text: str, source: str) -> Centreline:
         if not any(cells) or cells[0].startswith("#"):
             continue
         if not rows and not any(_is_number(c) for c in cells):
+            if [c.lower() for c in cells[:3]] == ["x", "y", "z"]:
+                raise ValueError(f"{source}: row {lineno}: the columns are x,y,z, a tube's centreline (a planar one "
+                                 "is x,y[,width]): build it with `auv-mj tunnel --tube`")
             continue  # the header
         if len(cells) not in (2, 3):
             raise ValueError(f"{source}: row {lineno} has {len(cells)} cells; expected x,y or x,y,width")
@@ -328,8 +331,8 @@ def _check_json_keys(data: dict, source: str) -> None:
     """A JSON centreline object holds JSON_KEYS only, and one spelling of "centreline"."""
     unknown = [k for k in data if k not in JSON_KEYS]
     if unknown:
-        raise ValueError(f"{source}: unknown keys {unknown[:5]!r:.80} in the JSON object; it may hold "
-                         f"{', '.join(JSON_KEYS)}")
+        raise ValueError(f"{source}: unknown keys {unknown[:5]!r:.80} in the JSON object"
+                         f"{inputs.did_you_mean(unknown[0], JSON_KEYS)}; it may hold {', '.join(JSON_KEYS)}")
     if "centreline" in data and "centerline" in data:
         raise ValueError(f"{source}: give \"centreline\" or \"centerline\", not both")
 

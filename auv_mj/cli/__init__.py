@@ -11,7 +11,12 @@ from __future__ import annotations
 import argparse
 import copy
 import importlib
+import os
+import platform
+import select
 import sys
+
+from auv_mj.inputs import did_you_mean
 
 # (subcommand, module, one-line help)
 COMMANDS: tuple[tuple[str, str, str], ...] = (
@@ -21,7 +26,7 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("tunnel", "auv_mj.cli.tunnel", "build a tunnel arena MJCF from a centreline CSV/JSON"),
     ("arena", "auv_mj.cli.arena", "build an open-water arena MJCF from a JSON/CSV list of shapes"),
     ("check-arena", "auv_mj.cli.check_arena", "check an arena MJCF and write a top-down PNG preview"),
-    ("train", "auv_mj.cli.train", "train an agent (ddpg, her-ddpg, executor) on a task"),
+    ("train", "auv_mj.cli.train", "train an agent ({agents}) on a task"),
     ("sweep", "auv_mj.cli.sweep", "training over seeds and hyper-parameters on Ray Tune, with a results table"),
     ("eval", "auv_mj.cli.evaluate", "suite-style evaluation of a policy on tasks"),
     ("benchmark", "auv_mj.cli.benchmark", "the versioned held-out suite (suite v1): results JSON, leaderboard row"),
@@ -30,6 +35,30 @@ COMMANDS: tuple[tuple[str, str, str], ...] = (
     ("reproduce", "auv_mj.cli.reproduce", "regenerate the reproduction report against the paper's numbers"),
     ("policies", "auv_mj.cli.list_policies", "the registered policies: what each is, where it runs, on what"),
 )
+
+
+BROKEN_PIPE_STATUS = 128 + 13
+"""Exit status when the reader of stdout goes away (`auv-mj policies | head`): a process killed by SIGPIPE's."""
+
+
+TRAIN_AGENTS = ("ddpg", "her-ddpg", "executor", "td3", "ppo")
+"""The agents `auv-mj train` takes, as the top-level help names them: the agent registry's names
+(`auv_mj.agents.offpolicy.learners.AGENTS`) and PPO, written out because importing that registry imports torch and
+doubles the time of `auv-mj --help`; tests/test_names.py keeps the two equal."""
+
+
+def command_help(text: str) -> str:
+    """A subcommand's one-line help with the registry's names filled in."""
+    return text.format(agents=", ".join(TRAIN_AGENTS)) if "{agents}" in text else text
+
+
+def version_text() -> str:
+    """`auv-mj --version`: this package's version and the versions a bug report needs."""
+    import mujoco
+
+    from auv_mj import __version__
+
+    return f"auv-mj {__version__} (MuJoCo {mujoco.__version__}, Python {platform.python_version()})"
 
 
 def shows_default(action: argparse.Action) -> bool:
@@ -71,29 +100,75 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str):
         self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
 
+    def _check_value(self, action: argparse.Action, value):
+        """argparse's check of `choices`, with the nearest valid choice suggested."""
+        if action.choices is not None and value not in action.choices:
+            choices = ", ".join(map(repr, action.choices))
+            raise argparse.ArgumentError(action, f"invalid choice: {value!r}{did_you_mean(value, action.choices)}; "
+                                                 f"choose from {choices}")
+        return super()._check_value(action, value)
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The top-level parser; subcommand arguments are added lazily in `main`."""
     parser = Parser(
         prog="auv-mj",
-        description="MuJoCo simulator of an underactuated planar AUV with learned planning and control.",
+        description="MuJoCo simulator of underactuated AUVs, the planar vehicle (domain auv) and the 6-DOF vehicle "
+                    "(domain auv3d), with classical and learned planning and control.",
     )
+    parser.add_argument("--version", action="version", version=version_text())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, _, help_text in COMMANDS:
-        sub.add_parser(name, help=help_text, add_help=False)
+        sub.add_parser(name, help=command_help(help_text), add_help=False)
     return parser
 
 
 def command_parser(name: str) -> Parser:
     """The full parser of subcommand `name` (its module imported and its arguments added)."""
     module_name, help_text = next((module, text) for command, module, text in COMMANDS if command == name)
-    parser = Parser(prog=f"auv-mj {name}", description=help_text)
+    parser = Parser(prog=f"auv-mj {name}", description=command_help(help_text))
     importlib.import_module(module_name).add_arguments(parser)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the `auv-mj` console script."""
+    """Entry point of the `auv-mj` console script: one command, its output cut short quietly when the reader of
+    stdout goes away (`auv-mj policies | head`)."""
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        if not _stdout_closed():
+            raise  # a pipe or socket of the command's own (a worker's), not stdout: a real error
+        return BROKEN_PIPE_STATUS
+
+
+def _stdout_closed() -> bool:
+    """Whether stdout's reader has gone; if so stdout is pointed at /dev/null, so that the interpreter's last
+    flush at exit does not fail a second time ("Exception ignored ... BrokenPipeError")."""
+    try:
+        sys.stdout.flush()  # what the failed write left in the buffer fails again if stdout is the broken pipe
+        fd = sys.stdout.fileno()
+        closed = bool(_poll_errors(fd))  # an empty buffer: ask the pipe itself
+    except BrokenPipeError:
+        fd, closed = sys.stdout.fileno(), True
+    except (OSError, ValueError):  # no file descriptor (a captured stdout): not a pipe
+        return False
+    if closed:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, fd)
+        os.close(devnull)
+    return closed
+
+
+def _poll_errors(fd: int) -> int:
+    """POLLERR on `fd` now (a pipe whose reader has closed), or 0."""
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return sum(events & select.POLLERR for _, events in poller.poll(0))
+
+
+def _main(argv: list[str] | None) -> int:
+    """Parses the command line and runs its subcommand (its module imported only now)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     if not argv or argv[0].startswith("-"):
@@ -102,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0 if argv else 2
     modules = {name: module for name, module, _ in COMMANDS}
     if argv[0] not in modules:
-        parser.parse_args(argv)  # prints argparse's "invalid choice" error and exits 2
+        parser.parse_args(argv)  # prints argparse's "invalid choice" error, with the nearest command, and exits 2
     sub = command_parser(argv[0])
     args = sub.parse_args(argv[1:])
     args.prog = sub.prog

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from auv_mj.arenas import arena_check, layout
 from auv_mj.arenas.tunnels import save
-from auv_mj.cli.options import check_output, usage_error
+from auv_mj.cli.options import add_force_option, add_output_option, check_output, usage_error
 
 SHOWN_PROBLEMS = 3
 """Problems of a refused arena named in the one-line error (`auv-mj check-arena` lists them all)."""
@@ -25,9 +25,10 @@ SHOWN_PROBLEMS = 3
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj arena`."""
     parser.add_argument("shapes", help="the layout: JSON or CSV of shapes, start and goal (see docs/arenas.md)")
-    parser.add_argument("-o", "--out", default=None, help="arena MJCF to write (default: SHAPES with .xml)")
-    parser.add_argument("--preview", default=None, help="top-down PNG to write (default: OUT with .png)")
+    add_output_option(parser, "arena MJCF to write (default: SHAPES with .xml)", metavar="FILE")
+    parser.add_argument("--preview", default=None, metavar="PNG", help="top-down PNG to write (default: OUT with .png)")
     parser.add_argument("--no-preview", action="store_true", help="write no preview")
+    add_force_option(parser)
     parser.add_argument("--name", default=None, help="model name (default: the layout's name, or open_water)")
 
 
@@ -38,8 +39,9 @@ def run(args: argparse.Namespace) -> int:
     if out.resolve() == source.resolve():
         usage_error(args, f"-o {out} would overwrite the layout; give another output")
     preview = None if args.no_preview else Path(args.preview) if args.preview else out.with_suffix(".png")
-    check_output(args, out, "-o")
-    check_output(args, preview, "--preview")
+    check_output(args, out, "-o" if args.out else "the output (-o)", replace=args.force)
+    check_output(args, preview, "--preview" if args.preview else "the preview (--preview)", replace=args.force,
+                 may_replace=arena_check.is_preview)
     try:
         shapes = layout.read_layout(source, args.name)
         command = " ".join(["auv-mj arena", shlex.quote(str(source)), "-o", shlex.quote(str(out))]

@@ -1,7 +1,7 @@
 """`auv-mj benchmark`: the versioned held-out suite of planning cells in one command (`auv_mj.benchmark`).
 
-    auv-mj benchmark [--domain auv|auv3d] --policy P [--tier standard,hard] [--water ideal,ocean] [--episodes N]
-                     [--workers N | --ray ADDRESS] --out DIR
+    auv-mj benchmark [--domain auv|auv3d] --policy P [--task obstacles,tunnel] [--tier standard,hard]
+                     [--water ideal,ocean] [--episodes N] [--workers N | --ray ADDRESS] -o DIR
 
 The suite (`auv_mj.benchmark.suite.SUITE_V1`; with `--domain auv3d` the 6-DOF vehicle's `SUITE_3D_V1`, its own
 suite with its own fingerprint and leaderboard) is one table of cells: a task with its options (a procedural arena
@@ -61,9 +61,18 @@ from auv_mj.cli.options import (
     positive_int,
     usage_error,
 )
+from auv_mj.inputs import did_you_mean
 from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
 
+
+def suite_tasks(suite) -> tuple[str, ...]:
+    """The tasks of a suite's cells, in the suite's order."""
+    return tuple(dict.fromkeys(cell.task for cell in suite.cells))
+
+
+SUITE_TASKS = tuple(dict.fromkeys(task for suite in SUITES.values() for task in suite_tasks(suite)))
+"""The tasks `--task` takes: those of every domain's suite (the chosen domain's are checked in `run`)."""
 EPISODES_CSV = "episodes.csv"
 """The per-episode table in --out: one row per episode (cell, seed, outcome, duration, path length, ...)."""
 
@@ -73,7 +82,8 @@ def _choices(values: tuple[str, ...], option: str):
         chosen = tuple(dict.fromkeys(v.strip() for v in text.split(",") if v.strip()))
         wrong = [v for v in chosen if v not in values]
         if wrong or not chosen:
-            raise argparse.ArgumentTypeError(f"comma-separated values of {values}, got {text!r}")
+            hint = did_you_mean(wrong[0], values) if wrong else ""
+            raise argparse.ArgumentTypeError(f"comma-separated values of {', '.join(values)}, got {text!r}{hint}")
         return chosen
 
     return parse
@@ -84,8 +94,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--domain", choices=list(SUITES), default="auv", help="the suite: auv (suite v1, the planar "
                         "vehicle, the default) or auv3d (the 3-D suite of the 6-DOF vehicle)")
     parser.add_argument("--policy", required=True, help=policies.policy_help())
-    parser.add_argument("--tier", type=_choices(TIERS, "--tier"), default=TIERS, help="tiers, e.g. standard,hard")
-    parser.add_argument("--water", type=_choices(WATERS, "--water"), default=WATERS, help="waters, e.g. ideal,ocean")
+    parser.add_argument("--task", type=_choices(SUITE_TASKS, "--task"), default=None, metavar="TASKS",
+                        help="only the cells of these tasks, comma-separated: "
+                             + "; ".join(f"{d}: {','.join(suite_tasks(SUITES[d]))}" for d in SUITES)
+                             + " (default: every task of the suite)")
+    parser.add_argument("--tier", type=_choices(TIERS, "--tier"), default=TIERS, metavar="TIERS",
+                        help=f"only the cells of these tiers, comma-separated (default: {','.join(TIERS)})")
+    parser.add_argument("--water", type=_choices(WATERS, "--water"), default=WATERS, metavar="WATERS",
+                        help=f"only the cells of these waters, comma-separated (default: {','.join(WATERS)})")
     parser.add_argument("--episodes", type=bounded_int(1, SEED_BLOCK), default=None,
                         help=f"episodes per cell (default: the suite's, {EPISODES}); fewer are the first seeds")
     parser.add_argument("--max-steps", type=positive_int, default=None, help="cut episodes after this many steps")
@@ -93,8 +109,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run the episodes in this many local processes")
     parser.add_argument("--ray", default=None, metavar="ADDRESS", help="run the episodes as Ray tasks at ADDRESS "
                         "('local' starts Ray here, 'auto' or HOST:PORT joins a cluster)")
-    parser.add_argument("--out", type=Path, required=True, help="folder for results.json, episodes.csv, "
-                        f"leaderboard_row.md and comparison.md ({JOURNAL} keeps the finished episodes until then)")
+    parser.add_argument("-o", "--out", type=Path, required=True, metavar="DIR",
+                        help="folder for results.json, episodes.csv, leaderboard_row.md and comparison.md "
+                             f"({JOURNAL} keeps the finished episodes until then)")
     parser.add_argument("--oracle", type=Path, default=None, help="an oracle results.json for time efficiency "
                         f"(default: the `{ORACLE}` entry of the leaderboard)")
     parser.add_argument("--leaderboard", type=Path, default=None, help="the leaderboard to compare with and "
@@ -143,7 +160,18 @@ def _run(args: argparse.Namespace) -> int:
             distributed.require_ray()
         except ImportError as e:
             usage_error(args, f"--ray: {e}")
-    cells = [c for c in suite.cells if c.tier in args.tier and c.water in args.water]
+    if args.task is not None:
+        own = suite_tasks(suite)
+        wrong = [task for task in args.task if task not in own]
+        if wrong:
+            other = next((d for d, other in SUITES.items() if wrong[0] in suite_tasks(other)), None)
+            where = f" ({wrong[0]} is in --domain {other})" if other else ""
+            usage_error(args, f"--task {wrong[0]} has no cell in the {args.domain} suite{did_you_mean(wrong[0], own)}; "
+                              f"its tasks: {', '.join(own)}{where}")
+    cells = [c for c in suite.cells if c.tier in args.tier and c.water in args.water
+             and (args.task is None or c.task in args.task)]
+    if not cells:
+        usage_error(args, "no cell of the suite has the --task, --tier and --water asked for")
     if args.workers > 1 and args.ray is None:
         _start_workers_early(args.workers)
     try:

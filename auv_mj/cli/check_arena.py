@@ -5,15 +5,20 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from auv_mj.arenas.arena_check import check_arena
-from auv_mj.cli.options import check_output, usage_error
+from auv_mj.arenas.arena_check import check_arena, is_preview
+from auv_mj.cli.options import OLD_NAMES_UNTIL, add_force_option, check_output, usage_error
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj check-arena`."""
     parser.add_argument("arena", help="arena MJCF file")
-    parser.add_argument("--png", help="top-down preview to write (default: next to the arena, .png)")
-    parser.add_argument("--no-png", action="store_true", help="write no preview")
+    parser.add_argument("--preview", "--png", dest="png", metavar="PNG",
+                        help="top-down preview to write (default: next to the arena, .png; a preview auv-mj drew "
+                             f"there is replaced, any other file needs --force) (--png: its old name, accepted until "
+                             f"{OLD_NAMES_UNTIL})")
+    parser.add_argument("--no-preview", "--no-png", dest="no_png", action="store_true",
+                        help=f"write no preview (--no-png: its old name, accepted until {OLD_NAMES_UNTIL})")
+    add_force_option(parser)
     parser.add_argument("--no-path", action="store_true",
                         help="the arena needs no global path (goal-reaching tasks of Tables 7-8)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar over the checks")
@@ -24,8 +29,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         png = None if args.no_png else Path(args.png) if args.png else Path(args.arena).with_suffix(".png")
     except ValueError:
-        usage_error(args, f"give the preview file with --png (or --no-png): {args.arena[:60]!r} has no name")
-    check_output(args, png, "--png")
+        usage_error(args, f"give the preview file with --preview (or --no-preview): {args.arena[:60]!r} has no name")
+    check_output(args, png, "--preview" if args.png else "the preview (--preview)", replace=args.force,
+                 may_replace=is_preview)
     try:
         report = check_arena(args.arena, png, need_path=not args.no_path, progress=not args.no_progress)
     except OSError as e:

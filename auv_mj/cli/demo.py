@@ -19,7 +19,16 @@ import numpy as np
 from auv_mj import render
 from auv_mj.cli import plots
 from auv_mj.cli.evaluate import table_cell
-from auv_mj.cli.options import add_episode_options, check_output, fps, pixels, task_kwargs, usage_error
+from auv_mj.cli.options import (
+    add_episode_options,
+    add_force_option,
+    add_output_option,
+    check_output,
+    fps,
+    pixels,
+    task_kwargs,
+    usage_error,
+)
 from auv_mj.console import progress_bar
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, episode_metrics, record_episode
 from auv_mj.render import glbackend
@@ -66,7 +75,8 @@ def format_rows(rows: dict[str, dict]) -> str:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj demo`."""
     add_episode_options(parser, task=TASK, policy=SYSTEM)
-    parser.add_argument("--out", type=Path, default=Path("demo"), help="output folder (default: demo/)")
+    add_output_option(parser, "output folder (default: demo/)", type=Path, default=Path("demo"), metavar="DIR")
+    add_force_option(parser)
     parser.add_argument("--width", type=pixels, default=1280)
     parser.add_argument("--height", type=pixels, default=720)
     parser.add_argument("--fps", type=fps, default=30.0)
@@ -78,8 +88,8 @@ def run(args: argparse.Namespace) -> int:
     task, kwargs = args.task, task_kwargs(args)
     if args.out.exists() and not args.out.is_dir():
         usage_error(args, f"--out {args.out} is a file, not a folder")
-    for name in ("mp4", "npz", "png"):
-        check_output(args, args.out / f"{task}.{name}", "--out")
+    for name in (".mp4", "_episode.npz", "_trajectory.png"):
+        check_output(args, args.out / f"{task}{name}", "-o/--out", replace=args.force)
     start = time.perf_counter()
     try:
         env, policy = policies.env_and_policy(args.policy, task, args.seed, kwargs)

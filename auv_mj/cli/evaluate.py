@@ -185,7 +185,8 @@ def write_outputs(results: dict, json_path: Path | None, csv_path: Path | None) 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj eval`."""
-    add_episode_options(parser, task="all", task_help="task name, tag (e.g. benchmarking, planning) or 'all'",
+    add_episode_options(parser, task="all",
+                        task_help="task name, tag (e.g. benchmarking, planning), domain (auv, auv3d) or 'all'",
                         policy=None, policy_required=True, seed_help="seed of the first episode")
     parser.add_argument("--episodes", type=positive_int, default=10, help="episodes per task")
     parser.add_argument("--max-steps", type=positive_int, default=None, help="cut episodes after this many steps")

@@ -103,13 +103,15 @@ fps = bounded_float(0.0, MAX_FPS, "frames/s", low_open=True)
 
 
 def add_episode_options(parser: argparse.ArgumentParser, *, task: str | None = "goal",
-                        task_help: str = "suite task name (goal, obstacles, tunnel, ...)",
+                        task_help: str = "suite task name",
                         policy: str | None = "splane", policy_required: bool = False, with_policy: bool = True,
                         seed_help: str = "task and policy seed", task_required: bool | None = None) -> None:
     """--task, --task-kwargs, --arena, --seed and (with_policy) --policy, the same on every command. --task is
     required where it has no default, unless `task_required` is False (a command that can read its episodes)."""
+    from auv_mj.zoo.registry import tasks_text  # the suite's names by domain (imported only by episode commands)
+
     required = task is None if task_required is None else task_required
-    parser.add_argument("--task", default=task, required=required, help=task_help)
+    parser.add_argument("--task", default=task, required=required, help=f"{task_help}; {tasks_text()}")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
                         help="task options as a JSON object, e.g. '{\"reward\": \"paper\"}'")
     parser.add_argument("--arena", default=None, metavar="PATH",
@@ -140,8 +142,38 @@ def usage_error(args: argparse.Namespace | str, message: str) -> NoReturn:
     raise SystemExit(2)
 
 
-def check_output(args: argparse.Namespace, path: str | Path | None, option: str) -> Path | None:
+FORCE_HELP = "replace output files that exist (without --force an existing file is refused, before any work)"
+"""The help of --force, the same on every command that writes files a user names or that are named after theirs."""
+
+
+OLD_NAMES_UNTIL = "0.3"
+"""The release up to which an option's old name (before issue 53 gave each concept one name) is still accepted."""
+
+
+def add_output_option(parser: argparse.ArgumentParser, help_text: str, *, old: str | None = None,
+                      **kwargs: Any) -> argparse.Action:
+    """-o/--out, the one name of "where a command writes" (a file, or the folder of a command that writes several);
+    `old` is the option's former name, still accepted (and said so in --help) until OLD_NAMES_UNTIL."""
+    names = ["-o", "--out", *([old] if old else [])]
+    kwargs.setdefault("dest", (old or "--out").lstrip("-").replace("-", "_"))
+    if old:
+        help_text = f"{help_text} ({old}: its old name, accepted until {OLD_NAMES_UNTIL})"
+    return parser.add_argument(*names, help=help_text, **kwargs)
+
+
+def add_force_option(parser: argparse.ArgumentParser) -> None:
+    """--force: the one way to replace an existing output file (`check_output(..., replace=args.force)`)."""
+    parser.add_argument("--force", action="store_true", help=FORCE_HELP)
+
+
+def check_output(args: argparse.Namespace, path: str | Path | None, option: str, *,
+                 replace: bool | None = None, may_replace: Callable[[Path], bool] | None = None) -> Path | None:
     """Refuses (exit 2) an output file that cannot be written, before any work is done.
+
+    With `replace` False (a command with --force, run without it) an existing file is refused too, naming --force:
+    nothing a user wrote is overwritten unasked. `may_replace(path)` says which existing files are the command's
+    own and may be replaced all the same (a preview auv-mj drew). None (commands without --force) keeps the old
+    rule: an existing file is replaced.
 
     The check is done by trying: the missing folders are made and the file opened for writing (appended to,
     so an existing file keeps its content), then whatever was made is removed again. Asking for permissions
@@ -153,6 +185,8 @@ def check_output(args: argparse.Namespace, path: str | Path | None, option: str)
     path = Path(path)
     if path.is_dir():
         usage_error(args, f"{option} {path} is a folder, not a file")
+    if replace is False and path.exists() and not (may_replace is not None and may_replace(path)):
+        usage_error(args, f"{option} {path} exists: give --force to replace it, or another name")
     _check_parent(args, path, option)
     _try_writing(args, path, option, folder=False)
     return path

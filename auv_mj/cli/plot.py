@@ -5,7 +5,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from auv_mj.cli.options import add_episode_options, check_output, pixels, positive_int, task_kwargs, usage_error
+from auv_mj.cli.options import (
+    add_episode_options,
+    add_force_option,
+    add_output_option,
+    check_output,
+    pixels,
+    positive_int,
+    task_kwargs,
+    usage_error,
+)
 from auv_mj.cli.plots import (
     BANDS,
     DEFAULT_SIZE,
@@ -51,7 +60,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("-o", "--output", type=Path, required=True, help="PNG file")
+    add_output_option(p, "PNG file", old="--output", type=Path, required=True, metavar="FILE")
+    add_force_option(p)
     p.add_argument("--title", default=None)
     p.add_argument("--width", type=pixels, default=DEFAULT_SIZE[0], help="image width [px]")
     p.add_argument("--height", type=pixels, default=None,
@@ -73,8 +83,8 @@ def _episode_inputs(args: argparse.Namespace) -> list:
 def run(args: argparse.Namespace) -> int:
     """`auv-mj plot KIND ...`: writes one PNG."""
     args.prog = f"{args.prog} {args.kind}"
-    check_output(args, args.output, "--output")
-    check_output(args, getattr(args, "csv", None), "--csv")
+    check_output(args, args.output, "-o", replace=args.force)
+    check_output(args, getattr(args, "csv", None), "--csv", replace=args.force)
     size = {"width": args.width, "title": args.title}
     if args.height is not None or args.kind != "trajectory":
         size["height"] = args.height or DEFAULT_SIZE[1]

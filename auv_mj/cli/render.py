@@ -9,6 +9,8 @@ from pathlib import Path
 
 from auv_mj.cli.options import (
     add_episode_options,
+    add_force_option,
+    add_output_option,
     bounded_float,
     check_output,
     fps,
@@ -39,7 +41,8 @@ from auv_mj.zoo import registry as policies
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj render`."""
     add_episode_options(parser)
-    parser.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif)")
+    add_output_option(parser, "video file (.mp4 or .gif)", old="--output", type=Path, default=None, metavar="FILE")
+    add_force_option(parser)
     parser.add_argument("--fps", type=fps, default=DEFAULT_FPS, help="video frame rate")
     parser.add_argument("--width", type=pixels, default=DEFAULT_SIZE[0], help="frame width [px] (made even)")
     parser.add_argument("--height", type=pixels, default=DEFAULT_SIZE[1], help="frame height [px] (made even)")
@@ -74,7 +77,7 @@ def make_env_and_policy(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     """`auv-mj render`: renders one episode to a video file, or runs the benchmark."""
     if args.output is not None and args.output.suffix.lower() not in VIDEO_SUFFIXES:
-        usage_error(args, f"--output {args.output}: a video file ends in .mp4 or .gif, not "
+        usage_error(args, f"-o {args.output}: a video file ends in .mp4 or .gif, not "
                           f"{repr(args.output.suffix) if args.output.suffix else 'without a suffix'}")
     try:
         glbackend.require()
@@ -90,19 +93,20 @@ def run(args: argparse.Namespace) -> int:
             usage_error(args, str(e))
         if domain == suite.DOMAIN_3D:  # a 6-DOF task: chase | top-down | side view
             if args.output is None and args.plots is None:
-                usage_error(args, "give the video file with -o/--output (and/or --plots PREFIX)")
-            check_output(args, args.output, "--output")
+                usage_error(args, "give the video file with -o/--out (and/or --plots PREFIX)")
+            check_output(args, args.output, "-o", replace=args.force)
             if args.plots is not None:
-                check_output(args, f"{args.plots}_depth.png", "--plots")
+                check_output(args, f"{args.plots}_depth.png", "--plots", replace=args.force)
+                check_output(args, f"{args.plots}_track.png", "--plots", replace=args.force)
             env, policy = make_env_and_policy(args)
             render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task} / {args.policy}",
                       width=args.width, height=args.height, fps=args.fps, speedup=args.speedup,
                       hold_end=args.hold_end, gif=True if args.gif else None, progress=not args.no_progress)
             return 0
         if args.output is None:
-            usage_error(args, "give the video file with -o/--output")
-        check_output(args, args.output, "--output")
-        check_output(args, args.save_episode, "--save-episode")
+            usage_error(args, "give the video file with -o/--out")
+        check_output(args, args.output, "-o", replace=args.force)
+        check_output(args, args.save_episode, "--save-episode", replace=args.force)
         env, policy = make_env_and_policy(args)
         recorder = EpisodeRecorder(env, args.task, args.policy, args.seed)
         frames = iter_frames(env, policy, max_steps=args.max_steps, width=args.width, height=args.height,

@@ -65,7 +65,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--policy", default="splane")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-steps", type=int, default=None)
-    parser.add_argument("-o", "--output", default=None, help="video to write (.mp4 or .gif); none if omitted")
+    parser.add_argument("-o", "--out", "--output", dest="output", default=None,
+                        help="video to write (.mp4 or .gif); none if omitted (--output: its old name)")
     parser.add_argument("--plots", default=None, metavar="PREFIX", help="write PREFIX_depth.png, PREFIX_track.png")
     parser.add_argument("--width", type=int, default=DEFAULT_SIZE[0])
     parser.add_argument("--height", type=int, default=DEFAULT_SIZE[1])

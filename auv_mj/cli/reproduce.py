@@ -31,7 +31,8 @@ def _commit() -> str:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj reproduce`."""
-    parser.add_argument("--out", type=Path, default=Path("docs/reproduction.md"), help="report file")
+    parser.add_argument("-o", "--out", type=Path, metavar="FILE", default=Path("docs/reproduction.md"),
+                        help="report file")
     parser.add_argument("--runs", type=Path, default=Path("docs/runs/fig8"),
                         help="folder of the Fig. 8 training logs (her-ddpg-seed*.csv, ddpg-seed*.csv)")
     parser.add_argument("--paper-runs", type=Path, default=Path("docs/runs/fig8-paper-observation"),

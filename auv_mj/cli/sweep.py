@@ -250,7 +250,8 @@ def seed_list(text: str) -> list[int]:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj sweep`."""
     parser.add_argument("agents", nargs="+", choices=AGENTS, help="agents to train (e.g. her-ddpg ddpg)")
-    parser.add_argument("--task", default="goal", help="suite task name or Gymnasium id")
+    parser.add_argument("--task", default="goal", help="suite task name (domain auv: planar, auv3d: 6-DOF; "
+                        "`auv-mj eval --help` lists them) or Gymnasium id")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON", help="task options")
     parser.add_argument("--arena", default=None, metavar="PATH", help="arena MJCF for the task")
     parser.add_argument("--seeds", type=seed_list, nargs="+", default=[[0]],
@@ -262,7 +263,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--collectors", type=bounded_int(0, MAX_PROCESSES), default=0, metavar="N",
                         help="collector processes per trial (`auv-mj train --collectors`); a trial then "
                              "takes N + 1 CPUs (default: 0, serial on one CPU)")
-    parser.add_argument("--out", type=Path, required=True, help="sweep folder: one run directory per trial")
+    parser.add_argument("-o", "--out", type=Path, required=True, metavar="DIR",
+                        help="sweep folder: one run directory per trial")
     parser.add_argument("--resume", action="store_true", help="continue the sweep in --out from its checkpoints")
     parser.add_argument("--ray", default="local", metavar="ADDRESS",
                         help="'local' (default) starts Ray here; 'auto' or HOST:PORT joins a cluster")

@@ -37,6 +37,7 @@ from auv_mj.agents.ppo.planner import (
 from auv_mj.agents.ppo.ppo import SCHEDULES
 from auv_mj.cli.options import (
     MAX_PROCESSES,
+    add_output_option,
     bounded_int,
     json_object,
     positive_int,
@@ -44,7 +45,7 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
-from auv_mj.inputs import check_json_depth, read_text
+from auv_mj.inputs import check_json_depth, did_you_mean, read_text, unknown_name
 from auv_mj.planners.deploy import ChainConfig, deploy_env
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
@@ -56,7 +57,8 @@ TASK_IDS: dict[str, str] = {}
 
 def task_env_id(task: str) -> str:
     """The Gymnasium id of a suite task: TASK_IDS[task], an id given as is, the suite's own id of a task of either
-    domain (`auv_mj.tasks.gym_adapter.gym_id`: goal3d -> auv_mj/Goal3D-v0), or `auv_mj/<CamelCase>-v0`."""
+    domain (`auv_mj.tasks.gym_adapter.gym_id`: goal3d -> auv_mj/Goal3D-v0), or `auv_mj/<CamelCase>-v0` where that
+    is registered; ValueError naming the nearest task otherwise."""
     if task in TASK_IDS:
         return TASK_IDS[task]
     if "/" in task or ":" in task:
@@ -64,7 +66,12 @@ def task_env_id(task: str) -> str:
     if task in suite.TASKS_BY_DOMAIN[suite.DOMAIN] + suite.TASKS_BY_DOMAIN[suite.DOMAIN_3D]:
         return gym_id(task)
     camel = "".join(part[:1].upper() + part[1:] for part in re.split(r"[-_\s]+", task) if part)
-    return f"auv_mj/{camel}-v0"
+    env_id = f"auv_mj/{camel}-v0"
+    if env_id not in gym.registry:  # a mistyped task name is refused as one, with the nearest
+        tasks = [t for names in suite.TASKS_BY_DOMAIN.values() for t in names]
+        raise ValueError(unknown_name("task", task, tasks, " (domains auv, then auv3d); or a Gymnasium id, "
+                                      "auv_mj/NAME-v0"))
+    return env_id
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,8 +108,8 @@ def make_env_fn(env_id: str, **kwargs: Any) -> EnvFactory:
             raise ValueError(f"Gymnasium id {module}:{env_id}: cannot import {module!r} ({exc})") from None
     if env_id not in gym.registry:
         known = sorted(k for k in gym.registry if k.startswith("auv_mj/"))
-        raise ValueError(f"Gymnasium id {env_id!r} is not registered; "
-                         f"registered auv_mj ids: {known or 'none'}")
+        raise ValueError(f"Gymnasium id {env_id!r} is not registered{did_you_mean(env_id, known)}; "
+                         f"registered auv_mj ids: {', '.join(known) or 'none'}")
     return EnvFactory(env_id, kwargs, module)
 
 
@@ -119,7 +126,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading) | td3 (DDPG with twin "
                              "critics, delayed actor, target smoothing; any task) | ppo (--task planning-mix: "
                              "the batched mixture of planning tasks, tiers and waters; options under 'ppo')")
-    parser.add_argument("--task", required=True, help="suite task name or Gymnasium id (auv_mj/...-v0)")
+    parser.add_argument("--task", required=True, help="suite task name ("
+                        + "; ".join(f"domain {d}: {', '.join(names)}" for d, names in suite.TASKS_BY_DOMAIN.items())
+                        + f"), {PPO_TASK} (ppo) or a Gymnasium id (auv_mj/...-v0)")
     parser.add_argument("--task-kwargs", type=json_object, default=None, metavar="JSON",
                         help='task options, e.g. \'{"command": "random", "disturbances": "random"}\'; '
                              "kept in the run directory and reused by --resume")
@@ -132,8 +141,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "{\"arena\": \"random\"}}}'; kept in the run directory and reused by --resume")
     parser.add_argument("--steps", type=positive_int, help="total env steps (default: --episodes)")
     parser.add_argument("--episodes", type=positive_int, help="total episodes (default: max_episodes, Table 4)")
-    parser.add_argument("--run-dir", type=Path, help="default runs/<task>/<agent>-seed<seed>")
-    parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
+    add_output_option(parser, "the run directory: checkpoints, logs, options (default "
+                      "runs/<task>/<agent>-seed<seed>)", old="--run-dir", type=Path, metavar="DIR")
+    parser.add_argument("--resume", action="store_true", help="continue the run in -o/--out")
     parser.add_argument("--init", metavar="CHECKPOINT",
                         help="start a new run from this checkpoint's networks (fine-tuning): a checkpoint path or "
                              "a learned policy's name, for its shipped checkpoint (e.g. planner-route; "
@@ -248,7 +258,7 @@ def _run_ppo(args: argparse.Namespace) -> int:
         else:
             base, base_mix = PPO_PRESETS[args.preset]
             if (run_dir / ppo.CHECKPOINT_NAME).exists():
-                raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: give --resume or another --run-dir")
+                raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: give --resume or another -o/--out")
         mixture = dataclasses.replace(base_mix, **mix_overrides)
         config = dataclasses.replace(base, **overrides)
         result = train_planner(run_dir, config, mixture, args.steps, resume=args.resume,

@@ -42,7 +42,15 @@ from auv_mj.arenas.tunnels import (
     save,
     tunnel_element,
 )
-from auv_mj.cli.options import bounded_float, bounded_int, check_output, seed_int, usage_error
+from auv_mj.cli.options import (
+    add_force_option,
+    add_output_option,
+    bounded_float,
+    bounded_int,
+    check_output,
+    seed_int,
+    usage_error,
+)
 from auv_mj.tasks import obstacles, planning, tunnel
 
 RANDOM_TASKS = ("tunnel", "obstacles", "moving_obstacles")
@@ -66,7 +74,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--width", type=bounded_float(0.0, MAX_WIDTH, "m", low_open=True),
                         help="constant tunnel width [m] (unless per point; with --random: this width instead of "
                              "a random one)")
-    parser.add_argument("-o", "--output", help="arena MJCF to write (default: the centreline's name, .xml)")
+    add_output_option(parser, "arena MJCF to write (default: the centreline's name, .xml)", old="--output",
+                      metavar="FILE")
+    add_force_option(parser)
     parser.add_argument("--smooth", action="store_true", help="round the corners (Chaikin corner cutting)")
     parser.add_argument("--smooth-iterations", type=bounded_int(0, MAX_SMOOTH_ITERATIONS), default=SMOOTH_ITERATIONS,
                         help=f"Chaikin rounds of --smooth (default {SMOOTH_ITERATIONS}, at most "
@@ -122,6 +132,11 @@ def _command_line() -> str | None:
     return shlex.join(["auv-mj", *argv]) if argv[:1] == ["tunnel"] else None
 
 
+def _output_option(args: argparse.Namespace) -> str:
+    """How a refusal names the output: -o where given, else the name it was given by default."""
+    return "-o" if args.output else "the output (-o)"
+
+
 def run(args: argparse.Namespace) -> int:
     """`auv-mj tunnel`: writes the arena and prints what it holds."""
     if args.random is not None:
@@ -137,9 +152,9 @@ def run(args: argparse.Namespace) -> int:
         output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
     except ValueError:
         usage_error(args, f"give the output file with -o: {args.centreline[:60]!r} has no name to derive one from")
-    check_output(args, output, "-o")
     if output.resolve() == Path(args.centreline).resolve():
         usage_error(args, f"-o {output} would overwrite the centreline")
+    check_output(args, output, _output_option(args), replace=args.force)
     try:
         line = read_centreline(args.centreline)
         obstacles = [Obstacle.parse(text) for text in args.obstacle]
@@ -184,9 +199,9 @@ def _run_tube(args: argparse.Namespace) -> int:
     if planar:
         usage_error(args, f"{', '.join(planar)} are planar tunnel options, not for --tube")
     output = Path(args.output) if args.output else Path(args.centreline).with_suffix(".xml")
-    check_output(args, output, "-o")
     if output.resolve() == Path(args.centreline).resolve():
         usage_error(args, f"-o {output} would overwrite the centreline")
+    check_output(args, output, _output_option(args), replace=args.force)
     try:
         spec = tubes.read_tube(args.centreline)
         line = tunnels.chaikin(spec.centreline, args.smooth_iterations) if args.smooth else spec.centreline
@@ -253,7 +268,7 @@ def _run_random(args: argparse.Namespace) -> int:
             usage_error(args, f"--tier hard draws its own arena: {', '.join(fixed)} cannot go with it")
     name = args.name or (Path(args.output).stem if args.output else f"random_{args.task}_{args.random}")
     output = Path(args.output) if args.output else Path(f"{name}.xml")
-    check_output(args, output, "-o")
+    check_output(args, output, _output_option(args), replace=args.force)
     if args.task == "tunnel":
         spec = _spec(args)
         try:

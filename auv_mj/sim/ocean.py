@@ -36,6 +36,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from auv_mj.inputs import did_you_mean
 from auv_mj.sim.hydrodynamics import OPTIONAL, REQUIRED
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.sim.vehicle import ACTUATORS
@@ -254,17 +255,18 @@ def conditions(spec: str | Conditions | Mapping[str, Any] | None = "ideal") -> C
         return spec
     if isinstance(spec, str):
         if spec not in _PRESET:
-            raise ValueError(f"conditions must be one of {PRESETS} or a mapping of effects, got {spec!r:.60}")
+            raise ValueError(f"conditions must be one of {PRESETS} or a mapping of effects, got {spec!r:.60}"
+                             f"{did_you_mean(spec, PRESETS)}")
         return _PRESET[spec]
     if not isinstance(spec, Mapping):
         raise ValueError(f"conditions must be one of {PRESETS} or a mapping of effects, got {spec!r:.60}")
     unknown = [k for k in spec if k not in ("base", *EFFECTS)]
     if unknown:
-        raise ValueError(f"conditions: unknown key(s) {', '.join(map(repr, unknown))}; "
-                         f"known: base, {', '.join(EFFECTS)}")
+        raise ValueError(f"conditions: unknown key(s) {', '.join(map(repr, unknown))}"
+                         f"{did_you_mean(unknown[0], ('base', *EFFECTS))}; known: base, {', '.join(EFFECTS)}")
     base = spec.get("base", "ocean")
     if not isinstance(base, str) or base not in _PRESET:
-        raise ValueError(f"conditions.base must be one of {PRESETS}, got {base!r:.60}")
+        raise ValueError(f"conditions.base must be one of {PRESETS}, got {base!r:.60}{did_you_mean(base, PRESETS)}")
     changes: dict[str, Any] = {}
     for effect, value in spec.items():
         if effect == "base":

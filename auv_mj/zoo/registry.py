@@ -42,6 +42,7 @@ from auv_mj.agents.offpolicy import Policy
 from auv_mj.agents.ppo import PPOPolicy
 from auv_mj.control.depth_heading import OCEAN_DEPTH_GAINS
 from auv_mj.episode import FunctionPlanner, Planner, as_planner
+from auv_mj.inputs import did_you_mean, shown, unknown_name
 from auv_mj.planners.avoidance import map_fence, protection_field, with_repulsion
 from auv_mj.planners.bug import bug_planner
 from auv_mj.planners.deploy import Chain, ChainConfig, deployed
@@ -355,7 +356,9 @@ def resolve(policy_name: str) -> tuple[PolicySpec, Path | None]:
             return found
     if Path(policy_name).is_file():
         return CHECKPOINT, Path(policy_name)
-    raise ValueError(f"unknown policy {policy_name!r}: not a checkpoint file, nor one of {list(POLICIES)}")
+    paths = ", ".join(f"{n}=PATH" for n, spec in POLICIES.items() if spec.accepts_path)
+    raise ValueError(unknown_name("policy", policy_name, POLICIES, f"; or a checkpoint file, {paths}, "
+                                  "MODULE:FACTORY or PATH.zip (`auv-mj policies` describes each name)", "policies"))
 
 
 def split_name(policy_name: str) -> tuple[PolicySpec, Path | None]:
@@ -493,8 +496,8 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
     elif spec in tags:
         chosen = [t for d in domains for t in domain_tasks(d, spec)]
     else:
-        raise ValueError(f"unknown task or tag {spec!r}; tasks: {names}; tags: {tags}; domains: {list(domains)}; "
-                         "or all")
+        raise ValueError(f"unknown task, tag or domain {shown(spec)}{did_you_mean(spec, [*names, *tags, *domains])}; "
+                         f"{tasks_text()}; tags: {', '.join(tags)}; or all")
     policy = resolve(policy_name)[0]
     kept = [t for t in chosen if runs_on(policy, t)]
     if not kept:
@@ -521,6 +524,13 @@ def env_and_policy(policy_name: str, task_name: str, seed: int, task_kwargs: dic
 
 
 # --- tables derived from the registry ---------------------------------------------------------------------------
+
+
+def tasks_text() -> str:
+    """The tasks of each domain, as refusals and `--task`'s help name them: "tasks of domain auv (the planar
+    vehicle): goal, ...; of domain auv3d (the 6-DOF vehicle): depth_heading, ..."."""
+    return "; ".join(f"{'tasks of ' if i == 0 else 'of '}domain {domain} (the {DOMAINS[domain]} vehicle): "
+                     f"{', '.join(names)}" for i, (domain, names) in enumerate(suite.TASKS_BY_DOMAIN.items()))
 
 
 def policy_help() -> str:
