@@ -288,3 +288,19 @@ def test_benchmark_task_runs_only_its_cells(tmp_path):
 def test_task_help_names_the_domains(command):
     text = " ".join(_run(*command, "--help").stdout.split())
     assert "auv3d" in text and "depth_heading" in text and "goal, obstacles" in text, text
+
+
+def test_a_second_demo_replaces_only_the_files_the_first_one_wrote(tmp_path):
+    """The demo's folder lists what the demo wrote (its manifest): a second `auv-mj demo` may replace those, as the
+    README's main command is meant to be run again, but never a file of the same name that the demo did not write."""
+    from auv_mj.cli.demo import _note_written, demo_wrote
+
+    ours, theirs = tmp_path / "tunnel.mp4", tmp_path / "tunnel_trajectory.png"
+    ours.write_text("video")
+    theirs.write_text("mine")
+    assert not demo_wrote(ours) and not demo_wrote(theirs)
+    _note_written(tmp_path, [ours])
+    assert demo_wrote(ours) and not demo_wrote(theirs)
+    _note_written(tmp_path, [tmp_path / "tunnel_episode.npz"])
+    assert demo_wrote(ours) and demo_wrote(tmp_path / "tunnel_episode.npz") and not demo_wrote(theirs)
+    assert not demo_wrote(tmp_path / "elsewhere" / "tunnel.mp4")

@@ -83,13 +83,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-video", action="store_true", help="skip the video (table and plot only)")
 
 
+MANIFEST = ".auv-mj-demo"
+"""The file in the demo's folder naming the files the demo wrote there: a second `auv-mj demo` replaces those (its
+own), never a file of the same name that someone else put there."""
+
+
+def demo_wrote(path: Path) -> bool:
+    """Whether `path` is a file an earlier demo wrote (listed in its folder's MANIFEST) and may be replaced."""
+    manifest = path.parent / MANIFEST
+    return manifest.is_file() and path.name in manifest.read_text().split("\n")
+
+
+def _note_written(folder: Path, files: list[Path]) -> None:
+    """Adds `files` to `folder`'s MANIFEST."""
+    manifest = folder / MANIFEST
+    names = set(manifest.read_text().split("\n")) if manifest.is_file() else set()
+    manifest.write_text("\n".join(sorted((names | {f.name for f in files}) - {""})) + "\n")
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the demo; returns 0 once the table and files are written, whatever the episode's outcome."""
     task, kwargs = args.task, task_kwargs(args)
     if args.out.exists() and not args.out.is_dir():
         usage_error(args, f"--out {args.out} is a file, not a folder")
     for name in (".mp4", "_episode.npz", "_trajectory.png"):
-        check_output(args, args.out / f"{task}{name}", "-o/--out", replace=args.force)
+        check_output(args, args.out / f"{task}{name}", "-o/--out", replace=args.force, may_replace=demo_wrote)
     start = time.perf_counter()
     try:
         env, policy = policies.env_and_policy(args.policy, task, args.seed, kwargs)
@@ -134,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
     title = "Tunnel inspection (Table 12)" if task == TASK and not kwargs else task
     figure = plots.plot_trajectory(list(records.values()), args.out / f"{task}_trajectory.png",
                                    labels=list(records), title=f"{title}, seed {args.seed}")
+    _note_written(args.out, [p for p in (video, episode_file, args.out / f"{task}_trajectory.png") if p is not None])
     rows = {name: demo_row(r) for name, r in records.items()}
     print(f"\n{title}, seed {args.seed}; safety distance d_s = 5 m; outcome = goal, collision, left_map or "
           "timeout; track = distance to the global path (Fig. 17) once on it; length_ratio = path length / "
