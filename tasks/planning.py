@@ -114,8 +114,10 @@ from dm_env import specs
 
 from auv_mj.arenas import arena, arena_check
 from auv_mj.arenas.arena import SAFETY_DISTANCE
+from auv_mj.arenas.geodesic import Field, distances, field_of_arena
 from auv_mj.control.clock import ExecutorClock
 from auv_mj.control.splane import EXECUTOR_DT, SPlaneController
+from auv_mj.episode import arena_geometry
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean
 from auv_mj.sim.physics import AUVPhysics
@@ -137,6 +139,11 @@ MAX_HEADING_CHANGE = math.pi / 30
 """Largest change of the heading command per planner step [rad] (Table 1: 6 deg)."""
 TARGET_SPEED = 1.0
 """Target velocity of every experiment [m/s] (Tables 6-8, 12); sizes the time limits."""
+GEODESIC_DISCOUNT = 0.998
+"""The discount gamma of reward="geodesic" (ours, issue 51), the one a learner of it must use: its shaping term is
+gamma Phi(s') - Phi(s) with this gamma, and its collision penalty is sized by it (module docstring, "The geodesic
+reward"). 1 / (1 - gamma) = 500 planner steps, 500 m at the top speed: longer than a hard-tier detour (100-300 m) and
+than an average episode (about 370 steps)."""
 
 GOAL_RADIUS = 12.5
 """Radius of a target area [m]: Tables 6-8's target area diameter of 25 m."""
@@ -174,13 +181,26 @@ SUITE_REWARD_MARGIN = 100.0
 """Distance [m] beyond the goal radius at which the suite reward's tolerance falls to 0.1."""
 STEP_REWARD_BOUND = {"suite": 1.0,
                      "paper": REWARD_WEIGHTS[0] * FOLLOW_CLOSER + REWARD_WEIGHTS[2] * NAVIGATION_REWARD,
-                     "progress": 0.0}
+                     "progress": 0.0, "geodesic": 0.0}
 """The success bonus per step left (ours, module docstring): the most a step of the route's last leg that does not
-end in success can pay ("suite" 1, "paper" 0.45); "progress" needs none, its per-metre term telescopes."""
+end in success can pay ("suite" 1, "paper" 0.45); "progress" needs none, its per-metre term telescopes; "geodesic"
+pays a constant GEODESIC_SUCCESS_BONUS instead (module docstring, "The geodesic reward")."""
 SUCCESS_TERMS_FLOOR = REWARD_WEIGHTS[0] * FOLLOW_REACHED + REWARD_WEIGHTS[1] * COLLISION_REWARD \
     + REWARD_WEIGHTS[2] * NAVIGATION_REWARD
 """The least Eq. (26)'s terms of a success step can pay, beside "progress"'s per-metre term (2.95): > 0, so that
 "paper" and "progress" reward reaching the goal over any continuation that does not (module docstring)."""
+
+GEODESIC_STEP_COST = -NAVIGATION_REWARD
+"""reward="geodesic": the cost of every planner step (Eq. 25's 0.05)."""
+GEODESIC_HORIZON_COST = GEODESIC_STEP_COST / (1.0 - GEODESIC_DISCOUNT)
+"""What the step cost sums to over an endless episode at GEODESIC_DISCOUNT (25): the most any continuation can lose
+to it, waiting for ever included."""
+GEODESIC_COLLISION_PENALTY = GEODESIC_HORIZON_COST
+"""reward="geodesic": paid on a collision or on leaving the map (25), beside the `collision_penalty` option: at least
+GEODESIC_HORIZON_COST, so that ending the episode in a failure never returns more than waiting for ever does."""
+GEODESIC_SUCCESS_BONUS = GEODESIC_HORIZON_COST
+"""reward="geodesic": paid on success (25). Any bonus >= 0 makes success beat every other ending (module docstring);
+this one is the step costs that success saves, so reaching the goal is worth as much as a crash costs."""
 
 MAP_BOUNDS = (0.0, 0.0, 600.0, 600.0)
 """The 600 m x 600 m map of Sec. 4.1 (xmin, ymin, xmax, ymax) [m]."""
@@ -209,7 +229,7 @@ GOAL_DISTANCE_CLIP = 5.0
 """... and capped here (500 m): far goals differ only in bearing."""
 SONAR_SLICE = slice(-len(SONAR_NAMES), None)
 """The nine sonar ranges / SONAR_RANGE end both observation vectors."""
-REWARDS = ("suite", "paper", "progress")
+REWARDS = ("suite", "paper", "progress", "geodesic")
 PROGRESS_GAIN = 0.5
 """reward="progress": reward per metre of distance gained on the current goal (a 1 m/s step earns Eq. 23's
 +0.5). Its sum over an episode depends only on where the vehicle started and ended, not on how slowly it
@@ -246,6 +266,15 @@ def progress_reward(previous_achieved, achieved, desired, radius) -> np.ndarray:
     before = goal_distance(previous_achieved, desired)
     after = goal_distance(achieved, desired)
     return PROGRESS_GAIN * (before - after) + np.where(after <= radius, FOLLOW_REACHED, 0.0)
+
+
+def geodesic_reward(before, after, success, failed, collision_penalty=0.0) -> np.ndarray:
+    """reward="geodesic" (module docstring) of steps whose route length left went from `before` to `after` [m] (0 on
+    success), elementwise: PROGRESS_GAIN (before - GEODESIC_DISCOUNT after), which is gamma Phi(s') - Phi(s) for
+    Phi = -PROGRESS_GAIN d (Ng et al. 1999), less the step cost, with the success bonus and the collision penalty."""
+    shaping = PROGRESS_GAIN * (np.asarray(before, dtype=float) - GEODESIC_DISCOUNT * np.asarray(after, dtype=float))
+    return (shaping - GEODESIC_STEP_COST + np.where(success, GEODESIC_SUCCESS_BONUS, 0.0)
+            - np.where(failed, GEODESIC_COLLISION_PENALTY + collision_penalty, 0.0))
 
 
 def success_bonus(kind: str, steps_left) -> np.ndarray:
@@ -531,6 +560,47 @@ class Route:
     """If set, goals but the last also die when passed within this distance across the route [m]."""
 
 
+GEODESIC_LEGS = ("each", "last")
+"""What the geodesic potential runs to (`PlanningTask.geodesic_legs`): "each" goal of the route in turn (target areas,
+a path to follow), or the "last" alone (a tunnel: its sub-goals lie on the axis, which runs into each trap's mouth)."""
+
+
+@dataclass(frozen=True)
+class RoutePotential:
+    """The potential of reward="geodesic" on one episode's route: while goal k is current, the route length left is
+    fields[leg[k]].distance(position) + rest[k] [m] (module docstring, "The geodesic reward")."""
+
+    fields: tuple[Field, ...]
+    """The geodesic field of each leg's goal on the arena's true static map (`auv_mj.arenas.geodesic`)."""
+    leg: np.ndarray
+    """(n,) the field in use while goal k is current."""
+    rest: np.ndarray
+    """(n,) the route's length [m] beyond that field's goal: the legs after it, each from one goal to the next."""
+
+
+def route_potential(physics: AUVPhysics, task: PlanningTask, legs: str = "each") -> RoutePotential:
+    """The geodesic potential of `task`'s episode (call it once the episode's route is drawn): fields over the arena's
+    static footprints (`auv_mj.episode.arena_geometry`; movers are left out), within `arena_bounds`, or the box round
+    the start and goals grown by SONAR_RANGE where the arena has none, to each goal (`legs`="each") or the last."""
+    episode = task.episode
+    geometry = arena_geometry(physics, task)
+    static = [polygon for polygon, owner in zip(geometry.polygons, geometry.owners, strict=True) if owner == -1]
+    goals = episode.goals
+    if episode.bounds is not None:
+        bounds = np.asarray(episode.bounds, dtype=float)
+    else:
+        points = np.vstack([episode.route.start, goals])
+        bounds = np.concatenate([points.min(axis=0) - SONAR_RANGE, points.max(axis=0) + SONAR_RANGE])
+    count = len(goals)
+    if options.choice("geodesic_legs", legs, GEODESIC_LEGS) == "last" or count == 1:
+        field = field_of_arena(static, bounds, goals[-1], task.goal_radius)
+        return RoutePotential((field,), np.zeros(count, dtype=int), np.zeros(count))
+    fields = tuple(field_of_arena(static, bounds, goal, task.goal_radius) for goal in goals)
+    legs_after = [float(fields[k + 1].distance(goals[k])[0]) for k in range(count - 1)]
+    rest = np.concatenate([np.cumsum(legs_after[::-1])[::-1], [0.0]])
+    return RoutePotential(fields, np.arange(count), rest)
+
+
 # --- one planning step over a batch axis ----------------------------------------------------------------
 # What the task does around the physics of a planner step -- the action map, goals, the passing rule, events,
 # Eq. (23)-(26), the suite and progress rewards, the observation -- written once, on arrays whose leading axis is
@@ -595,6 +665,8 @@ class Episode:
     """Whether the last step ended the episode (success, collision, left the map)."""
     reward: float = 0.0
     """The last step's reward."""
+    potential: RoutePotential | None = None
+    """The geodesic potential (reward="geodesic" or observation="planner"; None otherwise)."""
 
     @property
     def goal_index(self) -> int:
@@ -614,6 +686,9 @@ class StepRules:
     """Subtracted from "paper" and "progress" on a collision or on leaving the map."""
     relative: bool
     """The relative observation (RELATIVE_FIELDS), else the paper's (OBSERVATION_FIELDS)."""
+    potential: bool = False
+    """Whether the episodes have a geodesic potential (`RoutePotential`: reward="geodesic" or observation="planner"):
+    the step's info then holds the route distances ("route_distance_before", "route_distance", "step_goal")."""
 
 
 @dataclass
@@ -638,13 +713,20 @@ class RouteBatch:
     """(N,) whether the arena has bounds."""
     repulsion: np.ndarray
     """(N,) d0 of Eq. (24) [m]."""
+    fields: list
+    """(N,) each row's `RoutePotential.fields` (None where the episode has no potential)."""
+    leg: np.ndarray
+    """(N, G) `RoutePotential.leg`."""
+    rest: np.ndarray
+    """(N, G) `RoutePotential.rest` [m]."""
 
     @classmethod
     def empty(cls, n: int) -> RouteBatch:
         """N rows of one goal at the origin, to be filled by `put`."""
         return cls(goals=np.zeros((n, 1, 2)), goal_cos_sin=np.zeros((n, 1, 2)), n_goals=np.ones(n, dtype=int),
                    tangents=np.zeros((n, 1, 2)), corridor=np.full(n, np.nan), path=np.zeros((n, 2, 2)),
-                   bounds=np.zeros((n, 4)), has_bounds=np.zeros(n, dtype=bool), repulsion=np.zeros(n))
+                   bounds=np.zeros((n, 4)), has_bounds=np.zeros(n, dtype=bool), repulsion=np.zeros(n),
+                   fields=[None] * n, leg=np.zeros((n, 1), dtype=int), rest=np.zeros((n, 1)))
 
     @classmethod
     def of(cls, episode: Episode, repulsion_range: float) -> RouteBatch:
@@ -675,6 +757,13 @@ class RouteBatch:
         self.has_bounds[i] = episode.bounds is not None
         self.bounds[i] = episode.bounds if episode.bounds is not None else 0.0
         self.repulsion[i] = repulsion_range
+        self.leg, self.rest = _grown(self.leg, count), _grown(self.rest, count)
+        potential = episode.potential
+        self.fields[i] = None if potential is None else potential.fields
+        self.leg[i] = 0
+        self.rest[i] = 0.0
+        if potential is not None:
+            self.leg[i, :count], self.rest[i, :count] = potential.leg, potential.rest
 
 
 def _grown(array: np.ndarray, length: int) -> np.ndarray:
@@ -782,8 +871,13 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarr
     elif rules.reward_kind == "progress":
         reward = (k1 * progress_reward(previous, position, desired, radius) + independent
                   + success_bonus("progress", steps_left) * success)
-    else:
+    elif rules.reward_kind == "suite":
         reward = suite_reward(goals, n, now, position, failed, success, steps_left, radius)
+    if rules.potential:
+        before = route_distance(routes, rows, reached, previous)
+        after = np.where(success, 0.0, route_distance(routes, rows, now, position))
+    if rules.reward_kind == "geodesic":
+        reward = geodesic_reward(before, after, success, failed, rules.collision_penalty)
     info = {
         "previous_achieved_goal": previous,
         "goal_independent_reward": independent,
@@ -810,7 +904,21 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarr
         "speed_error": command[:, 0] - readout.velocity[:, 0],
         "heading_error": wrap_angle(command[:, 1] - readout.psi),
     }
+    if rules.potential:
+        info.update({"step_goal": desired, "route_distance_before": before, "route_distance": after})
     return StepOutcome(reward=reward, terminal=failed | (now == n), reached=now, info=info)
+
+
+def route_distance(routes: RouteBatch, rows: np.ndarray | slice, goal_index: np.ndarray,
+                   points: np.ndarray) -> np.ndarray:
+    """The route length left [m] of N vehicles at `points` (N, 2) with goal `goal_index` (N,) current (clipped to the
+    last), rows `rows` of `routes`: the current leg's geodesic distance plus the legs after it (`RoutePotential`)."""
+    line = np.arange(len(goal_index))
+    at = np.minimum(goal_index, routes.n_goals[rows] - 1)
+    legs = routes.leg[rows][line, at]
+    rows_of = np.arange(len(routes.fields))[rows]
+    fields = [routes.fields[row][leg] for row, leg in zip(rows_of.tolist(), legs.tolist(), strict=True)]
+    return distances(fields, points) + routes.rest[rows][line, at]
 
 
 def goals_hit(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position: np.ndarray,
@@ -899,6 +1007,9 @@ class PlanningTask(base.Task):
     functions (`executor_command`, `step_outcome`, `observe`) at N = 1 on `episode`.
     """
 
+    geodesic_legs = "each"
+    """What the geodesic potential runs to (GEODESIC_LEGS): each goal in turn; a tunnel's runs to its end alone."""
+
     def __init__(self, executor: Callable | str | None = None, reward: str = "suite",
                  goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
                  conditions="ideal", collision_penalty: float = 0.0):
@@ -985,6 +1096,8 @@ class PlanningTask(base.Task):
             path=np.vstack([route.start, goals]) if route.path is None else np.asarray(route.path, float),
             bounds=info.bounds, mover_slots=slots, command=(0.0, float(route.heading)),
             previous=np.array(route.start, dtype=float))
+        if self.rules.potential:
+            self.episode.potential = route_potential(physics, self, self.geodesic_legs)
         self._routes = RouteBatch.of(self.episode, binding.repulsion_range)
         self.last_info = {}
         physics.set_tick(self._tick, EXECUTOR_DT)
@@ -1050,7 +1163,8 @@ class PlanningTask(base.Task):
     def rules(self) -> StepRules:
         """The options `step_outcome` and `observe` read."""
         return StepRules(reward_kind=self.reward_kind, goal_radius=self.goal_radius,
-                         collision_penalty=self.collision_penalty, relative=self.goal_in_observation)
+                         collision_penalty=self.collision_penalty, relative=self.goal_in_observation,
+                         potential=self.reward_kind == "geodesic")
 
     @property
     def episode_time_limit(self) -> float | None:
@@ -1162,6 +1276,8 @@ class PlanningTask(base.Task):
         bonus is paid where `desired_goal` is reached without a failure on a step of the route's last leg (a
         relabelled episode ends there, `compute_terminated`), or where the route itself succeeded.
         """
+        if self.reward_kind == "geodesic":
+            return self._geodesic_reward(achieved_goal, desired_goal, info)
         kind = "progress" if self.reward_kind == "progress" else "paper"
         previous = info_field(info, "previous_achieved_goal")
         independent = info_field(info, "goal_independent_reward")
@@ -1171,6 +1287,25 @@ class PlanningTask(base.Task):
         reached = (goal_distance(achieved_goal, desired_goal) <= radius) & ~self._failed(info)
         ended = np.where(info_field(info, "last_goal").astype(bool), reached, info_field(info, "success").astype(bool))
         return reward + np.where(ended, success_bonus(kind, info_field(info, "steps_left")), 0.0)
+
+    def _geodesic_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """reward="geodesic" for (relabelled) goals. Where `desired_goal` is the step's own goal (info "step_goal") the
+        step's route distances are in its info ("route_distance_before", "route_distance", and "success"), and the
+        step's reward is returned exactly. Elsewhere (hindsight) no field of that goal exists (a Dijkstra search per
+        relabelled sample): the potential is the straight distance to the goal region, the geodesic of open water,
+        and the relabelled episode succeeds where the goal is reached without a failure (`compute_terminated`)."""
+        achieved, desired = np.asarray(achieved_goal, dtype=float), np.asarray(desired_goal, dtype=float)
+        radius = self._radius(info)
+        failed = self._failed(info)
+        previous = info_field(info, "previous_achieved_goal")
+        own = np.all(desired[..., :2] == info_field(info, "step_goal"), axis=-1)
+        straight_before = np.maximum(goal_distance(previous, desired) - radius, 0.0)
+        straight_after = np.maximum(goal_distance(achieved, desired) - radius, 0.0)
+        reached = (goal_distance(achieved, desired) <= radius) & ~failed
+        before = np.where(own, info_field(info, "route_distance_before"), straight_before)
+        after = np.where(own, info_field(info, "route_distance"), straight_after)
+        success = np.where(own, info_field(info, "success").astype(bool), reached)
+        return geodesic_reward(before, after, success, failed, self.collision_penalty)
 
     def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray:
         """Whether a step ends the episode had `desired_goal` been its only goal: reached, collided or left.
