@@ -101,7 +101,7 @@ from __future__ import annotations
 import collections
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -121,7 +121,7 @@ from auv_mj.episode import arena_geometry
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean
 from auv_mj.sim.physics import AUVPhysics
-from auv_mj.sim.sonar import SONAR_NAMES, SONAR_RANGE, fence_ranges
+from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_NAMES, SONAR_RANGE, fence_ranges
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
 
@@ -222,7 +222,32 @@ RELATIVE_FIELDS = ("goal_distance", "cos_goal_bearing", "sin_goal_bearing", "u",
 to map coordinates -- the distance to the current goal / GOAL_DISTANCE_SCALE (at most GOAL_DISTANCE_CLIP),
 the goal's bearing in the body frame (cos, sin), then u, v, r, the command and the sonar as in the paper's
 vector. The goal is inside the observation, so a policy reads this vector alone (`goal_in_observation`)."""
-OBSERVATIONS = ("relative", "paper")
+FENCE_NAMES = tuple(f"fence_{k + 1}" for k in range(len(BEAM_ANGLES)))
+"""The map's edge as each sonar beam would read it were it a wall (the geofence, `map_fence`), S1..S9's directions."""
+PLANNER_FIELDS = ("target_distance", "cos_target_bearing", "sin_target_bearing", "map_x", "map_y", "cos_psi",
+                  "sin_psi", "previous_speed_action", "previous_heading_action", "u", "v", "r", "heading_command",
+                  "speed_command", *FENCE_NAMES, *SONAR_NAMES)
+"""The "planner" observation (issue 51): what the classical planners read (docs/planners.md), for a learner that must
+beat them. target_distance, cos and sin of target_bearing: the route target, the goal or on a route of many goals the
+route point ROUTE_HORIZON on (`route_target_index`, the one rule `map-replan` and `bug` aim by), as the relative
+observation gives its goal (distance / GOAL_DISTANCE_SCALE capped at GOAL_DISTANCE_CLIP, body-frame bearing); map_x,
+map_y: the position across the arena's `arena_bounds`, each in [-1, 1] (x / POSITION_SCALE where an arena has none),
+and cos, sin psi -- the pose the planners place their map by (`env.physics.pose()`), in the map's own frame, which the
+route target and the geofence are measured in too; the previous action (a0, a1) (0 before the first step); u, v, r,
+the heading and speed commands as in the paper's vector; fence_1..fence_9: the geofence / SONAR_RANGE (`map_fence`,
+what the planners' protection domain adds to the echoes); then the nine sonar ranges / SONAR_RANGE (last, as in
+every observation: SONAR_SLICE). No goal coordinates: `desired_goal` is for rewards and relabelling only."""
+PRIVILEGED_KINDS = ("goal", "waypoints", "obstacles", "moving_obstacles", "tunnel", "path")
+"""The task kinds of the privileged input's cell (`PlanningTask.kind`)."""
+PRIVILEGED_FIELDS = ("route_distance", "clearance", "time_left", "hard_tier", *(f"{k}_task" for k in PRIVILEGED_KINDS))
+"""info["privileged"] under observation="planner": what a critic may know and the actor must not (issue 51;
+an asymmetric critic, Pinto et al. 2018). route_distance: the route length left on the true static map
+(`route_distance`) / GOAL_DISTANCE_SCALE; clearance: the hull's exact distance to the nearest geom / SONAR_RANGE
+(info "min_clearance"); time_left: the steps left before the time limit, this one included, * PLANNER_DT /
+PRIVILEGED_TIME_SCALE; hard_tier: 1 on the hard tier; then the cell's task kind, one-hot over PRIVILEGED_KINDS."""
+PRIVILEGED_TIME_SCALE = 600.0
+"""Seconds that time_left is divided by (the goal task's time limit)."""
+OBSERVATIONS = ("relative", "paper", "planner")
 GOAL_DISTANCE_SCALE = 100.0
 """Distances to the goal in the relative observation are divided by this [m]..."""
 GOAL_DISTANCE_CLIP = 5.0
@@ -230,6 +255,11 @@ GOAL_DISTANCE_CLIP = 5.0
 SONAR_SLICE = slice(-len(SONAR_NAMES), None)
 """The nine sonar ranges / SONAR_RANGE end both observation vectors."""
 REWARDS = ("suite", "paper", "progress", "geodesic")
+ACTIONS = ("paper", "rate")
+"""The action maps (module docstring): "paper", Table 3's heading offset; "rate", the heading command's change."""
+ROUTE_HORIZON = 80.0
+"""On a route of many goals a planner aims at the route point this far [m] along it from the current goal
+(`route_target_index`: `map-replan`'s and `bug`'s target, and the planner observation's)."""
 PROGRESS_GAIN = 0.5
 """reward="progress": reward per metre of distance gained on the current goal (a 1 m/s step earns Eq. 23's
 +0.5). Its sum over an episode depends only on where the vehicle started and ended, not on how slowly it
@@ -626,6 +656,8 @@ class Binding:
     """The arena's `goal` site (-1 where it has none)."""
     sonar_site: int
     """The bow sonar's site (SONAR_SITE)."""
+    sonar_offset: float
+    """How far ahead of the vehicle's origin the sonars sit [m] (SONAR_SITE's x in the vehicle's frame)."""
     repulsion_range: float
     """d0 of Eq. (21)-(24) [m] (`repulsion_range`)."""
 
@@ -667,6 +699,10 @@ class Episode:
     """The last step's reward."""
     potential: RoutePotential | None = None
     """The geodesic potential (reward="geodesic" or observation="planner"; None otherwise)."""
+    action: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    """The last step's action (a0, a1), as clipped to [-1, 1]; 0 before the first step (the planner observation)."""
+    cell: np.ndarray = field(default_factory=lambda: np.zeros(1 + len(PRIVILEGED_KINDS)))
+    """The privileged input's cell: hard tier, then the task kind one-hot (PRIVILEGED_FIELDS)."""
 
     @property
     def goal_index(self) -> int:
@@ -686,6 +722,10 @@ class StepRules:
     """Subtracted from "paper" and "progress" on a collision or on leaving the map."""
     relative: bool
     """The relative observation (RELATIVE_FIELDS), else the paper's (OBSERVATION_FIELDS)."""
+    observation: str = "relative"
+    """One of OBSERVATIONS."""
+    action: str = "paper"
+    """One of ACTIONS."""
     potential: bool = False
     """Whether the episodes have a geodesic potential (`RoutePotential`: reward="geodesic" or observation="planner"):
     the step's info then holds the route distances ("route_distance_before", "route_distance", "step_goal")."""
@@ -719,6 +759,10 @@ class RouteBatch:
     """(N, G) `RoutePotential.leg`."""
     rest: np.ndarray
     """(N, G) `RoutePotential.rest` [m]."""
+    sonar_offset: np.ndarray
+    """(N,) `Binding.sonar_offset` [m]."""
+    cell: np.ndarray
+    """(N, 1 + len(PRIVILEGED_KINDS)) `Episode.cell`."""
 
     @classmethod
     def empty(cls, n: int) -> RouteBatch:
@@ -726,17 +770,19 @@ class RouteBatch:
         return cls(goals=np.zeros((n, 1, 2)), goal_cos_sin=np.zeros((n, 1, 2)), n_goals=np.ones(n, dtype=int),
                    tangents=np.zeros((n, 1, 2)), corridor=np.full(n, np.nan), path=np.zeros((n, 2, 2)),
                    bounds=np.zeros((n, 4)), has_bounds=np.zeros(n, dtype=bool), repulsion=np.zeros(n),
-                   fields=[None] * n, leg=np.zeros((n, 1), dtype=int), rest=np.zeros((n, 1)))
+                   fields=[None] * n, leg=np.zeros((n, 1), dtype=int), rest=np.zeros((n, 1)),
+                   sonar_offset=np.zeros(n), cell=np.zeros((n, 1 + len(PRIVILEGED_KINDS))))
 
     @classmethod
-    def of(cls, episode: Episode, repulsion_range: float) -> RouteBatch:
+    def of(cls, episode: Episode, repulsion_range: float, sonar_offset: float = 0.0) -> RouteBatch:
         """The batch of one episode (N = 1)."""
         batch = cls.empty(1)
-        batch.put(0, episode, repulsion_range)
+        batch.put(0, episode, repulsion_range, sonar_offset)
         return batch
 
-    def put(self, i: int, episode: Episode, repulsion_range: float) -> None:
-        """Row i becomes `episode`'s route (the arrays grow when it has more goals or vertices)."""
+    def put(self, i: int, episode: Episode, repulsion_range: float, sonar_offset: float = 0.0) -> None:
+        """Row i becomes `episode`'s route (the arrays grow when it has more goals or vertices); `sonar_offset`:
+        `Binding.sonar_offset` [m] (the geofence of the planner observation)."""
         count = len(episode.goals)
         self.goals, self.goal_cos_sin, self.tangents = (_grown(a, count) for a in
                                                         (self.goals, self.goal_cos_sin, self.tangents))
@@ -764,6 +810,8 @@ class RouteBatch:
         self.rest[i] = 0.0
         if potential is not None:
             self.leg[i, :count], self.rest[i, :count] = potential.leg, potential.rest
+        self.sonar_offset[i] = sonar_offset
+        self.cell[i] = episode.cell
 
 
 def _grown(array: np.ndarray, length: int) -> np.ndarray:
@@ -823,13 +871,19 @@ STEP_INFO_KEYS = ("previous_achieved_goal", "goal_independent_reward", "reward_f
 """The keys of a step's info (`PlanningTask.last_info`, the module docstring's events and metrics)."""
 
 
-def executor_command(action: np.ndarray, psi: np.ndarray, heading_command: np.ndarray) -> np.ndarray:
+def executor_command(action: np.ndarray, psi: np.ndarray, heading_command: np.ndarray,
+                     kind: str = "paper") -> np.ndarray:
     """The action map: the executor's commands (V_cmd, psi_cmd) (N, 2) of actions (N, 2) in [-1, 1], from the
-    heading psi (N,) and the previous heading command (N,) (Table 3, Table 1; the module docstring)."""
+    heading psi (N,) and the previous heading command (N,) (Table 3, Table 1; the module docstring). `kind` "paper"
+    reads a1 as Table 3's heading offset; "rate" as the heading command's change, a1 MAX_HEADING_CHANGE."""
     action = np.asarray(action, dtype=float)
-    offset = np.minimum(np.maximum(ACTION_HEADING_RANGE * action[:, 1], -MAX_HEADING_DIFFERENCE),
-                        MAX_HEADING_DIFFERENCE)
-    turn = np.minimum(np.maximum(wrap_angle(psi + offset - heading_command), -MAX_HEADING_CHANGE), MAX_HEADING_CHANGE)
+    if kind == "rate":
+        turn = MAX_HEADING_CHANGE * action[:, 1]
+    else:
+        offset = np.minimum(np.maximum(ACTION_HEADING_RANGE * action[:, 1], -MAX_HEADING_DIFFERENCE),
+                            MAX_HEADING_DIFFERENCE)
+        turn = np.minimum(np.maximum(wrap_angle(psi + offset - heading_command), -MAX_HEADING_CHANGE),
+                          MAX_HEADING_CHANGE)
     difference = np.minimum(np.maximum(wrap_angle(heading_command + turn - psi), -MAX_HEADING_DIFFERENCE),
                             MAX_HEADING_DIFFERENCE)
     return np.stack([speed_command(action[:, 0]), psi + difference], axis=1)
@@ -906,7 +960,26 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarr
     }
     if rules.potential:
         info.update({"step_goal": desired, "route_distance_before": before, "route_distance": after})
+    if rules.observation == "planner":
+        info["privileged"] = privileged(routes, rows, after, readout.clearance, steps_left)
     return StepOutcome(reward=reward, terminal=failed | (now == n), reached=now, info=info)
+
+
+def route_target_index(goals: np.ndarray, n: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """The route target of N routes (goals (N, G, 2), n (N,) goals each, `index` (N,) the current goal's): the first
+    goal after the current one that lies ROUTE_HORIZON or more along the route from it, else the last; the goal itself
+    on a route of one. What `map-replan` and `bug` aim at (`auv_mj.planners.map_planner.route_target`) and the planner
+    observation shows. The route's length is summed leg by leg from the current goal, in order."""
+    goals = np.asarray(goals, dtype=float)
+    n, index = np.asarray(n, dtype=int), np.asarray(index, dtype=int)
+    if goals.shape[1] < 2:
+        return n - 1
+    legs = np.hypot(goals[:, 1:, 0] - goals[:, :-1, 0], goals[:, 1:, 1] - goals[:, :-1, 1])
+    slot = np.arange(legs.shape[1])
+    use = (slot >= index[:, None]) & (slot < n[:, None] - 1)
+    walked = np.cumsum(np.where(use, legs, 0.0), axis=1)
+    far = use & (walked >= ROUTE_HORIZON)
+    return np.where(far.any(axis=1), np.argmax(far, axis=1) + 1, n - 1)
 
 
 def route_distance(routes: RouteBatch, rows: np.ndarray | slice, goal_index: np.ndarray,
@@ -963,9 +1036,13 @@ def suite_reward(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position
 
 
 def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, readout: Readout, command: np.ndarray,
-            relative: bool) -> dict[str, np.ndarray]:
-    """`PlanningTask.get_observation` of N vehicles, rows `rows` of `routes`: "observation" (RELATIVE_FIELDS if
-    `relative`, else OBSERVATION_FIELDS), "achieved_goal" and "desired_goal", each (N, k)."""
+            kind: str | bool, action: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """`PlanningTask.get_observation` of N vehicles, rows `rows` of `routes`: "observation" (of `kind`: "relative"
+    RELATIVE_FIELDS, "paper" OBSERVATION_FIELDS, "planner" PLANNER_FIELDS, which reads `action` (N, 2), the last
+    step's; True and False stand for "relative" and "paper"), "achieved_goal" and "desired_goal", each (N, k)."""
+    if isinstance(kind, bool | np.bool_):
+        kind = "relative" if kind else "paper"
+    relative = kind in ("relative", "planner")
     psi, (u, v, r) = readout.psi, readout.velocity.T
     motion = np.stack([u / MAX_SPEED, v / MAX_SPEED, r, wrap_angle(command[:, 1] - psi) / MAX_HEADING_DIFFERENCE,
                        command[:, 0] / MAX_SPEED], axis=1)
@@ -978,12 +1055,50 @@ def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, r
     if relative:
         achieved = np.stack([x, y, c, s], axis=1)
         desired = np.concatenate([goal, routes.goal_cos_sin[rows][line, at]], axis=1)
-        vector = np.concatenate([relative_goal(achieved, desired), motion, sonar], axis=1)
+        if kind == "planner":
+            head, fence = planner_inputs(routes, rows, at, readout, action)
+            vector = np.concatenate([head, motion, fence, sonar], axis=1)
+        else:
+            vector = np.concatenate([relative_goal(achieved, desired), motion, sonar], axis=1)
     else:
         achieved, desired = np.stack([x, y], axis=1), goal
         vector = np.concatenate([np.stack([x / POSITION_SCALE, y / POSITION_SCALE, c, s], axis=1), motion, sonar],
                                 axis=1)
     return {"observation": vector, "achieved_goal": achieved, "desired_goal": desired}
+
+
+def planner_inputs(routes: RouteBatch, rows: np.ndarray | slice, at: np.ndarray, readout: Readout,
+                   action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The planner observation's entries but the motion and sonar blocks (PLANNER_FIELDS): the route target, the pose
+    and the previous action (N, 9); and the geofence / SONAR_RANGE (N, 9). Rows `rows` of `routes`, goal `at` (N,)
+    current."""
+    goals, n = routes.goals[rows], routes.n_goals[rows]
+    line = np.arange(len(at))
+    target = goals[line, route_target_index(goals, n, at)]
+    x, y = readout.position[:, 0], readout.position[:, 1]
+    c, s = readout.cos_psi, readout.sin_psi
+    pose = np.stack([x, y, c, s], axis=1)
+    bounds, has_bounds = routes.bounds[rows], routes.has_bounds[rows]
+    span = np.where(has_bounds[:, None], bounds[:, 2:] - bounds[:, :2], 1.0)
+    across = 2.0 * (readout.position - bounds[:, :2]) / span - 1.0
+    across = np.where(has_bounds[:, None], across, readout.position / POSITION_SCALE)
+    offset = routes.sonar_offset[rows]
+    origins = readout.position + offset[:, None] * np.stack([c, s], axis=1)
+    fence = np.array([fence_ranges(origins[k], readout.psi[k], bounds[k]) if has_bounds[k]
+                      else np.full(len(SONAR_NAMES), SONAR_RANGE) for k in range(len(at))]).reshape(len(at), -1)
+    head = np.concatenate([relative_goal(pose, target), across, np.stack([c, s], axis=1),
+                           np.asarray(action, dtype=float).reshape(len(at), 2)], axis=1)
+    return head, fence / SONAR_RANGE
+
+
+def privileged(routes: RouteBatch, rows: np.ndarray | slice, distance: np.ndarray, clearance: np.ndarray,
+               steps_left: np.ndarray) -> np.ndarray:
+    """info["privileged"] (N, len(PRIVILEGED_FIELDS)) of N steps: the route length left [m], the true clearance [m],
+    the steps left, and the episode's cell (PRIVILEGED_FIELDS). For a critic: never in the actor's observation."""
+    return np.concatenate([np.stack([np.asarray(distance, dtype=float) / GOAL_DISTANCE_SCALE,
+                                     np.asarray(clearance, dtype=float) / SONAR_RANGE,
+                                     np.asarray(steps_left, dtype=float) * PLANNER_DT / PRIVILEGED_TIME_SCALE], axis=1),
+                           routes.cell[rows]], axis=1)
 
 
 def info_row(info: Mapping[str, np.ndarray], k: int) -> dict:
@@ -1009,17 +1124,23 @@ class PlanningTask(base.Task):
 
     geodesic_legs = "each"
     """What the geodesic potential runs to (GEODESIC_LEGS): each goal in turn; a tunnel's runs to its end alone."""
+    kind = "goal"
+    """The task's kind among PRIVILEGED_KINDS (the privileged input's cell)."""
 
     def __init__(self, executor: Callable | str | None = None, reward: str = "suite",
                  goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
-                 conditions="ideal", collision_penalty: float = 0.0):
+                 conditions="ideal", collision_penalty: float = 0.0, action: str = "paper"):
         """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`), or its name
         (`auv_mj.tasks.executors.EXECUTORS`, or a speed_heading checkpoint path); `reward` one of
         REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.sim.ocean.conditions`);
         `collision_penalty`: subtracted from the "paper" and "progress" rewards on a collision or on leaving
-        the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY]."""
+        the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY] (under
+        reward="geodesic", beside GEODESIC_COLLISION_PENALTY); `action` one of ACTIONS: "paper" (Table 3's heading
+        offset, the default) or "rate" (the heading command's change per step, module docstring); `observation` may
+        also be "planner" (PLANNER_FIELDS, with info["privileged"] for a critic)."""
         self.reward_kind = options.choice("reward", reward, REWARDS)
+        self.action_kind = options.choice("action", action, ACTIONS)
         self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
         if isinstance(executor, str):
             from auv_mj.tasks.executors import named_executor  # the learned ones load torch: only when named
@@ -1064,7 +1185,8 @@ class PlanningTask(base.Task):
             hull=hull, vehicle_body=vehicle_body,
             others=np.flatnonzero(~vehicle_geoms & (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE)),
             goal_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "goal"),
-            sonar_site=model.site(SONAR_SITE).id, repulsion_range=repulsion_range(physics))
+            sonar_site=model.site(SONAR_SITE).id, sonar_offset=float(model.site(SONAR_SITE).pos[0]),
+            repulsion_range=repulsion_range(physics))
 
     def initialize_episode(self, physics: Physics) -> None:
         """Draws the route, places the vehicle at rest and the movers at t = 0, resets the executor."""
@@ -1098,7 +1220,9 @@ class PlanningTask(base.Task):
             previous=np.array(route.start, dtype=float))
         if self.rules.potential:
             self.episode.potential = route_potential(physics, self, self.geodesic_legs)
-        self._routes = RouteBatch.of(self.episode, binding.repulsion_range)
+        self.episode.cell = np.array([float(getattr(self, "tier", "standard") == "hard"),
+                                      *(float(self.kind == k) for k in PRIVILEGED_KINDS)])
+        self._routes = RouteBatch.of(self.episode, binding.repulsion_range, binding.sonar_offset)
         self.last_info = {}
         physics.set_tick(self._tick, EXECUTOR_DT)
         self.ocean.start(physics, self.random, len(SONAR_NAMES))
@@ -1126,7 +1250,8 @@ class PlanningTask(base.Task):
         a0, a1 = checked_action(action, self.action_spec(physics), self)
         data, qpos, episode = physics.data.ptr, self.binding.qpos, self.episode
         command = executor_command(np.array([[a0, a1]], dtype=float), data.qpos[qpos[2:]],
-                                   np.array([episode.command[1]]))
+                                   np.array([episode.command[1]]), self.action_kind)
+        episode.action = np.array([a0, a1], dtype=float)
         episode.command = (float(command[0, 0]), float(command[0, 1]))
         episode.previous = data.qpos[qpos[:2]].copy()
 
@@ -1164,7 +1289,8 @@ class PlanningTask(base.Task):
         """The options `step_outcome` and `observe` read."""
         return StepRules(reward_kind=self.reward_kind, goal_radius=self.goal_radius,
                          collision_penalty=self.collision_penalty, relative=self.goal_in_observation,
-                         potential=self.reward_kind == "geodesic")
+                         observation=self.observation_kind, action=self.action_kind,
+                         potential=self.reward_kind == "geodesic" or self.observation_kind == "planner")
 
     @property
     def episode_time_limit(self) -> float | None:
@@ -1206,13 +1332,14 @@ class PlanningTask(base.Task):
 
     @property
     def goal_in_observation(self) -> bool:
-        """Whether "observation" holds the goal itself (relative) so that a policy needs no desired_goal."""
-        return self.observation_kind == "relative"
+        """Whether "observation" holds the goal itself (relative, planner) so that a policy needs no desired_goal."""
+        return self.observation_kind in ("relative", "planner")
 
     @property
     def observation_fields(self) -> tuple[str, ...]:
         """Names of the "observation" vector's entries."""
-        return RELATIVE_FIELDS if self.goal_in_observation else OBSERVATION_FIELDS
+        return {"relative": RELATIVE_FIELDS, "paper": OBSERVATION_FIELDS,
+                "planner": PLANNER_FIELDS}[self.observation_kind]
 
     def observation_spec(self, physics: Physics) -> collections.OrderedDict:
         """"observation" (observation_fields); "achieved_goal" and "desired_goal": (x, y) [m], and with the
@@ -1231,7 +1358,7 @@ class PlanningTask(base.Task):
             episode.sonar = self.ocean.sense(physics.sonar())
         readout = self._readout(physics)
         observation = observe(self._routes, ONE_ROW, np.array([episode.reached]), readout,
-                              np.array([episode.command]), self.goal_in_observation)
+                              np.array([episode.command]), self.observation_kind, episode.action[None])
         return collections.OrderedDict((key, observation[key][0]) for key in ("observation", "achieved_goal",
                                                                               "desired_goal"))
 
@@ -1248,8 +1375,9 @@ class PlanningTask(base.Task):
     def relabel_observation(self, observation, achieved_goal, desired_goal) -> np.ndarray:
         """The observation had `desired_goal` been the goal (hindsight relabelling; vectorised over rows).
 
-        Only the relative observation depends on the goal: its first three entries are recomputed from
-        the vehicle's pose in `achieved_goal`; the paper's vector is returned unchanged.
+        Only the relative and planner observations depend on the goal: their first three entries (the goal, or the
+        route target, which on a relabelled episode of one goal is that goal) are recomputed from the vehicle's pose
+        in `achieved_goal`; the paper's vector is returned unchanged.
         """
         observation = np.array(observation, dtype=float, copy=True)
         if self.goal_in_observation:

@@ -106,6 +106,7 @@ def route_limit(info) -> float:
 class Tunnel(planning.PlanningTask):
     """Follow a tunnel's global path of virtual sub-goals, avoiding walls and unknown obstacles."""
 
+    kind = "tunnel"
     geodesic_legs = "last"
     """reward="geodesic" runs to the tunnel's end alone: the field follows the tunnel, while the sub-goals on its axis
     lie in each trap's mouth (`planning.GEODESIC_LEGS`)."""

@@ -154,6 +154,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         n = self.num_envs
         self._routes = planning.RouteBatch.empty(n)
         self._reached = np.zeros(n, dtype=int)
+        self._action = np.zeros((n, 2))
+        """Each episode's last action (`Episode.action`: the planner observation's)."""
         self._position = np.zeros((n, 2))
         self._psi = np.zeros(n)
         self._steps = np.zeros(n, dtype=int)
@@ -174,7 +176,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if not physics.at_tick:
             raise RuntimeError("the sub-environment's executor clock is not at a tick after its reset")
         episode, binding = task.episode, task.binding
-        self._routes.put(i, episode, binding.repulsion_range)
+        self._routes.put(i, episode, binding.repulsion_range, binding.sonar_offset)
+        self._action[i] = episode.action
         self._reached[i] = episode.reached
         self._task_step_limit[i] = task.step_limit
         data = physics.data.ptr
@@ -289,11 +292,12 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
                 for i in ended:
                     final_obs[i] = {key: value[i].copy() for key, value in self._last_obs.items()}
                 final_info = {key: value.copy() for key, value in infos.items()}
-                for key in STEP_INFO_KEYS:
+                step_keys = [key for key in infos if not key.startswith("_")]  # STEP_INFO_KEYS and the options'
+                for key in step_keys:
                     final_info["_" + key] = done.copy()
                 infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
                 infos["final_info"], infos["_final_info"] = final_info, done.copy()
-                for key in STEP_INFO_KEYS:
+                for key in step_keys:
                     infos["_" + key][done] = False
                 infos["is_success"][done] = False
                 infos["_is_success"][done] = True
@@ -337,7 +341,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         at_state, at_out = batch.STATE_INDEX, batch.OUTPUT_INDEX
         stepper = self._stepper
         heading_command = stepper.state[index, at_state["heading_command"]]
-        command = planning.executor_command(actions, self._psi[index], heading_command)
+        command = planning.executor_command(actions, self._psi[index], heading_command, self.rules.action)
+        self._action[index] = actions
         stepper.state[index, at_state["speed_command"]] = command[:, 0]
         stepper.state[index, at_state["heading_command"]] = command[:, 1]
         previous = self._position[index].copy()
@@ -368,7 +373,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         outcome = planning.step_outcome(self._routes, index, self._reached[index], steps_left, previous, readout,
                                         command, self.rules)
         self._reached[index] = outcome.reached
-        observation = planning.observe(self._routes, index, outcome.reached, readout, command, self.rules.relative)
+        observation = planning.observe(self._routes, index, outcome.reached, readout, command, self.rules.observation,
+                                       self._action[index])
         for key, value in observation.items():
             self._last_obs[key][index] = value
         self._steps[index] += 1
