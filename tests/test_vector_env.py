@@ -116,6 +116,29 @@ def test_sub_environment_is_the_single_environment(task, tier, water):
     assert seen["truncated"] >= 1
 
 
+ISSUE_51_OPTIONS = {"reward": "geodesic", "observation": "planner", "action": "rate"}
+"""The learning problem's options (issue 51): the geodesic reward, the planner observation, the rate action."""
+
+
+@pytest.mark.parametrize(("task", "tier", "water", "changes"), [
+    ("goal", "standard", "ideal", ISSUE_51_OPTIONS),
+    ("obstacles", "hard", "ocean", ISSUE_51_OPTIONS),
+    ("tunnel", "hard", "ideal", ISSUE_51_OPTIONS),
+    ("tunnel", "standard", "ideal", {"reward": "geodesic"}),
+])
+def test_sub_environment_is_the_single_environment_on_the_learning_problem(task, tier, water, changes):
+    """The geodesic reward (its fields, asked for the batch at once), the planner observation (route target, pose,
+    previous action, geofence) and its info["privileged"], and the rate action are the single env's in the batch."""
+    seen = run_side_by_side(task, task_options(task, tier, water) | changes, AutoresetMode.NEXT_STEP)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
+def test_same_step_autoreset_is_the_single_environment_on_the_learning_problem():
+    options = task_options("moving_obstacles", "standard", "ocean") | ISSUE_51_OPTIONS
+    seen = run_side_by_side("moving_obstacles", options, AutoresetMode.SAME_STEP)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
 def test_same_step_autoreset_is_the_single_environment():
     seen = run_side_by_side("moving_obstacles", task_options("moving_obstacles", "standard", "ocean"),
                             AutoresetMode.SAME_STEP)
