@@ -12,6 +12,23 @@ a in [-1, 1]^2 becomes the executor's command (V_cmd, psi_cmd) by Table 3 and Ta
                                                               pi/30 per planner step
     psi_cmd    = psi + clip(wrap_angle(psi_cmd - psi), -30, 30 deg) keeps Table 1's pi/6 after a lagging turn
 
+That is action="paper" (default). Its heading response is linear only for |a1| <= 6 / 90 (a band 2/15 wide): a1 is a
+target 90 deg a1 from the heading, clipped to 30 deg, and the command moves at most 6 deg towards it, so nearly every
+a1 is a full-rate turn. action="rate" (ours, issue 51) maps a1 onto the heading command's change itself,
+
+    psi_cmd   += MAX_HEADING_CHANGE * a1                      linear over all of [-1, 1]: +-6 deg per step
+    psi_cmd    = psi + clip(wrap_angle(psi_cmd - psi), -30, 30 deg) the executor's limit, Table 1's, as above
+
+and a0 onto V_cmd as above (linear onto [0, 2] m/s). Both are `executor_command`, once for the batch.
+
+Observations. observation="relative" (default, RELATIVE_FIELDS): the current goal in the body frame, the motion, the
+command and the sonar; "paper" (OBSERVATION_FIELDS): Table 2's vector beside the absolute `desired_goal`; "planner"
+(ours, issue 51, PLANNER_FIELDS): what the classical planners read (docs/planners.md) -- the route target ROUTE_HORIZON
+ahead (`route_target_index`, the rule `map-replan` and `bug` aim by), the pose across the map, the previous action,
+the motion, the command, the geofence and the sonar. With it the step's info also holds "privileged"
+(PRIVILEGED_FIELDS: the route length left on the true map, the true clearance, the time left, the cell) for a critic
+that the actor must not read (`observe` never sees them).
+
 The executor (`executor(command, state)`, default the S-plane controller of Eq. 32) turns the command into
 (tau_u, tau_r) every EXECUTOR_DT = 0.1 s on the full dynamics. The task's `Physics` calls it between
 physics steps, so `control.Environment` still owns the 50 physics steps of a planner step and the time
@@ -47,6 +64,9 @@ reward="suite" (default) is in [0, 1] on every other step: (goals reached + tole
 goal)) / number of goals, 0 on a collision or leaving the map.
 reward="progress" is PROGRESS_GAIN per metre gained on the current goal in place of Eq. (23)'s +-0.5, the rest
 as "paper".
+reward="geodesic" (ours, issue 51; "The geodesic reward" below) is potential-based shaping on the route length left on
+the arena's true static map, with a success bonus and a collision penalty; its optimum is the goal by the shortest
+safe route at GEODESIC_DISCOUNT, the discount a learner of it must use. The paper's rewards stay for reproducing it.
 
 The success bonus (ours, not the paper's). Success ends the episode, so per-step rewards that can be positive
 paid waiting: driving towards the goal and stopping just outside it returned a mean of 847 on `goal` (seeds
@@ -76,6 +96,39 @@ already pays more than any step before it. `compute_reward` pays the "paper" bon
 reached on a step of the route's last leg (info "last_goal"; `compute_terminated` ends a relabelled episode
 there) or where the route succeeded by reaching its last goal while an earlier one was current (info
 "success"), with K = info "steps_left": it equals the step's reward.
+
+The geodesic reward (ours, issue 51). Straight-line progress ("progress", and "paper"'s +-0.5) pays the way into a
+trap: a cup's mouth faces the goal, and in a tunnel the sub-goals lie on the axis, which runs into each trap's
+mouth; every metre of the way round is paid negatively. Here the potential is Phi(s) = -PROGRESS_GAIN D(s), D the
+route length left: at reset the arena's static footprints (`auv_mj.episode.arena_geometry`, movers left out) are
+searched once for the geodesic distance to each goal (`auv_mj.arenas.geodesic`: Dijkstra on a 2 m grid keeping
+HARD_CLEARANCE, or the exact straight distance where the arena has no footprints), and while goal k is current
+D = d_k(position) + the legs after goal k (`RoutePotential`; `PlanningTask.geodesic_legs`: a tunnel's potential runs
+to its end alone, its field following the tunnel, so no sub-goal pays; waypoints, path_line and path_curve run through
+every goal in turn, their goals being the task; goal, obstacles and moving_obstacles have one goal). A step pays
+
+    r = gamma Phi(s') - Phi(s) - c + B [success] - (C + collision_penalty) [collision or left the map]
+      = PROGRESS_GAIN (D - gamma D') - c + ...,   gamma = GEODESIC_DISCOUNT, c = GEODESIC_STEP_COST (Eq. 25's 0.05),
+                                                  B = GEODESIC_SUCCESS_BONUS, C = GEODESIC_COLLISION_PENALTY,
+
+with D' = 0 on success (inside the last goal's region) and D' where the vehicle is on a failure. Ng et al. (1999):
+F = gamma Phi(s') - Phi(s) changes no policy's ranking when the potential of the absorbing state is 0; here a
+failure's is kept, which is the same shaping of a base reward whose failure penalty is C + gamma PROGRESS_GAIN D'
+>= C: it only lowers failures. Summed over an episode of T steps the shaping telescopes, so with
+W = c / (1 - gamma) = GEODESIC_HORIZON_COST, G = PROGRESS_GAIN and D_0 the route length at the start:
+- success at step T returns G D_0 + gamma^(T-1) B - W (1 - gamma^T), which falls as T grows: sooner is better;
+- waiting until a time limit T returns G D_0 - gamma^T G D_T - W (1 - gamma^T) < the success at any earlier step
+  (and, bootstrapped for ever, G D_0 - W, still less);
+- a failure at step T returns G D_0 - gamma^(T-1) (gamma G D_T + C) - W (1 - gamma^T), less than waiting for ever
+  since C >= W, so no crash, at any time and any place, returns more than reaching the goal at any time.
+B >= 0 and C >= W are all the proof needs; B = C = W (25) make success and failure weigh alike. The positive part of
+a step, G (1 - gamma) D', pays for being far from the goal, but it is the potential's own: it telescopes away. At the
+time limit an episode is truncated (discount 1), and a learner bootstraps V(s'), as the telescoped sum assumes.
+tests/test_learning_problem.py checks this on whole episodes of certified trap arenas, both tiers, tunnels included.
+`compute_reward` recomputes the step's reward exactly for the step's own goal (info "step_goal",
+"route_distance_before", "route_distance"); for a relabelled goal it has no field of that goal (a search per sample),
+so it shapes on the straight distance to the goal's region, the geodesic of open water, and pays B where the goal is
+reached without a failure (`compute_terminated` ends a relabelled episode there).
 
 Events (last_info["event"]): "collision" (a contact between the vehicle and any other geom, checked at
 every executor tick), "left_map" (outside the arena's `arena_bounds`), "goal", "subgoal", or "".
@@ -863,6 +916,10 @@ class StepOutcome:
 
 ONE_ROW = slice(0, 1)
 """The rows of a task's own batch of one episode (N = 1)."""
+POTENTIAL_INFO_KEYS = ("step_goal", "route_distance_before", "route_distance")
+"""The step's info also holds these where the episodes have a geodesic potential (`StepRules.potential`): the goal
+current when the step began, and the route length left [m] before and after it (`route_distance`); and "privileged"
+under observation="planner" (PRIVILEGED_FIELDS)."""
 STEP_INFO_KEYS = ("previous_achieved_goal", "goal_independent_reward", "reward_following", "reward_avoid",
                   "reward_navigation", "paper_reward", "collision", "left_map", "safety_violation", "success",
                   "is_success", "min_clearance", "min_sonar_range", "event", "goals_reached", "num_goals",
