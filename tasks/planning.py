@@ -296,7 +296,7 @@ PRIVILEGED_FIELDS = ("route_distance", "clearance", "time_left", "hard_tier", *(
 """info["privileged"] under observation="planner": what a critic may know and the actor must not (issue 51;
 an asymmetric critic, Pinto et al. 2018). route_distance: the route length left on the true static map
 (`route_distance`) / GOAL_DISTANCE_SCALE; clearance: the hull's exact distance to the nearest geom / SONAR_RANGE
-(info "min_clearance"); time_left: the steps left before the time limit, this one included, * PLANNER_DT /
+(info "min_clearance"); time_left: the planner steps left before the time limit after this observation * PLANNER_DT /
 PRIVILEGED_TIME_SCALE; hard_tier: 1 on the hard tier; then the cell's task kind, one-hot over PRIVILEGED_KINDS."""
 PRIVILEGED_TIME_SCALE = 600.0
 """Seconds that time_left is divided by (the goal task's time limit)."""
@@ -1018,7 +1018,7 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarr
     if rules.potential:
         info.update({"step_goal": desired, "route_distance_before": before, "route_distance": after})
     if rules.observation == "planner":
-        info["privileged"] = privileged(routes, rows, after, readout.clearance, steps_left)
+        info["privileged"] = privileged(routes, rows, after, readout.clearance, steps_left - 1)
     return StepOutcome(reward=reward, terminal=failed | (now == n), reached=now, info=info)
 
 
@@ -1151,8 +1151,9 @@ def planner_inputs(routes: RouteBatch, rows: np.ndarray | slice, at: np.ndarray,
 
 def privileged(routes: RouteBatch, rows: np.ndarray | slice, distance: np.ndarray, clearance: np.ndarray,
                steps_left: np.ndarray) -> np.ndarray:
-    """info["privileged"] (N, len(PRIVILEGED_FIELDS)) of N steps: the route length left [m], the true clearance [m],
-    the steps left, and the episode's cell (PRIVILEGED_FIELDS). For a critic: never in the actor's observation."""
+    """info["privileged"] (N, len(PRIVILEGED_FIELDS)) of N vehicles: the route length left [m], the true clearance
+    [m], the planner steps left after this observation, and the episode's cell (PRIVILEGED_FIELDS). For a critic:
+    never in the actor's observation."""
     return np.concatenate([np.stack([np.asarray(distance, dtype=float) / GOAL_DISTANCE_SCALE,
                                      np.asarray(clearance, dtype=float) / SONAR_RANGE,
                                      np.asarray(steps_left, dtype=float) * PLANNER_DT / PRIVILEGED_TIME_SCALE], axis=1),
@@ -1417,6 +1418,12 @@ class PlanningTask(base.Task):
         readout = self._readout(physics)
         observation = observe(self._routes, ONE_ROW, np.array([episode.reached]), readout,
                               np.array([episode.command]), self.observation_kind, episode.action[None])
+        if self.observation_kind == "planner" and episode.steps == 0:  # the reset's info: the critic's first input
+            reached = np.array([episode.reached])
+            distance = route_distance(self._routes, ONE_ROW, reached, readout.position)
+            self.last_info = {"privileged": privileged(self._routes, ONE_ROW, distance,
+                                                       np.array([self._clearance(physics)]),
+                                                       np.array([self.step_limit]))[0]}
         return collections.OrderedDict((key, observation[key][0]) for key in ("observation", "achieved_goal",
                                                                               "desired_goal"))
 

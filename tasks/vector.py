@@ -166,6 +166,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self._oceans: list = [None] * n
         self._current_rngs: list = [None] * n
         self._last_obs = {key: np.zeros(space.shape) for key, space in self.observation_space.spaces.items()}
+        self._reset_infos: list[dict] = [{} for _ in range(n)]
+        """Each sub-environment's last reset info beyond is_success (info["privileged"] of the planner observation)."""
 
     def _load_episode(self, i: int) -> None:
         """Reads sub-environment i's freshly reset episode into the batch (see the module docstring)."""
@@ -253,7 +255,18 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self._autoreset[:] = False
         self._needs_reset = False
         info = {"is_success": np.zeros(self.num_envs, dtype=bool), "_is_success": np.ones(self.num_envs, dtype=bool)}
+        for i in range(self.num_envs):
+            self._put_reset_info(info, i)
         return self._copy_obs(), info
+
+    def _put_reset_info(self, infos: dict, i: int) -> None:
+        """Sub-environment i's reset info (beyond is_success) into row i of a batched info dict."""
+        for key, value in self._reset_infos[i].items():
+            value = np.asarray(value)
+            if key not in infos:
+                infos[key] = np.zeros((self.num_envs, *value.shape), dtype=value.dtype)
+                infos["_" + key] = np.zeros(self.num_envs, dtype=bool)
+            infos[key][i], infos["_" + key][i] = value, True
 
     def _reset_one(self, i: int, seed: int | None) -> dict:
         """`AUVGymEnv.reset(seed=seed)` of sub-environment i; its first observation."""
@@ -263,6 +276,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
             env.task.random.seed(seed)
         time_step = env.reset()
         self._load_episode(i)
+        self._reset_infos[i] = dict(env.task.last_info)
         return self._observe(time_step.observation)
 
     def step(self, actions):
@@ -282,6 +296,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             for i in np.flatnonzero(resetting):
                 self._write_obs(i, self._reset_one(int(i), None))
+                self._put_reset_info(infos, int(i))
             infos["is_success"][resetting] = False
             infos["_is_success"][resetting] = True
             self._autoreset = done
@@ -303,6 +318,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
                 infos["_is_success"][done] = True
                 for i in ended:
                     self._write_obs(i, self._reset_one(int(i), None))
+                    self._put_reset_info(infos, int(i))
         return self._copy_obs(), reward, term, trunc, infos
 
     def _copy_obs(self) -> dict:

@@ -188,6 +188,9 @@ def test_the_planner_observation_shows_map_replans_target_and_no_privileged_inpu
     assert not set(planning.PLANNER_FIELDS) & set(planning.PRIVILEGED_FIELDS)
     time_step = env.reset()
     assert set(time_step.observation) == {"observation", "achieved_goal", "desired_goal"}
+    first = dict(zip(planning.PRIVILEGED_FIELDS, task.last_info["privileged"], strict=True))  # the reset's info
+    assert first["time_left"] == pytest.approx(task.step_limit * planning.PLANNER_DT / planning.PRIVILEGED_TIME_SCALE)
+    assert first["route_distance"] > 0 and 0 < first["clearance"] <= 1
     assert len(time_step.observation["observation"]) == len(planning.PLANNER_FIELDS)
     for _ in range(40):
         cos_target, sin_target = time_step.observation["observation"][1:3]

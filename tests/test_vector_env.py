@@ -62,9 +62,12 @@ def run_side_by_side(task: str, options: dict, mode: AutoresetMode, steps: int =
     singles = [AUVGymEnv(task, options) for _ in range(num)]
     observation, info = vector.reset(seed=list(SEEDS))
     for i, (single, seed) in enumerate(zip(singles, SEEDS, strict=True)):
-        expected, _ = single.reset(seed=seed)
+        expected, expected_info = single.reset(seed=seed)
         for key in expected:
             assert_close(observation[key][i], expected[key], f"reset {i} {key}")
+        for key, value in expected_info.items():  # is_success, and info["privileged"] of the planner observation
+            assert info["_" + key][i], f"reset {i} info {key}"
+            assert_close(info[key][i], value, f"reset {i} info {key}")
     rng = np.random.default_rng(0)
     pending = np.zeros(num, dtype=bool)
     seen = {"terminated": 0, "truncated": 0, "autoresets": 0}
