@@ -137,11 +137,10 @@ def distances(fields, points) -> np.ndarray:
         cj = np.clip(cells[:, 1, None, None] + offsets[None, None, :], 0, shape[:, 1, None, None] - 1)
         ci, cj = np.broadcast_arrays(ci, cj)
         values = np.empty(ci.shape)
-        first = {}
+        groups: dict[int, list[int]] = {}  # rows that ask the same field: one look-up each
         for row, f in enumerate(grids):
-            same = first.setdefault(id(f), [])
-            same.append(row)
-        for members in first.values():
+            groups.setdefault(id(f), []).append(row)
+        for members in groups.values():
             values[members] = grids[members[0]].field[ci[members], cj[members]]
         cx = origin[:, 0, None, None] + (ci + 0.5) * cell[:, None, None]
         cy = origin[:, 1, None, None] + (cj + 0.5) * cell[:, None, None]
