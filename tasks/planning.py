@@ -1141,9 +1141,7 @@ def planner_inputs(routes: RouteBatch, rows: np.ndarray | slice, at: np.ndarray,
     across = np.where(has_bounds[:, None], across, readout.position / POSITION_SCALE)
     offset = routes.sonar_offset[rows]
     origins = readout.position + offset[:, None] * np.stack([c, s], axis=1)
-    fence = np.full((len(at), len(SONAR_NAMES)), SONAR_RANGE)
-    for k in np.flatnonzero(has_bounds):
-        fence[k] = fence_ranges(origins[k], readout.psi[k], bounds[k])
+    fence = np.where(has_bounds[:, None], fence_ranges(origins, readout.psi, bounds), SONAR_RANGE)
     head = np.concatenate([relative_goal(pose, target), across, np.stack([c, s], axis=1),
                            np.asarray(action, dtype=float).reshape(len(at), 2)], axis=1)
     return head, fence / SONAR_RANGE
