@@ -752,6 +752,8 @@ class Episode:
     """The last step's reward."""
     potential: RoutePotential | None = None
     """The geodesic potential (reward="geodesic" or observation="planner"; None otherwise)."""
+    distance: float = math.nan
+    """The route length left [m] where the step in progress began (`route_distance`; NaN without a potential)."""
     action: np.ndarray = field(default_factory=lambda: np.zeros(2))
     """The last step's action (a0, a1), as clipped to [-1, 1]; 0 before the first step (the planner observation)."""
     cell: np.ndarray = field(default_factory=lambda: np.zeros(1 + len(PRIVILEGED_KINDS)))
@@ -947,12 +949,14 @@ def executor_command(action: np.ndarray, psi: np.ndarray, heading_command: np.nd
 
 
 def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, steps_left: np.ndarray,
-                 previous: np.ndarray, readout: Readout, command: np.ndarray, rules: StepRules) -> StepOutcome:
+                 previous: np.ndarray, readout: Readout, command: np.ndarray, rules: StepRules,
+                 distance: np.ndarray | None = None) -> StepOutcome:
     """Goals, events and rewards of a planner step of the episodes `rows` of `routes` (the module docstring).
 
     `rows` indexes N rows of `routes` (an index array, or a slice), `reached` (N,) goals reached before the step,
     `steps_left` (N,) the success bonus's K (this step included), `previous` (N, 2) where the step began,
-    `readout` the vehicles after it, `command` (N, 2) the step's command.
+    `readout` the vehicles after it, `command` (N, 2) the step's command; with a potential, `distance` (N,) the route
+    length left where the step began (the last step's info "route_distance"; computed where None).
     """
     goals, n = routes.goals[rows], routes.n_goals[rows]
     position, radius = readout.position, rules.goal_radius
@@ -985,7 +989,7 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarr
     elif rules.reward_kind == "suite":
         reward = suite_reward(goals, n, now, position, failed, success, steps_left, radius)
     if rules.potential:
-        before = route_distance(routes, rows, reached, previous)
+        before = route_distance(routes, rows, reached, previous) if distance is None else distance
         after = np.where(success, 0.0, route_distance(routes, rows, now, position))
     if rules.reward_kind == "geodesic":
         reward = geodesic_reward(before, after, success, failed, rules.collision_penalty)
@@ -1277,6 +1281,8 @@ class PlanningTask(base.Task):
             previous=np.array(route.start, dtype=float))
         if self.rules.potential:
             self.episode.potential = route_potential(physics, self, self.geodesic_legs)
+            self.episode.distance = float(self.episode.potential.fields[0].distance(route.start)[0]
+                                          + self.episode.potential.rest[0])
         self.episode.cell = np.array([float(getattr(self, "tier", "standard") == "hard"),
                                       *(float(self.kind == k) for k in PRIVILEGED_KINDS)])
         self._routes = RouteBatch.of(self.episode, binding.repulsion_range, binding.sonar_offset)
@@ -1324,11 +1330,13 @@ class PlanningTask(base.Task):
         steps_left = max(self.step_limit - episode.steps + 1, 1)
         outcome = step_outcome(self._routes, ONE_ROW, np.array([episode.reached]),
                                np.array([steps_left]), episode.previous[None], readout,
-                               np.array([episode.command]), self.rules)
+                               np.array([episode.command]), self.rules, np.array([episode.distance]))
         episode.reached = int(outcome.reached[0])
         episode.terminal = bool(outcome.terminal[0])
         episode.reward = float(outcome.reward[0])
         self.last_info = info_row(outcome.info, 0)
+        if "route_distance" in outcome.info:
+            episode.distance = float(outcome.info["route_distance"][0])
 
     def _readout(self, physics: Physics, **after_step) -> Readout:
         """The vehicle as `step_outcome` and `observe` read it (N = 1): cos and sin of the heading by `math`, as
@@ -1417,8 +1425,7 @@ class PlanningTask(base.Task):
         observation = observe(self._routes, ONE_ROW, np.array([episode.reached]), readout,
                               np.array([episode.command]), self.observation_kind, episode.action[None])
         if self.observation_kind == "planner" and episode.steps == 0:  # the reset's info: the critic's first input
-            reached = np.array([episode.reached])
-            distance = route_distance(self._routes, ONE_ROW, reached, readout.position)
+            distance = np.array([episode.distance])
             self.last_info = {"privileged": privileged(self._routes, ONE_ROW, distance,
                                                        np.array([self._clearance(physics)]),
                                                        np.array([self.step_limit]))[0]}

@@ -154,6 +154,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         n = self.num_envs
         self._routes = planning.RouteBatch.empty(n)
         self._reached = np.zeros(n, dtype=int)
+        self._distance = np.full(n, np.nan)
+        """Each episode's route length left where its next step begins (`Episode.distance`)."""
         self._action = np.zeros((n, 2))
         """Each episode's last action (`Episode.action`: the planner observation's)."""
         self._position = np.zeros((n, 2))
@@ -180,6 +182,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         episode, binding = task.episode, task.binding
         self._routes.put(i, episode, binding.repulsion_range, binding.sonar_offset)
         self._action[i] = episode.action
+        self._distance[i] = episode.distance
         self._reached[i] = episode.reached
         self._task_step_limit[i] = task.step_limit
         data = physics.data.ptr
@@ -387,8 +390,10 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
                                    clearance=out[:, at_out["clearance"]])
         steps_left = np.maximum(self._task_step_limit[index] - self._steps[index], 1)  # this step included
         outcome = planning.step_outcome(self._routes, index, self._reached[index], steps_left, previous, readout,
-                                        command, self.rules)
+                                        command, self.rules, self._distance[index])
         self._reached[index] = outcome.reached
+        if self.rules.potential:
+            self._distance[index] = outcome.info["route_distance"]
         observation = planning.observe(self._routes, index, outcome.reached, readout, command, self.rules.observation,
                                        self._action[index])
         for key, value in observation.items():
