@@ -666,6 +666,9 @@ def route_potential(physics: AUVPhysics, task: PlanningTask, legs: str = "each")
     static footprints (`auv_mj.episode.arena_geometry`; movers are left out), within `arena_bounds`, or the box round
     the start and goals grown by SONAR_RANGE where the arena has none, to each goal (`legs`="each") or the last."""
     episode = task.episode
+    # The route has just placed the obstacles (mocap bodies of a random layout): bring the geoms' poses up to date
+    # before reading their footprints (positions only; the reset's mj_forward follows, so no state changes).
+    mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
     geometry = arena_geometry(physics, task)
     static = [polygon for polygon, owner in zip(geometry.polygons, geometry.owners, strict=True) if owner == -1]
     goals = episode.goals

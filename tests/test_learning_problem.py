@@ -14,6 +14,8 @@ import math
 import numpy as np
 import pytest
 
+from auv_mj.arenas.geodesic import GeodesicField
+from auv_mj.episode import arena_geometry
 from auv_mj.planners.guidance import classical
 from auv_mj.planners.map_planner import route_target
 from auv_mj.tasks import planning, suite
@@ -82,6 +84,24 @@ def test_going_round_returns_more_than_crashing_waiting_or_arriving_late(task, t
     assert returns["late"] > max(returns["crash"], returns["wait_start"], returns["wait_half"])
     for infos, rewards in ((round_infos, round_), (crash_infos, crash), (wait_half_infos, wait_half)):
         assert discounted(rewards) == pytest.approx(closed_form(infos), rel=1e-9, abs=1e-6)
+
+
+@pytest.mark.parametrize("tier", ["standard", "hard"])
+def test_the_field_is_the_episodes_own_arena(tier):
+    """The potential is searched on the episode's obstacles where the route placed them (the standard tier moves mocap
+    boxes in `route`), not on the last episode's: it equals a field built from the arena after the reset."""
+    env = suite.load("auv", "obstacles", task_kwargs={"random": 3, "arena": "random", "tier": tier,
+                                                      "reward": "geodesic"})
+    for _ in range(2):
+        env.reset()
+        task = env.task
+        geometry = arena_geometry(env.physics, task)
+        static = [p for p, owner in zip(geometry.polygons, geometry.owners, strict=True) if owner == -1]
+        assert static
+        expected = GeodesicField.of_arena(static, task.episode.bounds, task.goals[-1], task.goal_radius)
+        got = task.episode.potential.fields[0]
+        assert isinstance(got, GeodesicField)
+        np.testing.assert_array_equal(got.field, expected.field)
 
 
 def test_the_constants_make_every_failure_worth_less_than_waiting_and_success_worth_more():

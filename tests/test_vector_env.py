@@ -125,6 +125,7 @@ ISSUE_51_OPTIONS = {"reward": "geodesic", "observation": "planner", "action": "r
 
 @pytest.mark.parametrize(("task", "tier", "water", "changes"), [
     ("goal", "standard", "ideal", ISSUE_51_OPTIONS),
+    ("obstacles", "standard", "ideal", ISSUE_51_OPTIONS),
     ("obstacles", "hard", "ocean", ISSUE_51_OPTIONS),
     ("tunnel", "hard", "ideal", ISSUE_51_OPTIONS),
     ("tunnel", "standard", "ideal", {"reward": "geodesic"}),
