@@ -13,10 +13,12 @@ How, without one Python step per environment:
   environment's own reset, in Python, so routes, arenas and the ocean are drawn by the same code from the same
   generators.
 - What the task does before and after the physics is the task's own code, run once over the batch: the action map
-  (`planning.executor_command`), then goals, the passing rule, events, Eq. (23)-(26), the suite and progress
-  rewards (`planning.step_outcome`) and the observation (`planning.observe`) -- the functions `PlanningTask` calls
-  with N = 1. Only the time limits (`control.Environment`'s part) are here, and the ocean's sonar noise stays per
-  environment (its generator is the episode's own).
+  (`planning.executor_command`, either action option), then goals, the passing rule, events, Eq. (23)-(26), the
+  suite, progress and geodesic rewards (`planning.step_outcome`; the geodesic fields are each episode's, searched
+  at its reset and asked for the whole batch at once) and the observation (`planning.observe`, the planner
+  observation and info["privileged"] included) -- the functions `PlanningTask` calls with N = 1. Only the time
+  limits (`control.Environment`'s part) are here, and the ocean's sonar noise stays per environment (its generator
+  is the episode's own). A reset's info beyond is_success (info["privileged"]) is the sub-environment's own.
 - The physics is one call of the C batch (`auv_mj.sim.batch`) over all stepped vehicles, across `threads` threads:
   the five 10 Hz executor ticks (current, S-plane executor, movers, contacts) and the 50 physics steps, then the
   sonar and the clearance. NumPy's tanh and exp differ from libm's in the last bit, which a closed loop of 1,800
