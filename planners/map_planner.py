@@ -14,7 +14,8 @@ and the speed envelope of the learned planners: the nine sonar ranges of the obs
   path, at most every REPLAN_STEPS planner steps, Dijkstra's algorithm searches it again
   (`auv_mj.arenas.grid.shortest_path`: cells nearer than INFLATION to an echo are closed, cells within
   SOFT_CLEARANCE cost more) to the goal, or on a route of many goals (a tunnel's path) to the route point
-  ROUTE_HORIZON metres on; line of sight then follows the path, aiming LOOKAHEAD metres along it.
+  `auv_mj.tasks.planning.ROUTE_HORIZON` metres on (`route_target`); line of sight then follows the path, aiming
+  LOOKAHEAD metres along it.
 - `oracle`: the same search and follower on the true map: every geom's footprint, unknown obstacles included,
   and the movers where they are (swept over MOVER_HORIZON seconds at their measured velocity), replanned every
   ORACLE_REPLAN_STEPS. It is no competitor: it certifies that an arena is feasible and gives the reference time
@@ -34,7 +35,7 @@ from auv_mj.episode import VEHICLE_BODY, FunctionPlanner, Planner, PlannerBase, 
 from auv_mj.planners.avoidance import PROTECTIONS, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed, los_heading
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
-from auv_mj.tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE
+from auv_mj.tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE, route_target_index
 
 PROTECTION = PROTECTIONS["speed-aware"]
 """The protection domain every planner here runs inside, with the geofence (what `planner-general` runs with)."""
@@ -56,8 +57,6 @@ OFF_PATH = 10.0
 """A vehicle this far [m] from its planned path (pushed off by the protection domain) plans again."""
 LOOKAHEAD = 14.0
 """Line of sight aims at the path's point this far [m] ahead of the vehicle's nearest one (pure pursuit)."""
-ROUTE_HORIZON = 80.0
-"""On a route of many goals the search goes to the route point this far [m] along it from the current goal."""
 ROUTE_TARGET_RADIUS = 4.0
 """Radius [m] of such an intermediate target (the route's last goal keeps the task's radius)."""
 WINDOW = 120.0
@@ -109,15 +108,13 @@ def _bounds(env) -> tuple[float, float, float, float]:
 
 def route_target(task) -> tuple[np.ndarray, float, int]:
     """A planning task's target for a planner that looks ahead along its route: the goal itself, or on a route
-    of many goals (a tunnel's path) the route point ROUTE_HORIZON metres on from the current goal; its radius
+    of many goals (a tunnel's path) the route point ROUTE_HORIZON metres on from the current goal (the task layer's
+    rule, `auv_mj.tasks.planning.route_target_index`, which the planner observation shows a learner too); its radius
     [m] (ROUTE_TARGET_RADIUS short of the route's end) and its index on the route."""
     goals, index = task.goals, task.goal_index
     if len(goals) == 1:
         return goals[0], task.goal_radius, index
-    walked, k = 0.0, index
-    while k < len(goals) - 1 and walked < ROUTE_HORIZON:
-        walked += float(np.hypot(*(goals[k + 1] - goals[k])))
-        k += 1
+    k = int(route_target_index(goals[None], np.array([len(goals)]), np.array([index]))[0])
     radius = task.goal_radius if k == len(goals) - 1 else ROUTE_TARGET_RADIUS
     return goals[k], radius, k
 

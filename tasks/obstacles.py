@@ -123,6 +123,8 @@ def _hard_route(task: planning.PlanningTask, info) -> planning.Route:
 class Obstacles(planning.PlanningTask):
     """Reach a target area past static obstacles seen only by the sonar."""
 
+    kind = "obstacles"
+
     def __init__(self, scenario: str = "random", tier: str = "standard", **kwargs):
         """`scenario` is "random", a key of SCENARIOS or planning.ARENA_SCENARIO (a user's arena, set by the
         factory for `arena=PATH`); other kwargs go to `PlanningTask`."""
@@ -158,6 +160,8 @@ class Obstacles(planning.PlanningTask):
 
 class MovingObstacles(planning.PlanningTask):
     """Reach a target area past obstacles moving on ping-pong paths, seen only by the sonar."""
+
+    kind = "moving_obstacles"
 
     def __init__(self, scenario: str = "random", tier: str = "standard", **kwargs):
         """`scenario` is "random", a key of MOVING_SCENARIOS or planning.ARENA_SCENARIO (a user's arena, set by the

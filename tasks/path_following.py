@@ -51,6 +51,8 @@ def equal_arc_points(polyline: np.ndarray, spacing: float = planning.SUBGOAL_SPA
 class PathFollowing(planning.PlanningTask):
     """Follow a fixed global path, sub-goal by sub-goal, from a fixed start at rest."""
 
+    kind = "path"
+
     def __init__(self, path: np.ndarray, start: np.ndarray, subgoals: np.ndarray | None = None, **kwargs):
         """`path`: the reference polyline [m]; `subgoals`: its sub-goals (default: `discretise(path)`)."""
         kwargs.setdefault("goal_radius", planning.SUBGOAL_RADIUS)

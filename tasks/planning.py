@@ -12,6 +12,23 @@ a in [-1, 1]^2 becomes the executor's command (V_cmd, psi_cmd) by Table 3 and Ta
                                                               pi/30 per planner step
     psi_cmd    = psi + clip(wrap_angle(psi_cmd - psi), -30, 30 deg) keeps Table 1's pi/6 after a lagging turn
 
+That is action="paper" (default). Its heading response is linear only for |a1| <= 6 / 90 (a band 2/15 wide): a1 is a
+target 90 deg a1 from the heading, clipped to 30 deg, and the command moves at most 6 deg towards it, so nearly every
+a1 is a full-rate turn. action="rate" (ours, issue 51) maps a1 onto the heading command's change itself,
+
+    psi_cmd   += MAX_HEADING_CHANGE * a1                      linear over all of [-1, 1]: +-6 deg per step
+    psi_cmd    = psi + clip(wrap_angle(psi_cmd - psi), -30, 30 deg) the executor's limit, Table 1's, as above
+
+and a0 onto V_cmd as above (linear onto [0, 2] m/s). Both are `executor_command`, once for the batch.
+
+Observations. observation="relative" (default, RELATIVE_FIELDS): the current goal in the body frame, the motion, the
+command and the sonar; "paper" (OBSERVATION_FIELDS): Table 2's vector beside the absolute `desired_goal`; "planner"
+(ours, issue 51, PLANNER_FIELDS): what the classical planners read (docs/planners.md) -- the route target ROUTE_HORIZON
+ahead (`route_target_index`, the rule `map-replan` and `bug` aim by), the pose across the map, the previous action,
+the motion, the command, the geofence and the sonar. With it the step's info also holds "privileged"
+(PRIVILEGED_FIELDS: the route length left on the true map, the true clearance, the time left, the cell) for a critic
+that the actor must not read (`observe` never sees them).
+
 The executor (`executor(command, state)`, default the S-plane controller of Eq. 32) turns the command into
 (tau_u, tau_r) every EXECUTOR_DT = 0.1 s on the full dynamics. The task's `Physics` calls it between
 physics steps, so `control.Environment` still owns the 50 physics steps of a planner step and the time
@@ -47,6 +64,9 @@ reward="suite" (default) is in [0, 1] on every other step: (goals reached + tole
 goal)) / number of goals, 0 on a collision or leaving the map.
 reward="progress" is PROGRESS_GAIN per metre gained on the current goal in place of Eq. (23)'s +-0.5, the rest
 as "paper".
+reward="geodesic" (ours, issue 51; "The geodesic reward" below) is potential-based shaping on the route length left on
+the arena's true static map, with a success bonus and a collision penalty; its optimum is the goal by the shortest
+safe route at GEODESIC_DISCOUNT, the discount a learner of it must use. The paper's rewards stay for reproducing it.
 
 The success bonus (ours, not the paper's). Success ends the episode, so per-step rewards that can be positive
 paid waiting: driving towards the goal and stopping just outside it returned a mean of 847 on `goal` (seeds
@@ -77,6 +97,39 @@ reached on a step of the route's last leg (info "last_goal"; `compute_terminated
 there) or where the route succeeded by reaching its last goal while an earlier one was current (info
 "success"), with K = info "steps_left": it equals the step's reward.
 
+The geodesic reward (ours, issue 51). Straight-line progress ("progress", and "paper"'s +-0.5) pays the way into a
+trap: a cup's mouth faces the goal, and in a tunnel the sub-goals lie on the axis, which runs into each trap's
+mouth; every metre of the way round is paid negatively. Here the potential is Phi(s) = -PROGRESS_GAIN D(s), D the
+route length left: at reset the arena's static footprints (`auv_mj.episode.arena_geometry`, movers left out) are
+searched once for the geodesic distance to each goal (`auv_mj.arenas.geodesic`: Dijkstra on a 2 m grid keeping
+HARD_CLEARANCE, or the exact straight distance where the arena has no footprints), and while goal k is current
+D = d_k(position) + the legs after goal k (`RoutePotential`; `PlanningTask.geodesic_legs`: a tunnel's potential runs
+to its end alone, its field following the tunnel, so no sub-goal pays; waypoints, path_line and path_curve run through
+every goal in turn, their goals being the task; goal, obstacles and moving_obstacles have one goal). A step pays
+
+    r = gamma Phi(s') - Phi(s) - c + B [success] - (C + collision_penalty) [collision or left the map]
+      = PROGRESS_GAIN (D - gamma D') - c + ...,   gamma = GEODESIC_DISCOUNT, c = GEODESIC_STEP_COST (Eq. 25's 0.05),
+                                                  B = GEODESIC_SUCCESS_BONUS, C = GEODESIC_COLLISION_PENALTY,
+
+with D' = 0 on success (inside the last goal's region) and D' where the vehicle is on a failure. Ng et al. (1999):
+F = gamma Phi(s') - Phi(s) changes no policy's ranking when the potential of the absorbing state is 0; here a
+failure's is kept, which is the same shaping of a base reward whose failure penalty is C + gamma PROGRESS_GAIN D'
+>= C: it only lowers failures. Summed over an episode of T steps the shaping telescopes, so with
+W = c / (1 - gamma) = GEODESIC_HORIZON_COST, G = PROGRESS_GAIN and D_0 the route length at the start:
+- success at step T returns G D_0 + gamma^(T-1) B - W (1 - gamma^T), which falls as T grows: sooner is better;
+- waiting until a time limit T returns G D_0 - gamma^T G D_T - W (1 - gamma^T) < the success at any earlier step
+  (and, bootstrapped for ever, G D_0 - W, still less);
+- a failure at step T returns G D_0 - gamma^(T-1) (gamma G D_T + C) - W (1 - gamma^T), less than waiting for ever
+  since C >= W, so no crash, at any time and any place, returns more than reaching the goal at any time.
+B >= 0 and C >= W are all the proof needs; B = C = W (25) make success and failure weigh alike. The positive part of
+a step, G (1 - gamma) D', pays for being far from the goal, but it is the potential's own: it telescopes away. At the
+time limit an episode is truncated (discount 1), and a learner bootstraps V(s'), as the telescoped sum assumes.
+tests/test_learning_problem.py checks this on whole episodes of certified trap arenas, both tiers, tunnels included.
+`compute_reward` recomputes the step's reward exactly for the step's own goal (info "step_goal",
+"route_distance_before", "route_distance"); for a relabelled goal it has no field of that goal (a search per sample),
+so it shapes on the straight distance to the goal's region, the geodesic of open water, and pays B where the goal is
+reached without a failure (`compute_terminated` ends a relabelled episode there).
+
 Events (last_info["event"]): "collision" (a contact between the vehicle and any other geom, checked at
 every executor tick), "left_map" (outside the arena's `arena_bounds`), "goal", "subgoal", or "".
 Collisions, leaving the map and success end the episode (discount 0); the time limit truncates it
@@ -101,7 +154,7 @@ from __future__ import annotations
 import collections
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
@@ -114,12 +167,14 @@ from dm_env import specs
 
 from auv_mj.arenas import arena, arena_check, tubes
 from auv_mj.arenas.arena import SAFETY_DISTANCE
+from auv_mj.arenas.geodesic import Field, distances, field_of_arena
 from auv_mj.control.clock import ExecutorClock
 from auv_mj.control.splane import EXECUTOR_DT, SPlaneController
+from auv_mj.episode import arena_geometry
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import ocean
 from auv_mj.sim.physics import AUVPhysics
-from auv_mj.sim.sonar import SONAR_NAMES, SONAR_RANGE, fence_ranges
+from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_NAMES, SONAR_RANGE, fence_ranges
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
 
@@ -137,6 +192,11 @@ MAX_HEADING_CHANGE = math.pi / 30
 """Largest change of the heading command per planner step [rad] (Table 1: 6 deg)."""
 TARGET_SPEED = 1.0
 """Target velocity of every experiment [m/s] (Tables 6-8, 12); sizes the time limits."""
+GEODESIC_DISCOUNT = 0.998
+"""The discount gamma of reward="geodesic" (ours, issue 51), the one a learner of it must use: its shaping term is
+gamma Phi(s') - Phi(s) with this gamma, and its collision penalty is sized by it (module docstring, "The geodesic
+reward"). 1 / (1 - gamma) = 500 planner steps, 500 m at the top speed: longer than a hard-tier detour (100-300 m) and
+than an average episode (about 370 steps)."""
 
 GOAL_RADIUS = 12.5
 """Radius of a target area [m]: Tables 6-8's target area diameter of 25 m."""
@@ -174,13 +234,26 @@ SUITE_REWARD_MARGIN = 100.0
 """Distance [m] beyond the goal radius at which the suite reward's tolerance falls to 0.1."""
 STEP_REWARD_BOUND = {"suite": 1.0,
                      "paper": REWARD_WEIGHTS[0] * FOLLOW_CLOSER + REWARD_WEIGHTS[2] * NAVIGATION_REWARD,
-                     "progress": 0.0}
+                     "progress": 0.0, "geodesic": 0.0}
 """The success bonus per step left (ours, module docstring): the most a step of the route's last leg that does not
-end in success can pay ("suite" 1, "paper" 0.45); "progress" needs none, its per-metre term telescopes."""
+end in success can pay ("suite" 1, "paper" 0.45); "progress" needs none, its per-metre term telescopes; "geodesic"
+pays a constant GEODESIC_SUCCESS_BONUS instead (module docstring, "The geodesic reward")."""
 SUCCESS_TERMS_FLOOR = REWARD_WEIGHTS[0] * FOLLOW_REACHED + REWARD_WEIGHTS[1] * COLLISION_REWARD \
     + REWARD_WEIGHTS[2] * NAVIGATION_REWARD
 """The least Eq. (26)'s terms of a success step can pay, beside "progress"'s per-metre term (2.95): > 0, so that
 "paper" and "progress" reward reaching the goal over any continuation that does not (module docstring)."""
+
+GEODESIC_STEP_COST = -NAVIGATION_REWARD
+"""reward="geodesic": the cost of every planner step (Eq. 25's 0.05)."""
+GEODESIC_HORIZON_COST = GEODESIC_STEP_COST / (1.0 - GEODESIC_DISCOUNT)
+"""What the step cost sums to over an endless episode at GEODESIC_DISCOUNT (25): the most any continuation can lose
+to it, waiting for ever included."""
+GEODESIC_COLLISION_PENALTY = GEODESIC_HORIZON_COST
+"""reward="geodesic": paid on a collision or on leaving the map (25), beside the `collision_penalty` option: at least
+GEODESIC_HORIZON_COST, so that ending the episode in a failure never returns more than waiting for ever does."""
+GEODESIC_SUCCESS_BONUS = GEODESIC_HORIZON_COST
+"""reward="geodesic": paid on success (25). Any bonus >= 0 makes success beat every other ending (module docstring);
+this one is the step costs that success saves, so reaching the goal is worth as much as a crash costs."""
 
 MAP_BOUNDS = (0.0, 0.0, 600.0, 600.0)
 """The 600 m x 600 m map of Sec. 4.1 (xmin, ymin, xmax, ymax) [m]."""
@@ -202,14 +275,44 @@ RELATIVE_FIELDS = ("goal_distance", "cos_goal_bearing", "sin_goal_bearing", "u",
 to map coordinates -- the distance to the current goal / GOAL_DISTANCE_SCALE (at most GOAL_DISTANCE_CLIP),
 the goal's bearing in the body frame (cos, sin), then u, v, r, the command and the sonar as in the paper's
 vector. The goal is inside the observation, so a policy reads this vector alone (`goal_in_observation`)."""
-OBSERVATIONS = ("relative", "paper")
+FENCE_NAMES = tuple(f"fence_{k + 1}" for k in range(len(BEAM_ANGLES)))
+"""The map's edge as each sonar beam would read it were it a wall (the geofence, `map_fence`), S1..S9's directions."""
+PLANNER_FIELDS = ("target_distance", "cos_target_bearing", "sin_target_bearing", "map_x", "map_y", "cos_psi",
+                  "sin_psi", "previous_speed_action", "previous_heading_action", "u", "v", "r", "heading_command",
+                  "speed_command", *FENCE_NAMES, *SONAR_NAMES)
+"""The "planner" observation (issue 51): what the classical planners read (docs/planners.md), for a learner that must
+beat them. target_distance, cos and sin of target_bearing: the route target, the goal or on a route of many goals the
+route point ROUTE_HORIZON on (`route_target_index`, the one rule `map-replan` and `bug` aim by), as the relative
+observation gives its goal (distance / GOAL_DISTANCE_SCALE capped at GOAL_DISTANCE_CLIP, body-frame bearing); map_x,
+map_y: the position across the arena's `arena_bounds`, each in [-1, 1] (x / POSITION_SCALE where an arena has none),
+and cos, sin psi -- the pose the planners place their map by (`env.physics.pose()`), in the map's own frame, which the
+route target and the geofence are measured in too; the previous action (a0, a1) (0 before the first step); u, v, r,
+the heading and speed commands as in the paper's vector; fence_1..fence_9: the geofence / SONAR_RANGE (`map_fence`,
+what the planners' protection domain adds to the echoes); then the nine sonar ranges / SONAR_RANGE (last, as in
+every observation: SONAR_SLICE). No goal coordinates: `desired_goal` is for rewards and relabelling only."""
+PRIVILEGED_KINDS = ("goal", "waypoints", "obstacles", "moving_obstacles", "tunnel", "path")
+"""The task kinds of the privileged input's cell (`PlanningTask.kind`)."""
+PRIVILEGED_FIELDS = ("route_distance", "clearance", "time_left", "hard_tier", *(f"{k}_task" for k in PRIVILEGED_KINDS))
+"""info["privileged"] under observation="planner": what a critic may know and the actor must not (issue 51;
+an asymmetric critic, Pinto et al. 2018). route_distance: the route length left on the true static map
+(`route_distance`) / GOAL_DISTANCE_SCALE; clearance: the hull's exact distance to the nearest geom / SONAR_RANGE
+(info "min_clearance"); time_left: the planner steps left before the time limit after this observation * PLANNER_DT /
+PRIVILEGED_TIME_SCALE; hard_tier: 1 on the hard tier; then the cell's task kind, one-hot over PRIVILEGED_KINDS."""
+PRIVILEGED_TIME_SCALE = 600.0
+"""Seconds that time_left is divided by (the goal task's time limit)."""
+OBSERVATIONS = ("relative", "paper", "planner")
 GOAL_DISTANCE_SCALE = 100.0
 """Distances to the goal in the relative observation are divided by this [m]..."""
 GOAL_DISTANCE_CLIP = 5.0
 """... and capped here (500 m): far goals differ only in bearing."""
 SONAR_SLICE = slice(-len(SONAR_NAMES), None)
 """The nine sonar ranges / SONAR_RANGE end both observation vectors."""
-REWARDS = ("suite", "paper", "progress")
+REWARDS = ("suite", "paper", "progress", "geodesic")
+ACTIONS = ("paper", "rate")
+"""The action maps (module docstring): "paper", Table 3's heading offset; "rate", the heading command's change."""
+ROUTE_HORIZON = 80.0
+"""On a route of many goals a planner aims at the route point this far [m] along it from the current goal
+(`route_target_index`: `map-replan`'s and `bug`'s target, and the planner observation's)."""
 PROGRESS_GAIN = 0.5
 """reward="progress": reward per metre of distance gained on the current goal (a 1 m/s step earns Eq. 23's
 +0.5). Its sum over an episode depends only on where the vehicle started and ended, not on how slowly it
@@ -246,6 +349,15 @@ def progress_reward(previous_achieved, achieved, desired, radius) -> np.ndarray:
     before = goal_distance(previous_achieved, desired)
     after = goal_distance(achieved, desired)
     return PROGRESS_GAIN * (before - after) + np.where(after <= radius, FOLLOW_REACHED, 0.0)
+
+
+def geodesic_reward(before, after, success, failed, collision_penalty=0.0) -> np.ndarray:
+    """reward="geodesic" (module docstring) of steps whose route length left went from `before` to `after` [m] (0 on
+    success), elementwise: PROGRESS_GAIN (before - GEODESIC_DISCOUNT after), which is gamma Phi(s') - Phi(s) for
+    Phi = -PROGRESS_GAIN d (Ng et al. 1999), less the step cost, with the success bonus and the collision penalty."""
+    shaping = PROGRESS_GAIN * (np.asarray(before, dtype=float) - GEODESIC_DISCOUNT * np.asarray(after, dtype=float))
+    return (shaping - GEODESIC_STEP_COST + np.where(success, GEODESIC_SUCCESS_BONUS, 0.0)
+            - np.where(failed, GEODESIC_COLLISION_PENALTY + collision_penalty, 0.0))
 
 
 def success_bonus(kind: str, steps_left) -> np.ndarray:
@@ -538,6 +650,50 @@ class Route:
     """If set, goals but the last also die when passed within this distance across the route [m]."""
 
 
+GEODESIC_LEGS = ("each", "last")
+"""What the geodesic potential runs to (`PlanningTask.geodesic_legs`): "each" goal of the route in turn (target areas,
+a path to follow), or the "last" alone (a tunnel: its sub-goals lie on the axis, which runs into each trap's mouth)."""
+
+
+@dataclass(frozen=True)
+class RoutePotential:
+    """The potential of reward="geodesic" on one episode's route: while goal k is current, the route length left is
+    fields[leg[k]].distance(position) + rest[k] [m] (module docstring, "The geodesic reward")."""
+
+    fields: tuple[Field, ...]
+    """The geodesic field of each leg's goal on the arena's true static map (`auv_mj.arenas.geodesic`)."""
+    leg: np.ndarray
+    """(n,) the field in use while goal k is current."""
+    rest: np.ndarray
+    """(n,) the route's length [m] beyond that field's goal: the legs after it, each from one goal to the next."""
+
+
+def route_potential(physics: AUVPhysics, task: PlanningTask, legs: str = "each") -> RoutePotential:
+    """The geodesic potential of `task`'s episode (call it once the episode's route is drawn): fields over the arena's
+    static footprints (`auv_mj.episode.arena_geometry`; movers are left out), within `arena_bounds`, or the box round
+    the start and goals grown by SONAR_RANGE where the arena has none, to each goal (`legs`="each") or the last."""
+    episode = task.episode
+    # The route has just placed the obstacles (mocap bodies of a random layout): bring the geoms' poses up to date
+    # before reading their footprints (positions only; the reset's mj_forward follows, so no state changes).
+    mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
+    geometry = arena_geometry(physics, task)
+    static = [polygon for polygon, owner in zip(geometry.polygons, geometry.owners, strict=True) if owner == -1]
+    goals = episode.goals
+    if episode.bounds is not None:
+        bounds = np.asarray(episode.bounds, dtype=float)
+    else:
+        points = np.vstack([episode.route.start, goals])
+        bounds = np.concatenate([points.min(axis=0) - SONAR_RANGE, points.max(axis=0) + SONAR_RANGE])
+    count = len(goals)
+    if options.choice("geodesic_legs", legs, GEODESIC_LEGS) == "last" or count == 1:
+        field = field_of_arena(static, bounds, goals[-1], task.goal_radius)
+        return RoutePotential((field,), np.zeros(count, dtype=int), np.zeros(count))
+    fields = tuple(field_of_arena(static, bounds, goal, task.goal_radius) for goal in goals)
+    legs_after = [float(fields[k + 1].distance(goals[k])[0]) for k in range(count - 1)]
+    rest = np.concatenate([np.cumsum(legs_after[::-1])[::-1], [0.0]])
+    return RoutePotential(fields, np.arange(count), rest)
+
+
 # --- one planning step over a batch axis ----------------------------------------------------------------
 # What the task does around the physics of a planner step -- the action map, goals, the passing rule, events,
 # Eq. (23)-(26), the suite and progress rewards, the observation -- written once, on arrays whose leading axis is
@@ -563,6 +719,8 @@ class Binding:
     """The arena's `goal` site (-1 where it has none)."""
     sonar_site: int
     """The bow sonar's site (SONAR_SITE)."""
+    sonar_offset: float
+    """How far ahead of the vehicle's origin the sonars sit [m] (SONAR_SITE's x in the vehicle's frame)."""
     repulsion_range: float
     """d0 of Eq. (21)-(24) [m] (`repulsion_range`)."""
 
@@ -602,6 +760,14 @@ class Episode:
     """Whether the last step ended the episode (success, collision, left the map)."""
     reward: float = 0.0
     """The last step's reward."""
+    potential: RoutePotential | None = None
+    """The geodesic potential (reward="geodesic" or observation="planner"; None otherwise)."""
+    distance: float = math.nan
+    """The route length left [m] where the step in progress began (`route_distance`; NaN without a potential)."""
+    action: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    """The last step's action (a0, a1), as clipped to [-1, 1]; 0 before the first step (the planner observation)."""
+    cell: np.ndarray = field(default_factory=lambda: np.zeros(1 + len(PRIVILEGED_KINDS)))
+    """The privileged input's cell: hard tier, then the task kind one-hot (PRIVILEGED_FIELDS)."""
 
     @property
     def goal_index(self) -> int:
@@ -621,6 +787,13 @@ class StepRules:
     """Subtracted from "paper" and "progress" on a collision or on leaving the map."""
     relative: bool
     """The relative observation (RELATIVE_FIELDS), else the paper's (OBSERVATION_FIELDS)."""
+    observation: str = "relative"
+    """One of OBSERVATIONS."""
+    action: str = "paper"
+    """One of ACTIONS."""
+    potential: bool = False
+    """Whether the episodes have a geodesic potential (`RoutePotential`: reward="geodesic" or observation="planner"):
+    the step's info then holds the route distances ("route_distance_before", "route_distance", "step_goal")."""
 
 
 @dataclass
@@ -645,23 +818,36 @@ class RouteBatch:
     """(N,) whether the arena has bounds."""
     repulsion: np.ndarray
     """(N,) d0 of Eq. (24) [m]."""
+    fields: list
+    """(N,) each row's `RoutePotential.fields` (None where the episode has no potential)."""
+    leg: np.ndarray
+    """(N, G) `RoutePotential.leg`."""
+    rest: np.ndarray
+    """(N, G) `RoutePotential.rest` [m]."""
+    sonar_offset: np.ndarray
+    """(N,) `Binding.sonar_offset` [m]."""
+    cell: np.ndarray
+    """(N, 1 + len(PRIVILEGED_KINDS)) `Episode.cell`."""
 
     @classmethod
     def empty(cls, n: int) -> RouteBatch:
         """N rows of one goal at the origin, to be filled by `put`."""
         return cls(goals=np.zeros((n, 1, 2)), goal_cos_sin=np.zeros((n, 1, 2)), n_goals=np.ones(n, dtype=int),
                    tangents=np.zeros((n, 1, 2)), corridor=np.full(n, np.nan), path=np.zeros((n, 2, 2)),
-                   bounds=np.zeros((n, 4)), has_bounds=np.zeros(n, dtype=bool), repulsion=np.zeros(n))
+                   bounds=np.zeros((n, 4)), has_bounds=np.zeros(n, dtype=bool), repulsion=np.zeros(n),
+                   fields=[None] * n, leg=np.zeros((n, 1), dtype=int), rest=np.zeros((n, 1)),
+                   sonar_offset=np.zeros(n), cell=np.zeros((n, 1 + len(PRIVILEGED_KINDS))))
 
     @classmethod
-    def of(cls, episode: Episode, repulsion_range: float) -> RouteBatch:
+    def of(cls, episode: Episode, repulsion_range: float, sonar_offset: float = 0.0) -> RouteBatch:
         """The batch of one episode (N = 1)."""
         batch = cls.empty(1)
-        batch.put(0, episode, repulsion_range)
+        batch.put(0, episode, repulsion_range, sonar_offset)
         return batch
 
-    def put(self, i: int, episode: Episode, repulsion_range: float) -> None:
-        """Row i becomes `episode`'s route (the arrays grow when it has more goals or vertices)."""
+    def put(self, i: int, episode: Episode, repulsion_range: float, sonar_offset: float = 0.0) -> None:
+        """Row i becomes `episode`'s route (the arrays grow when it has more goals or vertices); `sonar_offset`:
+        `Binding.sonar_offset` [m] (the geofence of the planner observation)."""
         count = len(episode.goals)
         self.goals, self.goal_cos_sin, self.tangents = (_grown(a, count) for a in
                                                         (self.goals, self.goal_cos_sin, self.tangents))
@@ -682,6 +868,15 @@ class RouteBatch:
         self.has_bounds[i] = episode.bounds is not None
         self.bounds[i] = episode.bounds if episode.bounds is not None else 0.0
         self.repulsion[i] = repulsion_range
+        self.leg, self.rest = _grown(self.leg, count), _grown(self.rest, count)
+        potential = episode.potential
+        self.fields[i] = None if potential is None else potential.fields
+        self.leg[i] = 0
+        self.rest[i] = 0.0
+        if potential is not None:
+            self.leg[i, :count], self.rest[i, :count] = potential.leg, potential.rest
+        self.sonar_offset[i] = sonar_offset
+        self.cell[i] = episode.cell
 
 
 def _grown(array: np.ndarray, length: int) -> np.ndarray:
@@ -733,6 +928,10 @@ class StepOutcome:
 
 ONE_ROW = slice(0, 1)
 """The rows of a task's own batch of one episode (N = 1)."""
+POTENTIAL_INFO_KEYS = ("step_goal", "route_distance_before", "route_distance")
+"""The step's info also holds these where the episodes have a geodesic potential (`StepRules.potential`): the goal
+current when the step began, and the route length left [m] before and after it (`route_distance`); and "privileged"
+under observation="planner" (PRIVILEGED_FIELDS)."""
 STEP_INFO_KEYS = ("previous_achieved_goal", "goal_independent_reward", "reward_following", "reward_avoid",
                   "reward_navigation", "paper_reward", "collision", "left_map", "safety_violation", "success",
                   "is_success", "min_clearance", "min_sonar_range", "event", "goals_reached", "num_goals",
@@ -741,25 +940,33 @@ STEP_INFO_KEYS = ("previous_achieved_goal", "goal_independent_reward", "reward_f
 """The keys of a step's info (`PlanningTask.last_info`, the module docstring's events and metrics)."""
 
 
-def executor_command(action: np.ndarray, psi: np.ndarray, heading_command: np.ndarray) -> np.ndarray:
+def executor_command(action: np.ndarray, psi: np.ndarray, heading_command: np.ndarray,
+                     kind: str = "paper") -> np.ndarray:
     """The action map: the executor's commands (V_cmd, psi_cmd) (N, 2) of actions (N, 2) in [-1, 1], from the
-    heading psi (N,) and the previous heading command (N,) (Table 3, Table 1; the module docstring)."""
+    heading psi (N,) and the previous heading command (N,) (Table 3, Table 1; the module docstring). `kind` "paper"
+    reads a1 as Table 3's heading offset; "rate" as the heading command's change, a1 MAX_HEADING_CHANGE."""
     action = np.asarray(action, dtype=float)
-    offset = np.minimum(np.maximum(ACTION_HEADING_RANGE * action[:, 1], -MAX_HEADING_DIFFERENCE),
-                        MAX_HEADING_DIFFERENCE)
-    turn = np.minimum(np.maximum(wrap_angle(psi + offset - heading_command), -MAX_HEADING_CHANGE), MAX_HEADING_CHANGE)
+    if kind == "rate":
+        turn = MAX_HEADING_CHANGE * action[:, 1]
+    else:
+        offset = np.minimum(np.maximum(ACTION_HEADING_RANGE * action[:, 1], -MAX_HEADING_DIFFERENCE),
+                            MAX_HEADING_DIFFERENCE)
+        turn = np.minimum(np.maximum(wrap_angle(psi + offset - heading_command), -MAX_HEADING_CHANGE),
+                          MAX_HEADING_CHANGE)
     difference = np.minimum(np.maximum(wrap_angle(heading_command + turn - psi), -MAX_HEADING_DIFFERENCE),
                             MAX_HEADING_DIFFERENCE)
     return np.stack([speed_command(action[:, 0]), psi + difference], axis=1)
 
 
 def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, steps_left: np.ndarray,
-                 previous: np.ndarray, readout: Readout, command: np.ndarray, rules: StepRules) -> StepOutcome:
+                 previous: np.ndarray, readout: Readout, command: np.ndarray, rules: StepRules,
+                 distance: np.ndarray | None = None) -> StepOutcome:
     """Goals, events and rewards of a planner step of the episodes `rows` of `routes` (the module docstring).
 
     `rows` indexes N rows of `routes` (an index array, or a slice), `reached` (N,) goals reached before the step,
     `steps_left` (N,) the success bonus's K (this step included), `previous` (N, 2) where the step began,
-    `readout` the vehicles after it, `command` (N, 2) the step's command.
+    `readout` the vehicles after it, `command` (N, 2) the step's command; with a potential, `distance` (N,) the route
+    length left where the step began (the last step's info "route_distance"; computed where None).
     """
     goals, n = routes.goals[rows], routes.n_goals[rows]
     position, radius = readout.position, rules.goal_radius
@@ -789,8 +996,13 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarr
     elif rules.reward_kind == "progress":
         reward = (k1 * progress_reward(previous, position, desired, radius) + independent
                   + success_bonus("progress", steps_left) * success)
-    else:
+    elif rules.reward_kind == "suite":
         reward = suite_reward(goals, n, now, position, failed, success, steps_left, radius)
+    if rules.potential:
+        before = route_distance(routes, rows, reached, previous) if distance is None else distance
+        after = np.where(success, 0.0, route_distance(routes, rows, now, position))
+    if rules.reward_kind == "geodesic":
+        reward = geodesic_reward(before, after, success, failed, rules.collision_penalty)
     info = {
         "previous_achieved_goal": previous,
         "goal_independent_reward": independent,
@@ -817,7 +1029,40 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarr
         "speed_error": command[:, 0] - readout.velocity[:, 0],
         "heading_error": wrap_angle(command[:, 1] - readout.psi),
     }
+    if rules.potential:
+        info.update({"step_goal": desired, "route_distance_before": before, "route_distance": after})
+    if rules.observation == "planner":
+        info["privileged"] = privileged(routes, rows, after, readout.clearance, steps_left - 1)
     return StepOutcome(reward=reward, terminal=failed | (now == n), reached=now, info=info)
+
+
+def route_target_index(goals: np.ndarray, n: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """The route target of N routes (goals (N, G, 2), n (N,) goals each, `index` (N,) the current goal's): the first
+    goal after the current one that lies ROUTE_HORIZON or more along the route from it, else the last; the goal itself
+    on a route of one. What `map-replan` and `bug` aim at (`auv_mj.planners.map_planner.route_target`) and the planner
+    observation shows. The route's length is summed leg by leg from the current goal, in order."""
+    goals = np.asarray(goals, dtype=float)
+    n, index = np.asarray(n, dtype=int), np.asarray(index, dtype=int)
+    if goals.shape[1] < 2:
+        return n - 1
+    legs = np.hypot(goals[:, 1:, 0] - goals[:, :-1, 0], goals[:, 1:, 1] - goals[:, :-1, 1])
+    slot = np.arange(legs.shape[1])
+    use = (slot >= index[:, None]) & (slot < n[:, None] - 1)
+    walked = np.cumsum(np.where(use, legs, 0.0), axis=1)
+    far = use & (walked >= ROUTE_HORIZON)
+    return np.where(far.any(axis=1), np.argmax(far, axis=1) + 1, n - 1)
+
+
+def route_distance(routes: RouteBatch, rows: np.ndarray | slice, goal_index: np.ndarray,
+                   points: np.ndarray) -> np.ndarray:
+    """The route length left [m] of N vehicles at `points` (N, 2) with goal `goal_index` (N,) current (clipped to the
+    last), rows `rows` of `routes`: the current leg's geodesic distance plus the legs after it (`RoutePotential`)."""
+    line = np.arange(len(goal_index))
+    at = np.minimum(goal_index, routes.n_goals[rows] - 1)
+    legs = routes.leg[rows][line, at]
+    rows_of = np.arange(len(routes.fields))[rows]
+    fields = [routes.fields[row][leg] for row, leg in zip(rows_of.tolist(), legs.tolist(), strict=True)]
+    return distances(fields, points) + routes.rest[rows][line, at]
 
 
 def goals_hit(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position: np.ndarray,
@@ -862,9 +1107,13 @@ def suite_reward(goals: np.ndarray, n: np.ndarray, reached: np.ndarray, position
 
 
 def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, readout: Readout, command: np.ndarray,
-            relative: bool) -> dict[str, np.ndarray]:
-    """`PlanningTask.get_observation` of N vehicles, rows `rows` of `routes`: "observation" (RELATIVE_FIELDS if
-    `relative`, else OBSERVATION_FIELDS), "achieved_goal" and "desired_goal", each (N, k)."""
+            kind: str | bool, action: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """`PlanningTask.get_observation` of N vehicles, rows `rows` of `routes`: "observation" (of `kind`: "relative"
+    RELATIVE_FIELDS, "paper" OBSERVATION_FIELDS, "planner" PLANNER_FIELDS, which reads `action` (N, 2), the last
+    step's; True and False stand for "relative" and "paper"), "achieved_goal" and "desired_goal", each (N, k)."""
+    if isinstance(kind, bool | np.bool_):
+        kind = "relative" if kind else "paper"
+    relative = kind in ("relative", "planner")
     psi, (u, v, r) = readout.psi, readout.velocity.T
     motion = np.stack([u / MAX_SPEED, v / MAX_SPEED, r, wrap_angle(command[:, 1] - psi) / MAX_HEADING_DIFFERENCE,
                        command[:, 0] / MAX_SPEED], axis=1)
@@ -877,12 +1126,50 @@ def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, r
     if relative:
         achieved = np.stack([x, y, c, s], axis=1)
         desired = np.concatenate([goal, routes.goal_cos_sin[rows][line, at]], axis=1)
-        vector = np.concatenate([relative_goal(achieved, desired), motion, sonar], axis=1)
+        if kind == "planner":
+            head, fence = planner_inputs(routes, rows, at, readout, action)
+            vector = np.concatenate([head, motion, fence, sonar], axis=1)
+        else:
+            vector = np.concatenate([relative_goal(achieved, desired), motion, sonar], axis=1)
     else:
         achieved, desired = np.stack([x, y], axis=1), goal
         vector = np.concatenate([np.stack([x / POSITION_SCALE, y / POSITION_SCALE, c, s], axis=1), motion, sonar],
                                 axis=1)
     return {"observation": vector, "achieved_goal": achieved, "desired_goal": desired}
+
+
+def planner_inputs(routes: RouteBatch, rows: np.ndarray | slice, at: np.ndarray, readout: Readout,
+                   action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The planner observation's entries but the motion and sonar blocks (PLANNER_FIELDS): the route target, the pose
+    and the previous action (N, 9); and the geofence / SONAR_RANGE (N, 9). Rows `rows` of `routes`, goal `at` (N,)
+    current."""
+    goals, n = routes.goals[rows], routes.n_goals[rows]
+    line = np.arange(len(at))
+    target = goals[line, route_target_index(goals, n, at)]
+    x, y = readout.position[:, 0], readout.position[:, 1]
+    c, s = readout.cos_psi, readout.sin_psi
+    pose = np.stack([x, y, c, s], axis=1)
+    bounds, has_bounds = routes.bounds[rows], routes.has_bounds[rows]
+    span = np.where(has_bounds[:, None], bounds[:, 2:] - bounds[:, :2], 1.0)
+    across = 2.0 * (readout.position - bounds[:, :2]) / span - 1.0
+    across = np.where(has_bounds[:, None], across, readout.position / POSITION_SCALE)
+    offset = routes.sonar_offset[rows]
+    origins = readout.position + offset[:, None] * np.stack([c, s], axis=1)
+    fence = np.where(has_bounds[:, None], fence_ranges(origins, readout.psi, bounds), SONAR_RANGE)
+    head = np.concatenate([relative_goal(pose, target), across, np.stack([c, s], axis=1),
+                           np.asarray(action, dtype=float).reshape(len(at), 2)], axis=1)
+    return head, fence / SONAR_RANGE
+
+
+def privileged(routes: RouteBatch, rows: np.ndarray | slice, distance: np.ndarray, clearance: np.ndarray,
+               steps_left: np.ndarray) -> np.ndarray:
+    """info["privileged"] (N, len(PRIVILEGED_FIELDS)) of N vehicles: the route length left [m], the true clearance
+    [m], the planner steps left after this observation, and the episode's cell (PRIVILEGED_FIELDS). For a critic:
+    never in the actor's observation."""
+    return np.concatenate([np.stack([np.asarray(distance, dtype=float) / GOAL_DISTANCE_SCALE,
+                                     np.asarray(clearance, dtype=float) / SONAR_RANGE,
+                                     np.asarray(steps_left, dtype=float) * PLANNER_DT / PRIVILEGED_TIME_SCALE], axis=1),
+                           routes.cell[rows]], axis=1)
 
 
 def info_row(info: Mapping[str, np.ndarray], k: int) -> dict:
@@ -906,16 +1193,25 @@ class PlanningTask(base.Task):
     functions (`executor_command`, `step_outcome`, `observe`) at N = 1 on `episode`.
     """
 
+    geodesic_legs = "each"
+    """What the geodesic potential runs to (GEODESIC_LEGS): each goal in turn; a tunnel's runs to its end alone."""
+    kind = "goal"
+    """The task's kind among PRIVILEGED_KINDS (the privileged input's cell)."""
+
     def __init__(self, executor: Callable | str | None = None, reward: str = "suite",
                  goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
-                 conditions="ideal", collision_penalty: float = 0.0):
+                 conditions="ideal", collision_penalty: float = 0.0, action: str = "paper"):
         """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`), or its name
         (`auv_mj.tasks.executors.EXECUTORS`, or a speed_heading checkpoint path); `reward` one of
         REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.sim.ocean.conditions`);
         `collision_penalty`: subtracted from the "paper" and "progress" rewards on a collision or on leaving
-        the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY]."""
+        the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY] (under
+        reward="geodesic", beside GEODESIC_COLLISION_PENALTY); `action` one of ACTIONS: "paper" (Table 3's heading
+        offset, the default) or "rate" (the heading command's change per step, module docstring); `observation` may
+        also be "planner" (PLANNER_FIELDS, with info["privileged"] for a critic)."""
         self.reward_kind = options.choice("reward", reward, REWARDS)
+        self.action_kind = options.choice("action", action, ACTIONS)
         self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
         if isinstance(executor, str):
             from auv_mj.tasks.executors import named_executor  # the learned ones load torch: only when named
@@ -960,7 +1256,8 @@ class PlanningTask(base.Task):
             hull=hull, vehicle_body=vehicle_body,
             others=np.flatnonzero(~vehicle_geoms & (model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE)),
             goal_site=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "goal"),
-            sonar_site=model.site(SONAR_SITE).id, repulsion_range=repulsion_range(physics))
+            sonar_site=model.site(SONAR_SITE).id, sonar_offset=float(model.site(SONAR_SITE).pos[0]),
+            repulsion_range=repulsion_range(physics))
 
     def initialize_episode(self, physics: Physics) -> None:
         """Draws the route, places the vehicle at rest and the movers at t = 0, resets the executor."""
@@ -992,7 +1289,13 @@ class PlanningTask(base.Task):
             path=np.vstack([route.start, goals]) if route.path is None else np.asarray(route.path, float),
             bounds=info.bounds, mover_slots=slots, command=(0.0, float(route.heading)),
             previous=np.array(route.start, dtype=float))
-        self._routes = RouteBatch.of(self.episode, binding.repulsion_range)
+        if self.rules.potential:
+            self.episode.potential = route_potential(physics, self, self.geodesic_legs)
+            self.episode.distance = float(self.episode.potential.fields[0].distance(route.start)[0]
+                                          + self.episode.potential.rest[0])
+        self.episode.cell = np.array([float(getattr(self, "tier", "standard") == "hard"),
+                                      *(float(self.kind == k) for k in PRIVILEGED_KINDS)])
+        self._routes = RouteBatch.of(self.episode, binding.repulsion_range, binding.sonar_offset)
         self.last_info = {}
         physics.set_tick(self._tick, EXECUTOR_DT)
         self.ocean.start(physics, self.random, len(SONAR_NAMES))
@@ -1020,7 +1323,8 @@ class PlanningTask(base.Task):
         a0, a1 = checked_action(action, self.action_spec(physics), self)
         data, qpos, episode = physics.data.ptr, self.binding.qpos, self.episode
         command = executor_command(np.array([[a0, a1]], dtype=float), data.qpos[qpos[2:]],
-                                   np.array([episode.command[1]]))
+                                   np.array([episode.command[1]]), self.action_kind)
+        episode.action = np.array([a0, a1], dtype=float)
         episode.command = (float(command[0, 0]), float(command[0, 1]))
         episode.previous = data.qpos[qpos[:2]].copy()
 
@@ -1036,11 +1340,13 @@ class PlanningTask(base.Task):
         steps_left = max(self.step_limit - episode.steps + 1, 1)
         outcome = step_outcome(self._routes, ONE_ROW, np.array([episode.reached]),
                                np.array([steps_left]), episode.previous[None], readout,
-                               np.array([episode.command]), self.rules)
+                               np.array([episode.command]), self.rules, np.array([episode.distance]))
         episode.reached = int(outcome.reached[0])
         episode.terminal = bool(outcome.terminal[0])
         episode.reward = float(outcome.reward[0])
         self.last_info = info_row(outcome.info, 0)
+        if "route_distance" in outcome.info:
+            episode.distance = float(outcome.info["route_distance"][0])
 
     def _readout(self, physics: Physics, **after_step) -> Readout:
         """The vehicle as `step_outcome` and `observe` read it (N = 1): cos and sin of the heading by `math`, as
@@ -1057,7 +1363,9 @@ class PlanningTask(base.Task):
     def rules(self) -> StepRules:
         """The options `step_outcome` and `observe` read."""
         return StepRules(reward_kind=self.reward_kind, goal_radius=self.goal_radius,
-                         collision_penalty=self.collision_penalty, relative=self.goal_in_observation)
+                         collision_penalty=self.collision_penalty, relative=self.goal_in_observation,
+                         observation=self.observation_kind, action=self.action_kind,
+                         potential=self.reward_kind == "geodesic" or self.observation_kind == "planner")
 
     @property
     def episode_time_limit(self) -> float | None:
@@ -1099,13 +1407,14 @@ class PlanningTask(base.Task):
 
     @property
     def goal_in_observation(self) -> bool:
-        """Whether "observation" holds the goal itself (relative) so that a policy needs no desired_goal."""
-        return self.observation_kind == "relative"
+        """Whether "observation" holds the goal itself (relative, planner) so that a policy needs no desired_goal."""
+        return self.observation_kind in ("relative", "planner")
 
     @property
     def observation_fields(self) -> tuple[str, ...]:
         """Names of the "observation" vector's entries."""
-        return RELATIVE_FIELDS if self.goal_in_observation else OBSERVATION_FIELDS
+        return {"relative": RELATIVE_FIELDS, "paper": OBSERVATION_FIELDS,
+                "planner": PLANNER_FIELDS}[self.observation_kind]
 
     def observation_spec(self, physics: Physics) -> collections.OrderedDict:
         """"observation" (observation_fields); "achieved_goal" and "desired_goal": (x, y) [m], and with the
@@ -1124,7 +1433,12 @@ class PlanningTask(base.Task):
             episode.sonar = self.ocean.sense(physics.sonar())
         readout = self._readout(physics)
         observation = observe(self._routes, ONE_ROW, np.array([episode.reached]), readout,
-                              np.array([episode.command]), self.goal_in_observation)
+                              np.array([episode.command]), self.observation_kind, episode.action[None])
+        if self.observation_kind == "planner" and episode.steps == 0:  # the reset's info: the critic's first input
+            distance = np.array([episode.distance])
+            self.last_info = {"privileged": privileged(self._routes, ONE_ROW, distance,
+                                                       np.array([self._clearance(physics)]),
+                                                       np.array([self.step_limit]))[0]}
         return collections.OrderedDict((key, observation[key][0]) for key in ("observation", "achieved_goal",
                                                                               "desired_goal"))
 
@@ -1141,8 +1455,9 @@ class PlanningTask(base.Task):
     def relabel_observation(self, observation, achieved_goal, desired_goal) -> np.ndarray:
         """The observation had `desired_goal` been the goal (hindsight relabelling; vectorised over rows).
 
-        Only the relative observation depends on the goal: its first three entries are recomputed from
-        the vehicle's pose in `achieved_goal`; the paper's vector is returned unchanged.
+        Only the relative and planner observations depend on the goal: their first three entries (the goal, or the
+        route target, which on a relabelled episode of one goal is that goal) are recomputed from the vehicle's pose
+        in `achieved_goal`; the paper's vector is returned unchanged.
         """
         observation = np.array(observation, dtype=float, copy=True)
         if self.goal_in_observation:
@@ -1169,6 +1484,8 @@ class PlanningTask(base.Task):
         bonus is paid where `desired_goal` is reached without a failure on a step of the route's last leg (a
         relabelled episode ends there, `compute_terminated`), or where the route itself succeeded.
         """
+        if self.reward_kind == "geodesic":
+            return self._geodesic_reward(achieved_goal, desired_goal, info)
         kind = "progress" if self.reward_kind == "progress" else "paper"
         previous = info_field(info, "previous_achieved_goal")
         independent = info_field(info, "goal_independent_reward")
@@ -1178,6 +1495,25 @@ class PlanningTask(base.Task):
         reached = (goal_distance(achieved_goal, desired_goal) <= radius) & ~self._failed(info)
         ended = np.where(info_field(info, "last_goal").astype(bool), reached, info_field(info, "success").astype(bool))
         return reward + np.where(ended, success_bonus(kind, info_field(info, "steps_left")), 0.0)
+
+    def _geodesic_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """reward="geodesic" for (relabelled) goals. Where `desired_goal` is the step's own goal (info "step_goal") the
+        step's route distances are in its info ("route_distance_before", "route_distance", and "success"), and the
+        step's reward is returned exactly. Elsewhere (hindsight) no field of that goal exists (a Dijkstra search per
+        relabelled sample): the potential is the straight distance to the goal region, the geodesic of open water,
+        and the relabelled episode succeeds where the goal is reached without a failure (`compute_terminated`)."""
+        achieved, desired = np.asarray(achieved_goal, dtype=float), np.asarray(desired_goal, dtype=float)
+        radius = self._radius(info)
+        failed = self._failed(info)
+        previous = info_field(info, "previous_achieved_goal")
+        own = np.all(desired[..., :2] == info_field(info, "step_goal"), axis=-1)
+        straight_before = np.maximum(goal_distance(previous, desired) - radius, 0.0)
+        straight_after = np.maximum(goal_distance(achieved, desired) - radius, 0.0)
+        reached = (goal_distance(achieved, desired) <= radius) & ~failed
+        before = np.where(own, info_field(info, "route_distance_before"), straight_before)
+        after = np.where(own, info_field(info, "route_distance"), straight_after)
+        success = np.where(own, info_field(info, "success").astype(bool), reached)
+        return geodesic_reward(before, after, success, failed, self.collision_penalty)
 
     def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray:
         """Whether a step ends the episode had `desired_goal` been its only goal: reached, collided or left.

@@ -106,6 +106,11 @@ def route_limit(info) -> float:
 class Tunnel(planning.PlanningTask):
     """Follow a tunnel's global path of virtual sub-goals, avoiding walls and unknown obstacles."""
 
+    kind = "tunnel"
+    geodesic_legs = "last"
+    """reward="geodesic" runs to the tunnel's end alone: the field follows the tunnel, while the sub-goals on its axis
+    lie in each trap's mouth (`planning.GEODESIC_LEGS`)."""
+
     def __init__(self, arena_spec: procedural.TunnelSpec | None = None, route_time_limit: bool = True,
                  tier: str = "standard", **kwargs):
         """`arena_spec`: draw a procedural tunnel of it per episode, ending the episode at its

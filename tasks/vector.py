@@ -13,10 +13,12 @@ How, without one Python step per environment:
   environment's own reset, in Python, so routes, arenas and the ocean are drawn by the same code from the same
   generators.
 - What the task does before and after the physics is the task's own code, run once over the batch: the action map
-  (`planning.executor_command`), then goals, the passing rule, events, Eq. (23)-(26), the suite and progress
-  rewards (`planning.step_outcome`) and the observation (`planning.observe`) -- the functions `PlanningTask` calls
-  with N = 1. Only the time limits (`control.Environment`'s part) are here, and the ocean's sonar noise stays per
-  environment (its generator is the episode's own).
+  (`planning.executor_command`, either action option), then goals, the passing rule, events, Eq. (23)-(26), the
+  suite, progress and geodesic rewards (`planning.step_outcome`; the geodesic fields are each episode's, searched
+  at its reset and asked for the whole batch at once) and the observation (`planning.observe`, the planner
+  observation and info["privileged"] included) -- the functions `PlanningTask` calls with N = 1. Only the time
+  limits (`control.Environment`'s part) are here, and the ocean's sonar noise stays per environment (its generator
+  is the episode's own). A reset's info beyond is_success (info["privileged"]) is the sub-environment's own.
 - The physics is one call of the C batch (`auv_mj.sim.batch`) over all stepped vehicles, across `threads` threads:
   the five 10 Hz executor ticks (current, S-plane executor, movers, contacts) and the 50 physics steps, then the
   sonar and the clearance. NumPy's tanh and exp differ from libm's in the last bit, which a closed loop of 1,800
@@ -154,6 +156,10 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         n = self.num_envs
         self._routes = planning.RouteBatch.empty(n)
         self._reached = np.zeros(n, dtype=int)
+        self._distance = np.full(n, np.nan)
+        """Each episode's route length left where its next step begins (`Episode.distance`)."""
+        self._action = np.zeros((n, 2))
+        """Each episode's last action (`Episode.action`: the planner observation's)."""
         self._position = np.zeros((n, 2))
         self._psi = np.zeros(n)
         self._steps = np.zeros(n, dtype=int)
@@ -164,6 +170,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self._oceans: list = [None] * n
         self._current_rngs: list = [None] * n
         self._last_obs = {key: np.zeros(space.shape) for key, space in self.observation_space.spaces.items()}
+        self._reset_infos: list[dict] = [{} for _ in range(n)]
+        """Each sub-environment's last reset info beyond is_success (info["privileged"] of the planner observation)."""
 
     def _load_episode(self, i: int) -> None:
         """Reads sub-environment i's freshly reset episode into the batch (see the module docstring)."""
@@ -174,7 +182,9 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if not physics.at_tick:
             raise RuntimeError("the sub-environment's executor clock is not at a tick after its reset")
         episode, binding = task.episode, task.binding
-        self._routes.put(i, episode, binding.repulsion_range)
+        self._routes.put(i, episode, binding.repulsion_range, binding.sonar_offset)
+        self._action[i] = episode.action
+        self._distance[i] = episode.distance
         self._reached[i] = episode.reached
         self._task_step_limit[i] = task.step_limit
         data = physics.data.ptr
@@ -250,7 +260,18 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self._autoreset[:] = False
         self._needs_reset = False
         info = {"is_success": np.zeros(self.num_envs, dtype=bool), "_is_success": np.ones(self.num_envs, dtype=bool)}
+        for i in range(self.num_envs):
+            self._put_reset_info(info, i)
         return self._copy_obs(), info
+
+    def _put_reset_info(self, infos: dict, i: int) -> None:
+        """Sub-environment i's reset info (beyond is_success) into row i of a batched info dict."""
+        for key, value in self._reset_infos[i].items():
+            value = np.asarray(value)
+            if key not in infos:
+                infos[key] = np.zeros((self.num_envs, *value.shape), dtype=value.dtype)
+                infos["_" + key] = np.zeros(self.num_envs, dtype=bool)
+            infos[key][i], infos["_" + key][i] = value, True
 
     def _reset_one(self, i: int, seed: int | None) -> dict:
         """`AUVGymEnv.reset(seed=seed)` of sub-environment i; its first observation."""
@@ -260,6 +281,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
             env.task.random.seed(seed)
         time_step = env.reset()
         self._load_episode(i)
+        self._reset_infos[i] = dict(env.task.last_info)
         return self._observe(time_step.observation)
 
     def step(self, actions):
@@ -279,6 +301,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             for i in np.flatnonzero(resetting):
                 self._write_obs(i, self._reset_one(int(i), None))
+                self._put_reset_info(infos, int(i))
             infos["is_success"][resetting] = False
             infos["_is_success"][resetting] = True
             self._autoreset = done
@@ -289,16 +312,18 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
                 for i in ended:
                     final_obs[i] = {key: value[i].copy() for key, value in self._last_obs.items()}
                 final_info = {key: value.copy() for key, value in infos.items()}
-                for key in STEP_INFO_KEYS:
+                step_keys = [key for key in infos if not key.startswith("_")]  # STEP_INFO_KEYS and the options'
+                for key in step_keys:
                     final_info["_" + key] = done.copy()
                 infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
                 infos["final_info"], infos["_final_info"] = final_info, done.copy()
-                for key in STEP_INFO_KEYS:
+                for key in step_keys:
                     infos["_" + key][done] = False
                 infos["is_success"][done] = False
                 infos["_is_success"][done] = True
                 for i in ended:
                     self._write_obs(i, self._reset_one(int(i), None))
+                    self._put_reset_info(infos, int(i))
         return self._copy_obs(), reward, term, trunc, infos
 
     def _copy_obs(self) -> dict:
@@ -337,7 +362,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         at_state, at_out = batch.STATE_INDEX, batch.OUTPUT_INDEX
         stepper = self._stepper
         heading_command = stepper.state[index, at_state["heading_command"]]
-        command = planning.executor_command(actions, self._psi[index], heading_command)
+        command = planning.executor_command(actions, self._psi[index], heading_command, self.rules.action)
+        self._action[index] = actions
         stepper.state[index, at_state["speed_command"]] = command[:, 0]
         stepper.state[index, at_state["heading_command"]] = command[:, 1]
         previous = self._position[index].copy()
@@ -366,9 +392,12 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
                                    clearance=out[:, at_out["clearance"]])
         steps_left = np.maximum(self._task_step_limit[index] - self._steps[index], 1)  # this step included
         outcome = planning.step_outcome(self._routes, index, self._reached[index], steps_left, previous, readout,
-                                        command, self.rules)
+                                        command, self.rules, self._distance[index])
         self._reached[index] = outcome.reached
-        observation = planning.observe(self._routes, index, outcome.reached, readout, command, self.rules.relative)
+        if self.rules.potential:
+            self._distance[index] = outcome.info["route_distance"]
+        observation = planning.observe(self._routes, index, outcome.reached, readout, command, self.rules.observation,
+                                       self._action[index])
         for key, value in observation.items():
             self._last_obs[key][index] = value
         self._steps[index] += 1

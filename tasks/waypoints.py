@@ -46,6 +46,8 @@ LAYOUTS = {
 class Waypoints(planning.PlanningTask):
     """Reach a sequence of target areas in order; the map is open water."""
 
+    kind = "waypoints"
+
     def __init__(self, layout: str = "random", **kwargs):
         """`layout` is "random", a key of LAYOUTS or planning.ARENA_SCENARIO (the arena's own sites; the factory
         sets it for `arena=PATH`); other kwargs go to `PlanningTask`."""

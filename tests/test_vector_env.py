@@ -62,9 +62,12 @@ def run_side_by_side(task: str, options: dict, mode: AutoresetMode, steps: int =
     singles = [AUVGymEnv(task, options) for _ in range(num)]
     observation, info = vector.reset(seed=list(SEEDS))
     for i, (single, seed) in enumerate(zip(singles, SEEDS, strict=True)):
-        expected, _ = single.reset(seed=seed)
+        expected, expected_info = single.reset(seed=seed)
         for key in expected:
             assert_close(observation[key][i], expected[key], f"reset {i} {key}")
+        for key, value in expected_info.items():  # is_success, and info["privileged"] of the planner observation
+            assert info["_" + key][i], f"reset {i} info {key}"
+            assert_close(info[key][i], value, f"reset {i} info {key}")
     rng = np.random.default_rng(0)
     pending = np.zeros(num, dtype=bool)
     seen = {"terminated": 0, "truncated": 0, "autoresets": 0}
@@ -114,6 +117,30 @@ def test_sub_environment_is_the_single_environment(task, tier, water):
     seen = run_side_by_side(task, task_options(task, tier, water), AutoresetMode.NEXT_STEP)
     assert seen["autoresets"] >= len(SEEDS)  # every sub-environment went through an autoreset
     assert seen["truncated"] >= 1
+
+
+ISSUE_51_OPTIONS = {"reward": "geodesic", "observation": "planner", "action": "rate"}
+"""The learning problem's options (issue 51): the geodesic reward, the planner observation, the rate action."""
+
+
+@pytest.mark.parametrize(("task", "tier", "water", "changes"), [
+    ("goal", "standard", "ideal", ISSUE_51_OPTIONS),
+    ("obstacles", "standard", "ideal", ISSUE_51_OPTIONS),
+    ("obstacles", "hard", "ocean", ISSUE_51_OPTIONS),
+    ("tunnel", "hard", "ideal", ISSUE_51_OPTIONS),
+    ("tunnel", "standard", "ideal", {"reward": "geodesic"}),
+])
+def test_sub_environment_is_the_single_environment_on_the_learning_problem(task, tier, water, changes):
+    """The geodesic reward (its fields, asked for the batch at once), the planner observation (route target, pose,
+    previous action, geofence) and its info["privileged"], and the rate action are the single env's in the batch."""
+    seen = run_side_by_side(task, task_options(task, tier, water) | changes, AutoresetMode.NEXT_STEP)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
+def test_same_step_autoreset_is_the_single_environment_on_the_learning_problem():
+    options = task_options("moving_obstacles", "standard", "ocean") | ISSUE_51_OPTIONS
+    seen = run_side_by_side("moving_obstacles", options, AutoresetMode.SAME_STEP)
+    assert seen["autoresets"] >= len(SEEDS)
 
 
 def test_same_step_autoreset_is_the_single_environment():

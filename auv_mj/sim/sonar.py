@@ -45,21 +45,22 @@ class SampleAndHold:
         return self._held.copy()
 
 
-def fence_ranges(origin: np.ndarray, heading: float, bounds) -> np.ndarray:
+def fence_ranges(origin: np.ndarray, heading, bounds) -> np.ndarray:
     """What the nine beams would read if the edge of the map were a wall (a geofence; ours).
 
     `origin`: the sonars' (x, y) [m]; `heading`: psi [rad]; `bounds`: the map (x_min, y_min, x_max, y_max) [m].
     Each beam (heading + BEAM_ANGLES) is followed to where it leaves the rectangle; the distance is capped at
     SONAR_RANGE, and is 0 for a beam from outside the map. The map's edge is no geom, so the rangefinders
-    cannot see it; a vehicle that knows its map (the paper's 600 m square) knows this instead.
+    cannot see it; a vehicle that knows its map (the paper's 600 m square) knows this instead. Vectorised: origins
+    (N, 2), headings (N,) and bounds (N, 4) give (N, 9).
     """
-    x, y = float(origin[0]), float(origin[1])
-    x_min, y_min, x_max, y_max = (float(b) for b in bounds)
-    if not (x_min <= x <= x_max and y_min <= y <= y_max):
-        return np.zeros(len(BEAM_ANGLES))
-    angles = heading + BEAM_ANGLES
+    origin, bounds = np.asarray(origin, dtype=float), np.asarray(bounds, dtype=float)
+    x, y = origin[..., 0:1], origin[..., 1:2]
+    x_min, y_min, x_max, y_max = (bounds[..., k:k + 1] for k in range(4))
+    inside = (x_min <= x) & (x <= x_max) & (y_min <= y) & (y <= y_max)
+    angles = np.asarray(heading, dtype=float)[..., None] + BEAM_ANGLES
     c, s = np.cos(angles), np.sin(angles)
     with np.errstate(divide="ignore", invalid="ignore"):
         to_x = np.where(c > 0, (x_max - x) / c, np.where(c < 0, (x_min - x) / c, np.inf))
         to_y = np.where(s > 0, (y_max - y) / s, np.where(s < 0, (y_min - y) / s, np.inf))
-    return np.minimum(np.minimum(to_x, to_y), SONAR_RANGE)
+    return np.where(inside, np.minimum(np.minimum(to_x, to_y), SONAR_RANGE), 0.0)
