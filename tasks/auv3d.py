@@ -141,9 +141,6 @@ radius, summation by parts bounds sum_k gamma^k (d_k - d_{k+1}) by d_0 - GOAL_RA
 < 0; the step that reaches it pays at least that + GOAL_REWARD - STEP_COST (tests/test_rewards.py)."""
 MIN_DEPTH = 1.0
 """Shallower than this [m] is broaching: an episode ends in "left_map"."""
-TUBE_INFLUENCE = 2.5
-"""d0 [m] of the protection domain inside a tube: the walls are always within the open-water domain's 30 m, so
-in a tube only echoes nearer than the wall at its nominal 3 m repel (those of a vehicle off the centreline)."""
 LOOKAHEAD = 8.0
 """Line-of-sight look-ahead [m] along a tube's centreline."""
 GOAL_SIZE = 5
@@ -436,6 +433,9 @@ class Planning3D(base.Task):
         self.command = (0.0, 0.0, START_DEPTH)
         self.path = np.zeros((0, 3))
         self.goal = np.zeros(3)
+        self.tube_radius: float | None = None
+        """The inner radius [m] of the episode's tube (tunnel3d), None in open water: what a planner's protection
+        domain is sized to (`auv_mj.planners.los3d.tube_field`)."""
         self.last_info: dict = {}
         self._loaded_xml = None
         self._desired = np.zeros(GOAL_SIZE)
@@ -473,6 +473,8 @@ class Planning3D(base.Task):
             physics.reload_from_xml_string(xml, source=source)
             self._loaded_xml = xml
         self.goal, self.path = np.asarray(goal, dtype=float), np.asarray(path, dtype=float).reshape(-1, 3)
+        tube = tubes.tube_from_arena(root) if len(self.path) >= 2 else None
+        self.tube_radius = None if tube is None else float(tube.radius)
         model = physics.model.ptr
         self.movers = [(int(model.body_mocapid[model.body(f"mover_{m.name}").id]), m)
                        for m in tubes.items_from_arena(root)[1]]
