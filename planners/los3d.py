@@ -5,8 +5,9 @@
 - `protect_command`: the protection domain of Sec. 3.2.2 (`auv_mj.planners.avoidance.RepulsiveField`) on the 3-D
   fan: the level row's echoes bend the heading as in the plane, the down and up rows' echoes push the depth command
   up or down.
-- `FanFilter`: the fan as the domain reads it, each beam's median over its last FILTER_PINGS pings, so that one lost
-  echo or one noisy range does not move the vehicle (ocean water loses 5 % of echoes, `auv_mj.sim.ocean.SonarNoise`).
+- `FanFilter`: the fan as the domain reads it, each beam the nearer of its newest ping and its median over the last
+  FILTER_PINGS, so that one lost echo or one range that jumps away does not turn the vehicle towards the wall (ocean
+  water loses 5 % of echoes, `auv_mj.sim.ocean.SonarNoise`), while an echo that comes nearer is heard at once.
 - `domain_field`: the domain of a task, sized to the tube the vehicle is in (`tube_field`): the paper's domain
   shrunk to TUBE_DOMAIN_SHARE of the tube's radius, its gain k_2 with it, so that it reacts to the wall the way the
   open-water domain reacts to an obstacle at the same share of its reach.
@@ -46,8 +47,8 @@ and one that has drifted 0.4 R off it has. The fixed d0 = 2.5 m it replaces reac
 where both walls repelled at once. Of 0.5, 0.6 and 0.8 on validation tubes (docs/benchmark.md), 0.6 kept the most
 clearance in ocean water."""
 FILTER_PINGS = 3
-"""Pings of each beam the domain takes the median of (`FanFilter`): one lost echo (reading SONAR_RANGE) or one
-outlier among three is outvoted, for half a ping's lag (0.25 s at 2 Hz) on a range that changes steadily."""
+"""Pings of each beam the domain takes the median of (`FanFilter`): a lost echo (reading SONAR_RANGE) or a range
+that jumps away on one ping of three is outvoted."""
 
 
 def tube_field(radius: float) -> RepulsiveField:
@@ -73,13 +74,16 @@ def domain_field(task: Planning3D, open_water: RepulsiveField = OPEN_FIELD) -> R
 
 
 class FanFilter:
-    """The fan as the protection domain reads it: each beam's median over its last FILTER_PINGS pings.
+    """The fan as the protection domain reads it: each beam the nearer of its newest ping and its median over the
+    last FILTER_PINGS pings.
 
     A beam's range is filtered over time, as an occupancy grid accumulates readings (Borenstein and Koren's vector
-    field histogram, 1991; Thrun et al., *Probabilistic Robotics*, Ch. 6 on unexplained short and max-range
-    readings): a lost echo reads SONAR_RANGE for one ping, and a spike one ping, so neither moves the median, and
-    the domain does not turn the vehicle towards a wall whose echo dropped for a ping. Call it with the time and
-    the fan's held ranges; it takes a new ping once per sonar period (`SONAR_RATE_HZ`), the held sample otherwise."""
+    field histogram, 1991; Thrun et al., *Probabilistic Robotics*, Ch. 6, on max-range readings as failures): an echo
+    lost for one ping (SONAR_RANGE) or a range that jumps away for one ping does not move the median, so the domain
+    does not let go of a wall whose echo dropped, which turned the vehicle into it. An echo that comes nearer is
+    taken at once, as the domain's purpose asks: waiting for a second ping would cost a ping (0.5 s, 0.75 m at
+    cruise speed) on every obstacle, and a false near echo only turns the vehicle away for a ping. Call it with
+    the time and the fan's held ranges; it takes a new ping once per sonar period (`SONAR_RATE_HZ`)."""
 
     def __init__(self, pings: int = FILTER_PINGS):
         if isinstance(pings, bool) or not isinstance(pings, int) or pings < 1:
@@ -93,13 +97,14 @@ class FanFilter:
         self._ping = None
 
     def __call__(self, time: float, ranges: np.ndarray) -> np.ndarray:
-        """The filtered ranges [m] after the fan's `ranges` [m] held at `time` [s]."""
+        """The filtered ranges [m] after the fan's `ranges` [m] held at `time` [s]: per beam, the nearer of the
+        newest ping and the median of the last FILTER_PINGS."""
         ping = math.floor(float(time) * SONAR_RATE_HZ + 1e-9)
         if ping != self._ping or not self._history:
             self._ping = ping
             kept = self._history[max(len(self._history) - self.pings + 1, 0):]
             self._history = [*kept, np.asarray(ranges, dtype=float).copy()]
-        return np.median(np.stack(self._history), axis=0)
+        return np.minimum(np.median(np.stack(self._history), axis=0), self._history[-1])
 
 
 def protect_command(command: Sequence[float], heading: float, ranges: np.ndarray,
