@@ -509,6 +509,11 @@ class Planning3D(base.Task):
         """This episode's time limit [s]: `route_time_limit` of its route's length, at least `time_limit`."""
         return max(self.time_limit, route_time_limit(path_length(self.route)))
 
+    def known_time_limit(self) -> float:
+        """The time limit [s] known before an episode is drawn (what a progress bar counts to before the first
+        reset): here the least, `time_limit`."""
+        return self.time_limit
+
     def initialize_episode(self, physics: Physics3D) -> None:
         random = np.random.RandomState(FIXED_ARENA_SEED) if self._arena_mode == "fixed" else self.random
         root, start, heading, goal, path = self.draw_arena(random)
@@ -702,6 +707,12 @@ class Tunnel3D(Planning3D):
             root = tubes.tube_arena(tube)
         return root, tube.centreline[0], tube.start_heading(), tube.centreline[-1], tube.centreline
 
+    def known_time_limit(self) -> float:
+        """A tube file's time limit [s] (its centreline is known before any episode), else `time_limit`."""
+        if self._arena_mode == "file":
+            return max(self.time_limit, route_time_limit(self._file[1].length()))
+        return self.time_limit
+
     def goal_heading(self, start: np.ndarray) -> float:
         """The heading of the tube's last segment: the way into its end."""
         if len(self.path) < 2:
@@ -733,8 +744,9 @@ class RouteEnvironment(control.Environment):
 
     def __init__(self, physics: Physics3D, task: Planning3D, time_limit: float | None, **kwargs):
         """`time_limit` [s]: None for the route's, else every episode's."""
-        # until the first reset draws a route, the task's least limit
-        super().__init__(physics, task, time_limit=task.time_limit if time_limit is None else time_limit, **kwargs)
+        # until the first reset draws a route, the limit known without it
+        super().__init__(physics, task, time_limit=task.known_time_limit() if time_limit is None else time_limit,
+                         **kwargs)
         self.given_time_limit = time_limit
         """The user's time limit [s], or None: each episode's route sets its own."""
         self._warned = False
