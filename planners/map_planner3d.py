@@ -21,9 +21,9 @@ Algorithms*, Ch. 5-6):
   moved on in ROUTE_STEP steps, and on past any obstacle the map holds there (tunnel3d).
 - The follower is 3-D line of sight on the planned path (`auv_mj.control.depth_heading.los_command`: heading to the
   point LOOKAHEAD metres along it, its depth as the depth command) at the classical planners' CRUISE_SPEED, inside
-  the protection domain on the 3-D fan (`auv_mj.planners.los3d.protect_command`, on the fan filtered over pings by
-  `auv_mj.planners.los3d.FanFilter`) with PATH_FIELD in open water and the tube's domain, sized to its radius
-  (`auv_mj.planners.los3d.tube_field`), in a tube.
+  the protection domain on the 3-D fan (`auv_mj.planners.los3d.protect_command`) with PATH_FIELD in open water and
+  the tube's domain in a tube, sized to its radius (`auv_mj.planners.los3d.tube_field`) and reading the fan filtered
+  over pings (`auv_mj.planners.los3d.domain_ranges`).
 
 The oracle is no competitor: it certifies the hard 3-D arenas (`auv_mj.arenas.traps3d.certify`, the same map and
 search) and gives the reference time of the 3-D suite's time efficiency.
@@ -38,7 +38,7 @@ from auv_mj.arenas import grid, traps3d, voxels
 from auv_mj.control.depth_heading import los_command
 from auv_mj.episode import VEHICLE_BODY, Planner, PlannerBase
 from auv_mj.planners.avoidance import RepulsiveField
-from auv_mj.planners.los3d import FanFilter, command_action, domain_field, protect_command
+from auv_mj.planners.los3d import FanFilter, command_action, domain_field, domain_ranges, protect_command
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_AZIMUTHS, FAN_ELEVATIONS, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import CRUISE_SPEED, GOAL_RADIUS, MIN_DEPTH, Tunnel3D
@@ -227,7 +227,7 @@ class VoxelFollower(PlannerBase):
         if time_step.first():
             self.reset()
         command = self.command()
-        ranges = self.fan(self.physics.time(), self.task.sensors.read(self.physics)["sonar"])
+        ranges = domain_ranges(self.task, self.fan, self.physics.time(), self.task.sensors.read(self.physics)["sonar"])
         command = protect_command(command, self.physics.heading(), ranges, domain_field(self.task, PATH_FIELD))
         return command_action(command, self.physics)
 

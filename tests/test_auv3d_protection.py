@@ -137,3 +137,18 @@ def test_los_avoid_holds_a_tube_in_ocean_water():
         clearance.append(env.task.last_info["min_clearance"])
     assert env.task.last_info["event"] == "goal"
     assert min(clearance) > 0.3
+
+
+def test_the_filter_is_the_tubes_and_open_water_reads_the_fan_as_it_is():
+    """In a tube the domain reads the filtered fan; in open water (where the vehicle turns fast round obstacles and
+    a per-beam filter would smear echoes across the turn) the fan as it is."""
+    steady = fan_off_centre(3.0, 2.2)
+    lost = steady.copy()
+    lost[beam(LEVEL, PORT)] = SONAR_RANGE
+    tube, open_water = auv3d.Tunnel3D(), auv3d.Goal3D()
+    tube.tube_radius = 3.0
+    for task, expected in ((tube, steady), (open_water, lost)):
+        fan = los3d.FanFilter()
+        for k, ranges in enumerate([steady, steady, lost]):
+            out = los3d.domain_ranges(task, fan, k * PING, ranges)
+        assert out == pytest.approx(expected)
