@@ -22,7 +22,8 @@ Algorithms*, Ch. 5-6):
 - The follower is 3-D line of sight on the planned path (`auv_mj.control.depth_heading.los_command`: heading to the
   point LOOKAHEAD metres along it, its depth as the depth command) at the classical planners' CRUISE_SPEED, inside
   the protection domain on the 3-D fan (`auv_mj.planners.los3d.protect_command`) with PATH_FIELD in open water and
-  the tube's TUBE_FIELD in a tube.
+  the tube's domain in a tube, sized to its radius (`auv_mj.planners.los3d.tube_field`) and reading the fan filtered
+  over pings (`auv_mj.planners.los3d.domain_ranges`).
 
 The oracle is no competitor: it certifies the hard 3-D arenas (`auv_mj.arenas.traps3d.certify`, the same map and
 search) and gives the reference time of the 3-D suite's time efficiency.
@@ -37,7 +38,7 @@ from auv_mj.arenas import grid, traps3d, voxels
 from auv_mj.control.depth_heading import los_command
 from auv_mj.episode import VEHICLE_BODY, Planner, PlannerBase
 from auv_mj.planners.avoidance import RepulsiveField
-from auv_mj.planners.los3d import TUBE_FIELD, command_action, protect_command
+from auv_mj.planners.los3d import FanFilter, command_action, domain_field, domain_ranges, protect_command
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_AZIMUTHS, FAN_ELEVATIONS, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import CRUISE_SPEED, GOAL_RADIUS, MIN_DEPTH, Tunnel3D
@@ -115,10 +116,12 @@ class VoxelFollower(PlannerBase):
         self.env = env
         self.task, self.physics = env.task, env.physics
         self.grid: voxels.VoxelGrid | None = None
+        self.fan = FanFilter()
 
     def reset(self) -> None:
-        """Forgets the map and the path (the next step starts a new episode)."""
+        """Forgets the map, the path and the domain's pings (the next step starts a new episode)."""
         self.grid = None
+        self.fan.reset()
 
     @property
     def in_tube(self) -> bool:
@@ -224,9 +227,8 @@ class VoxelFollower(PlannerBase):
         if time_step.first():
             self.reset()
         command = self.command()
-        field = TUBE_FIELD if isinstance(self.task, Tunnel3D) else PATH_FIELD
-        command = protect_command(command, self.physics.heading(), self.task.sensors.read(self.physics)["sonar"],
-                                  field)
+        ranges = domain_ranges(self.task, self.fan, self.physics.time(), self.task.sensors.read(self.physics)["sonar"])
+        command = protect_command(command, self.physics.heading(), ranges, domain_field(self.task, PATH_FIELD))
         return command_action(command, self.physics)
 
 

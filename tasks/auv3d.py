@@ -15,6 +15,14 @@
 - Both take `tier="hard"`: arenas where depth is the way on (`auv_mj.arenas.traps3d`), certified by the 3-D
   oracle's search before use.
 
+Time limits come from the route, as the planar tunnel's do (`auv_mj.tasks.planning.route_time_limit`): each
+episode's is `route_time_limit` of its route's length (twice its time at the classical planners' CRUISE_SPEED plus
+a minute), and never less than the task's floor (GOAL_TIME_LIMIT, TUNNEL_TIME_LIMIT). The route is the tube's
+centreline on tunnel3d (a procedural tube or a user's), the oracle's certificate on a hard goal3d arena (the
+pitch-limited path that certified it), the straight line from start to goal on a standard goal3d arena
+(`Planning3D.route`). A `time_limit` the user gives replaces it, with a warning naming `time_limit` when the route
+cannot be flown in it at CRUISE_SPEED (`RouteEnvironment`).
+
 The two planning tasks act every PLANNER_DT = 0.5 s, as the planar ones: the action (a_speed, a_heading,
 a_depth) in [-1, 1]^3 sets the speed (0..MAX_SPEED), a heading offset (up to HEADING_RANGE) and a depth offset
 (up to DEPTH_RANGE) for the depth-heading executor, which runs at 10 Hz inside the step: the classical one
@@ -40,6 +48,7 @@ from __future__ import annotations
 import auv_mj  # noqa: F401  # isort: skip  (first: it picks MuJoCo's OpenGL backend before dm_control loads)
 import collections
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -131,6 +140,12 @@ DEPTH_RANGE = 5.0
 GOAL_RADIUS = 3.0
 """Reaching within this of the goal [m] ends a goal3d episode in success."""
 GOAL_TIME_LIMIT, TUNNEL_TIME_LIMIT = 200.0, 250.0
+"""The least time limit [s] of a goal3d and a tunnel3d episode: the limits of suite 3d v1, where every episode had
+them; a longer route has longer (`route_time_limit`)."""
+ROUTE_TIME_FACTOR, ROUTE_TIME_MARGIN, ROUTE_TIME_STEP = 2.0, 60.0, 10.0
+"""A route's time limit is ROUTE_TIME_FACTOR times its time at CRUISE_SPEED plus ROUTE_TIME_MARGIN [s], rounded up
+to ROUTE_TIME_STEP [s]: the planar tunnel's rule (`auv_mj.tasks.planning.route_time_limit`) at the 3-D planners'
+speed."""
 WATER_DEPTH = 60.0
 """Depth of the goal3d seabed [m]."""
 COLLISION_REWARD, GOAL_REWARD, PROGRESS_WEIGHT, STEP_COST = -50.0, 50.0, 1.0, 0.01
@@ -141,9 +156,6 @@ radius, summation by parts bounds sum_k gamma^k (d_k - d_{k+1}) by d_0 - GOAL_RA
 < 0; the step that reaches it pays at least that + GOAL_REWARD - STEP_COST (tests/test_rewards.py)."""
 MIN_DEPTH = 1.0
 """Shallower than this [m] is broaching: an episode ends in "left_map"."""
-TUBE_INFLUENCE = 2.5
-"""d0 [m] of the protection domain inside a tube: the walls are always within the open-water domain's 30 m, so
-in a tube only echoes nearer than the wall at its nominal 3 m repel (those of a vehicle off the centreline)."""
 LOOKAHEAD = 8.0
 """Line-of-sight look-ahead [m] along a tube's centreline."""
 GOAL_SIZE = 5
@@ -397,6 +409,19 @@ def target_features(achieved_goal, target) -> np.ndarray:
                      np.where(across > 1e-12, left / safe, 0.0), -offset[..., 2]], axis=-1)
 
 
+def route_time_limit(length: float) -> float:
+    """The time limit [s] of a 3-D route of `length` m: ROUTE_TIME_FACTOR times its time at the classical planners'
+    CRUISE_SPEED plus ROUTE_TIME_MARGIN, in steps of ROUTE_TIME_STEP (the planar tunnel's rule at 1.5 m/s)."""
+    seconds = ROUTE_TIME_FACTOR * float(length) / CRUISE_SPEED + ROUTE_TIME_MARGIN
+    return ROUTE_TIME_STEP * math.ceil(seconds / ROUTE_TIME_STEP - 1e-9)
+
+
+def path_length(path: np.ndarray) -> float:
+    """The length [m] of the polyline `path` (K, 3)."""
+    path = np.asarray(path, dtype=float).reshape(-1, 3)
+    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+
+
 class Planning3D(base.Task):
     """The planning layer in 3-D: (a_speed, a_heading, a_depth) every PLANNER_DT, a classical executor inside.
 
@@ -404,6 +429,7 @@ class Planning3D(base.Task):
     along a path (tunnel3d)."""
 
     time_limit = GOAL_TIME_LIMIT
+    """The least time limit [s] of an episode; a longer route's is longer (`episode_time_limit`)."""
     goal_in_observation = False
     """Whether "observation" holds the goal itself (relative): then a policy needs no desired_goal, and hindsight
     relabelling recomputes those entries (`relabel_observation`)."""
@@ -436,6 +462,12 @@ class Planning3D(base.Task):
         self.command = (0.0, 0.0, START_DEPTH)
         self.path = np.zeros((0, 3))
         self.goal = np.zeros(3)
+        self.route = np.zeros((0, 3))
+        """The episode's route (K, 3) [m], whose length sets its time limit (`episode_time_limit`): the tube's
+        centreline, a hard arena's certificate or the straight line to the goal (module docstring)."""
+        self.tube_radius: float | None = None
+        """The inner radius [m] of the episode's tube (tunnel3d), None in open water: what a planner's protection
+        domain is sized to (`auv_mj.planners.los3d.tube_field`)."""
         self.last_info: dict = {}
         self._loaded_xml = None
         self._desired = np.zeros(GOAL_SIZE)
@@ -465,6 +497,23 @@ class Planning3D(base.Task):
         offset = self.goal - np.asarray(start, dtype=float)
         return math.atan2(offset[1], offset[0])
 
+    def episode_route(self, start: np.ndarray) -> np.ndarray:
+        """The route (K, 3) [m] of the episode just drawn: its global path from `start`, or the straight line from
+        `start` to the goal where it has none."""
+        if len(self.path) >= 2:
+            return self.path.copy()
+        return np.vstack([np.asarray(start, dtype=float), self.goal])
+
+    @property
+    def episode_time_limit(self) -> float:
+        """This episode's time limit [s]: `route_time_limit` of its route's length, at least `time_limit`."""
+        return max(self.time_limit, route_time_limit(path_length(self.route)))
+
+    def known_time_limit(self) -> float:
+        """The time limit [s] known before an episode is drawn (what a progress bar counts to before the first
+        reset): here the least, `time_limit`."""
+        return self.time_limit
+
     def initialize_episode(self, physics: Physics3D) -> None:
         random = np.random.RandomState(FIXED_ARENA_SEED) if self._arena_mode == "fixed" else self.random
         root, start, heading, goal, path = self.draw_arena(random)
@@ -473,6 +522,9 @@ class Planning3D(base.Task):
             physics.reload_from_xml_string(xml, source=source)
             self._loaded_xml = xml
         self.goal, self.path = np.asarray(goal, dtype=float), np.asarray(path, dtype=float).reshape(-1, 3)
+        tube = tubes.tube_from_arena(root) if len(self.path) >= 2 else None
+        self.tube_radius = None if tube is None else float(tube.radius)
+        self.route = self.episode_route(start)
         model = physics.model.ptr
         self.movers = [(int(model.body_mocapid[model.body(f"mover_{m.name}").id]), m)
                        for m in tubes.items_from_arena(root)[1]]
@@ -598,15 +650,31 @@ class Goal3D(Planning3D):
 
     goal_in_observation = True
 
+    def __init__(self, *args, **kwargs):
+        self._certificate: np.ndarray | None = None
+        super().__init__(*args, **kwargs)
+
     def draw_arena(self, random: np.random.RandomState):
+        """A hard arena (`traps3d.hard_goal_arena`, keeping the oracle's certificate as the route) or a standard
+        one (`tubes.goal_arena`)."""
         if self.tier == "hard":
-            return traps3d.hard_goal_arena(random, WATER_DEPTH, self.max_pitch, MIN_DEPTH,
-                                           GOAL_RADIUS).as_tuple()
+            arena = traps3d.hard_goal_arena(random, WATER_DEPTH, self.max_pitch, MIN_DEPTH, GOAL_RADIUS)
+            self._certificate = arena.route
+            return arena.as_tuple()
+        self._certificate = None
         return tubes.goal_arena(random, WATER_DEPTH)
+
+    def episode_route(self, start: np.ndarray) -> np.ndarray:
+        """A hard arena's route is the oracle's certificate (from the start to within GOAL_RADIUS of the goal, at a
+        flyable pitch round or over what is in the way), a standard one's the straight line to the goal."""
+        if self._certificate is not None and len(self._certificate):
+            return np.vstack([np.asarray(start, dtype=float), self._certificate])
+        return super().episode_route(start)
 
 
 class Tunnel3D(Planning3D):
-    """Follow a tube to its end (module docstring)."""
+    """Follow a tube to its end (module docstring); an episode's time limit is its centreline's (`route_time_limit`),
+    at least TUNNEL_TIME_LIMIT."""
 
     time_limit = TUNNEL_TIME_LIMIT
 
@@ -639,6 +707,12 @@ class Tunnel3D(Planning3D):
             root = tubes.tube_arena(tube)
         return root, tube.centreline[0], tube.start_heading(), tube.centreline[-1], tube.centreline
 
+    def known_time_limit(self) -> float:
+        """A tube file's time limit [s] (its centreline is known before any episode), else `time_limit`."""
+        if self._arena_mode == "file":
+            return max(self.time_limit, route_time_limit(self._file[1].length()))
+        return self.time_limit
+
     def goal_heading(self, start: np.ndarray) -> float:
         """The heading of the tube's last segment: the way into its end."""
         if len(self.path) < 2:
@@ -661,26 +735,68 @@ def _los(position, path, lookahead):
     return los_command(position, path, lookahead, CRUISE_SPEED)
 
 
-def _planning_env(task: Planning3D, time_limit: float, environment_kwargs, conditions) -> control.Environment:
-    time_limit = options.time_limit(time_limit)
+class RouteEnvironment(control.Environment):
+    """The environment of a 3-D planning task: its time limit is each episode's route's
+    (`Planning3D.episode_time_limit`, set at every reset), or the `time_limit` a user gave for every episode.
+
+    A given time_limit too short to fly an episode's route at CRUISE_SPEED is kept (a user may want short
+    episodes), with a warning naming `time_limit`, the route's length and its own limit, once per environment."""
+
+    def __init__(self, physics: Physics3D, task: Planning3D, time_limit: float | None, **kwargs):
+        """`time_limit` [s]: None for the route's, else every episode's."""
+        # until the first reset draws a route, the limit known without it
+        super().__init__(physics, task, time_limit=task.known_time_limit() if time_limit is None else time_limit,
+                         **kwargs)
+        self.given_time_limit = time_limit
+        """The user's time limit [s], or None: each episode's route sets its own."""
+        self._warned = False
+
+    def reset(self):
+        time_step = super().reset()
+        task = self._task
+        route_limit = task.episode_time_limit
+        if self.given_time_limit is None:
+            self._step_limit = route_limit / (self._physics.timestep() * self._n_sub_steps)
+        else:
+            length = path_length(task.route)
+            needed = length / CRUISE_SPEED
+            if needed > self.given_time_limit and not self._warned:
+                self._warned = True
+                warnings.warn(f"auv-mj: time_limit={self.given_time_limit:g} s is shorter than the {needed:.0f} s "
+                              f"this episode's {length:.0f} m route takes at the planners' {CRUISE_SPEED:g} m/s: "
+                              f"its episodes will time out before the goal. Leave time_limit out for the route's "
+                              f"own limit ({route_limit:g} s here) or give at least that.", UserWarning,
+                              stacklevel=2)
+        return time_step
+
+    @property
+    def time_limit(self) -> float:
+        """The current episode's time limit [s] (the route's, or the given one)."""
+        return self._step_limit * self._physics.timestep() * self._n_sub_steps
+
+
+def _planning_env(task: Planning3D, time_limit: float | None, environment_kwargs, conditions) -> RouteEnvironment:
+    time_limit = None if time_limit is None else options.time_limit(time_limit)
     environment_kwargs = options.environment_kwargs(environment_kwargs)
     physics = Physics3D.load(None, conditions)
-    return control.Environment(physics, task, time_limit=time_limit, control_timestep=PLANNER_DT,
-                               **environment_kwargs)
+    return RouteEnvironment(physics, task, time_limit, control_timestep=PLANNER_DT, **environment_kwargs)
 
 
 @SUITE3D.add("planning")
-def goal3d(time_limit: float = GOAL_TIME_LIMIT, random=None, environment_kwargs=None,
-           **task_kwargs) -> control.Environment:
-    """Reach a 3-D goal among obstacles over a seabed."""
+def goal3d(time_limit: float | None = None, random=None, environment_kwargs=None,
+           **task_kwargs) -> RouteEnvironment:
+    """Reach a 3-D goal among obstacles over a seabed. `time_limit` [s]: by default each episode's route's
+    (`route_time_limit` of the straight line to the goal, or of a hard arena's certified route; at least
+    GOAL_TIME_LIMIT)."""
     return _planning_env(Goal3D(random=random, **task_kwargs), time_limit, environment_kwargs,
                          task_kwargs.get("conditions"))
 
 
 @SUITE3D.add("planning")
-def tunnel3d(time_limit: float = TUNNEL_TIME_LIMIT, random=None, environment_kwargs=None,
-             **task_kwargs) -> control.Environment:
-    """Follow a tube along an x, y, z centreline to its end."""
+def tunnel3d(time_limit: float | None = None, random=None, environment_kwargs=None,
+             **task_kwargs) -> RouteEnvironment:
+    """Follow a tube along an x, y, z centreline to its end. `time_limit` [s]: by default each episode's tube's
+    (`route_time_limit` of its centreline's length; at least TUNNEL_TIME_LIMIT)."""
     return _planning_env(Tunnel3D(random=random, **task_kwargs), time_limit, environment_kwargs,
                          task_kwargs.get("conditions"))
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -80,7 +80,7 @@ TRIES = 30
 @dataclass(frozen=True)
 class Arena3D:
     """A drawn arena: its MJCF root, start (3,), heading [rad], goal (3,), global path (K, 3) (empty in open water)
-    and its kind."""
+    and its kind; once certified, the certificate."""
 
     root: ET.Element
     start: np.ndarray
@@ -88,6 +88,9 @@ class Arena3D:
     goal: np.ndarray
     path: np.ndarray
     kind: str
+    route: np.ndarray | None = None
+    """The oracle's certificate (m, 3) [m]: a pitch-limited voxel path from the start to within the goal radius
+    (`certify`), None before certification. A task's time limit covers it (`auv_mj.tasks.auv3d.route_time_limit`)."""
 
     def as_tuple(self):
         """(root, start, heading, goal, path): what a 3-D task's `draw_arena` returns."""
@@ -176,8 +179,9 @@ def hard_goal_arena(random: np.random.RandomState, water_depth: float, max_pitch
     reason = ""
     for _ in range(TRIES):
         arena = _draw_goal(random, water_depth, kind)
-        if certify(arena, max_pitch, surface, goal_radius) is not None:
-            return arena
+        route = certify(arena, max_pitch, surface, goal_radius)
+        if route is not None:
+            return replace(arena, route=route)
         reason = "no pitch-limited path keeps the oracle's clearance"
     raise RuntimeError(f"no certified hard {kind} arena in {TRIES} draws: {reason}")
 
@@ -222,8 +226,9 @@ def hard_tube(random: np.random.RandomState, max_pitch: float) -> Arena3D:
             world.append(plug)
         line = tube.centreline
         arena = Arena3D(root, line[0], tube.start_heading(), line[-1], line, "plugs")
-        if certify(arena, max_pitch, None, 2.0, corridor=(line, tube.radius)) is not None:
-            return arena
+        route = certify(arena, max_pitch, None, 2.0, corridor=(line, tube.radius))
+        if route is not None:
+            return replace(arena, route=route)
     raise RuntimeError(f"no certified hard tube in {TRIES} draws")
 
 
