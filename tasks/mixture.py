@@ -33,6 +33,7 @@ from gymnasium.vector.utils import batch_space
 
 from auv_mj import seeds as seed_ranges
 from auv_mj.tasks import options as checks
+from auv_mj.tasks import planning
 from auv_mj.tasks.vector import AUVVectorEnv
 
 MIXTURE_TASKS = ("obstacles", "moving_obstacles", "tunnel")
@@ -123,6 +124,8 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         self.envs_per_cell = self.cell_sizes[0] if len(set(self.cell_sizes)) == 1 else self.cell_sizes
         self.reward_scale = float(reward_scale)
         self.task_kwargs = task_kwargs
+        self.policy_options = planning.policy_options(task_kwargs)
+        """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` given: what a policy trained here must run with."""
         self.subenvs = [AUVVectorEnv(task, num_envs=n, threads=threads,
                                      task_kwargs={**task_kwargs, "arena": "random", "tier": tier, "conditions": water})
                         for (task, tier, water), n in zip(self.cells, self.cell_sizes, strict=True)]

@@ -309,6 +309,14 @@ SONAR_SLICE = slice(-len(SONAR_NAMES), None)
 """The nine sonar ranges / SONAR_RANGE end both observation vectors."""
 REWARDS = ("suite", "paper", "progress", "geodesic")
 ACTIONS = ("paper", "rate")
+POLICY_OPTIONS = ("action", "observation")
+"""The task options that shape what a policy reads and does: a policy trained with them runs with them (the batched
+envs report theirs as `policy_options`, a PPO checkpoint keeps them, the zoo applies them)."""
+
+
+def policy_options(task_kwargs: Mapping) -> dict:
+    """The POLICY_OPTIONS given in `task_kwargs`."""
+    return {name: task_kwargs[name] for name in POLICY_OPTIONS if name in task_kwargs}
 """The action maps (module docstring): "paper", Table 3's heading offset; "rate", the heading command's change."""
 ROUTE_HORIZON = 80.0
 """On a route of many goals a planner aims at the route point this far [m] along it from the current goal

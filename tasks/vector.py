@@ -118,6 +118,8 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         if environment_kwargs.get("flat_observation"):
             raise ValueError("environment_kwargs: flat_observation is not supported by the vector env")
         self.task_name, self.task_kwargs = task_name, task_kwargs
+        self.policy_options = planning.policy_options(task_kwargs)
+        """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` given: what a policy trained here must run with."""
         self.num_envs = int(num_envs)
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.autoreset_mode = mode

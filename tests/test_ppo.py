@@ -769,3 +769,25 @@ def test_per_cell_success_collisions_speed_and_return_go_to_csv_and_tensorboard(
     assert {"cells/hard/ocean/collision_rate", "cells/easy/ideal/mean_speed", "ppo/learning_rate",
             "ppo/success_rate"} <= tags
     assert [e.value for e in board.Scalars("cells/hard/ocean/collision_rate")] == [1.0] * 3
+
+
+def test_a_checkpoint_keeps_the_task_options_it_was_trained_with_and_the_zoo_runs_it_with_them(tmp_path):
+    """A PPO run on a batched env with the learner's action map and observation (`POLICY_OPTIONS`) writes them into
+    its checkpoint; the zoo deploys that file with them (its observation fits), and a run without them has none."""
+    from auv_mj.tasks.vector import AUVVectorEnv
+    from auv_mj.zoo import registry
+
+    options = {"action": "rate", "observation": "planner"}
+    env = AUVVectorEnv("obstacles", 2, task_kwargs={"reward": "geodesic", **options}, threads=1)
+    config = dataclasses.replace(TOY_CONFIG, num_steps=4, num_minibatches=2, update_epochs=1)
+    result = train(env, config, tmp_path / "run", total_steps=8, progress=False)
+    spec = read_ppo(result.checkpoint)[0].metadata["spec"]
+    assert spec["task_options"] == options
+    deployed = registry.make_env(str(result.checkpoint), "obstacles", 0)
+    assert deployed.task.action_kind == "rate" and deployed.task.observation_kind == "planner"
+    policy = registry.make_policy(str(result.checkpoint), deployed, 0, "obstacles")
+    time_step = deployed.reset()
+    assert np.all(np.isfinite(policy.act(time_step)))
+    plain = AUVVectorEnv("obstacles", 2, threads=1)
+    result = train(plain, config, tmp_path / "plain", total_steps=8, progress=False)
+    assert "task_options" not in read_ppo(result.checkpoint)[0].metadata["spec"]

@@ -45,7 +45,7 @@ from auv_mj.agents.ppo import ppo
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.seeds import VALIDATION
 from auv_mj.tasks.mixture import MIXTURE_TASKS, TIERS, WATERS, PlanningMixtureVectorEnv, cell_counts, mixture_cells
-from auv_mj.tasks.planning import PLANNER_DT
+from auv_mj.tasks.planning import GEODESIC_DISCOUNT, PLANNER_DT
 from auv_mj.tasks.vector import AUVVectorEnv
 
 VALIDATION_NAME = "validation.csv"
@@ -78,6 +78,11 @@ class MixtureConfig:
     """Subtracted on a collision or leaving the map (the task option of that name; None: the task's own)."""
     reward_scale: float = 0.1
     """Multiplies every reward (keeps PPO's value targets near 1)."""
+    action: str | None = None
+    """The tasks' action map (`auv_mj.tasks.planning`'s `action` option: "rate" is linear onto the heading
+    command's per-step change); None: the task's default, the paper's map (the shipped run's)."""
+    observation: str | None = None
+    """The tasks' observation (e.g. "planner": what the classical planners read); None: the task's default."""
     cell_weights: tuple[str, ...] = ()
     """Oversampling, as "NAME=WEIGHT" entries naming a task, tier or water: a cell gets round(envs_per_cell x the
     product of its names' weights) vehicles (a name without an entry weighs 1; `cell_counts`)."""
@@ -136,7 +141,13 @@ class MixtureConfig:
         kwargs: dict[str, Any] = {"reward": self.reward}
         if self.collision_penalty is not None:
             kwargs["collision_penalty"] = self.collision_penalty
-        return kwargs
+        return {**kwargs, **self.policy_kwargs()}
+
+    def policy_kwargs(self) -> dict[str, Any]:
+        """The task options that shape what the policy reads and does (action map, observation): validation and
+        deployment must run the policy with them too."""
+        return {name: value for name, value in (("action", self.action), ("observation", self.observation))
+                if value is not None}
 
     def make_env(self, threads: int | None = None) -> PlanningMixtureVectorEnv:
         """The training env."""
@@ -177,10 +188,12 @@ def windowed_choice(scores: Sequence[float], window: int) -> int | None:
 
 def validate(policy: PPOPolicy, episodes: int, tasks: Sequence[str] = MIXTURE_TASKS, tier: str = "hard",
              waters: Sequence[str] = WATERS, first_seed: int = VALIDATION_FIRST_SEED,
-             threads: int | None = None, max_steps: int | None = None) -> dict[str, float]:
+             threads: int | None = None, max_steps: int | None = None,
+             task_kwargs: dict[str, Any] | None = None) -> dict[str, float]:
     """Success rate of the deterministic `policy` on `episodes` VALIDATION-seed episodes of each (task, water)
     cell of `tier`, all of a cell's episodes stepped together in one batched env; {"task/tier/water": rate}.
-    `max_steps` cuts the episodes (those not over by then count as failures); None: the tasks' time limits."""
+    `max_steps` cuts the episodes (those not over by then count as failures); None: the tasks' time limits.
+    `task_kwargs`: the options the policy was trained with that shape its input and output (`policy_kwargs`)."""
     seeds = list(range(first_seed, first_seed + episodes))
     if seeds[0] not in VALIDATION or seeds[-1] not in VALIDATION:
         raise ValueError(f"validation seeds {seeds[0]}..{seeds[-1]} leave auv_mj.seeds.VALIDATION")
@@ -188,7 +201,8 @@ def validate(policy: PPOPolicy, episodes: int, tasks: Sequence[str] = MIXTURE_TA
     for task in tasks:
         for water in waters:
             env = AUVVectorEnv(task, num_envs=episodes, threads=threads,
-                               task_kwargs={"arena": "random", "tier": tier, "conditions": water})
+                               task_kwargs={**(task_kwargs or {}), "arena": "random", "tier": tier,
+                                            "conditions": water})
             try:
                 obs, _ = env.reset(seed=seeds)
                 policy.reset()
@@ -277,7 +291,7 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
         shutil.copyfile(result.checkpoint, snapshot)
         started = time.perf_counter()
         rates = validate(PPOPolicy.load(snapshot), mixture.validation_episodes, mixture.tasks, threads=threads,
-                         max_steps=mixture.validation_max_steps)
+                         max_steps=mixture.validation_max_steps, task_kwargs=mixture.policy_kwargs())
         scores.append(round(float(np.mean(list(rates.values()))), 4))
         row = {"env_steps": steps, "train_wall_s": round(float(meta["counters"]["wall_time"]), 1),
                "episodes": mixture.validation_episodes, "hard_success": scores[-1],
@@ -309,24 +323,23 @@ rollouts, about 0.5 M steps, and the update on two threads (the batch's physics 
 Others are CleanRL's (`ppo.PPOConfig`)."""
 
 
-LEARNED_GAMMA = 0.997
-"""The discount of the new learning problem (issue 51: 0.995-0.999, to look across the hard tier's 100-300 m
-detours at 2 Hz). The geodesic reward's own constant, once tasks/planning.py defines one, replaces this."""
-
 LEARNED_CONFIG = dataclasses.replace(
-    PLANNER_CONFIG, gamma=LEARNED_GAMMA, lr_schedule="linear", min_learning_rate=3e-5, target_kl=0.03,
+    PLANNER_CONFIG, gamma=GEODESIC_DISCOUNT, lr_schedule="linear", min_learning_rate=3e-5, target_kl=0.03,
     separate_critic=True, privileged_critic=True)
-"""PPO for the new learning problem (issue 51, item 4): PLANNER_CONFIG with the discount LEARNED_GAMMA, the
+"""PPO for the new learning problem (issue 51, item 4): PLANNER_CONFIG with the geodesic reward's own discount
+(`auv_mj.tasks.planning.GEODESIC_DISCOUNT`: its shaping is policy-invariant at that discount only), the
 learning rate annealed linearly to a tenth over the whole run (CleanRL anneals to 0; the floor keeps the late
 snapshots learning), a KL limit of 0.03 (an update stops after the first epoch past it), and a critic of its own
 (an encoder and GRU of its own, sb3-contrib's default) that reads the env's info["privileged"] (the geodesic
 distance to the goal, the true clearance, the cell and the time left), which the actor never sees."""
 
 LEARNED_MIXTURE = MixtureConfig(
-    reward="geodesic", collision_penalty=None, cell_weights=("standard=0.5", "hard=1.5", "tunnel=1.5"),
+    reward="geodesic", collision_penalty=None, action="rate", observation="planner",
+    cell_weights=("standard=0.5", "hard=1.5", "tunnel=1.5"),
     validate_every=500_000, validation_episodes=50, validation_window=3)
 """The training mixture of the new learning problem (issue 51): the geodesic reward with the task's own success
-bonus and collision penalty (item 1; this config needs that reward in the tasks). The hard cells are oversampled: a
+bonus and collision penalty (item 1), the action map linear onto the heading command's per-step change (item 2)
+and the observation the classical planners read (item 3). The hard cells are oversampled: a
 hard cell weighs 1.5 and a standard one 0.5 (kept, as the standard tier is half of the benchmark's targets, but a
 third as often), a tunnel 1.5 more (the cells the shipped planner fails): 4 vehicles in each standard obstacles
 and movers cell, 6 in each standard tunnel cell, 12 in each hard obstacles and movers cell and 18 in each hard

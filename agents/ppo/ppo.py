@@ -883,6 +883,9 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
     threads = torch.get_num_threads()  # the caller's, given back at the end (the loop sets its own)
     try:
         spec = env_spec(vec_env.single_observation_space, vec_env.single_action_space)
+        options = dict(getattr(vec_env, "policy_options", None) or {})
+        if options:  # the task options the policy must run with (the zoo applies them when it deploys the file)
+            spec["task_options"] = options
         autoreset_mode(vec_env)
         num_envs = int(vec_env.num_envs)
         if resume:

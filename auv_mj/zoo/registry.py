@@ -445,8 +445,11 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     elif spec.default_executor is not None and planning:
         task_kwargs["executor"] = named_executor(spec.default_executor, three_d)
     checkpoint = _checkpoint_of(spec, path, task_name)
-    if checkpoint is not None and "observation" not in task_kwargs and checkpoint_kind(checkpoint) != "ppo":
-        # an off-policy checkpoint gets the observation it was trained on; a PPO one reads the task's default
+    if checkpoint is not None and checkpoint_kind(checkpoint) == "ppo":  # the options it was trained with
+        trained = read_checkpoint(checkpoint).metadata["spec"].get("task_options", {})
+        task_kwargs.update({k: v for k, v in trained.items() if k not in task_kwargs})
+    elif checkpoint is not None and "observation" not in task_kwargs:
+        # an off-policy checkpoint gets the observation it was trained on
         meta = read_checkpoint(checkpoint).metadata
         if not planning:  # the executor's observation (residual, gains, base) it was trained with
             trained = meta.get("run_info", {}).get("task_kwargs", {})
