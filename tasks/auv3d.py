@@ -56,7 +56,7 @@ import mujoco
 import numpy as np
 from dm_control.rl import control
 from dm_control.suite import base
-from dm_control.utils import containers, rewards
+from dm_control.utils import rewards
 from dm_env import specs
 
 from auv_mj.arenas import arena3d, arena_check, traps3d, tubes
@@ -80,10 +80,9 @@ from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
 from auv_mj.tasks.depth_executor import SENSOR_NAMES, DepthExecutorMemory
 from auv_mj.tasks.planning import info_field
+from auv_mj.tasks.registry import DOMAIN_3D, SUITE3D
 
-SUITE3D = containers.TaggedTasks()
-"""Task name -> factory of the "auv3d" domain."""
-DOMAIN = "auv3d"
+DOMAIN = DOMAIN_3D
 
 # --- depth_heading -------------------------------------------------------------------------------------------
 EPISODE_STEPS = 1100
@@ -442,7 +441,7 @@ class Planning3D(base.Task):
                  executor=None):
         """`arena`: "random" (one per episode), "fixed" or (tunnel3d) a tube file; `conditions`: ocean
         (`auv_mj.sim.ocean3d`); `tier`: TIERS; `executor`: None (the hand-set depth-heading S-plane), a name of
-        `auv_mj.tasks.executors.EXECUTORS_3D` (or a depth_heading checkpoint path), or a callable
+        `auv_mj.tasks.executors.executor_names("auv3d")` (or a depth_heading checkpoint path), or a callable
         executor(command, State3D) -> (thrust [N], rudder [rad], stern [rad]) with `reset()`, called every
         EXECUTOR_DT."""
         self._arena_mode = self._arena_option(arena)
@@ -454,7 +453,7 @@ class Planning3D(base.Task):
         if isinstance(executor, str):
             from auv_mj.tasks.executors import named_executor  # the learned ones load torch: only when named
 
-            executor = named_executor(executor, three_d=True)
+            executor = named_executor(executor, DOMAIN)
         if executor is not None and not (callable(executor) and hasattr(executor, "reset")):
             raise ValueError(f"task option executor must be an executor(command, state) with reset() or its name, "
                              f"got {options.shown(executor)}")

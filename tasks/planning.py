@@ -1210,7 +1210,7 @@ class PlanningTask(base.Task):
                  goal_radius: float = GOAL_RADIUS, observation: str = "relative", random=None,
                  conditions="ideal", collision_penalty: float = 0.0, action: str = "paper"):
         """`executor(command, state) -> (tau_u, tau_r)` (default `SPlaneController()`), or its name
-        (`auv_mj.tasks.executors.EXECUTORS`, or a speed_heading checkpoint path); `reward` one of
+        (`auv_mj.tasks.executors.executor_names()`, or a speed_heading checkpoint path); `reward` one of
         REWARDS; `observation` "relative" (RELATIVE_FIELDS, the default) or "paper" (OBSERVATION_FIELDS);
         `conditions`: "ideal", "ocean" or a mapping of ocean effects (`auv_mj.sim.ocean.conditions`);
         `collision_penalty`: subtracted from the "paper" and "progress" rewards on a collision or on leaving

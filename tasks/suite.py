@@ -25,6 +25,7 @@ from auv_mj.inputs import did_you_mean, shown, unknown_name
 from auv_mj.tasks import goal, obstacles, path_following, speed_heading, tunnel, waypoints  # noqa: F401 (registers)
 from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
 from auv_mj.tasks.auv3d import SUITE3D
+from auv_mj.tasks.domains import DOMAINS
 from auv_mj.tasks.registry import SUITE
 
 DOMAIN = "auv"
@@ -40,7 +41,7 @@ TASKS_3D = tuple((DOMAIN_3D, name) for name in SUITE3D)
 """Every (domain, task) pair of the 6-DOF domain "auv3d"."""
 ALL_TASKS = PLANAR_TASKS + TASKS_3D
 """Every (domain, task) pair of both domains, as dm_control's `suite.ALL_TASKS`."""
-_REGISTRIES = {DOMAIN: SUITE, DOMAIN_3D: SUITE3D}
+_REGISTRIES = {name: domain.registry for name, domain in DOMAINS.items()}
 
 
 def domain_of(task_name: str) -> str:

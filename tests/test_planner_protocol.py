@@ -64,9 +64,9 @@ def test_suite_load_takes_every_executor_name():
     from auv_mj.benchmark.runner import run_episode
     from auv_mj.episode import episode_metrics
     from auv_mj.tasks.executors import executor_names
-    from auv_mj.zoo.executors import EXECUTORS, EXECUTORS_3D
+    from auv_mj.zoo.executors import EXECUTORS
 
-    assert executor_names() == list(EXECUTORS) and executor_names(three_d=True) == list(EXECUTORS_3D)
+    assert executor_names() == list(EXECUTORS["auv"]) and executor_names("auv3d") == list(EXECUTORS["auv3d"])
     for name in executor_names():
         env = suite.load("auv", "path_line", task_kwargs={"random": 0, "executor": name})
         assert callable(env.task.executor)

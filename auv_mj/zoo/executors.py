@@ -1,6 +1,6 @@
 """Executors by name, resolved here once: the zoo turns every executor name into a callable and hands it to the task.
 
-`named_executor(name, three_d)` gives the executor of a planning task: the S-planes (Eq. 32, and its gains re-tuned
+`named_executor(name, domain)` gives the executor of a planning task: the S-planes (Eq. 32, and its gains re-tuned
 in ocean water; the tasks' own `auv_mj.tasks.executors.CLASSICAL`), the learned execution layers (the paper's DDPG
 executor, the TD3 ocean executor, the 6-DOF depth executor) or a trained speed_heading / depth_heading checkpoint
 file. The learned ones are also declared in pyproject.toml's entry-point groups `auv_mj.executors` and
@@ -20,6 +20,7 @@ from auv_mj.sim.vehicle import actuator_ranges
 from auv_mj.tasks import executors as task_executors
 from auv_mj.tasks.depth_executor import DepthExecutorMemory
 from auv_mj.tasks.depth_executor import executor_options as depth_executor_options
+from auv_mj.tasks.domains import DOMAINS
 from auv_mj.tasks.speed_heading import ExecutorMemory, executor_options
 from auv_mj.zoo.checkpoints import shipped_checkpoint
 
@@ -54,14 +55,13 @@ class LearnedExecutor:
         return self._act(np.clip(self.policy(self.memory.observe(command, state)), -1.0, 1.0))
 
 
-def learned_executor(path: Path | None = None, three_d: bool = False) -> LearnedExecutor:
-    """The shipped (or given) learned execution layer as a task executor (`three_d`: a depth executor of the
-    6-DOF vehicle)."""
-    if three_d:
-        low, high = actuator_ranges("auv3d.xml")
-        return LearnedExecutor(Policy.load(path or shipped_checkpoint("depth-executor")), low, high, three_d=True)
-    low, high = actuator_ranges("auv.xml")
-    return LearnedExecutor(Policy.load(path or shipped_checkpoint("executor")), low, high)
+def learned_executor(path: Path | None = None, domain: str = "auv") -> LearnedExecutor:
+    """The shipped (or given) learned execution layer of `domain`'s vehicle as a task executor ("auv3d": a depth
+    executor of the 6-DOF vehicle); its output scaled to the vehicle's actuator ranges, read from its MJCF."""
+    three_d = domain == "auv3d"
+    low, high = actuator_ranges(DOMAINS[domain].vehicle)
+    default = shipped_checkpoint("depth-executor" if three_d else "executor")
+    return LearnedExecutor(Policy.load(path or default), low, high, three_d=three_d)
 
 
 def paper_executor() -> LearnedExecutor:
@@ -76,28 +76,28 @@ def ocean_executor() -> LearnedExecutor:
 
 def depth_executor() -> LearnedExecutor:
     """The learned depth executor (`depth-executor`), by name in EXECUTORS_3D."""
-    return learned_executor(shipped_checkpoint("depth-executor"), three_d=True)
+    return learned_executor(shipped_checkpoint("depth-executor"), "auv3d")
 
 
 def learned_depth_executor(path: Path) -> LearnedExecutor:
     """A depth_heading checkpoint file as a 6-DOF executor (entry point `checkpoint` of `auv_mj.executors_3d`)."""
-    return learned_executor(path, three_d=True)
+    return learned_executor(path, "auv3d")
 
 
-EXECUTORS: dict[str, Callable[[], task_executors.Executor]] = {
-    **task_executors.CLASSICAL, "executor": paper_executor, "ocean-executor": ocean_executor}
-"""Executor name -> a function making it, on the planar planning tasks."""
-EXECUTORS_3D: dict[str, Callable[[], task_executors.Executor]] = {
-    **task_executors.CLASSICAL_3D, "depth-executor": depth_executor}
-"""The same on the 6-DOF planning tasks (goal3d, tunnel3d)."""
+EXECUTORS: dict[str, dict[str, Callable[[], task_executors.Executor]]] = {
+    "auv": {**DOMAINS["auv"].executors, "executor": paper_executor, "ocean-executor": ocean_executor},
+    "auv3d": {**DOMAINS["auv3d"].executors, "depth-executor": depth_executor},
+}
+"""Domain -> executor name -> a function making it: the tasks' S-planes and the learned execution layers."""
 
 
-def named_executor(name: str | Path, three_d: bool = False) -> task_executors.Executor:
-    """The executor `name` (one of EXECUTORS, or a speed_heading checkpoint path; with `three_d`, of a 6-DOF task,
-    one of EXECUTORS_3D or a depth_heading checkpoint path); ValueError naming it, and the nearest name, otherwise."""
-    table = EXECUTORS_3D if three_d else EXECUTORS
+def named_executor(name: str | Path, domain: str = "auv") -> task_executors.Executor:
+    """The executor `name` of `domain`'s planning tasks (one of EXECUTORS[domain], or a checkpoint path: a
+    speed_heading one on the planar tasks, a depth_heading one on the 6-DOF tasks); ValueError naming it, and the
+    nearest name, otherwise."""
+    table = EXECUTORS[domain]
     if isinstance(name, str) and name in table:
         return table[name]()
     if isinstance(name, str | Path) and Path(name).is_file():
-        return learned_executor(Path(name), three_d=three_d)
+        return learned_executor(Path(name), domain)
     raise task_executors.unknown_executor(name, list(table))

@@ -19,10 +19,10 @@ Besides the names:
 - `RESOLVERS` turn other forms of name into specs (e.g. a module's factory, `MODULE:FACTORY`).
 
 On the planning tasks the executor under any planner without an executor of its own is chosen in the task
-options, `--task-kwargs '{"executor": NAME}'`, NAME one of EXECUTORS (or a speed_heading checkpoint path), e.g.
+options, `--task-kwargs '{"executor": NAME}'`, NAME one of EXECUTORS["auv"] (or a speed_heading checkpoint path), e.g.
 the general planner on the learned ocean executor:
 `--policy planner-general --task-kwargs '{"executor": "ocean-executor"}'`. On the 6-DOF planning tasks (goal3d,
-tunnel3d) NAME is one of EXECUTORS_3D (or a depth_heading checkpoint path), e.g. `--policy los-avoid --task goal3d
+tunnel3d) NAME is one of EXECUTORS["auv3d"] (or a depth_heading checkpoint path), e.g. `--policy los-avoid --task goal3d
 --task-kwargs '{"executor": "depth-executor"}'`.
 """
 
@@ -50,17 +50,16 @@ from auv_mj.planners.guidance import classical, is_goal_task, line_of_sight
 from auv_mj.planners.los3d import classical_3d, los_policy
 from auv_mj.planners.map_planner import MEMORY_BEAMS, fast_line_of_sight, sonar_map_planner, true_map_planner
 from auv_mj.planners.map_planner3d import sonar_voxel_planner, true_voxel_planner
+from auv_mj.tasks import domains as suite_domains
 from auv_mj.tasks import suite
 from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
-from auv_mj.tasks.auv3d import SUITE3D, DepthHeading, is_3d, splane_policy
+from auv_mj.tasks.auv3d import DepthHeading, splane_policy
 from auv_mj.tasks.depth_executor import executor_options as depth_executor_options
 from auv_mj.tasks.gym_adapter import gym_spaces
-from auv_mj.tasks.registry import SUITE
 from auv_mj.tasks.speed_heading import executor_options, executor_policy
 from auv_mj.zoo.checkpoints import _checkpoint_dir, checkpoint_path, shipped_checkpoint  # noqa: F401  (re-exported)
 from auv_mj.zoo.executors import (  # noqa: F401  (re-exported: the zoo's face, and the entry points' targets)
     EXECUTORS,
-    EXECUTORS_3D,
     LearnedExecutor,
     depth_executor,
     learned_depth_executor,
@@ -77,6 +76,7 @@ from auv_mj.zoo.spec import (
     RUNS_ON,  # noqa: F401  (re-exported)
     Deployment,
     PolicySpec,
+    by_domain,
     register,
 )
 
@@ -170,7 +170,7 @@ def _splane_ocean(deployment: Deployment) -> Planner:
     """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading
     (`OCEAN_GAINS`) and on depth_heading (`OCEAN_DEPTH_GAINS`)."""
     env = deployment.env
-    if is_3d(env):
+    if deployment.domain == DOMAIN_3D:
         return splane_policy(env, OCEAN_DEPTH_GAINS) if isinstance(env.task, DepthHeading) else los_policy(env)
     return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
 
@@ -252,7 +252,7 @@ register("los-executor", PolicySpec("line of sight on the learned DDPG executor:
 register("splane", PolicySpec("the classical baseline: line of sight + the S-plane (Eq. 32), or the S-plane alone "
                               "on speed_heading (auv3d: the depth-heading S-plane, with 3-D line of sight on "
                               "goal3d/tunnel3d)",
-                              lambda d: classical_3d(d.env) if is_3d(d.env) else classical(d.env),
+                              by_domain(auv=lambda d: classical(d.env), auv3d=lambda d: classical_3d(d.env)),
                               domains=BOTH))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
                                     "(`auv_mj.control.splane.OCEAN_GAINS`; auv3d: the depth-heading S-plane's, "
@@ -260,7 +260,8 @@ register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tune
                                     default_executor="splane-ocean", role="reference", domains=BOTH))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner (auv3d: 3-D line of sight, the domain on the 3-D fan)",
-                                 lambda d: classical_3d(d.env, avoid=True) if is_3d(d.env) else line_of_sight(d.env),
+                                 by_domain(auv=lambda d: line_of_sight(d.env),
+                                           auv3d=lambda d: classical_3d(d.env, avoid=True)),
                                  tasks="planning", protection="paper", role="paper", domains=BOTH))
 register("planner-map", PolicySpec(
     "planner-route on the sonar map's path without training on it (`guide=\"map\"`): what planner-general's "
@@ -315,7 +316,8 @@ register("map-replan", PolicySpec("the mapping local planner: a sonar occupancy 
                                   "`auv_mj.planners.map_planner`; auv3d: a voxel map of the 3-D fan and the "
                                   "altimeter, a pitch-limited search, 3-D line of sight, "
                                   "`auv_mj.planners.map_planner3d`)",
-                                  lambda d: sonar_voxel_planner(d.env) if is_3d(d.env) else sonar_map_planner(d.env),
+                                  by_domain(auv=lambda d: sonar_map_planner(d.env),
+                                            auv3d=lambda d: sonar_voxel_planner(d.env)),
                                   tasks="planning", protection="speed-aware", domains=BOTH))
 register("bug", PolicySpec("a complete sensor-based planner of the Bug family (DistBug's leave rule) on the "
                            "sonar's remembered echoes, at 2 m/s inside the speed-aware domain (`auv_mj.planners.bug`)",
@@ -323,7 +325,8 @@ register("bug", PolicySpec("a complete sensor-based planner of the Bug family (D
 register("oracle", PolicySpec("plans on the true map (every geom, movers where they are) and follows the plan as "
                               "map-replan does: certifies arenas, the reference of time efficiency (auv3d: on the "
                               "true voxel map)",
-                              lambda d: true_voxel_planner(d.env) if is_3d(d.env) else true_map_planner(d.env),
+                              by_domain(auv=lambda d: true_map_planner(d.env),
+                                        auv3d=lambda d: true_voxel_planner(d.env)),
                               family="reference", tasks="planning",
                               protection="speed-aware", role="reference", domains=BOTH))
 register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference",
@@ -378,7 +381,7 @@ def _checkpoint_of(spec: PolicySpec, path: Path | None, task: str | None) -> Pat
 
 def executor_tasks() -> tuple[str, ...]:
     """The suite's execution-layer tasks of both domains (tagged "executor"): the tasks with no executor option."""
-    return tuple(t for _, t in suite.tasks_by_tag("executor")) + tuple(SUITE3D.tagged("executor"))
+    return tuple(t for domain in suite_domains.DOMAINS.values() for t in domain.registry.tagged("executor"))
 
 
 def domain_tasks(domain: str, runs_on: str = "any") -> list[str]:
@@ -386,7 +389,7 @@ def domain_tasks(domain: str, runs_on: str = "any") -> list[str]:
     names = suite.TASKS_BY_DOMAIN[domain]
     if runs_on == "any":
         return list(names)
-    tagged = set((SUITE3D if domain == DOMAIN_3D else SUITE).tagged(runs_on))
+    tagged = set(suite_domains.DOMAINS[domain].registry.tagged(runs_on))
     return [t for t in names if t in tagged]
 
 
@@ -434,16 +437,17 @@ def make_env(policy_name: str, task_name: str, seed: int, **task_kwargs):
     task_kwargs["random"] = seed
     executor = task_kwargs.get("executor")
     planning = task_name not in executor_tasks()
-    three_d = suite.domain_of(task_name) == DOMAIN_3D
+    domain = suite.domain_of(task_name)
+    three_d = domain == DOMAIN_3D
     if spec.executor is not None and planning:
         if executor is not None:
             raise ValueError(f"policy {policy_name!r} runs the learned executor {spec.executor!r}; leave 'executor' "
                              f"out of task_kwargs (or use a planner policy with it)")
-        task_kwargs["executor"] = named_executor(spec.executor, three_d)
+        task_kwargs["executor"] = named_executor(spec.executor, domain)
     elif isinstance(executor, str):
-        task_kwargs["executor"] = named_executor(executor, three_d)
+        task_kwargs["executor"] = named_executor(executor, domain)
     elif spec.default_executor is not None and planning:
-        task_kwargs["executor"] = named_executor(spec.default_executor, three_d)
+        task_kwargs["executor"] = named_executor(spec.default_executor, domain)
     checkpoint = _checkpoint_of(spec, path, task_name)
     if checkpoint is not None and checkpoint_kind(checkpoint) == "ppo":  # the options it was trained with
         trained = read_checkpoint(checkpoint).metadata["spec"].get("task_options", {})
@@ -467,14 +471,14 @@ def make_policy(policy_name: str, env, seed: int = 0, task: str | None = None) -
     checkpoint). ValueError (`check_runs_on`) for a policy that does not run on `task`, or on `env`'s domain when no
     task is named."""
     spec, path = resolve(policy_name)
-    domain = DOMAIN_3D if is_3d(env) else suite.DOMAIN
+    domain = suite_domains.of_env(env).name
     if task is not None:
         check_runs_on(policy_name, task)
     elif domain not in spec.domains:
         raise ValueError(f"policy {policy_name!r} runs on {_runs_on_text(spec)}, not on a {DOMAINS[domain]} task")
     checkpoint = _checkpoint_of(spec, path, task)
-    planner = as_planner(spec.build(Deployment(env, task, seed, checkpoint, spec)))
-    if checkpoint is None and spec.protection and not is_3d(env):  # a classical policy inside a protection domain
+    planner = as_planner(spec.build(Deployment(env, task, seed, checkpoint, spec, domain)))
+    if checkpoint is None and spec.protection and domain == "auv":  # a classical policy inside a protection domain
         # (an auv3d policy carries its own domain on the 3-D fan)
         planner = with_repulsion(planner, protection_field(spec.protection), map_fence(env))
     return planner
@@ -488,7 +492,7 @@ def resolve_tasks(spec: str, policy_name: str = "splane") -> list[str]:
     a task named alone that it does not run on is refused in one line (`check_runs_on`)."""
     domains = {d: list(names) for d, names in suite.TASKS_BY_DOMAIN.items()}
     names = [t for group in domains.values() for t in group]
-    tags = sorted(set(suite.TAGS) | set(SUITE3D.tags()))
+    tags = sorted({tag for domain in suite_domains.DOMAINS.values() for tag in domain.registry.tags()})
     if spec in names:
         check_runs_on(policy_name, spec)
         return [spec]

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from auv_mj.episode import Planner
+from auv_mj.tasks import domains as suite_domains
 
 ROLES = {"use": "To use", "paper": "The paper's", "reference": "References and ablations",
          "comparison": "Kept for comparison"}
@@ -19,9 +20,9 @@ ROLES = {"use": "To use", "paper": "The paper's", "reference": "References and a
 use, the paper's own, the references and ablations that measure others, and earlier ones kept for comparison."""
 RUNS_ON = ("planning", "executor", "any")
 """What a spec's `tasks` may be: the suite's tasks tagged "planning", those tagged "executor", or every task."""
-DOMAINS = {"auv": "planar", "auv3d": "6-DOF"}
+DOMAINS = {name: domain.title for name, domain in suite_domains.DOMAINS.items()}
 """The suite's domains a spec may run on (`PolicySpec.domains`) -> the word the tables and refusals use: "auv", the
-planar vehicle of the paper (surge, sway, yaw), and "auv3d", the 6-DOF REMUS-100."""
+planar vehicle of the paper (surge, sway, yaw), and "auv3d", the 6-DOF REMUS-100 (`auv_mj.tasks.domains`)."""
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,22 @@ class Deployment:
     seed: int
     checkpoint: Path | None
     spec: PolicySpec
+    domain: str = "auv"
+    """The environment's domain (`auv_mj.tasks.domains.of_env`), read once when the policy is made."""
+
+
+def by_domain(**builds: Callable[[Deployment], Planner]) -> Callable[[Deployment], Planner]:
+    """A spec's build that differs by domain, e.g. `by_domain(auv=planar_build, auv3d=build_3d)`: the one of the
+    deployment's domain, chosen where the policy is made rather than by checks inside each build."""
+    unknown = set(builds) - set(DOMAINS)
+    if unknown:
+        raise ValueError(f"by_domain: {sorted(unknown)} are no domains of {list(DOMAINS)}")
+
+    def build(deployment: Deployment) -> Planner:
+        return builds[deployment.domain](deployment)
+
+    build.domains = tuple(builds)  # type: ignore[attr-defined]
+    return build
 
 
 @dataclass(frozen=True)
