@@ -60,12 +60,13 @@ def test_the_layout_names_every_part_of_the_core_and_every_layer():
                 or f"`{module}`" in block), \
             f"the README's layout does not name {module}"
     for folder in ("auv_mj/cli/", "agents/", "tasks/", "planners/", "auv_mj/zoo/", "auv_mj/jobs/",
-                   "auv_mj/benchmark/", "auv_mj/cli/report/", "models/"):
+                   "auv_mj/benchmark/", "experiments/report/", "models/"):
         assert f"`{folder}`" in block, folder
 
 
 def test_the_layout_names_only_paths_that_exist():
-    paths = re.findall(r"`((?:auv_mj|agents|tasks|planners|models|tests|docs)/[\w/.-]*)`", _block("layout"))
+    paths = re.findall(r"`((?:auv_mj|agents|tasks|planners|models|tests|docs|experiments)/[\w/.-]*)`",
+                       _block("layout"))
     assert len(paths) >= 8
     missing = [p for p in paths if not (ROOT / p).exists()]
     assert not missing, f"the README's layout names paths that do not exist: {missing}"

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from auv_mj.benchmark import runner
-from auv_mj.cli.report.fig8 import episodes_to
-from auv_mj.cli.report.training_speed import training_speed
 from auv_mj.zoo import registry as policies
+from experiments.report.fig8 import episodes_to
+from experiments.report.training_speed import training_speed
 
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 

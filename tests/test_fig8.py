@@ -10,7 +10,7 @@ import pytest
 from scipy import stats
 
 from auv_mj.cli import plots
-from auv_mj.cli.report.fig8 import fig8, fig8_logs, mean_ci
+from experiments.report.fig8 import fig8, fig8_logs, mean_ci
 
 
 def _run_dir(root: Path, name: str, first_success: int, episodes: int = 120) -> None:
@@ -69,7 +69,7 @@ def test_confidence_interval_of_the_mean():
 
 
 def test_peer_report_gives_throughput_and_time_to_target_side_by_side(tmp_path):
-    from auv_mj.cli.report.training_speed import training_speed
+    from experiments.report.training_speed import training_speed
 
     for name, seconds in (("auv-mj-her-ddpg-seed11", 2.0), ("sb3-ddpg-her-seed11", 8.0)):
         _run_dir(tmp_path, name, 10, episodes=40)
@@ -113,7 +113,7 @@ def _summary(success: float, collisions: float, time: float | None) -> dict:
 
 def test_the_heldout_section_judges_each_set_by_the_issue_15_bar(monkeypatch):
     from auv_mj.benchmark import runner
-    from auv_mj.cli.report import heldout
+    from experiments.report import heldout
 
     figures = {  # (policy, task) -> summary; los-avoid is slower everywhere
         ("two-layer-general", "tunnel"): _summary(0.97, 0.005, 400.0),  # met
@@ -144,10 +144,10 @@ def test_the_heldout_section_judges_each_set_by_the_issue_15_bar(monkeypatch):
 
 
 def test_report_sections_are_registered_once_each_in_report_order():
-    from auv_mj.cli.report import SECTIONS, section
+    from experiments.report import SECTIONS, section
 
     assert list(SECTIONS)[:3] == ["table9", "tracking", "fig8"] and "heldout" in SECTIONS
     # "heldout" is issue 15's bar; "benchmark" lays out what `auv-mj benchmark --publish` measured (issue 30)
-    assert SECTIONS["benchmark"].__module__ == "auv_mj.cli.report.tiers"
+    assert SECTIONS["benchmark"].__module__ == "experiments.report.tiers"
     with pytest.raises(ValueError, match="registered twice"):
         section("table9")(lambda lines, settings: None)

@@ -28,7 +28,7 @@ def test_an_installed_wheel_is_one_package_with_its_data(tmp_path):
     for name in ("auv_mj/models/auv.xml", "auv_mj/models/arenas/tunnel_inspection.xml",
                  "auv_mj/models/arenas/validation/l_bend.xml", "auv_mj/agents/checkpoints/planner_general.pt",
                  "auv_mj/tasks/suite.py", "auv_mj/planners/map_planner.py", "auv_mj/zoo/registry.py",
-                 "auv_mj/benchmark/data/leaderboard.json", "auv_mj/cli/evaluate.py", "auv_mj/cli/report/tiers.py",
+                 "auv_mj/benchmark/data/leaderboard.json", "auv_mj/cli/evaluate.py",
                  "auv_mj/sim/hydro_kernel.c"):
         assert name in names, name
     user = tmp_path / "user_project"  # a user's own packages named like ours were before
@@ -53,6 +53,12 @@ def test_an_installed_wheel_is_one_package_with_its_data(tmp_path):
     assert compiled == "True" and list((tmp_path / "cache").glob("hydro_kernel-*.so"))
     assert task == "goal"
     assert efficiency == "0.0" and scored == "1"  # cut at 4 steps: no success, but scored against the oracle
+    # the reproduction's sections and data are a checkout's (experiments/, docs/runs): from the wheel it says so
+    env = {"PYTHONPATH": f"{user}:{site}", "PATH": "/usr/bin:/bin", "MUJOCO_GL": "egl"}
+    refused = subprocess.run([sys.executable, "-m", "auv_mj.cli", "reproduce", "-o", "report.md"], capture_output=True,
+                             text=True, timeout=120, cwd=user, env=env)
+    assert refused.returncode == 2 and "AUV_MJ_EXPERIMENTS" in refused.stderr and "clone" in refused.stderr
+    assert not (user / "report.md").exists()
 
 
 def test_run_script_changes_nothing_outside_its_checkout(tmp_path):

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from auv_mj.cli.report import tiers
+from experiments.report import tiers
 
 
 def _summary(success: float, efficiency: float, time: float, collisions: float = 0.0) -> dict:

@@ -44,9 +44,9 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
-from auv_mj.cli.report.fig8 import episodes_to
 from auv_mj.cli.train import add_config_options, config_overrides, make_env_fn, task_env_id
 from auv_mj.jobs import distributed
+from experiments.report.fig8 import episodes_to
 
 TARGET = 0.9
 """Success rate a trial is timed to (Fig. 8)."""

@@ -7,10 +7,10 @@ from pathlib import Path
 from auv_mj import seeds
 from auv_mj.benchmark import metrics, runner
 from auv_mj.cli import plots
-from auv_mj.cli.report.common import fmt
-from auv_mj.cli.report.registry import ReportSettings, section
 from auv_mj.episode import episode_metrics, record_episode
 from auv_mj.zoo import registry as policies
+from experiments.report.common import fmt
+from experiments.report.registry import ReportSettings, section
 
 GENERALISATION_POLICIES = ("two-layer-general", "two-layer-e2e", "two-layer", "los-avoid", "splane")
 """The planners trained on random arenas (residual on line of sight, and end to end) and the paper's planner (all

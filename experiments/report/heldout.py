@@ -6,9 +6,9 @@ import math
 
 from auv_mj import seeds
 from auv_mj.benchmark import runner
-from auv_mj.cli.report.common import SCENARIOS, fmt
-from auv_mj.cli.report.generalisation import GENERALISATION_SETS
-from auv_mj.cli.report.registry import ReportSettings, section
+from experiments.report.common import SCENARIOS, fmt
+from experiments.report.generalisation import GENERALISATION_SETS
+from experiments.report.registry import ReportSettings, section
 
 HELDOUT_EPISODES = 200
 """Held-out arenas per set in the "heldout" section (issue 15's size)."""

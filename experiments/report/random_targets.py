@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from auv_mj.benchmark import runner
-from auv_mj.cli.report.common import HELD_OUT_SEED, fmt
-from auv_mj.cli.report.registry import ReportSettings, section
+from experiments.report.common import HELD_OUT_SEED, fmt
+from experiments.report.registry import ReportSettings, section
 
 RANDOM_TARGETS = (("goal", 0.95, None), ("obstacles", 0.90, 0.02))
 """(task, success target, collision ceiling) of the planner on random layouts (the issue's targets)."""

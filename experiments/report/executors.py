@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from auv_mj import seeds
 from auv_mj.benchmark import runner
-from auv_mj.cli.report.common import CONDITIONS, HELD_OUT_SEED, PAPER_TRACKING, fmt
-from auv_mj.cli.report.registry import ReportSettings, section
+from experiments.report.common import CONDITIONS, HELD_OUT_SEED, PAPER_TRACKING, fmt
+from experiments.report.registry import ReportSettings, section
 
 EXECUTOR_ROWS = (("executor", "DDPG executor, Eq. 27-30 (the paper's row)"),
                  ("ocean-executor", "TD3 scheduling the S-plane's gains, trained in ocean water"),

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from auv_mj.benchmark import runner
-from auv_mj.cli.report.common import PAPER_TABLE9, fmt
-from auv_mj.cli.report.registry import ReportSettings, section
+from experiments.report.common import PAPER_TABLE9, fmt
+from experiments.report.registry import ReportSettings, section
 
 
 @section("table9")

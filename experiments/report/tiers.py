@@ -1,6 +1,6 @@
 """The benchmark section (issue 30): suite v1's cells, every published policy, the ablation and the targets.
 
-The figures are those of the published leaderboard (`docs/benchmark/leaderboard.json`, made by `auv-mj benchmark
+The figures are those of the published leaderboard (`auv_mj/benchmark/data/leaderboard.json`, made by `auv-mj benchmark
 --policy P --publish`, one run per policy); this section lays them out per cell and checks the issue's targets on
 them, so that regenerating it costs nothing and re-measuring is one command per policy (printed below the table).
 """
@@ -14,8 +14,8 @@ from pathlib import Path
 from auv_mj.benchmark.leaderboard import LEADERBOARD
 from auv_mj.benchmark.metrics import bootstrap_mean, decomposition, exact_mcnemar, oracle_times, paired_efficiency
 from auv_mj.benchmark.suite import ORACLE, SUITE_V1, TIERS, WATERS
-from auv_mj.cli.report.common import fmt
-from auv_mj.cli.report.registry import ReportSettings, section
+from experiments.report.common import fmt
+from experiments.report.registry import ReportSettings, section
 
 LEARNED = "planner-general"
 """The learned planner the targets are about."""

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from auv_mj.benchmark import runner
-from auv_mj.cli.report.common import (
+from auv_mj.sim import ocean
+from experiments.report.common import (
     CONDITIONS,
     HELD_OUT_SEED,
     PAPER_TABLE9,
@@ -12,8 +13,7 @@ from auv_mj.cli.report.common import (
     fmt,
     tracking_errors,
 )
-from auv_mj.cli.report.registry import ReportSettings, section
-from auv_mj.sim import ocean
+from experiments.report.registry import ReportSettings, section
 
 OCEAN_TASKS = ("obstacles", "moving_obstacles")
 """Random-layout tasks of the ocean comparison (held-out seeds from 10000)."""

@@ -6,7 +6,7 @@ Adding a section is one module with one `@section` function, imported below.
 """
 
 # The import order is the report's order: each module registers its sections as it is imported.
-from auv_mj.cli.report import (  # noqa: F401, I001
+from experiments.report import (  # noqa: F401, I001
     table9,
     tracking,
     fig8,
@@ -19,6 +19,6 @@ from auv_mj.cli.report import (  # noqa: F401, I001
     executors,
     tiers,
 )
-from auv_mj.cli.report.registry import SECTIONS, ReportSettings, section
+from experiments.report.registry import SECTIONS, ReportSettings, section
 
 __all__ = ["SECTIONS", "ReportSettings", "section"]

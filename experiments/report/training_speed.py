@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj.cli import plots
-from auv_mj.cli.report.common import fmt
-from auv_mj.cli.report.registry import ReportSettings, section
+from experiments.report.common import fmt
+from experiments.report.registry import ReportSettings, section
 
 PEER_GROUPS = {"auv-mj HER-DDPG": "auv-mj-her-ddpg-seed*.csv",
                "auv-mj HER-DDPG, --collectors 1": "auv-mj-collectors1-seed*.csv",
@@ -21,7 +21,7 @@ def training_speed(lines: list[str], runs: Path) -> None:
     """Ours against the SB3 DDPG+HER peer on `goal`, from logs of runs made one after another: raw env steps/s
     at the same updates per step (the speed figure), and wall-clock to 90 % success where both reached it (a
     learning figure too, so no ratio is drawn where one did not)."""
-    from auv_mj.cli.sb3_peer import TARGET, WINDOW, time_to_success
+    from experiments.sb3_peer import TARGET, WINDOW, time_to_success
 
     lines += ["## Training speed: auv-mj vs the Stable-Baselines3 peer", "",
               f"Each run alone on the machine, one after another (`--collectors 1` uses both cores, the others one); "
@@ -72,7 +72,7 @@ def training_speed(lines: list[str], runs: Path) -> None:
     lines += ["", "The peer is SB3 as its users would run it here: observations normalised by `VecNormalize` and "
               "Gaussian action noise of std 0.3 (with raw goals in metres and std 0.1 its actor saturates at V = 0 "
               "and never explores forward).", "",
-              "Commands: `python -m auv_mj.cli.sb3_peer --steps N --seed S --csv sb3-ddpg-her-seedS.csv`, "
+              "Commands: `python -m experiments.sb3_peer --steps N --seed S --csv sb3-ddpg-her-seedS.csv`, "
               "`auv-mj train her-ddpg --task goal --seed S --steps N` and the same with `--collectors 1` (their "
               f"`progress.csv` as `auv-mj-her-ddpg-seedS.csv` and `auv-mj-collectors1-seedS.csv`), in `{runs}`.", ""]
 

@@ -1,6 +1,6 @@
 """The training-speed peer of the issue: Stable-Baselines3's DDPG + HerReplayBuffer on our Gymnasium adapter.
 
-`python -m auv_mj.cli.sb3_peer --steps 60000 --csv runs/sb3-peer.csv` trains SB3 with Table 4's settings on
+`python -m experiments.sb3_peer --steps 60000 --csv runs/sb3-peer.csv` trains SB3 with Table 4's settings on
 `auv_mj/Goal-v0` (one gradient step per env step, one torch thread; learning starts after 1300 steps,
 past the longest episode, as SB3's HER requires) and writes the same per-episode CSV as `auv-mj train`
 (episode, steps, length, return, success, wall_time), so `time_to_success` compares both.
@@ -96,7 +96,7 @@ def train_sb3(steps: int, csv_path: Path, seed: int = 0, noise_std: float = NOIS
 
 def main(argv: list[str] | None = None) -> int:
     """Trains the SB3 peer and prints its time to TARGET success beside ours (if --ours is given)."""
-    parser = argparse.ArgumentParser(prog="python -m auv_mj.cli.sb3_peer", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m experiments.sb3_peer", description=__doc__)
     parser.add_argument("--steps", type=positive_int, default=60_000)
     parser.add_argument("--seed", type=seed_int, default=0)
     parser.add_argument("--csv", type=Path, default=Path("runs/sb3-peer/progress.csv"))

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj.cli import plots
-from auv_mj.cli.report.common import fmt
-from auv_mj.cli.report.registry import ReportSettings, section
+from experiments.report.common import fmt
+from experiments.report.registry import ReportSettings, section
 
 FIG8_TARGET = 0.9
 

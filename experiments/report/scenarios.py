@@ -5,10 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from auv_mj.cli import plots
-from auv_mj.cli.report.common import SCENARIOS, fmt
-from auv_mj.cli.report.registry import ReportSettings, section
 from auv_mj.episode import episode_metrics, record_episode
 from auv_mj.zoo import registry as policies
+from experiments.report.common import SCENARIOS, fmt
+from experiments.report.registry import ReportSettings, section
 
 SCENARIO_POLICIES = ("two-layer", "planner", "splane")
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from auv_mj.cli.report.common import PAPER_TRACKING, TRACKING_POLICIES, fmt, tracking_errors
-from auv_mj.cli.report.registry import ReportSettings, section
+from experiments.report.common import PAPER_TRACKING, TRACKING_POLICIES, fmt, tracking_errors
+from experiments.report.registry import ReportSettings, section
 
 
 @section("tracking")
