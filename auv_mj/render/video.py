@@ -31,9 +31,10 @@ interpolates the recorded states between control steps (pose, velocity and movin
 sonar held, as the 2 Hz sonar holds it), a larger one skips states. The environment is always stepped
 exactly as in training and evaluation.
 
-Python API: `render_episode(env, policy) -> (T, H, W, 3) uint8`, `iter_frames(...)` (streaming),
-`write_video(frames, path, fps)`, `render_frame(physics)` (one picture of a physics state), and
-`benchmark()` (frames/s against a bare `mujoco.Renderer`).
+Python API: `render_episode(env, policy, "episode.mp4")` (streams to the file; `in_memory=True` instead returns the
+(T, H, W, 3) uint8 array, 2.8 MB a 1280 x 720 frame), `iter_frames(...)` (streaming), `write_video(frames, path,
+fps)`, `render_frame(physics)` (one picture of a physics state; the same DEFAULT_SIZE), and
+`time_against_bare_renderer()` (frames/s against a bare `mujoco.Renderer`).
 """
 
 from __future__ import annotations
@@ -1059,13 +1060,73 @@ def _progress(total: float | None, enabled: bool):
                         disable=not enabled)
 
 
-def render_episode(env, policy, **kwargs) -> np.ndarray:
-    """All frames of one episode as a (T, H, W, 3) uint8 array (see `iter_frames` for the options)."""
-    frames = list(iter_frames(env, policy, **kwargs))
+IN_MEMORY_WARNING = 512 * 2 ** 20
+"""Bytes of frames above which `render_episode(..., in_memory=True)` warns before it renders (a 1280 x 720 frame is
+2.8 MB: a 700 m tunnel at one frame per control step (826 frames) is about 2.1 GB)."""
+
+
+def frame_bound(env, max_steps: int | None, fps: float, speedup: float | None, hold_end: float) -> int | None:
+    """The most frames an episode of `env` can give (its time limit or `max_steps`, then the held end), or None
+    when it has no limit."""
+    limit = getattr(env, "_step_limit", None)
+    steps = min(limit if limit and math.isfinite(limit) else math.inf, max_steps or math.inf)
+    if not math.isfinite(steps):
+        return None
+    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
+    return int(math.floor(steps * env.control_timestep() / frame_dt + TIME_TOLERANCE)) + 1 + int(round(hold_end * fps))
+
+
+def size_text(frames: int | None, width: int, height: int) -> str:
+    """What `frames` frames of width x height take in memory, in words ("up to 826 frames of 1280 x 720: 2.1 GB")."""
+    width, height = int(width) // 2 * 2, int(height) // 2 * 2
+    if frames is None:
+        return f"{width * height * 3 / 2 ** 20:.1f} MB a frame of {width} x {height}, for as long as the episode runs"
+    size = frames * width * height * 3
+    amount = f"{size / 2 ** 30:.1f} GB" if size >= 2 ** 30 else f"{size / 2 ** 20:.0f} MB"
+    return f"up to {frames} frames of {width} x {height}: {amount}"
+
+
+def episode_output(frames: Iterable[np.ndarray], path: str | Path | None, in_memory: bool, bound: int | None,
+                   width: int, height: int, fps: float, gif: bool | None) -> Path | np.ndarray:
+    """Where `render_episode` and `render_episode_3d` put their frames: streamed to `path` (memory flat in the
+    episode's length), or, asked for with `in_memory=True`, stacked into one (T, H, W, 3) array, with a warning
+    first when that may pass IN_MEMORY_WARNING bytes."""
+    if (path is None) == (not in_memory):
+        raise ValueError(f"give path= to stream the video to a file, or in_memory=True for the whole video as one "
+                         f"(T, H, W, 3) array ({size_text(bound, width, height)}); not "
+                         f"{'both' if in_memory else 'neither'}")
+    if path is not None:
+        return write_video(frames, path, fps, gif)
+    if bound is None or bound * (width // 2 * 2) * (height // 2 * 2) * 3 > IN_MEMORY_WARNING:
+        warnings.warn(f"render_episode(in_memory=True) keeps every frame in memory, {size_text(bound, width, height)}"
+                      f"; give path= to stream the video to a file instead", stacklevel=3)
+    frames = list(frames)
     return np.stack(frames) if frames else np.zeros((0, 0, 0, 3), dtype=np.uint8)
 
 
-def render_frame(physics, width: int = 640, height: int = 360, camera: str = "both",
+def render_episode(env, policy, path: str | Path | None = None, *, in_memory: bool = False,
+                   max_steps: int | None = None, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1],
+                   camera: str = "both", fps: float = DEFAULT_FPS, speedup: float | None = None,
+                   follow_view: float = FOLLOW_VIEW, hold_end: float = DEFAULT_HOLD_END, title: str = "",
+                   recorder: EpisodeRecorder | None = None, progress: bool = False,
+                   gif: bool | None = None) -> Path | np.ndarray:
+    """Renders one episode of `policy(time_step) -> action` on `env` to the video file `path` (MP4, or GIF: see
+    `write_video`) and returns the path written; the frames stream to the file, so memory stays flat however long
+    the episode.
+
+    `in_memory=True` (and no path) returns the whole video as one (T, H, W, 3) uint8 array instead: width x height
+    x 3 bytes a frame, 2.8 MB at the default 1280 x 720, about 2.1 GB for a 700 m tunnel; it warns first when the
+    episode's time limit allows more than IN_MEMORY_WARNING bytes. `iter_frames` yields the frames one at a time.
+    The other options are `iter_frames`'.
+    """
+    frames = iter_frames(env, policy, max_steps=max_steps, width=width, height=height, camera=camera, fps=fps,
+                         speedup=speedup, follow_view=follow_view, hold_end=hold_end, title=title,
+                         recorder=recorder, progress=progress)
+    bound = frame_bound(env, max_steps, fps, speedup, hold_end)
+    return episode_output(frames, path, in_memory, bound, width, height, fps, gif)
+
+
+def render_frame(physics, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], camera: str = "both",
                  follow_view: float = FOLLOW_VIEW, task=None) -> np.ndarray:
     """One (H, W, 3) uint8 picture of the current state of an AUVPhysics (a fresh context; for notebooks)."""
     state = Snapshot(time=float(physics.time()), pose=physics.pose(), velocity=physics.body_velocity(),

@@ -16,8 +16,9 @@ states recorded at the control steps (positions linearly, the attitude by normal
 quaternion, movers linearly; the sonar held, as the 2 Hz sonar holds it). The environment is stepped exactly as in
 evaluation, through the one episode loop (`auv_mj.episode.EpisodeRecorder`).
 
-Python API: `iter_frames_3d(env, policy, ...)` (streaming), `render_episode_3d(env, policy, ...) -> (T, H, W, 3)`,
-and `Track3D`, the 3-D track gathered beside the frames (`auv_mj.cli.render3d` plots it).
+Python API: `iter_frames_3d(env, policy, ...)` (streaming), `render_episode_3d(env, policy, path)` (streamed to
+the file; `in_memory=True` for the (T, H, W, 3) array) and `Track3D`, the 3-D track gathered beside the frames
+(`auv_mj.cli.render3d` plots it).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import copy
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -42,6 +44,8 @@ from auv_mj.render.video import (
     WATER_RGBA,
     GLOwner,
     _gl_context_class,  # the headless backend's GLContext, as the planar renderer makes it
+    episode_output,
+    frame_bound,
 )
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, altimeter, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
@@ -464,7 +468,15 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
             renderer.close()
 
 
-def render_episode_3d(env, policy: Callable, **kwargs) -> np.ndarray:
-    """(T, H, W, 3) uint8 frames of one episode (`iter_frames_3d`)."""
-    frames = list(iter_frames_3d(env, policy, **kwargs))
-    return np.stack(frames) if frames else np.zeros((0, 0, 0, 3), dtype=np.uint8)
+def render_episode_3d(env, policy: Callable, path: str | Path | None = None, *, in_memory: bool = False,
+                      max_steps: int | None = None, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1],
+                      fps: float = DEFAULT_FPS, speedup: float | None = None, hold_end: float = DEFAULT_HOLD_END,
+                      title: str = "", track: Track3D | None = None, recorder: EpisodeRecorder | None = None,
+                      progress: bool = False, gif: bool | None = None) -> Path | np.ndarray:
+    """One episode of the auv3d `env` streamed to the video file `path` (returned), or with `in_memory=True` the
+    whole video as one (T, H, W, 3) uint8 array, width x height x 3 bytes a frame (as `render_episode`); the other
+    options are `iter_frames_3d`'."""
+    frames = iter_frames_3d(env, policy, max_steps=max_steps, width=width, height=height, fps=fps, speedup=speedup,
+                            hold_end=hold_end, title=title, track=track, recorder=recorder, progress=progress)
+    bound = frame_bound(env, max_steps, fps, speedup, hold_end)
+    return episode_output(frames, path, in_memory, bound, width, height, fps, gif)
