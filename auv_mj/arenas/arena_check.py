@@ -42,7 +42,7 @@ from auv_mj.arenas.tunnels import (
     route_clearance,
     segment_lines,
 )
-from auv_mj.console import progress_bar
+from auv_mj.console import counted, progress_bar
 from auv_mj.geometry import xy_text
 from auv_mj.sim.physics import AUVPhysics
 
@@ -82,7 +82,7 @@ class ArenaReport:
         """The report as printed: a summary, one line per problem or warning, then OK or a count."""
         out = [f"{self.source}: {self.summary}"] if self.summary else []
         out += [f"problem: {p}" for p in self.problems] + [f"warning: {w}" for w in self.warnings]
-        out.append("OK" if self.ok else f"{len(self.problems)} problem(s): not a usable arena")
+        out.append("OK" if self.ok else f"{counted(len(self.problems), 'problem')}: not a usable arena")
         return out
 
 
@@ -642,9 +642,9 @@ def _summary(model: mujoco.MjModel, info: ArenaInfo, static: list[int], least) -
     walls = sum(n.startswith("wall") for n in names)
     unknown = sum(n.startswith(UNKNOWN_OBSTACLE_PREFIX) for n in names)
     length = float(np.sum(np.hypot(*np.diff(info.path, axis=0).T))) if len(info.path) > 1 else 0.0
-    text = (f"{walls} wall geoms, {len(static) - walls - unknown} other static geoms, "
-            f"{f'{unknown} unknown obstacles, ' if unknown else ''}{len(info.movers)} movers, "
-            f"{len(info.path)} path sites over {length:.0f} m")
+    text = (f"{counted(walls, 'wall geom')}, {counted(len(static) - walls - unknown, 'other static geom')}, "
+            f"{counted(unknown, 'unknown obstacle') + ', ' if unknown else ''}{counted(len(info.movers), 'mover')}, "
+            f"{counted(len(info.path), 'path site')} over {length:.0f} m")
     if least is not None and least[1] is not None:
         text += f"; least clearance {least[0]:.2f} m (to {_name(model, least[1])}, segment {least[2]})"
     return text
