@@ -5,6 +5,8 @@ Loads the shipped HER-DDPG planner and DDPG executor, drives the full MuJoCo dyn
 general planner and the strongest classical planner (`map-replan`, COMPARED), and writes `demo/tunnel.mp4`,
 `demo/tunnel_trajectory.png` and `demo/tunnel_episode.npz`. `--task`, `--task-kwargs`, `--arena` run the same
 demo elsewhere (files named after the task), e.g. on a tunnel you authored: `auv-mj demo --arena my_tunnel.xml`.
+On an arena of the user's (or a random one) the demo flies ARENA_SYSTEM unless `--policy` names another: the paper's
+system was trained on the paper's one tunnel and fails on others.
 """
 
 from __future__ import annotations
@@ -36,6 +38,11 @@ from auv_mj.zoo import registry as policies
 
 TASK = "tunnel"
 SYSTEM = "two-layer"
+"""The policy the demo flies on the paper's arenas: the paper's planner on its learned executor (Sec. 4.3)."""
+ARENA_SYSTEM = "planner-general"
+"""The policy the demo flies on an arena given with --arena (or task_kwargs' "arena"): the general planner, which
+passes tunnels it was not trained on (an authored S-bend that narrows, with an unknown rock and a mover: goal, as
+map-replan and two-layer-general; two-layer timed out there)."""
 COMPARED = ("planner", "two-layer-general", "map-replan")
 """Rows beside the demonstrated policy: the paper's HER-DDPG planner on the S-plane executor, the general planner
 (trained on the distribution of arenas) on its learned executor, and the strongest classical planner at equal
@@ -72,9 +79,23 @@ def format_rows(rows: dict[str, dict]) -> str:
     return "\n".join(lines)
 
 
+def demo_policy(policy: str | None, kwargs: dict) -> tuple[str, str]:
+    """The policy the demo flies and why, in a line: `policy` when given, else SYSTEM on the paper's arenas and
+    ARENA_SYSTEM on an arena of the user's."""
+    if policy is not None:
+        return policy, ""
+    if kwargs.get("arena") is None:
+        return SYSTEM, ""
+    return ARENA_SYSTEM, (f"flying {ARENA_SYSTEM}, the general planner, on the arena {kwargs['arena']}: the paper's "
+                          f"{SYSTEM} was trained on the paper's one tunnel and fails on others (--policy {SYSTEM} "
+                          f"flies it anyway)")
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj demo`."""
-    add_episode_options(parser, task=TASK, policy=SYSTEM)
+    add_episode_options(parser, task=TASK, policy=None)
+    policy = next(action for action in parser._actions if action.dest == "policy")
+    policy.help += f" (default: {SYSTEM}; on an arena given with --arena, {ARENA_SYSTEM})"
     add_output_option(parser, "output folder (default: demo/)", type=Path, default=Path("demo"), metavar="DIR")
     add_force_option(parser)
     parser.add_argument("--width", type=pixels, default=1280)
@@ -104,6 +125,9 @@ def _note_written(folder: Path, files: list[Path]) -> None:
 def run(args: argparse.Namespace) -> int:
     """Runs the demo; returns 0 once the table and files are written, whatever the episode's outcome."""
     task, kwargs = args.task, task_kwargs(args)
+    args.policy, why = demo_policy(args.policy, kwargs)
+    if why:
+        print(f"{args.prog}: {why}", flush=True)
     if args.out.exists() and not args.out.is_dir():
         usage_error(args, f"--out {args.out} is a file, not a folder")
     for name in (".mp4", "_episode.npz", "_trajectory.png"):
