@@ -414,19 +414,28 @@ class EpisodeRecorder:
             return np.asarray(info["command"], dtype=float).ravel()
         return np.full(2, np.nan)
 
+    def start(self, time_step) -> Snapshot:
+        """Starts a new record at `time_step`, the environment's reset (its arena read again). `run` calls it; so
+        does whoever steps the environment outside `run` (the Gymnasium face's `render()`), then `add` per step."""
+        self.arena = arena_geometry(self.env.physics, self.env.task)
+        self.snapshots = [self._snapshot(time_step)]
+        return self.snapshots[-1]
+
+    def add(self, time_step, action) -> Snapshot:
+        """Records `time_step`, the step that `action` led to."""
+        self.snapshots.append(self._snapshot(time_step, action, self.snapshots[-1]))
+        return self.snapshots[-1]
+
     def run(self, policy: Policy, max_steps: int | None = None) -> Iterator[Snapshot]:
         """Resets, then steps until the episode ends or `max_steps`; yields each new Snapshot."""
         time_step = self.env.reset()
-        self.arena = arena_geometry(self.env.physics, self.env.task)
         planner = as_planner(policy)
         planner.reset()
-        self.snapshots = [self._snapshot(time_step)]
-        yield self.snapshots[-1]
+        yield self.start(time_step)
         while not time_step.last() and (max_steps is None or len(self.snapshots) <= max_steps):
             action = planner.act(time_step)
             time_step = self.env.step(action)
-            self.snapshots.append(self._snapshot(time_step, action, self.snapshots[-1]))
-            yield self.snapshots[-1]
+            yield self.add(time_step, action)
 
     def record(self) -> EpisodeRecord:
         """The snapshots so far as an EpisodeRecord."""

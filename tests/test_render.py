@@ -251,3 +251,36 @@ def test_render_episode_has_an_explicit_signature_and_the_defaults_of_render_fra
     for function in (render.render_episode, render.iter_frames, render.render_frame):
         signature = inspect.signature(function).parameters
         assert (signature["width"].default, signature["height"].default) == render.DEFAULT_SIZE, function.__name__
+
+
+# --- the Gymnasium frame is the video's ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("gym_id", ["auv_mj/Obstacles-v0", "auv_mj/Goal3D-v0"])
+def test_the_gymnasium_frame_is_the_videos_frame(gym_id):
+    """render_mode="rgb_array" draws what `auv-mj render` draws at each control step (goal, path, sonar, trail, text
+    overlay and key; the 6-DOF panels and heads-up display), at the videos' size, by the same renderer."""
+    import gymnasium
+
+    from auv_mj.render.video3d import iter_frames_3d
+
+    steps, size = 4, (320, 240)
+    env = gymnasium.make(gym_id, render_mode="rgb_array", render_size=size[::-1])
+    action = np.resize([0.5, 0.25], env.action_space.shape)  # numbers float32 holds exactly, as the face passes them
+    assert gymnasium.make(gym_id, render_mode="rgb_array").unwrapped.render_size == render.DEFAULT_SIZE[::-1]
+    env.reset(seed=0)
+    shown = [env.render()]
+    for _ in range(steps):
+        env.step(action.astype(np.float32))
+        shown.append(env.render())
+    dm_env = env.unwrapped.dm_env
+    dm_env.task.random.seed(0)
+    frames = iter_frames_3d if "3D" in gym_id else render.iter_frames
+    video = list(frames(dm_env, lambda time_step: action, max_steps=steps, width=size[0], height=size[1], hold_end=0.0,
+                        title=gym_id))
+    env.close()
+    assert len(video) == len(shown) == steps + 1
+    for k, (ours, theirs) in enumerate(zip(shown, video, strict=True)):
+        assert ours.shape == (size[1], size[0], 3) and ours.dtype == np.uint8
+        assert np.array_equal(ours, theirs), f"step {k}: {np.abs(ours.astype(int) - theirs).max()}"
+    assert shown[-1].std() > 20  # not the nearly black frame of a bare camera

@@ -1001,6 +1001,74 @@ class _Trail:
         return self._points[: self.count]
 
 
+class _Goals:
+    """The goals a frame shows and how many are reached: the arena's, or for a task that sets one at a time, each
+    it has set so far."""
+
+    def __init__(self):
+        self._seen: list[np.ndarray] = []
+        self.goals, self.reached = np.zeros((0, 2)), 0
+
+    def update(self, snap: Snapshot, arena) -> None:
+        if np.all(np.isfinite(snap.desired_goal)) and (
+                not self._seen or not np.allclose(self._seen[-1], snap.desired_goal)):
+            self._seen.append(snap.desired_goal)
+        self.goals = arena.goals if len(arena.goals) else np.array(self._seen).reshape(-1, 2)
+        self.reached = int(snap.info.get("goals_reached", len(self._seen) - 1))
+
+
+class LiveView:
+    """The video's frame of an episode stepped elsewhere, one control step at a time: what the Gymnasium face's
+    `render()` returns for the planar ids. `start` after each reset, `add` after each step, `frame()` when a picture
+    is wanted (the renderer is made then, once per episode); the frame is `iter_frames`' (goal, path, sonar, trail,
+    text overlay and key), without the interpolation between steps."""
+
+    def __init__(self, env, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], camera: str = "both",
+                 follow_view: float = FOLLOW_VIEW, title: str = ""):
+        if camera not in CAMERAS:
+            raise ValueError(f"camera must be one of {CAMERAS}, got {camera!r}")
+        self.env, self.size, self.camera, self.title = env, (width, height), camera, title
+        self.follow_view = follow_view
+        self._recorder = EpisodeRecorder(env)
+        self._renderer: FrameRenderer | None = None
+        self._snap: Snapshot | None = None
+        self._trail, self._goals = _Trail(TRAIL_SPACING * follow_view), _Goals()
+
+    def start(self, time_step) -> None:
+        """A new episode from its reset `time_step`: a new arena, trail and goals."""
+        self.close()
+        self._trail, self._goals = _Trail(TRAIL_SPACING * self.follow_view), _Goals()
+        self._observe(self._recorder.start(time_step))
+
+    def add(self, time_step, action) -> None:
+        """The step that `action` led to."""
+        if self._snap is None:
+            raise RuntimeError("LiveView.add before start: call start(time_step) after the reset")
+        self._observe(self._recorder.add(time_step, action))
+        del self._recorder.snapshots[:-1]  # the frame needs the last instant only
+
+    def _observe(self, snap: Snapshot) -> None:
+        self._snap = snap
+        self._trail.add(snap.pose[:2])
+        self._goals.update(snap, self._recorder.arena)
+
+    def frame(self) -> np.ndarray:
+        """The (H, W, 3) uint8 frame of the latest instant."""
+        if self._snap is None:
+            raise RuntimeError("no episode to draw yet: call start(time_step) after the reset")
+        if self._renderer is None:
+            self._renderer = FrameRenderer(self.env.physics, *self.size, self.camera, self.follow_view,
+                                           arena=self._recorder.arena, title=self.title)
+        return self._renderer.render(self._snap, self._trail.view(), self._goals.goals, self._goals.reached,
+                                     self._snap.event)
+
+    def close(self) -> None:
+        """Frees the renderer's OpenGL context (a new one is made by the next frame)."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
 def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAULT_SIZE[0],
                 height: int = DEFAULT_SIZE[1], camera: str = "both", fps: float = DEFAULT_FPS,
                 speedup: float | None = None, follow_view: float = FOLLOW_VIEW,
@@ -1016,8 +1084,7 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
     if not frame_dt > 0:
         raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
     glbackend.require()
-    trail = _Trail(TRAIL_SPACING * follow_view)
-    seen_goals: list[np.ndarray] = []
+    trail, marks = _Trail(TRAIL_SPACING * follow_view), _Goals()
     renderer, previous, frame = None, None, None
     event, event_until, next_time = "", -math.inf, 0.0
     total = getattr(env, "_step_limit", None)
@@ -1029,18 +1096,14 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
                 renderer = FrameRenderer(env.physics, width, height, camera, follow_view,
                                          arena=recorder.arena, title=title)
                 previous, next_time = snap, snap.time
-            if np.all(np.isfinite(snap.desired_goal)) and (
-                    not seen_goals or not np.allclose(seen_goals[-1], snap.desired_goal)):
-                seen_goals.append(snap.desired_goal)
-            goals = recorder.arena.goals if len(recorder.arena.goals) else np.array(seen_goals).reshape(-1, 2)
-            reached = int(snap.info.get("goals_reached", len(seen_goals) - 1))
+            marks.update(snap, recorder.arena)
             if snap.event:
                 event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
             while next_time <= snap.time + TIME_TOLERANCE:
                 state = interpolate(previous, snap, next_time)
                 trail.add(state.pose[:2])
                 shown = event if next_time <= event_until else ""
-                frame = renderer.render(state, trail.view(), goals, reached, shown)
+                frame = renderer.render(state, trail.view(), marks.goals, marks.reached, shown)
                 yield frame
                 next_time += frame_dt
             previous = snap

@@ -41,6 +41,7 @@ from auv_mj.render.video import (
     DEFAULT_SIZE,
     EVENT_COLOURS,
     EVENT_HOLD,
+    TIME_TOLERANCE,
     WATER_RGBA,
     GLOwner,
     _gl_context_class,  # the headless backend's GLContext, as the planar renderer makes it
@@ -134,7 +135,7 @@ def interpolate(a: State3D, b: State3D, time: float) -> State3D:
     """The state at `time` in [a.time, b.time]: positions, velocities and movers linear, the quaternions by
     normalised linear interpolation, the sonar and the event held from `a` (the sonar samples at 2 Hz)."""
     span = b.time - a.time
-    if span <= 0.0 or time >= b.time:
+    if span <= 0.0 or time >= b.time - TIME_TOLERANCE:  # physics time drifts by ulps from the frame clock
         return b
     s = float(np.clip((time - a.time) / span, 0.0, 1.0))
 
@@ -417,6 +418,51 @@ def _state(env, event: str, start_distance: float, time_limit: float) -> State3D
         share = 1.0
     return State3D(float(physics.time()), data.qpos.copy(), data.mocap_pos.copy(), physics.sonar(),
                    physics.body_velocity(), altimeter(physics), distance, share, event)
+
+
+class LiveView3D:
+    """The video's frame of a 6-DOF episode stepped elsewhere: what the Gymnasium face's `render()` returns for the
+    auv3d ids (chase, top and side panels, heads-up display, progress bar, event banner). `start` after each reset,
+    `add` after each step, `frame()` when a picture is wanted (the renderer is made then, once per episode)."""
+
+    def __init__(self, env, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], title: str = ""):
+        self.env, self.size, self.title = env, (width, height), title
+        self._recorder = EpisodeRecorder(env)  # the episode loop's read-out of each step, as `iter_frames_3d` has it
+        self._renderer: FrameRenderer3D | None = None
+        self._event, self._start_distance, self._started = "", math.nan, False
+        limit = getattr(env, "_step_limit", None)
+        self._time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
+
+    def start(self, time_step) -> None:
+        """A new episode from its reset `time_step` (a new arena: a new renderer at the next frame)."""
+        self.close()
+        self._recorder.start(time_step)
+        goal = getattr(self.env.task, "goal", None)
+        self._start_distance = (float(np.linalg.norm(goal - self.env.physics.position())) if goal is not None
+                                else math.nan)
+        self._event, self._started = "", True
+
+    def add(self, time_step, action) -> None:
+        """The step that `action` led to: its event, if any, becomes the banner."""
+        if not self._started:
+            raise RuntimeError("LiveView3D.add before start: call start(time_step) after the reset")
+        self._event = self._recorder.add(time_step, action).event
+        del self._recorder.snapshots[:-1]  # the frame needs the last instant only
+
+    def frame(self) -> np.ndarray:
+        """The (H, W, 3) uint8 frame of the environment's current state."""
+        if not self._started:
+            raise RuntimeError("no episode to draw yet: call start(time_step) after the reset")
+        if self._renderer is None:
+            self._renderer = FrameRenderer3D(self.env.physics, *self.size, self.title)
+        return self._renderer.render(_state(self.env, self._event, self._start_distance, self._time_limit),
+                                     self._event)
+
+    def close(self) -> None:
+        """Frees the renderer's OpenGL context (a new one is made by the next frame)."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
 
 
 def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width: int = DEFAULT_SIZE[0],
