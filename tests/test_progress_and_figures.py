@@ -42,3 +42,42 @@ def test_the_demo_flies_the_general_planner_on_an_arena_of_ones_own_and_says_so(
     assert f"flying {ARENA_SYSTEM}" in out and f"--policy {SYSTEM}" in out
     rows = [line.split() for line in out.splitlines() if line.split()[:1] and line.split()[0] in (ARENA_SYSTEM, SYSTEM)]
     assert rows and rows[0][:2] == [ARENA_SYSTEM, "goal"] and all(row[0] != SYSTEM for row in rows), out
+
+
+# --- the eval table and its CSV ---------------------------------------------------------------------------------------
+
+
+def test_an_episode_cut_by_max_steps_is_labelled_cut_and_still_recorded_as_a_timeout(tmp_path, capsys):
+    import csv
+
+    from auv_mj import zoo
+    from auv_mj.episode import EpisodeRecord, episode_metrics, outcome_label, record_episode
+
+    env, policy = zoo.env_and_policy("splane", "goal", 0)
+    cut = record_episode(env, policy, 3)
+    assert cut.cut and episode_metrics(cut)["outcome"] == "timeout" and episode_metrics(cut)["cut"]
+    assert EpisodeRecord.load(cut.save(tmp_path / "cut.npz")).cut
+    assert outcome_label("timeout", True, 3) == "cut (--max-steps 3)" and outcome_label("timeout", False) == "timeout"
+    env, policy = zoo.env_and_policy("splane", "goal", 0, {"goal_radius": 50.0})
+    ended = record_episode(env, policy, 10_000)
+    assert not ended.cut and episode_metrics(ended)["outcome"] == "goal"
+    assert main(["eval", "--policy", "splane", "--task", "goal", "--episodes", "1", "--max-steps", "20",
+                 "--no-progress", "--csv", str(tmp_path / "goal.csv")]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("goal "))
+    assert row.endswith("cut 1") and "timeout" not in row, out
+    assert "cut: stopped by --max-steps" in out
+    assert "none seen" in row and "120.000" not in row  # open water: nothing within the sonar's range
+    with open(tmp_path / "goal_episodes.csv") as f:
+        episode = next(csv.DictReader(f))
+    assert episode["outcome"] == "timeout" and episode["cut"] == "True"  # what the benchmark counts is unchanged
+    assert episode["duration"] == "10.0"  # twenty 0.5 s steps, not 10.000000000000126
+
+
+def test_times_are_rounded_to_the_microsecond():
+    from auv_mj import zoo
+    from auv_mj.episode import TIME_DECIMALS, episode_metrics, record_episode
+
+    env, policy = zoo.env_and_policy("splane", "speed_heading", 0)
+    metrics = episode_metrics(record_episode(env, policy, 201))  # 201 steps of 0.1 s: 20.1 s, as the clock sums
+    assert metrics["duration"] == round(metrics["duration"], TIME_DECIMALS) and len(repr(metrics["duration"])) < 10

@@ -20,7 +20,7 @@ import numpy as np
 
 from auv_mj import render
 from auv_mj.cli import plots
-from auv_mj.cli.evaluate import table_cell
+from auv_mj.cli.evaluate import shown_clearance, table_cell
 from auv_mj.cli.options import (
     add_episode_options,
     add_force_option,
@@ -58,7 +58,7 @@ def demo_row(record: EpisodeRecord) -> dict:
     path = record.arena.path
     global_length = float(np.sum(np.hypot(*np.diff(path, axis=0).T))) if len(path) > 1 else None
     return {"outcome": metrics["outcome"],
-            "min_clear_m": metrics["min_clearance"],
+            "min_clear_m": shown_clearance(metrics["min_clearance"]),
             "track_mae_m": metrics.get("mae_cross_track"),
             "track_max_m": metrics.get("max_cross_track"),
             "length_m": metrics["path_length"],
