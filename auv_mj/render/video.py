@@ -51,7 +51,7 @@ import mujoco
 import numpy as np
 
 from auv_mj.console import complete, progress_bar
-from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions
+from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions, outcome, outcome_label
 from auv_mj.geometry import wrap_angle
 from auv_mj.render import glbackend, raster
 from auv_mj.sim.sonar import SONAR_RANGE
@@ -1087,15 +1087,15 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
     trail, marks = _Trail(TRAIL_SPACING * follow_view), _Goals()
     renderer, previous, frame = None, None, None
     event, event_until, next_time = "", -math.inf, 0.0
-    total = getattr(env, "_step_limit", None)
-    total = min(total if total and math.isfinite(total) else math.inf, max_steps or math.inf)
-    bar = _progress(total if math.isfinite(total) else None, progress)
+    bar = None
     try:
         for snap in recorder.run(policy, max_steps):
             if renderer is None:  # after the reset: the task has drawn its route
                 renderer = FrameRenderer(env.physics, width, height, camera, follow_view,
                                          arena=recorder.arena, title=title)
                 previous, next_time = snap, snap.time
+                route = route_of(recorder.arena, snap)
+                bar = RenderBar(route, recorder.arena.goal_radius, step_bound(env, max_steps), progress)
             marks.update(snap, recorder.arena)
             if snap.event:
                 event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
@@ -1107,20 +1107,84 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
                 yield frame
                 next_time += frame_dt
             previous = snap
-            if snap.step:
-                bar.update(1)
-        complete(bar)  # an episode that ended before its time limit: the bar ends at 100 %
+            bar.advance(made_good(route, snap.pose[:2]) if route is not None else None, snap.step)
+        if bar is not None:
+            bar.finish(snap.success, outcome_label(outcome([snap.event]), recorder.cut, max_steps))
         for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
             yield frame.copy()
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if renderer is not None:
             renderer.close()
 
 
-def _progress(total: float | None, enabled: bool):
-    return progress_bar(total=None if total is None else math.ceil(total), unit="step", desc="render",
-                        disable=not enabled)
+def step_bound(env, max_steps: int | None) -> int | None:
+    """The most steps an episode of `env` can take: its time limit, or `max_steps` if fewer; None without either."""
+    limit = getattr(env, "_step_limit", None)
+    steps = min(limit if limit and math.isfinite(limit) else math.inf, max_steps or math.inf)
+    return math.ceil(steps) if math.isfinite(steps) else None
+
+
+def route_of(arena, first: Snapshot) -> np.ndarray | None:
+    """(P, 2) the route an episode's progress is measured along: the global path, else straight from the start to
+    the goal (the arena's, else the vehicle's position and the desired goal at the reset `first`); None on a task
+    without a goal."""
+    if len(arena.path) > 1:
+        return np.asarray(arena.path, float)
+    for ends in (np.array([arena.start, arena.goal], float), np.array([first.pose[:2], first.desired_goal], float)):
+        if np.all(np.isfinite(ends)):
+            return ends
+    return None
+
+
+def made_good(route: np.ndarray, position: np.ndarray) -> float:
+    """How far along `route` [m] the point of it nearest to `position` lies."""
+    a, ab = route[:-1], np.diff(route, axis=0)
+    lengths = np.hypot(ab[:, 0], ab[:, 1])
+    t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
+    nearest = int(np.argmin(np.hypot(*(a + t[:, None] * ab - position).T)))
+    return float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
+
+
+class RenderBar:
+    """The render's progress bar: on a task with a goal, the metres made good along the route (`route_of`) out of
+    its length short of the goal radius, so that it fills as the vehicle goes, ends full at the goal and stays where
+    the vehicle stopped otherwise, its total fixed from the start; on a task without one (tracking), the steps out of
+    the time limit (or `max_steps`), which such an episode runs to. The outcome shows beside it at the end."""
+
+    def __init__(self, route: np.ndarray | float | None, goal_radius: float, steps: int | None, enabled: bool):
+        """`route`: its (P, 2) points or its length [m], None on a task without a goal."""
+        if route is not None:
+            length = float(route) if np.ndim(route) == 0 else float(np.sum(np.hypot(*np.diff(route, axis=0).T)))
+            self.total = max(int(math.ceil(length - goal_radius)), 1)
+            self.bar = progress_bar(total=self.total, unit="m", desc="render, route", disable=not enabled,
+                                    bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} m "
+                                               "[{elapsed}<{remaining}{postfix}]")
+        else:
+            self.total = steps
+            self.bar = progress_bar(total=steps, unit="step", desc="render", disable=not enabled)
+        self.by_route = route is not None
+
+    def advance(self, metres: float | None, step: int) -> None:
+        """After a step: the route made good [m] so far (None on a task without a goal), the step's number."""
+        done = min(int(metres), self.total) if self.by_route and metres is not None else step
+        if self.total is not None:
+            done = min(done, self.total)
+        if done > self.bar.n:
+            self.bar.update(done - self.bar.n)
+
+    def finish(self, reached: bool, label: str) -> None:
+        """The episode's end: full at the goal (the last metres are inside the goal radius) and on a tracking task
+        (its schedule is done), else where it stopped; the outcome `label` beside it."""
+        if reached and self.total is not None:
+            self.bar.update(self.total - self.bar.n)
+        elif not self.by_route:
+            complete(self.bar)
+        self.bar.set_postfix_str(label)
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 IN_MEMORY_WARNING = 512 * 2 ** 20
@@ -1131,9 +1195,8 @@ IN_MEMORY_WARNING = 512 * 2 ** 20
 def frame_bound(env, max_steps: int | None, fps: float, speedup: float | None, hold_end: float) -> int | None:
     """The most frames an episode of `env` can give (its time limit or `max_steps`, then the held end), or None
     when it has no limit."""
-    limit = getattr(env, "_step_limit", None)
-    steps = min(limit if limit and math.isfinite(limit) else math.inf, max_steps or math.inf)
-    if not math.isfinite(steps):
+    steps = step_bound(env, max_steps)
+    if steps is None:
         return None
     frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
     return int(math.floor(steps * env.control_timestep() / frame_dt + TIME_TOLERANCE)) + 1 + int(round(hold_end * fps))

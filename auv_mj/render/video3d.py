@@ -32,8 +32,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from auv_mj.console import progress_bar
-from auv_mj.episode import EpisodeRecorder
+from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
 from auv_mj.render import glbackend, raster
 from auv_mj.render.video import (
     DEFAULT_FPS,
@@ -44,9 +43,11 @@ from auv_mj.render.video import (
     TIME_TOLERANCE,
     WATER_RGBA,
     GLOwner,
+    RenderBar,
     _gl_context_class,  # the headless backend's GLContext, as the planar renderer makes it
     episode_output,
     frame_bound,
+    step_bound,
 )
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, altimeter, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
@@ -410,6 +411,15 @@ def _progress_of(env, start_distance: float, time_limit: float) -> tuple[float, 
     return math.nan, float(np.clip(physics.time() / time_limit, 0.0, 1.0)) if time_limit > 0 else 0.0
 
 
+def _route_length(env, start_distance: float) -> float | None:
+    """The length [m] of the route `_progress_of` measures along: the tube's path, else the start's distance to the
+    goal; None on a task without a goal (depth_heading)."""
+    path = getattr(env.task, "path", None)
+    if path is not None and len(path) >= 2:
+        return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+    return start_distance if math.isfinite(start_distance) and start_distance > 0 else None
+
+
 def _state(env, event: str, start_distance: float, time_limit: float) -> State3D:
     physics = env.physics
     data = physics.data.ptr
@@ -478,11 +488,8 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
         raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
     glbackend.require()
     limit = getattr(env, "_step_limit", None)
-    total = min(limit if limit and math.isfinite(limit) else math.inf, max_steps or math.inf)
     time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
-    bar = progress_bar(total=math.ceil(total) if math.isfinite(total) else None, unit="step", desc="render",
-                       disable=not progress)
-    renderer, previous, frame = None, None, None
+    renderer, previous, frame, bar, route = None, None, None, None, None
     event, event_until, next_time, start_distance = "", -math.inf, 0.0, math.nan
     try:
         for snap in recorder.run(policy, max_steps):
@@ -491,6 +498,9 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
             if snap.step == 0:
                 goal = getattr(env.task, "goal", None)
                 start_distance = float(np.linalg.norm(goal - env.physics.position())) if goal is not None else math.nan
+                route = _route_length(env, start_distance)
+                bar = RenderBar(route, float(getattr(env.task, "goal_radius", 0.0)), step_bound(env, max_steps),
+                                progress)
             if track is not None:
                 track.add(env)
             state = _state(env, snap.event, start_distance, time_limit)
@@ -504,12 +514,14 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
                 yield frame
                 next_time += frame_dt
             previous = state
-            if snap.step:
-                bar.update(1)
+            bar.advance(state.progress * route if route is not None else None, snap.step)
+        if bar is not None:
+            bar.finish(snap.success, outcome_label(outcome([snap.event]), recorder.cut, max_steps))
         for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
             yield frame.copy()
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if renderer is not None:
             renderer.close()
 
