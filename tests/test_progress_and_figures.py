@@ -81,3 +81,24 @@ def test_times_are_rounded_to_the_microsecond():
     env, policy = zoo.env_and_policy("splane", "speed_heading", 0)
     metrics = episode_metrics(record_episode(env, policy, 201))  # 201 steps of 0.1 s: 20.1 s, as the clock sums
     assert metrics["duration"] == round(metrics["duration"], TIME_DECIMALS) and len(repr(metrics["duration"])) < 10
+
+
+# --- training's progress ---------------------------------------------------------------------------------------------
+
+
+def test_training_on_a_tracking_task_shows_the_tracking_error_not_a_success_rate(tmp_path, capsys):
+    from auv_mj.agents.train import EpisodeErrors, errors_text
+
+    errors = EpisodeErrors()
+    errors.add(0, {"success": False, "speed_error": 1.0})  # a goal task: its success rate tells
+    assert errors.end(0) is None
+    for e_v, e_psi in ((0.1, -0.02), (-0.3, 0.04)):
+        errors.add(1, {"speed_error": e_v, "heading_error": e_psi, "is_success": False})
+    mean = errors.end(1)
+    assert mean == {"speed_error": 0.2, "heading_error": 0.03} and errors.end(1) is None
+    assert errors_text(mean) == "|e| speed 0.2 m/s, heading 1.72 deg"
+    assert main(["train", "td3", "--task", "speed_heading", "--episodes", "1", "--run-dir", str(tmp_path / "run"),
+                 "--no-tensorboard", "--learning-starts", "100000"]) == 0
+    captured = capsys.readouterr()
+    assert "success" not in captured.out and "tracking |e| speed " in captured.out, captured.out
+    assert "success" not in captured.err and "|e| speed" in captured.err
