@@ -102,3 +102,37 @@ def test_training_on_a_tracking_task_shows_the_tracking_error_not_a_success_rate
     captured = capsys.readouterr()
     assert "success" not in captured.out and "tracking |e| speed " in captured.out, captured.out
     assert "success" not in captured.err and "|e| speed" in captured.err
+
+
+# --- figures ---------------------------------------------------------------------------------------------------------
+
+
+def test_a_hard_arenas_preview_keeps_every_label_apart_and_readable(tmp_path):
+    """The preview of a hard arena (traps and four movers crowded round the path): every shape and mover named, each
+    name on a white ground, LABEL_GAP pixels clear of every other name and of the start and goal markers."""
+    import matplotlib.pyplot as plt
+
+    from auv_mj.arenas.arena import arena_info, load
+    from auv_mj.arenas.arena_check import LABEL_GAP, arena_figure
+
+    arena = tmp_path / "hard.xml"
+    assert main(["tunnel", "--random", "2", "--task", "moving_obstacles", "--tier", "hard", "-o", str(arena)]) == 0
+    physics = load(arena)
+    info = arena_info(physics)
+    fig = arena_figure(physics, info)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    labels = [t for t in ax.texts if t.get_text()]
+    names = {t.get_text().split(" ")[0] for t in labels}
+    assert {m.body for m in info.movers} <= names and sum(n.startswith("unknown") for n in names) >= 3, names
+    assert all(t.get_bbox_patch() is not None for t in labels)  # a white ground under each name
+    from matplotlib.text import Text
+
+    boxes = [Text.get_window_extent(t, renderer) for t in labels]
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            assert not a.padded(LABEL_GAP - 1).overlaps(b), (a, b)
+    markers = [line.get_window_extent(renderer) for line in ax.lines if line.get_label() in ("start", "goal")]
+    assert len(markers) == 2 and not any(a.overlaps(m) for a in boxes for m in markers)
+    plt.close(fig)
