@@ -136,3 +136,28 @@ def test_a_hard_arenas_preview_keeps_every_label_apart_and_readable(tmp_path):
     markers = [line.get_window_extent(renderer) for line in ax.lines if line.get_label() in ("start", "goal")]
     assert len(markers) == 2 and not any(a.overlaps(m) for a in boxes for m in markers)
     plt.close(fig)
+
+
+def test_the_trajectory_figure_shows_tracks_that_run_together(tmp_path):
+    """Two policies on the same line: each track its own colour and dashes, the earlier one wider and under the later
+    one, both a little transparent, so that neither hides the other; the map's colours left to the map."""
+    import matplotlib.pyplot as plt
+
+    from auv_mj import zoo
+    from auv_mj.cli import plots
+    from auv_mj.episode import record_episode
+
+    env, policy = zoo.env_and_policy("splane", "goal", 0)
+    record = record_episode(env, policy, 10)
+    fig = plots.trajectory_figure([record, record, record], labels=["a", "b", "c"], width=800)
+    ax = fig.axes[0]
+    tracks = {line.get_label(): line for line in ax.lines if line.get_label() in ("a", "b", "c")}
+    assert len({t.get_color() for t in tracks.values()}) == 3
+    assert [t.get_linestyle() for t in tracks.values()] == ["-", "--", "--"]  # then two dash patterns of their own
+    assert tracks["b"]._unscaled_dash_pattern != tracks["c"]._unscaled_dash_pattern
+    a, b, c = tracks["a"], tracks["b"], tracks["c"]
+    assert a.get_linewidth() > b.get_linewidth() > c.get_linewidth()
+    assert a.get_zorder() < b.get_zorder() < c.get_zorder()
+    assert all(t.get_alpha() is not None and t.get_alpha() < 1 for t in tracks.values())
+    assert not {t.get_color() for t in tracks.values()} & {"tab:green", "tab:red", "tab:orange"}
+    plt.close(fig)

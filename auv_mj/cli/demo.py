@@ -174,10 +174,11 @@ def run(args: argparse.Namespace) -> int:
         bar.update(1)
     bar.close()
     title = "Tunnel inspection (Table 12)" if task == TASK and not kwargs else task
-    figure = plots.plot_trajectory(list(records.values()), args.out / f"{task}_trajectory.png",
-                                   labels=list(records), title=f"{title}, seed {args.seed}")
-    _note_written(args.out, [p for p in (video, episode_file, args.out / f"{task}_trajectory.png") if p is not None])
     rows = {name: demo_row(r) for name, r in records.items()}
+    labels = [f"{name} ({row['outcome']}, {row['length_m']:.0f} m)" for name, row in rows.items()]  # a short track too
+    figure = plots.plot_trajectory(list(records.values()), args.out / f"{task}_trajectory.png",
+                                   labels=labels, title=f"{title}, seed {args.seed}")
+    _note_written(args.out, [p for p in (video, episode_file, args.out / f"{task}_trajectory.png") if p is not None])
     print(f"\n{title}, seed {args.seed}; safety distance d_s = 5 m; outcome = goal, collision, left_map or "
           "timeout; track = distance to the global path (Fig. 17) once on it; length_ratio = path length / "
           "global path length")
