@@ -204,7 +204,8 @@ def test_raster_lines_squares_and_polygons_cover_their_pixels():
 # --- render_episode: streamed to its file, in memory only when asked ------------------------------------------------
 
 
-def test_render_episode_streams_to_its_file_with_memory_flat_in_the_episodes_length(tmp_path):
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+def test_render_episode_streams_to_its_file_with_memory_flat_in_the_episodes_length(tmp_path, suffix):
     """The frames go to the file as they are drawn: eight times the steps take about the same peak memory (a
     640 x 480 frame is 0.9 MB; keeping 70 more of them would add 64 MB, the episode record adds about 2 MB)."""
     import tracemalloc
@@ -213,11 +214,11 @@ def test_render_episode_streams_to_its_file_with_memory_flat_in_the_episodes_len
     for steps in (10, 80):
         env = suite.load("auv", "goal", task_kwargs={"random": 0})
         tracemalloc.start()
-        path = render.render_episode(env, _cruise, tmp_path / f"goal{steps}.mp4", max_steps=steps, width=640,
+        path = render.render_episode(env, _cruise, tmp_path / f"goal{steps}{suffix}", max_steps=steps, width=640,
                                      height=480, hold_end=0.0)
         peaks[steps] = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
-        assert path == tmp_path / f"goal{steps}.mp4" and len(_decode(path)) == steps + 1
+        assert path == tmp_path / f"goal{steps}{suffix}" and len(_decode(path)) == steps + 1
     assert peaks[80] - peaks[10] < 8 * 640 * 480 * 3, peaks
 
 

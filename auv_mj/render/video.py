@@ -1281,7 +1281,8 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEF
                 gif: bool | None = None) -> Path:
     """Writes frames to `path`: H.264 MP4 (yuv420p), or GIF when asked, named .gif, or without ffmpeg.
 
-    Frames stream to ffmpeg (a long episode never sits in memory as MP4); a GIF collects them first.
+    Frames stream to the file as they come (to ffmpeg for an MP4, to Pillow's GIF encoder frame by frame): a long
+    episode never sits in memory.
     Returns the path written (its suffix is .gif when it fell back to GIF).
     """
     path = Path(path)
@@ -1294,11 +1295,7 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEF
         path = path.with_suffix(".gif")
     path.parent.mkdir(parents=True, exist_ok=True)
     if gif:
-        import imageio.v3 as iio
-
-        stack = np.stack(list(frames))
-        iio.imwrite(path, stack, extension=".gif", duration=1000.0 / fps, loop=0)
-        return path
+        return _write_gif(frames, path, fps)
     import imageio_ffmpeg
 
     writer = None
@@ -1317,6 +1314,28 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEF
         if writer is not None:
             writer.close()
     if writer is None:
+        raise ValueError("no frames to write")
+    return path
+
+
+def _write_gif(frames: Iterable[np.ndarray], path: Path, fps: float) -> Path:
+    """An animated GIF (looping) written frame by frame as the frames come, each with its own 256-colour palette:
+    memory flat in the video's length, as for an MP4."""
+    from PIL import GifImagePlugin, Image
+
+    duration = 1000.0 / fps  # [ms]; GIF keeps hundredths of a second
+    written = False
+    with open(path, "wb") as f:
+        for frame in frames:
+            image = Image.fromarray(np.ascontiguousarray(frame)).quantize(256)
+            if not written:
+                header, _ = GifImagePlugin.getheader(image, info={"loop": 0, "duration": duration})
+                f.write(b"".join(header))
+                written = True
+            f.write(b"".join(GifImagePlugin.getdata(image, duration=duration, include_color_table=True)))
+        f.write(b";")  # the trailer
+    if not written:
+        path.unlink()
         raise ValueError("no frames to write")
     return path
 
