@@ -144,7 +144,7 @@ def test_an_authored_tunnel_through_the_cli_alone(tmp_path):
     rendered = _run("render", "--task", "tunnel", "--arena", arena, "--policy", "los-avoid", "--max-steps", "10",
                     "--width", "160", "--height", "96", "--fps", "5", "--gif", "-o", video, "--no-progress")
     assert rendered.returncode == 0, rendered.stderr
-    assert video.stat().st_size > 1000 and "outcome timeout" in rendered.stdout
+    assert video.stat().st_size > 1000 and "outcome cut (--max-steps 10)" in rendered.stdout
     figure = tmp_path / "t.png"
     plotted = _run("plot", "trajectory", "--task", "tunnel", "--arena", arena, "--policy", "los-avoid",
                    "--max-steps", "40", "-o", figure)
