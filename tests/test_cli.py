@@ -106,7 +106,7 @@ def test_eval_json_is_strict_and_outcomes_sum_to_the_episodes(tmp_path):
     summary = results["tasks"]["speed_heading"]
     assert summary["outcomes"] == {"goal": 0, "collision": 0, "left_map": 0, "timeout": 2}
     assert summary["min_clearance"] is None  # no obstacles to measure: undefined, not NaN
-    assert "timeout 2" in done.stdout
+    assert "cut 2" in done.stdout  # stopped by --max-steps: recorded as timeouts, shown as cut
     done = _run("eval", "--policy", "splane", "--task", "goal", "--episodes", "1", "--max-steps", "3",
                 "--json", out, "--no-progress")
     summary = _strict(out.read_text())["tasks"]["goal"]
