@@ -4,10 +4,11 @@ tables, figures whose labels and tracks can be read."""
 from __future__ import annotations
 
 from auv_mj.cli import main
-from auv_mj.console import counted
 
 
 def test_counts_read_as_words(tmp_path, capsys):
+    from auv_mj.console import counted
+
     assert (counted(1, "mover"), counted(2, "mover"), counted(0, "unknown obstacle")) == (
         "1 mover", "2 movers", "0 unknown obstacles")
     assert counted(1, "wall box", "wall boxes") == "1 wall box" and counted(3, "box", "boxes") == "3 boxes"
