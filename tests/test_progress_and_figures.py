@@ -88,7 +88,7 @@ def test_times_are_rounded_to_the_microsecond():
 
 
 def test_training_on_a_tracking_task_shows_the_tracking_error_not_a_success_rate(tmp_path, capsys):
-    from auv_mj.agents.train import EpisodeErrors, errors_text
+    from auv_mj.agents.offpolicy.train import EpisodeErrors, errors_text
 
     errors = EpisodeErrors()
     errors.add(0, {"success": False, "speed_error": 1.0})  # a goal task: its success rate tells
