@@ -242,15 +242,15 @@ class AUVGymEnv(gymnasium.Env):
         """The frame drawer of the video renderer (`auv_mj.render`), made on first use."""
         if self._view is None:
             height, width = self.render_size
+            title = gym_id(self.task_name) if isinstance(self.task_name, str) else ""
             if self._domain == DOMAIN:
                 from auv_mj.render.video import LiveView
 
-                self._view = LiveView(self._env, width, height, follow_view=self.render_distance,
-                                      title=gym_id(self.task_name))
+                self._view = LiveView(self._env, width, height, follow_view=self.render_distance, title=title)
             else:
                 from auv_mj.render.video3d import LiveView3D
 
-                self._view = LiveView3D(self._env, width, height, title=gym_id(self.task_name))
+                self._view = LiveView3D(self._env, width, height, title=title)
         return self._view
 
     def close(self):
