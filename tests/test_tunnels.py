@@ -390,7 +390,7 @@ def test_cli_unknown_option(tmp_path):
                             "--unknown", "100,-10,10,20,0,rock"], capture_output=True, text=True, timeout=120)
     assert built.returncode == 0, built.stderr
     assert "1 unknown obstacle," in built.stdout
-    bad = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(xml_path),
+    bad = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(tmp_path / "bad.xml"),
                           "--unknown", "100,-10,10"], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "--unknown '100,-10,10': expected x,y,length,width" in bad.stderr
 
