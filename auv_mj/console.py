@@ -20,3 +20,9 @@ def complete(bar) -> None:
     if bar.total is None or bar.n < bar.total:
         bar.total = bar.n
         bar.refresh()
+
+
+def counted(count: int, noun: str, plural: str | None = None) -> str:
+    """`count` and `noun` as a reader says them: "1 mover", "2 movers", "0 unknown obstacles"; `plural` where adding
+    an s is wrong ("1 path site" needs none, "1 box" gives `plural="boxes"`)."""
+    return f"{count} {noun if count == 1 else plural or noun + 's'}"

@@ -269,6 +269,9 @@ class EpisodeRecord:
     arena: ArenaGeometry
     extras: dict[str, np.ndarray] = field(default_factory=dict)
     """Whatever else a caller wants saved with the record."""
+    cut: bool = False
+    """Whether the caller stopped the episode (`max_steps`, `--max-steps`) before the task ended it: its outcome
+    reads "timeout", as at the time limit, and the commands label it as cut (`outcome_label`)."""
 
     @property
     def steps(self) -> int:
@@ -347,9 +350,10 @@ class EpisodeRecord:
             group, name = key.split("/", 1)
             groups[group][name] = data.pop(key)
         seed = str(data.pop("seed"))
+        cut = bool(data.pop("cut", False))  # records saved before it had the flag: not cut
         return cls(task=str(data.pop("task")), policy=str(data.pop("policy")),
                    seed=int(seed) if seed not in ("", "None") else None,
-                   control_dt=float(data.pop("control_dt")), **data, **groups,
+                   control_dt=float(data.pop("control_dt")), cut=cut, **data, **groups,
                    arena=ArenaGeometry(polygons=polygons, **arena))
 
 
@@ -386,6 +390,8 @@ class EpisodeRecorder:
         self.arena: ArenaGeometry | None = None
         """The arena of the current episode (set by `run` after the reset)."""
         self.snapshots: list[Snapshot] = []
+        self.cut = False
+        """Whether `run` stopped at `max_steps` before the episode's last step."""
 
     def _snapshot(self, time_step, action=None, previous: Snapshot | None = None) -> Snapshot:
         physics = self.env.physics
@@ -414,19 +420,30 @@ class EpisodeRecorder:
             return np.asarray(info["command"], dtype=float).ravel()
         return np.full(2, np.nan)
 
+    def start(self, time_step) -> Snapshot:
+        """Starts a new record at `time_step`, the environment's reset (its arena read again). `run` calls it; so
+        does whoever steps the environment outside `run` (the Gymnasium face's `render()`), then `add` per step."""
+        self.arena = arena_geometry(self.env.physics, self.env.task)
+        self.snapshots = [self._snapshot(time_step)]
+        self.cut = False
+        return self.snapshots[-1]
+
+    def add(self, time_step, action) -> Snapshot:
+        """Records `time_step`, the step that `action` led to."""
+        self.snapshots.append(self._snapshot(time_step, action, self.snapshots[-1]))
+        return self.snapshots[-1]
+
     def run(self, policy: Policy, max_steps: int | None = None) -> Iterator[Snapshot]:
         """Resets, then steps until the episode ends or `max_steps`; yields each new Snapshot."""
         time_step = self.env.reset()
-        self.arena = arena_geometry(self.env.physics, self.env.task)
         planner = as_planner(policy)
         planner.reset()
-        self.snapshots = [self._snapshot(time_step)]
-        yield self.snapshots[-1]
+        yield self.start(time_step)
         while not time_step.last() and (max_steps is None or len(self.snapshots) <= max_steps):
             action = planner.act(time_step)
             time_step = self.env.step(action)
-            self.snapshots.append(self._snapshot(time_step, action, self.snapshots[-1]))
-            yield self.snapshots[-1]
+            yield self.add(time_step, action)
+        self.cut = not time_step.last()
 
     def record(self) -> EpisodeRecord:
         """The snapshots so far as an EpisodeRecord."""
@@ -445,7 +462,7 @@ class EpisodeRecorder:
             action=np.array([s.action for s in steps]).reshape(len(steps), action_dim),
             command=np.array([s.command for s in steps]).reshape(len(steps), 2),
             reward=np.array([s.reward for s in steps]), event=np.array([s.event for s in steps], dtype=str),
-            success=np.array([s.success for s in steps], dtype=bool), info=info, arena=self.arena)
+            success=np.array([s.success for s in steps], dtype=bool), info=info, arena=self.arena, cut=self.cut)
 
 
 def _recordable(value) -> bool:
@@ -473,6 +490,9 @@ def record_episode(env, policy: Policy, max_steps: int | None = None, task: str 
 
 OUTCOMES = ("goal", "collision", "left_map", "timeout")
 """How an episode ends, exactly one of these: the task's terminal event, or the time (step) limit."""
+TIME_DECIMALS = 6
+"""Decimals [s] of the times the metrics report (duration, time to goal): the simulation clock sums physics steps,
+whose rounding leaves 100.50000000001451 for 100.5; a microsecond is far below any step."""
 TRACKING_KEYS = ("speed_error", "heading_error", "cross_track_error", "depth_error")
 """Per-step tracking errors a task may report in last_info: e_V [m/s], e_psi [rad], cross-track [m], depth [m]
 (the 6-DOF depth_heading: mae_depth)."""
@@ -481,12 +501,27 @@ TRACKING_KEYS = ("speed_error", "heading_error", "cross_track_error", "depth_err
 def outcome(events: np.ndarray | list[str]) -> str:
     """The episode's outcome from its per-step events: the last terminal event, else "timeout".
 
-    A planner that stalls until the time limit (or a run cut by max_steps) is a "timeout".
+    A planner that stalls until the time limit (or a run cut by max_steps) is a "timeout"; `outcome_label` tells
+    the two apart for the reader.
     """
     for event in reversed([str(e) for e in events]):
         if event in OUTCOMES:
             return event
     return "timeout"
+
+
+CUT = "cut"
+"""How the commands print the outcome of an episode stopped by max_steps (`--max-steps`) before the task ended it:
+its recorded outcome stays "timeout" (what the benchmark and the recorded outcomes count), but the reader is told
+that the time limit was not reached."""
+
+
+def outcome_label(outcome_name: str, cut: bool, steps: int | None = None) -> str:
+    """The outcome as the commands print it: "cut (--max-steps 50)" for an episode the caller stopped, else the
+    outcome itself."""
+    if not cut:
+        return outcome_name
+    return f"{CUT} (--max-steps {steps})" if steps is not None else CUT
 
 
 def phase_mae(speed_error: np.ndarray, heading_error: np.ndarray, phases: np.ndarray,
@@ -535,8 +570,10 @@ def episode_metrics(record: EpisodeRecord) -> dict:
                                                    dtype=float) > 0.5)),
         "min_clearance": float(clearance.min()) if clearance.size else None,
         "path_length": float(np.sum(np.hypot(*np.diff(record.pose[:, :2], axis=0).T))),
-        "time_to_goal": float(record.time[success_steps[0] + 1]) if has_goal and success_steps.size else None,
-        "duration": float(record.time[-1] - record.time[0]),
+        "time_to_goal": (round(float(record.time[success_steps[0] + 1]), TIME_DECIMALS)
+                         if has_goal and success_steps.size else None),
+        "duration": round(float(record.time[-1] - record.time[0]), TIME_DECIMALS),
+        "cut": record.cut,
     }
     tracked = _tracked(record)
     for key in TRACKING_KEYS:

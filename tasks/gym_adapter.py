@@ -35,10 +35,12 @@ DOMAIN = "auv"
 GOAL_TASK_REWARD = "paper"
 """Reward of goal tasks unless task_kwargs say otherwise: the goal-decomposable Eq. (26), which the tasks'
 `compute_reward` reproduces, so that HER's relabelled rewards are the environment's own."""
-RENDER_SIZE = (480, 480)
-"""Default (height, width) of `render()` images [pixels]."""
-RENDER_DISTANCE = 30.0
-"""Default height of the top-down render camera above the vehicle [m]."""
+RENDER_SIZE = (720, 1280)
+"""Default (height, width) of `render()` images [pixels]: the videos' frame (`auv_mj.render.DEFAULT_SIZE`)."""
+RENDER_DISTANCE = 120.0
+"""Default height of the planar frame's follow view [m] (the videos' FOLLOW_VIEW)."""
+MIN_RENDER_SIZE = 32
+"""Smallest `render()` image side [pixels] (the 6-DOF frame's panels need it; the text overlay needs 240 rows)."""
 MAX_RENDER_SIZE = 4096
 """Largest `render()` image side [pixels]."""
 MAX_RENDER_DISTANCE = 10_000.0
@@ -126,7 +128,7 @@ class AUVGymEnv(gymnasium.Env):
         self.task_name = task_name
         self.render_mode = render_mode
         self.render_size = tuple(int(v) for v in checks.pair("render_size", render_size,
-                                                              ((1, MAX_RENDER_SIZE, "px"),) * 2))
+                                                              ((MIN_RENDER_SIZE, MAX_RENDER_SIZE, "px"),) * 2))
         self.render_distance = checks.number("render_distance", render_distance, 0.0, MAX_RENDER_DISTANCE, "m",
                                               low_open=True)
         environment_kwargs = checks.environment_kwargs(environment_kwargs)
@@ -141,8 +143,7 @@ class AUVGymEnv(gymnasium.Env):
         self.task_kwargs = task_kwargs
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self._env.control_timestep())}
         self.observation_space, self.action_space, self._observation = gym_spaces(self._env)
-        self._camera = None
-        self._camera_model = None
+        self._view = None
         self._needs_reset = True
         self.last_time_step = None
         """The dm_env time step of the last reset or step (what a wrapper such as the deployment chain reads)."""
@@ -175,6 +176,8 @@ class AUVGymEnv(gymnasium.Env):
             self.task.random.seed(seed)
         time_step = self.last_time_step = self._env.reset()
         self._needs_reset = False
+        if self.render_mode == "rgb_array":
+            self._live_view().start(time_step)
         return self._observation(time_step.observation), self._info()
 
     def step(self, action):
@@ -187,6 +190,8 @@ class AUVGymEnv(gymnasium.Env):
         if self._needs_reset:
             raise RuntimeError("call reset() before step() (and after an episode has ended)")
         time_step = self.last_time_step = self._env.step(action)
+        if self._view is not None:
+            self._view.add(time_step, action)
         terminated = bool(time_step.last() and time_step.discount == 0.0)
         truncated = bool(time_step.last() and not terminated)
         self._needs_reset = time_step.last()
@@ -222,23 +227,36 @@ class AUVGymEnv(gymnasium.Env):
         return np.zeros(achieved_goal.shape[:-1], dtype=bool) if achieved_goal.ndim > 1 else False
 
     def render(self):
-        """An (H, W, 3) uint8 top-down image centred on the vehicle ("rgb_array"), else None."""
+        """With render_mode="rgb_array", the (H, W, 3) uint8 frame the videos show of the current step (`auv-mj
+        render`, `auv_mj.render`), `render_size` (height, width) pixels: planar tasks a top-down view following the
+        vehicle (`render_distance` metres tall) with the arena's overview inset, the goal, the global path, the sonar
+        beams, the trail since the reset, a text overlay and a key; 6-DOF tasks the chase, top and side views with
+        the heads-up display. Else None."""
         if self.render_mode != "rgb_array":
             return None
-        from dm_control.mujoco import engine
+        if self._needs_reset and self.last_time_step is None:
+            raise RuntimeError("call reset() before render()")
+        return self._live_view().frame()
 
-        if self._camera is None or self._camera_model is not self.physics.model.ptr:
-            height, width = self.render_size  # a new camera too when the task recompiled (a new arena)
-            self._camera = engine.MovableCamera(self.physics, height, width)
-            self._camera_model = self.physics.model.ptr
-        x, y, _ = self.physics.pose()
-        self._camera.set_pose(lookat=np.array([x, y, 0.0]), distance=self.render_distance,
-                              azimuth=90.0, elevation=-90.0)
-        return self._camera.render()
+    def _live_view(self):
+        """The frame drawer of the video renderer (`auv_mj.render`), made on first use."""
+        if self._view is None:
+            height, width = self.render_size
+            title = gym_id(self.task_name) if isinstance(self.task_name, str) else ""
+            if self._domain == DOMAIN:
+                from auv_mj.render.video import LiveView
+
+                self._view = LiveView(self._env, width, height, follow_view=self.render_distance, title=title)
+            else:
+                from auv_mj.render.video3d import LiveView3D
+
+                self._view = LiveView3D(self._env, width, height, title=title)
+        return self._view
 
     def close(self):
-        """Frees the camera; safe to call twice."""
-        self._camera = None
+        """Frees the renderer's OpenGL context; safe to call twice."""
+        if self._view is not None:
+            self._view.close()
 
     # --- helpers ------------------------------------------------------------------------------------
 

@@ -19,7 +19,7 @@ def test_frames_interpolate_the_control_steps_and_carry_the_panels_the_hud_and_t
     env = auv3d.tunnel3d(random=0)
     track = Track3D()
     size = (320, 240)
-    frames = render_episode_3d(env, los_policy(env), max_steps=2, width=size[0], height=size[1], fps=10,
+    frames = render_episode_3d(env, los_policy(env), in_memory=True, max_steps=2, width=size[0], height=size[1], fps=10,
                                speedup=1.0, hold_end=0.0, track=track)
     assert frames.shape == (11, 240, 320, 3) and frames.dtype == np.uint8
     layout = Layout.of(*size)
@@ -50,8 +50,8 @@ def test_interpolation_is_linear_between_control_steps_and_keeps_the_quaternion_
 def test_plots_of_depth_and_track(tmp_path):
     env = auv3d.depth_heading(random=0)
     track = Track3D()
-    frames = render_episode_3d(env, auv3d.splane_policy(env), max_steps=2, width=64, height=48, track=track,
-                               hold_end=0.0)
+    frames = render_episode_3d(env, auv3d.splane_policy(env), in_memory=True, max_steps=2, width=64, height=48,
+                               track=track, hold_end=0.0)
     assert frames.shape == (3, 48, 64, 3)
     arrays = track.arrays()
     assert arrays["position"].shape == (3, 3) and np.allclose(arrays["position"][0, 2], -auv3d.START_DEPTH)

@@ -106,7 +106,7 @@ def test_eval_json_is_strict_and_outcomes_sum_to_the_episodes(tmp_path):
     summary = results["tasks"]["speed_heading"]
     assert summary["outcomes"] == {"goal": 0, "collision": 0, "left_map": 0, "timeout": 2}
     assert summary["min_clearance"] is None  # no obstacles to measure: undefined, not NaN
-    assert "timeout 2" in done.stdout
+    assert "cut 2" in done.stdout  # stopped by --max-steps: recorded as timeouts, shown as cut
     done = _run("eval", "--policy", "splane", "--task", "goal", "--episodes", "1", "--max-steps", "3",
                 "--json", out, "--no-progress")
     summary = _strict(out.read_text())["tasks"]["goal"]
@@ -144,7 +144,7 @@ def test_an_authored_tunnel_through_the_cli_alone(tmp_path):
     rendered = _run("render", "--task", "tunnel", "--arena", arena, "--policy", "los-avoid", "--max-steps", "10",
                     "--width", "160", "--height", "96", "--fps", "5", "--gif", "-o", video, "--no-progress")
     assert rendered.returncode == 0, rendered.stderr
-    assert video.stat().st_size > 1000 and "outcome timeout" in rendered.stdout
+    assert video.stat().st_size > 1000 and "outcome cut (--max-steps 10)" in rendered.stdout
     figure = tmp_path / "t.png"
     plotted = _run("plot", "trajectory", "--task", "tunnel", "--arena", arena, "--policy", "los-avoid",
                    "--max-steps", "40", "-o", figure)

@@ -130,16 +130,25 @@ def _last_bar(text: str) -> str:
 
 
 def test_the_render_bar_ends_at_100_percent_when_the_episode_ends_early(capsys):
+    """The bar counts the metres made good along the route, its total fixed from the first draw (not the time limit's
+    steps, rewritten to the steps done at the end); it ends full at the goal, and short of it when the run is cut."""
+    import re
+
     from auv_mj.render.video import iter_frames
 
     env, policy = zoo.env_and_policy("splane", "goal", 0, {"goal_radius": 50.0})
     recorder = EpisodeRecorder(env, "goal", "splane", 0)
     for _ in iter_frames(env, policy, width=96, height=64, hold_end=0.0, recorder=recorder, progress=True):
         pass
-    steps = recorder.record().steps
-    assert steps < env._step_limit  # the goal was reached before the time limit, the bar's first total
+    assert recorder.record().steps < env._step_limit  # the goal was reached before the time limit
+    text = capsys.readouterr().err
+    totals = {int(total) for total in re.findall(r"\d+/(\d+) m", text)}
+    last = _last_bar(text)
+    assert len(totals) == 1 and "100%" in last and f"{min(totals)}/{min(totals)} m" in last and "goal" in last
+    for _ in iter_frames(env, policy, max_steps=4, width=96, height=64, hold_end=0.0, progress=True):
+        pass
     last = _last_bar(capsys.readouterr().err)
-    assert "100%" in last and f"{steps}/{steps}" in last
+    assert "100%" not in last and "cut (--max-steps 4)" in last, last
 
 
 def test_the_demo_shows_its_table_episodes_to_100_percent(tmp_path, capsys):

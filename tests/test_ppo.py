@@ -791,3 +791,17 @@ def test_a_checkpoint_keeps_the_task_options_it_was_trained_with_and_the_zoo_run
     plain = AUVVectorEnv("obstacles", 2, threads=1)
     result = train(plain, config, tmp_path / "plain", total_steps=8, progress=False)
     assert "task_options" not in read_ppo(result.checkpoint)[0].metadata["spec"]
+
+
+def test_the_progress_bar_shows_no_nan_before_an_episode_ends(tmp_path, capsys):
+    """One rollout of 4 steps on episodes of DELAY + 1 = 9 steps ends no episode: the bar says so (not ret=nan);
+    later ones show the means over the episodes that ended, leaving out what the env does not report."""
+    from auv_mj.agents.ppo import ppo
+
+    config = dataclasses.replace(TOY_CONFIG, num_steps=4, num_minibatches=2)
+    train(CueEnv(2), config, tmp_path, total_steps=2 * 4, progress=True)
+    text = capsys.readouterr().err
+    assert "nan" not in text.lower() and "no episode ended yet" in text
+    assert ppo.progress_text([], 0, 3e-4, 10.0) == "no episode ended yet, episodes 0, lr 0.0003, 10 steps/s"
+    ended = [ppo.Episode(1.0, 9, 0, 1.0, np.nan, 1.0), ppo.Episode(2.0, 9, 0, 0.0, np.nan, 1.0)]
+    assert ppo.progress_text(ended, 2, 3e-4, 10.0).startswith("ret 1.5, succ 0.50 (last 2), episodes 2")

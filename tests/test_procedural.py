@@ -18,6 +18,7 @@ import pytest
 import shapely
 
 from auv_mj.arenas import arena, arena_check, procedural, tunnels
+from auv_mj.console import counted
 from auv_mj.episode import episode_metrics, record_episode
 from auv_mj.planners.guidance import los_avoid
 from auv_mj.tasks import obstacles, planning, suite, tunnel
@@ -66,7 +67,7 @@ def test_random_tunnels_pass_check_arena(seed):
     drawn = procedural.random_tunnel(seed, SHORT)
     report = arena_check.check_arena(drawn.element())
     assert report.ok, report.lines()
-    assert f"{len(drawn.unknown)} unknown obstacles" in report.summary
+    assert counted(len(drawn.unknown), "unknown obstacle") in report.summary
     info = arena.arena_info(arena.load(drawn.element()))
     assert len(info.movers) == len(drawn.movers) >= SHORT.movers[0]
 

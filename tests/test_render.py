@@ -74,7 +74,7 @@ def test_vehicle_marker_moves_as_the_vehicle(overview_video):
 def test_follow_and_both_cameras_show_decorations():
     env = suite.load("auv", "moving_obstacles", task_kwargs={"random": 0})
     for camera in ("follow", "both"):
-        frames = render.render_episode(env, _cruise, max_steps=2, width=SIZE[0], height=SIZE[1],
+        frames = render.render_episode(env, _cruise, in_memory=True, max_steps=2, width=SIZE[0], height=SIZE[1],
                                        camera=camera, hold_end=0.0)
         assert frames.shape == (3, SIZE[1], SIZE[0], 3)
         assert frames.dtype == np.uint8 and frames[-1].std() > 5
@@ -199,3 +199,89 @@ def test_raster_lines_squares_and_polygons_cover_their_pixels():
     assert np.all(image[7:12, 22:27] == (0, 0, 255)) and tuple(image[10, 27]) != (0, 0, 255)
     mask, row, col = raster.polygon_mask(np.array([[1.0, 1.0], [5.0, 1.0], [5.0, 4.0], [1.0, 4.0]]))
     assert (row, col) == (1, 1) and mask.sum() == 12 and mask[:3, :4].all()
+
+
+# --- render_episode: streamed to its file, in memory only when asked ------------------------------------------------
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+def test_render_episode_streams_to_its_file_with_memory_flat_in_the_episodes_length(tmp_path, suffix):
+    """The frames go to the file as they are drawn: eight times the steps take about the same peak memory (a
+    640 x 480 frame is 0.9 MB; keeping 70 more of them would add 64 MB, the episode record adds about 2 MB)."""
+    import tracemalloc
+
+    peaks = {}
+    for steps in (10, 80):
+        env = suite.load("auv", "goal", task_kwargs={"random": 0})
+        tracemalloc.start()
+        path = render.render_episode(env, _cruise, tmp_path / f"goal{steps}{suffix}", max_steps=steps, width=640,
+                                     height=480, hold_end=0.0)
+        peaks[steps] = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert path == tmp_path / f"goal{steps}{suffix}" and len(_decode(path)) == steps + 1
+    assert peaks[80] - peaks[10] < 8 * 640 * 480 * 3, peaks
+
+
+class _Stop(Exception):
+    pass
+
+
+def _stop(time_step):
+    """A policy that ends the render at its first step (after the warnings that come before it)."""
+    raise _Stop
+
+
+def test_render_episode_in_memory_is_asked_for_and_says_its_size():
+    env = suite.load("auv", "tunnel", task_kwargs={"random": 0})
+    with pytest.raises(ValueError, match=r"path=.*in_memory=True.*frames of 1280 x 720: [0-9.]+ GB"):
+        render.render_episode(env, _cruise)  # neither: no 2 GB array unless asked for
+    with pytest.raises(_Stop), pytest.warns(UserWarning, match=r"every frame in memory, up to \d+ frames of "
+                                                                r"1280 x 720: [0-9.]+ GB; give path="):
+        render.render_episode(env, _stop, in_memory=True)
+    small = render.render_episode(env, _cruise, in_memory=True, max_steps=1, width=SIZE[0], height=SIZE[1],
+                                  hold_end=0.0)
+    assert small.shape == (2, SIZE[1], SIZE[0], 3)
+
+
+def test_render_episode_has_an_explicit_signature_and_the_defaults_of_render_frame():
+    import inspect
+
+    parameters = inspect.signature(render.render_episode).parameters
+    assert not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values())
+    assert {"path", "in_memory", "max_steps", "width", "height", "camera", "fps", "progress"} <= set(parameters)
+    for function in (render.render_episode, render.iter_frames, render.render_frame):
+        signature = inspect.signature(function).parameters
+        assert (signature["width"].default, signature["height"].default) == render.DEFAULT_SIZE, function.__name__
+
+
+# --- the Gymnasium frame is the video's ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("gym_id", ["auv_mj/Obstacles-v0", "auv_mj/Goal3D-v0"])
+def test_the_gymnasium_frame_is_the_videos_frame(gym_id):
+    """render_mode="rgb_array" draws what `auv-mj render` draws at each control step (goal, path, sonar, trail, text
+    overlay and key; the 6-DOF panels and heads-up display), at the videos' size, by the same renderer."""
+    import gymnasium
+
+    from auv_mj.render.video3d import iter_frames_3d
+
+    steps, size = 4, (320, 240)
+    env = gymnasium.make(gym_id, render_mode="rgb_array", render_size=size[::-1])
+    action = np.resize([0.5, 0.25], env.action_space.shape)  # numbers float32 holds exactly, as the face passes them
+    assert gymnasium.make(gym_id, render_mode="rgb_array").unwrapped.render_size == render.DEFAULT_SIZE[::-1]
+    env.reset(seed=0)
+    shown = [env.render()]
+    for _ in range(steps):
+        env.step(action.astype(np.float32))
+        shown.append(env.render())
+    dm_env = env.unwrapped.dm_env
+    dm_env.task.random.seed(0)
+    frames = iter_frames_3d if "3D" in gym_id else render.iter_frames
+    video = list(frames(dm_env, lambda time_step: action, max_steps=steps, width=size[0], height=size[1], hold_end=0.0,
+                        title=gym_id))
+    env.close()
+    assert len(video) == len(shown) == steps + 1
+    for k, (ours, theirs) in enumerate(zip(shown, video, strict=True)):
+        assert ours.shape == (size[1], size[0], 3) and ours.dtype == np.uint8
+        assert np.array_equal(ours, theirs), f"step {k}: {np.abs(ours.astype(int) - theirs).max()}"
+    assert shown[-1].std() > 20  # not the nearly black frame of a bare camera

@@ -357,7 +357,7 @@ def test_unknown_obstacle_on_the_path_passes_the_check_when_it_leaves_a_way_past
     assert "unknown_rock" in _geom_names(element)
     report = arena_check.check_arena(element)
     assert report.ok, report.lines()
-    assert "1 unknown obstacles" in report.summary
+    assert "1 unknown obstacle," in report.summary
 
 
 def test_unknown_obstacle_closing_the_tunnel_is_refused_naming_it():
@@ -389,8 +389,8 @@ def test_cli_unknown_option(tmp_path):
     built = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(xml_path),
                             "--unknown", "100,-10,10,20,0,rock"], capture_output=True, text=True, timeout=120)
     assert built.returncode == 0, built.stderr
-    assert "1 unknown obstacles" in built.stdout
-    bad = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(xml_path),
+    assert "1 unknown obstacle," in built.stdout
+    bad = subprocess.run([str(AUV_MJ), "tunnel", str(csv_path), "--width", "40", "-o", str(tmp_path / "bad.xml"),
                           "--unknown", "100,-10,10"], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "--unknown '100,-10,10': expected x,y,length,width" in bad.stderr
 

@@ -32,7 +32,7 @@ import dataclasses
 import json
 import time
 from collections import deque
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -79,6 +79,58 @@ class TrainResult:
     updates_per_s: float
     """Gradient steps per second spent in update rounds (sampling and relabelling included)."""
     interrupted: bool = False
+    tracking_error: dict[str, float] | None = None
+    """On a tracking task (speed_heading, depth_heading: no success to report), the mean |error| per tracked
+    quantity over the last WINDOW episodes (speed [m/s], heading [rad], depth [m]); None elsewhere."""
+
+
+TRACKED_ERRORS = {"speed_error": ("speed", "m/s", 1.0), "heading_error": ("heading", "deg", float(np.degrees(1.0))),
+                  "depth_error": ("depth", "m", 1.0)}
+"""The step info's tracking errors a tracking task reports, as the progress shows them: (name, unit, scale)."""
+
+
+class EpisodeErrors:
+    """Per stream of episodes, the sums of |tracking error| over the episode in progress, on a task that reports no
+    success (speed_heading, depth_heading): how such a run is doing, where a success rate would read 0.00."""
+
+    def __init__(self):
+        self._sums: dict[int, tuple[dict[str, float], int]] = {}
+
+    def add(self, stream: int, info: Mapping[str, Any]) -> None:
+        """One step's info; a task that reports success has its success rate instead."""
+        if "success" in info:
+            return
+        sums, count = self._sums.get(stream, ({}, 0))
+        for key in TRACKED_ERRORS:
+            if key in info:
+                sums[key] = sums.get(key, 0.0) + abs(float(info[key]))
+        self._sums[stream] = (sums, count + 1)
+
+    def end(self, stream: int) -> dict[str, float] | None:
+        """The episode's mean |error| per key (None without any), and a fresh sum for the stream's next one."""
+        sums, count = self._sums.pop(stream, ({}, 0))
+        return {key: value / count for key, value in sums.items()} if sums and count else None
+
+
+def mean_errors(errors: Sequence[Mapping[str, float]]) -> dict[str, float] | None:
+    """The mean over episodes of each tracking error (None when no episode reported one)."""
+    keys = [key for key in TRACKED_ERRORS if any(key in e for e in errors)]
+    return {key: float(np.mean([e[key] for e in errors if key in e])) for key in keys} or None
+
+
+def errors_text(errors: Mapping[str, float]) -> str:
+    """Tracking errors in words: "|e| speed 0.031 m/s, heading 1.9 deg"."""
+    parts = [f"{name} {errors[key] * scale:.3g} {unit}" for key, (name, unit, scale) in TRACKED_ERRORS.items()
+             if key in errors]
+    return "|e| " + ", ".join(parts)
+
+
+def progress_text(run: _Run) -> str:
+    """The progress bar's postfix: the success rate and return of the last WINDOW episodes, or on a tracking task
+    (no success) its mean tracking errors and return; and the exploration's epsilon."""
+    errors = mean_errors(run.errors)
+    measure = errors_text(errors) if errors else f"success {np.mean(run.successes):.2f}"
+    return f"{measure}, ret {np.mean(run.returns):.2f}, eps {run.agent.epsilon:.2f}"
 
 
 def env_spec(env: gym.Env) -> dict[str, Any]:
@@ -208,6 +260,9 @@ class _Run:
     writer: Any
     returns: deque
     successes: deque
+    errors: deque = dataclasses.field(default_factory=lambda: deque(maxlen=WINDOW))
+    """Per episode of a tracking task, its mean |tracking error| per key (`EpisodeErrors`)."""
+    episode_errors: EpisodeErrors = dataclasses.field(default_factory=EpisodeErrors)
     started: float = dataclasses.field(default_factory=time.perf_counter)
     start_counts: tuple[int, int] = (0, 0)
     update_time: float = 0.0
@@ -333,6 +388,7 @@ def _collect_episode(run: _Run, env: gym.Env, total_steps: int | None) -> tuple[
         counters["env_steps"] += 1
         ep_len += 1
         ep_return += float(reward)
+        run.episode_errors.add(0, info)
         ended = bool(terminated or truncated)
         _learn(run)
         if total_steps is not None and counters["env_steps"] >= total_steps:
@@ -354,8 +410,7 @@ def _train_serial(run: _Run, env: gym.Env, total_steps: int | None, episodes: in
         if not ended:
             break  # stopped mid-episode at total_steps: the partial episode is stored but not logged
         _log_episode(run, ep_return, ep_len, info)
-        bar.set_postfix(success=f"{np.mean(run.successes):.2f}", ret=f"{np.mean(run.returns):.2f}",
-                        eps=f"{run.agent.epsilon:.2f}", refresh=False)
+        bar.set_postfix_str(progress_text(run), refresh=False)
         if counters["episodes"] % checkpoint_every == 0:
             _save(run)
 
@@ -459,6 +514,7 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
                     else:
                         run.buffer.add(x, action, reward, flat_observation(run.spec, next_obs), terminated)
                     counters["env_steps"] += 1
+                    run.episode_errors.add(index, info)
                     running[index][0] += reward
                     running[index][1] += 1
                     if not (terminated or truncated):
@@ -470,7 +526,7 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
                         open_episodes[index] = []
                     if episodes is None or counters["episodes"] < episodes:
                         run.agent.epsilon = epsilon_at(config, counters["env_steps"], counters["episodes"])
-                        _log_episode(run, *running[index], info)
+                        _log_episode(run, *running[index], info, index)
                         save |= counters["episodes"] % checkpoint_every == 0
                         if not by_steps:
                             bar.update(1)
@@ -478,8 +534,7 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
             if by_steps:
                 bar.update(counters["env_steps"] - before)
             if run.successes:
-                bar.set_postfix(success=f"{np.mean(run.successes):.2f}", ret=f"{np.mean(run.returns):.2f}",
-                                eps=f"{run.agent.epsilon:.2f}", refresh=False)
+                bar.set_postfix_str(progress_text(run), refresh=False)
             if save:
                 _save(run)
             if finished() or not following:
@@ -494,10 +549,13 @@ def _train_with_collectors(run: _Run, env: gym.Env, env_fn: Callable[[], gym.Env
             run.buffer.end_episode()
 
 
-def _log_episode(run: _Run, ep_return: float, ep_len: int, info: dict) -> None:
-    """One progress.csv row and the TensorBoard scalars of a finished episode."""
+def _log_episode(run: _Run, ep_return: float, ep_len: int, info: dict, stream: int = 0) -> None:
+    """One progress.csv row and the TensorBoard scalars of a finished episode (of collector `stream`)."""
     counters = run.counters
     counters["episodes"] += 1
+    errors = run.episode_errors.end(stream)
+    if errors is not None:
+        run.errors.append(errors)
     success = float(info.get("is_success", 0.0))
     run.returns.append(ep_return)
     run.successes.append(success)
@@ -534,7 +592,7 @@ def _result(run: _Run, interrupted: bool) -> TrainResult:
         mean_return=float(np.mean(run.returns)) if run.returns else float("nan"), wall_time=wall_time,
         env_steps_per_s=(steps - run.start_counts[0]) / max(wall_time, 1e-9),
         updates_per_s=(grads - run.start_counts[1]) / run.update_time if run.update_time else float("nan"),
-        interrupted=interrupted)
+        interrupted=interrupted, tracking_error=mean_errors(run.errors))
 
 
 def train(env_fn: Callable[[], gym.Env], agent_name: str, config: DDPGConfig | None = None, *,

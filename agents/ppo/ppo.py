@@ -53,6 +53,7 @@ import json
 import math
 import time
 import warnings
+from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -997,6 +998,25 @@ class _Logs:
             self.board.close()
 
 
+RETURN_WINDOW = 100
+"""Finished episodes whose means the progress bar shows."""
+
+
+def progress_text(recent: Sequence[Episode], episodes: int, learning_rate: float, steps_per_s: float) -> str:
+    """The progress bar's postfix: the means over the last RETURN_WINDOW finished episodes (return, and success and
+    collisions where the env reports them), or, before the first has ended, that none has (not NaN); then the
+    episodes so far, the learning rate and the env steps per second."""
+    if recent:
+        summary = episode_summary(recent)
+        parts = [f"ret {summary['mean_return']:.3g}"] + [
+            f"{label} {summary[key]:.2f}" for key, label in (("success_rate", "succ"), ("collision_rate", "coll"))
+            if not math.isnan(summary[key])]
+        shown = ", ".join(parts) + f" (last {len(recent)})"
+    else:
+        shown = "no episode ended yet"
+    return f"{shown}, episodes {episodes}, lr {learning_rate:.2g}, {steps_per_s:.0f} steps/s"
+
+
 def _train_loop(collector: Collector, optimizer: torch.optim.Optimizer, config: PPOConfig, run_dir: Path,
                 counters: dict[str, Any], total_steps: int, resume: bool, progress: bool,
                 tensorboard: bool) -> PPOResult:
@@ -1012,6 +1032,7 @@ def _train_loop(collector: Collector, optimizer: torch.optim.Optimizer, config: 
                        disable=not progress)
     started, wall_before = time.perf_counter(), float(counters.get("wall_time", 0.0))
     mean_return = float("nan")
+    recent: deque[Episode] = deque(maxlen=RETURN_WINDOW)
     try:
         while counters["iteration"] < iterations:
             t0 = time.perf_counter()
@@ -1048,8 +1069,8 @@ def _train_loop(collector: Collector, optimizer: torch.optim.Optimizer, config: 
                                       "cell": name, "episodes": len(episodes), **episode_summary(episodes)})
             logs.write(row, cell_rows)
             bar.update(per_rollout)
-            bar.set_postfix(ret=f"{mean_return:.3g}", succ=f"{summary['success_rate']:.2f}",
-                            coll=f"{summary['collision_rate']:.2f}", lr=f"{lr:.2g}", sps=f"{sps:.0f}")
+            recent.extend(finished)
+            bar.set_postfix_str(progress_text(recent, counters["episodes"], lr, sps))
             if counters["iteration"] % config.checkpoint_every == 0 or counters["iteration"] == iterations:
                 counters["wall_time"] = wall_before + time.perf_counter() - started
                 save_ppo(run_dir / CHECKPOINT_NAME, model, optimizer, generator, config, spec, counters)

@@ -42,7 +42,7 @@ from auv_mj.arenas.tunnels import (
     route_clearance,
     segment_lines,
 )
-from auv_mj.console import progress_bar
+from auv_mj.console import counted, progress_bar
 from auv_mj.geometry import xy_text
 from auv_mj.sim.physics import AUVPhysics
 
@@ -82,7 +82,7 @@ class ArenaReport:
         """The report as printed: a summary, one line per problem or warning, then OK or a count."""
         out = [f"{self.source}: {self.summary}"] if self.summary else []
         out += [f"problem: {p}" for p in self.problems] + [f"warning: {w}" for w in self.warnings]
-        out.append("OK" if self.ok else f"{len(self.problems)} problem(s): not a usable arena")
+        out.append("OK" if self.ok else f"{counted(len(self.problems), 'problem')}: not a usable arena")
         return out
 
 
@@ -642,9 +642,9 @@ def _summary(model: mujoco.MjModel, info: ArenaInfo, static: list[int], least) -
     walls = sum(n.startswith("wall") for n in names)
     unknown = sum(n.startswith(UNKNOWN_OBSTACLE_PREFIX) for n in names)
     length = float(np.sum(np.hypot(*np.diff(info.path, axis=0).T))) if len(info.path) > 1 else 0.0
-    text = (f"{walls} wall geoms, {len(static) - walls - unknown} other static geoms, "
-            f"{f'{unknown} unknown obstacles, ' if unknown else ''}{len(info.movers)} movers, "
-            f"{len(info.path)} path sites over {length:.0f} m")
+    text = (f"{counted(walls, 'wall geom')}, {counted(len(static) - walls - unknown, 'other static geom')}, "
+            f"{counted(unknown, 'unknown obstacle') + ', ' if unknown else ''}{counted(len(info.movers), 'mover')}, "
+            f"{counted(len(info.path), 'path site')} over {length:.0f} m")
     if least is not None and least[1] is not None:
         text += f"; least clearance {least[0]:.2f} m (to {_name(model, least[1])}, segment {least[2]})"
     return text
@@ -657,9 +657,17 @@ def _xy4(b) -> str:
 # --- preview --------------------------------------------------------------------------------------
 
 LABEL_OFFSETS = ((0, 6), (0, -14), (8, -4), (-8, -4), (0, 18), (0, -26), (16, 10), (-16, 10), (16, -18),
-                 (-16, -18), (0, 30), (0, -38))
+                 (-16, -18), (0, 30), (0, -38), (40, 12), (-40, 12), (40, -20), (-40, -20), (0, 44), (0, -52),
+                 (60, 28), (-60, 28), (60, -36), (-60, -36), (0, 60), (0, -68))
 """Where a geom's name may go [points from the centre of its outline, the text's bottom centre], tried in order
-until it overlaps no label placed before it."""
+until it overlaps no label placed before it, nor a start, goal or mover marker; from the fifth on, a thin leader
+line joins the label to what it names."""
+LABEL_GAP = 3.0
+"""Least gap [pixels] between two labels, or a label and a marker, of the preview."""
+LABEL_BOX = {"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": "none", "alpha": 0.85}
+"""The labels' background: lines and shapes under a label do not cross its letters."""
+LEADER_FROM = 4
+"""Offsets from this index of LABEL_OFFSETS on are far enough from their point to need a leader line."""
 PIECE_NAME = re.compile(r"(.+)_(\d+)")
 """A piece of a polygon cut into convex meshes: NAME_0, NAME_1, ... (`auv_mj.arenas.layout`)."""
 
@@ -702,17 +710,26 @@ def _labelled_shapes(model: mujoco.MjModel, outlines: dict[int, np.ndarray]) -> 
     return shapes
 
 
-def _place_labels(ax, labels: list[tuple[str, np.ndarray, dict]]) -> None:
-    """Annotates each (text, point, style) at the first of LABEL_OFFSETS where it overlaps no label placed before
-    it (nor a fixed text already on `ax`); one that fits nowhere is left out rather than drawn over another."""
+def _place_labels(ax, labels: list[tuple[str, np.ndarray, dict]], markers: list | None = None) -> None:
+    """Annotates each (text, point, style) on a white ground at the first of LABEL_OFFSETS where it keeps LABEL_GAP
+    pixels from every label placed before it (and any fixed text on `ax`) and from the `markers` (start, goal,
+    movers' starts: their drawn extents); far ones get a leader line. One that fits nowhere is left out rather than
+    drawn over another."""
+    from matplotlib.text import Text
+
     renderer = ax.figure.canvas.get_renderer()
     ax.apply_aspect()
-    placed = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
+    placed = [t.get_window_extent(renderer).padded(LABEL_GAP) for t in ax.texts if t.get_text()]
+    for artist in markers or []:
+        placed.append(artist.get_window_extent(renderer).padded(LABEL_GAP))
     for text, point, style in labels:
-        for dx, dy in LABEL_OFFSETS:
+        for k, (dx, dy) in enumerate(LABEL_OFFSETS):
+            leader = ({"arrowprops": {"arrowstyle": "-", "lw": 0.5, "color": style.get("color", "0.3"),
+                                      "shrinkA": 0, "shrinkB": 1}} if k >= LEADER_FROM else {})
             note = ax.annotate(text, point, xytext=(dx, dy), textcoords="offset points", ha="center",
-                               va="bottom", **style)
-            box = note.get_window_extent(renderer)
+                               va="bottom", bbox=LABEL_BOX, zorder=6, **leader, **style)
+            note.update_positions(renderer)
+            box = Text.get_window_extent(note, renderer).padded(LABEL_GAP)  # the letters, not the leader line
             if not any(box.overlaps(other) for other in placed):
                 placed.append(box)
                 break
@@ -783,6 +800,7 @@ def arena_figure(physics: AUVPhysics, info: ArenaInfo | None, title: str = "",
     fig, ax = plt.subplots(figsize=(10, 7))
     movers = {model.body(m.body).id: m for m in info.movers} if info is not None else {}
     named: dict[int, np.ndarray] = {}
+    markers = []  # what a label must not cover: the movers, the start and the goal
     for g in range(model.ngeom):
         body = model.geom_bodyid[g]
         if (body != 0 and body not in movers) or g in skip:
@@ -792,7 +810,9 @@ def arena_figure(physics: AUVPhysics, info: ArenaInfo | None, title: str = "",
             continue
         name = model.geom(g).name
         colour = "#d9342b" if body in movers else "#73787f" if name.startswith("wall") else "#9a6a3f"
-        ax.add_patch(Polygon(outline, closed=True, facecolor=colour, edgecolor=colour, lw=0.5, zorder=2))
+        patch = ax.add_patch(Polygon(outline, closed=True, facecolor=colour, edgecolor=colour, lw=0.5, zorder=2))
+        if body in movers:
+            markers.append(patch)
         if body == 0 and not name.startswith("wall") and name:
             named[g] = outline
     labels = []
@@ -812,13 +832,13 @@ def arena_figure(physics: AUVPhysics, info: ArenaInfo | None, title: str = "",
             ax.plot(*path.T, "-", color="#1f77b4", lw=1.2, label="global path", zorder=3)
             ax.plot(*path.T, ".", color="#1f77b4", ms=3, zorder=3)
         if _drawable(info.start):
-            ax.plot(*info.start, "o", color="#2ca02c", ms=8, label="start", zorder=4)
+            markers += ax.plot(*info.start, "o", color="#2ca02c", ms=8, label="start", zorder=4)
             if math.isfinite(info.start_heading):
                 ax.annotate("", info.start + 15 * np.array([math.cos(info.start_heading),
                                                              math.sin(info.start_heading)]),
                             info.start, arrowprops={"arrowstyle": "->", "color": "#2ca02c", "lw": 1.5}, zorder=4)
         if _drawable(info.goal):
-            ax.plot(*info.goal, "*", color="#e6b800", ms=14, mec="k", mew=0.5, label="goal", zorder=4)
+            markers += ax.plot(*info.goal, "*", color="#e6b800", ms=14, mec="k", mew=0.5, label="goal", zorder=4)
         if info.bounds is not None and len(info.bounds) == 4 and _drawable(info.bounds):
             xmin, ymin, xmax, ymax = info.bounds
             ax.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False, ls=":", color="k",
@@ -829,7 +849,7 @@ def arena_figure(physics: AUVPhysics, info: ArenaInfo | None, title: str = "",
     ax.set_ylabel("y [m]")
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    _place_labels(ax, labels)
+    _place_labels(ax, labels, markers)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="best", fontsize=8)
     return fig

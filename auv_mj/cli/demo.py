@@ -5,6 +5,8 @@ Loads the shipped HER-DDPG planner and DDPG executor, drives the full MuJoCo dyn
 general planner and the strongest classical planner (`map-replan`, COMPARED), and writes `demo/tunnel.mp4`,
 `demo/tunnel_trajectory.png` and `demo/tunnel_episode.npz`. `--task`, `--task-kwargs`, `--arena` run the same
 demo elsewhere (files named after the task), e.g. on a tunnel you authored: `auv-mj demo --arena my_tunnel.xml`.
+On an arena of the user's (or a random one) the demo flies ARENA_SYSTEM unless `--policy` names another: the paper's
+system was trained on the paper's one tunnel and fails on others.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 
 from auv_mj import render
 from auv_mj.cli import plots
-from auv_mj.cli.evaluate import table_cell
+from auv_mj.cli.evaluate import shown_clearance, table_cell
 from auv_mj.cli.options import (
     add_episode_options,
     add_force_option,
@@ -36,6 +38,11 @@ from auv_mj.zoo import registry as policies
 
 TASK = "tunnel"
 SYSTEM = "two-layer"
+"""The policy the demo flies on the paper's arenas: the paper's planner on its learned executor (Sec. 4.3)."""
+ARENA_SYSTEM = "planner-general"
+"""The policy the demo flies on an arena given with --arena (or task_kwargs' "arena"): the general planner, which
+passes tunnels it was not trained on (an authored S-bend that narrows, with an unknown rock and a mover: goal, as
+map-replan and two-layer-general; two-layer timed out there)."""
 COMPARED = ("planner", "two-layer-general", "map-replan")
 """Rows beside the demonstrated policy: the paper's HER-DDPG planner on the S-plane executor, the general planner
 (trained on the distribution of arenas) on its learned executor, and the strongest classical planner at equal
@@ -51,7 +58,7 @@ def demo_row(record: EpisodeRecord) -> dict:
     path = record.arena.path
     global_length = float(np.sum(np.hypot(*np.diff(path, axis=0).T))) if len(path) > 1 else None
     return {"outcome": metrics["outcome"],
-            "min_clear_m": metrics["min_clearance"],
+            "min_clear_m": shown_clearance(metrics["min_clearance"]),
             "track_mae_m": metrics.get("mae_cross_track"),
             "track_max_m": metrics.get("max_cross_track"),
             "length_m": metrics["path_length"],
@@ -72,9 +79,23 @@ def format_rows(rows: dict[str, dict]) -> str:
     return "\n".join(lines)
 
 
+def demo_policy(policy: str | None, kwargs: dict) -> tuple[str, str]:
+    """The policy the demo flies and why, in a line: `policy` when given, else SYSTEM on the paper's arenas and
+    ARENA_SYSTEM on an arena of the user's."""
+    if policy is not None:
+        return policy, ""
+    if kwargs.get("arena") is None:
+        return SYSTEM, ""
+    return ARENA_SYSTEM, (f"flying {ARENA_SYSTEM}, the general planner, on the arena {kwargs['arena']}: the paper's "
+                          f"{SYSTEM} was trained on the paper's one tunnel and fails on others (--policy {SYSTEM} "
+                          f"flies it anyway)")
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj demo`."""
-    add_episode_options(parser, task=TASK, policy=SYSTEM)
+    add_episode_options(parser, task=TASK, policy=None)
+    policy = next(action for action in parser._actions if action.dest == "policy")
+    policy.help += f" (default: {SYSTEM}; on an arena given with --arena, {ARENA_SYSTEM})"
     add_output_option(parser, "output folder (default: demo/)", type=Path, default=Path("demo"), metavar="DIR")
     add_force_option(parser)
     parser.add_argument("--width", type=pixels, default=1280)
@@ -104,6 +125,9 @@ def _note_written(folder: Path, files: list[Path]) -> None:
 def run(args: argparse.Namespace) -> int:
     """Runs the demo; returns 0 once the table and files are written, whatever the episode's outcome."""
     task, kwargs = args.task, task_kwargs(args)
+    args.policy, why = demo_policy(args.policy, kwargs)
+    if why:
+        print(f"{args.prog}: {why}", flush=True)
     if args.out.exists() and not args.out.is_dir():
         usage_error(args, f"--out {args.out} is a file, not a folder")
     for name in (".mp4", "_episode.npz", "_trajectory.png"):
@@ -150,10 +174,11 @@ def run(args: argparse.Namespace) -> int:
         bar.update(1)
     bar.close()
     title = "Tunnel inspection (Table 12)" if task == TASK and not kwargs else task
-    figure = plots.plot_trajectory(list(records.values()), args.out / f"{task}_trajectory.png",
-                                   labels=list(records), title=f"{title}, seed {args.seed}")
-    _note_written(args.out, [p for p in (video, episode_file, args.out / f"{task}_trajectory.png") if p is not None])
     rows = {name: demo_row(r) for name, r in records.items()}
+    labels = [f"{name} ({row['outcome']}, {row['length_m']:.0f} m)" for name, row in rows.items()]  # a short track too
+    figure = plots.plot_trajectory(list(records.values()), args.out / f"{task}_trajectory.png",
+                                   labels=labels, title=f"{title}, seed {args.seed}")
+    _note_written(args.out, [p for p in (video, episode_file, args.out / f"{task}_trajectory.png") if p is not None])
     print(f"\n{title}, seed {args.seed}; safety distance d_s = 5 m; outcome = goal, collision, left_map or "
           "timeout; track = distance to the global path (Fig. 17) once on it; length_ratio = path length / "
           "global path length")

@@ -58,7 +58,9 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
+from auv_mj.episode import CUT
 from auv_mj.jobs import distributed
+from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.zoo import registry as policies
 
 SEED_LIMIT = 2**32 - 1
@@ -84,6 +86,28 @@ def table_cell(value, width: int = 15, digits: int = 3) -> str:
     return f"{round(value, digits) + 0.0:>{width}.{digits}f}"
 
 
+NONE_SEEN = "none seen"
+"""What the tables show for a clearance at its cap, the sonar's range: nothing was within it all episode."""
+
+
+def shown_clearance(value: float | None) -> float | str | None:
+    """A least clearance as the tables show it: the task measures it up to SONAR_RANGE (120 m), so a value at the cap
+    (open water) is NONE_SEEN rather than 120 m."""
+    return NONE_SEEN if value is not None and value >= SONAR_RANGE else value
+
+
+def shown_outcomes(summary: dict, results: dict, task: str) -> dict[str, int]:
+    """A task's outcome counts as the table shows them: episodes stopped by --max-steps before the task ended them
+    count as "cut" rather than "timeout" (their recorded outcome, as the summary counts it)."""
+    counts = dict(summary["outcomes"])
+    rows = results.get("records", {}).get(task, [])
+    cut = sum(bool(row.get("cut")) and row.get("outcome") == "timeout" for row in rows)
+    if cut:
+        counts["timeout"] = counts.get("timeout", 0) - cut
+        counts[CUT] = cut
+    return counts
+
+
 def format_table(results: dict) -> str:
     """A plain-text table of the headline metrics and the outcomes, one row per task."""
     columns = [c for c in TABLE_COLUMNS if c not in OPTIONAL_COLUMNS
@@ -93,9 +117,14 @@ def format_table(results: dict) -> str:
     lines = [f"policy: {results['policy']}   episodes: {results['episodes']}   seed: {results['seed']}",
              header, "-" * len(header)]
     for task, summary in results["tasks"].items():
-        cells = "".join(table_cell(summary.get(c), w) for c, w in zip(columns, widths, strict=True))
-        outcomes = ", ".join(f"{name} {n}" for name, n in summary["outcomes"].items() if n)
+        cells = "".join(table_cell(shown_clearance(summary.get(c)) if c == "min_clearance" else summary.get(c), w)
+                        for c, w in zip(columns, widths, strict=True))
+        outcomes = ", ".join(f"{name} {n}" for name, n in shown_outcomes(summary, results, task).items() if n)
         lines.append(f"{task:<18}{cells}   {outcomes}")
+    if any(shown_clearance(summary.get("min_clearance")) == NONE_SEEN for summary in results["tasks"].values()):
+        lines.append(f"{NONE_SEEN}: nothing within the sonar's {SONAR_RANGE:.0f} m, up to which clearance is measured")
+    if any(shown_outcomes(summary, results, task).get(CUT) for task, summary in results["tasks"].items()):
+        lines.append(f"{CUT}: stopped by --max-steps before the task ended the episode (recorded as timeout)")
     for task, summary in results["tasks"].items():
         if summary.get("deterministic"):
             lines.append(deterministic_note(task, results["seed"], summary["stands_for"]))

@@ -47,6 +47,12 @@ LEARNING_COLUMNS = ("episode", "return", "success")
 """Columns a training log must have (auv_mj.agents.offpolicy.train writes episode, steps, length, return, success,
 wall_time)."""
 RUN_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown")
+TRACK_STYLES = (("tab:blue", "-", 3.6), ("tab:purple", (0, (6, 2)), 2.6), ("black", (0, (4, 1.5, 1, 1.5)), 1.7),
+                ("tab:pink", (0, (1, 1.2)), 1.8), ("tab:brown", (0, (8, 3)), 1.3), ("tab:cyan", "-", 1.0))
+"""(colour, dash pattern, width) of the trajectory figure's tracks, in the order of the records: each wider one is
+drawn under the narrower ones after it, so that tracks that run together all show (one policy's under another's);
+no colour of the map's own (the green global path, the red AUV, the orange movers, the gold goals)."""
+TRACK_ALPHA = 0.85
 LEGEND_BELOW_ASPECT = 0.75
 """A map flatter than this (height / width) has its legends below it, a taller one beside it: a tunnel is
 several times as wide as tall, and legends beside it would make the figure tall and mostly white."""
@@ -113,7 +119,7 @@ def draw_trajectory(ax, records: Sequence[EpisodeRecord], labels: Sequence[str] 
     size = _map_size(records)
     tracks = []
     for i, record in enumerate(records):
-        colour = RUN_COLOURS[i % len(RUN_COLOURS)]
+        colour, dashes, width = TRACK_STYLES[i % len(TRACK_STYLES)]
         label = labels[i] if labels else ("AUV path" if len(records) == 1 else f"{record.task} {record.seed}")
         goals = record.arena.goals if len(record.arena.goals) else record.subgoals()
         radius = record.arena.goal_radius
@@ -124,7 +130,8 @@ def draw_trajectory(ax, records: Sequence[EpisodeRecord], labels: Sequence[str] 
                                 label="target area" if (i == 0 and last) else None))
         _draw_movers(ax, record, first=i == 0)
         xy = record.pose[:, :2]
-        tracks += ax.plot(*xy.T, "-", color=colour, linewidth=1.6, label=label, zorder=5)
+        tracks += ax.plot(*xy.T, linestyle=dashes, color=colour, linewidth=width, alpha=TRACK_ALPHA, label=label,
+                          zorder=5 + i / 100, solid_capstyle="butt", dash_capstyle="butt")
         ax.plot(*xy[0], "o", color=colour, markersize=5, zorder=6)
         _draw_vehicle(ax, record.pose[-1], size * VEHICLE_MARK, first=i == 0)
     ax.set_aspect("equal")

@@ -20,7 +20,7 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.cli.render3d import render_3d
-from auv_mj.episode import EpisodeRecorder, outcome
+from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
 from auv_mj.planners.guidance import line_of_sight
 from auv_mj.render import glbackend
 from auv_mj.render.video import (
@@ -122,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
         return 2
     record = recorder.record()
     print(f"wrote {path}: {record.steps} steps, {record.time[-1]:.1f} s simulated, outcome "
-          f"{outcome(record.event)}, return {record.episode_return:.2f}, {elapsed:.1f} s to render")
+          f"{outcome_label(outcome(record.event), record.cut, args.max_steps)}, return {record.episode_return:.2f}, "
+          f"{elapsed:.1f} s to render")
     if args.save_episode:
         print(f"wrote {record.save(args.save_episode)}")
     return 0

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from auv_mj.episode import EpisodeRecorder, outcome
+from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
 from auv_mj.render.video import DEFAULT_FPS, DEFAULT_HOLD_END, DEFAULT_SIZE, write_video
 from auv_mj.render.video3d import Track3D, iter_frames_3d
 from auv_mj.tasks import suite
@@ -94,7 +94,7 @@ def render_3d(env, policy, output: str | Path | None, plots: str | None, max_ste
         written = write_video(frames, output, fps=fps, gif=gif)
         record = recorder.record()
         print(f"wrote {written}: {record.steps} steps, {record.time[-1]:.1f} s simulated, outcome "
-              f"{outcome(record.event)}")
+              f"{outcome_label(outcome(record.event), record.cut, max_steps)}")
     else:  # the same episode loop, nothing drawn
         recorder = EpisodeRecorder(env)
         for _ in recorder.run(policy, max_steps):

@@ -23,7 +23,7 @@ from auv_mj.agents.checkpoint import read_checkpoint, saved_config
 from auv_mj.agents.offpolicy.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
 from auv_mj.agents.offpolicy.learners import agent_classes
 from auv_mj.agents.offpolicy.td3 import TD3Config
-from auv_mj.agents.offpolicy.train import AGENTS, CHECKPOINT_NAME, WINDOW, train
+from auv_mj.agents.offpolicy.train import AGENTS, CHECKPOINT_NAME, WINDOW, errors_text, train
 from auv_mj.agents.ppo import PPOConfig
 from auv_mj.agents.ppo.planner import (
     LEARNED_CONFIG,
@@ -360,8 +360,10 @@ def run(args: argparse.Namespace) -> int:
                                  "zero_actor_head": args.zero_actor_head})
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
+    measure = (f"tracking {errors_text(result.tracking_error)}" if result.tracking_error
+               else f"success {result.success_rate:.2f}")
     print(f"{result.episodes} episodes, {result.env_steps} steps, {result.gradient_steps} gradient steps; "
-          f"success {result.success_rate:.2f}, return {result.mean_return:.2f} (last {WINDOW} episodes); "
+          f"{measure}, return {result.mean_return:.2f} (last {WINDOW} episodes); "
           f"{result.env_steps_per_s:.0f} steps/s, {result.updates_per_s:.0f} updates/s")
     print(f"checkpoint: {result.checkpoint}")
     return 130 if result.interrupted else 0

@@ -51,6 +51,7 @@ from auv_mj.cli.options import (
     seed_int,
     usage_error,
 )
+from auv_mj.console import counted
 from auv_mj.tasks import obstacles, planning, tunnel
 
 RANDOM_TASKS = ("tunnel", "obstacles", "moving_obstacles")
@@ -182,9 +183,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.prog}: error: cannot write {output}: {e.strerror or e}", file=sys.stderr)
         return 1
     length = float(np.sum(np.hypot(*np.diff(layout.path, axis=0).T)))
-    unknown_text = f"{len(unknown)} unknown obstacles, " if unknown else ""
-    print(f"wrote {output}: {len(layout.walls)} wall boxes, {len(obstacles)} obstacles, {unknown_text}"
-          f"{len(movers)} movers, {len(layout.path)} path sites over {length:.0f} m; "
+    unknown_text = f"{counted(len(unknown), 'unknown obstacle')}, " if unknown else ""
+    print(f"wrote {output}: {counted(len(layout.walls), 'wall box', 'wall boxes')}, "
+          f"{counted(len(obstacles), 'obstacle')}, {unknown_text}{counted(len(movers), 'mover')}, "
+          f"{counted(len(layout.path), 'path site')} over {length:.0f} m; "
           f"check it with: auv-mj check-arena {output}")
     return 0
 
@@ -229,7 +231,8 @@ def _run_tube(args: argparse.Namespace) -> int:
         return 1
     print(f"wrote {output}: a tube of {tube.length():.0f} m, inner radius {tube.radius:g} m, "
           f"{tube.staves * (len(line) - 1)} staves ({tube.staves} round, {tube.stave_radius:g} m thick), "
-          f"{len(obstacles)} obstacles, {len(movers)} movers; check it with: auv-mj check-arena {output}")
+          f"{counted(len(obstacles), 'obstacle')}, {counted(len(movers), 'mover')}; check it with: "
+          f"auv-mj check-arena {output}")
     return 0
 
 
@@ -276,20 +279,21 @@ def _run_random(args: argparse.Namespace) -> int:
         except RuntimeError as e:  # the options leave no feasible tunnel: refuse them
             usage_error(args, " ".join(str(e).split()))
         element = arena.element(name, _command_line())
-        what = (f"a {arena.width:.1f} m wide tunnel over {arena.length:.0f} m, {len(arena.unknown)} unknown "
-                f"obstacles, {len(arena.movers)} movers")
+        what = (f"a {arena.width:.1f} m wide tunnel over {arena.length:.0f} m, "
+                f"{counted(len(arena.unknown), 'unknown obstacle')}, {counted(len(arena.movers), 'mover')}")
     elif args.tier == "hard":  # the first episode's arena of the task seeded SEED with tier="hard"
         spec = traps.HARD_MOVING if args.task == "moving_obstacles" else traps.HARD_OBSTACLES
         layout = traps.random_hard_layout(np.random.RandomState(args.random), planning.MAP_BOUNDS, spec,
                                           planning.GOAL_RADIUS)
         element = layout.element(name, _command_line())
-        what = (f"open water, traps {', '.join(layout.kinds)}: {len(layout.obstacles)} unknown boxes, "
-                f"{len(layout.movers)} movers, start to goal {np.hypot(*(layout.goal - layout.start)):.0f} m")
+        boxes = counted(len(layout.obstacles), "unknown box", "unknown boxes")
+        what = (f"open water, traps {', '.join(layout.kinds)}: {boxes}, {counted(len(layout.movers), 'mover')}, "
+                f"start to goal {np.hypot(*(layout.goal - layout.start)):.0f} m")
     else:
         layout = obstacles.random_layout(np.random.RandomState(args.random), moving=args.task == "moving_obstacles")
         element = layout.element(name, _command_line())
-        what = (f"open water, {len(layout.boxes)} unknown obstacles, {len(layout.movers)} movers, start to goal "
-                f"{np.hypot(*(layout.goal - layout.start)):.0f} m")
+        what = (f"open water, {counted(len(layout.boxes), 'unknown obstacle')}, {counted(len(layout.movers), 'mover')}"
+                f", start to goal {np.hypot(*(layout.goal - layout.start)):.0f} m")
     try:
         save(element, output)
     except OSError as e:

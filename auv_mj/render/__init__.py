@@ -12,8 +12,9 @@ from typing import Any
 
 from auv_mj.render import glbackend  # noqa: F401  (first: sets MUJOCO_GL)
 
-__all__ = ["DEFAULT_FPS", "DEFAULT_SIZE", "FrameRenderer", "arena_extent", "ffmpeg_available", "interpolate",
-           "iter_frames", "render_episode", "render_frame", "time_against_bare_renderer", "write_video"]
+__all__ = ["DEFAULT_FPS", "DEFAULT_SIZE", "FrameRenderer", "LiveView", "arena_extent", "episode_output",
+           "ffmpeg_available", "frame_bound", "interpolate", "iter_frames", "render_episode", "render_frame",
+           "time_against_bare_renderer", "write_video"]
 
 
 def __getattr__(name: str) -> Any:

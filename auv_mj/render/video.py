@@ -31,9 +31,10 @@ interpolates the recorded states between control steps (pose, velocity and movin
 sonar held, as the 2 Hz sonar holds it), a larger one skips states. The environment is always stepped
 exactly as in training and evaluation.
 
-Python API: `render_episode(env, policy) -> (T, H, W, 3) uint8`, `iter_frames(...)` (streaming),
-`write_video(frames, path, fps)`, `render_frame(physics)` (one picture of a physics state), and
-`benchmark()` (frames/s against a bare `mujoco.Renderer`).
+Python API: `render_episode(env, policy, "episode.mp4")` (streams to the file; `in_memory=True` instead returns the
+(T, H, W, 3) uint8 array, 2.8 MB a 1280 x 720 frame), `iter_frames(...)` (streaming), `write_video(frames, path,
+fps)`, `render_frame(physics)` (one picture of a physics state; the same DEFAULT_SIZE), and
+`time_against_bare_renderer()` (frames/s against a bare `mujoco.Renderer`).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ import mujoco
 import numpy as np
 
 from auv_mj.console import complete, progress_bar
-from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions
+from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions, outcome, outcome_label
 from auv_mj.geometry import wrap_angle
 from auv_mj.render import glbackend, raster
 from auv_mj.sim.sonar import SONAR_RANGE
@@ -1000,6 +1001,74 @@ class _Trail:
         return self._points[: self.count]
 
 
+class _Goals:
+    """The goals a frame shows and how many are reached: the arena's, or for a task that sets one at a time, each
+    it has set so far."""
+
+    def __init__(self):
+        self._seen: list[np.ndarray] = []
+        self.goals, self.reached = np.zeros((0, 2)), 0
+
+    def update(self, snap: Snapshot, arena) -> None:
+        if np.all(np.isfinite(snap.desired_goal)) and (
+                not self._seen or not np.allclose(self._seen[-1], snap.desired_goal)):
+            self._seen.append(snap.desired_goal)
+        self.goals = arena.goals if len(arena.goals) else np.array(self._seen).reshape(-1, 2)
+        self.reached = int(snap.info.get("goals_reached", len(self._seen) - 1))
+
+
+class LiveView:
+    """The video's frame of an episode stepped elsewhere, one control step at a time: what the Gymnasium face's
+    `render()` returns for the planar ids. `start` after each reset, `add` after each step, `frame()` when a picture
+    is wanted (the renderer is made then, once per episode); the frame is `iter_frames`' (goal, path, sonar, trail,
+    text overlay and key), without the interpolation between steps."""
+
+    def __init__(self, env, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], camera: str = "both",
+                 follow_view: float = FOLLOW_VIEW, title: str = ""):
+        if camera not in CAMERAS:
+            raise ValueError(f"camera must be one of {CAMERAS}, got {camera!r}")
+        self.env, self.size, self.camera, self.title = env, (width, height), camera, title
+        self.follow_view = follow_view
+        self._recorder = EpisodeRecorder(env)
+        self._renderer: FrameRenderer | None = None
+        self._snap: Snapshot | None = None
+        self._trail, self._goals = _Trail(TRAIL_SPACING * follow_view), _Goals()
+
+    def start(self, time_step) -> None:
+        """A new episode from its reset `time_step`: a new arena, trail and goals."""
+        self.close()
+        self._trail, self._goals = _Trail(TRAIL_SPACING * self.follow_view), _Goals()
+        self._observe(self._recorder.start(time_step))
+
+    def add(self, time_step, action) -> None:
+        """The step that `action` led to."""
+        if self._snap is None:
+            raise RuntimeError("LiveView.add before start: call start(time_step) after the reset")
+        self._observe(self._recorder.add(time_step, action))
+        del self._recorder.snapshots[:-1]  # the frame needs the last instant only
+
+    def _observe(self, snap: Snapshot) -> None:
+        self._snap = snap
+        self._trail.add(snap.pose[:2])
+        self._goals.update(snap, self._recorder.arena)
+
+    def frame(self) -> np.ndarray:
+        """The (H, W, 3) uint8 frame of the latest instant."""
+        if self._snap is None:
+            raise RuntimeError("no episode to draw yet: call start(time_step) after the reset")
+        if self._renderer is None:
+            self._renderer = FrameRenderer(self.env.physics, *self.size, self.camera, self.follow_view,
+                                           arena=self._recorder.arena, title=self.title)
+        return self._renderer.render(self._snap, self._trail.view(), self._goals.goals, self._goals.reached,
+                                     self._snap.event)
+
+    def close(self) -> None:
+        """Frees the renderer's OpenGL context (a new one is made by the next frame)."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
 def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAULT_SIZE[0],
                 height: int = DEFAULT_SIZE[1], camera: str = "both", fps: float = DEFAULT_FPS,
                 speedup: float | None = None, follow_view: float = FOLLOW_VIEW,
@@ -1015,57 +1084,175 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
     if not frame_dt > 0:
         raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
     glbackend.require()
-    trail = _Trail(TRAIL_SPACING * follow_view)
-    seen_goals: list[np.ndarray] = []
+    trail, marks = _Trail(TRAIL_SPACING * follow_view), _Goals()
     renderer, previous, frame = None, None, None
     event, event_until, next_time = "", -math.inf, 0.0
-    total = getattr(env, "_step_limit", None)
-    total = min(total if total and math.isfinite(total) else math.inf, max_steps or math.inf)
-    bar = _progress(total if math.isfinite(total) else None, progress)
+    bar = None
     try:
         for snap in recorder.run(policy, max_steps):
             if renderer is None:  # after the reset: the task has drawn its route
                 renderer = FrameRenderer(env.physics, width, height, camera, follow_view,
                                          arena=recorder.arena, title=title)
                 previous, next_time = snap, snap.time
-            if np.all(np.isfinite(snap.desired_goal)) and (
-                    not seen_goals or not np.allclose(seen_goals[-1], snap.desired_goal)):
-                seen_goals.append(snap.desired_goal)
-            goals = recorder.arena.goals if len(recorder.arena.goals) else np.array(seen_goals).reshape(-1, 2)
-            reached = int(snap.info.get("goals_reached", len(seen_goals) - 1))
+                route = route_of(recorder.arena, snap)
+                bar = RenderBar(route, recorder.arena.goal_radius, step_bound(env, max_steps), progress)
+            marks.update(snap, recorder.arena)
             if snap.event:
                 event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
             while next_time <= snap.time + TIME_TOLERANCE:
                 state = interpolate(previous, snap, next_time)
                 trail.add(state.pose[:2])
                 shown = event if next_time <= event_until else ""
-                frame = renderer.render(state, trail.view(), goals, reached, shown)
+                frame = renderer.render(state, trail.view(), marks.goals, marks.reached, shown)
                 yield frame
                 next_time += frame_dt
             previous = snap
-            if snap.step:
-                bar.update(1)
-        complete(bar)  # an episode that ended before its time limit: the bar ends at 100 %
+            bar.advance(made_good(route, snap.pose[:2]) if route is not None else None, snap.step)
+        if bar is not None:
+            bar.finish(snap.success, outcome_label(outcome([snap.event]), recorder.cut, max_steps))
         for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
             yield frame.copy()
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         if renderer is not None:
             renderer.close()
 
 
-def _progress(total: float | None, enabled: bool):
-    return progress_bar(total=None if total is None else math.ceil(total), unit="step", desc="render",
-                        disable=not enabled)
+def step_bound(env, max_steps: int | None) -> int | None:
+    """The most steps an episode of `env` can take: its time limit, or `max_steps` if fewer; None without either."""
+    limit = getattr(env, "_step_limit", None)
+    steps = min(limit if limit and math.isfinite(limit) else math.inf, max_steps or math.inf)
+    return math.ceil(steps) if math.isfinite(steps) else None
 
 
-def render_episode(env, policy, **kwargs) -> np.ndarray:
-    """All frames of one episode as a (T, H, W, 3) uint8 array (see `iter_frames` for the options)."""
-    frames = list(iter_frames(env, policy, **kwargs))
+def route_of(arena, first: Snapshot) -> np.ndarray | None:
+    """(P, 2) the route an episode's progress is measured along: the global path, else straight from the start to
+    the goal (the arena's, else the vehicle's position and the desired goal at the reset `first`); None on a task
+    without a goal."""
+    if len(arena.path) > 1:
+        return np.asarray(arena.path, float)
+    for ends in (np.array([arena.start, arena.goal], float), np.array([first.pose[:2], first.desired_goal], float)):
+        if np.all(np.isfinite(ends)):
+            return ends
+    return None
+
+
+def made_good(route: np.ndarray, position: np.ndarray) -> float:
+    """How far along `route` [m] the point of it nearest to `position` lies."""
+    a, ab = route[:-1], np.diff(route, axis=0)
+    lengths = np.hypot(ab[:, 0], ab[:, 1])
+    t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
+    nearest = int(np.argmin(np.hypot(*(a + t[:, None] * ab - position).T)))
+    return float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
+
+
+class RenderBar:
+    """The render's progress bar: on a task with a goal, the metres made good along the route (`route_of`) out of
+    its length short of the goal radius, so that it fills as the vehicle goes, ends full at the goal and stays where
+    the vehicle stopped otherwise, its total fixed from the start; on a task without one (tracking), the steps out of
+    the time limit (or `max_steps`), which such an episode runs to. The outcome shows beside it at the end."""
+
+    def __init__(self, route: np.ndarray | float | None, goal_radius: float, steps: int | None, enabled: bool):
+        """`route`: its (P, 2) points or its length [m], None on a task without a goal."""
+        if route is not None:
+            length = float(route) if np.ndim(route) == 0 else float(np.sum(np.hypot(*np.diff(route, axis=0).T)))
+            self.total = max(int(math.ceil(length - goal_radius)), 1)
+            self.bar = progress_bar(total=self.total, unit="m", desc="render, route", disable=not enabled,
+                                    bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} m "
+                                               "[{elapsed}<{remaining}{postfix}]")
+        else:
+            self.total = steps
+            self.bar = progress_bar(total=steps, unit="step", desc="render", disable=not enabled)
+        self.by_route = route is not None
+
+    def advance(self, metres: float | None, step: int) -> None:
+        """After a step: the route made good [m] so far (None on a task without a goal), the step's number."""
+        done = min(int(metres), self.total) if self.by_route and metres is not None else step
+        if self.total is not None:
+            done = min(done, self.total)
+        if done > self.bar.n:
+            self.bar.update(done - self.bar.n)
+
+    def finish(self, reached: bool, label: str) -> None:
+        """The episode's end: full at the goal (the last metres are inside the goal radius) and on a tracking task
+        (its schedule is done), else where it stopped; the outcome `label` beside it."""
+        if reached and self.total is not None:
+            self.bar.update(self.total - self.bar.n)
+        elif not self.by_route:
+            complete(self.bar)
+        self.bar.set_postfix_str(label)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+IN_MEMORY_WARNING = 512 * 2 ** 20
+"""Bytes of frames above which `render_episode(..., in_memory=True)` warns before it renders (a 1280 x 720 frame is
+2.8 MB: a 700 m tunnel at one frame per control step (826 frames) is about 2.1 GB)."""
+
+
+def frame_bound(env, max_steps: int | None, fps: float, speedup: float | None, hold_end: float) -> int | None:
+    """The most frames an episode of `env` can give (its time limit or `max_steps`, then the held end), or None
+    when it has no limit."""
+    steps = step_bound(env, max_steps)
+    if steps is None:
+        return None
+    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
+    return int(math.floor(steps * env.control_timestep() / frame_dt + TIME_TOLERANCE)) + 1 + int(round(hold_end * fps))
+
+
+def size_text(frames: int | None, width: int, height: int) -> str:
+    """What `frames` frames of width x height take in memory, in words ("up to 826 frames of 1280 x 720: 2.1 GB")."""
+    width, height = int(width) // 2 * 2, int(height) // 2 * 2
+    if frames is None:
+        return f"{width * height * 3 / 2 ** 20:.1f} MB a frame of {width} x {height}, for as long as the episode runs"
+    size = frames * width * height * 3
+    amount = f"{size / 2 ** 30:.1f} GB" if size >= 2 ** 30 else f"{size / 2 ** 20:.0f} MB"
+    return f"up to {frames} frames of {width} x {height}: {amount}"
+
+
+def episode_output(frames: Iterable[np.ndarray], path: str | Path | None, in_memory: bool, bound: int | None,
+                   width: int, height: int, fps: float, gif: bool | None) -> Path | np.ndarray:
+    """Where `render_episode` and `render_episode_3d` put their frames: streamed to `path` (memory flat in the
+    episode's length), or, asked for with `in_memory=True`, stacked into one (T, H, W, 3) array, with a warning
+    first when that may pass IN_MEMORY_WARNING bytes."""
+    if (path is None) == (not in_memory):
+        raise ValueError(f"give path= to stream the video to a file, or in_memory=True for the whole video as one "
+                         f"(T, H, W, 3) array ({size_text(bound, width, height)}); not "
+                         f"{'both' if in_memory else 'neither'}")
+    if path is not None:
+        return write_video(frames, path, fps, gif)
+    if bound is None or bound * (width // 2 * 2) * (height // 2 * 2) * 3 > IN_MEMORY_WARNING:
+        warnings.warn(f"render_episode(in_memory=True) keeps every frame in memory, {size_text(bound, width, height)}"
+                      f"; give path= to stream the video to a file instead", stacklevel=3)
+    frames = list(frames)
     return np.stack(frames) if frames else np.zeros((0, 0, 0, 3), dtype=np.uint8)
 
 
-def render_frame(physics, width: int = 640, height: int = 360, camera: str = "both",
+def render_episode(env, policy, path: str | Path | None = None, *, in_memory: bool = False,
+                   max_steps: int | None = None, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1],
+                   camera: str = "both", fps: float = DEFAULT_FPS, speedup: float | None = None,
+                   follow_view: float = FOLLOW_VIEW, hold_end: float = DEFAULT_HOLD_END, title: str = "",
+                   recorder: EpisodeRecorder | None = None, progress: bool = False,
+                   gif: bool | None = None) -> Path | np.ndarray:
+    """Renders one episode of `policy(time_step) -> action` on `env` to the video file `path` (MP4, or GIF: see
+    `write_video`) and returns the path written; the frames stream to the file, so memory stays flat however long
+    the episode.
+
+    `in_memory=True` (and no path) returns the whole video as one (T, H, W, 3) uint8 array instead: width x height
+    x 3 bytes a frame, 2.8 MB at the default 1280 x 720, about 2.1 GB for a 700 m tunnel; it warns first when the
+    episode's time limit allows more than IN_MEMORY_WARNING bytes. `iter_frames` yields the frames one at a time.
+    The other options are `iter_frames`'.
+    """
+    frames = iter_frames(env, policy, max_steps=max_steps, width=width, height=height, camera=camera, fps=fps,
+                         speedup=speedup, follow_view=follow_view, hold_end=hold_end, title=title,
+                         recorder=recorder, progress=progress)
+    bound = frame_bound(env, max_steps, fps, speedup, hold_end)
+    return episode_output(frames, path, in_memory, bound, width, height, fps, gif)
+
+
+def render_frame(physics, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], camera: str = "both",
                  follow_view: float = FOLLOW_VIEW, task=None) -> np.ndarray:
     """One (H, W, 3) uint8 picture of the current state of an AUVPhysics (a fresh context; for notebooks)."""
     state = Snapshot(time=float(physics.time()), pose=physics.pose(), velocity=physics.body_velocity(),
@@ -1094,7 +1281,8 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEF
                 gif: bool | None = None) -> Path:
     """Writes frames to `path`: H.264 MP4 (yuv420p), or GIF when asked, named .gif, or without ffmpeg.
 
-    Frames stream to ffmpeg (a long episode never sits in memory as MP4); a GIF collects them first.
+    Frames stream to the file as they come (to ffmpeg for an MP4, to Pillow's GIF encoder frame by frame): a long
+    episode never sits in memory.
     Returns the path written (its suffix is .gif when it fell back to GIF).
     """
     path = Path(path)
@@ -1107,11 +1295,7 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEF
         path = path.with_suffix(".gif")
     path.parent.mkdir(parents=True, exist_ok=True)
     if gif:
-        import imageio.v3 as iio
-
-        stack = np.stack(list(frames))
-        iio.imwrite(path, stack, extension=".gif", duration=1000.0 / fps, loop=0)
-        return path
+        return _write_gif(frames, path, fps)
     import imageio_ffmpeg
 
     writer = None
@@ -1130,6 +1314,28 @@ def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEF
         if writer is not None:
             writer.close()
     if writer is None:
+        raise ValueError("no frames to write")
+    return path
+
+
+def _write_gif(frames: Iterable[np.ndarray], path: Path, fps: float) -> Path:
+    """An animated GIF (looping) written frame by frame as the frames come, each with its own 256-colour palette:
+    memory flat in the video's length, as for an MP4."""
+    from PIL import GifImagePlugin, Image
+
+    duration = 1000.0 / fps  # [ms]; GIF keeps hundredths of a second
+    written = False
+    with open(path, "wb") as f:
+        for frame in frames:
+            image = Image.fromarray(np.ascontiguousarray(frame)).quantize(256)
+            if not written:
+                header, _ = GifImagePlugin.getheader(image, info={"loop": 0, "duration": duration})
+                f.write(b"".join(header))
+                written = True
+            f.write(b"".join(GifImagePlugin.getdata(image, duration=duration, include_color_table=True)))
+        f.write(b";")  # the trailer
+    if not written:
+        path.unlink()
         raise ValueError("no frames to write")
     return path
 
