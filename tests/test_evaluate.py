@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from auv_mj.agents.offpolicy.policy import Policy
 from auv_mj.benchmark import runner
 from auv_mj.zoo import registry as policies
 from experiments.report.fig8 import episodes_to
@@ -267,7 +268,7 @@ def test_the_ocean_gains_lower_the_ocean_tuning_cost_and_not_the_ideal_one():
 def test_the_shipped_ocean_executor_is_rebuilt_from_its_checkpoint_on_every_task():
     from auv_mj.tasks.speed_heading import GAIN_NAMES
 
-    meta = policies.Policy.load(policies.shipped_checkpoint("ocean-executor")).metadata
+    meta = Policy.load(policies.shipped_checkpoint("ocean-executor")).metadata
     assert meta["agent"] == "td3" and meta["run_info"]["task_kwargs"]["conditions"] == "ocean"
     env, policy = policies.env_and_policy("ocean-executor", "speed_heading", 10_000, {"conditions": "ocean"})
     assert env.action_spec().shape == (len(GAIN_NAMES),)  # the gain-scheduling task it was trained on
@@ -281,7 +282,7 @@ def test_the_shipped_ocean_executor_is_rebuilt_from_its_checkpoint_on_every_task
 
 
 def test_the_general_two_layer_system_runs_on_the_best_learned_executor_and_the_e2e_one_on_the_papers():
-    shipped = {name: policies.Policy.load(policies.shipped_checkpoint(name)).metadata
+    shipped = {name: Policy.load(policies.shipped_checkpoint(name)).metadata
                for name in ("ocean-executor", "executor")}
     for name, executor in (("two-layer-general", "ocean-executor"), ("two-layer-e2e", "executor")):
         env, _ = policies.env_and_policy(name, "goal", 20_000, {})
