@@ -58,11 +58,11 @@ from auv_mj.cli.options import (
     bounded_int,
     check_output,
     check_output_folder,
+    check_ray,
     positive_int,
     usage_error,
 )
 from auv_mj.inputs import did_you_mean
-from auv_mj.jobs import distributed
 from auv_mj.zoo import registry as policies
 
 
@@ -153,13 +153,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.publish:
         check_output(args, args.leaderboard, "--leaderboard")
     check_output_folder(args, args.record_failures, "--record-failures")
-    if args.ray not in (None, distributed.LOCAL) and args.workers > 1:
-        usage_error(args, "--workers sets the CPUs of --ray local only; a cluster's CPUs are its own")
-    if args.ray is not None:
-        try:
-            distributed.require_ray()
-        except ImportError as e:
-            usage_error(args, f"--ray: {e}")
+    check_ray(args)
     if args.task is not None:
         own = suite_tasks(suite)
         wrong = [task for task in args.task if task not in own]

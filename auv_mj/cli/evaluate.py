@@ -54,6 +54,7 @@ from auv_mj.cli.options import (
     bounded_int,
     check_output,
     check_output_folder,
+    check_ray,
     positive_int,
     task_kwargs,
     usage_error,
@@ -258,13 +259,7 @@ def _run(args: argparse.Namespace, journal: Path | None) -> int:
     kwargs = task_kwargs(args)
     if args.retries < 0:
         usage_error(args, f"--retries must be >= 0, got {args.retries}")
-    if args.ray not in (None, distributed.LOCAL) and args.workers > 1:
-        usage_error(args, "--workers sets the CPUs of --ray local only; a cluster's CPUs are its own")
-    if args.ray is not None:
-        try:
-            distributed.require_ray()
-        except ImportError as e:
-            usage_error(args, f"--ray: {e}")
+    check_ray(args)
     try:
         task_names = policies.resolve_tasks(args.task, args.policy)
         if "random" in kwargs:

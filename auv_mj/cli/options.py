@@ -135,6 +135,20 @@ def task_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     return kwargs
 
 
+def check_ray(args: argparse.Namespace) -> None:
+    """Refuses (exit 2) `--workers` beside a Ray cluster (its CPUs are its own) and `--ray` where Ray is not
+    installed, before any work: the one check of every command that takes `--ray` and `--workers`."""
+    from auv_mj.jobs import distributed
+
+    if args.ray not in (None, distributed.LOCAL) and args.workers > 1:
+        usage_error(args, "--workers sets the CPUs of --ray local only; a cluster's CPUs are its own")
+    if args.ray is not None:
+        try:
+            distributed.require_ray()
+        except ImportError as e:
+            usage_error(args, f"--ray: {e}")
+
+
 def usage_error(args: argparse.Namespace | str, message: str) -> NoReturn:
     """Prints `auv-mj COMMAND: error: message` on stderr and exits 2, as argparse does."""
     prog = args if isinstance(args, str) else getattr(args, "prog", "auv-mj")
