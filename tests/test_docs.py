@@ -1,5 +1,6 @@
-"""The README and docs/ stay true to the code: the policy table is the registry's, the layout names every part of
-the core and only paths that exist, and every relative link (and its #anchor) resolves."""
+"""The README and docs/ stay true to the code: the policy table (docs/policies.md) is the registry's, the layout
+(docs/layout.md) names every part of the core and only paths that exist, every relative link (and its #anchor)
+resolves, and the README's Python examples run."""
 
 import re
 import tomllib
@@ -9,16 +10,20 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+POLICIES_PAGE = ROOT / "docs" / "policies.md"
+LAYOUT_PAGE = ROOT / "docs" / "layout.md"
 PAGES = [README, *sorted((ROOT / "docs").glob("*.md"))]
 LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
 """A Markdown link's target: `[text](target)`."""
 
 
-def _block(name: str) -> str:
-    """The README's text between `<!-- name -->` and `<!-- /name -->`."""
-    text = README.read_text()
+def _block(name: str, page: Path) -> str:
+    """The page's text between `<!-- name -->` and `<!-- /name -->`."""
+    text = page.read_text()
     match = re.search(rf"<!-- {name} -->\n(.*?)\n<!-- /{name} -->", text, re.S)
-    assert match, f"README.md has no <!-- {name} --> ... <!-- /{name} --> block"
+    assert match, f"{page.relative_to(ROOT)} has no <!-- {name} --> ... <!-- /{name} --> block"
+    assert len(re.findall(rf"<!-- {name} -->", "".join(p.read_text() for p in PAGES))) == 1, \
+        f"the <!-- {name} --> block must be on one page only"
     return match.group(1)
 
 
@@ -32,12 +37,13 @@ def _anchors(page: Path) -> set[str]:
     return {_slug(line.lstrip("#")) for line in text.splitlines() if re.match(r"#{1,6} ", line)}
 
 
-def test_the_readme_policy_table_is_the_registry_s():
-    """The README's copy is `auv-mj policies --markdown`; refresh it from there when a policy is registered."""
+def test_the_docs_policy_table_is_the_registry_s():
+    """docs/policies.md's copy is `auv-mj policies --markdown`; refresh it from there when a policy is registered."""
     from auv_mj.zoo.registry import POLICIES, markdown_table
 
-    block = _block("policies")
-    assert block == markdown_table(), "README's policy table is stale: paste `auv-mj policies --markdown` over it"
+    block = _block("policies", POLICIES_PAGE)
+    assert block == markdown_table(), \
+        "docs/policies.md's policy table is stale: paste `auv-mj policies --markdown` over it"
     listed = re.findall(r"^\| `([^`]+)` \|", block, re.M)
     assert sorted(listed) == sorted(POLICIES)
 
@@ -51,14 +57,14 @@ def test_auv_mj_policies_markdown_prints_the_table(capsys):
 
 
 def test_the_layout_names_every_part_of_the_core_and_every_layer():
-    block = _block("layout")
+    block = _block("layout", LAYOUT_PAGE)
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]
     core = {m.strip() for m in config["contracts"][0]["layers"][-1].split(":")}
     for module in sorted(core):
         name = module.split(".", 1)[1]
         assert (f"`auv_mj/{name}/`" in block or f"`auv_mj/{name}.py`" in block or f"`{name}`" in block
                 or f"`{module}`" in block), \
-            f"the README's layout does not name {module}"
+            f"docs/layout.md's layout does not name {module}"
     for folder in ("auv_mj/cli/", "agents/", "tasks/", "planners/", "auv_mj/zoo/", "auv_mj/jobs/",
                    "auv_mj/benchmark/", "experiments/report/", "models/"):
         assert f"`{folder}`" in block, folder
@@ -66,10 +72,10 @@ def test_the_layout_names_every_part_of_the_core_and_every_layer():
 
 def test_the_layout_names_only_paths_that_exist():
     paths = re.findall(r"`((?:auv_mj|agents|tasks|planners|models|tests|docs|experiments)/[\w/.-]*)`",
-                       _block("layout"))
+                       _block("layout", LAYOUT_PAGE))
     assert len(paths) >= 8
     missing = [p for p in paths if not (ROOT / p).exists()]
-    assert not missing, f"the README's layout names paths that do not exist: {missing}"
+    assert not missing, f"docs/layout.md's layout names paths that do not exist: {missing}"
 
 
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
@@ -105,3 +111,21 @@ def test_the_readme_python_api_examples_run(tmp_path):
     assert (board / "leaderboard.json").is_file() and (board / "leaderboard.md").is_file()
     lines = done.stdout.splitlines()
     assert lines[-1].startswith("| `los-fast` | suite v1 | 6 |")  # its own row: six cells, one episode each
+
+
+def test_the_readme_gymnasium_examples_run(tmp_path):
+    """The README's Gymnasium section (one env, then the batched env) runs as written, in a fresh process."""
+    import subprocess
+    import sys
+
+    text = README.read_text()
+    section = text[text.index("## Gymnasium"):]
+    section = section[:section.index("\n## ", 1)]
+    code = "\n".join(re.findall(r"```python\n(.*?)```", section, re.S))
+    assert "gym.make(" in code and "gym.make_vec(" in code
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("['achieved_goal', 'desired_goal', 'observation']")
+    assert lines[0].endswith("(720, 1280, 3)")
+    assert lines[-1] == "AUVVectorEnv (256,) (256, 17)"

@@ -28,7 +28,7 @@ and by checks, redrawing (at most `TunnelSpec.tries` times, deterministically) w
 - `auv_mj.arenas.tunnels.check_unknown` asks Shapely for water joining start and goal that keeps d_s from every
   wall, unknown obstacle and along-axis mover track, with the hull turned any way.
 Every arena passes `auv-mj check-arena`, and the classical planner `los-avoid` gets through (measured
-with `auv-mj eval --task tunnel --arena random`; see README).
+with `auv-mj eval --task tunnel --arena random`; see docs/evaluation.md).
 
 Seeds. An arena is a function of its seed: `random_tunnel(seed)` draws from `RandomState(seed)`, as
 a task seeded `seed` does for its first episode, so `auv-mj tunnel --random S` writes the arena of

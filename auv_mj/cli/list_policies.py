@@ -8,8 +8,8 @@ from auv_mj.zoo import registry as policies
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """--markdown prints the README's table."""
-    parser.add_argument("--markdown", action="store_true", help="print the table as Markdown (the README's)")
+    """--markdown prints the table of docs/policies.md."""
+    parser.add_argument("--markdown", action="store_true", help="print the table as Markdown (docs/policies.md's)")
 
 
 def run(args: argparse.Namespace) -> int:

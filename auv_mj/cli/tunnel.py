@@ -112,7 +112,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "procedural arenas", "--random SEED writes the arena of the first episode of `--arena random --seed "
         "SEED` (the same arena as `auv-mj eval` draws), unless an option below changes the distribution")
     group.add_argument("--random", type=seed_int, metavar="SEED", help="a random arena from this seed "
-                            "(training, validation and test seed ranges: README)")
+                            "(training, validation and test seed ranges: docs/evaluation.md)")
     group.add_argument("--task", default="tunnel", choices=RANDOM_TASKS,
                             help="whose random arena: a procedural tunnel (default), or the open-water layout of "
                                  "obstacles / moving_obstacles")

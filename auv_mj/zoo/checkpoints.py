@@ -24,7 +24,7 @@ def shipped_checkpoint(name: str, task: str | None = None) -> Path:
     path = _checkpoint_dir() / file
     if not path.is_file():
         raise FileNotFoundError(f"the shipped {name} checkpoint {path} is missing; train one with "
-                                f"`auv-mj train` (see README) or pass a checkpoint path")
+                                f"`auv-mj train` (see docs/training.md) or pass a checkpoint path")
     return path
 
 

@@ -4,9 +4,9 @@ MuJoCo Playground's registry).
 The one place where tasks and agents meet (the app layer). A spec holds what a name means: how its policy is built,
 its shipped checkpoint, the executor it runs on, its protection domain (Sec. 3.2.2), the suite domains (planar,
 6-DOF) and kind of task it runs on and a one-line description. Everything else derives from `POLICIES`: the names,
-the `--policy` help of every command, the README's policy table (`auv-mj policies --markdown`), `resolve_tasks`
-(which tasks of 'all', a tag or a domain a policy runs), `check_runs_on` (the one-line refusal of a task it cannot
-run), `make_env` and `make_policy`.
+the `--policy` help of every command, the policy table of docs/policies.md (`auv-mj policies --markdown`),
+`resolve_tasks` (which tasks of 'all', a tag or a domain a policy runs), `check_runs_on` (the one-line refusal of a
+task it cannot run), `make_env` and `make_policy`.
 
 Adding a policy is one entry: `register("my-planner", PolicySpec("what it is", build=...))`, in this file or in a
 module imported by it.
@@ -445,7 +445,7 @@ def runs_on_label(spec: PolicySpec) -> str:
 
 
 def markdown_table() -> str:
-    """The README's policy tables, one per role (`ROLES`): name, family, tasks, executor, protection, description."""
+    """docs/policies.md's policy tables, one per role (`ROLES`): name, family, tasks, executor, protection, what."""
     lines = []
     for role, title in ROLES.items():
         lines += [f"**{title}**", "", "| policy | family | runs on | executor | protection | what it is |",

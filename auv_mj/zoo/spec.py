@@ -16,8 +16,9 @@ from auv_mj.tasks import domains as suite_domains
 
 ROLES = {"use": "To use", "paper": "The paper's", "reference": "References and ablations",
          "comparison": "Kept for comparison"}
-"""What a spec is for (`PolicySpec.role`) -> its heading in `auv-mj policies` and the README's tables: the ones to
-use, the paper's own, the references and ablations that measure others, and earlier ones kept for comparison."""
+"""What a spec is for (`PolicySpec.role`) -> its heading in `auv-mj policies` and docs/policies.md's tables: the
+ones to use, the paper's own, the references and ablations that measure others, and earlier ones kept for
+comparison."""
 RUNS_ON = ("planning", "executor", "any")
 """What a spec's `tasks` may be: the suite's tasks tagged "planning", those tagged "executor", or every task."""
 DOMAINS = {name: domain.title for name, domain in suite_domains.DOMAINS.items()}
@@ -58,11 +59,11 @@ class PolicySpec:
     """One named policy. Only `description` and `build` are required; the rest say how it is deployed."""
 
     description: str
-    """One line for `--help` and the README's policy table."""
+    """One line for `--help` and the policy table of docs/policies.md."""
     build: Callable[[Deployment], Planner]
     """Makes the acting policy for one episode's environment."""
     family: str = "classical"
-    """"learned", "classical" or "reference" (random, oracle): the column of the README's table."""
+    """"learned", "classical" or "reference" (random, oracle): the column of docs/policies.md's table."""
     tasks: str = "any"
     """The tasks it runs on, one of RUNS_ON."""
     checkpoint: str | None = None
