@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
-from auv_mj import model_path, render
+from auv_mj import model_path
 from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig
 from auv_mj.agents.offpolicy.replay import Batch
 from auv_mj.agents.offpolicy.td3 import TD3, TD3Config
@@ -38,6 +38,7 @@ from auv_mj.render import glbackend
 from auv_mj.sim import native, native3d
 from auv_mj.sim.physics import AUVPhysics
 from auv_mj.sim.physics3d import AUV3DPhysics, set_pose
+from auv_mj.speed.render import time_against_bare_renderer
 from auv_mj.tasks import suite
 
 SUB_STEPS = 10
@@ -331,7 +332,7 @@ def render_section(settings: BenchSettings) -> list[Measurement]:
         return [Measurement("rendering unavailable", float("nan"), "", str(e))]
     env = suite.load("auv", "obstacles", task_kwargs={"random": settings.seed})
     measurements = []
-    timings = render.time_against_bare_renderer(env, line_of_sight(env), frames=max(10, settings.calls(60)))
+    timings = time_against_bare_renderer(env, line_of_sight(env), frames=max(10, settings.calls(60)))
     for size, r in timings.items():
         measurements.append(Measurement(f"render {size} ours", r["ours_fps"], "frames/s"))
         measurements.append(Measurement(f"render {size} bare mujoco.Renderer (limit)", r["bare_fps"], "frames/s"))
