@@ -3,7 +3,7 @@
 Speed, not looks: what a frame shows is `auv_mj.render.frame`. `time_against_bare_renderer` draws the same recorded
 states with `FrameRenderer` and with `_BareRenderer` (the model's geoms only, from the same camera: what no
 renderer of this scene can beat) and reports both frame rates and their ratio.
-`auv-mj bench` (its "render" section) times it on the obstacles task under line of sight; `auv-mj render
+The "render" section of `auv-mj bench` times it on the obstacles task under line of sight; `auv-mj render
 --bench` prints it alone.
 """
 
@@ -17,7 +17,11 @@ import mujoco
 import numpy as np
 
 from auv_mj.episode import EpisodeRecorder, Snapshot
+from auv_mj.planners.guidance import line_of_sight
+from auv_mj.render import glbackend
 from auv_mj.render.frame import FOLLOW_VIEW, SAMPLES, FrameRenderer
+from auv_mj.speed.sections import BenchSettings, Measurement, section
+from auv_mj.tasks import suite
 
 
 def time_against_bare_renderer(env, policy, sizes: tuple[tuple[int, int], ...] = ((1280, 720), (640, 360)),
@@ -86,3 +90,20 @@ class _BareRenderer:
 
     def __exit__(self, *exc) -> None:
         self.renderer.close()
+
+
+@section("render")
+def render_section(settings: BenchSettings) -> list[Measurement]:
+    """Frames per second of the episode renderer against a bare mujoco.Renderer of the same scene."""
+    try:
+        glbackend.require()
+    except glbackend.RenderingUnavailable as e:
+        return [Measurement("rendering unavailable", float("nan"), "", str(e))]
+    env = suite.load("auv", "obstacles", task_kwargs={"random": settings.seed})
+    measurements = []
+    timings = time_against_bare_renderer(env, line_of_sight(env), frames=max(10, settings.calls(60)))
+    for size, r in timings.items():
+        measurements.append(Measurement(f"render {size} ours", r["ours_fps"], "frames/s"))
+        measurements.append(Measurement(f"render {size} bare mujoco.Renderer (limit)", r["bare_fps"], "frames/s"))
+        measurements.append(Measurement(f"render {size} ours / bare", r["ratio"], "x"))
+    return measurements
