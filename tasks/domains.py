@@ -54,11 +54,11 @@ class Domain:
 DOMAINS: dict[str, Domain] = {
     "auv": Domain("auv", "planar", SUITE, AUVPhysics, "auv.xml",
                   {"splane": SPlaneController, "splane-ocean": lambda: SPlaneController(OCEAN_GAINS)},
-                  "auv_mj.executors", "auv_mj.render.video:FrameRenderer"),
+                  "auv_mj.executors", "auv_mj.render.frame:FrameRenderer"),
     DOMAIN_3D: Domain(DOMAIN_3D, "6-DOF", SUITE3D, AUV3DPhysics, "auv3d.xml",
                          {"splane": DepthHeadingController,
                           "splane-ocean": lambda: DepthHeadingController(OCEAN_DEPTH_GAINS)},
-                         "auv_mj.executors_3d", "auv_mj.render.video3d:FrameRenderer3D"),
+                         "auv_mj.executors_3d", "auv_mj.render.frame3d:FrameRenderer3D"),
 }
 """Every domain, by name."""
 

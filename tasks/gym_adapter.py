@@ -244,11 +244,11 @@ class AUVGymEnv(gymnasium.Env):
             height, width = self.render_size
             title = gym_id(self.task_name) if isinstance(self.task_name, str) else ""
             if self._domain == DOMAIN:
-                from auv_mj.render.video import LiveView
+                from auv_mj.render.episode_video import LiveView
 
                 self._view = LiveView(self._env, width, height, follow_view=self.render_distance, title=title)
             else:
-                from auv_mj.render.video3d import LiveView3D
+                from auv_mj.render.episode_video3d import LiveView3D
 
                 self._view = LiveView3D(self._env, width, height, title=title)
         return self._view

@@ -1,4 +1,5 @@
-"""Videos and plots of 6-DOF episodes (`auv_mj.render.video3d`, `auv_mj.cli.render3d`): tiny frames, few steps."""
+"""Videos and plots of 6-DOF episodes (`auv_mj.render.frame3d`, `auv_mj.render.episode_video3d`,
+`auv_mj.cli.render3d`): tiny frames, few steps."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ import numpy as np
 
 from auv_mj.cli.render3d import plot_depth, plot_track
 from auv_mj.planners.los3d import los_policy
-from auv_mj.render.video3d import BAR_RGB, Layout, State3D, Track3D, interpolate, render_episode_3d
+from auv_mj.render.episode_video3d import Track3D, interpolate, render_episode_3d
+from auv_mj.render.frame3d import BAR_RGB, Layout, State3D
 from auv_mj.tasks import auv3d
 
 

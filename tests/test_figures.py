@@ -105,7 +105,7 @@ def test_a_video_frame_has_a_key_to_the_sonar_colours_and_lines(camera):
 
 
 def test_the_key_names_what_the_lines_are():
-    from auv_mj.render.video import FrameRenderer
+    from auv_mj.render.frame import FrameRenderer
 
     env = suite.load("auv", "moving_obstacles", task_kwargs={"random": 0})
     env.reset()

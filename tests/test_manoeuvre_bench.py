@@ -12,8 +12,8 @@ import pytest
 
 from auv_mj import SONAR_RANGE, cli
 from auv_mj.arenas.arena import load
-from auv_mj.cli import bench
 from auv_mj.sim.manoeuvre import channel_arena, zigzag
+from auv_mj.speed import sections
 
 BOW = 0.665
 
@@ -61,18 +61,24 @@ def test_bench_quick_writes_json(tmp_path, capsys):
 
 
 def test_bench_sections_are_pluggable():
-    """A section added with @section runs with the others (how a "tasks" section plugs in)."""
+    """A section added with @section runs with the others (how a "tasks" section plugs in), from Python as from the
+    command; an unknown name is refused by both."""
     calls = []
 
-    @bench.section("dummy")
-    def dummy(settings: bench.BenchSettings) -> list[bench.Measurement]:
+    @sections.section("dummy")
+    def dummy(settings: sections.BenchSettings) -> list[sections.Measurement]:
         calls.append(settings.repeats)
-        return [bench.Measurement("answer", 42.0, "x")]
+        return [sections.Measurement("answer", 42.0, "x")]
 
     try:
-        results = bench.run_sections(["dummy"], bench.BenchSettings(repeats=2))
+        results = sections.run_bench(["dummy"], sections.BenchSettings(repeats=2))
         assert calls == [2] and results["dummy"][0].value == 42.0
     finally:
-        del bench.SECTIONS["dummy"]
+        del sections.SECTIONS["dummy"]
+    import auv_mj.speed
+
+    assert auv_mj.speed.run_bench is sections.run_bench  # the library's call, as the command makes it
+    with pytest.raises(ValueError, match="unknown section"):
+        sections.run_bench(["nonexistent"])
     with pytest.raises(SystemExit):
         cli.main(["bench", "--sections", "nonexistent"])

@@ -134,7 +134,7 @@ def test_the_render_bar_ends_at_100_percent_when_the_episode_ends_early(capsys):
     steps, rewritten to the steps done at the end); it ends full at the goal, and short of it when the run is cut."""
     import re
 
-    from auv_mj.render.video import iter_frames
+    from auv_mj.render.episode_video import iter_frames
 
     env, policy = zoo.env_and_policy("splane", "goal", 0, {"goal_radius": 50.0})
     recorder = EpisodeRecorder(env, "goal", "splane", 0)

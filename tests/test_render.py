@@ -263,7 +263,7 @@ def test_the_gymnasium_frame_is_the_videos_frame(gym_id):
     overlay and key; the 6-DOF panels and heads-up display), at the videos' size, by the same renderer."""
     import gymnasium
 
-    from auv_mj.render.video3d import iter_frames_3d
+    from auv_mj.render.episode_video3d import iter_frames_3d
 
     steps, size = 4, (320, 240)
     env = gymnasium.make(gym_id, render_mode="rgb_array", render_size=size[::-1])

@@ -2,7 +2,7 @@
 
 `record_failures` is what `auv-mj eval --record-failures DIR` (and the benchmark) calls after the evaluation:
 episodes are functions of their seed (task and policy seeded the same, `auv-mj eval`), so each failed one is run
-again, this time through the renderer (`auv_mj.render.video.iter_frames`) and the episode recorder, rather than
+again, this time through the renderer (`auv_mj.render.episode_video.iter_frames`) and the episode recorder, rather than
 rendering every episode while most of them succeed. Files are named `TASK_seedSEED_OUTCOME.mp4` and
 `..._trajectory.png` (with a `POLICY_` prefix when asked), so a folder of them sorts by task and seed and says
 why each ended. Without OpenGL the PNG is still written; without ffmpeg the video is a GIF.
@@ -62,7 +62,7 @@ def record_failure(policy_name: str, task_name: str, seed: int, directory: str |
     frames = None
     try:
         glbackend.require()
-        from auv_mj.render.video import iter_frames
+        from auv_mj.render.episode_video import iter_frames
 
         frames = iter_frames(env, policy, max_steps=max_steps, width=size[0], height=size[1], fps=fps,
                              title=f"{task_name} / {policy_name} / seed {seed}", recorder=recorder)
@@ -72,7 +72,7 @@ def record_failure(policy_name: str, task_name: str, seed: int, directory: str |
     staged = directory / f".{task_name}_seed{seed}.rendering.mp4"  # named once the outcome is known
     try:
         if frames is not None:
-            from auv_mj.render.video import write_video
+            from auv_mj.render.writers import write_video
 
             video = write_video(frames, staged, fps)
         else:

@@ -23,17 +23,10 @@ from auv_mj.cli.render3d import render_3d
 from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
 from auv_mj.planners.guidance import line_of_sight
 from auv_mj.render import glbackend
-from auv_mj.render.video import (
-    CAMERAS,
-    DEFAULT_FPS,
-    DEFAULT_HOLD_END,
-    DEFAULT_SIZE,
-    FOLLOW_VIEW,
-    VIDEO_SUFFIXES,
-    iter_frames,
-    time_against_bare_renderer,
-    write_video,
-)
+from auv_mj.render.episode_video import DEFAULT_HOLD_END, iter_frames
+from auv_mj.render.frame import CAMERAS, DEFAULT_SIZE, FOLLOW_VIEW
+from auv_mj.render.writers import DEFAULT_FPS, VIDEO_SUFFIXES, write_video
+from auv_mj.speed.render import time_against_bare_renderer
 from auv_mj.tasks import suite
 from auv_mj.zoo import registry as policies
 

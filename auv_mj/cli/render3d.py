@@ -1,7 +1,7 @@
 """Videos and plots of 6-DOF episodes: `python -m auv_mj.cli.render3d --task tunnel3d --policy splane`.
 
 Runs one episode of an auv3d task with a registered policy (`auv_mj.zoo.registry`), writes the video of
-`auv_mj.render.video3d` (chase, top-down and side views with a heads-up display) and, with --plots PREFIX, two
+`auv_mj.render.episode_video3d` (chase, top-down and side views with a heads-up display) and, with --plots PREFIX, two
 figures:
 PREFIX_depth.png (depth against time, with the command where the task has one) and PREFIX_track.png (the
 3-D track, with the tube's centreline or the goal). `auv-mj render --task tunnel3d ...` runs it (`render_3d`).
@@ -16,8 +16,10 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
-from auv_mj.render.video import DEFAULT_FPS, DEFAULT_HOLD_END, DEFAULT_SIZE, write_video
-from auv_mj.render.video3d import Track3D, iter_frames_3d
+from auv_mj.render.episode_video import DEFAULT_HOLD_END
+from auv_mj.render.episode_video3d import Track3D, iter_frames_3d
+from auv_mj.render.frame import DEFAULT_SIZE
+from auv_mj.render.writers import DEFAULT_FPS, write_video
 from auv_mj.tasks import suite
 from auv_mj.zoo.registry import env_and_policy
 
@@ -83,7 +85,7 @@ def render_3d(env, policy, output: str | Path | None, plots: str | None, max_ste
               title: str, *, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], fps: float = DEFAULT_FPS,
               speedup: float | None = None, hold_end: float = DEFAULT_HOLD_END, gif: bool | None = None,
               progress: bool = False) -> None:
-    """One episode of a 6-DOF task: the video of `auv_mj.render.video3d` (chase, top and side views, heads-up
+    """One episode of a 6-DOF task: the video of `auv_mj.render.episode_video3d` (chase, top and side views, heads-up
     display) to `output` and/or the depth and track figures `plots`_depth.png, `plots`_track.png."""
     track = Track3D()
     if output:

@@ -10,19 +10,25 @@ Rows (environment steps per second, random actions, autoresets included):
 The machine's load average is recorded beside the figures: on a shared machine they move with it.
 
 `python -m auv_mj.speed.vector [--task obstacles] [--seconds 2]` prints the table.
+`auv-mj bench --sections vector` (`vector_section`) reports these rows for open water and the hard tier, beside
+recurrent PPO's samples/s end to end over one checkpoint cycle.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import tempfile
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 
+from auv_mj.speed.sections import BenchSettings, Measurement, section
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import AUVGymEnv
 from auv_mj.tasks.vector import AUVVectorEnv
@@ -186,6 +192,78 @@ def format_rows(rows: Sequence[Mapping[str, Any]]) -> str:
         else:
             lines.append(f"{r['name']:44s} {r['steps_per_second']:9.0f} {r['ratio']:7.2f} {r['load']:5.2f}")
     return "\n".join(lines)
+
+
+VECTOR_CASES = {"goal": {}, "obstacles hard": {"arena": "random", "tier": "hard"}}
+"""Tasks (and options) of the "vector" section: open water, and the hard tier's procedural arenas (resets and all)."""
+VECTOR_MEMORY_STEPS = 1_000_000
+"""Environment steps over which the "vector" section follows the batch's resident memory (N = 256)."""
+PPO_BENCH_ENVS = (64, 256)
+"""Batch sizes of the "vector" section's PPO runs: the planner's size (96) rounded, and the batch's own target
+size. A recurrent update's cost is mostly per time step, not per vehicle, so it falls per sample as N grows."""
+PPO_BENCH_ROLLOUTS = 20
+"""Rollouts (of 128 steps per env) of the "vector" section's timed PPO run, after one untimed rollout: one whole
+checkpoint cycle of the `planner-memory` run (`--ppo-checkpoint-every 20`). PPO resets every env at each checkpoint
+(so that resuming is exact), and on the hard tier a reset draws and certifies an arena; timing a whole cycle weighs
+those resets as training meets them, neither more (a cycle of 4 rollouts would count them 5 times over) nor less.
+The batch alone is timed over the same cycle (`cycle_rate`: the same resets, as many steps, random
+actions), the learner's network and update are the planner's own (`auv_mj.agents.ppo.planner.PLANNER_CONFIG`)."""
+
+
+@section("vector", on_request=True)
+def vector_section(settings: BenchSettings) -> list[Measurement]:
+    """The batched planning environment (`auv_mj.tasks.vector`): env steps/s for N in {1, 16, 64, 256} on 1 and 2
+    threads beside the physics limit (plain `mj_step`, 50 substeps per env step, one thread), Gymnasium's
+    AsyncVectorEnv and SB3's SubprocVecEnv on 2 processes; the resident memory over 10^6 env steps; and recurrent
+    PPO's samples/s end to end (`auv_mj.agents.ppo`, the planner's GRU network, N = 64 and 256) against the batch
+    alone over the same checkpoint cycle."""
+    from auv_mj.agents.ppo import reset_seeds
+    from auv_mj.agents.ppo import train as train_ppo
+    from auv_mj.agents.ppo.planner import PLANNER_CONFIG
+
+    seconds = max(0.5, 2.0 * settings.scale)
+    measurements = []
+    for case, task_kwargs in VECTOR_CASES.items():
+        task = case.split()[0]
+        memory = settings.calls(VECTOR_MEMORY_STEPS) // MEMORY_SIZE if case == "goal" else 0
+        rows = vector_bench(task, task_kwargs, seconds=seconds, memory_steps=memory)
+        for row in rows:
+            if "rss_early" in row:
+                measurements.append(Measurement(f"{case}: resident memory after {memory * MEMORY_SIZE} env steps / "
+                                                "after a tenth of them", row["rss_late"] / row["rss_early"], "x",
+                                                f"{row['rss_early'] / 2**20:.0f} -> {row['rss_late'] / 2**20:.0f} "
+                                                "MiB"))
+            else:
+                measurements.append(Measurement(f"{case}: {row['name']}", row["steps_per_second"], "env steps/s",
+                                                f"{row['ratio']:.2f} of the physics limit, load "
+                                                f"{row['load']:.1f}"))
+        by_name = {r["name"]: r["steps_per_second"] for r in rows if "steps_per_second" in r}
+        one, two = by_name["batch N=256 threads=1"], by_name["batch N=256 threads=2"]
+        measurements.append(Measurement(f"{case}: N=256, 2 threads / 1 thread", two / one, "x"))
+        measurements.append(Measurement(f"{case}: N=256, 2 threads / AsyncVectorEnv (2 processes)",
+                                        two / by_name["AsyncVectorEnv (2 processes)"], "x"))
+    rollouts = settings.calls(PPO_BENCH_ROLLOUTS)
+    config = replace(PLANNER_CONFIG, seed=settings.seed, checkpoint_every=rollouts)
+    for size in PPO_BENCH_ENVS:
+        steps = size * config.num_steps
+        first = reset_seeds(config.seed, 0, size)  # the timed run's first reset (it is a fresh run)
+        batch = cycle_rate("obstacles", VECTOR_CASES["obstacles hard"], size, 2, first, config.num_steps * rollouts,
+                           seed=settings.seed)
+        with tempfile.TemporaryDirectory() as folder:
+            env = AUVVectorEnv("obstacles", size, VECTOR_CASES["obstacles hard"], threads=2)
+            train_ppo(env, config, Path(folder) / "warm", steps, progress=False)  # one rollout: imports, resets
+            start = time.perf_counter()
+            train_ppo(env, config, Path(folder) / "timed", steps * rollouts, progress=False)
+            rate = steps * rollouts / (time.perf_counter() - start)
+            env.close()
+        measurements.append(Measurement(f"obstacles hard: PPO (GRU) end to end, N={size}", rate, "env steps/s",
+                                        f"one checkpoint cycle ({rollouts} rollouts): resets, collection, "
+                                        f"updates, checkpoint; the planner's network, {config.torch_threads} "
+                                        "torch threads in the update"))
+        measurements.append(Measurement(f"obstacles hard: PPO end to end / the batch alone, N={size}", rate / batch,
+                                        "x", f"batch N={size}, 2 threads, over the same cycle: {batch:.0f} env "
+                                        "steps/s"))
+    return measurements
 
 
 def main(argv: Sequence[str] | None = None) -> None:

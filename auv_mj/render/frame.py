@@ -1,7 +1,9 @@
-"""Headless episode videos: a top-down view of the arena with the vehicle, sonar beams, trail and goals.
+"""One frame of a planar episode: a top-down picture of the arena with the vehicle, sonar beams, trail and goals.
 
-`auv-mj render --task goal --policy splane -o goal.mp4` runs one episode and writes an H.264 MP4
-(GIF with --gif, or when no ffmpeg is found). Off-screen OpenGL through EGL or OSMesa
+This module holds the drawing of a single instant: the frame's layout (`View`), its constants (sizes, colours, the
+follow view's height), `FrameRenderer`, which draws a `Snapshot` of the state into an (H, W, 3) uint8 array, and
+`render_frame`, one picture of a live physics. Episodes (timing, interpolation, the trail) are
+`auv_mj.render.episode_video`; files are `auv_mj.render.writers`. Off-screen OpenGL through EGL or OSMesa
 (`auv_mj.render.glbackend`); no display is needed.
 
 What a frame shows: a follow camera (orthographic, looking straight down, FOLLOW_VIEW metres tall,
@@ -25,38 +27,24 @@ bounds, paths, goals) from a layer redrawn when its window or the goals change, 
 repainted only when what moves in it moves by a pixel. The vehicle's own geoms are left out of the
 follow view: its marker covers the hull.
 
-Timing: a video frame every `speedup / fps` simulation seconds. By default one frame per control step
-(speedup = fps x control period: 15x real time for the 0.5 s planner at 30 fps); a smaller speedup
-interpolates the recorded states between control steps (pose, velocity and moving obstacles linearly;
-sonar held, as the 2 Hz sonar holds it), a larger one skips states. The environment is always stepped
-exactly as in training and evaluation.
-
-Python API: `render_episode(env, policy, "episode.mp4")` (streams to the file; `in_memory=True` instead returns the
-(T, H, W, 3) uint8 array, 2.8 MB a 1280 x 720 frame), `iter_frames(...)` (streaming), `write_video(frames, path,
-fps)`, `render_frame(physics)` (one picture of a physics state; the same DEFAULT_SIZE), and
-`time_against_bare_renderer()` (frames/s against a bare `mujoco.Renderer`).
+`GLOwner` (freeing the OpenGL and MuJoCo render contexts) and `gl_context_class` (the headless backend's context)
+are shared with the 6-DOF renderer (`auv_mj.render.frame3d`); how fast `FrameRenderer` draws beside a bare
+`mujoco.Renderer` is measured in `auv_mj.speed.render`.
 """
 
 from __future__ import annotations
 
 import copy
 import math
-import time
-import warnings
-from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, replace
-from pathlib import Path
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from auv_mj.console import complete, progress_bar
-from auv_mj.episode import EpisodeRecorder, Snapshot, arena_geometry, mover_positions, outcome, outcome_label
-from auv_mj.geometry import wrap_angle
+from auv_mj.episode import Snapshot, arena_geometry, mover_positions
 from auv_mj.render import glbackend, raster
 from auv_mj.sim.sonar import SONAR_RANGE
 
-DEFAULT_FPS = 30
 DEFAULT_SIZE = (1280, 720)
 FOLLOW_VIEW = 120.0
 """Height of the follow camera's view [m]."""
@@ -71,21 +59,13 @@ INSET_BORDER = 2
 """Border of the inset [px]."""
 MARKER_LENGTH = 0.06
 """Vehicle marker length as a fraction of the view height (never shorter than the hull)."""
-TRAIL_SPACING = 1 / 500
-"""A trail point is kept every this fraction of the view height."""
 MAX_SEGMENTS = 400
 """At most this many segments of a polyline (trail, global path) are drawn per view (thinned evenly)."""
-EVENT_HOLD = 1.5
-"""An event (goal, collision) stays on screen for this many seconds of video."""
-DEFAULT_HOLD_END = 1.0
-"""The last frame is repeated for this many seconds of video."""
 OVERLAY_MIN_HEIGHT = 240
 """Below this frame height [px] the text overlay is left out: MuJoCo's smallest font would cover the view."""
 SAMPLES = 0
 """Multisampling (MSAA) of the off-screen buffer: 4x costs about half the frame rate on a CPU rasteriser
 (Mesa llvmpipe) for slightly smoother lines; 0 is sharp enough at 720p."""
-TIME_TOLERANCE = 1e-6
-"""Frame times within this of a recorded instant [s] show that instant (physics time drifts by ulps)."""
 GEOM_SLICES = (16, 6)
 """Slices and stacks of round geoms (MuJoCo's defaults 28 and 16): the hull is a few pixels long under its
 marker, and the rasteriser pays per vertex."""
@@ -116,8 +96,6 @@ EVENT_COLOURS = {"goal": (0.3, 1.0, 0.4), "collision": (1.0, 0.3, 0.3), "left_ma
 QUIET_EVENTS = ("subgoal",)
 """Events counted in the overlay but given no banner (a path's virtual sub-goals come every 10 m)."""
 CAMERAS = ("follow", "overview", "both")
-VIDEO_SUFFIXES = (".mp4", ".gif")
-"""The video files `write_video` writes: H.264 MP4 or animated GIF."""
 SCALE_RGBA = (1.0, 1.0, 1.0, 1.0)
 SCALE_FRACTION = 0.2
 """The scale bar is the 1-2-5 length nearest below this fraction of the view's width."""
@@ -131,9 +109,6 @@ Z_WATER = -2.0
 """Height [m] of the patches of water OpenGL draws under the model's geoms (below every geom)."""
 DECORATION_HEIGHT = 1.5
 """Geoms whose top is higher than this [m] hide the decorations (beams end at obstacles' sides, not on top)."""
-
-
-# --- one frame -------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -184,7 +159,7 @@ def scale_bar_length(view_width: float) -> float:
     return max(m * power for m in (1.0, 2.0, 5.0) if m * power <= target)
 
 
-def _gl_context_class():
+def gl_context_class():
     """MuJoCo's GLContext of the configured backend.
 
     `mujoco` picks its own GLContext when first imported, which may precede `auv_mj` (and so MUJOCO_GL)
@@ -345,7 +320,7 @@ class FrameRenderer(GLOwner):
         self.data.mocap_pos[:] = physics.data.mocap_pos
 
         try:
-            self._gl = _gl_context_class()(self.width, self.height)
+            self._gl = gl_context_class()(self.width, self.height)
             self._gl.make_current()
         except Exception as e:  # each backend raises its own error type
             raise glbackend.RenderingUnavailable(
@@ -964,294 +939,6 @@ class FrameRenderer(GLOwner):
         font.text(image, text, left + pad, bottom + pad, np.floor(np.asarray(colour) * 255))
 
 
-
-
-# --- episodes -----------------------------------------------------------------------------------------
-
-
-def interpolate(a: Snapshot, b: Snapshot, t: float) -> Snapshot:
-    """The state at time t in [a.time, b.time]: pose, velocity and movers linear, sonar held from `a`."""
-    span = b.time - a.time
-    if t >= b.time - TIME_TOLERANCE or span <= 0:
-        return b
-    alpha = float(np.clip((t - a.time) / span, 0.0, 1.0))
-    pose = a.pose + alpha * (b.pose - a.pose)
-    pose[2] = a.pose[2] + alpha * wrap_angle(b.pose[2] - a.pose[2])
-    return replace(a, time=t, pose=pose, velocity=a.velocity + alpha * (b.velocity - a.velocity),
-                   movers=a.movers + alpha * (b.movers - a.movers))
-
-
-class _Trail:
-    """Positions so far, one kept every `spacing` metres (amortised O(1) appends, no per-frame copies)."""
-
-    def __init__(self, spacing: float):
-        self.spacing = spacing
-        self._points = np.empty((1024, 2))
-        self.count = 0
-
-    def add(self, point: np.ndarray) -> None:
-        if self.count and np.hypot(*(point - self._points[self.count - 1])) < self.spacing:
-            return
-        if self.count == len(self._points):
-            self._points = np.concatenate([self._points, np.empty_like(self._points)])
-        self._points[self.count] = point
-        self.count += 1
-
-    def view(self) -> np.ndarray:
-        return self._points[: self.count]
-
-
-class _Goals:
-    """The goals a frame shows and how many are reached: the arena's, or for a task that sets one at a time, each
-    it has set so far."""
-
-    def __init__(self):
-        self._seen: list[np.ndarray] = []
-        self.goals, self.reached = np.zeros((0, 2)), 0
-
-    def update(self, snap: Snapshot, arena) -> None:
-        if np.all(np.isfinite(snap.desired_goal)) and (
-                not self._seen or not np.allclose(self._seen[-1], snap.desired_goal)):
-            self._seen.append(snap.desired_goal)
-        self.goals = arena.goals if len(arena.goals) else np.array(self._seen).reshape(-1, 2)
-        self.reached = int(snap.info.get("goals_reached", len(self._seen) - 1))
-
-
-class LiveView:
-    """The video's frame of an episode stepped elsewhere, one control step at a time: what the Gymnasium face's
-    `render()` returns for the planar ids. `start` after each reset, `add` after each step, `frame()` when a picture
-    is wanted (the renderer is made then, once per episode); the frame is `iter_frames`' (goal, path, sonar, trail,
-    text overlay and key), without the interpolation between steps."""
-
-    def __init__(self, env, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], camera: str = "both",
-                 follow_view: float = FOLLOW_VIEW, title: str = ""):
-        if camera not in CAMERAS:
-            raise ValueError(f"camera must be one of {CAMERAS}, got {camera!r}")
-        self.env, self.size, self.camera, self.title = env, (width, height), camera, title
-        self.follow_view = follow_view
-        self._recorder = EpisodeRecorder(env)
-        self._renderer: FrameRenderer | None = None
-        self._snap: Snapshot | None = None
-        self._trail, self._goals = _Trail(TRAIL_SPACING * follow_view), _Goals()
-
-    def start(self, time_step) -> None:
-        """A new episode from its reset `time_step`: a new arena, trail and goals."""
-        self.close()
-        self._trail, self._goals = _Trail(TRAIL_SPACING * self.follow_view), _Goals()
-        self._observe(self._recorder.start(time_step))
-
-    def add(self, time_step, action) -> None:
-        """The step that `action` led to."""
-        if self._snap is None:
-            raise RuntimeError("LiveView.add before start: call start(time_step) after the reset")
-        self._observe(self._recorder.add(time_step, action))
-        del self._recorder.snapshots[:-1]  # the frame needs the last instant only
-
-    def _observe(self, snap: Snapshot) -> None:
-        self._snap = snap
-        self._trail.add(snap.pose[:2])
-        self._goals.update(snap, self._recorder.arena)
-
-    def frame(self) -> np.ndarray:
-        """The (H, W, 3) uint8 frame of the latest instant."""
-        if self._snap is None:
-            raise RuntimeError("no episode to draw yet: call start(time_step) after the reset")
-        if self._renderer is None:
-            self._renderer = FrameRenderer(self.env.physics, *self.size, self.camera, self.follow_view,
-                                           arena=self._recorder.arena, title=self.title)
-        return self._renderer.render(self._snap, self._trail.view(), self._goals.goals, self._goals.reached,
-                                     self._snap.event)
-
-    def close(self) -> None:
-        """Frees the renderer's OpenGL context (a new one is made by the next frame)."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-
-
-def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAULT_SIZE[0],
-                height: int = DEFAULT_SIZE[1], camera: str = "both", fps: float = DEFAULT_FPS,
-                speedup: float | None = None, follow_view: float = FOLLOW_VIEW,
-                hold_end: float = DEFAULT_HOLD_END, title: str = "", recorder: EpisodeRecorder | None = None,
-                progress: bool = False) -> Iterator[np.ndarray]:
-    """Runs one episode of `policy(time_step) -> action` on `env`, yielding (H, W, 3) uint8 frames.
-
-    A frame every `speedup / fps` simulation seconds (default: one per control step). Pass a `recorder`
-    to keep the episode's record as well.
-    """
-    recorder = recorder if recorder is not None else EpisodeRecorder(env)
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
-    if not frame_dt > 0:
-        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
-    glbackend.require()
-    trail, marks = _Trail(TRAIL_SPACING * follow_view), _Goals()
-    renderer, previous, frame = None, None, None
-    event, event_until, next_time = "", -math.inf, 0.0
-    bar = None
-    try:
-        for snap in recorder.run(policy, max_steps):
-            if renderer is None:  # after the reset: the task has drawn its route
-                renderer = FrameRenderer(env.physics, width, height, camera, follow_view,
-                                         arena=recorder.arena, title=title)
-                previous, next_time = snap, snap.time
-                route = route_of(recorder.arena, snap)
-                bar = RenderBar(route, recorder.arena.goal_radius, step_bound(env, max_steps), progress)
-            marks.update(snap, recorder.arena)
-            if snap.event:
-                event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
-            while next_time <= snap.time + TIME_TOLERANCE:
-                state = interpolate(previous, snap, next_time)
-                trail.add(state.pose[:2])
-                shown = event if next_time <= event_until else ""
-                frame = renderer.render(state, trail.view(), marks.goals, marks.reached, shown)
-                yield frame
-                next_time += frame_dt
-            previous = snap
-            bar.advance(made_good(route, snap.pose[:2]) if route is not None else None, snap.step)
-        if bar is not None:
-            bar.finish(snap.success, outcome_label(outcome([snap.event]), recorder.cut, max_steps))
-        for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
-            yield frame.copy()
-    finally:
-        if bar is not None:
-            bar.close()
-        if renderer is not None:
-            renderer.close()
-
-
-def step_bound(env, max_steps: int | None) -> int | None:
-    """The most steps an episode of `env` can take: its time limit, or `max_steps` if fewer; None without either."""
-    limit = getattr(env, "_step_limit", None)
-    steps = min(limit if limit and math.isfinite(limit) else math.inf, max_steps or math.inf)
-    return math.ceil(steps) if math.isfinite(steps) else None
-
-
-def route_of(arena, first: Snapshot) -> np.ndarray | None:
-    """(P, 2) the route an episode's progress is measured along: the global path, else straight from the start to
-    the goal (the arena's, else the vehicle's position and the desired goal at the reset `first`); None on a task
-    without a goal."""
-    if len(arena.path) > 1:
-        return np.asarray(arena.path, float)
-    for ends in (np.array([arena.start, arena.goal], float), np.array([first.pose[:2], first.desired_goal], float)):
-        if np.all(np.isfinite(ends)):
-            return ends
-    return None
-
-
-def made_good(route: np.ndarray, position: np.ndarray) -> float:
-    """How far along `route` [m] the point of it nearest to `position` lies."""
-    a, ab = route[:-1], np.diff(route, axis=0)
-    lengths = np.hypot(ab[:, 0], ab[:, 1])
-    t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
-    nearest = int(np.argmin(np.hypot(*(a + t[:, None] * ab - position).T)))
-    return float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
-
-
-class RenderBar:
-    """The render's progress bar: on a task with a goal, the metres made good along the route (`route_of`) out of
-    its length short of the goal radius, so that it fills as the vehicle goes, ends full at the goal and stays where
-    the vehicle stopped otherwise, its total fixed from the start; on a task without one (tracking), the steps out of
-    the time limit (or `max_steps`), which such an episode runs to. The outcome shows beside it at the end."""
-
-    def __init__(self, route: np.ndarray | float | None, goal_radius: float, steps: int | None, enabled: bool):
-        """`route`: its (P, 2) points or its length [m], None on a task without a goal."""
-        if route is not None:
-            length = float(route) if np.ndim(route) == 0 else float(np.sum(np.hypot(*np.diff(route, axis=0).T)))
-            self.total = max(int(math.ceil(length - goal_radius)), 1)
-            self.bar = progress_bar(total=self.total, unit="m", desc="render, route", disable=not enabled,
-                                    bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} m "
-                                               "[{elapsed}<{remaining}{postfix}]")
-        else:
-            self.total = steps
-            self.bar = progress_bar(total=steps, unit="step", desc="render", disable=not enabled)
-        self.by_route = route is not None
-
-    def advance(self, metres: float | None, step: int) -> None:
-        """After a step: the route made good [m] so far (None on a task without a goal), the step's number."""
-        done = min(int(metres), self.total) if self.by_route and metres is not None else step
-        if self.total is not None:
-            done = min(done, self.total)
-        if done > self.bar.n:
-            self.bar.update(done - self.bar.n)
-
-    def finish(self, reached: bool, label: str) -> None:
-        """The episode's end: full at the goal (the last metres are inside the goal radius) and on a tracking task
-        (its schedule is done), else where it stopped; the outcome `label` beside it."""
-        if reached and self.total is not None:
-            self.bar.update(self.total - self.bar.n)
-        elif not self.by_route:
-            complete(self.bar)
-        self.bar.set_postfix_str(label)
-
-    def close(self) -> None:
-        self.bar.close()
-
-
-IN_MEMORY_WARNING = 512 * 2 ** 20
-"""Bytes of frames above which `render_episode(..., in_memory=True)` warns before it renders (a 1280 x 720 frame is
-2.8 MB: a 700 m tunnel at one frame per control step (826 frames) is about 2.1 GB)."""
-
-
-def frame_bound(env, max_steps: int | None, fps: float, speedup: float | None, hold_end: float) -> int | None:
-    """The most frames an episode of `env` can give (its time limit or `max_steps`, then the held end), or None
-    when it has no limit."""
-    steps = step_bound(env, max_steps)
-    if steps is None:
-        return None
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
-    return int(math.floor(steps * env.control_timestep() / frame_dt + TIME_TOLERANCE)) + 1 + int(round(hold_end * fps))
-
-
-def size_text(frames: int | None, width: int, height: int) -> str:
-    """What `frames` frames of width x height take in memory, in words ("up to 826 frames of 1280 x 720: 2.1 GB")."""
-    width, height = int(width) // 2 * 2, int(height) // 2 * 2
-    if frames is None:
-        return f"{width * height * 3 / 2 ** 20:.1f} MB a frame of {width} x {height}, for as long as the episode runs"
-    size = frames * width * height * 3
-    amount = f"{size / 2 ** 30:.1f} GB" if size >= 2 ** 30 else f"{size / 2 ** 20:.0f} MB"
-    return f"up to {frames} frames of {width} x {height}: {amount}"
-
-
-def episode_output(frames: Iterable[np.ndarray], path: str | Path | None, in_memory: bool, bound: int | None,
-                   width: int, height: int, fps: float, gif: bool | None) -> Path | np.ndarray:
-    """Where `render_episode` and `render_episode_3d` put their frames: streamed to `path` (memory flat in the
-    episode's length), or, asked for with `in_memory=True`, stacked into one (T, H, W, 3) array, with a warning
-    first when that may pass IN_MEMORY_WARNING bytes."""
-    if (path is None) == (not in_memory):
-        raise ValueError(f"give path= to stream the video to a file, or in_memory=True for the whole video as one "
-                         f"(T, H, W, 3) array ({size_text(bound, width, height)}); not "
-                         f"{'both' if in_memory else 'neither'}")
-    if path is not None:
-        return write_video(frames, path, fps, gif)
-    if bound is None or bound * (width // 2 * 2) * (height // 2 * 2) * 3 > IN_MEMORY_WARNING:
-        warnings.warn(f"render_episode(in_memory=True) keeps every frame in memory, {size_text(bound, width, height)}"
-                      f"; give path= to stream the video to a file instead", stacklevel=3)
-    frames = list(frames)
-    return np.stack(frames) if frames else np.zeros((0, 0, 0, 3), dtype=np.uint8)
-
-
-def render_episode(env, policy, path: str | Path | None = None, *, in_memory: bool = False,
-                   max_steps: int | None = None, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1],
-                   camera: str = "both", fps: float = DEFAULT_FPS, speedup: float | None = None,
-                   follow_view: float = FOLLOW_VIEW, hold_end: float = DEFAULT_HOLD_END, title: str = "",
-                   recorder: EpisodeRecorder | None = None, progress: bool = False,
-                   gif: bool | None = None) -> Path | np.ndarray:
-    """Renders one episode of `policy(time_step) -> action` on `env` to the video file `path` (MP4, or GIF: see
-    `write_video`) and returns the path written; the frames stream to the file, so memory stays flat however long
-    the episode.
-
-    `in_memory=True` (and no path) returns the whole video as one (T, H, W, 3) uint8 array instead: width x height
-    x 3 bytes a frame, 2.8 MB at the default 1280 x 720, about 2.1 GB for a 700 m tunnel; it warns first when the
-    episode's time limit allows more than IN_MEMORY_WARNING bytes. `iter_frames` yields the frames one at a time.
-    The other options are `iter_frames`'.
-    """
-    frames = iter_frames(env, policy, max_steps=max_steps, width=width, height=height, camera=camera, fps=fps,
-                         speedup=speedup, follow_view=follow_view, hold_end=hold_end, title=title,
-                         recorder=recorder, progress=progress)
-    bound = frame_bound(env, max_steps, fps, speedup, hold_end)
-    return episode_output(frames, path, in_memory, bound, width, height, fps, gif)
-
-
 def render_frame(physics, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], camera: str = "both",
                  follow_view: float = FOLLOW_VIEW, task=None) -> np.ndarray:
     """One (H, W, 3) uint8 picture of the current state of an AUVPhysics (a fresh context; for notebooks)."""
@@ -1261,151 +948,3 @@ def render_frame(physics, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SI
     with FrameRenderer(physics, width, height, camera, follow_view, task=task) as renderer:
         state.movers = mover_positions(physics, renderer.arena.mover_names)
         return renderer.render(state)
-
-
-# --- files -------------------------------------------------------------------------------------------------
-
-
-def ffmpeg_available() -> bool:
-    """Whether imageio-ffmpeg can find an ffmpeg binary."""
-    try:
-        import imageio_ffmpeg
-
-        imageio_ffmpeg.get_ffmpeg_exe()
-        return True
-    except (ImportError, RuntimeError):
-        return False
-
-
-def write_video(frames: Iterable[np.ndarray], path: str | Path, fps: float = DEFAULT_FPS,
-                gif: bool | None = None) -> Path:
-    """Writes frames to `path`: H.264 MP4 (yuv420p), or GIF when asked, named .gif, or without ffmpeg.
-
-    Frames stream to the file as they come (to ffmpeg for an MP4, to Pillow's GIF encoder frame by frame): a long
-    episode never sits in memory.
-    Returns the path written (its suffix is .gif when it fell back to GIF).
-    """
-    path = Path(path)
-    gif = path.suffix.lower() == ".gif" if gif is None else gif
-    if not gif and not ffmpeg_available():
-        warnings.warn("no ffmpeg binary (imageio-ffmpeg) found: writing a GIF instead of an MP4",
-                      stacklevel=2)
-        gif = True
-    if gif and path.suffix.lower() != ".gif":
-        path = path.with_suffix(".gif")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if gif:
-        return _write_gif(frames, path, fps)
-    import imageio_ffmpeg
-
-    writer = None
-    try:
-        for frame in frames:
-            if writer is None:
-                h, w = frame.shape[:2]
-                if h % 2 or w % 2:
-                    raise ValueError(f"H.264 (yuv420p) needs even frame sizes, got {w} x {h}")
-                writer = imageio_ffmpeg.write_frames(
-                    str(path), (w, h), fps=fps, codec="libx264", pix_fmt_out="yuv420p", quality=7,
-                    macro_block_size=1, output_params=["-preset", "veryfast"])
-                writer.send(None)
-            writer.send(np.ascontiguousarray(frame))
-    finally:
-        if writer is not None:
-            writer.close()
-    if writer is None:
-        raise ValueError("no frames to write")
-    return path
-
-
-def _write_gif(frames: Iterable[np.ndarray], path: Path, fps: float) -> Path:
-    """An animated GIF (looping) written frame by frame as the frames come, each with its own 256-colour palette:
-    memory flat in the video's length, as for an MP4."""
-    from PIL import GifImagePlugin, Image
-
-    duration = 1000.0 / fps  # [ms]; GIF keeps hundredths of a second
-    written = False
-    with open(path, "wb") as f:
-        for frame in frames:
-            image = Image.fromarray(np.ascontiguousarray(frame)).quantize(256)
-            if not written:
-                header, _ = GifImagePlugin.getheader(image, info={"loop": 0, "duration": duration})
-                f.write(b"".join(header))
-                written = True
-            f.write(b"".join(GifImagePlugin.getdata(image, duration=duration, include_color_table=True)))
-        f.write(b";")  # the trailer
-    if not written:
-        path.unlink()
-        raise ValueError("no frames to write")
-    return path
-
-
-# --- benchmark ---------------------------------------------------------------------------------------
-
-
-def time_against_bare_renderer(env, policy, sizes: tuple[tuple[int, int], ...] = ((1280, 720), (640, 360)),
-                               frames: int = 60, repeats: int = 5) -> dict[str, dict[str, float]]:
-    """Frames/s of FrameRenderer (camera "both") vs a bare `mujoco.Renderer` of the same scene and size.
-
-    Both draw the same recorded states of `env` run by `policy` (`auv-mj bench` uses the obstacles task
-    with line of sight) from the same orthographic top-down camera with the same multisampling; the bare renderer
-    draws the model's geoms only, one view, no decorations or text (the limit). The two take turns, pass by
-    pass, `repeats` passes each, and the best pass of each counts: a shared machine's slow spells then fall on
-    both alike. Returns {"WxH": {"ours_fps", "bare_fps", "ratio"}}.
-    """
-    recorder = EpisodeRecorder(env)
-    states = list(recorder.run(policy, frames))
-    trail = np.array([s.pose[:2] for s in states])
-    results = {}
-    for width, height in sizes:
-        with FrameRenderer(env.physics, width, height, "both", arena=recorder.arena) as renderer, \
-                _BareRenderer(env.physics, width, height) as bare:
-            out = np.empty((renderer.height, renderer.width, 3), np.uint8)
-            renderer.render(states[0], out=out)  # warm-up
-            bare.render(states[:1])
-
-            def ours(renderer=renderer, out=out) -> None:
-                for i, state in enumerate(states):
-                    renderer.render(state, trail[: i + 1], out=out)
-
-            passes = {"ours": ours, "bare": lambda bare=bare: bare.render(states)}
-            best = dict.fromkeys(passes, math.inf)
-            for _ in range(repeats):
-                for name, work in passes.items():
-                    start = time.perf_counter()
-                    work()
-                    best[name] = min(best[name], time.perf_counter() - start)
-        ours_fps, bare_fps = len(states) / best["ours"], len(states) / best["bare"]
-        results[f"{width}x{height}"] = {"ours_fps": ours_fps, "bare_fps": bare_fps, "ratio": ours_fps / bare_fps}
-    return results
-
-
-class _BareRenderer:
-    """A bare `mujoco.Renderer` of the model's geoms from the follow view's camera: the benchmark's limit."""
-
-    def __init__(self, physics, width: int, height: int):
-        model = self.model = copy.copy(physics.model.ptr)
-        model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
-        model.vis.global_.offheight = max(model.vis.global_.offheight, height)
-        model.vis.global_.orthographic = 1
-        model.vis.global_.fovy = FOLLOW_VIEW
-        model.vis.quality.offsamples = SAMPLES
-        self.data = mujoco.MjData(model)
-        self.camera = mujoco.MjvCamera()
-        self.camera.azimuth, self.camera.elevation, self.camera.distance = 90.0, -90.0, 0.5 * model.stat.extent
-        self.qpos = [model.joint(n).qposadr[0] for n in ("x", "y", "yaw")]
-        self.renderer = mujoco.Renderer(model, height, width)
-
-    def render(self, states: list[Snapshot]) -> None:
-        for state in states:
-            self.data.qpos[self.qpos] = state.pose
-            mujoco.mj_kinematics(self.model, self.data)
-            self.camera.lookat[:] = (state.pose[0], state.pose[1], 0.0)
-            self.renderer.update_scene(self.data, self.camera)
-            self.renderer.render()
-
-    def __enter__(self) -> _BareRenderer:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.renderer.close()

@@ -1,55 +1,31 @@
-"""Videos of 6-DOF episodes: a chase view beside top-down and side views, with a heads-up display.
+"""One frame of a 6-DOF episode: a chase view beside top-down and side views, with a heads-up display.
 
-`auv-mj render --task tunnel3d --policy los-avoid -o tube.mp4` runs one episode and writes it (through
-`auv_mj.cli.render3d`). A frame (DEFAULT_SIZE, 1280 x 720) holds three labelled panels drawn by MuJoCo from one
-off-screen buffer: the chase camera of the vehicle MJCF (`models/auv3d.xml`, two thirds of the frame), a top-down
-view (north up, as the planar videos) and a side view from the vehicle's starboard, both centred on the vehicle.
-Every panel shows the sonar fan (its 27 beams from the bow to their echoes, coloured by range; beams without an
-echo faint and cut at FAN_DRAWN), the tube's or arena's geoms, the movers where they are, and the goal. On top, in
-numpy (`auv_mj.render.raster`, MuJoCo's bitmap fonts), a heads-up display (time, depth, altitude, speed, pitch,
-heading, the goal's distance), a banner at each event (goal, collision, ...) and a progress bar along the bottom
-(distance made good towards the goal, or the time of a tracking episode).
+This module holds the drawing of a single instant: the frame's layout (`Layout`), the state a frame shows
+(`State3D`) and `FrameRenderer3D`, which draws it. Episodes (timing, interpolation, the 3-D track) are
+`auv_mj.render.episode_video3d`.
 
-Timing as the planar videos (`auv_mj.render.video`): a frame every `speedup / fps` simulation seconds, one per
-control step by default (15x real time for the 0.5 s planner at DEFAULT_FPS); a smaller `speedup` interpolates the
-states recorded at the control steps (positions linearly, the attitude by normalised linear interpolation of the
-quaternion, movers linearly; the sonar held, as the 2 Hz sonar holds it). The environment is stepped exactly as in
-evaluation, through the one episode loop (`auv_mj.episode.EpisodeRecorder`).
-
-Python API: `iter_frames_3d(env, policy, ...)` (streaming), `render_episode_3d(env, policy, path)` (streamed to
-the file; `in_memory=True` for the (T, H, W, 3) array) and `Track3D`, the 3-D track gathered beside the frames
-(`auv_mj.cli.render3d` plots it).
+A frame (DEFAULT_SIZE, 1280 x 720) holds three labelled panels drawn by MuJoCo from one off-screen buffer: the
+chase camera of the vehicle MJCF (`models/auv3d.xml`, two thirds of the frame), a top-down view (north up, as the
+planar videos) and a side view from the vehicle's starboard, both centred on the vehicle. Every panel shows the
+sonar fan (its 27 beams from the bow to their echoes, coloured by range; beams without an echo faint and cut at
+FAN_DRAWN), the tube's or arena's geoms, the movers where they are, and the goal. On top, in numpy
+(`auv_mj.render.raster`, MuJoCo's bitmap fonts), a heads-up display (time, depth, altitude, speed, pitch, heading,
+the goal's distance), a banner at each event (goal, collision, ...) and a progress bar along the bottom (distance
+made good towards the goal, or the time of a tracking episode).
 """
 
 from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
 from auv_mj.render import glbackend, raster
-from auv_mj.render.video import (
-    DEFAULT_FPS,
-    DEFAULT_HOLD_END,
-    DEFAULT_SIZE,
-    EVENT_COLOURS,
-    EVENT_HOLD,
-    TIME_TOLERANCE,
-    WATER_RGBA,
-    GLOwner,
-    RenderBar,
-    _gl_context_class,  # the headless backend's GLContext, as the planar renderer makes it
-    episode_output,
-    frame_bound,
-    step_bound,
-)
-from auv_mj.sim.sensors3d import ALTIMETER_RANGE, altimeter, fan_directions
+from auv_mj.render.frame import DEFAULT_SIZE, EVENT_COLOURS, WATER_RGBA, GLOwner, gl_context_class
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
 
 CHASE_CAMERA = "chase"
@@ -132,21 +108,6 @@ class State3D:
     event: str = ""
 
 
-def interpolate(a: State3D, b: State3D, time: float) -> State3D:
-    """The state at `time` in [a.time, b.time]: positions, velocities and movers linear, the quaternions by
-    normalised linear interpolation, the sonar and the event held from `a` (the sonar samples at 2 Hz)."""
-    span = b.time - a.time
-    if span <= 0.0 or time >= b.time - TIME_TOLERANCE:  # physics time drifts by ulps from the frame clock
-        return b
-    s = float(np.clip((time - a.time) / span, 0.0, 1.0))
-
-    def mix(x, y):
-        return x + s * (y - x)
-
-    return State3D(time, mix(a.qpos, b.qpos), mix(a.mocap_pos, b.mocap_pos), a.sonar, mix(a.velocity, b.velocity),
-                   mix(a.altitude, b.altitude), mix(a.goal_distance, b.goal_distance), mix(a.progress, b.progress))
-
-
 def _quaternion_slots(model: mujoco.MjModel) -> list[int]:
     """qpos addresses of the free and ball joints' quaternions."""
     slots = []
@@ -191,7 +152,7 @@ class FrameRenderer3D(GLOwner):
         self._sonar = self.model.site("sonar").id
         self._fan = fan_directions()
         try:
-            self._gl = _gl_context_class()(self.width, self.height)
+            self._gl = gl_context_class()(self.width, self.height)
             self._gl.make_current()
         except glbackend.RenderingUnavailable:
             raise
@@ -365,176 +326,3 @@ class FrameRenderer3D(GLOwner):
         top = self.height - y - text_h - 2 * pad
         raster.darken(frame[max(top, 0):top + text_h + 2 * pad, max(x, 0):x + text_w + 2 * pad], 0.4)
         font.text(frame, text, x + pad, y + pad, np.floor(np.asarray(colour) * 255))
-
-
-
-@dataclass
-class Track3D:
-    """The 3-D track of an episode, gathered beside its EpisodeRecord: world positions and attitudes."""
-
-    time: list = field(default_factory=list)
-    position: list = field(default_factory=list)
-    """[m], world, z up."""
-    attitude: list = field(default_factory=list)
-    """(roll, pitch, yaw) [rad]."""
-    depth_command: list = field(default_factory=list)
-    """The task's depth command [m] where it has one (depth_heading), else NaN."""
-
-    def add(self, env) -> None:
-        physics = env.physics
-        self.time.append(physics.time())
-        self.position.append(physics.position())
-        self.attitude.append(physics.attitude())
-        self.depth_command.append(float((getattr(env.task, "last_info", {}) or {}).get("depth_command", np.nan)))
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        return {k: np.asarray(v, dtype=float) for k, v in vars(self).items()}
-
-
-def _progress_of(env, start_distance: float, time_limit: float) -> tuple[float, float]:
-    """(distance to the goal [m] or NaN, share of the episode done): distance made good towards the goal on
-    planning tasks (along the tube on tunnel3d), the time on tracking ones."""
-    physics, task = env.physics, env.task
-    goal = getattr(task, "goal", None)
-    path = getattr(task, "path", None)
-    position = physics.position()
-    if path is not None and len(path) >= 2:
-        lengths = np.linalg.norm(np.diff(path, axis=0), axis=1)
-        a, ab = path[:-1], np.diff(path, axis=0)
-        t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
-        nearest = np.argmin(np.linalg.norm(a + t[:, None] * ab - position, axis=1))
-        along = float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
-        return float(np.linalg.norm(goal - position)), along / max(float(np.sum(lengths)), 1e-9)
-    if goal is not None and math.isfinite(start_distance) and start_distance > 0:
-        distance = float(np.linalg.norm(goal - position))
-        return distance, float(np.clip(1.0 - distance / start_distance, 0.0, 1.0))
-    return math.nan, float(np.clip(physics.time() / time_limit, 0.0, 1.0)) if time_limit > 0 else 0.0
-
-
-def _route_length(env, start_distance: float) -> float | None:
-    """The length [m] of the route `_progress_of` measures along: the tube's path, else the start's distance to the
-    goal; None on a task without a goal (depth_heading)."""
-    path = getattr(env.task, "path", None)
-    if path is not None and len(path) >= 2:
-        return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
-    return start_distance if math.isfinite(start_distance) and start_distance > 0 else None
-
-
-def _state(env, event: str, start_distance: float, time_limit: float) -> State3D:
-    physics = env.physics
-    data = physics.data.ptr
-    distance, share = _progress_of(env, start_distance, time_limit)
-    if event == "goal":
-        share = 1.0
-    return State3D(float(physics.time()), data.qpos.copy(), data.mocap_pos.copy(), physics.sonar(),
-                   physics.body_velocity(), altimeter(physics), distance, share, event)
-
-
-class LiveView3D:
-    """The video's frame of a 6-DOF episode stepped elsewhere: what the Gymnasium face's `render()` returns for the
-    auv3d ids (chase, top and side panels, heads-up display, progress bar, event banner). `start` after each reset,
-    `add` after each step, `frame()` when a picture is wanted (the renderer is made then, once per episode)."""
-
-    def __init__(self, env, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], title: str = ""):
-        self.env, self.size, self.title = env, (width, height), title
-        self._recorder = EpisodeRecorder(env)  # the episode loop's read-out of each step, as `iter_frames_3d` has it
-        self._renderer: FrameRenderer3D | None = None
-        self._event, self._start_distance, self._started = "", math.nan, False
-        limit = getattr(env, "_step_limit", None)
-        self._time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
-
-    def start(self, time_step) -> None:
-        """A new episode from its reset `time_step` (a new arena: a new renderer at the next frame)."""
-        self.close()
-        self._recorder.start(time_step)
-        goal = getattr(self.env.task, "goal", None)
-        self._start_distance = (float(np.linalg.norm(goal - self.env.physics.position())) if goal is not None
-                                else math.nan)
-        self._event, self._started = "", True
-
-    def add(self, time_step, action) -> None:
-        """The step that `action` led to: its event, if any, becomes the banner."""
-        if not self._started:
-            raise RuntimeError("LiveView3D.add before start: call start(time_step) after the reset")
-        self._event = self._recorder.add(time_step, action).event
-        del self._recorder.snapshots[:-1]  # the frame needs the last instant only
-
-    def frame(self) -> np.ndarray:
-        """The (H, W, 3) uint8 frame of the environment's current state."""
-        if not self._started:
-            raise RuntimeError("no episode to draw yet: call start(time_step) after the reset")
-        if self._renderer is None:
-            self._renderer = FrameRenderer3D(self.env.physics, *self.size, self.title)
-        return self._renderer.render(_state(self.env, self._event, self._start_distance, self._time_limit),
-                                     self._event)
-
-    def close(self) -> None:
-        """Frees the renderer's OpenGL context (a new one is made by the next frame)."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-
-
-def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width: int = DEFAULT_SIZE[0],
-                   height: int = DEFAULT_SIZE[1], fps: float = DEFAULT_FPS, speedup: float | None = None,
-                   hold_end: float = DEFAULT_HOLD_END, title: str = "", track: Track3D | None = None,
-                   recorder: EpisodeRecorder | None = None, progress: bool = False) -> Iterator[np.ndarray]:
-    """Runs one episode of `policy(time_step) -> action` on the auv3d `env`, yielding (H, W, 3) uint8 frames, one
-    every `speedup / fps` simulated seconds (default: one per control step); `track` (if given) gathers the 3-D
-    track at the control steps, `recorder` keeps the episode's record."""
-    recorder = recorder if recorder is not None else EpisodeRecorder(env)
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
-    if not frame_dt > 0:
-        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
-    glbackend.require()
-    limit = getattr(env, "_step_limit", None)
-    time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
-    renderer, previous, frame, bar, route = None, None, None, None, None
-    event, event_until, next_time, start_distance = "", -math.inf, 0.0, math.nan
-    try:
-        for snap in recorder.run(policy, max_steps):
-            if renderer is None:  # after the reset: the task has loaded its arena
-                renderer = FrameRenderer3D(env.physics, width, height, title)
-            if snap.step == 0:
-                goal = getattr(env.task, "goal", None)
-                start_distance = float(np.linalg.norm(goal - env.physics.position())) if goal is not None else math.nan
-                route = _route_length(env, start_distance)
-                bar = RenderBar(route, float(getattr(env.task, "goal_radius", 0.0)), step_bound(env, max_steps),
-                                progress)
-            if track is not None:
-                track.add(env)
-            state = _state(env, snap.event, start_distance, time_limit)
-            if previous is None:
-                previous, next_time = state, state.time
-            if snap.event:
-                event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
-            while next_time <= state.time + 1e-6:
-                frame = renderer.render(interpolate(previous, state, next_time),
-                                        event if next_time <= event_until else "")
-                yield frame
-                next_time += frame_dt
-            previous = state
-            bar.advance(state.progress * route if route is not None else None, snap.step)
-        if bar is not None:
-            bar.finish(snap.success, outcome_label(outcome([snap.event]), recorder.cut, max_steps))
-        for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
-            yield frame.copy()
-    finally:
-        if bar is not None:
-            bar.close()
-        if renderer is not None:
-            renderer.close()
-
-
-def render_episode_3d(env, policy: Callable, path: str | Path | None = None, *, in_memory: bool = False,
-                      max_steps: int | None = None, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1],
-                      fps: float = DEFAULT_FPS, speedup: float | None = None, hold_end: float = DEFAULT_HOLD_END,
-                      title: str = "", track: Track3D | None = None, recorder: EpisodeRecorder | None = None,
-                      progress: bool = False, gif: bool | None = None) -> Path | np.ndarray:
-    """One episode of the auv3d `env` streamed to the video file `path` (returned), or with `in_memory=True` the
-    whole video as one (T, H, W, 3) uint8 array, width x height x 3 bytes a frame (as `render_episode`); the other
-    options are `iter_frames_3d`'."""
-    frames = iter_frames_3d(env, policy, max_steps=max_steps, width=width, height=height, fps=fps, speedup=speedup,
-                            hold_end=hold_end, title=title, track=track, recorder=recorder, progress=progress)
-    bound = frame_bound(env, max_steps, fps, speedup, hold_end)
-    return episode_output(frames, path, in_memory, bound, width, height, fps, gif)
