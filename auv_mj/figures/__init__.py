@@ -3,6 +3,7 @@
 
 - `trajectory`: maps with the vehicle's tracks (Figs. 9-11, 13a, 14a, 16) and galleries of them;
 - `tracking`: speed and heading against their commands, and the tracking errors (Figs. 12-14, 17);
+- `trajectory3d`: a 6-DOF episode's depth against time and its track in 3-D;
 - `curves`: learning curves from training logs (Fig. 8);
 - `arenas`: previews of arenas from above (a tube also from the side), and how a preview is known;
 - `canvas`: the figure, its size in pixels and its saving, shared by the others.
