@@ -49,6 +49,8 @@ from auv_mj.geometry import xy_text
 from auv_mj.sim.physics import AUVPhysics
 
 if TYPE_CHECKING:
+    from tqdm import tqdm
+
     from auv_mj.arenas.tubes import Tube, TubeMover, TubeObstacle
 
 CHECK_STEP = 1.0
@@ -127,7 +129,7 @@ def arena_name(source: str | Path | ET.Element) -> str:
 
 
 def check_arena(source: str | Path | ET.Element, *, need_path: bool = True, name: str | None = None,
-                progress: bool = False, bar=None) -> ArenaReport:
+                progress: bool = False, bar: tqdm | None = None) -> ArenaReport:
     """Checks an arena (a file or an element) and returns the report, with what a preview of it needs (`view`).
 
     The check draws nothing: `auv_mj.figures.arenas.preview(source, png)` checks and draws in one call, or draws a

@@ -1,9 +1,9 @@
 """Previews of arenas (matplotlib): a planar arena from above, a 3-D tube from above and from the side.
 
 `preview(arena, png)` checks an arena (`auv_mj.arenas.arena_check.check_arena`) and draws its preview in one call,
-or draws the preview of a report already made; `auv-mj check-arena`, `auv-mj arena` and `auv-mj tunnel`'s checks
-use the same code. Every preview carries PREVIEW_SOFTWARE in its PNG text, by which `is_preview` knows one: a
-command may replace a preview it drew without --force, never an image of the user's.
+or draws the preview of a report already made; `auv-mj check-arena` and `auv-mj arena` draw theirs with it. Every
+preview carries PREVIEW_SOFTWARE in its PNG text, by which `is_preview` knows one: a command may replace a preview
+it drew without --force, never an image of the user's.
 """
 
 from __future__ import annotations
@@ -103,7 +103,6 @@ LEADER_FROM = 4
 """Offsets from this index of LABEL_OFFSETS on are far enough from their point to need a leader line."""
 PIECE_NAME = re.compile(r"(.+)_(\d+)")
 """A piece of a polygon cut into convex meshes: NAME_0, NAME_1, ... (`auv_mj.arenas.layout`)."""
-
 
 
 def _labelled_shapes(model: mujoco.MjModel, outlines: dict[int, np.ndarray]) -> list[tuple[str, np.ndarray]]:
