@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import argparse
 
-from auv_mj.cli.plots import plot_gallery
 from auv_mj.episode import record_episode
+from auv_mj.figures.trajectory import plot_gallery
 from auv_mj.zoo.registry import env_and_policy
 
 POLICIES = ("los-avoid", "los-fast", "planner-route", "map-replan", "planner-general", "oracle")

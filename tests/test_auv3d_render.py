@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from auv_mj.cli.render3d import plot_depth, plot_track
+from auv_mj.figures.trajectory3d import plot_depth, plot_track
 from auv_mj.planners.los3d import los_policy
 from auv_mj.render.episode_video3d import Track3D, interpolate, render_episode_3d
 from auv_mj.render.frame3d import BAR_RGB, Layout, State3D

@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from auv_mj.cli import failures
+from auv_mj.benchmark import failures
 
 NEAR = {"name": "near", "start": [20, 100], "goal": [45, 100], "bounds": [0, 0, 200, 200],
         "shapes": [{"type": "box", "name": "rock", "x": 100, "y": 160, "length": 10, "width": 10}]}

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from auv_mj.cli import plots
+from auv_mj.figures import curves
 from experiments.report.fig8 import fig8, fig8_logs, mean_ci
 
 
@@ -61,7 +61,7 @@ def test_confidence_interval_of_the_mean():
     assert mean == 6.0
     assert math.isclose(half, stats.t.ppf(0.975, 3) * np.std(values, ddof=1) / 2)
     runs = [{"episode": np.arange(1.0, 4.0), "success": np.array(v)} for v in ([0, 1, 1], [0, 0, 1], [1, 1, 1])]
-    _, mean_curve, low, high = plots.learning_curve(runs, "success", window=1, band="ci")
+    _, mean_curve, low, high = curves.learning_curve(runs, "success", window=1, band="ci")
     np.testing.assert_allclose(mean_curve, [1 / 3, 2 / 3, 1])
     np.testing.assert_allclose(high - mean_curve, stats.t.ppf(0.975, 2) * np.std([0, 0, 1], ddof=1) / np.sqrt(3)
                                * np.array([1, 1, 0]))

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from auv_mj.cli import plots
 from auv_mj.episode import record_episode
+from auv_mj.figures import trajectory
 from auv_mj.tasks import suite
 
 
@@ -40,7 +40,7 @@ def _legend_texts(legend) -> list[str]:
 
 
 def test_a_wide_map_gives_a_wide_figure_with_little_white_space(tunnel_records, tmp_path):
-    path = plots.plot_trajectory(tunnel_records, tmp_path / "tunnel.png", labels=["a", "b"], width=1000)
+    path = trajectory.plot_trajectory(tunnel_records, tmp_path / "tunnel.png", labels=["a", "b"], width=1000)
     rows, cols = _blank_fraction(path)
     assert rows < 0.15 and cols < 0.1, (rows, cols)  # the margins and the gaps of title and labels (was 0.36)
     with Image.open(path) as image:
@@ -49,7 +49,7 @@ def test_a_wide_map_gives_a_wide_figure_with_little_white_space(tunnel_records, 
 
 
 def test_the_map_legend_is_apart_from_the_tracks_legend(tunnel_records):
-    fig = plots.trajectory_figure(tunnel_records, labels=["policy a", "policy b"], width=1000)
+    fig = trajectory.trajectory_figure(tunnel_records, labels=["policy a", "policy b"], width=1000)
     legends = fig.legends + [child for ax in fig.axes for child in ax.get_children()
                              if type(child).__name__ == "Legend"]
     assert len(legends) == 2
@@ -63,7 +63,7 @@ def test_the_map_legend_is_apart_from_the_tracks_legend(tunnel_records):
 def test_a_square_map_keeps_its_legends_beside_it(tmp_path):
     env = suite.load("auv", "moving_obstacles", task_kwargs={"random": 0})
     record = record_episode(env, _cruise, max_steps=8, task="moving_obstacles", policy_name="cruise", seed=0)
-    path = plots.plot_trajectory(record, tmp_path / "square.png", width=900)
+    path = trajectory.plot_trajectory(record, tmp_path / "square.png", width=900)
     rows, cols = _blank_fraction(path)
     assert rows < 0.15 and cols < 0.1, (rows, cols)  # was 0.31
     with Image.open(path) as image:
@@ -140,26 +140,46 @@ def harbour(tmp_path):
 
 
 def test_the_arena_preview_is_titled_by_its_file_and_kind(harbour, tmp_path, monkeypatch):
-    from auv_mj.arenas import arena_check
     from auv_mj.assets import model_path
     from auv_mj.cli import main
+    from auv_mj.figures import arenas
 
     titles = []
-    plot = arena_check.plot_arena
-    monkeypatch.setattr(arena_check, "plot_arena", lambda *args, **kwargs: titles.append(kwargs["title"])
+    plot = arenas.plot_arena
+    monkeypatch.setattr(arenas, "plot_arena", lambda *args, **kwargs: titles.append(kwargs["title"])
                         or plot(*args, **kwargs))
     assert main(["arena", str(harbour), "-o", str(tmp_path / "harbour.xml")]) == 0
-    report = arena_check.check_arena(model_path("arenas/validation/l_bend.xml"), tmp_path / "l_bend.png")
+    report = arenas.preview(model_path("arenas/validation/l_bend.xml"), tmp_path / "l_bend.png")
     assert titles == ["harbour.xml: open-water arena", "l_bend.xml: tunnel arena"]
-    assert report.ok and (tmp_path / "harbour.png").exists()
+    assert report.ok and (tmp_path / "harbour.png").exists() and report.png == tmp_path / "l_bend.png"
+
+
+def test_the_check_draws_nothing_and_its_report_is_drawn_after(tmp_path):
+    """The arenas layer checks; the figures draw: a report of `check_arena` holds what its preview needs, drawn
+    later by `preview` exactly as the one call draws it."""
+    from auv_mj.arenas import arena_check
+    from auv_mj.assets import model_path
+    from auv_mj.figures import arenas
+
+    source = model_path("arenas/validation/l_bend.xml")
+    report = arena_check.check_arena(source)
+    assert report.ok and report.png is None and report.view.kind == "tunnel"
+    assert not list(tmp_path.iterdir())
+    assert arenas.preview(report, tmp_path / "later.png") is report and report.png == tmp_path / "later.png"
+    assert arenas.is_preview(report.png)
+    once = arenas.preview(source, tmp_path / "once.png")
+    assert once.lines() == report.lines() and arenas.is_preview(once.png)
+    assert arena_check.check_arena(tmp_path / "missing.xml").view is None  # nothing loads, nothing to draw
+    assert arenas.preview(tmp_path / "missing.xml", tmp_path / "none.png").png is None
 
 
 def test_a_polygon_is_labelled_once_and_no_labels_overlap(harbour):
-    from auv_mj.arenas import arena_check, layout
+    from auv_mj.arenas import layout
     from auv_mj.arenas.arena import arena_info, load
+    from auv_mj.figures.arenas import arena_figure
 
     physics = load(layout.read_layout(harbour).element("test"))
-    fig = arena_check.arena_figure(physics, arena_info(physics), title="harbour")
+    fig = arena_figure(physics, arena_info(physics), title="harbour")
     renderer = fig.canvas.get_renderer()
     texts = [t for t in fig.axes[0].texts if t.get_text()]
     names = [t.get_text() for t in texts]

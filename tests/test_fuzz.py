@@ -35,6 +35,7 @@ from auv_mj.agents.offpolicy import Policy
 from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig
 from auv_mj.agents.offpolicy.learners import load_agent, save_agent
 from auv_mj.arenas import arena_check
+from auv_mj.figures import arenas
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import GYM_IDS, MIX_ID, AUVGymEnv
 
@@ -164,7 +165,8 @@ def test_fuzz_arenas_are_refused_by_the_tunnel_task_or_run(text, preview):
     with tempfile.TemporaryDirectory() as folder, deadline():
         path = Path(folder) / "arena.xml"
         path.write_text(text)
-        report = arena_check.check_arena(path, png=Path(folder) / "arena.png" if preview else None)
+        report = (arenas.preview(path, Path(folder) / "arena.png") if preview
+                  else arena_check.check_arena(path))
         try:
             env = suite.load("auv", "tunnel", task_kwargs={"arena": str(path), "random": 0})
         except ValueError as error:

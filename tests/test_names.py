@@ -120,7 +120,7 @@ def test_every_command_refuses_an_existing_output_before_any_work(tmp_path):
 
 
 def test_check_arena_replaces_its_own_preview_but_not_a_users_image(tmp_path):
-    from auv_mj.arenas.arena_check import is_preview
+    from auv_mj.figures.arenas import is_preview
 
     (tmp_path / "sbend.csv").write_text(SBEND)
     assert _run("tunnel", "sbend.csv", cwd=tmp_path).returncode == 0

@@ -168,9 +168,12 @@ def test_reproduce_counts_its_sections_to_100_percent(tmp_path, capsys):
 
 def test_check_arena_shows_its_stages_to_100_percent(tmp_path, capsys):
     from auv_mj.arenas.arena_check import CHECK_STAGES, check_arena
+    from auv_mj.figures.arenas import PREVIEW_STAGES, preview
 
-    assert check_arena("models/arenas/obstacles_table7_a.xml", tmp_path / "a.png", need_path=False,
-                       progress=True).ok
+    assert preview("models/arenas/obstacles_table7_a.xml", tmp_path / "a.png", need_path=False, progress=True).ok
+    last = _last_bar(capsys.readouterr().err)
+    assert "100%" in last and f"{len(PREVIEW_STAGES)}/{len(PREVIEW_STAGES)}" in last
+    assert check_arena("models/arenas/obstacles_table7_a.xml", need_path=False, progress=True).ok
     last = _last_bar(capsys.readouterr().err)
     assert "100%" in last and f"{len(CHECK_STAGES)}/{len(CHECK_STAGES)}" in last
     assert check_arena(tmp_path / "missing.xml", progress=True).problems  # a check that stops early ends at 100 % too

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from auv_mj.cli import plots
 from auv_mj.episode import EpisodeRecord, record_episode
+from auv_mj.figures import curves, tracking, trajectory
 from auv_mj.tasks import suite
 
 
@@ -61,7 +61,7 @@ def test_record_round_trips_through_npz(moving_record, tmp_path):
 
 
 def test_trajectory_png(moving_record, tmp_path):
-    path = plots.plot_trajectory([moving_record, moving_record], tmp_path / "traj.png", labels=["a", "b"],
+    path = trajectory.plot_trajectory([moving_record, moving_record], tmp_path / "traj.png", labels=["a", "b"],
                                  width=640, height=480)
     pixels = _png(path, 640, 480)
     red = (pixels[..., 0] > 200) & (pixels[..., 1] < 60) & (pixels[..., 2] < 60)
@@ -69,23 +69,23 @@ def test_trajectory_png(moving_record, tmp_path):
 
 
 def test_gallery_png_has_a_panel_per_map(moving_record, tmp_path):
-    path = plots.plot_gallery([moving_record, [moving_record, moving_record], moving_record], tmp_path / "g.png",
+    path = trajectory.plot_gallery([moving_record, [moving_record, moving_record], moving_record], tmp_path / "g.png",
                               cols=2, panel_size=(300, 250))
     pixels = _png(path, 600, 500)
     black = pixels.max(axis=-1) < 60  # the map's frame and axes
     assert black[:250, :300].any() and black[:250, 300:].any() and black[250:, :300].any()  # a map per panel
     assert pixels[250:, 300:].min() > 250  # the fourth cell is left blank
     with pytest.raises(ValueError, match="at least one panel"):
-        plots.plot_gallery([], tmp_path / "none.png")
+        trajectory.plot_gallery([], tmp_path / "none.png")
 
 
 def test_tracking_png_from_record_and_csv(moving_record, tmp_path):
-    _png(plots.plot_tracking(moving_record, tmp_path / "a.png", width=500, height=700), 500, 700)
-    csv_path = plots.tracking_csv(moving_record, tmp_path / "tracking.csv")
-    table = plots.read_tracking_csv(csv_path)
+    _png(tracking.plot_tracking(moving_record, tmp_path / "a.png", width=500, height=700), 500, 700)
+    csv_path = tracking.tracking_csv(moving_record, tmp_path / "tracking.csv")
+    table = tracking.read_tracking_csv(csv_path)
     np.testing.assert_allclose(table["speed"], moving_record.velocity[1:, 0])
-    np.testing.assert_allclose(table["heading_error"], plots.tracking_table(moving_record)["heading_error"])
-    _png(plots.plot_tracking(csv_path, tmp_path / "b.png", x="time", width=500, height=700), 500, 700)
+    np.testing.assert_allclose(table["heading_error"], tracking.tracking_table(moving_record)["heading_error"])
+    _png(tracking.plot_tracking(csv_path, tmp_path / "b.png", x="time", width=500, height=700), 500, 700)
 
 
 def _fake_run(path, returns, successes) -> None:
@@ -99,13 +99,13 @@ def _fake_run(path, returns, successes) -> None:
 def test_learning_curve_mean_and_band(tmp_path):
     _fake_run(tmp_path / "a.csv", [0.0, 2.0, 4.0], [0, 1, 1])
     _fake_run(tmp_path / "b.csv", [2.0, 4.0, 6.0, 8.0], [0, 0, 1, 1])
-    runs = [plots.read_learning_csv(tmp_path / n) for n in ("a.csv", "b.csv")]
-    xs, mean, low, high = plots.learning_curve(runs, "return", window=1)
+    runs = [curves.read_learning_csv(tmp_path / n) for n in ("a.csv", "b.csv")]
+    xs, mean, low, high = curves.learning_curve(runs, "return", window=1)
     np.testing.assert_array_equal(xs, [1, 2, 3])  # cut to the shortest run
     np.testing.assert_allclose(mean, [1.0, 3.0, 5.0])
     np.testing.assert_allclose(low, [0.0, 2.0, 4.0])
     np.testing.assert_allclose(high, [2.0, 4.0, 6.0])
-    _, mean, low, high = plots.learning_curve(runs, "return", window=2, band="std")
+    _, mean, low, high = curves.learning_curve(runs, "return", window=2, band="std")
     np.testing.assert_allclose(mean, [1.0, 2.0, 4.0])
     np.testing.assert_allclose(high - mean, [1.0, 1.0, 1.0])
 
@@ -118,7 +118,7 @@ def test_learning_png_from_two_groups_of_runs(tmp_path):
             returns, successes = np.cumsum(rng.normal(1, 1, 40)), rng.random(40) < 0.5
             _fake_run(tmp_path / group / f"run{seed}.csv", returns, successes)
     groups = [("HER-DDPG", [tmp_path / "her" / "*.csv"]), ("DDPG", [tmp_path / "ddpg" / "run*.csv"])]
-    path = plots.plot_learning(groups, tmp_path / "learning.png", width=800, height=600)
+    path = curves.plot_learning(groups, tmp_path / "learning.png", width=800, height=600)
     _png(path, 800, 600)
 
 

@@ -114,7 +114,7 @@ def test_a_hard_arenas_preview_keeps_every_label_apart_and_readable(tmp_path):
     import matplotlib.pyplot as plt
 
     from auv_mj.arenas.arena import arena_info, load
-    from auv_mj.arenas.arena_check import LABEL_GAP, arena_figure
+    from auv_mj.figures.arenas import LABEL_GAP, arena_figure
 
     arena = tmp_path / "hard.xml"
     assert main(["tunnel", "--random", "2", "--task", "moving_obstacles", "--tier", "hard", "-o", str(arena)]) == 0
@@ -145,12 +145,12 @@ def test_the_trajectory_figure_shows_tracks_that_run_together(tmp_path):
     import matplotlib.pyplot as plt
 
     from auv_mj import zoo
-    from auv_mj.cli import plots
     from auv_mj.episode import record_episode
+    from auv_mj.figures import trajectory
 
     env, policy = zoo.env_and_policy("splane", "goal", 0)
     record = record_episode(env, policy, 10)
-    fig = plots.trajectory_figure([record, record, record], labels=["a", "b", "c"], width=800)
+    fig = trajectory.trajectory_figure([record, record, record], labels=["a", "b", "c"], width=800)
     ax = fig.axes[0]
     tracks = {line.get_label(): line for line in ax.lines if line.get_label() in ("a", "b", "c")}
     assert len({t.get_color() for t in tracks.values()}) == 3

@@ -32,6 +32,7 @@ from auv_mj.agents.offpolicy.ddpg import DDPG, DDPGConfig
 from auv_mj.agents.offpolicy.learners import load_agent, save_agent
 from auv_mj.arenas import arena_check, tunnels
 from auv_mj.cli.options import json_object
+from auv_mj.figures.arenas import preview
 from auv_mj.tasks import suite
 from auv_mj.tasks.actions import ActionClipped
 
@@ -100,7 +101,7 @@ def test_the_tunnel_task_refuses_what_check_arena_refuses(case, tmp_path):
     assert old in CORRIDOR
     path = tmp_path / "arena.xml"
     path.write_text(CORRIDOR.replace(old, new))
-    report = arena_check.check_arena(path, png=tmp_path / "arena.png")  # never crashes, even drawing
+    report = preview(path, tmp_path / "arena.png")  # never crashes, even drawing
     assert not report.ok and any(problem in p for p in report.problems), report.lines()
     assert (tmp_path / "arena.png").is_file() or case == "5000 nested bodies"
     with pytest.raises(ValueError) as error:

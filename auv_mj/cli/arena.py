@@ -17,6 +17,7 @@ from pathlib import Path
 from auv_mj.arenas import arena_check, layout
 from auv_mj.arenas.tunnels import save
 from auv_mj.cli.options import add_force_option, add_output_option, check_output, usage_error
+from auv_mj.figures.arenas import is_preview, preview
 
 SHOWN_PROBLEMS = 3
 """Problems of a refused arena named in the one-line error (`auv-mj check-arena` lists them all)."""
@@ -38,16 +39,18 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else source.with_suffix(".xml")
     if out.resolve() == source.resolve():
         usage_error(args, f"-o {out} would overwrite the layout; give another output")
-    preview = None if args.no_preview else Path(args.preview) if args.preview else out.with_suffix(".png")
+    png = None if args.no_preview else Path(args.preview) if args.preview else out.with_suffix(".png")
     check_output(args, out, "-o" if args.out else "the output (-o)", replace=args.force)
-    check_output(args, preview, "--preview" if args.preview else "the preview (--preview)", replace=args.force,
-                 may_replace=arena_check.is_preview)
+    check_output(args, png, "--preview" if args.preview else "the preview (--preview)", replace=args.force,
+                 may_replace=is_preview)
     try:
         shapes = layout.read_layout(source, args.name)
         command = " ".join(["auv-mj arena", shlex.quote(str(source)), "-o", shlex.quote(str(out))]
                            + (["--name", shlex.quote(args.name)] if args.name else []))
         element = shapes.element(command)
-        report = arena_check.check_arena(element, preview, need_path=shapes.path is not None, name=str(out))
+        need_path = shapes.path is not None
+        report = (arena_check.check_arena(element, need_path=need_path, name=str(out)) if png is None
+                  else preview(element, png, need_path=need_path, name=str(out)))
     except ValueError as e:
         usage_error(args, " ".join(str(e).split()))
     if not report.ok:

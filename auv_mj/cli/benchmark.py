@@ -201,7 +201,7 @@ def _run(args: argparse.Namespace) -> int:
         publish(results, args.leaderboard)
         print(f"published to {args.leaderboard}")
     if args.record_failures is not None:
-        from auv_mj.cli.failures import record_failures
+        from auv_mj.benchmark.failures import record_failures
 
         for cell in cells:
             episodes = [(cell.task, e["seed"], e["outcome"]) for e in results["cells"][cell.name]["episodes"]]

@@ -1,12 +1,14 @@
-"""`auv-mj check-arena`: check an arena MJCF and write a top-down PNG preview (`auv_mj.arenas.arena_check`)."""
+"""`auv-mj check-arena`: check an arena MJCF (`auv_mj.arenas.arena_check`) and write a top-down PNG preview
+(`auv_mj.figures.arenas`)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from auv_mj.arenas.arena_check import check_arena, is_preview
+from auv_mj.arenas.arena_check import check_arena
 from auv_mj.cli.options import OLD_NAMES_UNTIL, add_force_option, check_output, usage_error
+from auv_mj.figures.arenas import is_preview, preview
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,7 +35,10 @@ def run(args: argparse.Namespace) -> int:
     check_output(args, png, "--preview" if args.png else "the preview (--preview)", replace=args.force,
                  may_replace=is_preview)
     try:
-        report = check_arena(args.arena, png, need_path=not args.no_path, progress=not args.no_progress)
+        if png is None:
+            report = check_arena(args.arena, need_path=not args.no_path, progress=not args.no_progress)
+        else:
+            report = preview(args.arena, png, need_path=not args.no_path, progress=not args.no_progress)
     except OSError as e:
         print(f"auv-mj check-arena: cannot write the preview: {e}")
         return 1

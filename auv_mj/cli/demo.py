@@ -19,7 +19,6 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj import render
-from auv_mj.cli import plots
 from auv_mj.cli.evaluate import shown_clearance, table_cell
 from auv_mj.cli.options import (
     add_episode_options,
@@ -33,6 +32,7 @@ from auv_mj.cli.options import (
 )
 from auv_mj.console import progress_bar
 from auv_mj.episode import EpisodeRecord, EpisodeRecorder, episode_metrics, record_episode
+from auv_mj.figures.trajectory import plot_trajectory
 from auv_mj.render import glbackend
 from auv_mj.zoo import registry as policies
 
@@ -176,8 +176,8 @@ def run(args: argparse.Namespace) -> int:
     title = "Tunnel inspection (Table 12)" if task == TASK and not kwargs else task
     rows = {name: demo_row(r) for name, r in records.items()}
     labels = [f"{name} ({row['outcome']}, {row['length_m']:.0f} m)" for name, row in rows.items()]  # a short track too
-    figure = plots.plot_trajectory(list(records.values()), args.out / f"{task}_trajectory.png",
-                                   labels=labels, title=f"{title}, seed {args.seed}")
+    figure = plot_trajectory(list(records.values()), args.out / f"{task}_trajectory.png",
+                             labels=labels, title=f"{title}, seed {args.seed}")
     _note_written(args.out, [p for p in (video, episode_file, args.out / f"{task}_trajectory.png") if p is not None])
     print(f"\n{title}, seed {args.seed}; safety distance d_s = 5 m; outcome = goal, collision, left_map or "
           "timeout; track = distance to the global path (Fig. 17) once on it; length_ratio = path length / "

@@ -32,7 +32,7 @@ the others and writes what the uninterrupted run would have. The journal goes on
 another run (other policy, tasks, episodes, seed or options) is refused unless `--force`.
 
 `--record-failures DIR` writes an MP4 and a trajectory PNG of every episode that did not reach the goal
-(`auv_mj.cli.failures`: each is run again, seeded as before, through the renderer), named
+(`auv_mj.benchmark.failures`: each is run again, seeded as before, through the renderer), named
 `TASK_seedSEED_OUTCOME`, each episode once; the folder is checked before the first episode.
 """
 
@@ -44,9 +44,9 @@ import json
 import sys
 from pathlib import Path
 
+from auv_mj.benchmark import failures
 from auv_mj.benchmark.journal import Interrupted, JournalMismatch
 from auv_mj.benchmark.runner import evaluate
-from auv_mj.cli import failures
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     MAX_RETRIES,

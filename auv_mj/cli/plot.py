@@ -1,4 +1,4 @@
-"""`auv-mj plot trajectory|tracking|learning`: paper-style PNG figures (`auv_mj.cli.plots`)."""
+"""`auv-mj plot trajectory|tracking|learning`: paper-style PNG figures (`auv_mj.figures`)."""
 
 from __future__ import annotations
 
@@ -15,17 +15,11 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
-from auv_mj.cli.plots import (
-    BANDS,
-    DEFAULT_SIZE,
-    LEARNING_WINDOW,
-    as_records,
-    plot_learning,
-    plot_tracking,
-    plot_trajectory,
-    tracking_csv,
-)
 from auv_mj.episode import record_episode
+from auv_mj.figures.canvas import DEFAULT_SIZE, as_records
+from auv_mj.figures.curves import BANDS, LEARNING_WINDOW, plot_learning
+from auv_mj.figures.tracking import plot_tracking, tracking_csv
+from auv_mj.figures.trajectory import plot_trajectory
 from auv_mj.zoo import registry as policies
 
 

@@ -4,7 +4,8 @@ Runs one episode of an auv3d task with a registered policy (`auv_mj.zoo.registry
 `auv_mj.render.episode_video3d` (chase, top-down and side views with a heads-up display) and, with --plots PREFIX, two
 figures:
 PREFIX_depth.png (depth against time, with the command where the task has one) and PREFIX_track.png (the
-3-D track, with the tube's centreline or the goal). `auv-mj render --task tunnel3d ...` runs it (`render_3d`).
+3-D track, with the tube's centreline or the goal), drawn by `auv_mj.figures.trajectory3d`.
+`auv-mj render --task tunnel3d ...` runs it (`render_3d`).
 """
 
 from __future__ import annotations
@@ -12,53 +13,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-from matplotlib.figure import Figure
-
 from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
+from auv_mj.figures.trajectory3d import plot_depth, plot_track
 from auv_mj.render.episode_video import DEFAULT_HOLD_END
 from auv_mj.render.episode_video3d import Track3D, iter_frames_3d
 from auv_mj.render.frame import DEFAULT_SIZE
 from auv_mj.render.writers import DEFAULT_FPS, write_video
 from auv_mj.tasks import suite
 from auv_mj.zoo.registry import env_and_policy
-
-DPI = 100
-
-
-def plot_depth(track: dict[str, np.ndarray], path: str | Path, title: str = "") -> Path:
-    """Depth [m] against time [s], the depth command dashed where there is one; depth grows downwards."""
-    fig = Figure(figsize=(8, 4), dpi=DPI)
-    ax = fig.add_subplot()
-    ax.plot(track["time"], -track["position"][:, 2], label="depth")
-    if np.any(np.isfinite(track["depth_command"])):
-        ax.plot(track["time"], track["depth_command"], "--", label="command")
-    ax.invert_yaxis()
-    ax.set(xlabel="time [s]", ylabel="depth [m]", title=title)
-    ax.legend()
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)
-    return Path(path)
-
-
-def plot_track(track: dict[str, np.ndarray], path: str | Path, centreline: np.ndarray | None = None,
-               goal: np.ndarray | None = None, title: str = "") -> Path:
-    """The 3-D track (x, y, depth), with a tube's centreline and the goal if given."""
-    fig = Figure(figsize=(7, 6), dpi=DPI)
-    ax = fig.add_subplot(projection="3d")
-    p = track["position"]
-    ax.plot(p[:, 0], p[:, 1], -p[:, 2], label="vehicle")
-    if centreline is not None and len(centreline) >= 2:
-        ax.plot(centreline[:, 0], centreline[:, 1], -centreline[:, 2], "--", label="tube centreline")
-    if goal is not None:
-        ax.scatter([goal[0]], [goal[1]], [-goal[2]], color="tab:red", label="goal")
-    ax.invert_zaxis()
-    ax.set(xlabel="x [m]", ylabel="y [m]", zlabel="depth [m]", title=title)
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(path)
-    return Path(path)
 
 
 def main(argv: list[str] | None = None) -> int:

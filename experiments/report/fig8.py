@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli import plots
+from auv_mj.figures import curves
 from experiments.report.common import fmt
 from experiments.report.registry import ReportSettings, section
 
@@ -66,7 +66,7 @@ def fig8(lines: list[str], runs: Path, figures: Path, observation: str = "relati
         lines += [f"No training logs in `{runs}` (expected `her-ddpg-seed*.csv` and `ddpg-seed*.csv`, or the "
                   "run directories `her-ddpg-seed*/` and `ddpg-seed*/` of `auv-mj sweep`).", ""]
         return
-    figure = plots.plot_learning([(label, [str(f) for f in files]) for label, files in groups],
+    figure = curves.plot_learning([(label, [str(f) for f in files]) for label, files in groups],
                                  figures / ("fig8_paper_observation.png" if paper else "fig8_learning.png"),
                                  band="ci", title=f"goal{' (paper observation)' if paper else ''}: HER-DDPG vs "
                                                   "DDPG (band: 95 % confidence interval of the mean)")
@@ -78,7 +78,7 @@ def fig8(lines: list[str], runs: Path, figures: Path, observation: str = "relati
     for label, files in groups:
         reached = []
         for f in files:
-            data = plots.read_learning_csv(f)
+            data = curves.read_learning_csv(f)
             success = np.asarray(data["success"], dtype=float)
             first = episodes_to(success, FIG8_TARGET)
             reached.append(first)

@@ -6,8 +6,8 @@ from pathlib import Path
 
 from auv_mj import seeds
 from auv_mj.benchmark import metrics, runner
-from auv_mj.cli import plots
 from auv_mj.episode import episode_metrics, record_episode
+from auv_mj.figures.trajectory import plot_gallery
 from auv_mj.zoo import registry as policies
 from experiments.report.common import fmt
 from experiments.report.registry import ReportSettings, section
@@ -65,7 +65,7 @@ def generalisation(lines: list[str], episodes: int, figures: Path, workers: int 
     if gallery:
         titles = [f"seed {r[0].seed}: " + ", ".join(f"{x.policy} {episode_metrics(x)['outcome']}" for x in r)
                   for r in gallery]
-        plots.plot_gallery(gallery, figures / "heldout_tunnels.png", titles=titles)
+        plot_gallery(gallery, figures / "heldout_tunnels.png", titles=titles)
         lines += ["", "![held-out tunnels](figures/heldout_tunnels.png)"]
     lines += ["",
               f"Commands: `auv-mj eval --policy two-layer-general --task tunnel --arena random --episodes {episodes} "

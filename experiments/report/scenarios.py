@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from auv_mj.cli import plots
 from auv_mj.episode import episode_metrics, record_episode
+from auv_mj.figures.trajectory import plot_trajectory
 from auv_mj.zoo import registry as policies
 from experiments.report.common import SCENARIOS, fmt
 from experiments.report.registry import ReportSettings, section
@@ -31,7 +31,7 @@ def scenarios(lines: list[str], figures: Path) -> None:
             lines.append(f"| {label} | {table} | {name} | {m['outcome']} | {fmt(m['min_clearance'], 1)} | "
                          f"{m['path_length']:.0f} | {record.time[-1]:.0f} |")
         name = label.replace(" ", "_")
-        plots.plot_trajectory(records, figures / f"{name}.png", labels=list(SCENARIO_POLICIES),
+        plot_trajectory(records, figures / f"{name}.png", labels=list(SCENARIO_POLICIES),
                               title=f"{label} ({table})")
     lines += ["", "Figures: " + ", ".join(f"[{label}](figures/{label.replace(' ', '_')}.png)"
                                          for label, *_ in SCENARIOS), "",

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.cli import plots
+from auv_mj.figures import curves
 from experiments.report.common import fmt
 from experiments.report.registry import ReportSettings, section
 
@@ -38,7 +38,7 @@ def training_speed(lines: list[str], runs: Path) -> None:
     for label, files in groups.items():
         speeds, times = [], []
         for f in files:
-            data = plots.read_learning_csv(f)
+            data = curves.read_learning_csv(f)
             wall, steps = time_to_success(f)
             total_steps, total_wall = int(data["steps"][-1]), float(data["wall_time"][-1])
             times.append(wall)

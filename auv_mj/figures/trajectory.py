@@ -1,22 +1,16 @@
-"""Paper-style figures as PNG (matplotlib, Agg): trajectories, tracking errors and learning curves.
+"""Maps with the vehicle's tracks (matplotlib, Agg): the paper's trajectory figures (Figs. 9-11, 13a, 14a, 16).
 
-- `plot_trajectory`: the map (bounds, walls, obstacles as polygons, moving obstacles and their paths),
-  the global path, start, goal area and the vehicle's trajectory (Figs. 9-11, 13a, 14a, 16);
-  `plot_gallery`: several such maps side by side (e.g. held-out procedural tunnels with their tracks).
-- `plot_tracking`: speed and heading against their commands over the steps, and the tracking errors
-  (speed, heading, cross-track to the global path) (Figs. 12-14, 17); disturbance phases shaded.
-- `plot_learning`: episode return and success rate against episodes from training CSV logs, mean over
-  the runs of each group with a min-max or standard-deviation band (Fig. 8).
+- `plot_trajectory` (`trajectory_figure`): the map (bounds, walls, obstacles as polygons, moving obstacles and their
+  paths), the global path, start, goal area and the tracks of one or more episodes on it, with the map's legend and
+  the tracks' legend beside or below it;
+- `plot_gallery`: several such maps side by side (e.g. held-out procedural tunnels with their tracks);
+- `draw_trajectory`: one map and its tracks on a given axes.
 
-Inputs are `EpisodeRecord`s (or their .npz files, see `auv_mj.episode`), per-step tracking CSVs
-(TRACKING_COLUMNS, as `tracking_csv` writes them) and training logs (`auv_mj.agents.offpolicy.train`'s progress.csv:
-episode, steps, return, success, wall_time, ...). `auv-mj plot trajectory|tracking|learning` wraps them.
+Inputs are `EpisodeRecord`s or their .npz files (`auv_mj.episode`); `auv-mj plot trajectory` wraps them.
 """
 
 from __future__ import annotations
 
-import csv
-import glob
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -28,31 +22,19 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Polygon, Rectangle
 
 from auv_mj.episode import EpisodeRecord
+from auv_mj.figures.canvas import DEFAULT_SIZE, DPI, as_records, new_figure, save
 
-DPI = 100
-DEFAULT_SIZE = (1000, 800)
-"""Default figure size [px]; `width`, `height` arguments set it exactly (at DPI)."""
-LEARNING_WINDOW = 5
-"""Episodes averaged per point of a learning curve (Sec. 4.1: "recorded every five epochs")."""
-BANDS = ("minmax", "std", "ci")
-"""Shaded bands of the learning curves: range, one standard deviation, 95 % confidence of the mean."""
 VEHICLE_MARK = 0.02
+"""The vehicle's red rectangle is drawn this fraction of the map's size long (the hull is 1.33 m)."""
 MAP_MARGIN = 0.02
 """Water shown around the map, as a fraction of its larger side (the same in x and y: the axes are to scale)."""
-"""The vehicle's red rectangle is drawn this fraction of the map's size long (the hull is 1.33 m)."""
-TRACKING_COLUMNS = ("step", "time", "speed", "speed_command", "heading", "heading_command",
-                    "speed_error", "heading_error", "cross_track_error", "phase")
-"""Columns of a per-step tracking CSV (heading in rad; errors = command - measured, heading wrapped)."""
-LEARNING_COLUMNS = ("episode", "return", "success")
-"""Columns a training log must have (auv_mj.agents.offpolicy.train writes episode, steps, length, return, success,
-wall_time)."""
-RUN_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown")
 TRACK_STYLES = (("tab:blue", "-", 3.6), ("tab:purple", (0, (6, 2)), 2.6), ("black", (0, (4, 1.5, 1, 1.5)), 1.7),
                 ("tab:pink", (0, (1, 1.2)), 1.8), ("tab:brown", (0, (8, 3)), 1.3), ("tab:cyan", "-", 1.0))
 """(colour, dash pattern, width) of the trajectory figure's tracks, in the order of the records: each wider one is
 drawn under the narrower ones after it, so that tracks that run together all show (one policy's under another's);
 no colour of the map's own (the green global path, the red AUV, the orange movers, the gold goals)."""
 TRACK_ALPHA = 0.85
+"""Opacity of a track: one under another still shows through."""
 LEGEND_BELOW_ASPECT = 0.75
 """A map flatter than this (height / width) has its legends below it, a taller one beside it: a tunnel is
 several times as wide as tall, and legends beside it would make the figure tall and mostly white."""
@@ -60,29 +42,6 @@ FIT_PAD = 8
 """Margin [px] around a fitted trajectory figure's content, and between its legends."""
 FIT_HEIGHT = (200, 1.5)
 """A fitted trajectory figure is at least this many pixels tall and at most this many times its width."""
-PHASE_COLOURS = {"instantaneous": "tab:red", "constant": "tab:orange", "periodic": "tab:purple"}
-
-
-def _figure(width: int, height: int, rows: int = 1, cols: int = 1, **kwargs):
-    """A Figure drawn by Agg without pyplot: no display, no global state, whatever backend a caller uses."""
-    fig = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)
-    return fig, fig.subplots(rows, cols, **kwargs)
-
-
-def _save(fig, path: str | Path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)  # no bbox_inches="tight": the PNG keeps the requested pixel size
-    return path
-
-
-def as_records(records) -> list[EpisodeRecord]:
-    items = records if isinstance(records, list | tuple) else [records]
-    return [r if isinstance(r, EpisodeRecord) else EpisodeRecord.load(r) for r in items]
-
-
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 # --- trajectory (Figs. 9-11, 13a, 14a, 16) ----------------------------------------------------------
@@ -216,7 +175,7 @@ def trajectory_figure(records, labels: Sequence[str] | None = None, title: str |
     extent = _extent(records)
     aspect = (extent[3] - extent[1]) / (extent[2] - extent[0])
     below = aspect < LEGEND_BELOW_ASPECT
-    fig, ax = _figure(width, height or width)
+    fig, ax = new_figure(width, height or width)
     map_handles, tracks = draw_trajectory(ax, records, labels, legend=False)
     record = records[0]
     ax.set_title(title if title is not None else
@@ -313,7 +272,7 @@ def plot_trajectory(records, path: str | Path, labels: Sequence[str] | None = No
                     width: int = DEFAULT_SIZE[0], height: int | None = None) -> Path:
     """PNG of the map and the trajectories of one or more episodes (records or .npz paths) on it
     (`trajectory_figure`); `height` None fits the figure to the map's aspect ratio and its legends."""
-    return _save(trajectory_figure(records, labels, title, width, height), path)
+    return save(trajectory_figure(records, labels, title, width, height), path)
 
 
 def plot_gallery(panels: Sequence, path: str | Path, titles: Sequence[str] | None = None, cols: int = 3,
@@ -326,7 +285,7 @@ def plot_gallery(panels: Sequence, path: str | Path, titles: Sequence[str] | Non
         raise ValueError("plot_gallery needs at least one panel")
     cols = max(1, min(cols, len(panels)))
     rows = math.ceil(len(panels) / cols)
-    fig, axes = _figure(panel_size[0] * cols, panel_size[1] * rows, rows, cols, squeeze=False)
+    fig, axes = new_figure(panel_size[0] * cols, panel_size[1] * rows, rows, cols, squeeze=False)
     for k, ax in enumerate(axes.ravel()):
         if k >= len(panels):
             ax.set_axis_off()
@@ -336,233 +295,4 @@ def plot_gallery(panels: Sequence, path: str | Path, titles: Sequence[str] | Non
         ax.set_title(titles[k] if titles else f"{record.task} seed {record.seed}: "
                      f"{'success' if record.succeeded else 'no success'}", fontsize="small")
     fig.tight_layout()
-    return _save(fig, path)
-
-
-# --- tracking (Figs. 12-14, 17) ----------------------------------------------------------------------
-
-
-def tracking_table(record: EpisodeRecord) -> dict[str, np.ndarray]:
-    """Per-step tracking columns (TRACKING_COLUMNS) of an episode: values after each step."""
-    n = record.steps
-    speed = record.velocity[1:, 0]  # surge speed u: the executor's controlled speed (auv_mj.tasks.speed_heading)
-    heading = record.pose[1:, 2]
-    table = {"step": np.arange(1, n + 1), "time": record.time[1:], "speed": speed,
-             "speed_command": record.command[:, 0], "heading": heading,
-             "heading_command": record.command[:, 1],
-             "speed_error": record.command[:, 0] - speed,
-             "heading_error": _wrap(record.command[:, 1] - heading),
-             "cross_track_error": record.info.get("cross_track_error", np.full(n, np.nan)),
-             "phase": record.info.get("phase", np.full(n, "", dtype=str))}
-    return table
-
-
-def tracking_csv(record: EpisodeRecord, path: str | Path) -> Path:
-    """Writes `tracking_table(record)` as CSV (the format `plot_tracking` reads)."""
-    table = tracking_table(record)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(TRACKING_COLUMNS)
-        for i in range(len(table["step"])):
-            writer.writerow([table[c][i] for c in TRACKING_COLUMNS])
-    return path
-
-
-def read_tracking_csv(path: str | Path) -> dict[str, np.ndarray]:
-    """A tracking CSV as columns; needs step or time, speed, speed_command, heading, heading_command."""
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        raise ValueError(f"{path}: no rows")
-    columns = set(rows[0])
-    needed = {"speed", "speed_command", "heading", "heading_command"}
-    if not needed <= columns or not columns & {"step", "time"}:
-        raise ValueError(f"{path}: a tracking CSV needs columns step or time, {', '.join(sorted(needed))}; "
-                         f"found {', '.join(sorted(columns))}")
-    table = {}
-    for c in columns:
-        values = [r[c] for r in rows]
-        try:
-            table[c] = np.array([float(v) if v != "" else np.nan for v in values])
-        except ValueError:
-            table[c] = np.array(values, dtype=str)
-    n = len(rows)
-    if "step" not in table:
-        table["step"] = np.arange(1, n + 1)
-    table.setdefault("time", table["step"].astype(float))
-    table.setdefault("speed_error", table["speed_command"] - table["speed"])
-    table.setdefault("heading_error", _wrap(table["heading_command"] - table["heading"]))
-    table.setdefault("cross_track_error", np.full(n, np.nan))
-    table.setdefault("phase", np.full(n, "", dtype=str))
-    return table
-
-
-def _shade_phases(ax, steps: np.ndarray, phases: np.ndarray) -> None:
-    """Shades the spans of steps under each disturbance phase (speed_heading's last_info["phase"])."""
-    phases = np.asarray(phases).astype(str)
-    if len(phases) == 0:
-        return
-    change = np.flatnonzero(phases[1:] != phases[:-1]) + 1
-    starts = np.concatenate([[0], change])
-    ends = np.concatenate([change, [len(phases)]])
-    for a, b in zip(starts, ends, strict=True):
-        colour = PHASE_COLOURS.get(phases[a])
-        if colour:
-            ax.axvspan(steps[a], steps[b - 1], color=colour, alpha=0.08, linewidth=0)
-
-
-def plot_tracking(source, path: str | Path, title: str | None = None, x: str = "step",
-                  width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1]) -> Path:
-    """PNG of speed and heading against their commands and of the tracking errors over the episode.
-
-    `source`: an EpisodeRecord, an episode .npz or a tracking CSV; `x`: "step" (the paper's axis) or "time".
-    """
-    if isinstance(source, str | Path) and Path(source).suffix.lower() == ".csv":
-        table, name = read_tracking_csv(source), Path(source).stem
-    else:
-        record = as_records(source)[0]
-        table, name = tracking_table(record), f"{record.task or 'episode'}: {record.policy or 'policy'}"
-    if x not in ("step", "time"):
-        raise ValueError(f"x must be 'step' or 'time', got {x!r}")
-    t = table[x]
-    cross = np.asarray(table["cross_track_error"], dtype=float)
-    has_cross = bool(np.any(np.isfinite(cross)))
-    fig, axes = _figure(width, height, 4 if has_cross else 3, 1, sharex=True)
-    speed_ax, heading_ax, error_ax = axes[:3]
-    speed_ax.plot(t, table["speed_command"], "--", color="tab:red", label="commanded")
-    speed_ax.plot(t, table["speed"], "-", color="tab:blue", label="AUV (surge u)")
-    speed_ax.set_ylabel("speed [m/s]")
-    heading_cmd = np.unwrap(np.asarray(table["heading_command"], dtype=float))
-    heading = np.unwrap(np.asarray(table["heading"], dtype=float))
-    heading -= 2 * np.pi * np.round((heading - heading_cmd) / (2 * np.pi))  # same branch as the command
-    heading_ax.plot(t, heading_cmd, "--", color="tab:red", label="commanded")
-    heading_ax.plot(t, heading, "-", color="tab:blue", label="AUV")
-    heading_ax.set_ylabel("heading [rad]")
-    error_ax.plot(t, table["speed_error"], color="tab:blue", label="speed error [m/s]")
-    error_ax.plot(t, table["heading_error"], color="tab:green", label="heading error [rad]")
-    error_ax.axhline(0.0, color="0.5", linewidth=0.5)
-    error_ax.set_ylabel("error")
-    mae = (np.nanmean(np.abs(table["speed_error"])), np.nanmean(np.abs(table["heading_error"])))
-    error_ax.set_title(f"MAE speed {mae[0]:.4f} m/s, heading {mae[1]:.4f} rad", fontsize="small")
-    if has_cross:
-        axes[3].plot(t, cross, color="tab:purple")
-        axes[3].set_ylabel("cross-track [m]")
-        axes[3].set_title(f"path following error: mean {np.nanmean(cross):.2f} m, "
-                          f"max {np.nanmax(cross):.2f} m", fontsize="small")
-    for ax in axes:
-        _shade_phases(ax, t, table["phase"])
-        ax.grid(alpha=0.3)
-    for ax in axes[:3]:
-        ax.legend(loc="best", fontsize="small")
-    axes[-1].set_xlabel("step" if x == "step" else "time [s]")
-    fig.suptitle(title if title is not None else name)
-    fig.tight_layout()
-    return _save(fig, path)
-
-
-# --- learning curves (Fig. 8) ---------------------------------------------------------------------------
-
-
-def read_learning_csv(path: str | Path) -> dict[str, np.ndarray]:
-    """A training log as float columns; needs LEARNING_COLUMNS. A directory means its progress.csv."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "progress.csv"
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        raise ValueError(f"{path}: no rows")
-    missing = [c for c in LEARNING_COLUMNS if c not in rows[0]]
-    if missing:
-        raise ValueError(f"{path}: a training log needs columns {', '.join(LEARNING_COLUMNS)}; "
-                         f"missing {', '.join(missing)}")
-    columns = {}
-    for c in rows[0]:
-        try:
-            columns[c] = np.array([float(r[c]) for r in rows])
-        except ValueError:
-            continue
-    return columns
-
-
-def expand_runs(patterns: Sequence[str | Path]) -> list[Path]:
-    """Files (or run directories) named by paths or glob patterns, sorted; ValueError if none."""
-    found = []
-    for pattern in patterns:
-        matches = sorted(glob.glob(str(pattern))) or ([str(pattern)] if Path(pattern).exists() else [])
-        found.extend(Path(m) for m in matches)
-    if not found:
-        raise ValueError(f"no training logs match {', '.join(map(str, patterns))}")
-    return found
-
-
-def smooth(values: np.ndarray, window: int) -> np.ndarray:
-    """Trailing moving average over `window` points (shorter at the start)."""
-    values = np.asarray(values, dtype=float)
-    if window <= 1:
-        return values
-    csum = np.cumsum(np.insert(values, 0, 0.0))
-    idx = np.arange(1, len(values) + 1)
-    lo = np.maximum(idx - window, 0)
-    return (csum[idx] - csum[lo]) / (idx - lo)
-
-
-def learning_curve(runs: Sequence[dict[str, np.ndarray]], column: str, window: int, x: str = "episode",
-                   band: str = "minmax") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(x, mean, low, high) of a column over runs, each smoothed over `window` episodes.
-
-    Runs are cut to the shortest; `x` is "episode" or "steps" (the mean over runs of the step counts);
-    `band` "minmax" (range of the runs), "std" (mean +- one standard deviation) or "ci" (the 95 %
-    confidence interval of the mean over runs, Student's t with runs - 1 degrees of freedom).
-    """
-    if band not in BANDS:
-        raise ValueError(f"band must be one of {BANDS}, got {band!r}")
-    n = min(len(r[column]) for r in runs)
-    values = np.stack([smooth(r[column][:n], window) for r in runs])
-    if x == "steps" and all("steps" in r for r in runs):
-        xs = np.mean([r["steps"][:n] for r in runs], axis=0)
-    else:
-        xs = runs[0]["episode"][:n]
-    mean = values.mean(axis=0)
-    if band == "std":
-        std = values.std(axis=0)
-        return xs, mean, mean - std, mean + std
-    if band == "ci":
-        if len(runs) < 2:
-            return xs, mean, mean, mean
-        from scipy import stats
-
-        half = stats.t.ppf(0.975, len(runs) - 1) * values.std(axis=0, ddof=1) / np.sqrt(len(runs))
-        return xs, mean, mean - half, mean + half
-    return xs, mean, values.min(axis=0), values.max(axis=0)
-
-
-def plot_learning(groups: Sequence[tuple[str, Sequence[str | Path]]], path: str | Path,
-                  window: int = LEARNING_WINDOW, band: str = "minmax", x: str = "episode",
-                  title: str | None = None, width: int = DEFAULT_SIZE[0],
-                  height: int = DEFAULT_SIZE[1]) -> Path:
-    """PNG of episode return and success rate vs episodes: per group (label, CSV files/globs), the mean
-    over its runs with a shaded band (Fig. 8 compares HER-DDPG with DDPG this way)."""
-    fig, (ret_ax, succ_ax) = _figure(width, height, 2, 1, sharex=True)
-    for i, (label, patterns) in enumerate(groups):
-        runs = [read_learning_csv(p) for p in expand_runs(patterns)]
-        colour = RUN_COLOURS[i % len(RUN_COLOURS)]
-        for ax, column in ((ret_ax, "return"), (succ_ax, "success")):
-            xs, mean, low, high = learning_curve(runs, column, window, x, band)
-            ax.plot(xs, mean, color=colour, label=f"{label} ({len(runs)} run{'s' * (len(runs) > 1)})")
-            if len(runs) > 1:
-                ax.fill_between(xs, low, high, color=colour, alpha=0.2, linewidth=0)
-    ret_ax.set_ylabel(f"episode return ({window}-episode mean)")
-    succ_ax.set_ylabel(f"success rate ({window}-episode mean)")
-    succ_ax.set_ylim(-0.05, 1.05)
-    succ_ax.set_xlabel("environment steps" if x == "steps" else "episode")
-    for ax in (ret_ax, succ_ax):
-        ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize="small")
-    band_name = {"minmax": "min-max over runs", "std": "mean +- std over runs",
-                 "ci": "95 % confidence interval of the mean"}[band]
-    ret_ax.set_title(title if title is not None else f"learning curves (band: {band_name})")
-    fig.tight_layout()
-    return _save(fig, path)
+    return save(fig, path)

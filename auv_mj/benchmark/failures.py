@@ -1,6 +1,7 @@
 """Failures to look at: an MP4 and a trajectory PNG of each episode that did not reach the goal.
 
-`record_failures` is what `auv-mj eval --record-failures DIR` (and the benchmark) calls after the evaluation:
+`record_failures` is what `auv-mj eval --record-failures DIR` and `auv-mj benchmark --record-failures DIR` call
+after the evaluation:
 episodes are functions of their seed (task and policy seeded the same, `auv-mj eval`), so each failed one is run
 again, this time through the renderer (`auv_mj.render.episode_video.iter_frames`) and the episode recorder, rather than
 rendering every episode while most of them succeed. Files are named `TASK_seedSEED_OUTCOME.mp4` and
@@ -16,8 +17,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from auv_mj.cli import plots
 from auv_mj.episode import EpisodeRecorder, outcome
+from auv_mj.figures.trajectory import plot_trajectory
 from auv_mj.render import glbackend
 from auv_mj.zoo import registry as policies
 
@@ -86,7 +87,7 @@ def record_failure(policy_name: str, task_name: str, seed: int, directory: str |
     finally:
         for leftover in (staged, staged.with_suffix(".gif")):
             leftover.unlink(missing_ok=True)
-    trajectory = plots.plot_trajectory([record], directory / f"{stem}_trajectory.png",
+    trajectory = plot_trajectory([record], directory / f"{stem}_trajectory.png",
                                        title=f"{task_name}: {policy_name}, seed {seed}, {ended} after "
                                              f"{record.time[-1]:.0f} s")
     return FailureFiles(task_name, seed, ended, video, Path(trajectory))
