@@ -152,7 +152,7 @@ COLLISION_REWARD, GOAL_REWARD, PROGRESS_WEIGHT, STEP_COST = -50.0, 50.0, 1.0, 0.
 it, COLLISION_REWARD on a collision or broaching. The progress telescopes, so reaching the goal beats waiting
 outside it at every discount (as reward="progress" in `auv_mj.tasks.planning`): along any path that stays outside the
 radius, summation by parts bounds sum_k gamma^k (d_k - d_{k+1}) by d_0 - GOAL_RADIUS, and the other terms are
-< 0; the step that reaches it pays at least that + GOAL_REWARD - STEP_COST (tests/test_rewards.py)."""
+< 0; the step that reaches it pays at least that + GOAL_REWARD - STEP_COST (tests/tasks/test_rewards.py)."""
 MIN_DEPTH = 1.0
 """Shallower than this [m] is broaching: an episode ends in "left_map"."""
 LOOKAHEAD = 8.0

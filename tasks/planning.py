@@ -124,7 +124,8 @@ W = c / (1 - gamma) = GEODESIC_HORIZON_COST, G = PROGRESS_GAIN and D_0 the route
 B >= 0 and C >= W are all the proof needs; B = C = W (25) make success and failure weigh alike. The positive part of
 a step, G (1 - gamma) D', pays for being far from the goal, but it is the potential's own: it telescopes away. At the
 time limit an episode is truncated (discount 1), and a learner bootstraps V(s'), as the telescoped sum assumes.
-tests/test_learning_problem.py checks this on whole episodes of certified trap arenas, both tiers, tunnels included.
+tests/tasks/test_learning_problem.py checks this on whole episodes of certified trap arenas, both tiers, tunnels
+included.
 `compute_reward` recomputes the step's reward exactly for the step's own goal (info "step_goal",
 "route_distance_before", "route_distance"); for a relabelled goal it has no field of that goal (a search per sample),
 so it shapes on the straight distance to the goal's region, the geodesic of open water, and pays B where the goal is

@@ -7,7 +7,7 @@ vectorization_mode="vector_entry_point", task_kwargs={...})` returns it. Spaces 
 (`auv_mj.tasks.gym_adapter.AUVGymEnv`: GoalEnv dict observations), batched with `batch_space`.
 
 The contract: sub-environment i reset with seed s gives exactly `AUVGymEnv`'s episode for seed s -- the same
-observations, rewards, terminated / truncated and info -- in ideal and ocean water (tests/test_vector_env.py).
+observations, rewards, terminated / truncated and info -- in ideal and ocean water (tests/tasks/test_vector_env.py).
 How, without one Python step per environment:
 - Each sub-environment keeps its own suite environment (task, physics, RandomState, ocean). A reset is that
   environment's own reset, in Python, so routes, arenas and the ocean are drawn by the same code from the same

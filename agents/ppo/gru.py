@@ -3,7 +3,7 @@
 A rollout steps `nn.GRUCell` one observation at a time, without gradients; the update replays each sequence from
 the rollout's initial state, and there `gru_sequence` computes the same states in one autograd node. On a CPU it
 makes the recurrent update about 2.2x faster than autograd through T cell calls (docs/runs/vector-bench/). It is
-checked against `nn.GRUCell` under autograd, and against finite differences, in tests/test_ppo.py.
+checked against `nn.GRUCell` under autograd, and against finite differences, in tests/agents/test_ppo.py.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ class _GRUSequence(torch.autograd.Function):
     keeps each step's gates; the backward runs the recurrence in reverse with six or seven tensor operations a step
     and forms dW_hh and db_hh in one product over all steps. Autograd through T `GRUCell` calls records some twenty
     nodes a step, and on a CPU those per-node costs, not the arithmetic, were most of a recurrent PPO update (twice
-    as slow at 128 units). Checked against `nn.GRUCell` under autograd in tests/test_ppo.py.
+    as slow at 128 units). Checked against `nn.GRUCell` under autograd in tests/agents/test_ppo.py.
     """
 
     @staticmethod

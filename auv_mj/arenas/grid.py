@@ -176,7 +176,7 @@ def reaches(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float = 0.0)
     when a reached cell lies within reach + spare of the goal (`_goal_reach`; the nearer targets lie within
     that too). So one connected-component labelling decides it, about 50 times faster on the arena grids: the
     hard tier's certificate at every reset (`auv_mj.arenas.traps.certified`). Tested equal to
-    `shortest_path(...) is not None` (`tests/test_benchmark_tiers.py`).
+    `shortest_path(...) is not None` (`tests/arenas/test_hard_tier_arenas.py`).
     """
     si, sj = grid.nearest(start)
     passable = np.isfinite(cost)

@@ -44,7 +44,7 @@ BROKEN_PIPE_STATUS = 128 + 13
 TRAIN_AGENTS = ("ddpg", "her-ddpg", "executor", "td3", "ppo")
 """The agents `auv-mj train` takes, as the top-level help names them: the agent registry's names
 (`auv_mj.agents.offpolicy.learners.AGENTS`) and PPO, written out because importing that registry imports torch and
-doubles the time of `auv-mj --help`; tests/test_names.py keeps the two equal."""
+doubles the time of `auv-mj --help`; tests/cli/test_names_and_outputs.py keeps the two equal."""
 
 
 def command_help(text: str) -> str:

@@ -1,6 +1,6 @@
 /* The 6-DOF hydrodynamic step of auv_mj.sim.hydro3d in C (issue 32): the loop of `Hydro3D.bind`, one call per
  * `AUV3DPhysics.step(n)` and none into MuJoCo from Python. The Python loop stays the reference; the two agree
- * to rounding (tests/test_auv3d_native.py compares their trajectories).
+ * to rounding (tests/sim/test_native_kernel_3d.py compares their trajectories).
  *
  * Per step: the fins slew towards their commands at the rate limit; the body force of hydro3d.force_frd is
  * evaluated in Prestero's FRD frame at the velocity relative to the water; it, the buoyancy and an optional

@@ -2,7 +2,7 @@
  *
  * This is `Hydrodynamics.bind`'s Python loop written again, statement for statement and in the same order
  * of floating-point operations, so that it gives the same bits (built with -ffp-contract=off and the
- * libm sin/cos that CPython's math module calls; tests/test_hydrodynamics.py compares the two). It exists
+ * libm sin/cos that CPython's math module calls; tests/sim/test_hydrodynamics.py compares the two). It exists
  * because the loop runs between MuJoCo's mj_step1 and mj_step2 on every physics step: from Python that is
  * three calls into MuJoCo per step, here it is none, and one call per `AUVPhysics.step(n)`.
  *

@@ -288,12 +288,12 @@ class Hydrodynamics:
 
         This is the simulator's hot loop. By default it runs in C (`auv_mj.sim.native`, one call per `advance`,
         none into MuJoCo from Python); with `native=False`, or where no C compiler is found, in Python. The
-        two compute the same floating-point values, operation for operation (tests/test_hydrodynamics.py
+        two compute the same floating-point values, operation for operation (tests/sim/test_hydrodynamics.py
         compares their trajectories bit for bit). The Python loop is written for CPython: the arrays are
         read and written through memoryviews (plain floats, no NumPy scalars), the coefficients are closure
         locals, MuJoCo's functions are called directly, and the force of `body_force` is inlined in the
         same order of operations (so the same floating-point values; terms whose coefficient is zero are
-        skipped, as they add exactly nothing). tests/test_hydrodynamics.py checks that the step's force is
+        skipped, as they add exactly nothing). tests/sim/test_hydrodynamics.py checks that the step's force is
         `body_force`, with and without cross-flow terms.
         """
         qpos, qvel, qfrc, M = (memoryview(a) for a in (data.qpos, data.qvel, data.qfrc_passive, data.M))

@@ -2,7 +2,7 @@
 
 Code that works on any vehicle (the episode loop and its records, rendering a state, the suite's tasks, the zoo)
 types against this Protocol rather than one class, so that a new vehicle is a class that satisfies it (tested in
-tests/test_vehicle_model.py for both vehicles). What a domain adds (disturbances of the planar vehicle, the 6-DOF
+tests/sim/test_vehicle_model.py for both vehicles). What a domain adds (disturbances of the planar vehicle, the 6-DOF
 vehicle's depth, attitude and fins) stays on its own class.
 """
 

@@ -477,7 +477,7 @@ def test_the_c_step_is_built_into_its_cache_or_the_python_loop_runs(tmp_path, mo
         assert build() is None
 
 
-if __name__ == "__main__":  # the accuracy figures of the issue: python tests/test_hydrodynamics.py
+if __name__ == "__main__":  # the accuracy figures of the issue: python tests/sim/test_hydrodynamics.py
     for current in CURRENTS:
         for name in INITIAL_STATES:
             for dt in (0.01, 0.005):

@@ -33,10 +33,10 @@ from auv_mj.agents.offpolicy.td3 import TD3, TD3Config, smoothed_target_action, 
 
 torch.set_num_threads(1)
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 REFERENCE = DATA / "autograd_reference_d7f506e.npz"
 OLD_CHECKPOINT = DATA / "adam_state_d7f506e.pt"
-SHIPPED = sorted(p for p in (Path(__file__).parents[1] / "agents" / "checkpoints").glob("*.pt")
+SHIPPED = sorted(p for p in (Path(__file__).parents[2] / "agents" / "checkpoints").glob("*.pt")
                  if torch.load(p, weights_only=True)["metadata"].get("format") == CHECKPOINT_FORMAT)
 """The shipped DDPG and TD3 checkpoints (the PPO planner's is another format, tested in test_planner_memory)."""
 FLOAT32 = {"rtol": 1e-5, "atol": 1e-6}
@@ -272,7 +272,7 @@ def test_checkpoint_round_trips_the_vectors_and_resumes_their_steps(tmp_path):
 
 
 def test_agents_call_no_private_torch_functions():
-    sources = sorted((Path(__file__).parents[1] / "agents").glob("*.py"))
+    sources = sorted((Path(__file__).parents[2] / "agents").glob("*.py"))
     assert sources
     for source in sources:
         for number, line in enumerate(source.read_text().splitlines(), 1):

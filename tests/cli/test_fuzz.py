@@ -39,7 +39,7 @@ from auv_mj.figures import arenas
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import GYM_IDS, MIX_ID, AUVGymEnv
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CORRIDOR = (ROOT / "docs" / "arenas.md").read_text().split("```xml\n", 1)[1].split("```", 1)[0]
 VEHICLE = model_path("auv.xml").read_text()
 EXAMPLES = settings.default.max_examples

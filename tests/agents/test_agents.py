@@ -321,7 +321,7 @@ def test_a_deployed_policy_is_its_network_in_float64():
     from auv_mj.agents.checkpoint import read_checkpoint
     from auv_mj.agents.normalizer import NORM_CLIP
 
-    path = Path(__file__).resolve().parents[1] / "agents" / "checkpoints" / "executor.pt"
+    path = Path(__file__).resolve().parents[2] / "agents" / "checkpoints" / "executor.pt"
     policy = Policy.load(path)
     tensors, _ = read_checkpoint(path)
     weights = {k: v.double().numpy() for k, v in tensors.items()}

@@ -13,7 +13,7 @@ import pytest
 from auv_mj.cli import COMMANDS, command_parser
 from auv_mj.zoo.registry import POLICIES
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 ISSUE = re.compile(r"\bissues? \d+", re.IGNORECASE)
 USER_PAGES = ("README.md", *(str(p.relative_to(ROOT)) for p in sorted((ROOT / "docs").glob("*.md"))),
               *(str(p.relative_to(ROOT)) for p in sorted((ROOT / "models").rglob("README.md"))))

@@ -20,7 +20,7 @@ from auv_mj.arenas import arena, arena_check, layout
 from auv_mj.cli import main
 from auv_mj.tasks import suite
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CORRIDOR = (ROOT / "docs" / "arenas.md").read_text().split("```xml\n", 1)[1].split("```", 1)[0]
 """The hand-written arena of docs/arenas.md: start (5, 0), goal (95, 0), path sites every 20-25 m, a mover."""
 OPEN_WATER_TASKS = ("goal", "waypoints", "obstacles", "moving_obstacles")

@@ -124,7 +124,7 @@ def test_bad_options_are_refused():
 
 
 POINT_GOAL = "test_agents:auv_mj_test/PointGoal-v0"
-"""The tiny goal task of tests/test_agents.py, registered by importing that module (also in Ray workers)."""
+"""The tiny goal task of tests/agents/test_agents.py, registered by importing that module (also in Ray workers)."""
 TINY = {"hidden_sizes": [16, 16], "learning_starts": 64, "buffer_size": 2000, "epsilon_decay": 100,
         "batch_size": 16}
 
@@ -210,7 +210,7 @@ def test_a_script_that_starts_workers_runs_as_written_without_a_main_guard(tmp_p
     on stderr; as `python script.py` and as `python -m script`."""
     (tmp_path / "unguarded.py").write_text(UNGUARDED)
     command = [sys.executable, "unguarded.py"] if how == "script" else [sys.executable, "-m", "unguarded"]
-    root = str(Path(__file__).resolve().parents[1])
+    root = str(Path(__file__).resolve().parents[2])
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
            "PYTHONPATH": os.pathsep.join([root, *filter(None, [os.environ.get("PYTHONPATH")])])}
     done = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)

@@ -1,6 +1,6 @@
 """The 6-DOF vehicle (`models/auv3d.xml`, `auv_mj.sim.hydro3d`) against independent maths (issue 32).
 
-The reference is Fossen's equations in Prestero's frames, integrated by scipy (tests/vehicle3d_reference.py).
+The reference is Fossen's equations in Prestero's frames, integrated by scipy (tests/reference/vehicle3d_reference.py).
 The manoeuvre is closed-loop, a yaw zig-zag with a dive to 30 m and a climb back, so that an open-loop
 divergence of the (directionally and pitch-unstable) REMUS does not decide the comparison: the same control
 law acts on each model's own state, the simulator's held over each step (zero-order hold).

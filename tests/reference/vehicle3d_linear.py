@@ -12,8 +12,8 @@ g(eta) of Eq. 4.6, and Prestero's drag, lift and fin terms. It calls no auv_mj c
 from the project's reader and the rigid body from the compiled model (`Linear6.from_physics`), as numbers.
 
 The probes (`simulated_jacobian`, `release_pitch_period`, `open_loop_run`) run the simulator itself, MuJoCo's
-rigid body with `auv_mj.sim.hydro3d` inside its step, so that tests/test_auv3d_stability.py can hold the two
-against each other. `python tests/vehicle3d_linear.py` prints every figure of docs/physics.md, "The 6-DOF
+rigid body with `auv_mj.sim.hydro3d` inside its step, so that tests/sim/test_stability_3d.py can hold the two
+against each other. `python tests/reference/vehicle3d_linear.py` prints every figure of docs/physics.md, "The 6-DOF
 vehicle: trim, stability and sources".
 """
 
@@ -390,8 +390,8 @@ def main() -> None:
     start = np.zeros(12)
     start[2], start[6] = RELEASE_DEPTH, u0
     reference = Reference3D.from_xml().solve(start, duration, lambda t: (thrust, 0.0, 0.0))
-    print(f"  the scipy reference (tests/vehicle3d_reference.py): depth {reference(duration)[2]:.2f} m against the "
-          f"simulator's {run[-1, 3]:.2f} m")
+    print(f"  the scipy reference (tests/reference/vehicle3d_reference.py): depth {reference(duration)[2]:.2f} m "
+          f"against the simulator's {run[-1, 3]:.2f} m")
     text = model_path("auv3d.xml").read_text()
     for name, old, new in (("B = W", f'name="hydro_B" data="{c.B!r}"', f'name="hydro_B" data="{model.weight!r}"'),
                            ("B = W and no propeller torque", 'gear="1 0 0 -0.1407 0 0"', 'gear="1 0 0 0 0 0"')):

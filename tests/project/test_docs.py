@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
 POLICIES_PAGE = ROOT / "docs" / "policies.md"
 LAYOUT_PAGE = ROOT / "docs" / "layout.md"

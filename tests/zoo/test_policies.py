@@ -10,7 +10,7 @@ import pytest
 from auv_mj.benchmark import runner
 from auv_mj.zoo import registry as policies
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
 RECORDED = json.loads((ROOT / "tests" / "data" / "policy_outcomes_d7f506e_float64.json").read_text())
 """Outcome and path length of 60-step episodes of each name that existed before the registry, recorded at

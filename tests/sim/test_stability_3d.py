@@ -1,8 +1,8 @@
 """Open-loop stability and trim of the 6-DOF REMUS (`models/auv3d.xml`) against an analytic linear model (issue 44).
 
-The linear model is tests/vehicle3d_linear.py: Fossen's body-frame equations linearised by hand from the coefficient
-set the project reads. Here it is held against the simulator (MuJoCo's step with `auv_mj.sim.hydro3d` in it):
-its Jacobian, the signs of its roots at Prestero's 1.54 m/s (the vehicle is open-loop unstable in both planes),
+The linear model is tests/reference/vehicle3d_linear.py: Fossen's body-frame equations linearised by hand from the
+coefficient set the project reads. Here it is held against the simulator (MuJoCo's step with `auv_mj.sim.hydro3d` in
+it): its Jacobian, the signs of its roots at Prestero's 1.54 m/s (the vehicle is open-loop unstable in both planes),
 the pitch period of a release at rest with the shipped positive trim, and the descending spiral of an open-loop
 straight run. docs/physics.md ("The 6-DOF vehicle: trim, stability and sources") gives the figures.
 """

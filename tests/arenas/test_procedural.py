@@ -240,7 +240,8 @@ def test_open_water_layout_of_a_seed_is_the_tasks_first_episode_and_passes_check
 
 
 def test_open_water_tasks_take_an_arena_file_and_name_one_they_cannot_read():
-    """arena=PATH is a user's arena on the open-water tasks (tests/test_user_arenas.py); a missing one is named."""
+    """arena=PATH is a user's arena on the open-water tasks (tests/arenas/test_user_arenas.py); a missing one is
+    named."""
     with pytest.raises(ValueError, match="x.xml: cannot read arena"):
         suite.load("auv", "obstacles", task_kwargs={"arena": "x.xml"})
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import shapely
-from test_benchmark_tiers import CUP, _known_arena
+from test_hard_tier_arenas import CUP, _known_arena
 
 from auv_mj.arenas import traps
 from auv_mj.episode import episode_metrics, record_episode
@@ -74,7 +74,7 @@ def test_choose_side_goes_round_the_end_that_the_fan_sees():
 
 
 def test_bug_gets_out_of_a_cup_and_round_a_long_wall():
-    """The trap `los-avoid` stalls in (tests/test_benchmark_tiers.py) and a wall 200 m across the route with a
+    """The trap `los-avoid` stalls in (tests/arenas/test_hard_tier_arenas.py) and a wall 200 m across the route with a
     hooked open end: the leave rule takes the Bug planner out of both, without a collision."""
     env = _known_arena(CUP, (100.0, 300.0), (450.0, 300.0), 500.0)
     metrics = episode_metrics(record_episode(env, bug.bug(env)))

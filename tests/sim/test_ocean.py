@@ -561,7 +561,7 @@ IDEAL_TRAJECTORIES = {
 
 LEARNED = ("executor", "planner")
 """Policies of IDEAL_TRAJECTORIES that are networks: their recorded actions are replayed."""
-RECORDED_ACTIONS = dict(np.load(Path(__file__).parent / "data" / "ideal_actions.npz"))
+RECORDED_ACTIONS = dict(np.load(Path(__file__).parents[1] / "data" / "ideal_actions.npz"))
 
 
 @pytest.mark.parametrize("case", IDEAL_TRAJECTORIES, ids=lambda case: f"{case[0]}-{case[1]}")

@@ -10,6 +10,7 @@ import gymnasium
 import numpy as np
 import pytest
 import torch
+from test_hard_tier_arenas import CUP, _known_arena
 
 from auv_mj.agents.normalizer import Normalizer
 from auv_mj.agents.offpolicy.networks import Actor, Critic, widen_inputs
@@ -17,9 +18,8 @@ from auv_mj.arenas import grid
 from auv_mj.planners.deploy import deploy_env
 from auv_mj.planners.map_planner import MEMORY_BEAMS, MEMORY_RANGE, MapGuide
 from auv_mj.tasks import planning
-from tests.test_benchmark_tiers import CUP, _known_arena
 
-CHECKPOINTS = Path(__file__).resolve().parents[1] / "agents" / "checkpoints"
+CHECKPOINTS = Path(__file__).resolve().parents[2] / "agents" / "checkpoints"
 
 
 def _entry_distance(origin, angle, boxes, cell) -> float:

@@ -36,7 +36,7 @@ from auv_mj.figures.arenas import preview
 from auv_mj.tasks import suite
 from auv_mj.tasks.actions import ActionClipped
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CORRIDOR = (ROOT / "docs" / "arenas.md").read_text().split("```xml\n", 1)[1].split("```", 1)[0]
 """The minimal hand-written arena of docs/arenas.md: usable, with a path, a mover and an obstacle."""
 

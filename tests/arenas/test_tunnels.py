@@ -338,7 +338,7 @@ def test_cli_errors_exit_nonzero_naming_the_problem(tmp_path):
 
 
 def test_the_minimal_arena_of_the_docs_passes_the_check(tmp_path):
-    docs = (Path(__file__).parents[1] / "docs" / "arenas.md").read_text()
+    docs = (Path(__file__).parents[2] / "docs" / "arenas.md").read_text()
     example = docs.split("```xml\n", 1)[1].split("```", 1)[0]
     path = tmp_path / "corridor.xml"
     path.write_text(example)
@@ -397,7 +397,7 @@ def test_cli_unknown_option(tmp_path):
 
 # --- the validation tunnels -----------------------------------------------------------------------
 
-VALIDATION = sorted((Path(__file__).parents[1] / "models" / "arenas" / "validation").glob("*.xml"))
+VALIDATION = sorted((Path(__file__).parents[2] / "models" / "arenas" / "validation").glob("*.xml"))
 
 
 def test_the_six_validation_tunnels_are_shipped():
