@@ -17,7 +17,9 @@ movers' true positions. Each step, for every vehicle of a batch at once (`teache
 - it turns the heading command towards the cheapest heading as fast as action="rate" allows (a1 = the change over
   `MAX_HEADING_CHANGE`, clipped to [-1, 1]), and sets the speed from the turn still to make (top speed up to
   SLOW_TURN, down to TURN_SPEED at a right angle), from the blocked samples near the bow (SLOW_SPEED) and, near a
-  final goal narrower than APPROACH_RADIUS, the target speed, as the classical planners approach it.
+  final goal narrower than APPROACH_RADIUS, the target speed, as the classical planners approach it; there it steers
+  straight at the goal where nothing blocks the way, holding its heading while the goal lies inside its turning
+  circle (a tunnel's 2 m goal is otherwise circled for ever).
 
 It acts in action="rate", the student's action space, and its input is privileged: it must never be the input of a
 deployed learner. `geodesic_teacher(env)` is its per-env face for the zoo (a dm_env planning task; the geodesic field
@@ -73,6 +75,11 @@ SLOW_SPEED = 0.5
 """Speed [m/s] when even the cheapest heading is blocked within NEAR_BLOCK of the bow."""
 NEAR_BLOCK = 6.0
 """Range [m] of the blocked samples that slow the vehicle to SLOW_SPEED."""
+CAPTURE_RADIUS = 6.0
+"""The turning circle [m] at the approach's TARGET_SPEED and 6 deg a step (4.8 m), to spare: a goal inside it cannot
+be reached by turning towards it (the vehicle would circle it), so the teacher holds its heading first."""
+CAPTURE_CONE = math.radians(10.0)
+"""A goal within this bearing [rad] of the bow is steered at regardless."""
 
 _SAMPLES = np.arange(SAMPLE_STEP, LOOKAHEAD + 1e-9, SAMPLE_STEP)
 
@@ -166,11 +173,31 @@ def teacher_actions(state: TeacherInput) -> np.ndarray:
     last = [p.fields[-1] for p in state.potentials]
     goal = np.array([f.goal for f in last]).reshape(n, 2)
     narrow = np.array([f.goal_radius < APPROACH_RADIUS for f in last])
-    final = np.array([int(state.goal_index[k]) >= len(p.leg) - 1 for k, p in enumerate(state.potentials)])
-    approach = narrow & final & (np.hypot(*(goal - position).T) < APPROACH)
-    speed = np.where(approach, np.minimum(speed, TARGET_SPEED), speed)
+    approach = narrow & (np.hypot(*(goal - position).T) < APPROACH)
+    speed = np.where(approach, TARGET_SPEED, speed)
+    for k in np.flatnonzero(approach):
+        actions[k, 1] = _capture(state.potentials[k].fields[-1], position[k], float(state.psi[k]),
+                                 float(command[k]), actions[k, 1])
     actions[:, 0] = speed_action(speed)
     return actions
+
+
+def _capture(field, position: np.ndarray, psi: float, command: float, heading_action: float) -> float:
+    """The heading action near a narrow final goal (a tunnel's 2 m one): straight at the goal where the segment is
+    open, unless the goal lies inside the turning circle on that side (CAPTURE_RADIUS), where the vehicle holds its
+    heading to widen the gap first; the field's choice `heading_action` where the segment is blocked."""
+    offset = field.goal - position
+    distance = float(np.hypot(*offset))
+    along = np.arange(0.0, distance, SAMPLE_STEP)[:, None] * offset / max(distance, 1e-9)
+    blocked, _ = _ray_costs(field, (position + along)[None])
+    if blocked.any():
+        return heading_action
+    bearing = wrap_angle(math.atan2(offset[1], offset[0]) - psi)
+    side = 1.0 if bearing >= 0 else -1.0
+    centre = position + CAPTURE_RADIUS * side * np.array([-math.sin(psi), math.cos(psi)])
+    if np.hypot(*(field.goal - centre)) < CAPTURE_RADIUS and abs(bearing) > CAPTURE_CONE:
+        return float(np.clip(wrap_angle(psi - command) / MAX_HEADING_CHANGE, -1.0, 1.0))
+    return float(np.clip(wrap_angle(psi + bearing - command) / MAX_HEADING_CHANGE, -1.0, 1.0))
 
 
 class GeodesicTeacher(PlannerBase):
