@@ -9,12 +9,15 @@ from auv_mj.agents.imitation.dagger import (
     Sequences,
     collect,
     evaluate_student,
+    finetune,
     fit,
     imitation_loss,
     student_inputs,
     student_spec,
+    student_view,
     train_dagger,
 )
 
 __all__ = ["CHECKPOINT_NAME", "LOG_NAME", "STUDENT_NAME", "DaggerConfig", "DaggerResult", "Sequences", "collect",
-           "evaluate_student", "fit", "imitation_loss", "student_inputs", "student_spec", "train_dagger"]
+           "evaluate_student", "finetune", "fit", "imitation_loss", "student_inputs", "student_spec", "student_view",
+           "train_dagger"]

@@ -40,6 +40,8 @@ from typing import Any
 import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+from gymnasium.wrappers.vector import TransformObservation
 
 from auv_mj.agents.checkpoint import (
     config_from_dict,
@@ -52,6 +54,7 @@ from auv_mj.agents.checkpoint import (
     save_checkpoint,
 )
 from auv_mj.agents.ppo.ppo import ActorCritic, PPOConfig, build_model, save_ppo
+from auv_mj.agents.ppo.ppo import train as ppo_train
 from auv_mj.agents.ppo.spaces import autoreset_mode, env_spec
 from auv_mj.seeds import VALIDATION, train_seed
 
@@ -167,6 +170,25 @@ def student_spec(env: VectorEnv) -> dict[str, Any]:
     if hasattr(space, "spaces") and "observation" in space.spaces:
         space = space["observation"]
     return env_spec(space, env.single_action_space)
+
+
+def student_view(env: VectorEnv) -> VectorEnv:
+    """`env` as the student sees it, for PPO's fine-tune: its observation vector alone (a goal dict's `observation`;
+    no `desired_goal`), the info (info["privileged"] for the critic) and actions unchanged."""
+    space = env.single_observation_space
+    if not (hasattr(space, "spaces") and "observation" in space.spaces):
+        return env
+    single = space["observation"]
+    return TransformObservation(env, student_inputs, batch_space(single, env.num_envs), single)
+
+
+def finetune(env: VectorEnv, teacher: Teacher, student: str | Path, run_dir: str | Path, config: PPOConfig,
+             total_steps: int, *, resume: bool = False, progress: bool = True, tensorboard: bool = False) -> Any:
+    """PPO from the DAgger student `student` (its student.pt) on `env` seen as the student sees it (`student_view`),
+    with the teacher's labels under PPO's decaying imitation term (config.imitation_coef, `auv_mj.agents.ppo`); the
+    critic is PPO's own (privileged where config says). Returns `auv_mj.agents.ppo.train`'s result."""
+    return ppo_train(student_view(env), config, run_dir, total_steps, resume=resume, progress=progress,
+                     tensorboard=tensorboard, teacher=teacher, init=None if resume else student)
 
 
 def collect(env: VectorEnv, model: ActorCritic, teacher: Teacher, steps: int, beta: float, seeds: Sequence[int],
