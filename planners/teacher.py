@@ -21,7 +21,8 @@ movers' true positions. Each step, for every vehicle of a batch at once (`teache
   straight at the goal where nothing blocks the way, holding its heading while the goal lies inside its turning
   circle (a tunnel's 2 m goal is otherwise circled for ever).
 
-It acts in action="rate", the student's action space, and its input is privileged: it must never be the input of a
+It acts in action="rate", the student's action space (or in the paper's map, "paper", where the task uses it:
+Table 3's offset from the heading, `heading_actions`), and its input is privileged: it must never be the input of a
 deployed learner. `geodesic_teacher(env)` is its per-env face for the zoo (a dm_env planning task; the geodesic field
 is the task's own, under reward="geodesic" or observation="planner", else searched here at the first step), and
 `BatchTeacher` drives `auv_mj.tasks.vector.AUVVectorEnv` through its `privileged_state()` read-out.
@@ -42,6 +43,7 @@ from auv_mj.episode import PlannerBase
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.guidance import APPROACH, APPROACH_RADIUS
 from auv_mj.tasks.planning import (
+    ACTION_HEADING_RANGE,
     MAX_HEADING_CHANGE,
     MAX_SPEED,
     TARGET_SPEED,
@@ -133,8 +135,17 @@ def _ray_costs(field, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return blocked, np.maximum(SAFE_DISTANCE - room, 0.0)
 
 
-def teacher_actions(state: TeacherInput) -> np.ndarray:
-    """The teacher's actions (N, 2) in action="rate" for N vehicles (module docstring)."""
+def heading_actions(desired: np.ndarray, psi: np.ndarray, command: np.ndarray, kind: str = "rate") -> np.ndarray:
+    """The heading action a1 (N,) that turns the heading command towards `desired` [rad] as fast as the action map
+    `kind` allows: "rate", the change over MAX_HEADING_CHANGE; "paper", Table 3's offset from the heading psi."""
+    if kind == "rate":
+        return np.clip(wrap_angle(desired - command) / MAX_HEADING_CHANGE, -1.0, 1.0)
+    return np.clip(wrap_angle(desired - psi) / ACTION_HEADING_RANGE, -1.0, 1.0)
+
+
+def teacher_actions(state: TeacherInput, kind: str = "rate") -> np.ndarray:
+    """The teacher's actions (N, 2) for N vehicles (module docstring), in the action map `kind` ("rate", the
+    student's, or "paper")."""
     n = len(state.potentials)
     actions = np.zeros((n, 2))
     angles = np.asarray(state.psi, float)[:, None] + CANDIDATES[None, :]
@@ -164,7 +175,7 @@ def teacher_actions(state: TeacherInput) -> np.ndarray:
     line = np.arange(n)
     desired = angles[line, best]
     command = np.asarray(state.heading_command, float)
-    actions[:, 1] = np.clip(wrap_angle(desired - command) / MAX_HEADING_CHANGE, -1.0, 1.0)
+    psi = np.asarray(state.psi, float)
     turn = np.abs(CANDIDATES[best])
     share = np.clip((turn - SLOW_TURN) / (math.pi / 2 - SLOW_TURN), 0.0, 1.0)
     speed = MAX_SPEED + (TURN_SPEED - MAX_SPEED) * share
@@ -176,28 +187,28 @@ def teacher_actions(state: TeacherInput) -> np.ndarray:
     approach = narrow & (np.hypot(*(goal - position).T) < APPROACH)
     speed = np.where(approach, TARGET_SPEED, speed)
     for k in np.flatnonzero(approach):
-        actions[k, 1] = _capture(state.potentials[k].fields[-1], position[k], float(state.psi[k]),
-                                 float(command[k]), actions[k, 1])
+        desired[k] = _capture(state.potentials[k].fields[-1], position[k], float(psi[k]), float(desired[k]))
+    actions[:, 1] = heading_actions(desired, psi, command, kind)
     actions[:, 0] = speed_action(speed)
     return actions
 
 
-def _capture(field, position: np.ndarray, psi: float, command: float, heading_action: float) -> float:
-    """The heading action near a narrow final goal (a tunnel's 2 m one): straight at the goal where the segment is
+def _capture(field, position: np.ndarray, psi: float, desired: float) -> float:
+    """The heading [rad] near a narrow final goal (a tunnel's 2 m one): straight at the goal where the segment is
     open, unless the goal lies inside the turning circle on that side (CAPTURE_RADIUS), where the vehicle holds its
-    heading to widen the gap first; the field's choice `heading_action` where the segment is blocked."""
+    heading to widen the gap first; the field's choice `desired` where the segment is blocked."""
     offset = field.goal - position
     distance = float(np.hypot(*offset))
     along = np.arange(0.0, distance, SAMPLE_STEP)[:, None] * offset / max(distance, 1e-9)
     blocked, _ = _ray_costs(field, (position + along)[None])
     if blocked.any():
-        return heading_action
+        return desired
     bearing = wrap_angle(math.atan2(offset[1], offset[0]) - psi)
     side = 1.0 if bearing >= 0 else -1.0
     centre = position + CAPTURE_RADIUS * side * np.array([-math.sin(psi), math.cos(psi)])
     if np.hypot(*(field.goal - centre)) < CAPTURE_RADIUS and abs(bearing) > CAPTURE_CONE:
-        return float(np.clip(wrap_angle(psi - command) / MAX_HEADING_CHANGE, -1.0, 1.0))
-    return float(np.clip(wrap_angle(psi + bearing - command) / MAX_HEADING_CHANGE, -1.0, 1.0))
+        return psi
+    return psi + bearing
 
 
 class GeodesicTeacher(PlannerBase):
@@ -229,7 +240,7 @@ class GeodesicTeacher(PlannerBase):
                              position=pose[None, :2], psi=pose[None, 2],
                              heading_command=np.array([task.episode.command[1]]),
                              movers=[mover_states(physics, task)])
-        return teacher_actions(state)[0]
+        return teacher_actions(state, self.env.task.action_kind)[0]
 
 
 class BatchTeacher:
@@ -244,11 +255,10 @@ class BatchTeacher:
     def actions(self) -> np.ndarray:
         """The teacher's actions (N, 2) at the env's current states."""
         state = self.env.privileged_state()
-        return teacher_actions(TeacherInput(**state))
+        return teacher_actions(TeacherInput(**state), self.env.rules.action)
 
 
 def geodesic_teacher(env) -> GeodesicTeacher:
-    """The privileged teacher on a planning task's suite environment (run it with action="rate")."""
-    if getattr(env.task, "action_kind", "rate") != "rate":
-        raise ValueError("geodesic-teacher acts in action=\"rate\": pass task_kwargs {\"action\": \"rate\"}")
+    """The privileged teacher on a planning task's suite environment, in the task's action map (the student's is
+    action="rate")."""
     return GeodesicTeacher(env)
