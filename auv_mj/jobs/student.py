@@ -15,9 +15,17 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from auv_mj.agents.imitation import CHECKPOINT_NAME, STUDENT_NAME, DaggerConfig, finetune, train_dagger
+from auv_mj.agents.imitation import (
+    CHECKPOINT_NAME,
+    STUDENT_NAME,
+    DaggerConfig,
+    evaluate_student,
+    finetune,
+    train_dagger,
+)
+from auv_mj.agents.imitation.dagger import VALIDATION_FIRST_SEED
 from auv_mj.agents.ppo import CHECKPOINT_NAME as PPO_CHECKPOINT
-from auv_mj.agents.ppo import PPOConfig
+from auv_mj.agents.ppo import PPOConfig, load_model, read_ppo
 from auv_mj.agents.ppo.planner import LEARNED_CONFIG
 from auv_mj.planners.teacher import BatchTeacher
 from auv_mj.tasks.vector import AUVVectorEnv
@@ -47,7 +55,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
                   progress: bool = True) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
-    `resume` continues both where they stopped. The paths written and DAgger's last log row."""
+    `resume` continues both where they stopped. The paths written, DAgger's last log row and, after a fine-tune, its
+    student's validation (on DAgger's validation episodes, `evaluate_student`)."""
     run_dir = Path(run_dir)
     options_path = run_dir / OPTIONS_NAME
     if resume and options_path.is_file():
@@ -73,6 +82,13 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             tuned = finetune(env, teacher, run_dir / STUDENT_NAME, ppo_dir, config, finetune_steps, resume=again,
                              progress=progress)
             out.update(finetune_checkpoint=str(tuned.checkpoint), finetune_steps=tuned.env_steps)
+            episodes = (dagger or DaggerConfig()).validation_episodes
+            if episodes:
+                (tensors, meta), saved = read_ppo(tuned.checkpoint)
+                model = load_model(tuned.checkpoint, tensors, meta["spec"], saved)
+                out["finetune_validation"] = evaluate_student(
+                    lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs, threads=threads), model, episodes,
+                    VALIDATION_FIRST_SEED, (dagger or DaggerConfig()).validation_max_steps)
         return out
     finally:
         env.close()
