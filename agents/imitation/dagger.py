@@ -20,7 +20,8 @@ observation vector alone (observation="planner": `PLANNER_FIELDS`, the sonar, th
 training seeds), so a round's sequences start at episodes' first steps; the fit runs the GRU over the round's whole
 sequences from a zero memory, the memory zeroed where an episode starts and carried everywhere else, exactly as in
 the rollout, and minimises the squared error between the actor's mean action and the teacher's label on the steps
-that were transitions.
+that were transitions. The actor's input normaliser (`auv_mj.agents.normalizer`) takes in each round's observations
+before its fit, as PPO's does after each rollout.
 
 A run writes `run_dir/dagger.pt` (kind "dagger" of `auv_mj.agents.checkpoint`: the student, Adam, the dataset, the
 rounds done) after each round, `run_dir/student.pt` (kind "ppo": the student alone, for `PPOPolicy` and for PPO's
@@ -358,6 +359,7 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
         beta = config.beta(i)
         fresh = collect(env, model, teacher, config.steps_per_round, beta, seeds, rng)
         model.obs_norm.update(fresh.obs[fresh.valid.astype(bool)])
+        model.obs_norm.sync()  # the fit, the next rollout and PPO's fine-tune read the same statistics
         data = fresh if data is None else data.joined(fresh)
         round_sizes.append(n)
         if config.max_dataset_rounds is not None and len(round_sizes) > config.max_dataset_rounds:
