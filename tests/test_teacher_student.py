@@ -182,7 +182,10 @@ def test_the_imitation_weight_decays_as_configured_and_enters_the_loss():
     plain, _ = ppo_loss(model, batch, config, imitation=0.0)
     with_term, stats = ppo_loss(model, batch, config, imitation=1.5)
     assert float((with_term - plain).detach()) == pytest.approx(1.5 * float(stats["imitation_loss"]), rel=1e-5)
-    assert float(stats["imitation_loss"]) > 0
+    with torch.no_grad():
+        action_mean, _ = model.act(batch.obs, batch.starts, batch.state[:, :model.actor_state_size])
+    expected = float(((action_mean - labels) ** 2).sum(-1).mean())
+    assert float(stats["imitation_loss"]) == pytest.approx(expected, rel=1e-5) and expected > 0
 
 
 def test_auv_mj_train_dagger_runs_and_resumes(tmp_path):

@@ -695,8 +695,8 @@ def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef:
     config.clip_coef). With `imitation` > 0 and the batch's teacher labels, plus imitation times the squared error
     between the actor's mean action and the label (the decaying imitation term of a fine-tune, `imitation_weight`)."""
     clip_coef = config.clip_coef if clip_coef is None else clip_coef
-    mean, value, _ = model(batch.obs, batch.starts, batch.state, batch.privileged)
-    dist = model.distribution(mean)
+    action_mean, value, _ = model(batch.obs, batch.starts, batch.state, batch.privileged)
+    dist = model.distribution(action_mean)
     logprob, entropy = dist.log_prob(batch.actions).sum(-1), dist.entropy().sum(-1)
     advantages, mask = batch.advantages, batch.valid
     if config.norm_adv:
@@ -709,7 +709,7 @@ def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef:
     loss = pg + config.vf_coef * vf - config.ent_coef * ent
     bc = torch.zeros((), dtype=loss.dtype, device=loss.device)
     if imitation > 0 and batch.labels is not None:
-        bc = masked_mean(((mean - batch.labels) ** 2).sum(-1), mask)
+        bc = masked_mean(((action_mean - batch.labels) ** 2).sum(-1), mask)
         loss = loss + imitation * bc
     with torch.no_grad():
         log_ratio = logprob - batch.logprobs
