@@ -188,13 +188,15 @@ def test_the_imitation_weight_decays_as_configured_and_enters_the_loss():
     assert float(stats["imitation_loss"]) == pytest.approx(expected, rel=1e-5) and expected > 0
 
 
-def test_auv_mj_train_dagger_runs_and_resumes(tmp_path):
-    command = [sys.executable, "-m", "auv_mj.cli", "train", "dagger", "--task", "obstacles", "--num-envs", "2",
+def test_auv_mj_train_dagger_runs_and_resumes_into_the_fine_tune(tmp_path):
+    command = [sys.executable, "-m", "auv_mj.cli", "train", "dagger", "--task", "obstacles", "--num-envs", "4",
                "--dagger-rounds", "1", "--dagger-steps-per-round", "4", "--dagger-epochs", "1",
                "--dagger-validation-episodes", "0", "-o", str(tmp_path), "--no-progress", "--threads", "1"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "student.pt").is_file() and (tmp_path / "dagger.csv").is_file()
     assert read_checkpoint(tmp_path / "student.pt", "ppo").metadata["spec"]["kind"] == "box"
-    again = subprocess.run(command + ["--resume"], capture_output=True, text=True, timeout=300)
+    again = subprocess.run(command + ["--resume", "--steps", "64"], capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr
+    tuned = read_checkpoint(tmp_path / "ppo" / "checkpoint.pt", "ppo")
+    assert tuned.metadata["config"]["imitation_coef"] == 1.0 and tuned.metadata["config"]["recurrent_size"] == 128

@@ -315,6 +315,8 @@ class DaggerResult:
     dataset_steps: int
     log: list[dict[str, float]]
     """The rows of dagger.csv written by this call."""
+    config: DaggerConfig
+    """The run's config (the saved one on resume)."""
 
 
 def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: DaggerConfig | None = None, *,
@@ -385,4 +387,5 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
                   flush=True)
     if data is None or rounds_done >= config.rounds and not rows:
         _save(run_dir, model, optimizer, data, config, spec, max(rounds_done, 0), round_sizes)
-    return DaggerResult(run_dir, run_dir / STUDENT_NAME, config.rounds, 0 if data is None else data.steps, rows)
+    return DaggerResult(run_dir, run_dir / STUDENT_NAME, config.rounds, 0 if data is None else data.steps, rows,
+                        config)

@@ -47,7 +47,7 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.inputs import check_json_depth, did_you_mean, read_text, unknown_name
-from auv_mj.jobs.student import finetune_config, train_student
+from auv_mj.jobs.student import train_student
 from auv_mj.planners.deploy import ChainConfig, deploy_env
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
@@ -192,12 +192,9 @@ def _run_dagger(args: argparse.Namespace) -> int:
                      if getattr(args, "dagger_" + f.name, None) is not None}
         if args.seed is not None:
             overrides["seed"] = args.seed
-        dagger = DaggerConfig(**overrides)
-        tune = finetune_config(dagger, **({} if args.imitation_coef is None
-                                          else {"imitation_coef": args.imitation_coef}))
-        result = train_student(run_dir, args.task, task_kwargs(args) or None, args.num_envs, dagger,
-                               args.steps or 0, tune, resume=args.resume, threads=args.threads,
-                               progress=not args.no_progress)
+        result = train_student(run_dir, args.task, task_kwargs(args) or None, args.num_envs,
+                               DaggerConfig(**overrides), args.steps or 0, resume=args.resume, threads=args.threads,
+                               progress=not args.no_progress, imitation_coef=args.imitation_coef)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(json.dumps(result, indent=2, default=str))

@@ -53,10 +53,11 @@ def finetune_config(dagger: DaggerConfig, **overrides: Any) -> PPOConfig:
 def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Mapping[str, Any] | None = None,
                   num_envs: int = 16, dagger: DaggerConfig | None = None, finetune_steps: int = 0,
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
-                  progress: bool = True) -> dict[str, Any]:
+                  progress: bool = True, imitation_coef: float | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
-    `resume` continues both where they stopped. The paths written, DAgger's last log row and, after a fine-tune, its
-    student's validation (on DAgger's validation episodes, `evaluate_student`)."""
+    `resume` continues both where they stopped. The fine-tune's config is `ppo_config`, else `finetune_config` of the
+    run's DaggerConfig (the saved one on resume) with `imitation_coef` where given. The paths written, DAgger's last
+    log row and, after a fine-tune, its student's validation (on DAgger's validation episodes, `evaluate_student`)."""
     run_dir = Path(run_dir)
     options_path = run_dir / OPTIONS_NAME
     if resume and options_path.is_file():
@@ -72,23 +73,25 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         again = resume and (run_dir / CHECKPOINT_NAME).is_file()
         result = train_dagger(env, teacher, run_dir, None if again else dagger, resume=again, progress=progress,
                               eval_env_fn=lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs, threads=threads))
+        dagger = result.config
         out: dict[str, Any] = {"student": str(result.student), "dagger_rounds": result.rounds,
                                "dataset_steps": result.dataset_steps,
                                "last_round": result.log[-1] if result.log else {}}
         if finetune_steps:
             ppo_dir = run_dir / FINETUNE_DIR
             again = resume and (ppo_dir / PPO_CHECKPOINT).is_file()
-            config = None if again else (ppo_config or finetune_config(dagger or DaggerConfig()))
+            extra = {} if imitation_coef is None else {"imitation_coef": imitation_coef}
+            config = None if again else (ppo_config or finetune_config(dagger, **extra))
             tuned = finetune(env, teacher, run_dir / STUDENT_NAME, ppo_dir, config, finetune_steps, resume=again,
                              progress=progress)
             out.update(finetune_checkpoint=str(tuned.checkpoint), finetune_steps=tuned.env_steps)
-            episodes = (dagger or DaggerConfig()).validation_episodes
+            episodes = dagger.validation_episodes
             if episodes:
                 (tensors, meta), saved = read_ppo(tuned.checkpoint)
                 model = load_model(tuned.checkpoint, tensors, meta["spec"], saved)
                 out["finetune_validation"] = evaluate_student(
                     lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs, threads=threads), model, episodes,
-                    VALIDATION_FIRST_SEED, (dagger or DaggerConfig()).validation_max_steps)
+                    VALIDATION_FIRST_SEED, dagger.validation_max_steps)
         return out
     finally:
         env.close()
