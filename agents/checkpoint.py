@@ -3,7 +3,8 @@
 A checkpoint is `torch.save({"tensors": {name: Tensor}, "metadata": {...}})`: plain CPU tensors (weights,
 normaliser statistics, Adam moments, random generator states) and a JSON-able metadata dict. The metadata names
 the checkpoint's `kind`, the agent that wrote it (KINDS: "ddpg", "her-ddpg", "executor", "td3" of
-`auv_mj.agents.offpolicy`, "ppo" of `auv_mj.agents.ppo`), and its `format`, the tensor layout of that kind's stack
+`auv_mj.agents.offpolicy`, "ppo" of `auv_mj.agents.ppo`, "dagger" of `auv_mj.agents.imitation`: a student's network,
+Adam and the aggregated dataset, in the PPO layout), and its `format`, the tensor layout of that kind's stack
 (`KINDS[kind]`). Files are written atomically (`atomic_write`) and read with `torch.load(path, weights_only=True)`.
 
 `read_checkpoint(path)` is the one loader: it returns what the file is (`Checkpoint`: its tensors, its metadata
@@ -37,7 +38,7 @@ OFFPOLICY_FORMAT = "auv-mj-ddpg/1"
 PPO_FORMAT = "auv-mj-ppo/1"
 """Format marker of the PPO checkpoints (`auv_mj.agents.ppo`)."""
 KINDS: dict[str, str] = {"ddpg": OFFPOLICY_FORMAT, "her-ddpg": OFFPOLICY_FORMAT, "executor": OFFPOLICY_FORMAT,
-                         "td3": OFFPOLICY_FORMAT, "ppo": PPO_FORMAT}
+                         "td3": OFFPOLICY_FORMAT, "ppo": PPO_FORMAT, "dagger": PPO_FORMAT}
 """Kind tag (the agent that wrote the checkpoint, as `auv-mj train AGENT` names it) -> the format of its tensors."""
 MAX_CHECKPOINT_BYTES = 2**30
 """Largest checkpoint file read (1 GiB; the shipped ones are at most 3.5 MB)."""

@@ -703,6 +703,43 @@ def route_potential(physics: AUVPhysics, task: PlanningTask, legs: str = "each")
     return RoutePotential(fields, np.arange(count), rest)
 
 
+def mover_states(physics, task) -> np.ndarray:
+    """The movers of a planning task's episode now, (M, 5): x, y, radius [m] (the footprint's reach from the mover's
+    centre), vx, vy [m/s] (their true velocity, from their paths): privileged, for the teacher."""
+    movers = tuple(getattr(task.episode.route, "movers", ()) or ())
+    if not movers:
+        return np.zeros((0, 5))
+    radii = _mover_radii(physics, task, movers)
+    now, dt = float(physics.data.time), 0.1
+    rows = []
+    for mover, radius in zip(movers, radii, strict=True):
+        here = mover.position(now)
+        rows.append([*here, radius, *((mover.position(now + dt) - here) / dt)])
+    return np.array(rows, dtype=float)
+
+
+_MOVER_RADII: dict[int, tuple[object, np.ndarray]] = {}
+
+
+def _mover_radii(physics, task, movers) -> np.ndarray:
+    """Each mover's footprint reach [m] from its centre, once per episode (cached on the episode record)."""
+    key = id(task.episode)
+    cached = _MOVER_RADII.get(key)
+    if cached is not None and cached[0] is task.episode:
+        return cached[1]
+    geometry = arena_geometry(physics, task)
+    now = float(physics.data.time)
+    radii = np.zeros(len(movers))
+    for polygon, owner in zip(geometry.polygons, geometry.owners, strict=True):
+        if owner >= 0:
+            centre = movers[owner].position(now)
+            radii[owner] = max(radii[owner], float(np.max(np.hypot(*(polygon - centre).T))))
+    if len(_MOVER_RADII) > 4096:
+        _MOVER_RADII.clear()
+    _MOVER_RADII[key] = (task.episode, radii)
+    return radii
+
+
 # --- one planning step over a batch axis ----------------------------------------------------------------
 # What the task does around the physics of a planner step -- the action map, goals, the passing rule, events,
 # Eq. (23)-(26), the suite and progress rewards, the observation -- written once, on arrays whose leading axis is

@@ -434,6 +434,21 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         """The task's `compute_terminated` for batches of goals."""
         return self.envs[0].task.compute_terminated(achieved_goal, desired_goal, info)
 
+    def privileged_state(self) -> dict[str, Any]:
+        """The true state of every row for a privileged teacher (`auv_mj.planners.teacher`; Chen et al. 2019), never
+        a learner's input: each episode's geodesic potential ("potentials", `planning.RoutePotential`; needs
+        reward="geodesic" or observation="planner"), the current goal ("goal_index"), the pose ("position" (N, 2),
+        "psi" (N,)), the executor's heading command ("heading_command") and the movers now ("movers",
+        `planning.mover_states`). Rows awaiting an autoreset still show the episode that ended."""
+        if not self.rules.potential:
+            raise ValueError("privileged_state needs the geodesic potential: reward=\"geodesic\" or "
+                             "observation=\"planner\"")
+        heading = self._stepper.state[:, batch.STATE_INDEX["heading_command"]].copy()
+        goal_index = np.minimum(self._reached, self._routes.n_goals - 1)
+        return {"potentials": [env.task.episode.potential for env in self.envs], "goal_index": goal_index,
+                "position": self._position.copy(), "psi": self._psi.copy(), "heading_command": heading,
+                "movers": [planning.mover_states(env.physics, env.task) for env in self.envs]}
+
     def close_extras(self, **kwargs) -> None:
         """Drops the sub-environments."""
         self.envs = []

@@ -76,7 +76,14 @@ from auv_mj.agents.checkpoint import (
 )
 from auv_mj.agents.normalizer import Normalizer
 from auv_mj.agents.ppo.gru import gru_sequence
-from auv_mj.agents.ppo.spaces import autoreset_mode, env_action, env_spec, final_observation, flatten_obs
+from auv_mj.agents.ppo.spaces import (
+    autoreset_mode,
+    env_action,
+    env_spec,
+    final_observation,
+    flatten_obs,
+    normalised_action,
+)
 from auv_mj.console import progress_bar
 from auv_mj.seeds import train_seed
 
@@ -85,8 +92,8 @@ LOG_NAME = "progress.csv"
 CELLS_LOG_NAME = "cells.csv"
 LOG_FIELDS = ("iteration", "env_steps", "episodes", "mean_return", "policy_loss", "value_loss", "entropy",
               "approx_kl", "clip_fraction", "explained_variance", "samples_per_s", "learning_rate", "clip_coef",
-              "epochs", "success_rate", "collision_rate", "mean_speed")
-"""The columns of progress.csv, a row per rollout (a run logged before the last six were added resumes with them
+              "epochs", "success_rate", "collision_rate", "mean_speed", "imitation_coef", "imitation_loss")
+"""The columns of progress.csv, a row per rollout (a run logged before the last eight were added resumes with them
 empty in its old rows)."""
 CELL_FIELDS = ("iteration", "env_steps", "cell", "episodes", "success_rate", "collision_rate", "mean_speed",
                "mean_return")
@@ -162,6 +169,14 @@ class PPOConfig:
     """Seeds the networks, the action noise, the minibatch order and the env resets."""
     device: str = "cpu"
     """Torch device of the networks and the update."""
+    imitation_coef: float = 0.0
+    """Weight of an imitation term at the run's start: the squared error between the actor's mean action and a
+    teacher's label of the same state, added to the loss (a fine-tune after DAgger, `auv_mj.agents.imitation`; Ross
+    et al. 2011, Chen et al. 2019; kickstarting, Schmitt et al. 2018). 0: none, and no teacher is asked."""
+    imitation_schedule: str = "linear"
+    """imitation_coef over the run's planned steps, as lr_schedule: it decays so that RL has the last word."""
+    min_imitation_coef: float = 0.0
+    """The imitation weight's floor, reached at the last planned step (not used by "constant")."""
     torch_threads: int = 1
     """Intra-op CPU threads of the update (`torch.set_num_threads`). Rollouts always run the policy on one thread:
     its per-step batches are small, and a vector env's physics threads then have the cores to themselves (a second
@@ -173,7 +188,8 @@ class PPOConfig:
                 value = getattr(self, name)
                 if not valid(value):
                     raise ValueError(f"PPOConfig.{name} must be {what}, got {value!r}")
-        for floor, start in (("min_learning_rate", "learning_rate"), ("min_clip_coef", "clip_coef")):
+        for floor, start in (("min_learning_rate", "learning_rate"), ("min_clip_coef", "clip_coef"),
+                             ("min_imitation_coef", "imitation_coef")):
             if getattr(self, floor) > getattr(self, start):
                 raise ValueError(f"PPOConfig.{floor} must be <= {start}, got {getattr(self, floor)!r}")
         if self.privileged_critic and self.recurrent is not None and not self.separate_critic:
@@ -195,9 +211,10 @@ _CONFIG_CHECKS: tuple[tuple[tuple[str, ...], Callable[[Any], bool], str], ...] =
     (("learning_rate", "adam_eps", "clip_coef", "max_grad_norm"), lambda v: _number(v) and 0 < v < math.inf,
      "a finite number > 0"),
     (("gamma", "gae_lambda"), lambda v: _number(v) and 0 <= v <= 1, "in [0, 1]"),
-    (("ent_coef", "vf_coef", "min_learning_rate", "min_clip_coef"), lambda v: _number(v) and 0 <= v < math.inf,
+    (("ent_coef", "vf_coef", "min_learning_rate", "min_clip_coef", "imitation_coef", "min_imitation_coef"),
+     lambda v: _number(v) and 0 <= v < math.inf,
      "a finite number >= 0"),
-    (("lr_schedule", "clip_schedule"), lambda v: v in SCHEDULES, f"one of {SCHEDULES}"),
+    (("lr_schedule", "clip_schedule", "imitation_schedule"), lambda v: v in SCHEDULES, f"one of {SCHEDULES}"),
     (("target_kl",), lambda v: v is None or (_number(v) and v > 0), "None or a number > 0"),
     (("hidden_sizes",), lambda v: isinstance(v, tuple) and all(_whole(n) and n >= 1 for n in v),
      "a tuple of whole numbers >= 1"),
@@ -223,6 +240,13 @@ def scheduled(kind: str, start: float, floor: float, progress: float) -> float:
     if kind == "cosine":
         return floor + (start - floor) * 0.5 * (1.0 + math.cos(math.pi * p))
     raise ValueError(f"schedule must be one of {SCHEDULES}, got {kind!r}")
+
+
+def imitation_weight(config: PPOConfig, env_steps: int, schedule_steps: int) -> float:
+    """The imitation term's weight in the update after the rollout starting at global step `env_steps`: imitation_coef
+    decaying on imitation_schedule to min_imitation_coef over the run's planned `schedule_steps` (as `schedule_at`)."""
+    return scheduled(config.imitation_schedule, config.imitation_coef, config.min_imitation_coef,
+                     env_steps / schedule_steps)
 
 
 def schedule_at(config: PPOConfig, env_steps: int, schedule_steps: int) -> tuple[float, float]:
@@ -406,6 +430,8 @@ class Rollout:
     initial_state: torch.Tensor
     privileged: torch.Tensor | None = None
     """The critic's privileged inputs (T, N, P) beside each observation (None: it has none)."""
+    labels: torch.Tensor | None = None
+    """A teacher's actions (T, N, act_dim) at each observation, in the networks' normalised space (None: no teacher)."""
 
     def advantages(self, config: PPOConfig) -> tuple[torch.Tensor, torch.Tensor]:
         """GAE (advantages, returns), zero on the steps that are not in the loss."""
@@ -463,8 +489,12 @@ class Collector:
 
     def __init__(self, env: VectorEnv, model: ActorCritic, spec: Mapping[str, Any], config: PPOConfig,
                  generator: torch.Generator,
-                 step_speed: Callable[[Any, Mapping[str, Any]], np.ndarray] | None = None):
+                 step_speed: Callable[[Any, Mapping[str, Any]], np.ndarray] | None = None,
+                 teacher: Callable[[], np.ndarray] | None = None):
         self.env, self.model, self.spec, self.config, self.generator = env, model, spec, config, generator
+        self.teacher = teacher
+        """The teacher's actions (N, act_dim) in the env's action space at the env's current states, recorded in
+        the rollout as labels (`Rollout.labels`); None: no labels."""
         self.mode = autoreset_mode(env)
         self.num_envs = int(env.num_envs)
         self.device = torch.device(config.device)
@@ -523,7 +553,10 @@ class Collector:
             torch.zeros(T, N, **f32) for _ in range(8))
         initial_state = self.state.clone()
         act_shape = (N, *self.spec["act_shape"])
+        labels = torch.zeros(T, N, self.spec["act_dim"], **f32) if self.teacher is not None else None
         for t in range(T):
+            if labels is not None:
+                labels[t] = self._tensor(normalised_action(np.asarray(self.teacher()).reshape(N, -1), self.spec))
             obs, priv = self._tensor(self.obs), self._tensor(self.privileged)
             obs_buf[t], priv_buf[t], starts[t] = obs, priv, self._tensor(self.starts)
             valid[t] = self._tensor(~self.pending_reset)
@@ -576,7 +609,7 @@ class Collector:
             if P:
                 model.privileged_norm.update(priv_buf.reshape(-1, P).cpu().numpy())
         return Rollout(obs_buf, starts, valid, actions, logprobs, values, rewards, terms, truncs, next_values,
-                       initial_state, priv_buf if P else None)
+                       initial_state, priv_buf if P else None, labels)
 
     def take_finished(self) -> list[Episode]:
         """The episodes finished since the last call."""
@@ -652,15 +685,20 @@ class Minibatch(NamedTuple):
     """1 for transitions in the loss, 0 for NEXT_STEP's reset steps."""
     privileged: torch.Tensor | None = None
     """The critic's privileged inputs (T, B, P), or None."""
+    labels: torch.Tensor | None = None
+    """A teacher's actions (T, B, act_dim) in the normalised space, or None."""
 
 
 def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef: float | None = None,
-             ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+             imitation: float = 0.0) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """The PPO objective to minimise, -L^CLIP + vf_coef L^VF - ent_coef S (Schulman et al. 2017, Eq. 9), on one
     minibatch, and its parts (detached) for the logs; `clip_coef` is the scheduled clip range (None:
-    config.clip_coef)."""
+    config.clip_coef). With `imitation` > 0 and the batch's teacher labels, plus imitation times the squared error
+    between the actor's mean action and the label (the decaying imitation term of a fine-tune, `imitation_weight`)."""
     clip_coef = config.clip_coef if clip_coef is None else clip_coef
-    logprob, entropy, value = model.evaluate(batch.obs, batch.starts, batch.state, batch.actions, batch.privileged)
+    action_mean, value, _ = model(batch.obs, batch.starts, batch.state, batch.privileged)
+    dist = model.distribution(action_mean)
+    logprob, entropy = dist.log_prob(batch.actions).sum(-1), dist.entropy().sum(-1)
     advantages, mask = batch.advantages, batch.valid
     if config.norm_adv:
         mean = masked_mean(advantages, mask)
@@ -670,11 +708,16 @@ def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef:
     vf = value_loss(value, batch.values, batch.returns, clip_coef if config.clip_vloss else None, mask)
     ent = masked_mean(entropy, mask)
     loss = pg + config.vf_coef * vf - config.ent_coef * ent
+    bc = torch.zeros((), dtype=loss.dtype, device=loss.device)
+    if imitation > 0 and batch.labels is not None:
+        bc = masked_mean(((action_mean - batch.labels) ** 2).sum(-1), mask)
+        loss = loss + imitation * bc
     with torch.no_grad():
         log_ratio = logprob - batch.logprobs
         stats = {"policy_loss": pg.detach(), "value_loss": vf.detach(), "entropy": ent.detach(),
                  "approx_kl": masked_mean(log_ratio.exp() - 1 - log_ratio, mask),
-                 "clip_fraction": masked_mean(((log_ratio.exp() - 1).abs() > clip_coef).to(mask.dtype), mask)}
+                 "clip_fraction": masked_mean(((log_ratio.exp() - 1).abs() > clip_coef).to(mask.dtype), mask),
+                 "imitation_loss": bc.detach()}
     return loss, stats
 
 
@@ -688,12 +731,13 @@ def minibatches(rollout: Rollout, advantages: torch.Tensor, returns: torch.Tenso
     re-run from the rollout's initial state), or of single transitions (feed-forward)."""
     r = rollout
     privileged = r.privileged if r.privileged is not None else r.obs.new_zeros(*r.obs.shape[:2], 0)
-    fields = (r.obs, r.starts, r.actions, r.logprobs, r.values, advantages, returns, r.valid, privileged)
+    labels = r.labels if r.labels is not None else r.obs.new_zeros(*r.obs.shape[:2], 0)
+    fields = (r.obs, r.starts, r.actions, r.logprobs, r.values, advantages, returns, r.valid, privileged, labels)
 
     def batch(parts: list[torch.Tensor], state: torch.Tensor) -> Minibatch:
-        obs, starts, actions, logprobs, values, adv, ret, valid, priv = parts
+        obs, starts, actions, logprobs, values, adv, ret, valid, priv, lab = parts
         return Minibatch(obs, starts, state, actions, logprobs, values, adv, ret, valid,
-                         priv if r.privileged is not None else None)
+                         priv if r.privileged is not None else None, lab if r.labels is not None else None)
 
     if r.initial_state.shape[-1]:
         n_envs = r.obs.shape[1]
@@ -707,7 +751,7 @@ def minibatches(rollout: Rollout, advantages: torch.Tensor, returns: torch.Tenso
 
 
 def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollout, config: PPOConfig,
-           generator: torch.Generator, clip_coef: float | None = None) -> dict[str, float]:
+           generator: torch.Generator, clip_coef: float | None = None, imitation: float = 0.0) -> dict[str, float]:
     """update_epochs passes of minibatch gradient steps on `ppo_loss` over one rollout (Schulman et al. 2017,
     Algorithm 1), with the optimiser's learning rate as it is and the clip range `clip_coef` (None:
     config.clip_coef); with config.target_kl the passes stop after the first epoch whose mean approximate KL
@@ -720,7 +764,7 @@ def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollou
         kls = []
         epochs += 1
         for batch in minibatches(rollout, advantages, returns, config, generator):
-            loss, stats = ppo_loss(model, batch, config, clip_coef)
+            loss, stats = ppo_loss(model, batch, config, clip_coef, imitation)
             optimizer.zero_grad()
             loss.backward()
             nn.utils.clip_grad_norm_(model.parameters(), config.max_grad_norm)
@@ -854,7 +898,8 @@ def _privileged_size(env: VectorEnv, seeds: list[int]) -> int:
 def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, run_dir: str | Path, total_steps: int,
           *, resume: bool = False, progress: bool = True, tensorboard: bool = False,
           schedule_steps: int | None = None,
-          step_speed: Callable[[Any, Mapping[str, Any]], np.ndarray] | None = None) -> PPOResult:
+          step_speed: Callable[[Any, Mapping[str, Any]], np.ndarray] | None = None,
+          teacher: Callable[[], np.ndarray] | None = None, init: str | Path | None = None) -> PPOResult:
     """Trains PPO on a Gymnasium vector env (or a zero-argument function making one) for `total_steps` env steps
     (rounded up to whole rollouts of num_steps x num_envs), checkpointing to `run_dir/checkpoint.pt`.
 
@@ -872,6 +917,11 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
     that ended in the rollout to `cells.csv` (`CELL_FIELDS`; rows after the checkpoint, from a crashed run, are
     dropped from both on resume); with `tensorboard`, the same as TensorBoard scalars in `run_dir/tb`.
     `step_speed(next_obs, info)` gives each row's speed over a step, for the logs' mean speed.
+
+    Fine-tuning a student (issue 51): `init`, a checkpoint of kind "ppo" for the same spaces (a DAgger run's
+    student.pt, `auv_mj.agents.imitation`), gives a new run its networks and observation statistics; `teacher()`,
+    the teacher's actions (N, act_dim) at the env's current states, labels every rollout step, and with
+    config.imitation_coef > 0 the update adds the decaying imitation term (`imitation_weight`, `ppo_loss`).
     """
     if not isinstance(total_steps, int) or isinstance(total_steps, bool) or total_steps < 1:
         raise ValueError(f"total_steps must be a whole number >= 1, got {total_steps!r}")
@@ -926,14 +976,37 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
                 generator.set_state(tensors["generator"])
         else:
             model = build_model(spec, config)
+            if init is not None:
+                (init_tensors, init_meta), _ = read_ppo(init)
+                if {k: v for k, v in init_meta["spec"].items() if k != "privileged_dim"} != {
+                        k: v for k, v in spec.items() if k != "privileged_dim"}:
+                    raise ValueError(f"checkpoint {init} is for spaces {init_meta['spec']}, this env has {spec}")
+                _load_actor(model, init_tensors, Path(init))
             optimizer = make_optimizer(model, config)
-        collector = Collector(vec_env, model, spec, config, generator, step_speed)
+        if config.imitation_coef > 0 and teacher is None:
+            raise ValueError("PPOConfig.imitation_coef > 0 needs a teacher (train(..., teacher=...))")
+        collector = Collector(vec_env, model, spec, config, generator, step_speed,
+                              teacher if config.imitation_coef > 0 else None)
         return _train_loop(collector, optimizer, config, run_dir, counters, total_steps, resume, progress,
                            tensorboard)
     finally:
         torch.set_num_threads(threads)
         if owned:
             vec_env.close()
+
+
+def _load_actor(model: ActorCritic, tensors: Mapping[str, torch.Tensor], path: Path) -> None:
+    """A new run's actor (encoder, memory, head, log std) and observation normaliser from a checkpoint's tensors
+    (a student's); the critic keeps its fresh weights where the checkpoint's does not fit (a privileged critic)."""
+    own = model.state_dict()
+    taken = {k[len("model."):]: v for k, v in tensors.items() if k.startswith("model.")}
+    fits = {k: v for k, v in taken.items() if k in own and own[k].shape == v.shape
+            and not k.startswith(("critic", "privileged_norm"))}
+    actor = [k for k in own if k.startswith(("encoder", "core", "actor", "obs_norm"))]
+    missing = [k for k in actor if k not in fits]
+    if missing:
+        raise ValueError(f"checkpoint {path} does not fit this actor: {missing[:4]}")
+    model.load_state_dict({**own, **fits})
 
 
 def _logged_rows(path: Path, iterations: int, fields: Sequence[str]) -> list[dict[str, str]]:
@@ -1039,6 +1112,7 @@ def _train_loop(collector: Collector, optimizer: torch.optim.Optimizer, config: 
             if counters["iteration"] % config.checkpoint_every == 0 or collector.obs is None:
                 collector.reset(reset_seeds(config.seed, counters["iteration"], collector.num_envs))
             lr, clip = schedule_at(config, counters["env_steps"], counters["schedule_steps"])
+            imitation = imitation_weight(config, counters["env_steps"], counters["schedule_steps"])
             for group in optimizer.param_groups:
                 group["lr"] = lr
             model.eval()
@@ -1046,7 +1120,7 @@ def _train_loop(collector: Collector, optimizer: torch.optim.Optimizer, config: 
             rollout = collector.rollout(config.num_steps)
             model.train()
             torch.set_num_threads(config.torch_threads)
-            stats = update(model, optimizer, rollout, config, generator, clip)
+            stats = update(model, optimizer, rollout, config, generator, clip, imitation)
             model.obs_norm.sync()
             if model.privileged_dim:
                 model.privileged_norm.sync()
@@ -1060,7 +1134,8 @@ def _train_loop(collector: Collector, optimizer: torch.optim.Optimizer, config: 
             row = {"iteration": counters["iteration"], "env_steps": counters["env_steps"],
                    "episodes": counters["episodes"], "samples_per_s": sps, "learning_rate": lr, "clip_coef": clip,
                    **summary, **{k: stats.get(k, float("nan")) for k in LOG_FIELDS[4:10]},
-                   "epochs": stats["epochs"]}
+                   "epochs": stats["epochs"], "imitation_coef": imitation,
+                   "imitation_loss": stats.get("imitation_loss", float("nan"))}
             cell_rows = []
             for cell, name in enumerate(collector.cell_names):
                 episodes = [e for e in finished if e.cell == cell]

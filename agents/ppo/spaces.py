@@ -70,6 +70,13 @@ def env_action(action: np.ndarray, spec: Mapping[str, Any]) -> np.ndarray:
     return low + (a + 1.0) * 0.5 * (high - low)
 
 
+def normalised_action(action: np.ndarray, spec: Mapping[str, Any]) -> np.ndarray:
+    """An action of the env's Box (..., act_dim) in the networks' normalised space, clipped to [-1, 1]: the inverse
+    of `env_action` (a teacher's label, for the imitation term)."""
+    low, high = np.asarray(spec["action_low"]), np.asarray(spec["action_high"])
+    return np.clip(2.0 * (np.asarray(action, dtype=float) - low) / (high - low) - 1.0, -1.0, 1.0)
+
+
 def autoreset_mode(env: VectorEnv) -> AutoresetMode:
     """The env's autoreset mode from `env.metadata["autoreset_mode"]` (NEXT_STEP, Gymnasium's default, when
     absent); ValueError for DISABLED or an unknown value."""

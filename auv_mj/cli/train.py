@@ -20,6 +20,7 @@ import auv_mj  # noqa: F401  (registers the auv_mj Gymnasium ids)
 from auv_mj import zoo
 from auv_mj.agents import ppo
 from auv_mj.agents.checkpoint import read_checkpoint, saved_config
+from auv_mj.agents.imitation import DaggerConfig
 from auv_mj.agents.offpolicy.ddpg import EPSILON_UNITS, DDPGConfig, field_docs
 from auv_mj.agents.offpolicy.learners import agent_classes
 from auv_mj.agents.offpolicy.td3 import TD3Config
@@ -46,6 +47,7 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.inputs import check_json_depth, did_you_mean, read_text, unknown_name
+from auv_mj.jobs.student import train_student
 from auv_mj.planners.deploy import ChainConfig, deploy_env
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
@@ -122,10 +124,13 @@ TASK_KWARGS_NAME = "task_kwargs.json"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj train AGENT --task TASK ...`; every DDPGConfig field is an option."""
-    parser.add_argument("agent", choices=(*AGENTS, "ppo"),
+    parser.add_argument("agent", choices=(*AGENTS, "ppo", "dagger"),
                         help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading) | td3 (DDPG with twin "
                              "critics, delayed actor, target smoothing; any task) | ppo (--task planning-mix: "
-                             "the batched mixture of planning tasks, tiers and waters; options under 'ppo')")
+                             "the batched mixture of planning tasks, tiers and waters; options under 'ppo') | "
+                             "dagger (a sensor-only student of the privileged geodesic-teacher on one batched "
+                             "planning task, then PPO with a decaying imitation term for --steps; options under "
+                             "'dagger')")
     parser.add_argument("--task", required=True, help="suite task name ("
                         + "; ".join(f"domain {d}: {', '.join(names)}" for d, names in suite.TASKS_BY_DOMAIN.items())
                         + f"), {PPO_TASK} (ppo) or a Gymnasium id (auv_mj/...-v0)")
@@ -161,6 +166,39 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "second core; deterministic given --seed and N, not the serial run) (default: 0, serial)")
     add_config_options(parser)
     add_ppo_options(parser)
+    add_dagger_options(parser)
+
+
+def add_dagger_options(parser: argparse.ArgumentParser) -> None:
+    """Options of `auv-mj train dagger --task TASK`: the batch and one `--dagger-FIELD` per DaggerConfig number
+    (defaults: `auv_mj.agents.imitation.DaggerConfig`), and the fine-tune's imitation weight."""
+    group = parser.add_argument_group("dagger (--task obstacles | moving_obstacles | tunnel | goal; --task-kwargs "
+                                      "over the student's problem, hard tier, action rate, reward geodesic, "
+                                      "observation planner; --steps: PPO fine-tune steps after DAgger, default 0)")
+    group.add_argument("--num-envs", type=positive_int, default=16, help="vehicles of the batch (default 16)")
+    for f in dataclasses.fields(DaggerConfig):
+        if f.type in ("int", "float") and f.name not in ("seed", "torch_threads"):
+            group.add_argument(f"--dagger-{f.name.replace('_', '-')}", dest="dagger_" + f.name,
+                               type=int if f.type == "int" else float, help=f"DaggerConfig.{f.name}")
+    group.add_argument("--imitation-coef", type=float, help="the fine-tune's imitation weight at its start, "
+                       "decaying linearly to 0 (default 1)")
+
+
+def _run_dagger(args: argparse.Namespace) -> int:
+    """`auv-mj train dagger`: `auv_mj.jobs.student.train_student`."""
+    try:
+        run_dir = args.run_dir or Path("runs") / f"dagger-{args.task}" / f"seed{args.seed or 0}"
+        overrides = {f.name: getattr(args, "dagger_" + f.name) for f in dataclasses.fields(DaggerConfig)
+                     if getattr(args, "dagger_" + f.name, None) is not None}
+        if args.seed is not None:
+            overrides["seed"] = args.seed
+        result = train_student(run_dir, args.task, task_kwargs(args) or None, args.num_envs,
+                               DaggerConfig(**overrides), args.steps or 0, resume=args.resume, threads=args.threads,
+                               progress=not args.no_progress, imitation_coef=args.imitation_coef)
+    except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
+        usage_error(args, str(exc))
+    print(json.dumps(result, indent=2, default=str))
+    return 0
 
 
 PPO_PRESETS = {"shipped": (PLANNER_CONFIG, MixtureConfig()), "learned": (LEARNED_CONFIG, LEARNED_MIXTURE)}
@@ -324,6 +362,8 @@ def run(args: argparse.Namespace) -> int:
     """Runs `auv-mj train`; returns the exit status."""
     if args.agent == "ppo":
         return _run_ppo(args)
+    if args.agent == "dagger":
+        return _run_dagger(args)
     if args.collectors < 0:
         usage_error(args, f"--collectors must be >= 0, got {args.collectors}")
     try:

@@ -45,6 +45,7 @@ from auv_mj.planners.guidance import classical, is_goal_task, line_of_sight
 from auv_mj.planners.los3d import classical_3d, los_policy
 from auv_mj.planners.map_planner import fast_line_of_sight, sonar_map_planner, true_map_planner
 from auv_mj.planners.map_planner3d import sonar_voxel_planner, true_voxel_planner
+from auv_mj.planners.teacher import geodesic_teacher
 from auv_mj.tasks import domains as suite_domains
 from auv_mj.tasks import suite
 from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
@@ -217,6 +218,11 @@ register("oracle", PolicySpec("plans on the true map (every geom, movers where t
                                         auv3d=lambda d: true_voxel_planner(d.env)),
                               family="reference", tasks="planning",
                               protection="speed-aware", role="reference", domains=BOTH))
+register("geodesic-teacher", PolicySpec("the privileged teacher of the learned planner: steers down the episode's "
+                                        "geodesic field on the true map, round the movers where they truly are, in "
+                                        "action=\"rate\" (`auv_mj.planners.teacher`); it uses the true map",
+                                        lambda d: geodesic_teacher(d.env), family="reference", tasks="planning",
+                                        role="reference"))
 register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference",
                               role="reference", domains=BOTH))
 

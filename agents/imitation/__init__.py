@@ -1,0 +1,23 @@
+"""Imitation of a privileged teacher (issue 51): DAgger for a recurrent student (`auv_mj.agents.imitation.dagger`)."""
+
+from auv_mj.agents.imitation.dagger import (
+    CHECKPOINT_NAME,
+    LOG_NAME,
+    STUDENT_NAME,
+    DaggerConfig,
+    DaggerResult,
+    Sequences,
+    collect,
+    evaluate_student,
+    finetune,
+    fit,
+    imitation_loss,
+    student_inputs,
+    student_spec,
+    student_view,
+    train_dagger,
+)
+
+__all__ = ["CHECKPOINT_NAME", "LOG_NAME", "STUDENT_NAME", "DaggerConfig", "DaggerResult", "Sequences", "collect",
+           "evaluate_student", "finetune", "fit", "imitation_loss", "student_inputs", "student_spec", "student_view",
+           "train_dagger"]

@@ -1,0 +1,202 @@
+"""The privileged teacher and its student (issue 51, item 5): `geodesic-teacher`, DAgger and PPO's imitation term.
+
+The teacher must reach the goal where line of sight crashes into a trap, and its batched face must label as the per-env
+one does. DAgger (Ross et al. 2011) must label the states the student visits with the teacher's actions, aggregate
+them round by round, fit them, and resume to the run it interrupts.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from auv_mj.agents.checkpoint import read_checkpoint
+from auv_mj.agents.imitation import CHECKPOINT_NAME, DaggerConfig, Sequences, collect, fit, imitation_loss, train_dagger
+from auv_mj.agents.ppo import Minibatch, PPOConfig, build_model, ppo_loss
+from auv_mj.agents.ppo.ppo import imitation_weight
+from auv_mj.planners.teacher import BatchTeacher, geodesic_teacher
+from auv_mj.tasks import suite
+from auv_mj.tasks.vector import AUVVectorEnv
+from auv_mj.zoo import env_and_policy
+
+HARD = {"arena": "random", "tier": "hard", "action": "rate", "reward": "geodesic", "observation": "planner"}
+"""The student's problem."""
+TINY = DaggerConfig(rounds=2, steps_per_round=6, epochs=2, batch_sequences=2, hidden_sizes=(16,), recurrent_size=8,
+                    validation_episodes=0)
+"""A DAgger run of seconds."""
+
+
+def _run(env, policy) -> dict:
+    time_step = env.reset()
+    while not time_step.last():
+        time_step = env.step(policy(time_step))
+    return env.task.last_info
+
+
+def test_the_teacher_reaches_an_open_water_goal():
+    env = suite.load("auv", "goal", task_kwargs={"action": "rate", "random": 0})  # no potential: it searches one
+    info = _run(env, geodesic_teacher(env))
+    assert info["event"] == "goal"
+
+
+@pytest.mark.parametrize(("task", "seed"), [("obstacles", 0), ("tunnel", 1)])
+def test_the_teacher_goes_round_the_trap_that_line_of_sight_crashes_into(task, seed):
+    """The certified hard-tier arenas of tests/test_learning_problem.py's TRAP_CASES, where `splane` crashes."""
+    env, policy = env_and_policy("splane", task, seed, {"arena": "random", "tier": "hard"})
+    assert _run(env, policy)["collision"]
+    env, policy = env_and_policy("geodesic-teacher", task, seed, HARD)
+    info = _run(env, policy)
+    assert info["event"] == "goal" and not info["collision"]
+
+
+def test_the_batched_teacher_labels_each_row_as_the_per_env_teacher_does():
+    seeds = [20000, 20001, 20002]
+    vec = AUVVectorEnv("obstacles", num_envs=3, task_kwargs=HARD, threads=1)
+    vec.reset(seed=seeds)
+    teacher = BatchTeacher(vec)
+    for _ in range(3):
+        batched = teacher.actions()
+        vec.step(batched)
+    batched = teacher.actions()
+    for k, seed in enumerate(seeds):
+        env = suite.load("auv", "obstacles", task_kwargs={**HARD, "random": seed})
+        one = geodesic_teacher(env)
+        time_step = env.reset()
+        for _ in range(3):
+            time_step = env.step(one(time_step))
+        np.testing.assert_allclose(one(time_step), batched[k], atol=1e-9)
+    vec.close()
+
+
+class _Spy:
+    """A teacher whose label is a function of the true position now, recording the positions it was asked at."""
+
+    def __init__(self, env, scale: float = 1.0):
+        self.env, self.scale, self.asked = env, scale, []
+
+    def __call__(self) -> np.ndarray:
+        position = self.env.privileged_state()["position"]
+        self.asked.append(position.copy())
+        return self.scale * np.tanh(np.stack([np.sin(position[:, 0]), np.cos(position[:, 1])], axis=1))
+
+
+def test_dagger_labels_are_the_teachers_actions_at_the_states_the_student_drove_to():
+    env = AUVVectorEnv("obstacles", num_envs=2, task_kwargs=HARD, threads=1)
+    model = build_model(*_student(env, TINY))
+    seeds = [1_000_001, 1_000_002]
+    spy = _Spy(env)
+    data = collect(env, model, spy, 8, 0.0, seeds, np.random.default_rng(0))
+    expected = np.tanh(np.stack([np.sin(np.array(spy.asked)[..., 0]), np.cos(np.array(spy.asked)[..., 1])], -1))
+    np.testing.assert_allclose(data.labels, expected, atol=1e-6)
+    assert not data.teacher_drove.any()
+    other = _Spy(env, scale=-1.0)  # other labels, the same student: the same states
+    collect(env, model, other, 8, 0.0, seeds, np.random.default_rng(0))
+    np.testing.assert_array_equal(np.array(other.asked), np.array(spy.asked))
+    driven = _Spy(env, scale=-1.0)  # the teacher drives: other states
+    collect(env, model, driven, 8, 1.0, seeds, np.random.default_rng(0))
+    assert not np.allclose(np.array(driven.asked)[1:], np.array(spy.asked)[1:])
+    env.close()
+
+
+def _student(env, config: DaggerConfig):
+    from auv_mj.agents.imitation import student_spec
+    return student_spec(env), config.student_config()
+
+
+def test_the_dataset_grows_each_round_and_resume_gives_the_uninterrupted_run(tmp_path):
+    def run(path, stop_after: int | None = None):
+        env = AUVVectorEnv("obstacles", num_envs=2, task_kwargs=HARD, threads=1)
+        teacher, calls = BatchTeacher(env), [0]
+
+        def label():
+            calls[0] += 1
+            if stop_after is not None and calls[0] > stop_after:
+                raise KeyboardInterrupt
+            return teacher.actions()
+
+        try:
+            return train_dagger(env, label, path, TINY, progress=False)
+        finally:
+            env.close()
+
+    whole = run(tmp_path / "a")
+    assert [row["dataset_steps"] for row in whole.log] == sorted({row["dataset_steps"] for row in whole.log})
+    assert whole.log[0]["dataset_steps"] < whole.log[1]["dataset_steps"]
+    assert whole.log[0]["teacher_share"] == 1.0 and whole.log[1]["teacher_share"] == 0.0
+    with pytest.raises(KeyboardInterrupt):
+        run(tmp_path / "b", stop_after=TINY.steps_per_round)
+    assert read_checkpoint(tmp_path / "b" / CHECKPOINT_NAME, "dagger").metadata["counters"]["rounds"] == 1
+    env = AUVVectorEnv("obstacles", num_envs=2, task_kwargs=HARD, threads=1)
+    resumed = train_dagger(env, BatchTeacher(env).actions, tmp_path / "b", resume=True, progress=False)
+    env.close()
+    assert resumed.rounds == 2 and resumed.dataset_steps == whole.dataset_steps
+    a = read_checkpoint(tmp_path / "a" / CHECKPOINT_NAME, "dagger").tensors
+    b = read_checkpoint(tmp_path / "b" / CHECKPOINT_NAME, "dagger").tensors
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    assert a["data.obs"].shape[1] == 4  # two rounds of two vehicles
+
+
+def test_behaviour_cloning_drives_the_loss_down_on_a_toy_problem():
+    """Labels that a memory must carry: the sign of the sequence's first input, held through the sequence."""
+    rng = np.random.default_rng(0)
+    T, N = 12, 32
+    obs = rng.normal(size=(T, N, 3)).astype(np.float32)
+    first = np.sign(obs[0, :, 0])
+    labels = np.stack([np.broadcast_to(first, (T, N)), 0.5 * np.tanh(obs[..., 1])], -1).astype(np.float32)
+    starts = np.zeros((T, N), np.float32)
+    starts[0] = 1
+    data = Sequences(obs, starts, np.ones((T, N), np.float32), labels, np.zeros((T, N), np.float32))
+    config = dataclasses.replace(TINY, epochs=150, batch_sequences=8, learning_rate=3e-3, hidden_sizes=(32,),
+                                 recurrent_size=16)
+    spec = {"kind": "box", "obs_shape": [3], "obs_dim": 3, "act_dim": 2, "act_shape": [2],
+            "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0]}
+    model = build_model(spec, config.student_config())
+    model.norm_obs = False
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate)
+    before, after = fit(model, optimizer, data, config, torch.Generator().manual_seed(0))
+    assert after < 0.2 * before
+    with torch.no_grad():
+        assert float(imitation_loss(model, data)) == pytest.approx(after)
+
+
+def test_the_imitation_weight_decays_as_configured_and_enters_the_loss():
+    config = PPOConfig(imitation_coef=2.0, min_imitation_coef=0.5, imitation_schedule="linear", recurrent="gru",
+                       hidden_sizes=(8,), recurrent_size=4)
+    assert [imitation_weight(config, s, 100) for s in (0, 50, 100, 200)] == [2.0, 1.25, 0.5, 0.5]
+    assert imitation_weight(dataclasses.replace(config, imitation_schedule="constant"), 90, 100) == 2.0
+    with pytest.raises(ValueError):
+        PPOConfig(imitation_coef=0.1, min_imitation_coef=0.2)
+    spec = {"kind": "box", "obs_shape": [3], "obs_dim": 3, "act_dim": 2, "act_shape": [2],
+            "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0]}
+    model = build_model(spec, config)
+    T, B = 5, 2
+    ones, zeros = torch.ones(T, B), torch.zeros(T, B)
+    labels = torch.full((T, B, 2), 0.7)
+    batch = Minibatch(torch.randn(T, B, 3), zeros, model.initial_state(B), torch.zeros(T, B, 2), zeros, zeros, ones,
+                      ones, ones, None, labels)
+    plain, _ = ppo_loss(model, batch, config, imitation=0.0)
+    with_term, stats = ppo_loss(model, batch, config, imitation=1.5)
+    assert float((with_term - plain).detach()) == pytest.approx(1.5 * float(stats["imitation_loss"]), rel=1e-5)
+    with torch.no_grad():
+        action_mean, _ = model.act(batch.obs, batch.starts, batch.state[:, :model.actor_state_size])
+    expected = float(((action_mean - labels) ** 2).sum(-1).mean())
+    assert float(stats["imitation_loss"]) == pytest.approx(expected, rel=1e-5) and expected > 0
+
+
+def test_auv_mj_train_dagger_runs_and_resumes_into_the_fine_tune(tmp_path):
+    command = [sys.executable, "-m", "auv_mj.cli", "train", "dagger", "--task", "obstacles", "--num-envs", "4",
+               "--dagger-rounds", "1", "--dagger-steps-per-round", "4", "--dagger-epochs", "1",
+               "--dagger-validation-episodes", "0", "-o", str(tmp_path), "--no-progress", "--threads", "1"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "student.pt").is_file() and (tmp_path / "dagger.csv").is_file()
+    assert read_checkpoint(tmp_path / "student.pt", "ppo").metadata["spec"]["kind"] == "box"
+    again = subprocess.run(command + ["--resume", "--steps", "64"], capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    tuned = read_checkpoint(tmp_path / "ppo" / "checkpoint.pt", "ppo")
+    assert tuned.metadata["config"]["imitation_coef"] == 1.0 and tuned.metadata["config"]["recurrent_size"] == 128
