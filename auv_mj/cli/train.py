@@ -65,7 +65,7 @@ def task_env_id(task: str) -> str:
         return TASK_IDS[task]
     if "/" in task or ":" in task:
         return task
-    if task in suite.TASKS_BY_DOMAIN[suite.DOMAIN] + suite.TASKS_BY_DOMAIN[suite.DOMAIN_3D]:
+    if any(task in names for names in suite.TASKS_BY_DOMAIN.values()):
         return gym_id(task)
     camel = "".join(part[:1].upper() + part[1:] for part in re.split(r"[-_\s]+", task) if part)
     env_id = f"auv_mj/{camel}-v0"

@@ -84,12 +84,17 @@ from auv_mj.zoo.spec import (
 
 
 def _splane_ocean(deployment: Deployment) -> Planner:
-    """Line of sight on a planning task (its executor set by `make_env`); the re-tuned S-plane on speed_heading
-    (`OCEAN_GAINS`) and on depth_heading (`OCEAN_DEPTH_GAINS`)."""
+    """Line of sight on a planar planning task (its executor set by `make_env`); the re-tuned S-plane on
+    speed_heading (`OCEAN_GAINS`)."""
     env = deployment.env
-    if deployment.domain == DOMAIN_3D:
-        return splane_policy(env, OCEAN_DEPTH_GAINS) if isinstance(env.task, DepthHeading) else los_policy(env)
     return line_of_sight(env) if is_goal_task(env) else executor_policy(env, named_executor("splane-ocean"))
+
+
+def _splane_ocean_3d(deployment: Deployment) -> Planner:
+    """3-D line of sight on a 6-DOF planning task; the re-tuned depth-heading S-plane on depth_heading
+    (`OCEAN_DEPTH_GAINS`)."""
+    env = deployment.env
+    return splane_policy(env, OCEAN_DEPTH_GAINS) if isinstance(env.task, DepthHeading) else los_policy(env)
 
 
 def _learned(description: str, checkpoint: str, **kwargs: Any) -> PolicySpec:
@@ -173,7 +178,7 @@ register("splane", PolicySpec("the classical baseline: line of sight + the S-pla
                               domains=BOTH))
 register("splane-ocean", PolicySpec("the S-plane baseline with its gains re-tuned in ocean water "
                                     "(`auv_mj.control.splane.OCEAN_GAINS`; auv3d: the depth-heading S-plane's, "
-                                    "`OCEAN_DEPTH_GAINS`)", _splane_ocean,
+                                    "`OCEAN_DEPTH_GAINS`)", by_domain(auv=_splane_ocean, auv3d=_splane_ocean_3d),
                                     default_executor="splane-ocean", role="reference", domains=BOTH))
 register("los-avoid", PolicySpec("line of sight along the route with the paper's protection domain: the classical "
                                  "local planner (auv3d: 3-D line of sight, the domain on the 3-D fan)",
