@@ -3,29 +3,15 @@ complete, and a tunnel a user authors goes through build, check, eval, render an
 
 import json
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from cli_runner import refused as _refused
+from cli_runner import run as _run
 
 from auv_mj.benchmark import runner
-
-AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
-ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-
-
-def _run(*args, timeout=300, cwd=None):
-    return subprocess.run([*AUV_MJ, *map(str, args)], capture_output=True, text=True, timeout=timeout, env=ENV,
-                          cwd=cwd)
-
-
-def _refused(done, *words):
-    assert done.returncode == 2, (done.returncode, done.stdout, done.stderr)
-    assert "Traceback" not in done.stderr
-    for word in words:
-        assert word in done.stderr, done.stderr
 
 
 @pytest.mark.parametrize(("args", "words"), [

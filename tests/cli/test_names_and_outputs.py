@@ -2,31 +2,13 @@
 refused name suggests the nearest valid one and lists the valid set, a tube CSV reads as a planar one does, the help
 says what the commands do under one name per concept, and `auv-mj ... | head` ends quietly."""
 
-import os
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
-
-ROOT = Path(__file__).resolve().parents[2]
-AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
-ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),  # this checkout's auv_mj, from any folder
-       "PYTHONPATH": os.pathsep.join([str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}
-
-
-def _run(*args, timeout=300, cwd=None):
-    return subprocess.run([*AUV_MJ, *map(str, args)], capture_output=True, text=True, timeout=timeout, env=ENV,
-                          cwd=cwd)
-
-
-def _refused(done, *words):
-    assert done.returncode == 2, (done.returncode, done.stdout, done.stderr)
-    assert "Traceback" not in done.stderr
-    for word in words:
-        assert word in done.stderr, done.stderr
-
+from cli_runner import AUV_MJ, ENV
+from cli_runner import refused as _refused
+from cli_runner import run as _run
 
 # --- item 12: a closed pipe ------------------------------------------------------------------------------------
 
