@@ -1,4 +1,4 @@
-"""The suite domain "auv3d" (issue 32): the 6-DOF REMUS-100 (`models/auv3d.xml`) in depth.
+"""The suite domain "auv3d" (issue 32): the 6-DOF REMUS-100 (`models/auv6.xml`) in depth.
 
 - `depth_heading`: the execution layer in 3-D. Each EXECUTOR_DT = 0.1 s the agent sees the command (V, psi,
   depth) and the vehicle's sensors and sets (thrust, rudder, stern), scaled from [-1, 1]^3 by the actuator

@@ -36,7 +36,8 @@ class Domain:
     """The vehicle's physics class (its tasks' physics derive from it): `isinstance(env.physics, physics)` says an
     environment is of this domain."""
     vehicle: str
-    """The vehicle's MJCF in models/ (`auv_mj.assets.model_path`)."""
+    """The vehicle's MJCF in models/ (`auv_mj.assets.model_path`). The 6-DOF vehicle's file keeps its published name,
+    `auv6.xml` (users' arenas and tools name it), while the code's 3-D modules all say "3d"."""
     executors: Mapping[str, Callable[[], Any]]
     """The classical executors by name, which the tasks build themselves (the S-planes of Eq. 32)."""
     executor_plugins: str
@@ -55,7 +56,7 @@ DOMAINS: dict[str, Domain] = {
     "auv": Domain("auv", "planar", SUITE, AUVPhysics, "auv.xml",
                   {"splane": SPlaneController, "splane-ocean": lambda: SPlaneController(OCEAN_GAINS)},
                   "auv_mj.executors", "auv_mj.render.frame:FrameRenderer"),
-    DOMAIN_3D: Domain(DOMAIN_3D, "6-DOF", SUITE3D, AUV3DPhysics, "auv3d.xml",
+    DOMAIN_3D: Domain(DOMAIN_3D, "6-DOF", SUITE3D, AUV3DPhysics, "auv6.xml",
                          {"splane": DepthHeadingController,
                           "splane-ocean": lambda: DepthHeadingController(OCEAN_DEPTH_GAINS)},
                          "auv_mj.executors_3d", "auv_mj.render.frame3d:FrameRenderer3D"),

@@ -1,4 +1,4 @@
-"""3-D arenas around the 6-DOF vehicle (issue 32): the vehicle MJCF (`models/auv3d.xml`) with an arena's world.
+"""3-D arenas around the 6-DOF vehicle (issue 32): the vehicle MJCF (`models/auv6.xml`) with an arena's world.
 
 An arena is MJCF whose `<worldbody>` holds static geoms (a seabed, obstacles, a tube's walls) and sites (start,
 goal) and whose `<custom>` may hold numerics (a tube's centreline); `compose_xml` copies them into the vehicle's
@@ -17,7 +17,7 @@ from auv_mj.assets import model_path
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
 from auv_mj.sim.hydro3d import ACTUATORS
 
-VEHICLE_XML = "auv3d.xml"
+VEHICLE_XML = "auv6.xml"
 LAG_DYNTYPE = "filterexact"
 SEABED_GEOM = "seabed"
 """Name of an arena's seabed plane (the altimeter's target)."""

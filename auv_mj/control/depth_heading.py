@@ -29,11 +29,11 @@ from auv_mj.geometry import wrap_angle
 EXECUTOR_DT = 0.1
 """The 3-D executor's period [s], as the planar executor's."""
 THRUST_LIMIT = 20.0
-"""|thrust| of the `thrust` actuator [N] (models/auv3d.xml ctrlrange)."""
+"""|thrust| of the `thrust` actuator [N] (models/auv6.xml ctrlrange)."""
 FIN_LIMIT = 0.237
-"""|fin angle| [rad]: Prestero's stall angle, the `rudder` and `stern` ctrlrange of models/auv3d.xml."""
+"""|fin angle| [rad]: Prestero's stall angle, the `rudder` and `stern` ctrlrange of models/auv6.xml."""
 SURGE_DRAG = 1.62
-"""-X_uu [N s^2/m^2] of models/auv3d.xml (Prestero's axial drag), for the thrust feed-forward."""
+"""-X_uu [N s^2/m^2] of models/auv6.xml (Prestero's axial drag), for the thrust feed-forward."""
 
 
 @dataclass(frozen=True)

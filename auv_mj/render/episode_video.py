@@ -145,6 +145,16 @@ class LiveView:
             self._renderer = None
 
 
+def closing_frames(bar, snap, recorder, max_steps: int | None, frame, hold_end: float,
+                   fps: float) -> Iterator[np.ndarray]:
+    """The end of an episode's video, planar and 6-DOF alike: the bar's last word (the outcome, or "cut" where
+    --max-steps stopped it) and the last frame held for `hold_end` seconds."""
+    if bar is not None:
+        bar.finish(snap.success, outcome_label(outcome([snap.event]), recorder.cut, max_steps))
+    for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
+        yield frame.copy()
+
+
 def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAULT_SIZE[0],
                 height: int = DEFAULT_SIZE[1], camera: str = "both", fps: float = DEFAULT_FPS,
                 speedup: float | None = None, follow_view: float = FOLLOW_VIEW,
@@ -184,10 +194,7 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
                 next_time += frame_dt
             previous = snap
             bar.advance(made_good(route, snap.pose[:2]) if route is not None else None, snap.step)
-        if bar is not None:
-            bar.finish(snap.success, outcome_label(outcome([snap.event]), recorder.cut, max_steps))
-        for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
-            yield frame.copy()
+        yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
     finally:
         if bar is not None:
             bar.close()

@@ -25,13 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
-from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
+from auv_mj.episode import EpisodeRecorder
 from auv_mj.render import glbackend
 from auv_mj.render.episode_video import (
     DEFAULT_HOLD_END,
     EVENT_HOLD,
     TIME_TOLERANCE,
     RenderBar,
+    closing_frames,
     episode_output,
     frame_bound,
     step_bound,
@@ -204,10 +205,7 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
                 next_time += frame_dt
             previous = state
             bar.advance(state.progress * route if route is not None else None, snap.step)
-        if bar is not None:
-            bar.finish(snap.success, outcome_label(outcome([snap.event]), recorder.cut, max_steps))
-        for _ in range(int(round(hold_end * fps)) if frame is not None else 0):
-            yield frame.copy()
+        yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
     finally:
         if bar is not None:
             bar.close()

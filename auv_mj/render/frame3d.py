@@ -5,7 +5,7 @@ This module holds the drawing of a single instant: the frame's layout (`Layout`)
 `auv_mj.render.episode_video3d`.
 
 A frame (DEFAULT_SIZE, 1280 x 720) holds three labelled panels drawn by MuJoCo from one off-screen buffer: the
-chase camera of the vehicle MJCF (`models/auv3d.xml`, two thirds of the frame), a top-down view (north up, as the
+chase camera of the vehicle MJCF (`models/auv6.xml`, two thirds of the frame), a top-down view (north up, as the
 planar videos) and a side view from the vehicle's starboard, both centred on the vehicle. Every panel shows the
 sonar fan (its 27 beams from the bow to their echoes, coloured by range; beams without an echo faint and cut at
 FAN_DRAWN), the tube's or arena's geoms, the movers where they are, and the goal. On top, in numpy

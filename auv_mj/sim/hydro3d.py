@@ -73,7 +73,7 @@ SYMMETRY_TOLERANCE = 1e-9
 
 @dataclass(frozen=True)
 class Hydro3DCoefficients:
-    """Prestero's derivatives in SNAME notation, SI units, FRD frame (the tables are cited in models/auv3d.xml)."""
+    """Prestero's derivatives in SNAME notation, SI units, FRD frame (the tables are cited in models/auv6.xml)."""
 
     X_udot: float
     Y_vdot: float

@@ -1,4 +1,4 @@
-"""`AUV3DPhysics`: a dm_control Physics for the 6-DOF REMUS-100 (`models/auv3d.xml`) with `auv_mj.sim.hydro3d` on.
+"""`AUV3DPhysics`: a dm_control Physics for the 6-DOF REMUS-100 (`models/auv6.xml`) with `auv_mj.sim.hydro3d` on.
 
 The contract of a 6-DOF vehicle MJCF (checked at load, a ValueError names the file and the element): one free
 joint `root` on the vehicle body and no other joint; actuators `thrust` [N], `rudder` [rad] and `stern` [rad] in

@@ -222,7 +222,7 @@ def _ctrlranges(name: str) -> np.ndarray:
 
 
 def actuator_ranges(name: str = "auv.xml") -> tuple[np.ndarray, np.ndarray]:
-    """(low, high) of the actuators' ctrlranges of the shipped vehicle `name` (`auv.xml`, or `auv3d.xml` for the
+    """(low, high) of the actuators' ctrlranges of the shipped vehicle `name` (`auv.xml`, or `auv6.xml` for the
     6-DOF vehicle), read from the compiled vehicle alone: what an executor built outside a task scales its output by."""
     low, high = _ctrlranges(name).T.copy()
     return low, high

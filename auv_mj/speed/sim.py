@@ -91,7 +91,7 @@ def physics_section(settings: BenchSettings) -> list[Measurement]:
 def physics3d_section(settings: BenchSettings) -> list[Measurement]:
     """AUV3DPhysics.step (the 6-DOF water forces of `auv_mj.sim.hydro3d` in the step) against plain mj_step of the
     same compiled model (issue 32: at most 1.5x), and its NumPy reference loop."""
-    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     set_pose(physics, (0.0, 0.0, -20.0), nu=(1.5, 0.0, 0.0, 0.0, 0.0, 0.0))
     physics.set_control([10.0, 0.1, 0.05])
     physics.step(1000)  # a moving, turning, diving vehicle

@@ -1,4 +1,4 @@
-"""An independent linear model of the 6-DOF REMUS (`models/auv3d.xml`) and the simulator probes that test it.
+"""An independent linear model of the 6-DOF REMUS (`models/auv6.xml`) and the simulator probes that test it.
 
 The linear model (`Linear6`) is Fossen's (2011) body-frame equation
 
@@ -229,7 +229,7 @@ class Linear6:
         return 2.0 * math.pi / math.sqrt(inertia * (zg * weight + surge))
 
     def pitch_alone_period(self) -> float:
-        """[s] 2 pi sqrt((I_yy - M_qdot) / (z_g W)): pitch with every other motion held, as models/auv3d.xml's
+        """[s] 2 pi sqrt((I_yy - M_qdot) / (z_g W)): pitch with every other motion held, as models/auv6.xml's
         header used to give for the vehicle (its I_yy about the CG; the centre of buoyancy adds m z_g^2)."""
         return 2.0 * math.pi * math.sqrt((self.inertia[1] - self.c.M_qdot) / (self.z_g * self.weight))
 
@@ -335,7 +335,7 @@ def main() -> None:
     from auv_mj import model_path
     from auv_mj.sim.physics3d import AUV3DPhysics
 
-    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     model = Linear6.from_physics(physics)
     c, u0 = model.c, CRUISE_SPEED
     print(f"m = {model.m} kg, W = {model.weight:.3f} N, B = {c.B} N, B - W = {c.B - model.weight:.3f} N, "
@@ -365,7 +365,7 @@ def main() -> None:
     print(f"  as built, about the rising equilibrium                 {period:.3f} s  (roots {roots})")
     print(f"  formula at the rise rate sqrt((B - W) / -Z_ww)         "
           f"{model.pitch_period_formula(math.sqrt((c.B - model.weight) / -c.Z_ww)):.3f} s")
-    measured, amplitude = release_pitch_period(AUV3DPhysics.from_xml_path(model_path("auv3d.xml")))
+    measured, amplitude = release_pitch_period(AUV3DPhysics.from_xml_path(model_path("auv6.xml")))
     print(f"  simulator, released at rest at {RELEASE_PITCH} rad                {measured:.3f} s  "
           f"(pitch amplitude {amplitude:.4f} rad after {RELEASE_TIME:g} s)")
     heavy_drag = model.replace(Z_ww=c.Y_vv)
@@ -374,7 +374,7 @@ def main() -> None:
           f"{heavy_drag.pitch_period(rise[0], rise[1]):.3f} s")
 
     duration = 300.0
-    run = open_loop_run(AUV3DPhysics.from_xml_path(model_path("auv3d.xml")), u0, thrust, duration)
+    run = open_loop_run(AUV3DPhysics.from_xml_path(model_path("auv6.xml")), u0, thrust, duration)
     late = run[:, 0] >= 100.0
     t, heading = run[late, 0], np.unwrap(run[late, 6])
     turn = np.polyfit(t, heading, 1)[0]
@@ -392,11 +392,11 @@ def main() -> None:
     reference = Reference3D.from_xml().solve(start, duration, lambda t: (thrust, 0.0, 0.0))
     print(f"  the scipy reference (tests/reference/vehicle3d_reference.py): depth {reference(duration)[2]:.2f} m "
           f"against the simulator's {run[-1, 3]:.2f} m")
-    text = model_path("auv3d.xml").read_text()
+    text = model_path("auv6.xml").read_text()
     for name, old, new in (("B = W", f'name="hydro_B" data="{c.B!r}"', f'name="hydro_B" data="{model.weight!r}"'),
                            ("B = W and no propeller torque", 'gear="1 0 0 -0.1407 0 0"', 'gear="1 0 0 0 0 0"')):
         if old not in text:
-            raise RuntimeError(f"models/auv3d.xml has no {old}")
+            raise RuntimeError(f"models/auv6.xml has no {old}")
         text = text.replace(old, new)
         run = open_loop_run(AUV3DPhysics.from_xml_string(text), u0, thrust, duration)
         print(f"  and with {name}: depth change {run[-1, 3] - run[0, 3]:+.3f} m, heading change "

@@ -1,4 +1,4 @@
-"""An independent 6-DOF reference for the tests of `models/auv3d.xml`: Fossen's equations integrated by scipy.
+"""An independent 6-DOF reference for the tests of `models/auv6.xml`: Fossen's equations integrated by scipy.
 
 Nothing here calls auv_mj: the coefficients and the rigid body are read from the MJCF with ElementTree, and the
 equations are written in Prestero's frames (body x forward, y starboard, z down; world north, east, down) with
@@ -24,7 +24,7 @@ from scipy.integrate import solve_ivp
 
 from auv_mj import model_path
 
-VEHICLE3D_XML = model_path("auv3d.xml")
+VEHICLE3D_XML = model_path("auv6.xml")
 GRAVITY = 9.81
 FLIP = np.array([1.0, -1.0, -1.0])
 """MuJoCo's frames (body x forward, y port, z up; world z up) to Prestero's (FRD; NED): a half turn about x."""

@@ -1,4 +1,4 @@
-"""The 6-DOF vehicle (`models/auv3d.xml`, `auv_mj.sim.hydro3d`) against independent maths (issue 32).
+"""The 6-DOF vehicle (`models/auv6.xml`, `auv_mj.sim.hydro3d`) against independent maths (issue 32).
 
 The reference is Fossen's equations in Prestero's frames, integrated by scipy (tests/reference/vehicle3d_reference.py).
 The manoeuvre is closed-loop, a yaw zig-zag with a dive to 30 m and a climb back, so that an open-loop
@@ -62,7 +62,7 @@ def reference_solution():
 @functools.cache
 def manoeuvre(timestep: float):
     """(times, positions, attitudes, fin commands) of the simulator over the manoeuvre."""
-    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     physics.model.opt.timestep = timestep
     physics.model.opt.wind[:] = CURRENT
     set_pose(physics, (0.0, 0.0, -START_DEPTH), nu=NU0)
@@ -89,7 +89,7 @@ def errors(timestep: float) -> tuple[float, float]:
 
 
 def test_zigzag_dive_and_climb_match_the_scipy_reference_at_the_default_timestep():
-    assert AUV3DPhysics.from_xml_path(model_path("auv3d.xml")).model.opt.timestep == 0.01
+    assert AUV3DPhysics.from_xml_path(model_path("auv6.xml")).model.opt.timestep == 0.01
     position_error, attitude_error = errors(0.01)
     assert position_error <= 0.5
     assert attitude_error <= 0.05
@@ -113,7 +113,7 @@ def test_halving_the_timestep_halves_the_error():
 
 @pytest.mark.parametrize("timestep", [0.002, 0.005, 0.01, 0.02, 0.05])
 def test_random_full_range_controls_stay_finite_and_bounded(timestep):
-    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     physics.model.opt.timestep = timestep
     set_pose(physics, (0.0, 0.0, -30.0), nu=(1.5, 0.0, 0.0, 0.0, 0.0, 0.0))
     rng = np.random.default_rng(int(timestep * 1000))
@@ -158,7 +158,7 @@ def test_pitch_oscillation_period_matches_the_small_angle_closed_form():
 
 
 def test_the_positively_buoyant_vehicle_returns_to_trim_and_rises():
-    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     set_pose(physics, (0.0, 0.0, -20.0), pitch=0.2)
     physics.step(6000)
     assert abs(physics.attitude()[1]) < 0.01
@@ -179,7 +179,7 @@ def test_each_fin_force_is_its_closed_form(case, current):
     in Prestero's frame, turned into MuJoCo's (y, z, pitch and yaw flip) and rotated to the world."""
     rudder, stern = FIN_CASES[case]
     c = read_numerics()
-    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     physics.model.opt.wind[:] = current
     set_pose(physics, (0.0, 0.0, -20.0), roll=0.1, pitch=-0.2, yaw=0.7, nu=(1.8, 0.1, -0.05, 0.02, 0.03, -0.04))
     physics.forward()
@@ -198,7 +198,7 @@ def test_each_fin_force_is_its_closed_form(case, current):
 def test_positive_rudder_turns_to_port_and_positive_stern_dives():
     for control, check in (((10.0, 0.1, 0.0), lambda p: p.heading() > 0.3),
                            ((10.0, 0.0, 0.05), lambda p: p.depth() > 21.0)):
-        physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+        physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
         set_pose(physics, (0.0, 0.0, -20.0), nu=(2.0, 0, 0, 0, 0, 0))
         physics.set_control(control)
         physics.step(500)
@@ -206,7 +206,7 @@ def test_positive_rudder_turns_to_port_and_positive_stern_dives():
 
 
 def test_fins_slew_at_the_rate_limit_and_stop_at_the_angle_limit():
-    physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     spec = physics.hydrodynamics.spec
     physics.set_control([0.0, 1.0, -1.0])  # beyond the 0.237 rad limit both ways
     physics.step(10)
@@ -219,7 +219,7 @@ def test_with_heave_roll_and_pitch_held_the_6dof_model_is_the_planar_model():
     """Held (an armature of 1e9 on the heave, roll and pitch dofs), the 6-DOF REMUS follows the planar REMUS of
     models/auv.xml step for step: thrust, and the planar yaw moment applied as a world torque."""
     planar = AUVPhysics.from_xml_path(model_path("auv.xml"))
-    full = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    full = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     full.model.dof_armature[[2, 3, 4]] = 1e9
 
     def tau(t: float) -> tuple[float, float]:

@@ -18,7 +18,7 @@ def trajectory(native: bool, lagged: bool = False) -> np.ndarray:
         xml, source = compose_xml(None, thruster_lag=True)
         physics = AUV3DPhysics.from_xml_string(xml, source=source)
     else:
-        physics = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+        physics = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     if not native:
         physics.hydrodynamics.bind_native = lambda *args, **kwargs: None
         physics._bound = None  # rebind: the Python loop

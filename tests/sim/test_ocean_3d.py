@@ -33,7 +33,7 @@ def test_ocean_writes_the_current_at_the_vehicles_depth_and_moves_it():
 
 def test_a_neutral_vehicle_moving_with_the_water_drifts_with_it_exactly():
     """At zero velocity through the water there is no water force: the vehicle keeps the current's velocity."""
-    xml = model_path("auv3d.xml").read_text().replace('data="302.34"', f'data="{30.48 * 9.81!r}"')
+    xml = model_path("auv6.xml").read_text().replace('data="302.34"', f'data="{30.48 * 9.81!r}"')
     physics = AUV3DPhysics.from_xml_string(xml, source="neutral")
     current = np.array([0.3, -0.2, 0.0])
     physics.model.opt.wind[:] = current
@@ -47,7 +47,7 @@ def test_a_neutral_vehicle_moving_with_the_water_drifts_with_it_exactly():
 
 
 def test_fin_lag_delays_the_fins_and_model_uncertainty_scales_and_restores_the_vehicle():
-    ideal = AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    ideal = AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
     xml, source = compose_xml(None, thruster_lag=True)
     lagged = AUV3DPhysics.from_xml_string(xml, source=source)
     for physics in (ideal, lagged):

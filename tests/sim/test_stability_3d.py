@@ -1,4 +1,4 @@
-"""Open-loop stability and trim of the 6-DOF REMUS (`models/auv3d.xml`) against an analytic linear model (issue 44).
+"""Open-loop stability and trim of the 6-DOF REMUS (`models/auv6.xml`) against an analytic linear model (issue 44).
 
 The linear model is tests/reference/vehicle3d_linear.py: Fossen's body-frame equations linearised by hand from the
 coefficient set the project reads. Here it is held against the simulator (MuJoCo's step with `auv_mj.sim.hydro3d` in
@@ -45,7 +45,7 @@ PLANE_TOLERANCE = 0.02
 
 
 def physics() -> AUV3DPhysics:
-    return AUV3DPhysics.from_xml_path(model_path("auv3d.xml"))
+    return AUV3DPhysics.from_xml_path(model_path("auv6.xml"))
 
 
 def vehicle() -> Linear6:

@@ -282,7 +282,7 @@ def test_model_path_finds_the_vehicle():
         model_path("no_such.xml")
 
 
-@pytest.mark.parametrize("model", ["auv.xml", "auv3d.xml"])
+@pytest.mark.parametrize("model", ["auv.xml", "auv6.xml"])
 def test_both_vehicles_satisfy_the_vehicle_physics_protocol_with_its_signatures(model):
     """`VehiclePhysics` is what code may ask of any vehicle: the planar and the 6-DOF physics both have every method
     under the Protocol's parameter names, and their read-outs have the documented sizes."""
