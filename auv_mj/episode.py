@@ -164,7 +164,7 @@ def arena_geometry(physics: VehiclePhysics, task=None) -> ArenaGeometry:
     Call it after the environment's reset: tasks draw their route (goals, path, movers) there.
     """
     info = arena_lib.arena_info(physics)
-    # Planning tasks export the episode's layout (`episode.route`, an auv_mj.tasks.planning.Route); the arena's own
+    # Planning tasks export the episode's layout (`episode.route`, an auv_mj.tasks.routes.Route); the arena's own
     # convention (path_* sites, mover_* numerics) is the fallback.
     route = getattr(getattr(task, "episode", None), "route", None)
     movers = tuple(getattr(route, "movers", ()) or ()) or info.movers

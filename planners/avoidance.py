@@ -31,8 +31,10 @@ import numpy as np
 from auv_mj.episode import FunctionPlanner, Planner, as_planner
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 from auv_mj.tasks import options as checks
-from auv_mj.tasks.planning import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
-from auv_mj.tasks.planning import SONAR_SLICE, TARGET_SPEED, speed_action, speed_command
+from auv_mj.tasks.planning_observation import SONAR_SLICE
+from auv_mj.tasks.planning_step import ACTION_HEADING_RANGE as MAX_HEADING_OFFSET
+from auv_mj.tasks.planning_step import speed_action, speed_command
+from auv_mj.tasks.routes import TARGET_SPEED
 
 SLOW_CONE = math.pi / 8
 """Half-width [rad] of the cone ahead whose echoes slow a speed-aware domain's planner: beams S4-S6."""

@@ -46,7 +46,8 @@ from auv_mj.planners.avoidance import SLOW_CONE, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed
 from auv_mj.planners.map_planner import PROTECTION, route_target, sonar_rays
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
-from auv_mj.tasks.planning import ACTION_HEADING_RANGE, SONAR_SLICE
+from auv_mj.tasks.planning_observation import SONAR_SLICE
+from auv_mj.tasks.planning_step import ACTION_HEADING_RANGE
 
 MEMORY_STEPS = 40
 """Scans whose echoes are remembered (20 s at the sonar's 2 Hz): a wall abeam or behind is still followed."""

@@ -27,7 +27,8 @@ from auv_mj.control.splane import SPlaneController
 from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import with_repulsion
-from auv_mj.tasks.planning import ACTION_HEADING_RANGE, MAX_SPEED, TARGET_SPEED, speed_action
+from auv_mj.tasks.planning_step import ACTION_HEADING_RANGE, MAX_SPEED, speed_action
+from auv_mj.tasks.routes import TARGET_SPEED
 from auv_mj.tasks.speed_heading import executor_policy
 
 CRUISE_ACTION = speed_action(TARGET_SPEED)

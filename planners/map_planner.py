@@ -14,7 +14,7 @@ and the speed envelope of the learned planners: the nine sonar ranges of the obs
   path, at most every REPLAN_STEPS planner steps, Dijkstra's algorithm searches it again
   (`auv_mj.arenas.grid.shortest_path`: cells nearer than INFLATION to an echo are closed, cells within
   SOFT_CLEARANCE cost more) to the goal, or on a route of many goals (a tunnel's path) to the route point
-  `auv_mj.tasks.planning.ROUTE_HORIZON` metres on (`route_target`); line of sight then follows the path, aiming
+  `auv_mj.tasks.routes.ROUTE_HORIZON` metres on (`route_target`); line of sight then follows the path, aiming
   LOOKAHEAD metres along it.
 - `oracle`: the same search and follower on the true map: every geom's footprint, unknown obstacles included,
   and the movers where they are (swept over MOVER_HORIZON seconds at their measured velocity), replanned every
@@ -35,7 +35,10 @@ from auv_mj.episode import VEHICLE_BODY, FunctionPlanner, Planner, PlannerBase, 
 from auv_mj.planners.avoidance import PROTECTIONS, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed, los_heading
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
-from auv_mj.tasks.planning import FOLLOW_REACHED, MAX_SPEED, PLANNER_DT, PROGRESS_GAIN, SONAR_SLICE, route_target_index
+from auv_mj.tasks.planning_observation import SONAR_SLICE
+from auv_mj.tasks.planning_rewards import FOLLOW_REACHED, PROGRESS_GAIN
+from auv_mj.tasks.planning_step import MAX_SPEED, PLANNER_DT
+from auv_mj.tasks.routes import route_target_index
 
 PROTECTION = PROTECTIONS["speed-aware"]
 """The protection domain every planner here runs inside, with the geofence (what `planner-general` runs with)."""
@@ -109,7 +112,7 @@ def _bounds(env) -> tuple[float, float, float, float]:
 def route_target(task) -> tuple[np.ndarray, float, int]:
     """A planning task's target for a planner that looks ahead along its route: the goal itself, or on a route
     of many goals (a tunnel's path) the route point ROUTE_HORIZON metres on from the current goal (the task layer's
-    rule, `auv_mj.tasks.planning.route_target_index`, which the planner observation shows a learner too); its radius
+    rule, `auv_mj.tasks.routes.route_target_index`, which the planner observation shows a learner too); its radius
     [m] (ROUTE_TARGET_RADIUS short of the route's end) and its index on the route."""
     goals, index = task.goals, task.goal_index
     if len(goals) == 1:
@@ -334,9 +337,9 @@ class MapGuide:
     Each step it brings `SonarMap` up to date (the map, and the search when it must run again, as `map_replan`)
     and puts a virtual goal in the observation in place of the task's: on the bearing of the path's look-ahead
     point, as far away as the planned path is long, so that the body-frame goal the planner reads (distance and
-    bearing, `auv_mj.tasks.planning.RELATIVE_FIELDS`) keeps the range it has on the straight route. Line of sight,
-    which a residual planner corrects (`auv_mj.planners.guidance`), then aims along the path: with the learned output
-    zeroed the planner is `map_replan`'s follower at the zero action's speed.
+    bearing, `auv_mj.tasks.planning_observation.RELATIVE_FIELDS`) keeps the range it has on the straight route.
+    Line of sight, which a residual planner corrects (`auv_mj.planners.guidance`), then aims along the path: with the
+    learned output zeroed the planner is `map_replan`'s follower at the zero action's speed.
     """
 
     def __init__(self, env, memory: bool = False):

@@ -4,7 +4,7 @@ Learning by Cheating (Chen et al. 2019) trains a sensor-only student on the labe
 as it is; DAgger (Ross et al. 2011) asks that expert at the states the student visits. The expert must then be
 cheap per step and able to act from any state, not only along its own plan. `geodesic-teacher` is such an expert:
 it has no plan to follow, only the geodesic field of the episode (`auv_mj.arenas.geodesic`, the route length left on
-the arena's true static map, searched once at the reset by the task, `auv_mj.tasks.planning.RoutePotential`) and the
+the arena's true static map, searched once at the reset by the task, `auv_mj.tasks.routes.RoutePotential`) and the
 movers' true positions. Each step, for every vehicle of a batch at once (`teacher_actions`):
 
 - it casts CANDIDATES headings round the current one and samples each ray every SAMPLE_STEP metres out to LOOKAHEAD;
@@ -42,16 +42,9 @@ from auv_mj.arenas.geodesic import GeodesicField, distances
 from auv_mj.episode import PlannerBase
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.guidance import APPROACH, APPROACH_RADIUS
-from auv_mj.tasks.planning import (
-    ACTION_HEADING_RANGE,
-    MAX_HEADING_CHANGE,
-    MAX_SPEED,
-    TARGET_SPEED,
-    RoutePotential,
-    mover_states,
-    route_potential,
-    speed_action,
-)
+from auv_mj.tasks.planning import mover_states, route_potential
+from auv_mj.tasks.planning_step import ACTION_HEADING_RANGE, MAX_HEADING_CHANGE, MAX_SPEED, speed_action
+from auv_mj.tasks.routes import TARGET_SPEED, RoutePotential
 
 LOOKAHEAD = 16.0
 """How far [m] along each candidate heading the teacher looks (about 8 s at 2 m/s: a turn of 48 deg at 6 deg a step)."""

@@ -15,7 +15,7 @@
 - Both take `tier="hard"`: arenas where depth is the way on (`auv_mj.arenas.traps3d`), certified by the 3-D
   oracle's search before use.
 
-Time limits come from the route, as the planar tunnel's do (`auv_mj.tasks.planning.route_time_limit`): each
+Time limits come from the route, as the planar tunnel's do (`auv_mj.tasks.routes.route_time_limit`): each
 episode's is `route_time_limit` of its route's length (twice its time at the classical planners' CRUISE_SPEED plus
 a minute), and never less than the task's floor (GOAL_TIME_LIMIT, TUNNEL_TIME_LIMIT). The route is the tube's
 centreline on tunnel3d (a procedural tube or a user's), the oracle's certificate on a hard goal3d arena (the
@@ -79,7 +79,7 @@ from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
 from auv_mj.tasks.depth_executor import SENSOR_NAMES, DepthExecutorMemory
-from auv_mj.tasks.planning import info_field
+from auv_mj.tasks.planning_rewards import info_field
 from auv_mj.tasks.registry import DOMAIN_3D, SUITE3D
 
 DOMAIN = DOMAIN_3D
@@ -143,7 +143,7 @@ GOAL_TIME_LIMIT, TUNNEL_TIME_LIMIT = 200.0, 250.0
 them; a longer route has longer (`route_time_limit`)."""
 ROUTE_TIME_FACTOR, ROUTE_TIME_MARGIN, ROUTE_TIME_STEP = 2.0, 60.0, 10.0
 """A route's time limit is ROUTE_TIME_FACTOR times its time at CRUISE_SPEED plus ROUTE_TIME_MARGIN [s], rounded up
-to ROUTE_TIME_STEP [s]: the planar tunnel's rule (`auv_mj.tasks.planning.route_time_limit`) at the 3-D planners'
+to ROUTE_TIME_STEP [s]: the planar tunnel's rule (`auv_mj.tasks.routes.route_time_limit`) at the 3-D planners'
 speed."""
 WATER_DEPTH = 60.0
 """Depth of the goal3d seabed [m]."""

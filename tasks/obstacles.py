@@ -26,7 +26,7 @@ feasible on the oracle's grid and compiled per episode. `tier="standard"` (defau
 `start` and `goal` sites, walls, obstacles and movers on their paths (`docs/arenas.md`; `auv-mj arena` builds one
 from a list of shapes), refused unless `auv-mj check-arena --no-path` finds it usable. The episode is the named
 scenarios' (the arena's start, goal and movers); its time limit is the longer of the default and
-`planning.route_time_limit` of the start-to-goal leg.
+`routes.route_time_limit` of the start-to-goal leg.
 
 Named scenarios start facing the target (their `start` site); the paper gives no initial heading.
 """
@@ -41,7 +41,7 @@ import numpy as np
 from auv_mj.arenas import arena, procedural, traps
 from auv_mj.arenas.tunnels import mover_name
 from auv_mj.assets import model_path
-from auv_mj.tasks import options, planning
+from auv_mj.tasks import options, planning, planning_physics, routes
 from auv_mj.tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 900.0
@@ -60,11 +60,11 @@ CLUTTER = procedural.ClutterSpec()
 
 
 def random_layout(random: np.random.RandomState, moving: bool,
-                  bounds=planning.MAP_BOUNDS) -> procedural.Clutter:
+                  bounds=planning_physics.MAP_BOUNDS) -> procedural.Clutter:
     """A random episode's layout drawn from `random`: start, heading and goal as the `goal` task draws
     them, then boxes (`obstacles`) or movers (`moving_obstacles`) along the route. With a fresh
     RandomState(seed) it is the first episode of the task seeded `seed` (`auv-mj tunnel --random`)."""
-    start, heading, goal = planning.random_start_and_goal(random, bounds)
+    start, heading, goal = routes.random_start_and_goal(random, bounds)
     if moving:
         return procedural.Clutter(start, heading, goal, tuple(bounds),
                                   movers=procedural.random_crossers(random, start, goal, CLUTTER), spec=CLUTTER)
@@ -72,9 +72,9 @@ def random_layout(random: np.random.RandomState, moving: bool,
                               boxes=procedural.random_boxes(random, start, goal, bounds, CLUTTER), spec=CLUTTER)
 
 
-def random_obstacle_arena(bounds=planning.MAP_BOUNDS) -> ET.Element:
+def random_obstacle_arena(bounds=planning_physics.MAP_BOUNDS) -> ET.Element:
     """Open water with one parked mocap box per CLUTTER.sizes entry (`obstacle_0`, ...)."""
-    root = planning.open_water_arena(bounds)
+    root = planning_physics.open_water_arena(bounds)
     worldbody = root.find("worldbody")
     for i, (hx, hy) in enumerate(CLUTTER.sizes):
         body = ET.SubElement(worldbody, "body", name=f"obstacle_{i}", mocap="true", pos=f"0 0 {PARK_DEPTH:g}")
@@ -83,9 +83,9 @@ def random_obstacle_arena(bounds=planning.MAP_BOUNDS) -> ET.Element:
     return root
 
 
-def random_mover_arena(bounds=planning.MAP_BOUNDS) -> ET.Element:
+def random_mover_arena(bounds=planning_physics.MAP_BOUNDS) -> ET.Element:
     """Open water with CLUTTER.movers[1] parked mocap cylinders (`mover_0`, ...), given paths per episode."""
-    root = planning.open_water_arena(bounds)
+    root = planning_physics.open_water_arena(bounds)
     worldbody = root.find("worldbody")
     for i in range(CLUTTER.movers[1]):
         body = ET.SubElement(worldbody, "body", name=f"mover_{i}", mocap="true", pos=f"0 0 {PARK_DEPTH:g}")
@@ -109,15 +109,15 @@ def _tier(tier: str, scenario: str) -> str:
 
 def _draw_hard(task: planning.PlanningTask, physics, spec: traps.HardSpec) -> None:
     """Draws the episode's hard arena from the task's `random` and recompiles the physics around it."""
-    task.layout = traps.random_hard_layout(task.random, planning.MAP_BOUNDS, spec, task.goal_radius)
+    task.layout = traps.random_hard_layout(task.random, planning_physics.MAP_BOUNDS, spec, task.goal_radius)
     xml, source = arena.compose_xml(task.layout.element(), thruster_lag=task.ocean.conditions.thruster_lag)
     physics.reload_from_xml_string(xml, source=source)
 
 
-def _hard_route(task: planning.PlanningTask, info) -> planning.Route:
+def _hard_route(task: planning.PlanningTask, info) -> routes.Route:
     """The hard arena's start, goal and movers."""
     layout = task.layout
-    return planning.Route(start=layout.start, heading=layout.heading, goals=layout.goal[None], movers=info.movers)
+    return routes.Route(start=layout.start, heading=layout.heading, goals=layout.goal[None], movers=info.movers)
 
 
 class Obstacles(planning.PlanningTask):
@@ -126,9 +126,9 @@ class Obstacles(planning.PlanningTask):
     kind = "obstacles"
 
     def __init__(self, scenario: str = "random", tier: str = "standard", **kwargs):
-        """`scenario` is "random", a key of SCENARIOS or planning.ARENA_SCENARIO (a user's arena, set by the
+        """`scenario` is "random", a key of SCENARIOS or planning_physics.ARENA_SCENARIO (a user's arena, set by the
         factory for `arena=PATH`); other kwargs go to `PlanningTask`."""
-        options.choice("scenario", scenario, ("random", *SCENARIOS, planning.ARENA_SCENARIO))
+        options.choice("scenario", scenario, ("random", *SCENARIOS, planning_physics.ARENA_SCENARIO))
         super().__init__(**kwargs)
         self.scenario = scenario
         self.tier = _tier(tier, scenario)
@@ -140,22 +140,22 @@ class Obstacles(planning.PlanningTask):
             _draw_hard(self, physics, traps.HARD_OBSTACLES)
         super().initialize_episode(physics)
 
-    def route(self, physics, info) -> planning.Route:
+    def route(self, physics, info) -> routes.Route:
         """The arena's start and goal (and movers, on a user's arena), or a random route with random obstacles
         placed along it."""
         if self.tier == "hard":
             return _hard_route(self, info)
-        if self.scenario == planning.ARENA_SCENARIO:
-            return planning.arena_route(info, self.goal_radius)
+        if self.scenario == planning_physics.ARENA_SCENARIO:
+            return planning_physics.arena_route(info, self.goal_radius)
         if self.scenario != "random":
-            return planning.Route(start=info.start, heading=info.start_heading, goals=info.goal[None])
+            return routes.Route(start=info.start, heading=info.start_heading, goals=info.goal[None])
         layout = random_layout(self.random, moving=False, bounds=info.bounds)
         data = physics.data.ptr
         for box in layout.boxes:
             mocap = _mocap_id(physics, f"obstacle_{box.size}")
             data.mocap_pos[mocap] = (box.centre[0], box.centre[1], 0.0)
             data.mocap_quat[mocap] = (math.cos(box.yaw / 2), 0.0, 0.0, math.sin(box.yaw / 2))
-        return planning.Route(start=layout.start, heading=layout.heading, goals=layout.goal[None])
+        return routes.Route(start=layout.start, heading=layout.heading, goals=layout.goal[None])
 
 
 class MovingObstacles(planning.PlanningTask):
@@ -164,9 +164,9 @@ class MovingObstacles(planning.PlanningTask):
     kind = "moving_obstacles"
 
     def __init__(self, scenario: str = "random", tier: str = "standard", **kwargs):
-        """`scenario` is "random", a key of MOVING_SCENARIOS or planning.ARENA_SCENARIO (a user's arena, set by the
-        factory for `arena=PATH`); other kwargs go to `PlanningTask`."""
-        options.choice("scenario", scenario, ("random", *MOVING_SCENARIOS, planning.ARENA_SCENARIO))
+        """`scenario` is "random", a key of MOVING_SCENARIOS or planning_physics.ARENA_SCENARIO (a user's arena, set by
+        the factory for `arena=PATH`); other kwargs go to `PlanningTask`."""
+        options.choice("scenario", scenario, ("random", *MOVING_SCENARIOS, planning_physics.ARENA_SCENARIO))
         super().__init__(**kwargs)
         self.scenario = scenario
         self.tier = _tier(tier, scenario)
@@ -178,27 +178,28 @@ class MovingObstacles(planning.PlanningTask):
             _draw_hard(self, physics, traps.HARD_MOVING)
         super().initialize_episode(physics)
 
-    def route(self, physics, info) -> planning.Route:
+    def route(self, physics, info) -> routes.Route:
         """The arena's start, goal and movers, or a random route with random movers crossing it."""
         if self.tier == "hard":
             return _hard_route(self, info)
         if self.scenario != "random":
-            return planning.arena_route(info, self.goal_radius)
+            return planning_physics.arena_route(info, self.goal_radius)
         layout = random_layout(self.random, moving=True, bounds=info.bounds)
         movers = tuple(arena.Mover(mover_name(m, k), np.array([m.x0, m.y0]), np.array([m.x1, m.y1]), m.speed)
                        for k, m in enumerate(layout.movers))
         for mover in movers:
             physics.data.ptr.mocap_pos[_mocap_id(physics, mover.body)][2] = 0.0
-        return planning.Route(start=layout.start, heading=layout.heading, goals=layout.goal[None], movers=movers)
+        return routes.Route(start=layout.start, heading=layout.heading, goals=layout.goal[None], movers=movers)
 
 
-def _physics(scenario: str, arena_option, conditions, random_arena, shipped: dict) -> tuple[planning.Physics, bool]:
+def _physics(scenario: str, arena_option, conditions, random_arena,
+             shipped: dict) -> tuple[planning_physics.Physics, bool]:
     """The physics of a scenario: the parked random arena, a user's arena or a shipped one; and whether user's."""
-    if scenario == planning.ARENA_SCENARIO:
-        return planning.open_water_physics(arena_option, conditions, random_arena)
+    if scenario == planning_physics.ARENA_SCENARIO:
+        return planning_physics.open_water_physics(arena_option, conditions, random_arena)
     if scenario == "random":
-        return planning.Physics.load(random_arena, conditions), False
-    return planning.load_arena(model_path(shipped[scenario]), need_path=False, conditions=conditions), False
+        return planning_physics.Physics.load(random_arena, conditions), False
+    return planning_physics.load_arena(model_path(shipped[scenario]), need_path=False, conditions=conditions), False
 
 
 @SUITE.add("benchmarking", "goal", "planning", "obstacles")
@@ -206,10 +207,10 @@ def obstacles(time_limit=None, random=None, environment_kwargs=None, scenario="r
     """Reach a target past static unknown obstacles (Table 7; scenario="random"|"a"|"b"; arena="random"
     is scenario="random", a fresh layout per episode; arena=PATH a user's arena); time_limit defaults to
     _DEFAULT_TIME_LIMIT."""
-    scenario = planning.arena_scenario(arena, "scenario", scenario)
+    scenario = planning_physics.arena_scenario(arena, "scenario", scenario)
     task = Obstacles(scenario=scenario, random=random, **task_kwargs)
     physics, user = _physics(scenario, arena, task_kwargs.get("conditions"), random_obstacle_arena(), SCENARIOS)
-    time_limit = planning.arena_time_limit(time_limit, _DEFAULT_TIME_LIMIT, physics, user)
+    time_limit = planning_physics.arena_time_limit(time_limit, _DEFAULT_TIME_LIMIT, physics, user)
     return planning.environment(physics, task, time_limit, environment_kwargs)
 
 
@@ -219,9 +220,9 @@ def moving_obstacles(time_limit=None, random=None, environment_kwargs=None, scen
     """Reach a target past moving unknown obstacles (Table 8; scenario="random"|"a"|"b"; arena="random"
     is scenario="random", a fresh layout per episode; arena=PATH a user's arena); time_limit defaults to
     _DEFAULT_TIME_LIMIT."""
-    scenario = planning.arena_scenario(arena, "scenario", scenario)
+    scenario = planning_physics.arena_scenario(arena, "scenario", scenario)
     task = MovingObstacles(scenario=scenario, random=random, **task_kwargs)
     physics, user = _physics(scenario, arena, task_kwargs.get("conditions"), random_mover_arena(),
                              MOVING_SCENARIOS)
-    time_limit = planning.arena_time_limit(time_limit, _DEFAULT_TIME_LIMIT, physics, user)
+    time_limit = planning_physics.arena_time_limit(time_limit, _DEFAULT_TIME_LIMIT, physics, user)
     return planning.environment(physics, task, time_limit, environment_kwargs)

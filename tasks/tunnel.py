@@ -4,7 +4,7 @@ The arena (default `models/arenas/tunnel_inspection.xml`; any arena file or Elem
 `arena=...`, see `auv_mj.arenas.arena` and `auv-mj tunnel`) gives the start site, the global path (sites
 path_0..path_N on the tunnel axis), the known and unknown obstacles, the movers and `arena_bounds`, the
 map (leaving it ends the episode). The global path, discretised to SUBGOAL_SPACING, is the sequence of
-virtual sub-goals (SUBGOAL_RADIUS, Table 1; passed ones die too, see `planning`), beginning after the
+virtual sub-goals (SUBGOAL_RADIUS, Table 1; passed ones die too, see `routes`), beginning after the
 path point nearest the start; a `goal` site off the path's end is appended as the last goal. The
 vehicle starts at rest on the start site's heading; last_info["cross_track_error"] is the distance to
 the global path (Fig. 17).
@@ -30,7 +30,7 @@ from auv_mj.arenas import procedural, traps
 from auv_mj.arenas.arena import arena_info, compose_xml
 from auv_mj.assets import model_path
 from auv_mj.tasks import options as checks
-from auv_mj.tasks import planning
+from auv_mj.tasks import planning, planning_physics, planning_step, routes
 from auv_mj.tasks.registry import SUITE
 
 DEFAULT_ARENA = "arenas/tunnel_inspection.xml"
@@ -42,7 +42,7 @@ RANDOM = "random"
 def least_turn_radius() -> float:
     """The vehicle's least turn radius [m] in the planning tasks: the top speed MAX_SPEED over the
     heading command's largest rate, MAX_HEADING_CHANGE per PLANNER_DT (Table 1: 6 deg per 0.5 s)."""
-    return planning.MAX_SPEED / (planning.MAX_HEADING_CHANGE / planning.PLANNER_DT)
+    return planning_step.MAX_SPEED / (planning_step.MAX_HEADING_CHANGE / planning_step.PLANNER_DT)
 
 
 RANDOM_TUNNELS = procedural.TunnelSpec(turn_radius=least_turn_radius())
@@ -90,17 +90,17 @@ def tunnel_route(info) -> tuple[np.ndarray, np.ndarray]:
     if len(info.path) < 1 or info.start is None:
         raise ValueError("a tunnel arena needs a `start` site and path sites path_0, path_1, ...")
     path = info.path
-    if info.goal is not None and np.hypot(*(info.goal - path[-1])) > planning.SUBGOAL_RADIUS:
+    if info.goal is not None and np.hypot(*(info.goal - path[-1])) > routes.SUBGOAL_RADIUS:
         path = np.vstack([path, info.goal])
-    points = planning.discretise(path)
-    nearest = int(np.argmin(planning.goal_distance(points, info.start)))
+    points = routes.discretise(path)
+    nearest = int(np.argmin(routes.goal_distance(points, info.start)))
     return points[min(nearest + 1, len(points) - 1):], path
 
 
 def route_limit(info) -> float:
     """The time limit [s] of an arena's route: `route_time_limit` of its start-to-goal path length."""
     _, path = tunnel_route(info)
-    return planning.route_time_limit(planning.path_length(np.vstack([info.start, path])))
+    return routes.route_time_limit(routes.path_length(np.vstack([info.start, path])))
 
 
 class Tunnel(planning.PlanningTask):
@@ -109,14 +109,14 @@ class Tunnel(planning.PlanningTask):
     kind = "tunnel"
     geodesic_legs = "last"
     """reward="geodesic" runs to the tunnel's end alone: the field follows the tunnel, while the sub-goals on its axis
-    lie in each trap's mouth (`planning.GEODESIC_LEGS`)."""
+    lie in each trap's mouth (`routes.GEODESIC_LEGS`)."""
 
     def __init__(self, arena_spec: procedural.TunnelSpec | None = None, route_time_limit: bool = True,
                  tier: str = "standard", **kwargs):
         """`arena_spec`: draw a procedural tunnel of it per episode, ending the episode at its
         `route_limit` if `route_time_limit`; `tier` "standard" or "hard" (`random_arena`, with arena="random"
         only); kwargs go to `PlanningTask` (goal_radius defaults to SUBGOAL_RADIUS)."""
-        kwargs.setdefault("goal_radius", planning.SUBGOAL_RADIUS)
+        kwargs.setdefault("goal_radius", routes.SUBGOAL_RADIUS)
         super().__init__(**kwargs)
         self.tier = checks.choice("tier", tier, traps.TIERS)
         if self.tier == "hard" and arena_spec is None:
@@ -127,7 +127,7 @@ class Tunnel(planning.PlanningTask):
         """The episode's procedural tunnel (None on a fixed arena)."""
         self._time_limit: float | None = None
 
-    def initialize_episode(self, physics: planning.Physics) -> None:
+    def initialize_episode(self, physics: planning_physics.Physics) -> None:
         """With `arena_spec`, draws the episode's tunnel and recompiles the physics around it first."""
         if self.arena_spec is not None:
             self.arena = random_arena(self.random, self.arena_spec, self.tier)
@@ -137,11 +137,11 @@ class Tunnel(planning.PlanningTask):
         limited = self.arena_spec is not None and self.route_time_limit
         self._time_limit = route_limit(arena_info(physics)) if limited else None
 
-    def route(self, physics, info) -> planning.Route:
+    def route(self, physics, info) -> routes.Route:
         """The arena's start, path sub-goals and movers."""
         goals, path = tunnel_route(info)
-        return planning.Route(start=info.start, heading=info.start_heading, goals=goals, path=path,
-                              movers=info.movers, pass_corridor=planning.PASS_CORRIDOR)
+        return routes.Route(start=info.start, heading=info.start_heading, goals=goals, path=path,
+                              movers=info.movers, pass_corridor=routes.PASS_CORRIDOR)
 
     @property
     def episode_time_limit(self) -> float | None:
@@ -153,13 +153,13 @@ class Tunnel(planning.PlanningTask):
         """As `PlanningTask`, or the steps of a procedural tunnel's own time limit where fewer (`get_termination`)."""
         if self._time_limit is None:
             return super().step_limit
-        return min(super().step_limit, math.ceil(self._time_limit / planning.PLANNER_DT - 0.5))
+        return min(super().step_limit, math.ceil(self._time_limit / planning_step.PLANNER_DT - 0.5))
 
     def get_termination(self, physics) -> float | None:
         """As `PlanningTask`; on a procedural tunnel also 1.0 (truncation) at its own time limit."""
         done = super().get_termination(physics)
         if done is None and self._time_limit is not None \
-                and physics.time() >= self._time_limit - planning.PLANNER_DT / 2:
+                and physics.time() >= self._time_limit - planning_step.PLANNER_DT / 2:
             return 1.0
         return done
 
@@ -180,14 +180,14 @@ def tunnel(time_limit=None, random=None, environment_kwargs=None, arena=None, ar
         if arena_spec is not None:  # refused here, before any episode, not in the first reset
             procedural.check_feasible(spec)
         task = Tunnel(arena_spec=spec, route_time_limit=time_limit is None, random=random, **task_kwargs)
-        physics = planning.Physics.load(planning.open_water_arena(),  # replaced at every reset
+        physics = planning_physics.Physics.load(planning_physics.open_water_arena(),  # replaced at every reset
                                         task_kwargs.get("conditions"))
         if time_limit is None:  # the longest tunnel's; each episode ends at its own (Tunnel.get_termination)
-            time_limit = planning.route_time_limit(spec.length[1] + 2 * planning.SUBGOAL_SPACING)
+            time_limit = routes.route_time_limit(spec.length[1] + 2 * routes.SUBGOAL_SPACING)
         return planning.environment(physics, task, time_limit, environment_kwargs)
     if arena_spec is not None:
         raise ValueError("arena_spec applies to arena='random' only")
-    physics = planning.load_arena(model_path(DEFAULT_ARENA) if arena is None else arena, need_path=True,
+    physics = planning_physics.load_arena(model_path(DEFAULT_ARENA) if arena is None else arena, need_path=True,
                                   conditions=task_kwargs.get("conditions"))
     task = Tunnel(random=random, **task_kwargs)
     if time_limit is None:

@@ -13,9 +13,9 @@ How, without one Python step per environment:
   environment's own reset, in Python, so routes, arenas and the ocean are drawn by the same code from the same
   generators.
 - What the task does before and after the physics is the task's own code, run once over the batch: the action map
-  (`planning.executor_command`, either action option), then goals, the passing rule, events, Eq. (23)-(26), the
-  suite, progress and geodesic rewards (`planning.step_outcome`; the geodesic fields are each episode's, searched
-  at its reset and asked for the whole batch at once) and the observation (`planning.observe`, the planner
+  (`planning_step.executor_command`, either action option), then goals, the passing rule, events, Eq. (23)-(26), the
+  suite, progress and geodesic rewards (`planning_step.step_outcome`; the geodesic fields are each episode's, searched
+  at its reset and asked for the whole batch at once) and the observation (`planning_observation.observe`, the planner
   observation and info["privileged"] included) -- the functions `PlanningTask` calls with N = 1. Only the time
   limits (`control.Environment`'s part) are here, and the ocean's sonar noise stays per environment (its generator
   is the episode's own). A reset's info beyond is_success (info["privileged"]) is the sub-environment's own.
@@ -55,11 +55,11 @@ from dm_control.rl.control import PhysicsError
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from auv_mj.control.splane import SPlaneController, SPlaneGains
+from auv_mj.control.splane import EXECUTOR_DT, SPlaneController, SPlaneGains
 from auv_mj.sim import batch
-from auv_mj.sim.sonar import SONAR_RANGE, clip_ranges
+from auv_mj.sim.sonar import SONAR_NAMES, SONAR_RANGE, clip_ranges
 from auv_mj.tasks import options as checks
-from auv_mj.tasks import planning, suite
+from auv_mj.tasks import planning, planning_observation, planning_step, suite
 from auv_mj.tasks.actions import ActionClipped
 from auv_mj.tasks.gym_adapter import GOAL_TASK_REWARD, VECTOR_TASKS, gym_spaces
 
@@ -71,7 +71,7 @@ MAX_THREADS = 64
 """Most threads of the C batch step (batch_kernel.c's MAX_THREADS)."""
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 """The autoreset modes this env implements."""
-STEP_INFO_KEYS = planning.STEP_INFO_KEYS
+STEP_INFO_KEYS = planning_step.STEP_INFO_KEYS
 """The keys of a step's info: `PlanningTask.last_info`'s."""
 
 
@@ -139,14 +139,14 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self._high = self.single_action_space.high.astype(float)
         tick_steps = first.physics.tick_steps
         substeps = first._n_sub_steps
-        self._substeps = int(round(planning.EXECUTOR_DT / first.physics.timestep()))
+        self._substeps = int(round(EXECUTOR_DT / first.physics.timestep()))
         if tick_steps not in (None, self._substeps) or substeps % self._substeps:
             raise ValueError(f"the planner step ({substeps} physics steps) must be whole executor periods of "
                              f"{self._substeps}")
         self._ticks = substeps // self._substeps
         self._step_limit = first._step_limit
         self.rules = task.rules
-        """The task options of every step (`planning.StepRules`)."""
+        """The task options of every step (`planning_step.StepRules`)."""
         self._stepper = batch.BatchStepper(self.num_envs)
         self._allocate()
         self._warned_clip = False
@@ -156,7 +156,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
 
     def _allocate(self) -> None:
         n = self.num_envs
-        self._routes = planning.RouteBatch.empty(n)
+        self._routes = planning_step.RouteBatch.empty(n)
         self._reached = np.zeros(n, dtype=int)
         self._distance = np.full(n, np.nan)
         """Each episode's route length left where its next step begins (`Episode.distance`)."""
@@ -364,7 +364,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         at_state, at_out = batch.STATE_INDEX, batch.OUTPUT_INDEX
         stepper = self._stepper
         heading_command = stepper.state[index, at_state["heading_command"]]
-        command = planning.executor_command(actions, self._psi[index], heading_command, self.rules.action)
+        command = planning_step.executor_command(actions, self._psi[index], heading_command, self.rules.action)
         self._action[index] = actions
         stepper.state[index, at_state["speed_command"]] = command[:, 0]
         stepper.state[index, at_state["heading_command"]] = command[:, 1]
@@ -381,30 +381,31 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
                                "or reset the state during the step")
         position = out[:, [at_out["x"], at_out["y"]]]
         self._position[index], self._psi[index] = position, out[:, at_out["psi"]]
-        true_ranges = clip_ranges(out[:, at_out["sonar_1"]:at_out["sonar_1"] + len(planning.SONAR_NAMES)])
+        true_ranges = clip_ranges(out[:, at_out["sonar_1"]:at_out["sonar_1"] + len(SONAR_NAMES)])
         sensed = true_ranges.copy()
         for k, i in enumerate(index):
             ocean = self._oceans[i]
             if ocean is not None:
                 sensed[k] = ocean.sense(true_ranges[k])
-        readout = planning.Readout(position=position, psi=out[:, at_out["psi"]], cos_psi=out[:, at_out["cos_psi"]],
+        readout = planning_step.Readout(position=position, psi=out[:, at_out["psi"]], cos_psi=out[:, at_out["cos_psi"]],
                                    sin_psi=out[:, at_out["sin_psi"]],
                                    velocity=out[:, [at_out["u"], at_out["v"], at_out["r"]]], sonar=sensed,
                                    true_ranges=true_ranges, collision=out[:, at_out["collided"]] != 0,
                                    clearance=out[:, at_out["clearance"]])
         steps_left = np.maximum(self._task_step_limit[index] - self._steps[index], 1)  # this step included
-        outcome = planning.step_outcome(self._routes, index, self._reached[index], steps_left, previous, readout,
+        outcome = planning_step.step_outcome(self._routes, index, self._reached[index], steps_left, previous, readout,
                                         command, self.rules, self._distance[index])
         self._reached[index] = outcome.reached
         if self.rules.potential:
             self._distance[index] = outcome.info["route_distance"]
-        observation = planning.observe(self._routes, index, outcome.reached, readout, command, self.rules.observation,
-                                       self._action[index])
+        observation = planning_observation.observe(self._routes, index, outcome.reached, readout, command,
+                                                   self.rules.observation, self._action[index])
         for key, value in observation.items():
             self._last_obs[key][index] = value
         self._steps[index] += 1
         at_limit = self._steps[index] >= self._step_limit
-        route_limit = ~outcome.terminal & (out[:, at_out["time"]] >= self._time_limit[index] - planning.PLANNER_DT / 2)
+        route_limit = ~outcome.terminal & (out[:, at_out["time"]]
+                                           >= self._time_limit[index] - planning_step.PLANNER_DT / 2)
         truncated = at_limit | route_limit
         terminated = ~at_limit & outcome.terminal
         return outcome.reward, terminated, truncated, self._batched_infos(index, outcome.info)
@@ -436,7 +437,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
 
     def privileged_state(self) -> dict[str, Any]:
         """The true state of every row for a privileged teacher (`auv_mj.planners.teacher`; Chen et al. 2019), never
-        a learner's input: each episode's geodesic potential ("potentials", `planning.RoutePotential`; needs
+        a learner's input: each episode's geodesic potential ("potentials", `routes.RoutePotential`; needs
         reward="geodesic" or observation="planner"), the current goal ("goal_index"), the pose ("position" (N, 2),
         "psi" (N,)), the executor's heading command ("heading_command") and the movers now ("movers",
         `planning.mover_states`). Rows awaiting an autoreset still show the episode that ended."""

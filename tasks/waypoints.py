@@ -14,7 +14,7 @@ Named layouts start facing their first target.
 `arena=PATH` (`--arena PATH`) runs the task on a user's arena: an MJCF file (or an ElementTree root) whose
 `path_0`, `path_1`, ... sites are the targets in order, then its `goal` site (`docs/arenas.md`); path sites within
 the goal radius of the `start` site are not targets. It is refused unless `auv-mj check-arena --no-path` finds it
-usable; its time limit is the longer of the default and `planning.route_time_limit` of the route.
+usable; its time limit is the longer of the default and `routes.route_time_limit` of the route.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from auv_mj.tasks import options, planning
+from auv_mj.tasks import options, planning, planning_physics, routes
 from auv_mj.tasks.registry import SUITE
 
 _DEFAULT_TIME_LIMIT = 4000.0
@@ -49,36 +49,37 @@ class Waypoints(planning.PlanningTask):
     kind = "waypoints"
 
     def __init__(self, layout: str = "random", **kwargs):
-        """`layout` is "random", a key of LAYOUTS or planning.ARENA_SCENARIO (the arena's own sites; the factory
+        """`layout` is "random", a key of LAYOUTS or planning_physics.ARENA_SCENARIO (the arena's own sites; the factory
         sets it for `arena=PATH`); other kwargs go to `PlanningTask`."""
-        options.choice("layout", layout, ("random", *LAYOUTS, planning.ARENA_SCENARIO))
+        options.choice("layout", layout, ("random", *LAYOUTS, planning_physics.ARENA_SCENARIO))
         super().__init__(**kwargs)
         self.layout = layout
 
-    def route(self, physics, info) -> planning.Route:
+    def route(self, physics, info) -> routes.Route:
         """A random chain of targets, a named layout, or the user's arena's path sites and goal."""
-        if self.layout == planning.ARENA_SCENARIO:
-            return planning.arena_route(info, self.goal_radius, waypoints=True)
+        if self.layout == planning_physics.ARENA_SCENARIO:
+            return planning_physics.arena_route(info, self.goal_radius, waypoints=True)
         if self.layout == "random":
-            start = planning.random_point(self.random, info.bounds)
+            start = routes.random_point(self.random, info.bounds)
             targets = [start]
             for _ in range(self.random.randint(MIN_WAYPOINTS, MAX_WAYPOINTS + 1)):
-                targets.append(planning.random_point(self.random, info.bounds, avoid=targets[-1],
+                targets.append(routes.random_point(self.random, info.bounds, avoid=targets[-1],
                                                      min_distance=LEG_RANGE[0], max_distance=LEG_RANGE[1]))
             goals = np.array(targets[1:])
             heading = self.random.uniform(-math.pi, math.pi)
         else:
             start, goals = (np.array(p) for p in LAYOUTS[self.layout])
-            heading = planning.heading_to(start, goals[0])
-        return planning.Route(start=start, heading=heading, goals=goals)
+            heading = routes.heading_to(start, goals[0])
+        return routes.Route(start=start, heading=heading, goals=goals)
 
 
 @SUITE.add("benchmarking", "goal", "planning", "waypoints")
 def waypoints(time_limit=None, random=None, environment_kwargs=None, layout="random", arena=None, **task_kwargs):
     """Reach target areas in turn (Table 6 (b)-(d); layout="random"|"b1"|"b2"|"c"|"d"), or a user's arena's path
     sites (`arena=PATH`, see the module docstring); time_limit defaults to _DEFAULT_TIME_LIMIT."""
-    layout = planning.arena_scenario(arena, "layout", layout)
+    layout = planning_physics.arena_scenario(arena, "layout", layout)
     task = Waypoints(layout=layout, random=random, **task_kwargs)
-    physics, user = planning.open_water_physics(arena, task_kwargs.get("conditions"), planning.open_water_arena())
-    time_limit = planning.arena_time_limit(time_limit, _DEFAULT_TIME_LIMIT, physics, user)
+    physics, user = planning_physics.open_water_physics(arena, task_kwargs.get("conditions"),
+                                                        planning_physics.open_water_arena())
+    time_limit = planning_physics.arena_time_limit(time_limit, _DEFAULT_TIME_LIMIT, physics, user)
     return planning.environment(physics, task, time_limit, environment_kwargs)

@@ -45,7 +45,8 @@ from auv_mj.agents.ppo import ppo
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.seeds import VALIDATION
 from auv_mj.tasks.mixture import MIXTURE_TASKS, TIERS, WATERS, PlanningMixtureVectorEnv, cell_counts, mixture_cells
-from auv_mj.tasks.planning import GEODESIC_DISCOUNT, PLANNER_DT
+from auv_mj.tasks.planning_rewards import GEODESIC_DISCOUNT
+from auv_mj.tasks.planning_step import PLANNER_DT
 from auv_mj.tasks.vector import AUVVectorEnv
 
 VALIDATION_NAME = "validation.csv"
@@ -327,7 +328,7 @@ LEARNED_CONFIG = dataclasses.replace(
     PLANNER_CONFIG, gamma=GEODESIC_DISCOUNT, lr_schedule="linear", min_learning_rate=3e-5, target_kl=0.03,
     separate_critic=True, privileged_critic=True)
 """PPO for the new learning problem (issue 51, item 4): PLANNER_CONFIG with the geodesic reward's own discount
-(`auv_mj.tasks.planning.GEODESIC_DISCOUNT`: its shaping is policy-invariant at that discount only), the
+(`auv_mj.tasks.planning_rewards.GEODESIC_DISCOUNT`: its shaping is policy-invariant at that discount only), the
 learning rate annealed linearly to a tenth over the whole run (CleanRL anneals to 0; the floor keeps the late
 snapshots learning), a KL limit of 0.03 (an update stops after the first epoch past it), and a critic of its own
 (an encoder and GRU of its own, sb3-contrib's default) that reads the env's info["privileged"] (the geodesic

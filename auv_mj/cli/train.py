@@ -51,7 +51,7 @@ from auv_mj.jobs.student import train_student
 from auv_mj.planners.deploy import ChainConfig, deploy_env
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
-from auv_mj.tasks.planning import REWARDS
+from auv_mj.tasks.planning_rewards import REWARDS
 
 TASK_IDS: dict[str, str] = {}
 """Suite task name -> Gymnasium id, where the default `auv_mj/<CamelCase>-v0` rule does not apply."""

@@ -52,7 +52,7 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.console import counted
-from auv_mj.tasks import obstacles, planning, tunnel
+from auv_mj.tasks import obstacles, planning_physics, routes, tunnel
 
 RANDOM_TASKS = ("tunnel", "obstacles", "moving_obstacles")
 """Tasks whose random arenas `--random` writes."""
@@ -283,8 +283,8 @@ def _run_random(args: argparse.Namespace) -> int:
                 f"{counted(len(arena.unknown), 'unknown obstacle')}, {counted(len(arena.movers), 'mover')}")
     elif args.tier == "hard":  # the first episode's arena of the task seeded SEED with tier="hard"
         spec = traps.HARD_MOVING if args.task == "moving_obstacles" else traps.HARD_OBSTACLES
-        layout = traps.random_hard_layout(np.random.RandomState(args.random), planning.MAP_BOUNDS, spec,
-                                          planning.GOAL_RADIUS)
+        layout = traps.random_hard_layout(np.random.RandomState(args.random), planning_physics.MAP_BOUNDS, spec,
+                                          routes.GOAL_RADIUS)
         element = layout.element(name, _command_line())
         boxes = counted(len(layout.obstacles), "unknown box", "unknown boxes")
         what = (f"open water, traps {', '.join(layout.kinds)}: {boxes}, {counted(len(layout.movers), 'mover')}, "

@@ -13,10 +13,10 @@ from auv_mj.arenas.tunnels import MovingObstacle, Obstacle
 from auv_mj.episode import episode_metrics, record_episode
 from auv_mj.planners.guidance import los_avoid
 from auv_mj.planners.map_planner import map_replan, oracle
-from auv_mj.tasks import obstacles, planning, suite
+from auv_mj.tasks import obstacles, planning, planning_observation, planning_physics, planning_rewards, routes, suite
 from auv_mj.tasks.tunnel import RANDOM_TUNNELS
 
-BOUNDS = planning.MAP_BOUNDS
+BOUNDS = planning_physics.MAP_BOUNDS
 SEEDS = (20_000, 20_001, 20_002)
 """Validation seeds (`auv_mj.seeds.VALIDATION`)."""
 
@@ -101,7 +101,7 @@ def _known_arena(boxes, start, goal, time_limit: float, movers: tuple[MovingObst
     """A planning environment on a hand-made arena (the `obstacles` task's route: its start and goal sites)."""
     layout = traps.HardLayout(None, np.array(start, float), 0.0, np.array(goal, float), BOUNDS, tuple(boxes),
                               movers, ())
-    physics = planning.Physics.load(layout.element("known"))
+    physics = planning_physics.Physics.load(layout.element("known"))
     task = obstacles.Obstacles(scenario="a")
     return planning.environment(physics, task, time_limit)
 
@@ -130,7 +130,7 @@ def test_oracle_finds_its_way_round_a_long_wall():
     env = _known_arena(wall, start, goal, 600.0)
     metrics = episode_metrics(record_episode(env, oracle(env)))
     assert metrics["success"]
-    assert metrics["path_length"] <= 1.25 * grid.path_length(certificate) + planning.GOAL_RADIUS
+    assert metrics["path_length"] <= 1.25 * grid.path_length(certificate) + routes.GOAL_RADIUS
 
 
 def test_known_arena_boxes_are_where_they_were_put():
@@ -209,7 +209,8 @@ def test_map_guide_goal_lies_along_the_planned_path():
         bearing = math.atan2(desired[1] - pose[1], desired[0] - pose[0])
         assert math.cos(bearing - math.atan2(point[1] - pose[1], point[0] - pose[0])) == pytest.approx(1.0)
         np.testing.assert_allclose(observation["observation"][:3],
-                                   planning.relative_goal(observation["achieved_goal"], desired), atol=1e-12)
+                                   planning_observation.relative_goal(observation["achieved_goal"], desired),
+                                   atol=1e-12)
         detour = max(detour, left - np.hypot(*(env.task.goals[0] - pose[:2])))
         time_step = env.step(drive(time_step))
     assert detour > 10.0, "once the cup's back wall is in the map, the path goes round it"
@@ -219,8 +220,8 @@ def test_path_reward_pays_path_progress_capped():
     from auv_mj.planners.map_planner import PATH_STEP, path_reward
 
     info = {"goal_independent_reward": -0.05, "event": ""}
-    assert path_reward(100.0, 99.0, info) == pytest.approx(planning.PROGRESS_GAIN * 1.0 - 0.05)
-    assert path_reward(100.0, 150.0, info) == pytest.approx(-planning.PROGRESS_GAIN * PATH_STEP - 0.05)
-    assert path_reward(100.0, 0.0, info) == pytest.approx(planning.PROGRESS_GAIN * PATH_STEP - 0.05)
+    assert path_reward(100.0, 99.0, info) == pytest.approx(planning_rewards.PROGRESS_GAIN * 1.0 - 0.05)
+    assert path_reward(100.0, 150.0, info) == pytest.approx(-planning_rewards.PROGRESS_GAIN * PATH_STEP - 0.05)
+    assert path_reward(100.0, 0.0, info) == pytest.approx(planning_rewards.PROGRESS_GAIN * PATH_STEP - 0.05)
     reached = path_reward(1.0, 0.5, {**info, "event": "goal"})
-    assert reached == pytest.approx(planning.PROGRESS_GAIN * 0.5 + planning.FOLLOW_REACHED - 0.05)
+    assert reached == pytest.approx(planning_rewards.PROGRESS_GAIN * 0.5 + planning_rewards.FOLLOW_REACHED - 0.05)

@@ -21,7 +21,7 @@ from auv_mj.arenas import arena, arena_check, procedural, tunnels
 from auv_mj.console import counted
 from auv_mj.episode import episode_metrics, record_episode
 from auv_mj.planners.guidance import los_avoid
-from auv_mj.tasks import obstacles, planning, suite, tunnel
+from auv_mj.tasks import obstacles, planning_physics, planning_step, routes, suite, tunnel
 
 AUV_MJ = Path(sys.executable).with_name("auv-mj")
 SHORT_OPTIONS = {"arena": "random", "arena_spec": {"length": [300, 300]}}
@@ -100,18 +100,18 @@ def test_tunnels_keep_their_construction_rules():
             s = shapely.line_locate_point(axis, shapely.points([obstacle.x, obstacle.y]))
             assert procedural.END_CLEARANCE <= s <= t.length - procedural.END_CLEARANCE
         for mover in t.movers:
-            assert mover.speed < planning.TARGET_SPEED / 2
+            assert mover.speed < routes.TARGET_SPEED / 2
 
 
 def test_obstacles_let_a_passing_vehicle_kill_the_subgoals_it_goes_around():
     # passing an obstacle d_s off (hull any way) with LANE to spare keeps within PASS_CORRIDOR of the path
     passing = tunnel.RANDOM_TUNNELS.obstacle_reach + tunnels.route_clearance() + procedural.LANE
-    assert passing <= planning.PASS_CORRIDOR
+    assert passing <= routes.PASS_CORRIDOR
 
 
 def test_least_turn_radius_is_speed_over_the_heading_rate():
     rate = math.radians(6.0) / 0.5  # Table 1: 6 deg per 0.5 s planner step
-    assert tunnel.least_turn_radius() == pytest.approx(planning.MAX_SPEED / rate)
+    assert tunnel.least_turn_radius() == pytest.approx(planning_step.MAX_SPEED / rate)
 
 
 def test_seed_ranges_are_disjoint_and_named():
@@ -209,9 +209,9 @@ def test_los_avoid_gets_past_an_unknown_obstacle_on_the_path():
 
 def test_physics_reloaded_in_place_moves_as_a_fresh_one():
     element = procedural.random_tunnel(9, SHORT).element()
-    reloaded = planning.Physics.load(planning.open_water_arena())
+    reloaded = planning_physics.Physics.load(planning_physics.open_water_arena())
     reloaded.reload_from_xml_string(arena.compose_xml(element)[0])
-    fresh = planning.Physics.load(element)
+    fresh = planning_physics.Physics.load(element)
     for physics in (reloaded, fresh):
         physics.named.data.qpos[["x", "y", "yaw"]] = [*arena.arena_info(physics).start, 0.3]
         physics.forward()

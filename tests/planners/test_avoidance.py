@@ -100,7 +100,8 @@ def test_a_top_speed_residual_corrects_the_classical_speed_and_bad_speeds_are_re
     from auv_mj.planners.deploy import deploy_env
     from auv_mj.planners.guidance import TOP_SPEED_ACTION, approach_speed, guided_action
     from auv_mj.tasks.gym_adapter import AUVGymEnv
-    from auv_mj.tasks.planning import TARGET_SPEED, speed_action
+    from auv_mj.tasks.planning_step import speed_action
+    from auv_mj.tasks.routes import TARGET_SPEED
 
     goal, pose = np.array([10.0, 10.0]), np.array([0.0, 0.0, 0.0])
     open_water = SimpleNamespace(goals=np.array([[500.0, 500.0]]), goal_radius=12.5)  # top speed all the way
@@ -131,7 +132,8 @@ def test_the_speed_aware_domain_is_the_papers_at_or_below_the_reference_speed():
     from dataclasses import replace
 
     from auv_mj.planners.avoidance import PROTECTIONS, protect
-    from auv_mj.tasks.planning import SONAR_SLICE, speed_command
+    from auv_mj.tasks.planning_observation import SONAR_SLICE
+    from auv_mj.tasks.planning_step import speed_command
 
     aware = PROTECTIONS["speed-aware"]
     papers_form = replace(PROTECTIONS["paper"], gain=aware.gain)
@@ -148,7 +150,8 @@ def test_above_the_reference_speed_echoes_count_in_time_to_contact_and_one_ahead
     from dataclasses import replace
 
     from auv_mj.planners.avoidance import PROTECTIONS, protect
-    from auv_mj.tasks.planning import SONAR_SLICE, speed_action, speed_command
+    from auv_mj.tasks.planning_observation import SONAR_SLICE
+    from auv_mj.tasks.planning_step import speed_action, speed_command
 
     aware = PROTECTIONS["speed-aware"]
     paper = replace(PROTECTIONS["paper"], gain=aware.gain)  # the paper's form with the same k_2
@@ -191,7 +194,7 @@ def test_a_field_with_a_fence_reads_the_map_edge_as_echoes_and_one_without_ignor
     from dataclasses import replace
 
     from auv_mj.planners.avoidance import PROTECTIONS, protect
-    from auv_mj.tasks.planning import SONAR_SLICE
+    from auv_mj.tasks.planning_observation import SONAR_SLICE
 
     observation = np.zeros(18)
     observation[SONAR_SLICE] = ranges(s2=60.0) / SONAR_RANGE

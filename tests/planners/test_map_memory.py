@@ -17,7 +17,8 @@ from auv_mj.agents.offpolicy.networks import Actor, Critic, widen_inputs
 from auv_mj.arenas import grid
 from auv_mj.planners.deploy import deploy_env
 from auv_mj.planners.map_planner import MEMORY_BEAMS, MEMORY_RANGE, MapGuide
-from auv_mj.tasks import planning
+from auv_mj.sim.sonar import SONAR_NAMES
+from auv_mj.tasks import planning_observation
 
 CHECKPOINTS = Path(__file__).resolve().parents[2] / "agents" / "checkpoints"
 
@@ -90,7 +91,8 @@ def test_memory_scan_is_in_the_body_frame_and_before_the_sonar():
     at, count = memory.inserted_inputs
     vector = with_memory["observation"]
     assert count == MEMORY_BEAMS and vector.size == without["observation"].size + MEMORY_BEAMS
-    np.testing.assert_array_equal(vector[planning.SONAR_SLICE], without["observation"][planning.SONAR_SLICE])
+    np.testing.assert_array_equal(vector[planning_observation.SONAR_SLICE],
+                                  without["observation"][planning_observation.SONAR_SLICE])
     np.testing.assert_array_equal(np.delete(vector, range(at, at + count)), without["observation"])
 
 
@@ -104,7 +106,7 @@ def test_the_gym_space_is_widened_and_holds_the_observations():
     assert env.observation_space["observation"].shape == (size + MEMORY_BEAMS,)
     assert env.observation_space.contains(observation)
     at, count = env.inserted_inputs
-    assert (at, count) == (size - len(planning.SONAR_NAMES), MEMORY_BEAMS)
+    assert (at, count) == (size - len(SONAR_NAMES), MEMORY_BEAMS)
     for _ in range(5):
         observation, *_ = env.step(np.zeros(2))
         assert env.observation_space.contains(observation)

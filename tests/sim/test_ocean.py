@@ -26,7 +26,7 @@ from auv_mj.sim import ocean
 from auv_mj.sim.hydrodynamics import HydroCoefficients
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.sim.vehicle import vehicle_facts
-from auv_mj.tasks import planning, suite
+from auv_mj.tasks import planning_observation, suite
 from auv_mj.tasks.gym_adapter import GYM_IDS
 from auv_mj.zoo import registry as policies
 
@@ -284,12 +284,13 @@ def test_the_planner_sees_the_previous_ping_and_the_metrics_the_true_ranges():
         "base": "ideal", "sonar": {"floor": 0.0, "proportional": 0.0, "dropout": 0.0, "latency": 1}}}
     env = suite.load("auv", "obstacles", task_kwargs=kwargs)
     step = env.reset()
-    np.testing.assert_array_equal(step.observation["observation"][planning.SONAR_SLICE], 1.0)  # no ping back yet
+    # no ping back yet
+    np.testing.assert_array_equal(step.observation["observation"][planning_observation.SONAR_SLICE], 1.0)
     truth = env.physics.sonar()
     seen_echo = False
     for _ in range(120):
         step = env.step(np.array([0.0, 0.0]))
-        sonar = step.observation["observation"][planning.SONAR_SLICE]
+        sonar = step.observation["observation"][planning_observation.SONAR_SLICE]
         np.testing.assert_allclose(sonar * SONAR_RANGE, truth, rtol=1e-15)
         truth = env.physics.sonar()
         assert env.task.last_info["min_sonar_range"] == truth.min()

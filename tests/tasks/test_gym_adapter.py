@@ -181,7 +181,7 @@ def test_her_without_copied_infos_names_copy_info_dict(one_torch_thread):
 
 def test_relative_observation_is_invariant_to_moving_and_turning_the_world():
     """The body-frame goal: shifting and rotating the pose and the goal together changes nothing."""
-    from auv_mj.tasks.planning import relative_goal
+    from auv_mj.tasks.planning_observation import relative_goal
 
     rng = np.random.default_rng(0)
     pose, goal = rng.uniform(-300, 300, (50, 2)), rng.uniform(-300, 300, (50, 2))
@@ -253,7 +253,7 @@ def test_protection_in_the_loop_bends_the_heading_as_the_planner_policy_does(pro
 def test_guide_option_is_checked_and_puts_the_map_goal_in_the_observation():
     from auv_mj.planners.deploy import deploy_env
     from auv_mj.planners.map_planner import PATH_STEP
-    from auv_mj.tasks.planning import PROGRESS_GAIN
+    from auv_mj.tasks.planning_rewards import PROGRESS_GAIN
 
     with pytest.raises(ValueError, match="guide must be one of"):
         deploy_env(AUVGymEnv("obstacles"), guide="maps")

@@ -18,10 +18,12 @@ from auv_mj.arenas.geodesic import GeodesicField
 from auv_mj.episode import arena_geometry
 from auv_mj.planners.guidance import classical
 from auv_mj.planners.map_planner import route_target
-from auv_mj.tasks import planning, suite
+from auv_mj.sim.sonar import SONAR_RANGE
+from auv_mj.tasks import planning_observation, planning_rewards, planning_step, suite
+from auv_mj.tasks.routes import goal_distance
 from auv_mj.zoo import env_and_policy
 
-GAMMA = planning.GEODESIC_DISCOUNT
+GAMMA = planning_rewards.GEODESIC_DISCOUNT
 IDLE = np.array([-1.0, 0.0])
 """Thrust off: V = 0, the heading command kept (either action map)."""
 LATE_STEPS = 60
@@ -51,16 +53,16 @@ def episode(task: str, tier: str, seed: int, driver: str, idle_from: int | None 
 
 
 def closed_form(infos: list[dict]) -> float:
-    """The discounted return that potential-based shaping telescopes to (module docstring of `planning`): the route
-    length at the start, less the discounted route length where the episode ended, the step costs, the bonus or the
-    penalty at the end."""
+    """The discounted return that potential-based shaping telescopes to (module docstring of `planning_rewards`): the
+    route length at the start, less the discounted route length where the episode ended, the step costs, the bonus or
+    the penalty at the end."""
     last, end = infos[-1], GAMMA ** len(infos)
-    value = planning.PROGRESS_GAIN * (infos[0]["route_distance_before"] - end * last["route_distance"])
-    value -= planning.GEODESIC_STEP_COST * (1 - end) / (1 - GAMMA)
+    value = planning_rewards.PROGRESS_GAIN * (infos[0]["route_distance_before"] - end * last["route_distance"])
+    value -= planning_rewards.GEODESIC_STEP_COST * (1 - end) / (1 - GAMMA)
     if last["success"]:
-        value += end / GAMMA * planning.GEODESIC_SUCCESS_BONUS
+        value += end / GAMMA * planning_rewards.GEODESIC_SUCCESS_BONUS
     if last["collision"] or last["left_map"]:
-        value -= end / GAMMA * planning.GEODESIC_COLLISION_PENALTY
+        value -= end / GAMMA * planning_rewards.GEODESIC_COLLISION_PENALTY
     return value
 
 
@@ -105,28 +107,29 @@ def test_the_field_is_the_episodes_own_arena(tier):
 
 
 def test_the_constants_make_every_failure_worth_less_than_waiting_and_success_worth_more():
-    """Sec. "The geodesic reward" of `planning`: with C >= W = step cost / (1 - gamma) and B >= 0, for any episode
-    lengths a success returns more than waiting for ever, which returns at least as much as a failure."""
+    """Sec. "The geodesic reward" of `planning_rewards`: with C >= W = step cost / (1 - gamma) and B >= 0, for any
+    episode lengths a success returns more than waiting for ever, which returns at least as much as a failure."""
     assert 0.995 <= GAMMA <= 0.999
-    horizon = planning.GEODESIC_STEP_COST / (1 - GAMMA)
-    assert planning.GEODESIC_COLLISION_PENALTY >= horizon - 1e-9 and planning.GEODESIC_SUCCESS_BONUS >= 0
-    gain, rng = planning.PROGRESS_GAIN, np.random.default_rng(0)
+    horizon = planning_rewards.GEODESIC_STEP_COST / (1 - GAMMA)
+    assert planning_rewards.GEODESIC_COLLISION_PENALTY >= horizon - 1e-9
+    assert planning_rewards.GEODESIC_SUCCESS_BONUS >= 0
+    gain, rng = planning_rewards.PROGRESS_GAIN, np.random.default_rng(0)
     for _ in range(200):
         d0, d_fail = rng.uniform(0, 800, 2)
         t_success, t_fail = rng.integers(1, 4000, 2)
-        success = gain * d0 + GAMMA ** t_success * (planning.GEODESIC_SUCCESS_BONUS + horizon) - horizon
+        success = gain * d0 + GAMMA ** t_success * (planning_rewards.GEODESIC_SUCCESS_BONUS + horizon) - horizon
         wait = gain * d0 - horizon  # for ever: the potential's last term vanishes
-        failure = gain * d0 - GAMMA ** t_fail * (gain * d_fail + planning.GEODESIC_COLLISION_PENALTY - horizon) \
-            - horizon
+        failure = gain * d0 \
+            - GAMMA ** t_fail * (gain * d_fail + planning_rewards.GEODESIC_COLLISION_PENALTY - horizon) - horizon
         assert success > wait >= failure - 1e-9
 
 
 def test_the_step_reward_is_gamma_phi_next_minus_phi():
     before, after = np.array([100.0, 50.0, 10.0]), np.array([99.0, 0.0, 12.0])
-    reward = planning.geodesic_reward(before, after, [False, True, False], [False, False, True])
-    phi = -planning.PROGRESS_GAIN
-    expected = GAMMA * phi * after - phi * before - planning.GEODESIC_STEP_COST \
-        + np.array([0.0, planning.GEODESIC_SUCCESS_BONUS, -planning.GEODESIC_COLLISION_PENALTY])
+    reward = planning_rewards.geodesic_reward(before, after, [False, True, False], [False, False, True])
+    phi = -planning_rewards.PROGRESS_GAIN
+    expected = GAMMA * phi * after - phi * before - planning_rewards.GEODESIC_STEP_COST \
+        + np.array([0.0, planning_rewards.GEODESIC_SUCCESS_BONUS, -planning_rewards.GEODESIC_COLLISION_PENALTY])
     np.testing.assert_allclose(reward, expected, atol=1e-12)
 
 
@@ -155,8 +158,8 @@ def test_compute_reward_is_the_step_reward_and_relabels_on_the_straight_distance
     np.testing.assert_array_equal(task.compute_reward(achieved, desired, as_dict), rewards)
     relabelled = task.compute_reward(achieved, achieved, as_dict)  # reached at once: the bonus on every step
     radius = as_dict["goal_radius"]
-    before = np.maximum(planning.goal_distance(as_dict["previous_achieved_goal"], achieved) - radius, 0.0)
-    np.testing.assert_allclose(relabelled, planning.geodesic_reward(before, 0.0, True, False), atol=1e-12)
+    before = np.maximum(goal_distance(as_dict["previous_achieved_goal"], achieved) - radius, 0.0)
+    np.testing.assert_allclose(relabelled, planning_rewards.geodesic_reward(before, 0.0, True, False), atol=1e-12)
     assert np.all(task.compute_terminated(achieved, achieved, as_dict))
 
 
@@ -168,21 +171,21 @@ def test_the_rate_action_maps_a1_linearly_onto_the_heading_commands_change_and_a
     V_cmd = a0 + 1, linear onto [0, 2] m/s; the one limit is the executor's, Table 1's 30 deg from the heading."""
     a = np.linspace(-1.0, 1.0, 41)
     psi = np.full(len(a), 0.3)
-    command = planning.executor_command(np.stack([a, a], axis=1), psi, psi.copy(), "rate")
-    np.testing.assert_allclose(command[:, 1] - psi, a * planning.MAX_HEADING_CHANGE, atol=1e-12)
+    command = planning_step.executor_command(np.stack([a, a], axis=1), psi, psi.copy(), "rate")
+    np.testing.assert_allclose(command[:, 1] - psi, a * planning_step.MAX_HEADING_CHANGE, atol=1e-12)
     np.testing.assert_allclose(command[:, 0], a + 1.0, atol=1e-12)
-    assert command[0, 0] == planning.MIN_SPEED and command[-1, 0] == planning.MAX_SPEED
+    assert command[0, 0] == planning_step.MIN_SPEED and command[-1, 0] == planning_step.MAX_SPEED
     # A command already 27 deg to port: a turn further to port saturates at 30 deg, the rest is still linear.
     lead = np.full(len(a), math.radians(27.0))
-    command = planning.executor_command(np.stack([a, a], axis=1), psi, psi + lead, "rate")
+    command = planning_step.executor_command(np.stack([a, a], axis=1), psi, psi + lead, "rate")
     change = command[:, 1] - (psi + lead)
-    free = lead + a * planning.MAX_HEADING_CHANGE <= planning.MAX_HEADING_DIFFERENCE
-    np.testing.assert_allclose(change[free], a[free] * planning.MAX_HEADING_CHANGE, atol=1e-12)
-    np.testing.assert_allclose(command[~free, 1] - psi[~free], planning.MAX_HEADING_DIFFERENCE, atol=1e-12)
+    free = lead + a * planning_step.MAX_HEADING_CHANGE <= planning_step.MAX_HEADING_DIFFERENCE
+    np.testing.assert_allclose(change[free], a[free] * planning_step.MAX_HEADING_CHANGE, atol=1e-12)
+    np.testing.assert_allclose(command[~free, 1] - psi[~free], planning_step.MAX_HEADING_DIFFERENCE, atol=1e-12)
     # The paper's map, for contrast: linear only on |a1| <= MAX_HEADING_CHANGE / ACTION_HEADING_RANGE (1/15).
-    paper = planning.executor_command(np.stack([a, a], axis=1), psi, psi.copy())
-    linear = np.abs(a) <= planning.MAX_HEADING_CHANGE / planning.ACTION_HEADING_RANGE
-    np.testing.assert_allclose(np.abs(paper[~linear, 1] - psi[~linear]), planning.MAX_HEADING_CHANGE, atol=1e-12)
+    paper = planning_step.executor_command(np.stack([a, a], axis=1), psi, psi.copy())
+    linear = np.abs(a) <= planning_step.MAX_HEADING_CHANGE / planning_step.ACTION_HEADING_RANGE
+    np.testing.assert_allclose(np.abs(paper[~linear, 1] - psi[~linear]), planning_step.MAX_HEADING_CHANGE, atol=1e-12)
 
 
 def test_the_rate_action_turns_the_vehicle_at_the_commanded_rate():
@@ -192,7 +195,7 @@ def test_the_rate_action_turns_the_vehicle_at_the_commanded_rate():
     for a1 in (0.5, 0.5, -0.25):
         env.step(np.array([0.0, a1]))
         commands.append(env.task.last_info["command"][1])
-    change = planning.MAX_HEADING_CHANGE
+    change = planning_step.MAX_HEADING_CHANGE
     np.testing.assert_allclose(np.diff(commands), [0.5 * change, -0.25 * change], atol=1e-12)
     with pytest.raises(ValueError, match="action"):
         suite.load("auv", "goal", task_kwargs={"action": "offset"})
@@ -204,14 +207,15 @@ def test_the_rate_action_turns_the_vehicle_at_the_commanded_rate():
 def test_the_planner_observation_shows_map_replans_target_and_no_privileged_input():
     env = suite.load("auv", "tunnel", task_kwargs={"arena": "random", "random": 1, "observation": "planner"})
     task = env.task
-    assert task.observation_fields == planning.PLANNER_FIELDS
-    assert not set(planning.PLANNER_FIELDS) & set(planning.PRIVILEGED_FIELDS)
+    assert task.observation_fields == planning_observation.PLANNER_FIELDS
+    assert not set(planning_observation.PLANNER_FIELDS) & set(planning_step.PRIVILEGED_FIELDS)
     time_step = env.reset()
     assert set(time_step.observation) == {"observation", "achieved_goal", "desired_goal"}
-    first = dict(zip(planning.PRIVILEGED_FIELDS, task.last_info["privileged"], strict=True))  # the reset's info
-    assert first["time_left"] == pytest.approx(task.step_limit * planning.PLANNER_DT / planning.PRIVILEGED_TIME_SCALE)
+    first = dict(zip(planning_step.PRIVILEGED_FIELDS, task.last_info["privileged"], strict=True))  # the reset's info
+    assert first["time_left"] == pytest.approx(task.step_limit * planning_step.PLANNER_DT
+                                               / planning_step.PRIVILEGED_TIME_SCALE)
     assert first["route_distance"] > 0 and 0 < first["clearance"] <= 1
-    assert len(time_step.observation["observation"]) == len(planning.PLANNER_FIELDS)
+    assert len(time_step.observation["observation"]) == len(planning_observation.PLANNER_FIELDS)
     for _ in range(40):
         cos_target, sin_target = time_step.observation["observation"][1:3]
         action = np.array([0.0, np.clip(math.atan2(sin_target, cos_target) / (math.pi / 2), -1.0, 1.0)])
@@ -220,24 +224,27 @@ def test_the_planner_observation_shows_map_replans_target_and_no_privileged_inpu
         vector = time_step.observation["observation"]
         pose = env.physics.pose()
         achieved = np.array([pose[0], pose[1], math.cos(pose[2]), math.sin(pose[2])])
-        np.testing.assert_allclose(vector[:3], planning.relative_goal(achieved, route_target(task)[0]), atol=1e-12)
-        fields = dict(zip(planning.PLANNER_FIELDS, vector, strict=True))
+        np.testing.assert_allclose(vector[:3], planning_observation.relative_goal(achieved, route_target(task)[0]),
+                                   atol=1e-12)
+        fields = dict(zip(planning_observation.PLANNER_FIELDS, vector, strict=True))
         np.testing.assert_allclose([fields["previous_speed_action"], fields["previous_heading_action"]], action)
-        fence = [fields[name] for name in planning.FENCE_NAMES]
-        np.testing.assert_allclose(fence, task.map_fence(env.physics) / planning.SONAR_RANGE, atol=1e-9)
-        np.testing.assert_allclose(vector[planning.SONAR_SLICE] * planning.SONAR_RANGE, env.physics.sonar(), atol=1e-9)
+        fence = [fields[name] for name in planning_observation.FENCE_NAMES]
+        np.testing.assert_allclose(fence, task.map_fence(env.physics) / SONAR_RANGE, atol=1e-9)
+        np.testing.assert_allclose(vector[planning_observation.SONAR_SLICE] * SONAR_RANGE, env.physics.sonar(),
+                                   atol=1e-9)
     privileged = task.last_info["privileged"]
-    assert privileged.shape == (len(planning.PRIVILEGED_FIELDS),)
-    values = dict(zip(planning.PRIVILEGED_FIELDS, privileged, strict=True))
-    assert values["route_distance"] == pytest.approx(task.last_info["route_distance"] / planning.GOAL_DISTANCE_SCALE)
+    assert privileged.shape == (len(planning_step.PRIVILEGED_FIELDS),)
+    values = dict(zip(planning_step.PRIVILEGED_FIELDS, privileged, strict=True))
+    assert values["route_distance"] == pytest.approx(task.last_info["route_distance"]
+                                                     / planning_step.GOAL_DISTANCE_SCALE)
     assert values["tunnel_task"] == 1.0 and values["hard_tier"] == 0.0
     # The actor's observation cannot read the privileged quantities: `observe` runs without the true map's fields,
     # the true clearance and ranges, and gives the same vector.
     routes = task._routes
-    blind = planning.RouteBatch(**{**vars(routes), "fields": [None], "cell": np.zeros_like(routes.cell)})
+    blind = planning_step.RouteBatch(**{**vars(routes), "fields": [None], "cell": np.zeros_like(routes.cell)})
     readout = task._readout(env.physics)
-    args = (planning.ONE_ROW, np.array([task.episode.reached]), readout, np.array([task.episode.command]), "planner",
-            task.episode.action[None])
-    np.testing.assert_array_equal(planning.observe(blind, *args)["observation"],
-                                  planning.observe(routes, *args)["observation"])
+    args = (planning_step.ONE_ROW, np.array([task.episode.reached]), readout, np.array([task.episode.command]),
+            "planner", task.episode.action[None])
+    np.testing.assert_array_equal(planning_observation.observe(blind, *args)["observation"],
+                                  planning_observation.observe(routes, *args)["observation"])
     assert readout.clearance is None and readout.true_ranges is None

@@ -1,5 +1,5 @@
 """Rewards that cannot be gamed (issue 45): on every planning task and under every reward kind, reaching the goal
-returns more than waiting just outside it or idling, at every discount (tasks/planning.py, "The success bonus").
+returns more than waiting just outside it or idling, at every discount (tasks/planning_rewards.py, "The success bonus").
 
 Three policies run from the same seed: line of sight on the S-plane executor (`auv_mj.planners.guidance.classical`, the
 `splane` policy) reaching the goal; a waiter that drives the same way and cuts its thrust STOP_MARGIN outside the
@@ -18,7 +18,7 @@ import pytest
 
 from auv_mj.planners import los3d
 from auv_mj.planners.guidance import classical
-from auv_mj.tasks import auv3d, planning, suite
+from auv_mj.tasks import auv3d, planning_rewards, routes, suite
 from auv_mj.tasks.registry import SUITE
 
 GAMMAS = (0.9, 0.99, 0.999, 1.0)
@@ -84,7 +84,7 @@ def test_the_cases_cover_every_planning_task():
     assert {name for name, _, _ in CASES} == set(SUITE.tagged("planning"))
 
 
-@pytest.mark.parametrize("kind", planning.REWARDS)
+@pytest.mark.parametrize("kind", planning_rewards.REWARDS)
 @pytest.mark.parametrize(("name", "options", "time_limit"), CASES, ids=[f"{c[0]}-{i}" for i, c in enumerate(CASES)])
 def test_reaching_the_goal_returns_more_than_waiting_outside_it_or_idling(name, options, time_limit, kind):
     task_kwargs = {**options, "reward": kind, "time_limit": time_limit}
@@ -104,7 +104,7 @@ def test_reaching_the_goal_returns_more_than_waiting_outside_it_or_idling(name, 
         assert len(idle.rewards) == idle.step_limit and idle.infos[-1]["steps_left"] == 1
     left = reach.step_limit - len(reach.rewards) + 1
     assert reach.infos[-1]["steps_left"] == left
-    bonus = planning.STEP_REWARD_BOUND[kind] * left
+    bonus = planning_rewards.STEP_REWARD_BOUND[kind] * left
     info = reach.infos[-1]
     own = {"suite": 0.0, "paper": info["reward_following"] + info["goal_independent_reward"]}.get(kind)
     if own is not None:
@@ -114,36 +114,36 @@ def test_reaching_the_goal_returns_more_than_waiting_outside_it_or_idling(name, 
     if kind == "suite":
         assert np.all((rewards >= 0.0) & (rewards < 1.0))
     elif kind == "paper":
-        assert np.all(rewards <= planning.STEP_REWARD_BOUND["paper"])
+        assert np.all(rewards <= planning_rewards.STEP_REWARD_BOUND["paper"])
 
 
 def test_the_bonus_covers_every_step_left_by_the_task_constants():
     """STEP_REWARD_BOUND is the most a last-leg step can pay short of success under Eq. (23)-(26), and a success
     step's own terms are positive, so bonus + terms > STEP_REWARD_BOUND * (steps left - 1) + any last step."""
-    assert set(planning.STEP_REWARD_BOUND) == set(planning.REWARDS)
-    k1, k2, k3 = planning.REWARD_WEIGHTS
-    assert min(planning.REWARD_WEIGHTS) >= 0.0
-    follows = (planning.FOLLOW_CLOSER, 0.0, planning.FOLLOW_FARTHER)
-    avoids = (planning.COLLISION_REWARD, -0.5 * planning.AVOID_GAIN, 0.0)  # Eq. (24) lies in [-1, 0]
-    step = max(k1 * f + k2 * a + k3 * planning.NAVIGATION_REWARD for f in follows for a in avoids)
-    assert planning.STEP_REWARD_BOUND["paper"] == pytest.approx(step) == pytest.approx(0.45)
-    floor = min(k1 * planning.FOLLOW_REACHED + k2 * a + k3 * planning.NAVIGATION_REWARD for a in avoids)
-    assert planning.SUCCESS_TERMS_FLOOR == pytest.approx(floor) and floor > 0.0
-    assert planning.STEP_REWARD_BOUND["suite"] == 1.0  # rewards.tolerance is at most 1
+    assert set(planning_rewards.STEP_REWARD_BOUND) == set(planning_rewards.REWARDS)
+    k1, k2, k3 = planning_rewards.REWARD_WEIGHTS
+    assert min(planning_rewards.REWARD_WEIGHTS) >= 0.0
+    follows = (planning_rewards.FOLLOW_CLOSER, 0.0, planning_rewards.FOLLOW_FARTHER)
+    avoids = (planning_rewards.COLLISION_REWARD, -0.5 * planning_rewards.AVOID_GAIN, 0.0)  # Eq. (24) lies in [-1, 0]
+    step = max(k1 * f + k2 * a + k3 * planning_rewards.NAVIGATION_REWARD for f in follows for a in avoids)
+    assert planning_rewards.STEP_REWARD_BOUND["paper"] == pytest.approx(step) == pytest.approx(0.45)
+    floor = min(k1 * planning_rewards.FOLLOW_REACHED + k2 * a + k3 * planning_rewards.NAVIGATION_REWARD for a in avoids)
+    assert planning_rewards.SUCCESS_TERMS_FLOOR == pytest.approx(floor) and floor > 0.0
+    assert planning_rewards.STEP_REWARD_BOUND["suite"] == 1.0  # rewards.tolerance is at most 1
     for steps_left in (1, 2, 100, 8000):
         best_continuation = step * (steps_left - 1) + max(step, floor)  # a last step may enter and collide
-        assert floor + planning.success_bonus("paper", steps_left) > best_continuation
-        assert planning.success_bonus("suite", steps_left) == steps_left
+        assert floor + planning_rewards.success_bonus("paper", steps_left) > best_continuation
+        assert planning_rewards.success_bonus("suite", steps_left) == steps_left
     # "progress" needs none: by summation by parts its per-metre sum stays below PROGRESS_GAIN (d_0 - radius)
     # on any path outside the goal, whatever the discount; checked here on random paths.
     rng = np.random.default_rng(0)
-    radius = planning.GOAL_RADIUS
+    radius = routes.GOAL_RADIUS
     for _ in range(200):
         d = radius + rng.exponential(3.0, size=rng.integers(2, 60))
         gamma = rng.choice([0.0, 0.5, 0.9, 0.99, 1.0])
-        gained = discounted(planning.PROGRESS_GAIN * (d[:-1] - d[1:]), gamma)
-        assert gained < planning.PROGRESS_GAIN * (d[0] - radius) + 1e-12
-    assert planning.success_bonus("progress", 100) == 0.0
+        gained = discounted(planning_rewards.PROGRESS_GAIN * (d[:-1] - d[1:]), gamma)
+        assert gained < planning_rewards.PROGRESS_GAIN * (d[0] - radius) + 1e-12
+    assert planning_rewards.success_bonus("progress", 100) == 0.0
 
 
 @pytest.mark.parametrize("kind", ["paper", "progress"])
@@ -159,9 +159,9 @@ def test_compute_reward_pays_the_bonus_as_the_step_did(kind):
     relabelled = task.compute_reward(reach.achieved, reach.achieved, as_dict)
     last_leg = as_dict["last_goal"]
     assert 0 < last_leg.sum() < len(last_leg)
-    bonus = planning.success_bonus(kind, as_dict["steps_left"]) * last_leg
-    gained = planning.goal_distance(as_dict["previous_achieved_goal"], reach.achieved) * planning.PROGRESS_GAIN
-    follow = planning.FOLLOW_REACHED + (gained if kind == "progress" else 0.0)
+    bonus = planning_rewards.success_bonus(kind, as_dict["steps_left"]) * last_leg
+    gained = routes.goal_distance(as_dict["previous_achieved_goal"], reach.achieved) * planning_rewards.PROGRESS_GAIN
+    follow = planning_rewards.FOLLOW_REACHED + (gained if kind == "progress" else 0.0)
     np.testing.assert_allclose(relabelled, follow + as_dict["goal_independent_reward"] + bonus)
 
 
@@ -171,11 +171,12 @@ def test_compute_reward_pays_a_route_that_skipped_to_its_last_goal():
             "left_map": False, "steps_left": 10, "goal_radius": 12.5}
     far = np.array([100.0, 0.0])
     skipped = env.task.compute_reward(np.zeros(2), far, {**info, "last_goal": False, "success": True})
-    assert skipped == pytest.approx(-0.05 + planning.success_bonus("paper", 10))
+    assert skipped == pytest.approx(-0.05 + planning_rewards.success_bonus("paper", 10))
     assert env.task.compute_reward(np.zeros(2), np.zeros(2), {**info, "last_goal": False, "success": False}) == \
-        pytest.approx(planning.FOLLOW_REACHED - 0.05)
+        pytest.approx(planning_rewards.FOLLOW_REACHED - 0.05)
     collided = {**info, "last_goal": True, "success": False, "collision": True}
-    assert env.task.compute_reward(np.zeros(2), np.zeros(2), collided) == pytest.approx(planning.FOLLOW_REACHED - 0.05)
+    assert env.task.compute_reward(np.zeros(2), np.zeros(2), collided) \
+        == pytest.approx(planning_rewards.FOLLOW_REACHED - 0.05)
 
 
 def test_a_procedural_tunnel_counts_the_steps_of_its_own_time_limit():

@@ -16,10 +16,20 @@ import mujoco
 import numpy as np
 import pytest
 
-from auv_mj.arenas.arena import arena_info
+from auv_mj.arenas.arena import SAFETY_DISTANCE, arena_info
+from auv_mj.control.splane import EXECUTOR_DT
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim.sonar import SONAR_RANGE
-from auv_mj.tasks import obstacles, planning, suite, tunnel
+from auv_mj.tasks import (
+    obstacles,
+    planning_observation,
+    planning_physics,
+    planning_rewards,
+    planning_step,
+    routes,
+    suite,
+    tunnel,
+)
 from auv_mj.tasks.actions import ActionClipped
 from auv_mj.tasks.registry import SUITE
 
@@ -38,12 +48,12 @@ def line_of_sight(observation, speed: float = 0.5) -> np.ndarray:
     gx, gy = observation["desired_goal"][:2]
     psi = math.atan2(sin_psi, cos_psi)
     error = wrap_angle(math.atan2(gy - y, gx - x) - psi)
-    return np.array([speed, np.clip(error / planning.ACTION_HEADING_RANGE, -1.0, 1.0)])
+    return np.array([speed, np.clip(error / planning_step.ACTION_HEADING_RANGE, -1.0, 1.0)])
 
 
 def line_of_sight_avoiding(observation, speed: float = 0.5) -> np.ndarray:
     """`line_of_sight`, but turning hard to the clearer side when the forward beams S4..S6 see something."""
-    sonar = observation["observation"][planning.SONAR_SLICE] * SONAR_RANGE
+    sonar = observation["observation"][planning_observation.SONAR_SLICE] * SONAR_RANGE
     if sonar[3:6].min() < AVOID_RANGE:
         return np.array([speed, 1.0 if sonar[5:].sum() > sonar[:4].sum() else -1.0])
     return line_of_sight(observation, speed)
@@ -137,7 +147,7 @@ def test_dm_env_contract(name, seed):
     obs_spec, action_spec = env.observation_spec(), env.action_spec()
     assert action_spec.shape == (2,)
     assert np.all(action_spec.minimum == -1) and np.all(action_spec.maximum == 1)
-    assert env.control_timestep() == pytest.approx(planning.PLANNER_DT)
+    assert env.control_timestep() == pytest.approx(planning_step.PLANNER_DT)
     actions = np.random.RandomState(seed)
     for _ in range(2):
         step = env.reset()
@@ -202,8 +212,8 @@ def test_compute_reward_equals_the_paper_reward(name):
     # Relabelled to the achieved goal itself: reached, so r_following = +4 and the episode ends there, with the
     # success bonus for the steps left where the step was on the route's last leg.
     relabelled = task.compute_reward(achieved, achieved, as_dict)
-    bonus = planning.success_bonus("paper", as_dict["steps_left"]) * as_dict["last_goal"]
-    np.testing.assert_allclose(relabelled, planning.FOLLOW_REACHED + as_dict["goal_independent_reward"] + bonus)
+    bonus = planning_rewards.success_bonus("paper", as_dict["steps_left"]) * as_dict["last_goal"]
+    np.testing.assert_allclose(relabelled, planning_rewards.FOLLOW_REACHED + as_dict["goal_independent_reward"] + bonus)
     assert np.all(task.compute_terminated(achieved, achieved, infos))
     # Leading axes beyond one: a (2, n) batch.
     batch = task.compute_reward(np.stack([achieved, achieved]), np.stack([desired, achieved]),
@@ -235,14 +245,14 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
     for _ in range(8):
         step = env.step(np.array([0.0, 1.0]))  # V = a0 + 1 = 1 m/s
         commands.append(env.task.last_info["command"])
-    assert len(calls) == 8 * round(planning.PLANNER_DT / planning.EXECUTOR_DT)
+    assert len(calls) == 8 * round(planning_step.PLANNER_DT / EXECUTOR_DT)
     assert all(len(state) == 4 for _, state in calls)
     assert all(speed == pytest.approx(1.0) for speed, _ in commands)
     offsets = np.array([heading - psi0 for _, heading in commands])
     # +6 deg per planner step (Table 1) until pi/6 from the current heading (which barely moves here).
-    np.testing.assert_allclose(offsets[:4], np.arange(1, 5) * planning.MAX_HEADING_CHANGE, atol=1e-3)
+    np.testing.assert_allclose(offsets[:4], np.arange(1, 5) * planning_step.MAX_HEADING_CHANGE, atol=1e-3)
     psi = env.physics.pose()[2]
-    assert abs(commands[-1][1] - psi) <= planning.MAX_HEADING_DIFFERENCE + 1e-9
+    assert abs(commands[-1][1] - psi) <= planning_step.MAX_HEADING_DIFFERENCE + 1e-9
     heading_entry = env.task.observation_fields.index("heading_command")
     assert step.observation["observation"][heading_entry] == pytest.approx((commands[-1][1] - psi) / (math.pi / 6))
     for a0, speed in ((-1.0, 0.0), (1.0, 2.0)):  # forward only: never astern, blind
@@ -260,9 +270,9 @@ def test_action_becomes_a_rate_limited_heading_command_and_executor_runs_at_10_h
 def test_paper_reward_terms_on_hand_computed_cases():
     d0 = 3.0 * max(3.0 * 0.191, 3.0 * 1.33)  # Eq. (21)-(22) with delta = 3, B = 0.191 m, L = 1.33 m
     env = suite.load("auv", "goal", task_kwargs={"random": 0})
-    assert planning.repulsion_range(env.physics) == pytest.approx(d0)
+    assert planning_rewards.repulsion_range(env.physics) == pytest.approx(d0)
     goal = np.array([100.0, 0.0])
-    follow = planning.following_reward
+    follow = planning_rewards.following_reward
     assert follow([0, 0], [1, 0], goal, 12.5) == 0.5  # closer
     assert follow([1, 0], [0, 0], goal, 12.5) == -0.5  # farther
     assert follow([0, 10], [0, -10], goal, 12.5) == 0.0  # neither
@@ -272,7 +282,7 @@ def test_paper_reward_terms_on_hand_computed_cases():
     assert follow([80, 0], [87, 0], goal, 12.5) == 0.5
     np.testing.assert_array_equal(follow(np.zeros((3, 2)), [[1, 0], [-1, 0], [98.5, 0]], goal, 2.0),
                                   [0.5, -0.5, 4.0])
-    avoid = planning.avoid_reward
+    avoid = planning_rewards.avoid_reward
     assert avoid(3.0, d0) == -1.0 and avoid(5.0, d0) == -1.0  # inside d_s = 5 m
     assert avoid(8.0, d0) == pytest.approx(-0.1 * (1 / 8.0 - 1 / 11.97))
     assert avoid(11.0, d0) == pytest.approx(-0.1 * (1 / 11.0 - 1 / 11.97))
@@ -284,23 +294,23 @@ def test_paper_reward_terms_on_hand_computed_cases():
         previous, step = step, env.step(np.array([0.5, 0.0]))
     before = np.hypot(*(previous.observation["achieved_goal"][:2] - first.observation["desired_goal"][:2]))
     after = np.hypot(*(step.observation["achieved_goal"][:2] - first.observation["desired_goal"][:2]))
-    assert after < before - planning.PROGRESS_DEADBAND and step.reward == pytest.approx(0.5 - 0.05)
+    assert after < before - planning_rewards.PROGRESS_DEADBAND and step.reward == pytest.approx(0.5 - 0.05)
 
 
 def test_avoid_reward_and_safety_violation_from_the_sonar():
     # Facing the end cap of a 60 m wide tunnel from 4 .. 20 m (its face is at x = 130 m).
     env = tunnel.tunnel(arena=small_tunnel(half_width=30.0, bounds=(-20, -40, 150, 40)), reward="paper")
     env.reset()
-    d0 = planning.repulsion_range(env.physics)
+    d0 = planning_rewards.repulsion_range(env.physics)
     for gap in (20.0, 9.0, 5.5):
         env.reset()
         place(env, 130.0 - gap - SONAR_OFFSET, 0.0, 0.0)
         env.step(HOLD)
         info = env.task.last_info
         assert info["min_sonar_range"] == pytest.approx(gap, abs=0.05)
-        assert info["reward_avoid"] == pytest.approx(planning.avoid_reward(info["min_sonar_range"], d0))
+        assert info["reward_avoid"] == pytest.approx(planning_rewards.avoid_reward(info["min_sonar_range"], d0))
         assert info["goal_independent_reward"] == pytest.approx(info["reward_avoid"] - 0.05)
-        assert info["safety_violation"] == (gap < planning.SAFETY_DISTANCE + 0.05)
+        assert info["safety_violation"] == (gap < SAFETY_DISTANCE + 0.05)
     env.reset()
     place(env, 130.0 - 4.0 - SONAR_OFFSET, 0.0, 0.0)
     env.step(HOLD)
@@ -316,7 +326,7 @@ def test_line_of_sight_reaches_the_goal():
     env = suite.load("auv", "goal", task_kwargs={"scenario": "a2", "reward": "paper"})
     steps, infos = run(env, line_of_sight)
     assert infos[-1]["event"] == "goal" and infos[-1]["success"] and steps[-1].discount == 0.0
-    assert np.hypot(*(steps[-1].observation["achieved_goal"][:2] - [200, 200])) <= planning.GOAL_RADIUS
+    assert np.hypot(*(steps[-1].observation["achieved_goal"][:2] - [200, 200])) <= routes.GOAL_RADIUS
     assert len(steps) < 0.8 * env._step_limit and not any(i["collision"] for i in infos)
 
 
@@ -328,7 +338,7 @@ def test_waypoints_advance_in_turn_with_the_reached_bonus():
     targets = [steps[i].observation["desired_goal"][:2] for i, _ in events]  # the goal each step aimed at
     np.testing.assert_array_equal(targets, env.task.goals)
     for i, info in events:  # steps[i + 1] is the step after which the event was reported
-        assert info["reward_following"] == planning.FOLLOW_REACHED
+        assert info["reward_following"] == planning_rewards.FOLLOW_REACHED
         before, after = steps[i].observation["desired_goal"][:2], steps[i + 1].observation["desired_goal"][:2]
         assert (info["event"] == "goal") == np.array_equal(before, after)
     assert steps[-1].discount == 0.0 and infos[-1]["success"]
@@ -341,7 +351,7 @@ def test_scripted_traversal_of_the_tunnel_inspection_arena():
     np.testing.assert_allclose(info.start, [670, 125])
     steps, infos = run(env, line_of_sight_avoiding)
     assert infos[-1]["event"] == "goal" and infos[-1]["success"], infos[-1]
-    np.testing.assert_allclose(steps[-1].observation["achieved_goal"][:2], [0, 150], atol=planning.SUBGOAL_RADIUS)
+    np.testing.assert_allclose(steps[-1].observation["achieved_goal"][:2], [0, 150], atol=routes.SUBGOAL_RADIUS)
     assert not any(i["collision"] for i in infos)
     assert infos[-1]["goals_reached"] == infos[-1]["num_goals"] == len(env.task.goals)
     cross_track = np.array([i["cross_track_error"] for i in infos])
@@ -357,7 +367,7 @@ def test_path_following_reports_cross_track_error():
     assert max(on_path) < 10.0
     goals = env.task.goals
     np.testing.assert_allclose(goals[0], [200, 40]) and np.testing.assert_allclose(goals[-1], [300, 300])
-    assert np.max(np.hypot(*np.diff(goals, axis=0).T)) <= planning.SUBGOAL_SPACING + 1e-9
+    assert np.max(np.hypot(*np.diff(goals, axis=0).T)) <= routes.SUBGOAL_SPACING + 1e-9
     env = suite.load("auv", "path_curve")
     env.reset()
     goals = env.task.goals
@@ -408,7 +418,7 @@ def test_sonar_sees_the_walls_of_a_tunnel_exactly():
     assert sonar[2] == pytest.approx(12.0 * math.sqrt(2), abs=1e-6)  # S3, -45 deg
     observation = env.task.get_observation(env.physics)  # sampled once per planner step (2 Hz) ...
     # ... so still the reset's
-    assert observation["observation"][planning.SONAR_SLICE][0] * SONAR_RANGE == pytest.approx(10.0)
+    assert observation["observation"][planning_observation.SONAR_SLICE][0] * SONAR_RANGE == pytest.approx(10.0)
 
 
 def test_sonar_sees_moving_obstacles_where_they_are():
@@ -430,7 +440,7 @@ def _free_direction(centre, reach, blockers):
     for angle in np.linspace(0, 2 * np.pi, 32, endpoint=False):
         direction = np.array([math.cos(angle), math.sin(angle)])
         origin = centre + reach * direction
-        if all(planning.distance_to_polyline(c, np.array([origin, centre])) > r + 1.0 for c, r in blockers):
+        if all(routes.distance_to_polyline(c, np.array([origin, centre])) > r + 1.0 for c, r in blockers):
             return direction
     return None
 
@@ -466,7 +476,7 @@ def test_sonar_sees_every_obstacle_of_every_arena(name, kwargs):
         for point, after in zip(arena_info(env.physics).path[:-1], arena_info(env.physics).path[1:],
                                 strict=True):
             sonar = place(env, *point, math.atan2(*(after - point)[::-1]))
-            assert planning.SAFETY_DISTANCE < sonar[0] < 40.0 and planning.SAFETY_DISTANCE < sonar[8] < 40.0
+            assert SAFETY_DISTANCE < sonar[0] < 40.0 and SAFETY_DISTANCE < sonar[8] < 40.0
 
 
 def test_random_obstacles_keep_off_the_start_and_the_goal():
@@ -494,8 +504,8 @@ def test_named_layouts_fit_their_time_limits():
         env = suite.load("auv", name, task_kwargs=kwargs)
         step = env.reset()
         route = np.vstack([step.observation["achieved_goal"][:2], env.task.goals])
-        limit = env._step_limit * planning.PLANNER_DT
-        assert planning.path_length(route) / planning.TARGET_SPEED < 0.75 * limit, (name, kwargs)
+        limit = env._step_limit * planning_step.PLANNER_DT
+        assert routes.path_length(route) / routes.TARGET_SPEED < 0.75 * limit, (name, kwargs)
 
 
 @pytest.mark.parametrize("reward", ["progress", "paper"])
@@ -518,7 +528,7 @@ def test_a_collision_penalty_is_subtracted_on_the_collision_step_only(reward):
         suite.load("auv", "goal", task_kwargs={"collision_penalty": -1.0})
 
 
-@pytest.mark.parametrize("load", [lambda: planning.Physics.load(planning.open_water_arena()),
+@pytest.mark.parametrize("load", [lambda: planning_physics.Physics.load(planning_physics.open_water_arena()),
                                   lambda: __import__("auv_mj.tasks.auv3d", fromlist=["Physics3D"]).Physics3D.load()],
                          ids=["planar", "6dof"])
 def test_the_executor_clock_ticks_before_the_first_step_and_then_every_period(load):

@@ -212,10 +212,10 @@ def test_the_bench_times_the_batch_over_a_learners_cycle_and_refuses_a_seed_coun
 
 
 def test_a_reward_constant_changes_the_suite_task_and_the_batch_alike(monkeypatch):
-    """The planning step is written once (`planning.step_outcome`, called with N = 1 by the suite task and with N by
-    the batch): a constant at the head of the task file, here Eq. (25)'s r_navigation, changes the suite task's
-    reward and the batched env's by the same amount."""
-    from auv_mj.tasks import planning, suite
+    """The planning step is written once (`planning_step.step_outcome`, called with N = 1 by the suite task and with N
+    by the batch): a constant at the head of the rewards module, here Eq. (25)'s r_navigation, changes the suite
+    task's reward and the batched env's by the same amount."""
+    from auv_mj.tasks import planning_rewards, planning_step, suite
 
     actions = np.array([[0.5, 0.2], [1.0, -0.3], [0.0, 0.0], [0.8, 0.1]])
 
@@ -229,13 +229,13 @@ def test_a_reward_constant_changes_the_suite_task_and_the_batch_alike(monkeypatc
         return single, batched
 
     sizes = []
-    step_outcome = planning.step_outcome
-    monkeypatch.setattr(planning, "step_outcome", lambda routes, rows, reached, *args: sizes.append(len(reached))
+    step_outcome = planning_step.step_outcome
+    monkeypatch.setattr(planning_step, "step_outcome", lambda routes, rows, reached, *args: sizes.append(len(reached))
                         or step_outcome(routes, rows, reached, *args))
     single, batched = rewards()
     assert sizes == [1] * len(actions) + [2] * len(actions)
     np.testing.assert_allclose(batched, np.stack([single, single], axis=1), rtol=0, atol=TOLERANCE)
-    monkeypatch.setattr(planning, "NAVIGATION_REWARD", planning.NAVIGATION_REWARD - 0.25)
+    monkeypatch.setattr(planning_rewards, "NAVIGATION_REWARD", planning_rewards.NAVIGATION_REWARD - 0.25)
     changed_single, changed_batched = rewards()
     np.testing.assert_allclose(changed_single - single, -0.25, rtol=0, atol=1e-12)
     np.testing.assert_allclose(changed_batched - batched, -0.25, rtol=0, atol=1e-12)

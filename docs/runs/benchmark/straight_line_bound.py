@@ -17,7 +17,7 @@ import numpy as np
 
 from auv_mj.benchmark.leaderboard import LEADERBOARD
 from auv_mj.tasks import suite
-from auv_mj.tasks.planning import MAX_SPEED
+from auv_mj.tasks.planning_step import MAX_SPEED
 
 NAMES = ("oracle", "los-fast", "planner-general")
 

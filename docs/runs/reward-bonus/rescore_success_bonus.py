@@ -1,8 +1,9 @@
 """Rescores published `auv-mj benchmark` results for the success bonus (issue 45): a one-off migration.
 
 Before the bonus, an episode of the default reward ("suite") that reached its goal was paid 1 on its last step; it
-is now paid K, the steps left in its time limit, itself included (`auv_mj.tasks.planning.success_bonus`). No other
-step's reward changed, so a success's return becomes return - 1 + K, with K = step_limit - steps + 1: `step_limit` read
+is now paid K, the steps left in its time limit, itself included (`tasks/planning_rewards.py`, `success_bonus`). No
+other step's reward changed, so a success's return becomes return - 1 + K, with K = step_limit - steps + 1: `step_limit`
+read
 from the episode's own task (its cell's environment reseeded and reset, as `auv-mj benchmark` builds it: a
 procedural tunnel has its own limit) and `steps` from its time to the goal. Failures keep their returns. The cells'
 `return` and `return_std` are recomputed as `auv_mj.benchmark.metrics.summarise` computes them. Only the returns change:
@@ -23,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj.tasks import suite
-from auv_mj.tasks.planning import PLANNER_DT, success_bonus
+from auv_mj.tasks.planning_rewards import success_bonus
+from auv_mj.tasks.planning_step import PLANNER_DT
 
 OLD_SUCCESS_REWARD = 1.0
 """What the "suite" reward paid on the step that reached the goal before the bonus."""
