@@ -54,8 +54,8 @@ from auv_mj.agents.checkpoint import (
     read_checkpoint,
     save_checkpoint,
 )
-from auv_mj.agents.ppo.ppo import ActorCritic, PPOConfig, build_model, save_ppo
-from auv_mj.agents.ppo.ppo import train as ppo_train
+from auv_mj.agents.ppo import ActorCritic, PPOConfig, build_model, save_ppo
+from auv_mj.agents.ppo import train as ppo_train
 from auv_mj.agents.ppo.spaces import autoreset_mode, env_spec
 from auv_mj.seeds import VALIDATION, train_seed
 

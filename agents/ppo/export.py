@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from auv_mj.agents.ppo.ppo import load_model, read_ppo, save_ppo
+from auv_mj.agents.ppo.checkpoint import load_model, read_ppo, save_ppo
 
 
 def export(source: str | Path, target: str | Path) -> Path:

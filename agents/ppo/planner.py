@@ -41,8 +41,10 @@ from typing import Any
 import numpy as np
 
 from auv_mj.agents.checkpoint import config_to_dict
-from auv_mj.agents.ppo import ppo
+from auv_mj.agents.ppo.checkpoint import CHECKPOINT_NAME, read_ppo
+from auv_mj.agents.ppo.config import PPOConfig
 from auv_mj.agents.ppo.policy import PPOPolicy
+from auv_mj.agents.ppo.ppo import train
 from auv_mj.seeds import VALIDATION
 from auv_mj.tasks.mixture import MIXTURE_TASKS, TIERS, WATERS, PlanningMixtureVectorEnv, cell_counts, mixture_cells
 from auv_mj.tasks.planning_rewards import GEODESIC_DISCOUNT
@@ -239,7 +241,7 @@ def _replace_file(source: Path, target: Path) -> None:
     tmp.replace(target)
 
 
-def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: MixtureConfig, total_steps: int,
+def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: MixtureConfig, total_steps: int,
                   *, resume: bool = False, progress: bool = True, tensorboard: bool = True,
                   threads: int | None = None) -> dict[str, Any]:
     """Trains the planner (see the module docstring) for `total_steps` env steps, the steps its schedules span;
@@ -255,15 +257,15 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
         saved = _training_fields(mixture_from_dict(json.loads(mixture_path.read_text())))
         if saved != _training_fields(mixture):
             raise ValueError(f"{mixture_path}: the run was trained on {saved}, not {_training_fields(mixture)}")
-        (_, meta), saved_config = ppo.read_ppo(run_dir / ppo.CHECKPOINT_NAME)
+        (_, meta), saved_config = read_ppo(run_dir / CHECKPOINT_NAME)
         config = saved_config if config is None else config
         done_steps = int(meta["counters"]["env_steps"])
     else:
-        if (run_dir / ppo.CHECKPOINT_NAME).exists():
-            raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: resume it or choose another run "
+        if (run_dir / CHECKPOINT_NAME).exists():
+            raise FileExistsError(f"{run_dir / CHECKPOINT_NAME} exists: resume it or choose another run "
                                   "directory")
         run_dir.mkdir(parents=True, exist_ok=True)
-        config = config or ppo.PPOConfig()
+        config = config or PPOConfig()
         done_steps = 0
     mixture_path.write_text(json.dumps(config_to_dict(mixture), indent=2))
     per_rollout = config.num_steps * mixture.num_envs
@@ -283,11 +285,11 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
     steps = done_steps
     while steps < target:
         goal = min(target, (steps // chunk + 1) * chunk)
-        result = ppo.train(lambda: mixture.make_env(threads), config, run_dir, goal, resume=steps > 0,
+        result = train(lambda: mixture.make_env(threads), config, run_dir, goal, resume=steps > 0,
                            progress=progress, tensorboard=tensorboard, schedule_steps=None if steps else target,
                            step_speed=ground_speed)
         steps = result.env_steps
-        meta = ppo.read_ppo(result.checkpoint)[0].metadata
+        meta = read_ppo(result.checkpoint)[0].metadata
         snapshot = snapshots / f"steps_{steps}.pt"
         shutil.copyfile(result.checkpoint, snapshot)
         started = time.perf_counter()
@@ -311,17 +313,17 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
     return {"env_steps": steps, "best_steps": int(best["env_steps"]) if best else None,
             "best_success": windowed_means(scores, mixture.validation_window)[chosen] if best else None,
             "best_point": scores[chosen] if best else None,
-            "checkpoint": run_dir / ppo.CHECKPOINT_NAME, "best": run_dir / BEST_NAME}
+            "checkpoint": run_dir / CHECKPOINT_NAME, "best": run_dir / BEST_NAME}
 
 
-PLANNER_CONFIG = ppo.PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4, hidden_sizes=(128, 128),
+PLANNER_CONFIG = PPOConfig(num_steps=128, num_minibatches=4, update_epochs=4, hidden_sizes=(128, 128),
                                recurrent="gru", recurrent_size=128, clip_vloss=False, checkpoint_every=40,
                                torch_threads=2)
 """The planner's PPO defaults (`auv-mj train ppo`): 128-step rollouts of the 96 vehicles (12,288 transitions),
 4 epochs of 4 minibatches of whole vehicles' sequences, a 128-128 tanh encoder and a 128-unit GRU, no value
 clipping (the returns are not on the policy ratio's scale), a checkpoint (and reset of the envs) every 40
 rollouts, about 0.5 M steps, and the update on two threads (the batch's physics threads are idle while it runs).
-Others are CleanRL's (`ppo.PPOConfig`)."""
+Others are CleanRL's (`PPOConfig`)."""
 
 
 LEARNED_CONFIG = dataclasses.replace(

@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from auv_mj.agents.ppo.ppo import ActorCritic, load_model, read_ppo
+from auv_mj.agents.ppo.checkpoint import load_model, read_ppo
+from auv_mj.agents.ppo.model import ActorCritic
 from auv_mj.agents.ppo.spaces import env_action, flatten_obs
 
 

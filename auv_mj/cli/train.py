@@ -26,6 +26,7 @@ from auv_mj.agents.offpolicy.learners import agent_classes
 from auv_mj.agents.offpolicy.td3 import TD3Config
 from auv_mj.agents.offpolicy.train import AGENTS, CHECKPOINT_NAME, WINDOW, errors_text, train
 from auv_mj.agents.ppo import PPOConfig
+from auv_mj.agents.ppo.config import SCHEDULES
 from auv_mj.agents.ppo.planner import (
     LEARNED_CONFIG,
     LEARNED_MIXTURE,
@@ -35,7 +36,6 @@ from auv_mj.agents.ppo.planner import (
     mixture_from_dict,
     train_planner,
 )
-from auv_mj.agents.ppo.ppo import SCHEDULES
 from auv_mj.cli.options import (
     MAX_PROCESSES,
     add_output_option,

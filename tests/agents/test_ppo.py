@@ -26,6 +26,7 @@ from auv_mj.agents.ppo import (
     PPOConfig,
     PPOPolicy,
     Rollout,
+    advantages_of,
     build_model,
     clipped_surrogate,
     env_spec,
@@ -388,7 +389,7 @@ def test_one_update_step_is_minus_lr_times_autograds_gradient_and_lowers_the_los
     rollout = Rollout(batch.obs, batch.starts, batch.valid, batch.actions, batch.logprobs, batch.values,
                       batch.advantages + batch.values, zeros, zeros, zeros, batch.state)
     sgd_config = dataclasses.replace(config, gamma=0.0, clip_vloss=True)
-    adv, ret = rollout.advantages(sgd_config)
+    adv, ret = advantages_of(rollout, sgd_config)
     torch.testing.assert_close(adv, batch.advantages * batch.valid)
     batch_masked = batch._replace(advantages=adv, returns=ret)
     loss_masked, _ = ppo_loss(model, batch_masked, sgd_config)
@@ -796,12 +797,13 @@ def test_a_checkpoint_keeps_the_task_options_it_was_trained_with_and_the_zoo_run
 def test_the_progress_bar_shows_no_nan_before_an_episode_ends(tmp_path, capsys):
     """One rollout of 4 steps on episodes of DELAY + 1 = 9 steps ends no episode: the bar says so (not ret=nan);
     later ones show the means over the episodes that ended, leaving out what the env does not report."""
-    from auv_mj.agents.ppo import ppo
+    from auv_mj.agents.ppo import Episode
+    from auv_mj.agents.ppo.logs import progress_text
 
     config = dataclasses.replace(TOY_CONFIG, num_steps=4, num_minibatches=2)
     train(CueEnv(2), config, tmp_path, total_steps=2 * 4, progress=True)
     text = capsys.readouterr().err
     assert "nan" not in text.lower() and "no episode ended yet" in text
-    assert ppo.progress_text([], 0, 3e-4, 10.0) == "no episode ended yet, episodes 0, lr 0.0003, 10 steps/s"
-    ended = [ppo.Episode(1.0, 9, 0, 1.0, np.nan, 1.0), ppo.Episode(2.0, 9, 0, 0.0, np.nan, 1.0)]
-    assert ppo.progress_text(ended, 2, 3e-4, 10.0).startswith("ret 1.5, succ 0.50 (last 2), episodes 2")
+    assert progress_text([], 0, 3e-4, 10.0) == "no episode ended yet, episodes 0, lr 0.0003, 10 steps/s"
+    ended = [Episode(1.0, 9, 0, 1.0, np.nan, 1.0), Episode(2.0, 9, 0, 0.0, np.nan, 1.0)]
+    assert progress_text(ended, 2, 3e-4, 10.0).startswith("ret 1.5, succ 0.50 (last 2), episodes 2")

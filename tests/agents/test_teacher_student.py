@@ -18,7 +18,7 @@ import torch
 from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.agents.imitation import CHECKPOINT_NAME, DaggerConfig, Sequences, collect, fit, imitation_loss, train_dagger
 from auv_mj.agents.ppo import Minibatch, PPOConfig, build_model, ppo_loss
-from auv_mj.agents.ppo.ppo import imitation_weight
+from auv_mj.agents.ppo.config import imitation_weight
 from auv_mj.planners.teacher import BatchTeacher, geodesic_teacher
 from auv_mj.tasks import suite
 from auv_mj.tasks.vector import AUVVectorEnv

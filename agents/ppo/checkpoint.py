@@ -1,0 +1,74 @@
+"""A PPO run's checkpoint, kind "ppo" of `auv_mj.agents.checkpoint`: written, read, and turned back into networks.
+
+A training checkpoint holds the model (its normalisers included), Adam's moments and the generator, with the config,
+the spaces and the counters; a deployable one (`auv_mj.agents.ppo.export`) the model alone. `load_actor` gives a new
+run the actor of another's checkpoint (a DAgger student's, for a fine-tune).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from auv_mj.agents.checkpoint import (
+    Checkpoint,
+    config_to_dict,
+    load_module,
+    module_tensors,
+    optimizer_tensors,
+    read_checkpoint,
+    save_checkpoint,
+    saved_config,
+)
+from auv_mj.agents.ppo.config import PPOConfig
+from auv_mj.agents.ppo.model import ActorCritic
+
+CHECKPOINT_NAME = "checkpoint.pt"
+"""The checkpoint's name in a run's directory (`auv_mj.agents.ppo.ppo.train` writes it every checkpoint_every
+rollouts)."""
+
+
+def save_ppo(path: str | Path, model: ActorCritic, optimizer: torch.optim.Optimizer | None,
+             generator: torch.Generator | None, config: PPOConfig, spec: Mapping[str, Any],
+             counters: Mapping[str, Any]) -> None:
+    """Atomically writes a checkpoint of kind "ppo": the model (normaliser included), Adam's moments and the
+    generator (either None for a deployable file), with the config, the spaces and the counters."""
+    tensors = module_tensors(model, "model")
+    if optimizer is not None:
+        tensors.update(optimizer_tensors(optimizer, "optimizer"))
+    if generator is not None:
+        tensors["generator"] = generator.get_state().cpu()
+    save_checkpoint(path, "ppo", tensors, {"agent": "ppo", "config": config_to_dict(config), "spec": dict(spec),
+                                           "counters": dict(counters)})
+
+
+def read_ppo(path: str | Path) -> tuple[Checkpoint, PPOConfig]:
+    """A checkpoint of kind "ppo" (`auv_mj.agents.checkpoint.read_checkpoint`) and its config; ValueError naming
+    the file if it is unreadable, of another kind or its config is not a PPOConfig."""
+    checkpoint = read_checkpoint(path, "ppo")
+    return checkpoint, saved_config(checkpoint, path, PPOConfig)
+
+
+def load_model(path: str | Path, tensors: Mapping[str, torch.Tensor], spec: Mapping[str, Any],
+               config: PPOConfig) -> ActorCritic:
+    """The actor-critic of a checkpoint's tensors; ValueError naming the file if they do not fit its config."""
+    model = ActorCritic(int(spec["obs_dim"]), int(spec["act_dim"]), config, int(spec.get("privileged_dim", 0)))
+    load_module(model, tensors, "model", Path(path))
+    return model.to(config.device)
+
+
+def load_actor(model: ActorCritic, tensors: Mapping[str, torch.Tensor], path: Path) -> None:
+    """A new run's actor (encoder, memory, head, log std) and observation normaliser from a checkpoint's tensors
+    (a student's); the critic keeps its fresh weights where the checkpoint's does not fit (a privileged critic)."""
+    own = model.state_dict()
+    taken = {k[len("model."):]: v for k, v in tensors.items() if k.startswith("model.")}
+    fits = {k: v for k, v in taken.items() if k in own and own[k].shape == v.shape
+            and not k.startswith(("critic", "privileged_norm"))}
+    actor = [k for k in own if k.startswith(("encoder", "core", "actor", "obs_norm"))]
+    missing = [k for k in actor if k not in fits]
+    if missing:
+        raise ValueError(f"checkpoint {path} does not fit this actor: {missing[:4]}")
+    model.load_state_dict({**own, **fits})
