@@ -1,10 +1,10 @@
 """What a planning task's policy reads: the observation vectors (Table 2's and ours), one function for a batch.
 
-observation="relative" (default, RELATIVE_FIELDS): the current goal in the body frame, the motion, the
-command and the sonar; "paper" (OBSERVATION_FIELDS): Table 2's vector beside the absolute `desired_goal`; "planner"
-(ours, issue 51, PLANNER_FIELDS): what the classical planners read (docs/planners.md) -- the route target ROUTE_HORIZON
-ahead (`route_target_index`, the rule `map-replan` and `bug` aim by), the pose across the map, the previous action,
-the motion, the command, the geofence and the sonar.
+The task option `observation` picks one: "relative" (default, RELATIVE_FIELDS): the current goal in the body frame, the
+motion, the command and the sonar; "paper" (OBSERVATION_FIELDS): Table 2's vector beside the absolute `desired_goal`;
+"planner" (ours, issue 51, PLANNER_FIELDS): what the classical planners read (docs/planners.md) -- the route target
+ROUTE_HORIZON ahead (`route_target_index`, the rule `map-replan` and `bug` aim by), the pose across the map, the
+previous action, the motion, the command, the geofence and the sonar.
 
 Every vector ends in the nine sonar ranges (SONAR_SLICE). `observe` builds them for N vehicles from the step's arrays
 (`auv_mj.tasks.planning_step`: `RouteBatch`, `Readout`), with N = 1 for `PlanningTask.get_observation` and N for the
@@ -28,6 +28,7 @@ from auv_mj.tasks.planning_step import (
 from auv_mj.tasks.routes import route_target_index
 
 OBSERVATIONS = ("relative", "paper", "planner")
+"""The values of the task option `observation` (module docstring)."""
 
 POSITION_SCALE = 600.0
 """Positions in the observation vector are divided by this [m]."""

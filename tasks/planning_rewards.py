@@ -98,6 +98,7 @@ from auv_mj.sim.physics import AUVPhysics
 from auv_mj.tasks.routes import goal_distance
 
 REWARDS = ("suite", "paper", "progress", "geodesic")
+"""The values of the task option `reward` (module docstring)."""
 
 GEODESIC_DISCOUNT = 0.998
 """The discount gamma of reward="geodesic" (ours, issue 51), the one a learner of it must use: its shaping term is
