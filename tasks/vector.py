@@ -434,6 +434,11 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         """The task's `compute_terminated` for batches of goals."""
         return self.envs[0].task.compute_terminated(achieved_goal, desired_goal, info)
 
+    @property
+    def action_kind(self) -> str:
+        """The action map of the batch's task (`planning.ACTIONS`)."""
+        return self.rules.action
+
     def privileged_state(self) -> dict[str, Any]:
         """The true state of every row for a privileged teacher (`auv_mj.planners.teacher`; Chen et al. 2019), never
         a learner's input: each episode's geodesic potential ("potentials", `planning.RoutePotential`; needs

@@ -34,11 +34,12 @@ import json
 import math
 import shutil
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gymnasium.vector import VectorEnv
 
 from auv_mj.agents.checkpoint import config_to_dict
 from auv_mj.agents.ppo import ppo
@@ -240,14 +241,19 @@ def _replace_file(source: Path, target: Path) -> None:
 
 def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: MixtureConfig, total_steps: int,
                   *, resume: bool = False, progress: bool = True, tensorboard: bool = True,
-                  threads: int | None = None) -> dict[str, Any]:
+                  threads: int | None = None, env: VectorEnv | None = None,
+                  teacher: Callable[[], np.ndarray] | None = None, init: str | Path | None = None) -> dict[str, Any]:
     """Trains the planner (see the module docstring) for `total_steps` env steps, the steps its schedules span;
     returns {"env_steps", "best_steps", "best_success" (the chosen window's mean), "best_point" (the chosen
     snapshot's own validation), "checkpoint", "best"}.
 
     Resuming continues from the last chunk's checkpoint (`ppo.train`'s exact resume when `validate_every` is a whole
     number of checkpoint periods) with the schedules the run started with. The mixture's training fields must be the
-    saved ones; its validation fields (SELECTION_FIELDS) may change, and are saved anew."""
+    saved ones; its validation fields (SELECTION_FIELDS) may change, and are saved anew.
+
+    A student's fine-tune (issue 51, `auv_mj.jobs.student`) passes `env`, the mixture as the student sees it (made by
+    the caller, kept open across the chunks), `teacher`, the teacher's labels on it (`ppo.train`'s imitation term),
+    and `init`, the student's checkpoint that a new run starts from."""
     run_dir = Path(run_dir)
     mixture_path = run_dir / MIXTURE_NAME
     if resume:
@@ -282,9 +288,10 @@ def train_planner(run_dir: str | Path, config: ppo.PPOConfig | None, mixture: Mi
     steps = done_steps
     while steps < target:
         goal = min(target, (steps // chunk + 1) * chunk)
-        result = ppo.train(lambda: mixture.make_env(threads), config, run_dir, goal, resume=steps > 0,
-                           progress=progress, tensorboard=tensorboard, schedule_steps=None if steps else target,
-                           step_speed=ground_speed)
+        result = ppo.train(env if env is not None else lambda: mixture.make_env(threads), config, run_dir, goal,
+                           resume=steps > 0, progress=progress, tensorboard=tensorboard,
+                           schedule_steps=None if steps else target, step_speed=ground_speed, teacher=teacher,
+                           init=None if steps else init)
         steps = result.env_steps
         meta = ppo.read_ppo(result.checkpoint)[0].metadata
         snapshot = snapshots / f"steps_{steps}.pt"
