@@ -474,6 +474,16 @@ class Planning3D(base.Task):
         super().__init__(random=options.seed(random))
 
     @property
+    def desired_goal(self) -> np.ndarray:
+        """The episode's desired_goal (GOAL_SIZE): the goal, with the heading of the way into it."""
+        return self._desired.copy()
+
+    @property
+    def achieved_goal(self) -> np.ndarray:
+        """The achieved_goal of the last observation (GOAL_SIZE): the position and the sensed heading."""
+        return self._achieved.copy()
+
+    @property
     def max_pitch(self) -> float:
         """The executor's pitch limit [rad], which the hard arenas' certified paths climb and dive within: its
         S-plane's, or the hand-set S-plane's for an executor with no gains of its own."""
@@ -537,6 +547,7 @@ class Planning3D(base.Task):
         self.ocean.start(physics, self.random)
         physics.set_tick(self._tick, EXECUTOR_DT)
         self._achieved = pose_goal(physics.position(), heading)
+        self.last_info = {}  # a reset's info is its own, not the last episode's end (as the planar tasks')
         super().initialize_episode(physics)
 
     def _move(self, physics: Physics3D) -> None:

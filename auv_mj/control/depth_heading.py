@@ -125,6 +125,11 @@ class DepthHeadingController:
         """The speed, heading and depth integral contributions (each within +-integral_limit)."""
         return self._integral.copy()
 
+    @property
+    def last_speed(self) -> float | None:
+        """The surge speed of the last call (its rate is the speed channel's derivative), None after a reset."""
+        return self._last_u
+
     def __call__(self, command: Sequence[float], state: State3D, scale: Sequence[float] | None = None) -> np.ndarray:
         """(thrust [N], rudder [rad], stern [rad]) for command (V_cmd, psi_cmd, depth_cmd) and `state`.
 
