@@ -3,7 +3,7 @@
 Sub-environment i reset with seed s runs exactly the single environment's episode for seed s under the same actions --
 observations, rewards, terminated / truncated and every info entry to 1e-9 -- for goal3d and tunnel3d, ideal and ocean
 water, through autoresets (which continue each sub-environment's RandomState, as `AUVGymEnv.reset()` without a seed
-does). The actions steer at the target with noise.
+does). The actions steer at the target with noise, or wander at full speed into the tube's wall.
 """
 
 from __future__ import annotations
@@ -44,8 +44,16 @@ def assert_close(vector_value, single_value, what: str) -> None:
     np.testing.assert_allclose(a, b, rtol=0, atol=TOLERANCE, err_msg=what)
 
 
-def run_side_by_side(task: str, options: dict, mode: AutoresetMode) -> dict:
-    """Steps the batch and one AUVGymEnv per sub-environment on the same actions, comparing everything."""
+def wander(observation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Uniform actions at full speed, float32: the vehicle hits the tube's wall or broaches."""
+    actions = rng.uniform(-1.0, 1.0, (len(observation), 3))
+    actions[:, 0] = 1.0
+    return actions.astype(np.float32)
+
+
+def run_side_by_side(task: str, options: dict, mode: AutoresetMode, policy=steer) -> dict:
+    """Steps the batch and one AUVGymEnv per sub-environment on the same actions of `policy`, comparing everything;
+    returns counts of the episode endings and events seen."""
     vector = AUV3DVectorEnv(task, len(SEEDS), options, threads=2, autoreset_mode=mode)
     singles = [AUVGymEnv(task, options) for _ in SEEDS]
     observation, info = vector.reset(seed=list(SEEDS))
@@ -60,7 +68,7 @@ def run_side_by_side(task: str, options: dict, mode: AutoresetMode) -> dict:
     pending = np.zeros(len(SEEDS), dtype=bool)
     seen = {"terminated": 0, "truncated": 0, "autoresets": 0}
     for t in range(STEPS):
-        actions = steer(observation["observation"], rng)
+        actions = policy(observation["observation"], rng)
         observation, reward, terminated, truncated, info = vector.step(actions)
         for i, single in enumerate(singles):
             where = f"step {t} env {i}"
@@ -90,6 +98,9 @@ def run_side_by_side(task: str, options: dict, mode: AutoresetMode) -> dict:
                 seen["autoresets"] += 1
                 for key in expected:
                     assert_close(observation[key][i], expected[key], f"{where} reset {key}")
+            event = expected_info.get("event", "")
+            if event:
+                seen[event] = seen.get(event, 0) + 1
         seen["terminated"] += int(terminated.sum())
         seen["truncated"] += int(truncated.sum())
         pending = (terminated | truncated) if mode == AutoresetMode.NEXT_STEP else np.zeros(len(SEEDS), dtype=bool)
@@ -108,10 +119,11 @@ def test_sub_environment_is_the_single_environment(task, water):
 
 
 @pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
-def test_same_step_autoreset_in_ocean_water():
+def test_collisions_and_same_step_autoresets_in_ocean_water():
     options = {"conditions": "ocean", "arena": "random", "time_limit": TIME_LIMIT}
-    seen = run_side_by_side("tunnel3d", options, AutoresetMode.SAME_STEP)
+    seen = run_side_by_side("tunnel3d", options, AutoresetMode.SAME_STEP, wander)
     assert seen["autoresets"] >= len(SEEDS)
+    assert seen.get("collision", 0) >= 1 and seen["terminated"] >= 1
 
 
 def test_make_vec_returns_the_batch():
