@@ -745,6 +745,43 @@ def _los(position, path, lookahead):
     return los_command(position, path, lookahead, CRUISE_SPEED)
 
 
+def lookahead_targets(positions: np.ndarray, paths: np.ndarray, counts: np.ndarray,
+                      lookahead: float = LOOKAHEAD) -> np.ndarray:
+    """`Tunnel3D.target` of N vehicles at once (the batched env's, `auv_mj.tasks.vector3d`): the point `lookahead`
+    metres on from each vehicle towards `los_command`'s look-ahead point along its path, at that point's depth.
+
+    `positions` (N, 3); `paths` (N, K, 3), path i's first counts[i] points, the rest padding. The same arithmetic as
+    `los_command` on a batch axis (equal to rounding: tests/tasks/test_vector_env_3d.py)."""
+    positions, paths = np.asarray(positions, dtype=float), np.asarray(paths, dtype=float)
+    counts = np.asarray(counts, dtype=int)
+    n, k = paths.shape[:2]
+    rows = np.arange(n)
+    segments = np.diff(paths, axis=1)
+    lengths = np.linalg.norm(segments, axis=-1)
+    valid = np.arange(k - 1)[None, :] < (counts - 1)[:, None]
+    to_start = positions[:, None, :] - paths[:, :-1]
+    along = np.clip(np.sum(to_start * segments, axis=-1) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
+    nearest = paths[:, :-1] + along[..., None] * segments
+    gap = np.where(valid, np.linalg.norm(nearest - positions[:, None, :], axis=-1), np.inf)
+    best = np.argmin(gap, axis=1) if k > 1 else np.zeros(n, dtype=int)
+    arc = np.concatenate([np.zeros((n, 1)), np.cumsum(np.where(valid, lengths, 0.0), axis=1)], axis=1)
+    last = paths[rows, counts - 1]
+    total = arc[rows, counts - 1]
+    if k > 1:
+        s = arc[rows, best] + along[rows, best] * lengths[rows, best] + lookahead
+        inside = (np.arange(k)[None, :] < counts[:, None]) & (arc <= s[:, None])
+        j = np.minimum(np.sum(inside, axis=1) - 1, k - 2)
+        share = (s - arc[rows, j]) / np.maximum(lengths[rows, j], 1e-12)
+        target = paths[rows, j] + share[:, None] * segments[rows, j]
+        on_path = (counts >= 2) & np.any(valid & (lengths > 0), axis=1) & (s < total)
+        target = np.where(on_path[:, None], target, last)
+    else:
+        target = last
+    heading = np.arctan2(target[:, 1] - positions[:, 1], target[:, 0] - positions[:, 0])
+    return np.column_stack([positions[:, 0] + lookahead * np.cos(heading),
+                            positions[:, 1] + lookahead * np.sin(heading), target[:, 2]])
+
+
 class RouteEnvironment(control.Environment):
     """The environment of a 3-D planning task: its time limit is each episode's route's
     (`Planning3D.episode_time_limit`, set at every reset), or the `time_limit` a user gave for every episode.

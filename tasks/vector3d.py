@@ -21,8 +21,8 @@ How:
   (`sample_schedule`), and the noise is drawn here from the episode's own generator in the order `Ocean3D.noise`
   draws it (`draw_noise`); the fan's noise (`NoisySonar`, its own generator) is the episode's `Sensors3D.noise`
   called on the raw fan the step sampled. Then the events, the info and the reward (`Planning3D.compute_reward`,
-  vectorised) and the observation (`target_features`, vectorised; tunnel3d's look-ahead point is the task's
-  `target`) over the batch. Only the time limits (`RouteEnvironment`'s, each episode's) are here.
+  vectorised) and the observation (`target_features`, vectorised; tunnel3d's look-ahead point is `Tunnel3D.target`'s,
+  `auv3d.lookahead_targets`) over the batch. Only the time limits (`RouteEnvironment`'s, each episode's) are here.
 - What an episode leaves to the next is written back before the sub-environment's next reset: the DVL's last
   noisy sample (`Ocean3D.last_dvl`, what a dropout at the next episode's first read holds).
 
@@ -190,6 +190,9 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._heading = np.zeros(n)
         """Each vehicle's true heading [rad] (`AUV3DPhysics.heading`): what the action's heading offset adds to."""
         self._goal = np.zeros((n, 3))
+        self._paths = np.zeros((n, 2, 3))
+        """Each episode's path (tunnel3d: the tube's centreline), padded with its last point (`lookahead_targets`)."""
+        self._path_counts = np.zeros(n, dtype=int)
         self._desired = np.zeros((n, auv3d.GOAL_SIZE))
         self._achieved = np.zeros((n, auv3d.GOAL_SIZE))
         self._sonar = np.zeros((n, FAN_BEAMS))
@@ -231,6 +234,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._position[i] = physics.position()
         self._heading[i] = physics.heading()
         self._goal[i] = task.goal
+        self._put_path(i, task.path)
         self._desired[i] = task.desired_goal
         self._achieved[i] = task.achieved_goal
         self._steps[i] = 0
@@ -267,6 +271,18 @@ class AUV3DVectorEnv(GoalVectorEnv):
         if last_dvl is not None:
             state[at["last_dvl_x"]:at["last_dvl_x"] + 3] = last_dvl
         self._load_current(i, ocean)
+
+    def _put_path(self, i: int, path: np.ndarray) -> None:
+        """Episode i's path into the padded paths (grown to the longest)."""
+        count = len(path)
+        if count > self._paths.shape[1]:
+            grown = np.repeat(self._paths[:, -1:], count, axis=1)
+            grown[:, :self._paths.shape[1]] = self._paths
+            self._paths = grown
+        self._path_counts[i] = count
+        if count:
+            self._paths[i, :count] = path
+            self._paths[i, count:] = path[-1]
 
     def _load_current(self, i: int, ocean) -> None:
         """The current's processes and its depth profile into the stepper's rows."""
@@ -364,7 +380,11 @@ class AUV3DVectorEnv(GoalVectorEnv):
         if self._goal_task:
             target = self._goal[index]
         else:
-            target = np.array([self.envs[i].task.target(position[k]) for k, i in enumerate(index)]).reshape(-1, 3)
+            counts = self._path_counts[index]
+            target = self._goal[index].copy()
+            tube = counts >= 2  # Tunnel3D.target: the goal before a tube
+            if np.any(tube):
+                target[tube] = auv3d.lookahead_targets(position[tube], self._paths[index[tube]], counts[tube])
         head = np.column_stack([state[:, at_state["dvl_x"]:at_state["dvl_z"] + 1],
                                 state[:, at_state["gyro_x"]:at_state["gyro_z"] + 1], out[:, at_out["roll"]],
                                 out[:, at_out["pitch"]], state[:, at_state["depth"]],

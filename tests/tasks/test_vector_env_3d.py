@@ -17,6 +17,7 @@ from gymnasium.vector import AutoresetMode
 
 import auv_mj.tasks  # noqa: F401  (registers the ids)
 from auv_mj.control.depth_heading import DepthHeadingController
+from auv_mj.tasks import auv3d, suite
 from auv_mj.tasks.gym_adapter import AUVGymEnv
 from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
@@ -140,3 +141,23 @@ def test_other_executors_are_refused():
 
     with pytest.raises(ValueError, match="depth-heading S-plane"):
         AUV3DVectorEnv("goal3d", 1, {"executor": Other()})
+
+
+def test_lookahead_targets_are_the_tubes_targets():
+    """`auv3d.lookahead_targets` (the batch's) against `Tunnel3D.target` (the single env's), anywhere about tubes of
+    different lengths: before their start, along them, off them and past their end."""
+    envs = [suite.load("auv3d", "tunnel3d", task_kwargs={"arena": "random", "random": seed}) for seed in (0, 1, 2)]
+    tasks = []
+    for env in envs:
+        env.reset()
+        tasks.append(env.task)
+    longest = max(len(task.path) for task in tasks)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        paths = np.stack([np.vstack([t.path, np.repeat(t.path[-1:], longest - len(t.path), axis=0)]) for t in tasks])
+        along = rng.uniform(-0.2, 1.2, len(tasks))
+        positions = np.stack([t.path[0] + a * (t.path[-1] - t.path[0]) + rng.normal(0.0, 4.0, 3)
+                              for t, a in zip(tasks, along, strict=True)])
+        got = auv3d.lookahead_targets(positions, paths, [len(t.path) for t in tasks])
+        for k, task in enumerate(tasks):
+            np.testing.assert_allclose(got[k], task.target(positions[k]), rtol=0, atol=TOLERANCE)
