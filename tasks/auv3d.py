@@ -408,6 +408,34 @@ def target_features(achieved_goal, target) -> np.ndarray:
                      np.where(across > 1e-12, left / safe, 0.0), -offset[..., 2]], axis=-1)
 
 
+def step_info(collided, depth, distance, ranges, previous_achieved) -> dict[str, np.ndarray]:
+    """A 3-D planning step's info (`Planning3D.after_step`'s `last_info`) over a batch axis: the event ("collision":
+    the hull touches something; else "left_map": shallower than MIN_DEPTH; else "goal": within GOAL_RADIUS of the goal;
+    else ""), its flags, the closest fan range, the true depth [m], the distance to the goal [m], the achieved goal
+    before the step and the reward's goal-independent part. `collided`, `depth`, `distance` (N,); `ranges` (N, 27),
+    the fan as sensed; `previous_achieved` (N, GOAL_SIZE)."""
+    collided = np.asarray(collided, dtype=bool)
+    depth, distance = np.asarray(depth, dtype=float), np.asarray(distance, dtype=float)
+    left_map = ~collided & (depth < MIN_DEPTH)
+    goal = ~collided & ~left_map & (distance < GOAL_RADIUS)
+    event = np.full(collided.shape, "", dtype=object)
+    event[collided], event[left_map], event[goal] = "collision", "left_map", "goal"
+    failed = collided | left_map
+    return {"event": event, "success": goal, "is_success": goal.copy(), "collision": collided, "left_map": left_map,
+            "min_clearance": np.min(ranges, axis=-1), "depth": depth, "distance": distance,
+            "previous_achieved_goal": np.asarray(previous_achieved, dtype=float),
+            "goal_independent_reward": -STEP_COST + np.where(failed, COLLISION_REWARD, 0.0)}
+
+
+def planning_observation(head, achieved_goal, target, fan) -> np.ndarray:
+    """The planning observation (PLANNING_OBSERVATION, then the fan / SONAR_RANGE) over leading axes, from `head`: the
+    sensed (u, v, w, p, q, r, roll, pitch, depth, altitude [m]); the achieved goal (position and sensed heading); the
+    target point; and the 27 fan ranges as sensed [m]."""
+    head = np.array(head, dtype=float)
+    head[..., 9] = head[..., 9] / ALTIMETER_RANGE
+    return np.concatenate([head, target_features(achieved_goal, target), np.asarray(fan) / SONAR_RANGE], axis=-1)
+
+
 def route_time_limit(length: float) -> float:
     """The time limit [s] of a 3-D route of `length` m: ROUTE_TIME_FACTOR times its time at the classical planners'
     CRUISE_SPEED plus ROUTE_TIME_MARGIN, in steps of ROUTE_TIME_STEP (the planar tunnel's rule at 1.5 m/s)."""
@@ -579,21 +607,11 @@ class Planning3D(base.Task):
         return any(hull in (data.contact[i].geom1, data.contact[i].geom2) for i in range(data.ncon))
 
     def after_step(self, physics) -> None:
-        distance = self._target_distance(physics)
-        event = ""
-        if self._collided(physics):
-            event = "collision"
-        elif physics.depth() < MIN_DEPTH:
-            event = "left_map"
-        elif distance < GOAL_RADIUS:
-            event = "goal"
         ranges = self.sensors.read(physics)["sonar"]
-        failed = event in ("collision", "left_map")
-        self.last_info = {"event": event, "success": event == "goal", "is_success": event == "goal",
-                          "collision": event == "collision", "left_map": event == "left_map",
-                          "min_clearance": float(np.min(ranges)), "depth": physics.depth(), "distance": distance,
-                          "previous_achieved_goal": self._achieved.copy(),
-                          "goal_independent_reward": -STEP_COST + (COLLISION_REWARD if failed else 0.0)}
+        info = step_info(np.array([self._collided(physics)]), np.array([physics.depth()]),
+                         np.array([self._target_distance(physics)]), ranges[None], self._achieved[None].copy())
+        self.last_info = {key: value[0].copy() if value.ndim > 1 else value[0] if value.dtype == object
+                          else value.tolist()[0] for key, value in info.items()}
         # the reward is compute_reward's: one definition for the step and for relabelled goals
         self._reward = float(self.compute_reward(pose_goal(physics.position(), 0.0), self._desired, self.last_info))
 
@@ -604,9 +622,8 @@ class Planning3D(base.Task):
         position = physics.position()
         self._achieved = pose_goal(position, state.heading)
         head = [state.u, state.v, state.w, state.p, state.q, state.r, state.roll, state.pitch, state.depth,
-                float(sensed["altimeter"]) / ALTIMETER_RANGE]
-        return np.concatenate([head, target_features(self._achieved, self.target(position)),
-                               sensed["sonar"] / SONAR_RANGE])
+                float(sensed["altimeter"])]
+        return planning_observation(np.array(head), self._achieved, self.target(position), sensed["sonar"])
 
     def observation_spec(self, physics) -> collections.OrderedDict:
         """"observation" (PLANNING_OBSERVATION and the fan), "achieved_goal" and "desired_goal" (GOAL_SIZE)."""

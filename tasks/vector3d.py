@@ -56,8 +56,7 @@ from auv_mj.control.depth_heading import (
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim import batch3d
 from auv_mj.sim.ocean3d import DVL_DROPOUT
-from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_BEAMS, fan_directions
-from auv_mj.sim.sonar import SONAR_RANGE
+from auv_mj.sim.sensors3d import FAN_BEAMS, fan_directions
 from auv_mj.tasks import auv3d, suite
 from auv_mj.tasks import options as checks
 from auv_mj.tasks.gym_adapter import gym_spaces
@@ -360,17 +359,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
         ranges = self._sonar[index]
         # Planning3D.after_step
         depth = -position[:, 2]
-        distance = auv3d.goal_distance(position, self._goal[index])
-        collision = out[:, at_out["collided"]] != 0
-        left_map = ~collision & (depth < auv3d.MIN_DEPTH)
-        goal = ~collision & ~left_map & (distance < auv3d.GOAL_RADIUS)
-        event = np.full(len(index), "", dtype=object)
-        event[collision], event[left_map], event[goal] = "collision", "left_map", "goal"
-        failed = collision | left_map
-        info = {"event": event, "success": goal, "is_success": goal, "collision": collision, "left_map": left_map,
-                "min_clearance": np.min(ranges, axis=1), "depth": depth, "distance": distance,
-                "previous_achieved_goal": self._achieved[index].copy(),
-                "goal_independent_reward": -auv3d.STEP_COST + np.where(failed, auv3d.COLLISION_REWARD, 0.0)}
+        info = auv3d.step_info(out[:, at_out["collided"]] != 0, depth, auv3d.goal_distance(position, self._goal[index]),
+                               ranges, self._achieved[index].copy())
         at_position = np.column_stack([position, np.ones(len(index)), np.zeros(len(index))])  # pose_goal(p, 0.0)
         reward = self.envs[0].task.compute_reward(at_position, self._desired[index], info)
         # Planning3D.observe, from the held samples
@@ -387,9 +377,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
                 target[tube] = auv3d.lookahead_targets(position[tube], self._paths[index[tube]], counts[tube])
         head = np.column_stack([state[:, at_state["dvl_x"]:at_state["dvl_z"] + 1],
                                 state[:, at_state["gyro_x"]:at_state["gyro_z"] + 1], out[:, at_out["roll"]],
-                                out[:, at_out["pitch"]], state[:, at_state["depth"]],
-                                state[:, at_state["altimeter"]] / ALTIMETER_RANGE])
-        observation = np.concatenate([head, auv3d.target_features(achieved, target), ranges / SONAR_RANGE], axis=1)
+                                out[:, at_out["pitch"]], state[:, at_state["depth"]], state[:, at_state["altimeter"]]])
+        observation = auv3d.planning_observation(head, achieved, target, ranges)
         self._last_obs["observation"][index] = observation
         self._last_obs["achieved_goal"][index] = achieved
         self._last_obs["desired_goal"][index] = self._desired[index]
@@ -397,7 +386,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._steps[index] += 1
         at_limit = self._steps[index] >= self._step_limit[index]
         truncated = at_limit
-        terminated = ~at_limit & (event != "")
+        terminated = ~at_limit & (info["event"] != "")
         self._stepped[index] = True
         return reward, terminated, truncated, self._batched_infos(index, info)
 

@@ -7,8 +7,9 @@ Rows (environment steps per second, autoresets included), as the planar `auv_mj.
   LIMIT_ARENAS episodes' arenas, as the batch meets many;
 - "batch N=.., threads=..": `auv_mj.tasks.vector3d.AUV3DVectorEnv` for each size and thread count, under two kinds of
   actions: "random" (uniform in the action box, as the planar bench; a 3-D vehicle driven so broaches or hits the wall
-  within a minute, so that the episodes' resets, each drawing and compiling its arena, weigh heavily) and "cruise"
-  (speed 0.6 of the range, heading and depth offsets of small noise: episodes that last, the physics' own rate).
+  within a minute, so that the episodes' resets, each drawing and compiling its arena in Python, weigh heavily) and
+  "follow" (1.2 m/s towards the observation's target, its bearing and depth: episodes that last, as a trained
+  planner's do; the step's own rate).
 The machine's load average is recorded beside the figures: on a shared machine they move with it.
 
 `python -m auv_mj.speed.vector3d [--task tunnel3d] [--seconds 2]` prints the table;
@@ -32,10 +33,10 @@ from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
 LIMIT_ARENAS = 8
 """Arenas (seeds 0..7) round which the physics limit is taken."""
-ACTIONS = ("random", "cruise")
+ACTIONS = ("random", "follow")
 """The kinds of actions of the batch's rows (module docstring)."""
-CRUISE_NOISE = 0.1
-"""Standard deviation of the cruise actions' heading and depth offsets (of their [-1, 1] range)."""
+FOLLOW_SPEED = 0.2
+"""The follow actions' speed action: 0.6 of the speed range, 1.2 m/s."""
 
 
 def physics_limit(task: str, task_kwargs: Mapping[str, Any], seconds: float) -> float:
@@ -55,26 +56,36 @@ def physics_limit(task: str, task_kwargs: Mapping[str, Any], seconds: float) -> 
     return _timed(step, seconds, 1)
 
 
-def actions(kind: str, size: int, seed: int) -> np.ndarray:
-    """64 batches of actions of `kind` (ACTIONS) for `size` vehicles, cycled through by the timed loops."""
-    rng = np.random.default_rng(seed)
-    if kind == "random":
-        return rng.uniform(-1.0, 1.0, (64, size, 3))
-    out = np.clip(rng.normal(0.0, CRUISE_NOISE, (64, size, 3)), -1.0, 1.0)
-    out[..., 0] = 0.2
-    return out
+def follow(observation: np.ndarray) -> np.ndarray:
+    """The follow actions (module docstring) from a batch of planning observations (`auv3d.PLANNING_OBSERVATION`)."""
+    target = observation[:, auv3d.TARGET_ENTRIES]
+    bearing = np.arctan2(target[:, 2], target[:, 1])
+    return np.column_stack([np.full(len(observation), FOLLOW_SPEED),
+                            np.clip(bearing / auv3d.HEADING_RANGE, -1.0, 1.0),
+                            np.clip(target[:, 3] / auv3d.DEPTH_RANGE, -1.0, 1.0)])
 
 
-def batch_rate(task: str, task_kwargs: Mapping[str, Any], size: int, threads: int, seconds: float, kind: str,
-               seed: int = 0) -> float:
-    """Environment steps per second of an `AUV3DVectorEnv` of `size` on `threads` threads under `kind` actions."""
-    env = AUV3DVectorEnv(task, size, task_kwargs, threads=threads)
-    env.reset(seed=seed)
-    batches = actions(kind, size, seed)
-    counter = iter(range(1 << 62))
-    rate = _timed(lambda: env.step(batches[next(counter) % len(batches)]), seconds, size)
+def batch_rates(task: str, task_kwargs: Mapping[str, Any], size: int, threads: Sequence[int], seconds: float,
+                kinds: Sequence[str] = ACTIONS, seed: int = 0) -> dict[tuple[str, int], float]:
+    """Environment steps per second of one `AUV3DVectorEnv` of `size` under each kind of actions (ACTIONS) on each
+    count of `threads`, each timed from a reset with `seed`: {(kind, threads): rate}."""
+    env = AUV3DVectorEnv(task, size, task_kwargs)
+    batches = np.random.default_rng(seed).uniform(-1.0, 1.0, (64, size, 3))
+    rates = {}
+    for kind in kinds:
+        for count in threads:
+            env.threads = count
+            observation, _ = env.reset(seed=seed)
+            counter = iter(range(1 << 62))
+            last = [observation["observation"]]
+
+            def step(kind=kind, counter=counter, last=last) -> None:
+                actions = batches[next(counter) % len(batches)] if kind == "random" else follow(last[0])
+                last[0] = env.step(actions)[0]["observation"]
+
+            rates[kind, count] = _timed(step, seconds, size)
     env.close()
-    return rate
+    return rates
 
 
 def vector3d_bench(task: str = "tunnel3d", task_kwargs: Mapping[str, Any] | None = None,
@@ -90,11 +101,9 @@ def vector3d_bench(task: str = "tunnel3d", task_kwargs: Mapping[str, Any] | None
 
     limit = physics_limit(task, task_kwargs, seconds)
     row("physics limit (mj_step x50, 1 thread)", limit)
-    for kind in kinds:
-        for size in sizes:
-            for count in threads:
-                row(f"batch {kind} N={size} threads={count}",
-                    batch_rate(task, task_kwargs, size, count, seconds, kind), size=size, threads=count, kind=kind)
+    for size in sizes:
+        for (kind, count), rate in batch_rates(task, task_kwargs, size, threads, seconds, kinds).items():
+            row(f"batch {kind} N={size} threads={count}", rate, size=size, threads=count, kind=kind)
     for r in rows:
         r["ratio"] = r["steps_per_second"] / limit
     return rows
@@ -107,7 +116,7 @@ VECTOR3D_CASES = {"tunnel3d": {"arena": "random"}, "goal3d": {"arena": "random"}
 @section("vector3d", on_request=True)
 def vector3d_section(settings: BenchSettings) -> list[Measurement]:
     """The batched 6-DOF environment (`auv_mj.tasks.vector3d`): env steps/s for N in {1, 16, 64, 256} on 1 and 2
-    threads, under random and cruise actions, beside the 6-DOF physics limit (plain `mj_step`, 50 substeps per env
+    threads, under random and follow actions, beside the 6-DOF physics limit (plain `mj_step`, 50 substeps per env
     step, one thread), for tunnel3d and goal3d; and the ratios of the issue's targets at N = 256."""
     seconds = max(0.5, 2.0 * settings.scale)
     measurements = []
