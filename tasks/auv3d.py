@@ -408,6 +408,16 @@ def target_features(achieved_goal, target) -> np.ndarray:
                      np.where(across > 1e-12, left / safe, 0.0), -offset[..., 2]], axis=-1)
 
 
+def planning_command(actions, heading, depth) -> np.ndarray:
+    """The executor's commands (V [m/s], psi [rad], depth [m]) of planning actions (N, 3) in [-1, 1]^3 from vehicles at
+    true `heading` [rad] and `depth` [m] (N,): speed 0..MAX_SPEED, heading offset up to HEADING_RANGE, depth offset up
+    to DEPTH_RANGE (not above MIN_DEPTH)."""
+    actions = np.asarray(actions, dtype=float)
+    return np.column_stack([0.5 * (actions[:, 0] + 1.0) * MAX_SPEED,
+                            wrap_angle(np.asarray(heading, dtype=float) + actions[:, 1] * HEADING_RANGE),
+                            np.maximum(MIN_DEPTH, np.asarray(depth, dtype=float) + actions[:, 2] * DEPTH_RANGE)])
+
+
 def step_info(collided, depth, distance, ranges, previous_achieved) -> dict[str, np.ndarray]:
     """A 3-D planning step's info (`Planning3D.after_step`'s `last_info`) over a batch axis: the event ("collision":
     the hull touches something; else "left_map": shallower than MIN_DEPTH; else "goal": within GOAL_RADIUS of the goal;
@@ -597,9 +607,9 @@ class Planning3D(base.Task):
 
     def before_step(self, action, physics) -> None:
         a = checked_action(action, self.action_spec(physics), self)
-        speed = 0.5 * (float(a[0]) + 1.0) * MAX_SPEED
-        self.command = (speed, wrap_angle(physics.heading() + float(a[1]) * HEADING_RANGE),
-                        max(MIN_DEPTH, physics.depth() + float(a[2]) * DEPTH_RANGE))
+        command = planning_command(np.asarray(a, dtype=float)[None], np.array([physics.heading()]),
+                                   np.array([physics.depth()]))
+        self.command = tuple(command[0].tolist())
 
     def _collided(self, physics) -> bool:
         model, data = physics.model.ptr, physics.data.ptr

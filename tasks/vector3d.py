@@ -53,7 +53,6 @@ from auv_mj.control.depth_heading import (
     DepthHeadingController,
     DepthHeadingGains,
 )
-from auv_mj.geometry import wrap_angle
 from auv_mj.sim import batch3d
 from auv_mj.sim.ocean3d import DVL_DROPOUT
 from auv_mj.sim.sensors3d import FAN_BEAMS, fan_directions
@@ -320,12 +319,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
     def _step_batch(self, index: np.ndarray, actions: np.ndarray):
         at_state, at_out = batch3d.STATE_INDEX, batch3d.OUTPUT_INDEX
         stepper = self._stepper
-        depth = -self._position[index, 2]
-        stepper.state[index, at_state["speed_command"]] = 0.5 * (actions[:, 0] + 1.0) * auv3d.MAX_SPEED
-        stepper.state[index, at_state["heading_command"]] = wrap_angle(
-            self._heading[index] + actions[:, 1] * auv3d.HEADING_RANGE)
-        stepper.state[index, at_state["depth_command"]] = np.maximum(auv3d.MIN_DEPTH,
-                                                                     depth + actions[:, 2] * auv3d.DEPTH_RANGE)
+        command = auv3d.planning_command(actions, self._heading[index], -self._position[index, 2])  # before_step
+        stepper.state[index, at_state["speed_command"]:at_state["depth_command"] + 1] = command
         sonar_reads = 0
         for i in index:
             data = self.envs[i].physics.data.ptr
