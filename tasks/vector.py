@@ -37,6 +37,9 @@ continues the sub-environment's RandomState, as `AUVGymEnv.reset()` without a se
 
 Infos are Gymnasium's dict of arrays, each key with its "_key" mask of the sub-environments that reported it.
 
+`GoalVectorEnv` is the Gymnasium side this env shares with the 6-DOF batch (`auv_mj.tasks.vector3d.AUV3DVectorEnv`):
+seeds, the autoreset modes, the actions' checks and the infos.
+
 `vector_bench(...)` measures environment steps per second of this env, beside the physics limit and Gymnasium's
 and Stable-Baselines3's process-parallel vectors (`auv-mj bench --sections vector`).
 """

@@ -10,7 +10,9 @@ Rows (environment steps per second, autoresets included), as the planar `auv_mj.
   within a minute, so that the episodes' resets, each drawing and compiling its arena in Python, weigh heavily) and
   "follow" (1.2 m/s towards the observation's target, its bearing and depth: episodes that last, as a trained
   planner's do; the step's own rate).
-The machine's load average is recorded beside the figures: on a shared machine they move with it.
+The machine's load average is recorded beside the figures, and the CPU the process had while a batch was timed
+("cpu": its CPU seconds over the wall seconds): on a shared machine the figures move with them, and a batch on 2 threads
+can only run faster than on 1 where the process gets more than one CPU.
 
 `python -m auv_mj.speed.vector3d [--task tunnel3d] [--seconds 2]` prints the table;
 `auv-mj bench --sections vector3d` (`vector3d_section`) reports the rows of tunnel3d and goal3d.
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -65,10 +68,22 @@ def follow(observation: np.ndarray) -> np.ndarray:
                             np.clip(target[:, 3] / auv3d.DEPTH_RANGE, -1.0, 1.0)])
 
 
+def timed_with_cpu(step, seconds: float, per_call: int) -> tuple[float, float]:
+    """`auv_mj.speed.vector._timed`'s rate of `step`, and the CPU this process had meanwhile (CPU s / wall s)."""
+    step()
+    calls, start, cpu = 0, time.perf_counter(), time.process_time()
+    while time.perf_counter() - start < seconds:
+        step()
+        calls += 1
+    wall = time.perf_counter() - start
+    return calls * per_call / wall, (time.process_time() - cpu) / wall
+
+
 def batch_rates(task: str, task_kwargs: Mapping[str, Any], size: int, threads: Sequence[int], seconds: float,
-                kinds: Sequence[str] = ACTIONS, seed: int = 0) -> dict[tuple[str, int], float]:
+                kinds: Sequence[str] = ACTIONS, seed: int = 0) -> dict[tuple[str, int], tuple[float, float]]:
     """Environment steps per second of one `AUV3DVectorEnv` of `size` under each kind of actions (ACTIONS) on each
-    count of `threads`, each timed from a reset with `seed`: {(kind, threads): rate}."""
+    count of `threads`, each timed from a reset with `seed`, and the CPU the process had (`timed_with_cpu`):
+    {(kind, threads): (rate, cpu)}."""
     env = AUV3DVectorEnv(task, size, task_kwargs)
     batches = np.random.default_rng(seed).uniform(-1.0, 1.0, (64, size, 3))
     rates = {}
@@ -83,7 +98,7 @@ def batch_rates(task: str, task_kwargs: Mapping[str, Any], size: int, threads: S
                 actions = batches[next(counter) % len(batches)] if kind == "random" else follow(last[0])
                 last[0] = env.step(actions)[0]["observation"]
 
-            rates[kind, count] = _timed(step, seconds, size)
+            rates[kind, count] = timed_with_cpu(step, seconds, size)
     env.close()
     return rates
 
@@ -91,8 +106,8 @@ def batch_rates(task: str, task_kwargs: Mapping[str, Any], size: int, threads: S
 def vector3d_bench(task: str = "tunnel3d", task_kwargs: Mapping[str, Any] | None = None,
                    sizes: Sequence[int] = SIZES, threads: Sequence[int] = THREADS, seconds: float = 2.0,
                    kinds: Sequence[str] = ACTIONS) -> list[dict[str, Any]]:
-    """The rows of the module docstring: dicts with "name", "steps_per_second", "ratio" to the physics limit, and the
-    1-minute load average ("load")."""
+    """The rows of the module docstring: dicts with "name", "steps_per_second", "ratio" to the physics limit, the
+    1-minute load average ("load") and, for the batch, the CPU the process had ("cpu")."""
     task_kwargs = {"arena": "random"} if task_kwargs is None else dict(task_kwargs)
     rows = []
 
@@ -102,8 +117,8 @@ def vector3d_bench(task: str = "tunnel3d", task_kwargs: Mapping[str, Any] | None
     limit = physics_limit(task, task_kwargs, seconds)
     row("physics limit (mj_step x50, 1 thread)", limit)
     for size in sizes:
-        for (kind, count), rate in batch_rates(task, task_kwargs, size, threads, seconds, kinds).items():
-            row(f"batch {kind} N={size} threads={count}", rate, size=size, threads=count, kind=kind)
+        for (kind, count), (rate, cpu) in batch_rates(task, task_kwargs, size, threads, seconds, kinds).items():
+            row(f"batch {kind} N={size} threads={count}", rate, size=size, threads=count, kind=kind, cpu=cpu)
     for r in rows:
         r["ratio"] = r["steps_per_second"] / limit
     return rows
@@ -123,22 +138,26 @@ def vector3d_section(settings: BenchSettings) -> list[Measurement]:
     for task, task_kwargs in VECTOR3D_CASES.items():
         rows = vector3d_bench(task, task_kwargs, seconds=seconds)
         for r in rows:
+            cpu = f", {r['cpu']:.2f} CPU" if "cpu" in r else ""
             measurements.append(Measurement(f"{task}: {r['name']}", r["steps_per_second"], "env steps/s",
-                                            f"{r['ratio']:.2f} of the physics limit, load {r['load']:.1f}"))
+                                            f"{r['ratio']:.2f} of the physics limit, load {r['load']:.1f}{cpu}"))
         by_name = {r["name"]: r for r in rows}
         for kind in ACTIONS:
             one, two = (by_name[f"batch {kind} N=256 threads={t}"] for t in (1, 2))
             measurements.append(Measurement(f"{task}: {kind}, N=256, 1 thread / the physics limit", one["ratio"],
                                             "x", "target >= 0.6"))
             measurements.append(Measurement(f"{task}: {kind}, N=256, 2 threads / 1 thread",
-                                            two["steps_per_second"] / one["steps_per_second"], "x", "target >= 1.7"))
+                                            two["steps_per_second"] / one["steps_per_second"], "x",
+                                            f"target >= 1.7; the process had {one['cpu']:.2f} and {two['cpu']:.2f} "
+                                            "CPU"))
     return measurements
 
 
 def format_rows(rows: Sequence[Mapping[str, Any]]) -> str:
     """The rows as a text table."""
-    lines = [f"{'':44s} {'steps/s':>9s} {'/limit':>7s} {'load':>5s}"]
-    lines += [f"{r['name']:44s} {r['steps_per_second']:9.0f} {r['ratio']:7.2f} {r['load']:5.2f}" for r in rows]
+    lines = [f"{'':44s} {'steps/s':>9s} {'/limit':>7s} {'load':>5s} {'cpu':>5s}"]
+    lines += [f"{r['name']:44s} {r['steps_per_second']:9.0f} {r['ratio']:7.2f} {r['load']:5.2f} "
+              f"{r.get('cpu', float('nan')):5.2f}" for r in rows]
     return "\n".join(lines)
 
 
