@@ -162,6 +162,7 @@ class BatchStepper3D:
         self.masks = np.zeros((num, MAX_READS), dtype=np.intc)
         self.noise = np.zeros((num, NOISE_CAPACITY))
         self.constants = constants()
+        self.threads_used = 0
         self._keep: list = [None] * num
 
     def bind(self, i: int, physics, gains: np.ndarray, movers: np.ndarray, fan: np.ndarray) -> None:
@@ -221,6 +222,8 @@ class BatchStepper3D:
                                           self.out.ctypes.data, int(ticks), int(substeps), int(threads))
         if used < 1:
             raise RuntimeError("batch3d_kernel.c refused the step")
+        self.threads_used = used
+        """The threads the last step ran on (the caller's among them)."""
 
 
 SAMPLE_ORDER = tuple(SAMPLE_RATES_HZ)

@@ -102,6 +102,8 @@ def run_side_by_side(task: str, options: dict, mode: AutoresetMode, policy=steer
             event = expected_info.get("event", "")
             if event:
                 seen[event] = seen.get(event, 0) + 1
+        if not pending.any():  # both vehicles stepped, on two threads
+            assert vector._stepper.threads_used == 2
         seen["terminated"] += int(terminated.sum())
         seen["truncated"] += int(truncated.sum())
         pending = (terminated | truncated) if mode == AutoresetMode.NEXT_STEP else np.zeros(len(SEEDS), dtype=bool)
