@@ -4,7 +4,9 @@ Rows (environment steps per second, autoresets included), as the planar `auv_mj.
 - "physics limit": plain `mujoco.mj_step` of the task's models, PHYSICS_STEPS (50) steps per environment step, one
   thread, no hydrodynamics, no executor, no sensors, no task: what no environment of these models can beat per core.
   The 3-D arenas differ in size (a tube is hundreds of wall geoms), so the limit is taken round the models of
-  LIMIT_ARENAS episodes' arenas, as the batch meets many;
+  LIMIT_ARENAS episodes' arenas, as the batch meets many; each vehicle is put back at its episode's start before its
+  50 steps (with no water to hold it up it would sink onto the wall, and solving that contact is no work of the
+  limit's, as `auv_mj.speed.sim`'s physics3d section keeps its plain vehicle from falling);
 - "batch N=.., threads=..": `auv_mj.tasks.vector3d.AUV3DVectorEnv` for each size and thread count, under two kinds of
   actions: "random" (uniform in the action box, as the planar bench; a 3-D vehicle driven so broaches or hits the wall
   within a minute, so that the episodes' resets, each drawing and compiling its arena in Python, weigh heavily) and
@@ -45,15 +47,17 @@ FOLLOW_SPEED = 0.2
 def physics_limit(task: str, task_kwargs: Mapping[str, Any], seconds: float) -> float:
     """Environment steps per second of plain `mj_step` (PHYSICS_STEPS per environment step) round the models of
     LIMIT_ARENAS episodes of the task."""
-    pairs = []
+    vehicles = []
     for seed in range(LIMIT_ARENAS):
         env = suite.load(auv3d.DOMAIN, task, task_kwargs={**task_kwargs, "random": seed})
         env.reset()
-        pairs.append((env.physics.model.ptr, env.physics.data.ptr))
+        data = env.physics.data.ptr
+        vehicles.append((env.physics.model.ptr, data, data.qpos.copy(), data.qvel.copy()))
     counter = iter(range(1 << 62))
 
     def step() -> None:
-        model, data = pairs[next(counter) % len(pairs)]
+        model, data, qpos, qvel = vehicles[next(counter) % len(vehicles)]
+        data.qpos[:], data.qvel[:] = qpos, qvel  # without the water's forces it would sink onto the wall
         mujoco.mj_step(model, data, PHYSICS_STEPS)
 
     return _timed(step, seconds, 1)
