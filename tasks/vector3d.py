@@ -71,11 +71,11 @@ _MAX_SCHEDULES = 100_000
 
 
 def sample_schedule(start: float, due: tuple[float, ...], rates: tuple[float, ...], timestep: float, ticks: int,
-                    substeps: int) -> tuple[tuple[int, ...], tuple[float, ...]]:
+                    substeps: int) -> tuple[tuple[int, ...], tuple[float, ...], int]:
     """Which sensors each read of a planner step samples, by `Sensors3D.read`'s rule: the step's `ticks` reads at its
     executor ticks and the after-step read, at the times the physics reaches from `start` in steps of `timestep`
     (accumulated as MuJoCo does). `due`: when each sensor of SAMPLE_ORDER next samples; `rates` [Hz]. Returns the
-    reads' masks (bits READ_BITS) and the `due` times after the step."""
+    reads' masks (bits READ_BITS), the `due` times after the step and how many reads sample the fan."""
     key = (start, due, rates, timestep, ticks, substeps)
     found = _SCHEDULES.get(key)
     if found is not None:
@@ -96,7 +96,7 @@ def sample_schedule(start: float, due: tuple[float, ...], rates: tuple[float, ..
         masks.append(mask)
     if len(_SCHEDULES) > _MAX_SCHEDULES:
         _SCHEDULES.clear()
-    found = _SCHEDULES[key] = (tuple(masks), tuple(due_now))
+    found = _SCHEDULES[key] = (tuple(masks), tuple(due_now), sum(bool(m & READS["sonar"]) for m in masks))
     return found
 
 
@@ -185,6 +185,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
     def _allocate(self) -> None:
         n = self.num_envs
         self._position = np.zeros((n, 3))
+        self._time = np.zeros(n)
+        """Each vehicle's physics time [s] (MuJoCo's data.time)."""
         self._heading = np.zeros(n)
         """Each vehicle's true heading [rad] (`AUV3DPhysics.heading`): what the action's heading offset adds to."""
         self._goal = np.zeros((n, 3))
@@ -230,6 +232,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
         if tuple(sensors.rates) != SAMPLE_ORDER:
             raise ValueError(f"the 6-DOF vector env reads the sensors {SAMPLE_ORDER}, got {tuple(sensors.rates)}")
         self._position[i] = physics.position()
+        self._time[i] = physics.data.time
         self._heading[i] = physics.heading()
         self._goal[i] = task.goal
         self._put_path(i, task.path)
@@ -322,12 +325,12 @@ class AUV3DVectorEnv(GoalVectorEnv):
         command = auv3d.planning_command(actions, self._heading[index], -self._position[index, 2])  # before_step
         stepper.state[index, at_state["speed_command"]:at_state["depth_command"] + 1] = command
         sonar_reads = 0
+        schedules = []
         for i in index:
-            data = self.envs[i].physics.data.ptr
-            masks, self._due[i] = sample_schedule(float(data.time), self._due[i], self._rates[i], self._timestep,
-                                                  self._ticks, self._substeps)
-            stepper.masks[i, :len(masks)] = masks
-            sonar_reads = max(sonar_reads, sum(bool(m & READS["sonar"]) for m in masks))
+            masks, self._due[i], fans = sample_schedule(float(self._time[i]), self._due[i], self._rates[i],
+                                                        self._timestep, self._ticks, self._substeps)
+            schedules.append(masks)
+            sonar_reads = max(sonar_reads, fans)
             rng = self._noise_rngs[i]
             if rng is not None:
                 self._has_last_dvl[i] = draw_noise(rng, masks, bool(self._has_last_dvl[i]), stepper.noise[i])
@@ -336,6 +339,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
                 stepper.top_up(i, rng, 2 * self._ticks)
         if sonar_reads > 1:
             raise ValueError("the 6-DOF vector env samples the fan at most once a planner step")
+        if len(index):
+            stepper.masks[index, :self._ticks + 1] = schedules
         stepper.step(index, self._ticks, self._substeps, self.threads)
         out = stepper.out[index]
         if np.any(out[:, at_out["invalid"]] != 0):
@@ -344,12 +349,15 @@ class AUV3DVectorEnv(GoalVectorEnv):
                                "diverged or MuJoCo reset it")
         position = out[:, at_out["x"]:at_out["z"] + 1]
         self._position[index], self._heading[index] = position, out[:, at_out["heading"]]
+        self._time[index] = out[:, at_out["time"]]
         first_beam = at_out["sonar_1"]
-        for k, i in enumerate(index):
-            if out[k, at_out["sonar_samples"]]:
-                noise = self.envs[i].task.sensors.noise
-                raw = out[k, first_beam:first_beam + FAN_BEAMS].copy()
-                self._sonar[i] = raw if noise is None else np.asarray(noise("sonar", raw), dtype=float)
+        sampled = out[:, at_out["sonar_samples"]] != 0
+        self._sonar[index[sampled]] = out[sampled, first_beam:first_beam + FAN_BEAMS]
+        for k in np.flatnonzero(sampled):
+            i = index[k]
+            if self._noise_rngs[i] is not None:  # the fan's noise (Ocean3D.noise: NoisySonar), as the sensors add it
+                self._sonar[i] = np.asarray(self.envs[i].task.sensors.noise("sonar", self._sonar[i].copy()),
+                                            dtype=float)
         state = stepper.state[index]
         ranges = self._sonar[index]
         # Planning3D.after_step
