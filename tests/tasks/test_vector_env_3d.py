@@ -122,6 +122,14 @@ def test_sub_environment_is_the_single_environment(task, water):
 
 
 @pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+def test_hard_goal3d_arenas_in_ocean_water():
+    """Walls, caves and seabed relief: the fan's and the altimeter's rays meet every kind of geom."""
+    options = {"conditions": "ocean", "arena": "random", "tier": "hard", "time_limit": TIME_LIMIT}
+    seen = run_side_by_side("goal3d", options, AutoresetMode.NEXT_STEP)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
 def test_collisions_and_same_step_autoresets_in_ocean_water():
     options = {"conditions": "ocean", "arena": "random", "time_limit": TIME_LIMIT}
     seen = run_side_by_side("tunnel3d", options, AutoresetMode.SAME_STEP, wander)
