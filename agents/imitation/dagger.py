@@ -179,16 +179,32 @@ def student_spec(env: VectorEnv) -> dict[str, Any]:
     return spec
 
 
+class StudentView(TransformObservation):
+    """A goal-dict vector env as the student sees it (`student_view`); the dict's `achieved_goal` (the vehicle's
+    position) moves to info["achieved_goal"], for the training logs' speed, never an input."""
+
+    def __init__(self, env: VectorEnv):
+        single = env.single_observation_space["observation"]
+        super().__init__(env, student_inputs, batch_space(single, env.num_envs), single)
+        self.policy_options = dict(getattr(env, "policy_options", None) or {})  # a wrapper forwards no attributes
+
+    def reset(self, *, seed: Any = None, options: dict | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self.func(obs), {**info, "achieved_goal": obs["achieved_goal"]}
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(actions)
+        return self.func(obs), reward, terminated, truncated, {**info, "achieved_goal": obs["achieved_goal"]}
+
+
 def student_view(env: VectorEnv) -> VectorEnv:
     """`env` as the student sees it, for PPO's fine-tune: its observation vector alone (a goal dict's `observation`;
-    no `desired_goal`), the info (info["privileged"] for the critic) and actions unchanged."""
+    no `desired_goal`), actions and the info unchanged (info["privileged"] for the critic) but for the achieved goal
+    (`StudentView`)."""
     space = env.single_observation_space
     if not (hasattr(space, "spaces") and "observation" in space.spaces):
         return env
-    single = space["observation"]
-    view = TransformObservation(env, student_inputs, batch_space(single, env.num_envs), single)
-    view.policy_options = dict(getattr(env, "policy_options", None) or {})  # a wrapper forwards no attributes
-    return view
+    return StudentView(env)
 
 
 def finetune(env: VectorEnv, teacher: Teacher, student: str | Path, run_dir: str | Path, config: PPOConfig,

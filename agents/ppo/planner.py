@@ -166,8 +166,10 @@ def mixture_from_dict(values: Mapping[str, Any]) -> MixtureConfig:
 def ground_speed(next_obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
     """Each vehicle's speed over the ground in the step just taken (m/s): from where it began
     (info["previous_achieved_goal"], (x, y)) to where it is (the observation's achieved_goal, whose first two
-    entries are (x, y)), over PLANNER_DT."""
-    moved = np.asarray(next_obs["achieved_goal"], float)[:, :2] - np.asarray(info["previous_achieved_goal"], float)
+    entries are (x, y); a student's view of the env, `auv_mj.agents.imitation.StudentView`, keeps it in
+    info["achieved_goal"]), over PLANNER_DT."""
+    achieved = next_obs["achieved_goal"] if isinstance(next_obs, Mapping) else info["achieved_goal"]
+    moved = np.asarray(achieved, float)[:, :2] - np.asarray(info["previous_achieved_goal"], float)
     return np.linalg.norm(moved, axis=-1) / PLANNER_DT
 
 

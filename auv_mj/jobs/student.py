@@ -78,11 +78,13 @@ def mixture_validator(mixture: MixtureConfig, spec: Mapping[str, Any], threads: 
 
 def finetune_config(dagger: DaggerConfig, **overrides: Any) -> PPOConfig:
     """The fine-tune's PPOConfig: `LEARNED_CONFIG` (the privileged critic of its own, the discount, the schedules)
-    on the student's network, an imitation term of weight 1 decaying linearly to 0, the student's log std."""
+    on the student's network, an imitation term of weight 1 decaying linearly to 0, the student's log std, and the
+    fit's torch threads (DaggerConfig.torch_threads, 1 by default: on a 2-core machine shared with the batch and
+    the teacher, two intra-op threads made the update of the 56-vehicle mixture several times slower)."""
     base = dataclasses.replace(LEARNED_CONFIG, hidden_sizes=dagger.hidden_sizes, recurrent="gru",
                                recurrent_size=dagger.recurrent_size, init_log_std=dagger.init_log_std,
                                imitation_coef=1.0, min_imitation_coef=0.0, imitation_schedule="linear",
-                               seed=dagger.seed, checkpoint_every=10)
+                               seed=dagger.seed, checkpoint_every=10, torch_threads=dagger.torch_threads)
     return dataclasses.replace(base, **overrides)
 
 
