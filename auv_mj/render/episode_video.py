@@ -6,7 +6,8 @@ video (`iter_frames`), the interpolation between recorded states (`interpolate`)
 shows, the render's progress bar (`RenderBar`), the Gymnasium face's live frame (`LiveView`) and `render_episode`.
 The frame itself is drawn by `auv_mj.render.frame.FrameRenderer`; the files are written by
 `auv_mj.render.writers`. The 6-DOF videos (`auv_mj.render.episode_video3d`) share the progress bar, the bounds
-and the output step.
+and the output step, and the options of `auv-mj render` (`VideoOptions`): each domain's record names its video
+(`auv_mj.tasks.domains.Domain.video`: `video_frames` here), so the command draws either without asking which.
 
 Timing: a video frame every `speedup / fps` simulation seconds. By default one frame per control step
 (speedup = fps x control period: 15x real time for the 0.5 s planner at 30 fps); a smaller speedup
@@ -23,13 +24,13 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Iterable, Iterator
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from auv_mj.console import complete, progress_bar
-from auv_mj.episode import EpisodeRecorder, Snapshot, outcome, outcome_label
+from auv_mj.episode import EpisodeRecorder, Snapshot, StepObserver, outcome, outcome_label
 from auv_mj.geometry import wrap_angle
 from auv_mj.render import glbackend
 from auv_mj.render.frame import CAMERAS, DEFAULT_SIZE, FOLLOW_VIEW, FrameRenderer
@@ -43,6 +44,33 @@ DEFAULT_HOLD_END = 1.0
 """The last frame is repeated for this many seconds of video."""
 TIME_TOLERANCE = 1e-6
 """Frame times within this of a recorded instant [s] show that instant (physics time drifts by ulps)."""
+
+
+@dataclass(frozen=True)
+class VideoOptions:
+    """How an episode's video is drawn, in either domain: what `auv-mj render` passes to the domain's video
+    (`video_frames`, `auv_mj.render.episode_video3d.video_frames_3d`), each reading the options of its views."""
+
+    max_steps: int | None = None
+    """Cut the episode after this many steps (None: to its end)."""
+    width: int = DEFAULT_SIZE[0]
+    """Frame width [px]."""
+    height: int = DEFAULT_SIZE[1]
+    """Frame height [px]."""
+    fps: float = DEFAULT_FPS
+    """Video frames per second."""
+    speedup: float | None = None
+    """Simulated seconds per video second (None: a frame per control step)."""
+    hold_end: float = DEFAULT_HOLD_END
+    """Seconds of video the last frame is held."""
+    title: str = ""
+    """The text the frames carry."""
+    progress: bool = False
+    """Whether a progress bar shows on the terminal."""
+    camera: str = "both"
+    """The planar views (one of CAMERAS); the 6-DOF video always shows its three panels."""
+    follow_view: float = FOLLOW_VIEW
+    """Height [m] of the planar follow view."""
 
 
 def interpolate(a: Snapshot, b: Snapshot, t: float) -> Snapshot:
@@ -159,11 +187,12 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
                 height: int = DEFAULT_SIZE[1], camera: str = "both", fps: float = DEFAULT_FPS,
                 speedup: float | None = None, follow_view: float = FOLLOW_VIEW,
                 hold_end: float = DEFAULT_HOLD_END, title: str = "", recorder: EpisodeRecorder | None = None,
-                progress: bool = False) -> Iterator[np.ndarray]:
+                progress: bool = False, track: StepObserver | None = None) -> Iterator[np.ndarray]:
     """Runs one episode of `policy(time_step) -> action` on `env`, yielding (H, W, 3) uint8 frames.
 
     A frame every `speedup / fps` simulation seconds (default: one per control step). Pass a `recorder`
-    to keep the episode's record as well.
+    to keep the episode's record as well, and a `track` (anything with `add(env)`, called after the reset and each
+    control step, as the 6-DOF video calls it) to gather more beside the frames.
     """
     recorder = recorder if recorder is not None else EpisodeRecorder(env)
     frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
@@ -182,6 +211,8 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
                 previous, next_time = snap, snap.time
                 route = route_of(recorder.arena, snap)
                 bar = RenderBar(route, recorder.arena.goal_radius, step_bound(env, max_steps), progress)
+            if track is not None:
+                track.add(env)
             marks.update(snap, recorder.arena)
             if snap.event:
                 event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
@@ -200,6 +231,15 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
             bar.close()
         if renderer is not None:
             renderer.close()
+
+
+def video_frames(env, policy, options: VideoOptions, recorder: EpisodeRecorder | None = None,
+                 track: StepObserver | None = None) -> Iterator[np.ndarray]:
+    """The planar domain's video (`auv_mj.tasks.domains.Domain.video`): `iter_frames` with `options`."""
+    return iter_frames(env, policy, max_steps=options.max_steps, width=options.width, height=options.height,
+                       camera=options.camera, fps=options.fps, speedup=options.speedup,
+                       follow_view=options.follow_view, hold_end=options.hold_end, title=options.title,
+                       recorder=recorder, progress=options.progress, track=track)
 
 
 def step_bound(env, max_steps: int | None) -> int | None:

@@ -1,10 +1,11 @@
 """Videos of 6-DOF episodes: the frames of one episode run by a policy, in time, streamed to a file or an array.
 
-`auv-mj render --task tunnel3d --policy los-avoid -o tube.mp4` runs one episode and writes it (through
-`auv_mj.cli.render3d`). This module holds what turns an episode into frames: the video's clock
+`auv-mj render --task tunnel3d --policy los-avoid -o tube.mp4` runs one episode and writes it (the domain record's
+`video`, `video_frames_3d`). This module holds what turns an episode into frames: the video's clock
 (`iter_frames_3d`), the interpolation between recorded states (`interpolate`), the progress a frame shows, the
-Gymnasium face's live frame (`LiveView3D`), `render_episode_3d` and `Track3D`, the 3-D track gathered beside the
-frames (`auv_mj.cli.render3d` plots it). The frame is drawn by `auv_mj.render.frame3d.FrameRenderer3D`.
+Gymnasium face's live frame (`LiveView3D`) and `render_episode_3d`; the 3-D track gathered beside the frames
+(`auv_mj.episode.Track3D`, the `track` of `iter_frames_3d`) is what `auv_mj.figures.trajectory3d` plots. The frame
+is drawn by `auv_mj.render.frame3d.FrameRenderer3D`.
 
 Timing as the planar videos (`auv_mj.render.episode_video`): a frame every `speedup / fps` simulation seconds, one
 per control step by default (15x real time for the 0.5 s planner at DEFAULT_FPS); a smaller `speedup` interpolates
@@ -20,18 +21,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from auv_mj.episode import EpisodeRecorder
+from auv_mj.episode import EpisodeRecorder, Track3D
 from auv_mj.render import glbackend
 from auv_mj.render.episode_video import (
     DEFAULT_HOLD_END,
     EVENT_HOLD,
     TIME_TOLERANCE,
     RenderBar,
+    VideoOptions,
     closing_frames,
     episode_output,
     frame_bound,
@@ -56,29 +57,6 @@ def interpolate(a: State3D, b: State3D, time: float) -> State3D:
 
     return State3D(time, mix(a.qpos, b.qpos), mix(a.mocap_pos, b.mocap_pos), a.sonar, mix(a.velocity, b.velocity),
                    mix(a.altitude, b.altitude), mix(a.goal_distance, b.goal_distance), mix(a.progress, b.progress))
-
-
-@dataclass
-class Track3D:
-    """The 3-D track of an episode, gathered beside its EpisodeRecord: world positions and attitudes."""
-
-    time: list = field(default_factory=list)
-    position: list = field(default_factory=list)
-    """[m], world, z up."""
-    attitude: list = field(default_factory=list)
-    """(roll, pitch, yaw) [rad]."""
-    depth_command: list = field(default_factory=list)
-    """The task's depth command [m] where it has one (depth_heading), else NaN."""
-
-    def add(self, env) -> None:
-        physics = env.physics
-        self.time.append(physics.time())
-        self.position.append(physics.position())
-        self.attitude.append(physics.attitude())
-        self.depth_command.append(float((getattr(env.task, "last_info", {}) or {}).get("depth_command", np.nan)))
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        return {k: np.asarray(v, dtype=float) for k, v in vars(self).items()}
 
 
 def _progress_of(env, start_distance: float, time_limit: float) -> tuple[float, float]:
@@ -211,6 +189,16 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
             bar.close()
         if renderer is not None:
             renderer.close()
+
+
+def video_frames_3d(env, policy: Callable, options: VideoOptions, recorder: EpisodeRecorder | None = None,
+                    track: Track3D | None = None) -> Iterator[np.ndarray]:
+    """The 6-DOF domain's video (`auv_mj.tasks.domains.Domain.video`): `iter_frames_3d` with `options`; the chase,
+    top and side panels always show, so `options.camera` and `options.follow_view` (the planar views') do not
+    apply."""
+    return iter_frames_3d(env, policy, max_steps=options.max_steps, width=options.width, height=options.height,
+                          fps=options.fps, speedup=options.speedup, hold_end=options.hold_end, title=options.title,
+                          track=track, recorder=recorder, progress=options.progress)
 
 
 def render_episode_3d(env, policy: Callable, path: str | Path | None = None, *, in_memory: bool = False,
