@@ -30,7 +30,7 @@ import dm_env
 import mujoco
 import numpy as np
 
-from auv_mj.arenas import arena, grid
+from auv_mj.arenas import arena, cells, grid
 from auv_mj.episode import VEHICLE_BODY, FunctionPlanner, Planner, PlannerBase, arena_geometry, geom_footprint
 from auv_mj.planners.avoidance import PROTECTIONS, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed, los_heading
@@ -214,21 +214,13 @@ class SonarMap(GridFollower):
         self.odds = np.zeros(self.grid.shape, np.int8)
 
     def update(self, time_step: dm_env.TimeStep, pose: np.ndarray) -> bool:
-        """Marks the nine beams: cells along each beam short of its range clear, its echo's cell hit."""
+        """Marks the nine beams: cells along each beam short of its range clear, its echo's cell hit (the log-odds
+        counts of the voxel map too, `auv_mj.arenas.cells.count_beams`)."""
         ranges = np.asarray(time_step.observation["observation"])[SONAR_SLICE] * SONAR_RANGE
         origin, directions = sonar_rays(pose)
-        samples = np.arange(0.0, SONAR_RANGE, _RAY_STEP)
-        clear = samples[None, :] < (ranges[:, None] - CELL)
-        points = origin + samples[None, :, None] * directions[:, None, :]
-        odds = self.odds.astype(np.int16)
-        i, j, inside = self.grid.index(points[clear])
-        cells = np.unique(np.ravel_multi_index((i[inside], j[inside]), self.grid.shape))
-        odds.flat[cells] -= MISS
-        hit = ranges < SONAR_RANGE - 1e-6
-        i, j, inside = self.grid.index(origin + ranges[hit, None] * directions[hit])
-        cells = np.unique(np.ravel_multi_index((i[inside], j[inside]), self.grid.shape))
-        odds.flat[cells] += HIT
-        self.odds = np.clip(odds, -SATURATION, SATURATION).astype(np.int8)
+        missed, echoes, hit = cells.beam_marks(self.grid, origin, directions, ranges, SONAR_RANGE, SONAR_RANGE,
+                                               _RAY_STEP, CELL)
+        cells.count_beams(self.odds, missed, self.grid.flat_cells(echoes[hit]), HIT, MISS, SATURATION)
         occupied = self.odds >= OCCUPIED
         new = occupied & ~self.occupied
         self.occupied = occupied

@@ -31,7 +31,7 @@ import numpy as np
 
 from auv_mj.console import complete, progress_bar
 from auv_mj.episode import EpisodeRecorder, Snapshot, StepObserver, outcome, outcome_label
-from auv_mj.geometry import wrap_angle
+from auv_mj.geometry import distance_along, polyline_length, wrap_angle
 from auv_mj.render import glbackend
 from auv_mj.render.frame import CAMERAS, DEFAULT_SIZE, FOLLOW_VIEW, FrameRenderer
 from auv_mj.render.writers import DEFAULT_FPS, write_video
@@ -224,7 +224,7 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
                 yield frame
                 next_time += frame_dt
             previous = snap
-            bar.advance(made_good(route, snap.pose[:2]) if route is not None else None, snap.step)
+            bar.advance(distance_along(route, snap.pose[:2]) if route is not None else None, snap.step)
         yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
     finally:
         if bar is not None:
@@ -261,15 +261,6 @@ def route_of(arena, first: Snapshot) -> np.ndarray | None:
     return None
 
 
-def made_good(route: np.ndarray, position: np.ndarray) -> float:
-    """How far along `route` [m] the point of it nearest to `position` lies."""
-    a, ab = route[:-1], np.diff(route, axis=0)
-    lengths = np.hypot(ab[:, 0], ab[:, 1])
-    t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
-    nearest = int(np.argmin(np.hypot(*(a + t[:, None] * ab - position).T)))
-    return float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
-
-
 class RenderBar:
     """The render's progress bar: on a task with a goal, the metres made good along the route (`route_of`) out of
     its length short of the goal radius, so that it fills as the vehicle goes, ends full at the goal and stays where
@@ -279,7 +270,7 @@ class RenderBar:
     def __init__(self, route: np.ndarray | float | None, goal_radius: float, steps: int | None, enabled: bool):
         """`route`: its (P, 2) points or its length [m], None on a task without a goal."""
         if route is not None:
-            length = float(route) if np.ndim(route) == 0 else float(np.sum(np.hypot(*np.diff(route, axis=0).T)))
+            length = float(route) if np.ndim(route) == 0 else polyline_length(route)
             self.total = max(int(math.ceil(length - goal_radius)), 1)
             self.bar = progress_bar(total=self.total, unit="m", desc="render, route", disable=not enabled,
                                     bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} m "

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from auv_mj.episode import EpisodeRecorder, Track3D
+from auv_mj.geometry import distance_along, polyline_length
 from auv_mj.render import glbackend
 from auv_mj.render.episode_video import (
     DEFAULT_HOLD_END,
@@ -67,12 +68,8 @@ def _progress_of(env, start_distance: float, time_limit: float) -> tuple[float, 
     path = getattr(task, "path", None)
     position = physics.position()
     if path is not None and len(path) >= 2:
-        lengths = np.linalg.norm(np.diff(path, axis=0), axis=1)
-        a, ab = path[:-1], np.diff(path, axis=0)
-        t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
-        nearest = np.argmin(np.linalg.norm(a + t[:, None] * ab - position, axis=1))
-        along = float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
-        return float(np.linalg.norm(goal - position)), along / max(float(np.sum(lengths)), 1e-9)
+        along = distance_along(path, position)
+        return float(np.linalg.norm(goal - position)), along / max(polyline_length(path), 1e-9)
     if goal is not None and math.isfinite(start_distance) and start_distance > 0:
         distance = float(np.linalg.norm(goal - position))
         return distance, float(np.clip(1.0 - distance / start_distance, 0.0, 1.0))
@@ -84,7 +81,7 @@ def _route_length(env, start_distance: float) -> float | None:
     goal; None on a task without a goal (depth_heading)."""
     path = getattr(env.task, "path", None)
     if path is not None and len(path) >= 2:
-        return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+        return polyline_length(path)
     return start_distance if math.isfinite(start_distance) and start_distance > 0 else None
 
 
