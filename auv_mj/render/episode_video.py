@@ -173,6 +173,37 @@ class LiveView:
             self._renderer = None
 
 
+def frame_interval(env, fps: float, speedup: float | None) -> float:
+    """Simulated seconds [s] between two frames of a video of `env`: `speedup / fps`, or one control step where
+    `speedup` is None; ValueError unless positive."""
+    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
+    if not frame_dt > 0:
+        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
+    return frame_dt
+
+
+class VideoClock:
+    """The clock of an episode's video, planar and 6-DOF alike: a frame every `frame_interval` simulated seconds
+    from the episode's first instant, each showing the banner of the last event (goal, collision) for EVENT_HOLD
+    seconds of video after it."""
+
+    def __init__(self, env, fps: float, speedup: float | None):
+        self.frame_dt, self.fps = frame_interval(env, fps, speedup), fps
+        self.next_time: float | None = None
+        self.event, self.event_until = "", -math.inf
+
+    def frames_to(self, time: float, event: str = "") -> Iterator[tuple[float, str]]:
+        """The frames due up to the recorded instant `time` [s] (whose step ended with `event`, if any): each
+        frame's time and the banner it shows ("" for none)."""
+        if self.next_time is None:
+            self.next_time = time
+        if event:
+            self.event, self.event_until = event, time + EVENT_HOLD * self.fps * self.frame_dt
+        while self.next_time <= time + TIME_TOLERANCE:
+            yield self.next_time, self.event if self.next_time <= self.event_until else ""
+            self.next_time += self.frame_dt
+
+
 def closing_frames(bar, snap, recorder, max_steps: int | None, frame, hold_end: float,
                    fps: float) -> Iterator[np.ndarray]:
     """The end of an episode's video, planar and 6-DOF alike: the bar's last word (the outcome, or "cut" where
@@ -195,34 +226,27 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
     control step, as the 6-DOF video calls it) to gather more beside the frames.
     """
     recorder = recorder if recorder is not None else EpisodeRecorder(env)
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
-    if not frame_dt > 0:
-        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
+    clock = VideoClock(env, fps, speedup)
     glbackend.require()
     trail, marks = _Trail(TRAIL_SPACING * follow_view), _Goals()
     renderer, previous, frame = None, None, None
-    event, event_until, next_time = "", -math.inf, 0.0
     bar = None
     try:
         for snap in recorder.run(policy, max_steps):
             if renderer is None:  # after the reset: the task has drawn its route
                 renderer = FrameRenderer(env.physics, width, height, camera, follow_view,
                                          arena=recorder.arena, title=title)
-                previous, next_time = snap, snap.time
+                previous = snap
                 route = route_of(recorder.arena, snap)
                 bar = RenderBar(route, recorder.arena.goal_radius, step_bound(env, max_steps), progress)
             if track is not None:
                 track.add(env)
             marks.update(snap, recorder.arena)
-            if snap.event:
-                event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
-            while next_time <= snap.time + TIME_TOLERANCE:
-                state = interpolate(previous, snap, next_time)
+            for time, shown in clock.frames_to(snap.time, snap.event):
+                state = interpolate(previous, snap, time)
                 trail.add(state.pose[:2])
-                shown = event if next_time <= event_until else ""
                 frame = renderer.render(state, trail.view(), marks.goals, marks.reached, shown)
                 yield frame
-                next_time += frame_dt
             previous = snap
             bar.advance(distance_along(route, snap.pose[:2]) if route is not None else None, snap.step)
         yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
@@ -312,7 +336,7 @@ def frame_bound(env, max_steps: int | None, fps: float, speedup: float | None, h
     steps = step_bound(env, max_steps)
     if steps is None:
         return None
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
+    frame_dt = frame_interval(env, fps, speedup)
     return int(math.floor(steps * env.control_timestep() / frame_dt + TIME_TOLERANCE)) + 1 + int(round(hold_end * fps))
 
 

@@ -30,9 +30,9 @@ from auv_mj.geometry import distance_along, polyline_length
 from auv_mj.render import glbackend
 from auv_mj.render.episode_video import (
     DEFAULT_HOLD_END,
-    EVENT_HOLD,
     TIME_TOLERANCE,
     RenderBar,
+    VideoClock,
     VideoOptions,
     closing_frames,
     episode_output,
@@ -85,6 +85,12 @@ def _route_length(env, start_distance: float) -> float | None:
     return start_distance if math.isfinite(start_distance) and start_distance > 0 else None
 
 
+def _time_limit(env) -> float:
+    """The episode's time limit [s] (0 where it has none): the share of it gone is a tracking task's progress."""
+    limit = getattr(env, "_step_limit", None)
+    return (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
+
+
 def _state(env, event: str, start_distance: float, time_limit: float) -> State3D:
     physics = env.physics
     data = physics.data.ptr
@@ -105,8 +111,7 @@ class LiveView3D:
         self._recorder = EpisodeRecorder(env)  # the episode loop's read-out of each step, as `iter_frames_3d` has it
         self._renderer: FrameRenderer3D | None = None
         self._event, self._start_distance, self._started = "", math.nan, False
-        limit = getattr(env, "_step_limit", None)
-        self._time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
+        self._time_limit = _time_limit(env)
 
     def start(self, time_step) -> None:
         """A new episode from its reset `time_step` (a new arena: a new renderer at the next frame)."""
@@ -148,14 +153,11 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
     every `speedup / fps` simulated seconds (default: one per control step); `track` (if given) gathers the 3-D
     track at the control steps, `recorder` keeps the episode's record."""
     recorder = recorder if recorder is not None else EpisodeRecorder(env)
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
-    if not frame_dt > 0:
-        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
+    clock = VideoClock(env, fps, speedup)
     glbackend.require()
-    limit = getattr(env, "_step_limit", None)
-    time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
+    time_limit = _time_limit(env)
     renderer, previous, frame, bar, route = None, None, None, None, None
-    event, event_until, next_time, start_distance = "", -math.inf, 0.0, math.nan
+    start_distance = math.nan
     try:
         for snap in recorder.run(policy, max_steps):
             if renderer is None:  # after the reset: the task has loaded its arena
@@ -169,15 +171,10 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
             if track is not None:
                 track.add(env)
             state = _state(env, snap.event, start_distance, time_limit)
-            if previous is None:
-                previous, next_time = state, state.time
-            if snap.event:
-                event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
-            while next_time <= state.time + 1e-6:
-                frame = renderer.render(interpolate(previous, state, next_time),
-                                        event if next_time <= event_until else "")
+            previous = state if previous is None else previous
+            for time, shown in clock.frames_to(state.time, snap.event):
+                frame = renderer.render(interpolate(previous, state, time), shown)
                 yield frame
-                next_time += frame_dt
             previous = state
             bar.advance(state.progress * route if route is not None else None, snap.step)
         yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
