@@ -5,9 +5,11 @@ or when no ffmpeg is found). This module holds what turns an episode into a sequ
 video (`iter_frames`), the interpolation between recorded states (`interpolate`), the trail and the goals a frame
 shows, the render's progress bar (`RenderBar`), the Gymnasium face's live frame (`LiveView`) and `render_episode`.
 The frame itself is drawn by `auv_mj.render.frame.FrameRenderer`; the files are written by
-`auv_mj.render.writers`. The 6-DOF videos (`auv_mj.render.episode_video3d`) share the progress bar, the bounds
-and the output step, and the options of `auv-mj render` (`VideoOptions`): each domain's record names its video
-(`auv_mj.tasks.domains.Domain.video`: `video_frames` here), so the command draws either without asking which.
+`auv_mj.render.writers`. The 6-DOF videos (`auv_mj.render.episode_video3d`) share the episode's loop of frames
+(`stream_frames`: the one episode loop, the video's clock `VideoClock`, the progress bar, the closing frames, each
+domain drawing through its `EpisodeView`), the bounds and the output step, and the options of `auv-mj render`
+(`VideoOptions`): each domain's record names its video (`auv_mj.tasks.domains.Domain.video`: `video_frames` here),
+so the command draws either without asking which.
 
 Timing: a video frame every `speedup / fps` simulation seconds. By default one frame per control step
 (speedup = fps x control period: 15x real time for the 0.5 s planner at 30 fps); a smaller speedup
@@ -23,9 +25,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -225,36 +228,92 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
     to keep the episode's record as well, and a `track` (anything with `add(env)`, called after the reset and each
     control step, as the 6-DOF video calls it) to gather more beside the frames.
     """
+    def view_of(recorder: EpisodeRecorder, first: Snapshot) -> _PlanarView:
+        return _PlanarView(env, recorder, first, width, height, camera, follow_view, title)
+
+    yield from stream_frames(env, policy, view_of, max_steps=max_steps, fps=fps, speedup=speedup,
+                             hold_end=hold_end, recorder=recorder, progress=progress, track=track)
+
+
+class _PlanarView:
+    """The planar video's view of an episode (an `EpisodeView`): the frame renderer over the recorded arena, the
+    trail so far and the goals, the route of the progress bar (`route_of`)."""
+
+    def __init__(self, env, recorder: EpisodeRecorder, first: Snapshot, width: int, height: int, camera: str,
+                 follow_view: float, title: str):
+        self.trail, self.marks, self.arena = _Trail(TRAIL_SPACING * follow_view), _Goals(), recorder.arena
+        self.renderer = FrameRenderer(env.physics, width, height, camera, follow_view, arena=recorder.arena,
+                                      title=title)
+        self.route, self.goal_radius = route_of(recorder.arena, first), recorder.arena.goal_radius
+
+    def state(self, snap: Snapshot) -> Snapshot:
+        self.marks.update(snap, self.arena)
+        return snap
+
+    def draw(self, previous: Snapshot, state: Snapshot, time: float, banner: str) -> np.ndarray:
+        shown = interpolate(previous, state, time)
+        self.trail.add(shown.pose[:2])
+        return self.renderer.render(shown, self.trail.view(), self.marks.goals, self.marks.reached, banner)
+
+    def made_good(self, snap: Snapshot, state: Snapshot) -> float | None:
+        return distance_along(self.route, snap.pose[:2]) if self.route is not None else None
+
+    def close(self) -> None:
+        self.renderer.close()
+
+
+class EpisodeView(Protocol):
+    """What a domain's video draws of an episode (`stream_frames`), made after the episode's reset."""
+
+    route: np.ndarray | float | None
+    """The route the progress bar measures along (`RenderBar`): its points, its length, or None."""
+    goal_radius: float
+    """The task's goal radius [m] (the bar ends this short of the route's end)."""
+
+    def state(self, snap: Snapshot) -> Any:
+        """The drawable state of the recorded instant `snap`."""
+
+    def draw(self, previous: Any, state: Any, time: float, banner: str) -> np.ndarray:
+        """The (H, W, 3) uint8 frame at `time` [s] between two drawable states, with the event `banner` ("")."""
+
+    def made_good(self, snap: Snapshot, state: Any) -> float | None:
+        """The route made good [m] at a recorded instant (None without a route)."""
+
+    def close(self) -> None:
+        """Frees the view's renderer."""
+
+
+def stream_frames(env, policy, view_of: Callable[[EpisodeRecorder, Snapshot], EpisodeView], *,
+                  max_steps: int | None, fps: float, speedup: float | None, hold_end: float,
+                  recorder: EpisodeRecorder | None, progress: bool,
+                  track: StepObserver | None) -> Iterator[np.ndarray]:
+    """The one loop of an episode's video, planar and 6-DOF alike: runs the episode through the one episode loop
+    (`recorder`), makes the domain's view after the reset (`view_of(recorder, first snapshot)`), yields its frames on
+    the video's clock (`VideoClock`) and the closing ones, and moves the progress bar by the route made good."""
     recorder = recorder if recorder is not None else EpisodeRecorder(env)
     clock = VideoClock(env, fps, speedup)
     glbackend.require()
-    trail, marks = _Trail(TRAIL_SPACING * follow_view), _Goals()
-    renderer, previous, frame = None, None, None
-    bar = None
+    view, previous, frame, bar = None, None, None, None
     try:
         for snap in recorder.run(policy, max_steps):
-            if renderer is None:  # after the reset: the task has drawn its route
-                renderer = FrameRenderer(env.physics, width, height, camera, follow_view,
-                                         arena=recorder.arena, title=title)
-                previous = snap
-                route = route_of(recorder.arena, snap)
-                bar = RenderBar(route, recorder.arena.goal_radius, step_bound(env, max_steps), progress)
+            if view is None:  # after the reset: the task has drawn its arena
+                view = view_of(recorder, snap)
+                bar = RenderBar(view.route, view.goal_radius, step_bound(env, max_steps), progress)
             if track is not None:
                 track.add(env)
-            marks.update(snap, recorder.arena)
+            state = view.state(snap)
+            previous = state if previous is None else previous
             for time, shown in clock.frames_to(snap.time, snap.event):
-                state = interpolate(previous, snap, time)
-                trail.add(state.pose[:2])
-                frame = renderer.render(state, trail.view(), marks.goals, marks.reached, shown)
+                frame = view.draw(previous, state, time, shown)
                 yield frame
-            previous = snap
-            bar.advance(distance_along(route, snap.pose[:2]) if route is not None else None, snap.step)
+            previous = state
+            bar.advance(view.made_good(snap, state), snap.step)
         yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
     finally:
         if bar is not None:
             bar.close()
-        if renderer is not None:
-            renderer.close()
+        if view is not None:
+            view.close()
 
 
 def video_frames(env, policy, options: VideoOptions, recorder: EpisodeRecorder | None = None,

@@ -1,8 +1,9 @@
 """Videos of 6-DOF episodes: the frames of one episode run by a policy, in time, streamed to a file or an array.
 
 `auv-mj render --task tunnel3d --policy los-avoid -o tube.mp4` runs one episode and writes it (the domain record's
-`video`, `video_frames_3d`). This module holds what turns an episode into frames: the video's clock
-(`iter_frames_3d`), the interpolation between recorded states (`interpolate`), the progress a frame shows, the
+`video`, `video_frames_3d`). This module holds what turns an episode into frames: its view of the episode
+(`iter_frames_3d` over the planar videos' `stream_frames`), the interpolation between recorded states
+(`interpolate`), the progress a frame shows, the
 Gymnasium face's live frame (`LiveView3D`) and `render_episode_3d`; the 3-D track gathered beside the frames
 (`auv_mj.episode.Track3D`, the `track` of `iter_frames_3d`) is what `auv_mj.figures.trajectory3d` plots. The frame
 is drawn by `auv_mj.render.frame3d.FrameRenderer3D`.
@@ -27,17 +28,13 @@ import numpy as np
 
 from auv_mj.episode import EpisodeRecorder, Track3D
 from auv_mj.geometry import distance_along, polyline_length
-from auv_mj.render import glbackend
 from auv_mj.render.episode_video import (
     DEFAULT_HOLD_END,
     TIME_TOLERANCE,
-    RenderBar,
-    VideoClock,
     VideoOptions,
-    closing_frames,
     episode_output,
     frame_bound,
-    step_bound,
+    stream_frames,
 )
 from auv_mj.render.frame import DEFAULT_SIZE
 from auv_mj.render.frame3d import FrameRenderer3D, State3D
@@ -152,37 +149,38 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
     """Runs one episode of `policy(time_step) -> action` on the auv3d `env`, yielding (H, W, 3) uint8 frames, one
     every `speedup / fps` simulated seconds (default: one per control step); `track` (if given) gathers the 3-D
     track at the control steps, `recorder` keeps the episode's record."""
-    recorder = recorder if recorder is not None else EpisodeRecorder(env)
-    clock = VideoClock(env, fps, speedup)
-    glbackend.require()
     time_limit = _time_limit(env)
-    renderer, previous, frame, bar, route = None, None, None, None, None
-    start_distance = math.nan
-    try:
-        for snap in recorder.run(policy, max_steps):
-            if renderer is None:  # after the reset: the task has loaded its arena
-                renderer = FrameRenderer3D(env.physics, width, height, title)
-            if snap.step == 0:
-                goal = getattr(env.task, "goal", None)
-                start_distance = float(np.linalg.norm(goal - env.physics.position())) if goal is not None else math.nan
-                route = _route_length(env, start_distance)
-                bar = RenderBar(route, float(getattr(env.task, "goal_radius", 0.0)), step_bound(env, max_steps),
-                                progress)
-            if track is not None:
-                track.add(env)
-            state = _state(env, snap.event, start_distance, time_limit)
-            previous = state if previous is None else previous
-            for time, shown in clock.frames_to(state.time, snap.event):
-                frame = renderer.render(interpolate(previous, state, time), shown)
-                yield frame
-            previous = state
-            bar.advance(state.progress * route if route is not None else None, snap.step)
-        yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
-    finally:
-        if bar is not None:
-            bar.close()
-        if renderer is not None:
-            renderer.close()
+
+    def view_of(recorder: EpisodeRecorder, first) -> _View3D:
+        return _View3D(env, width, height, title, time_limit)
+
+    yield from stream_frames(env, policy, view_of, max_steps=max_steps, fps=fps, speedup=speedup,
+                             hold_end=hold_end, recorder=recorder, progress=progress, track=track)
+
+
+class _View3D:
+    """The 6-DOF video's view of an episode (an `auv_mj.render.episode_video.EpisodeView`): the three-panel frame
+    renderer, and the route the progress bar measures along (`_progress_of`)."""
+
+    def __init__(self, env, width: int, height: int, title: str, time_limit: float):
+        self.env, self.time_limit = env, time_limit
+        self.renderer = FrameRenderer3D(env.physics, width, height, title)
+        goal = getattr(env.task, "goal", None)
+        self.start_distance = float(np.linalg.norm(goal - env.physics.position())) if goal is not None else math.nan
+        self.route = _route_length(env, self.start_distance)
+        self.goal_radius = float(getattr(env.task, "goal_radius", 0.0))
+
+    def state(self, snap) -> State3D:
+        return _state(self.env, snap.event, self.start_distance, self.time_limit)
+
+    def draw(self, previous: State3D, state: State3D, time: float, banner: str) -> np.ndarray:
+        return self.renderer.render(interpolate(previous, state, time), banner)
+
+    def made_good(self, snap, state: State3D) -> float | None:
+        return state.progress * self.route if self.route is not None else None
+
+    def close(self) -> None:
+        self.renderer.close()
 
 
 def video_frames_3d(env, policy: Callable, options: VideoOptions, recorder: EpisodeRecorder | None = None,
