@@ -119,13 +119,32 @@ def route_target(task) -> tuple[np.ndarray, float, int]:
     return goals[k], radius, k
 
 
-class GridFollower(PlannerBase):
-    """A search on an occupancy grid, replanned when it must, followed by line of sight (module docstring).
+class Replanning:
+    """When a mapping planner searches its map again, in the plane (`GridFollower`) and in 3-D
+    (`auv_mj.planners.map_planner3d.VoxelFollower`): the follower keeps `path`, `since_plan` (planner steps since the
+    last search), `target_key` and a `plan(here, goal, radius)` that searches."""
+
+    replan_steps = REPLAN_STEPS
+    """Least planner steps between two searches when the map changed near the path."""
+    replan_period = REPLAN_PERIOD
+    """A search every this many planner steps regardless."""
+
+    def replan_if_due(self, changed: bool, here: np.ndarray, goal: np.ndarray, radius: float, key) -> None:
+        """Counts a planner step and searches again when there is no path, the target moved on (`key` changed),
+        `replan_period` steps have passed, or the map `changed` near the path and `replan_steps` have passed."""
+        self.since_plan += 1
+        if (self.path is None or key != self.target_key or self.since_plan >= self.replan_period
+                or (changed and self.since_plan >= self.replan_steps)):
+            self.target_key = key
+            self.plan(here, goal, radius)
+
+
+class GridFollower(Replanning, PlannerBase):
+    """A search on an occupancy grid, replanned when it must (`Replanning`), followed by line of sight (module
+    docstring).
 
     Subclasses fill `self.occupied` (`start`, `update`) and say when the map changed near the path.
     """
-
-    replan_steps = REPLAN_STEPS
 
     def __init__(self, env):
         self.env = env
@@ -191,11 +210,7 @@ class GridFollower(PlannerBase):
             self.start()
         changed = self.update(time_step, pose)
         goal, radius, key = self.target()
-        self.since_plan += 1
-        if (self.path is None or key != self.target_key or self.since_plan >= REPLAN_PERIOD
-                or (changed and self.since_plan >= self.replan_steps)):
-            self.target_key = key
-            self.plan(pose, goal, radius)
+        self.replan_if_due(changed, pose, goal, radius, key)
         point, off = self.carrot(pose, goal)
         if off > OFF_PATH and self.since_plan >= self.replan_steps:
             self.plan(pose, goal, radius)

@@ -40,6 +40,7 @@ from auv_mj.episode import VEHICLE_BODY, Planner, PlannerBase
 from auv_mj.geometry import arc_lengths
 from auv_mj.planners.avoidance import RepulsiveField
 from auv_mj.planners.los3d import FanFilter, command_action, domain_field, domain_ranges, protect_command
+from auv_mj.planners.map_planner import Replanning
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_AZIMUTHS, FAN_ELEVATIONS, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import CRUISE_SPEED, GOAL_RADIUS, MIN_DEPTH, Tunnel3D
@@ -105,12 +106,14 @@ def _point_at(path: np.ndarray, s: float) -> np.ndarray:
     return path[j] + (s - arc[j]) / max(arc[j + 1] - arc[j], 1e-12) * (path[j + 1] - path[j])
 
 
-class VoxelFollower(PlannerBase):
-    """A search on a voxel map, replanned when it must, followed by 3-D line of sight (module docstring).
+class VoxelFollower(Replanning, PlannerBase):
+    """A search on a voxel map, replanned when it must (the planar planner's `Replanning`), followed by 3-D line of
+    sight (module docstring).
 
     Subclasses fill `self.occupied` (`start`, `update`) and say when the map changed near the path."""
 
     replan_steps = REPLAN_STEPS
+    replan_period = REPLAN_PERIOD
     route_horizon = ROUTE_HORIZON
 
     def __init__(self, env):
@@ -210,11 +213,7 @@ class VoxelFollower(PlannerBase):
             self.start()
         changed = self.update()
         goal, radius, key = self.target()
-        self.since_plan += 1
-        if (self.path is None or key != self.target_key or self.since_plan >= REPLAN_PERIOD
-                or (changed and self.since_plan >= self.replan_steps)):
-            self.target_key = key
-            self.plan(position, goal, radius)
+        self.replan_if_due(changed, position, goal, radius, key)
         if self.path is not None and self.since_plan >= self.replan_steps:
             off = TUBE_OFF_PATH if self.in_tube else OFF_PATH
             if _nearest(self.path, position)[0] > off:
