@@ -3,10 +3,10 @@
 `auv-mj render --task tunnel3d --policy los-avoid -o tube.mp4` runs one episode and writes it (the domain record's
 `video`, `video_frames_3d`). This module holds what turns an episode into frames: its view of the episode
 (`iter_frames_3d` over the planar videos' `stream_frames`), the interpolation between recorded states
-(`interpolate`), the progress a frame shows, the
-Gymnasium face's live frame (`LiveView3D`) and `render_episode_3d`; the 3-D track gathered beside the frames
-(`auv_mj.episode.Track3D`, the `track` of `iter_frames_3d`) is what `auv_mj.figures.trajectory3d` plots. The frame
-is drawn by `auv_mj.render.frame3d.FrameRenderer3D`.
+(`interpolate`), the progress a frame shows, the Gymnasium face's live frame (`LiveView3D`) and
+`render_episode_3d`; the 3-D track gathered beside the frames (`auv_mj.episode.Track3D`, the `track` of
+`iter_frames_3d`) is what `auv_mj.figures.trajectory3d` plots. The frame is drawn by
+`auv_mj.render.frame3d.FrameRenderer3D`.
 
 Timing as the planar videos (`auv_mj.render.episode_video`): a frame every `speedup / fps` simulation seconds, one
 per control step by default (15x real time for the 0.5 s planner at DEFAULT_FPS); a smaller `speedup` interpolates
