@@ -186,7 +186,12 @@ class StudentView(TransformObservation):
     def __init__(self, env: VectorEnv):
         single = env.single_observation_space["observation"]
         super().__init__(env, student_inputs, batch_space(single, env.num_envs), single)
-        self.policy_options = dict(getattr(env, "policy_options", None) or {})  # a wrapper forwards no attributes
+        # a wrapper forwards no attributes: the options a policy must run with, and a mixture's cells for PPO's
+        # per-cell logs (`auv_mj.agents.ppo.Collector`)
+        self.policy_options = dict(getattr(env, "policy_options", None) or {})
+        for name in ("cells", "cell_of_row"):
+            if hasattr(env, name):
+                setattr(self, name, getattr(env, name))
 
     def reset(self, *, seed: Any = None, options: dict | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         obs, info = self.env.reset(seed=seed, options=options)

@@ -255,3 +255,23 @@ def test_dagger_on_the_mixture_validates_every_hard_cell(tmp_path):
     assert cells[0] == "round,cell,val_success" and len(cells) == 1 + 6
     assert {line.split(",")[1] for line in cells[1:]} == {
         f"{task}/hard/{water}" for task in ("obstacles", "moving_obstacles", "tunnel") for water in ("ideal", "ocean")}
+
+
+def test_the_students_view_of_the_mixture_keeps_its_cells_and_the_vehicles_position():
+    """PPO's per-cell logs read `cells` and `cell_of_row`, its speed log info["achieved_goal"]: the student's view
+    (its observation vector alone) keeps them."""
+    from auv_mj.agents.imitation import student_view
+
+    options = {k: v for k, v in HARD.items() if k not in ("arena", "tier")}
+    mixture = PlanningMixtureVectorEnv(1, tasks=("obstacles",), tiers=("hard",), waters=("ideal", "ocean"),
+                                       task_kwargs=options, threads=1)
+    view = student_view(mixture)
+    try:
+        obs, info = view.reset(seed=0)
+        raw = mixture.privileged_state()["position"]
+        assert view.cells == mixture.cells and list(view.cell_of_row) == [0, 1]
+        assert obs.shape == (2, view.single_observation_space.shape[0])
+        np.testing.assert_allclose(info["achieved_goal"][0, :2], raw[0])
+        assert view.policy_options == {"action": "rate", "observation": "planner"}
+    finally:
+        view.close()
