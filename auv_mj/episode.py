@@ -486,6 +486,41 @@ def record_episode(env, policy: Policy, max_steps: int | None = None, task: str 
     return recorder.record()
 
 
+
+class StepObserver(Protocol):
+    """What a video's frames call beside the episode loop (their `track`): `add(env)` after the reset and after each
+    control step, to gather what the frames do not keep (`Track3D`)."""
+
+    def add(self, env) -> None: ...
+
+
+@dataclass
+class Track3D:
+    """The 3-D track of a 6-DOF episode, gathered beside its EpisodeRecord (whose pose is the planar read-out):
+    world positions and attitudes. `add(env)` after the reset and each control step; a video's frames call it
+    (`auv_mj.render.episode_video3d.iter_frames_3d`'s `track`), the depth and track figures draw it
+    (`auv_mj.figures.trajectory3d`)."""
+
+    time: list = field(default_factory=list)
+    position: list = field(default_factory=list)
+    """[m], world, z up."""
+    attitude: list = field(default_factory=list)
+    """(roll, pitch, yaw) [rad]."""
+    depth_command: list = field(default_factory=list)
+    """The task's depth command [m] where it has one (depth_heading), else NaN."""
+
+    def add(self, env) -> None:
+        """The environment's state now."""
+        physics = env.physics
+        self.time.append(physics.time())
+        self.position.append(physics.position())
+        self.attitude.append(physics.attitude())
+        self.depth_command.append(float((getattr(env.task, "last_info", {}) or {}).get("depth_command", np.nan)))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Each field as one float array (time (T,), position (T, 3), ...)."""
+        return {k: np.asarray(v, dtype=float) for k, v in vars(self).items()}
+
 # --- metrics: the one definition of each --------------------------------------------------------------
 
 OUTCOMES = ("goal", "collision", "left_map", "timeout")

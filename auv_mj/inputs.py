@@ -12,12 +12,15 @@ from __future__ import annotations
 import csv
 import difflib
 import io
+import math
 import os
 import stat
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 MAX_XML_BYTES = 32 * 2**20
 """Largest MJCF file read [bytes]; the shipped tunnel arena is 12 kB."""
@@ -194,15 +197,29 @@ def _other_delimiter(cell: str) -> str | None:
         if delimiter in cell:
             return name
     words = cell.split()
-    return "spaces" if len(words) > 1 and all(_is_number(word) for word in words) else None
+    return "spaces" if len(words) > 1 and all(is_number(word) for word in words) else None
 
 
-def _is_number(text: str) -> bool:
+def is_number(text: str, finite: bool = False) -> bool:
+    """Whether the cell `text` of a user's file reads as a number (`float`), and as a finite one if `finite`."""
     try:
-        float(text)
+        value = float(text)
     except ValueError:
         return False
-    return True
+    return not finite or math.isfinite(value)
+
+
+def is_real(value) -> bool:
+    """Whether `value` (from a user's JSON or Python) is a finite real number, not a bool."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)) \
+        and math.isfinite(value)
+
+
+def check_numbers(what: str, checks) -> None:
+    """ValueError naming `what` and the field unless each (field, value, low, high) is a finite number in range."""
+    for field_name, value, low, high in checks:
+        if not (is_real(value) and low <= value <= high):
+            raise ValueError(f"{what}: {field_name} = {value!r:.40} must be a finite number in [{low:g}, {high:g}]")
 
 
 def csv_rows(text: str, source: str, form: str) -> list[list[str]]:

@@ -52,12 +52,18 @@ SPEEDS = ("absolute", *SPEED_GAINS)
 SPEED_GAINS."""
 
 
+def heading_action(bearing: float, heading: float, span: float = ACTION_HEADING_RANGE) -> float:
+    """A planning action's heading part: the turn from `heading` to `bearing` [rad], wrapped, over the `span` [rad]
+    one step may command, clipped to [-1, 1]. Line of sight steers by it in the plane (`los_heading`) and in 3-D
+    (`auv_mj.planners.los3d.command_action`)."""
+    return float(np.clip(wrap_angle(bearing - heading) / span, -1.0, 1.0))
+
+
 def los_heading(goal, pose) -> float:
     """Line of sight's heading action: the bearing of `goal` (x, y) from `pose` (x, y, psi), normalised by
     ACTION_HEADING_RANGE and clipped to [-1, 1]."""
     x, y, psi = (float(p) for p in pose[:3])
-    offset = wrap_angle(math.atan2(float(goal[1]) - y, float(goal[0]) - x) - psi)
-    return float(np.clip(offset / ACTION_HEADING_RANGE, -1.0, 1.0))
+    return heading_action(math.atan2(float(goal[1]) - y, float(goal[0]) - x), psi)
 
 
 def line_of_sight(env) -> Planner:

@@ -26,6 +26,7 @@ from auv_mj.control.depth_heading import los_command
 from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import RepulsiveField
+from auv_mj.planners.guidance import heading_action
 from auv_mj.sim.sensors3d import FAN_AZIMUTHS, FAN_ELEVATIONS
 from auv_mj.sim.sonar import SONAR_RANGE, SONAR_RATE_HZ
 from auv_mj.tasks.auv3d import (
@@ -173,9 +174,9 @@ def command_action(command: Sequence[float], physics) -> np.ndarray:
     """The planning action (a_speed, a_heading, a_depth) in [-1, 1]^3 that asks the executor for `command`
     (V [m/s], psi [rad], depth [m]) from the vehicle's heading and depth now (clipped where it lies beyond one
     step's range)."""
-    heading_offset = wrap_angle(command[1] - physics.heading()) / HEADING_RANGE
     depth_offset = (command[2] - physics.depth()) / DEPTH_RANGE
-    return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_offset, depth_offset], -1.0, 1.0)
+    return np.clip([2.0 * command[0] / MAX_SPEED - 1.0, heading_action(command[1], physics.heading(), HEADING_RANGE),
+                    depth_offset], -1.0, 1.0)
 
 
 def classical_3d(env, avoid: bool = False) -> Planner:

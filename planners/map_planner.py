@@ -30,7 +30,7 @@ import dm_env
 import mujoco
 import numpy as np
 
-from auv_mj.arenas import arena, grid
+from auv_mj.arenas import arena, cells, grid
 from auv_mj.episode import VEHICLE_BODY, FunctionPlanner, Planner, PlannerBase, arena_geometry, geom_footprint
 from auv_mj.planners.avoidance import PROTECTIONS, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed, los_heading
@@ -122,13 +122,32 @@ def route_target(task) -> tuple[np.ndarray, float, int]:
     return goals[k], radius, k
 
 
-class GridFollower(PlannerBase):
-    """A search on an occupancy grid, replanned when it must, followed by line of sight (module docstring).
+class Replanning:
+    """When a mapping planner searches its map again, in the plane (`GridFollower`) and in 3-D
+    (`auv_mj.planners.map_planner3d.VoxelFollower`): the follower keeps `path`, `since_plan` (planner steps since the
+    last search), `target_key` and a `plan(here, goal, radius)` that searches."""
+
+    replan_steps = REPLAN_STEPS
+    """Least planner steps between two searches when the map changed near the path."""
+    replan_period = REPLAN_PERIOD
+    """A search every this many planner steps regardless."""
+
+    def replan_if_due(self, changed: bool, here: np.ndarray, goal: np.ndarray, radius: float, key) -> None:
+        """Counts a planner step and searches again when there is no path, the target moved on (`key` changed),
+        `replan_period` steps have passed, or the map `changed` near the path and `replan_steps` have passed."""
+        self.since_plan += 1
+        if (self.path is None or key != self.target_key or self.since_plan >= self.replan_period
+                or (changed and self.since_plan >= self.replan_steps)):
+            self.target_key = key
+            self.plan(here, goal, radius)
+
+
+class GridFollower(Replanning, PlannerBase):
+    """A search on an occupancy grid, replanned when it must (`Replanning`), followed by line of sight (module
+    docstring).
 
     Subclasses fill `self.occupied` (`start`, `update`) and say when the map changed near the path.
     """
-
-    replan_steps = REPLAN_STEPS
 
     def __init__(self, env):
         self.env = env
@@ -194,11 +213,7 @@ class GridFollower(PlannerBase):
             self.start()
         changed = self.update(time_step, pose)
         goal, radius, key = self.target()
-        self.since_plan += 1
-        if (self.path is None or key != self.target_key or self.since_plan >= REPLAN_PERIOD
-                or (changed and self.since_plan >= self.replan_steps)):
-            self.target_key = key
-            self.plan(pose, goal, radius)
+        self.replan_if_due(changed, pose, goal, radius, key)
         point, off = self.carrot(pose, goal)
         if off > OFF_PATH and self.since_plan >= self.replan_steps:
             self.plan(pose, goal, radius)
@@ -217,21 +232,13 @@ class SonarMap(GridFollower):
         self.odds = np.zeros(self.grid.shape, np.int8)
 
     def update(self, time_step: dm_env.TimeStep, pose: np.ndarray) -> bool:
-        """Marks the nine beams: cells along each beam short of its range clear, its echo's cell hit."""
+        """Marks the nine beams: cells along each beam short of its range clear, its echo's cell hit (the log-odds
+        counts of the voxel map too, `auv_mj.arenas.cells.count_beams`)."""
         ranges = np.asarray(time_step.observation["observation"])[SONAR_SLICE] * SONAR_RANGE
         origin, directions = sonar_rays(pose)
-        samples = np.arange(0.0, SONAR_RANGE, _RAY_STEP)
-        clear = samples[None, :] < (ranges[:, None] - CELL)
-        points = origin + samples[None, :, None] * directions[:, None, :]
-        odds = self.odds.astype(np.int16)
-        i, j, inside = self.grid.index(points[clear])
-        cells = np.unique(np.ravel_multi_index((i[inside], j[inside]), self.grid.shape))
-        odds.flat[cells] -= MISS
-        hit = ranges < SONAR_RANGE - 1e-6
-        i, j, inside = self.grid.index(origin + ranges[hit, None] * directions[hit])
-        cells = np.unique(np.ravel_multi_index((i[inside], j[inside]), self.grid.shape))
-        odds.flat[cells] += HIT
-        self.odds = np.clip(odds, -SATURATION, SATURATION).astype(np.int8)
+        missed, echoes, hit = cells.beam_marks(self.grid, origin, directions, ranges, SONAR_RANGE, SONAR_RANGE,
+                                               _RAY_STEP, CELL)
+        cells.count_beams(self.odds, missed, self.grid.flat_cells(echoes[hit]), HIT, MISS, SATURATION)
         occupied = self.odds >= OCCUPIED
         new = occupied & ~self.occupied
         self.occupied = occupied

@@ -34,11 +34,13 @@ from __future__ import annotations
 import dm_env
 import numpy as np
 
-from auv_mj.arenas import grid, traps3d, voxels
+from auv_mj.arenas import cells, grid, traps3d, voxels
 from auv_mj.control.depth_heading import los_command
 from auv_mj.episode import VEHICLE_BODY, Planner, PlannerBase
+from auv_mj.geometry import arc_lengths
 from auv_mj.planners.avoidance import RepulsiveField
 from auv_mj.planners.los3d import FanFilter, command_action, domain_field, domain_ranges, protect_command
+from auv_mj.planners.map_planner import Replanning
 from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_AZIMUTHS, FAN_ELEVATIONS, fan_directions
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import CRUISE_SPEED, GOAL_RADIUS, MIN_DEPTH, Tunnel3D
@@ -97,19 +99,21 @@ def _nearest(path: np.ndarray, position: np.ndarray) -> tuple[float, float]:
 
 
 def _point_at(path: np.ndarray, s: float) -> np.ndarray:
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    arc = arc_lengths(path)
     if s >= arc[-1]:
         return path[-1].copy()
     j = int(np.searchsorted(arc, s, side="right") - 1)
     return path[j] + (s - arc[j]) / max(arc[j + 1] - arc[j], 1e-12) * (path[j + 1] - path[j])
 
 
-class VoxelFollower(PlannerBase):
-    """A search on a voxel map, replanned when it must, followed by 3-D line of sight (module docstring).
+class VoxelFollower(Replanning, PlannerBase):
+    """A search on a voxel map, replanned when it must (the planar planner's `Replanning`), followed by 3-D line of
+    sight (module docstring).
 
     Subclasses fill `self.occupied` (`start`, `update`) and say when the map changed near the path."""
 
     replan_steps = REPLAN_STEPS
+    replan_period = REPLAN_PERIOD
     route_horizon = ROUTE_HORIZON
 
     def __init__(self, env):
@@ -176,12 +180,12 @@ class VoxelFollower(PlannerBase):
 
     def blocked(self, point: np.ndarray) -> bool:
         """Whether an occupied voxel lies within the hard clearance of `point`'s voxel (box neighbourhood)."""
-        cells, inside = self.grid.index(point)
+        ijk, inside = self.grid.index(point)
         if not inside[0]:
             return False
         reach = np.ceil(self.hard / self.grid.cell).astype(int)
-        lo = np.maximum(cells[0] - reach, 0)
-        hi = np.minimum(cells[0] + reach + 1, self.grid.shape)
+        lo = np.maximum(ijk[0] - reach, 0)
+        hi = np.minimum(ijk[0] + reach + 1, self.grid.shape)
         return bool(self.occupied[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]].any())
 
     def plan(self, position: np.ndarray, goal: np.ndarray, radius: float) -> None:
@@ -191,9 +195,7 @@ class VoxelFollower(PlannerBase):
         window = TUBE_WINDOW if self.in_tube else WINDOW
         soft = self.hard + SOFT_CELLS * float(space.cell[0])
         ends = np.vstack([position, goal])
-        lo = np.maximum(np.floor((ends.min(axis=0) - window - soft - space.origin) / space.cell).astype(int), 0)
-        hi = np.minimum(np.ceil((ends.max(axis=0) + window + soft - space.origin) / space.cell).astype(int),
-                        space.shape)
+        lo, hi = space.block(ends.min(axis=0) - window - soft, ends.max(axis=0) + window + soft)
         crop = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
         local = voxels.VoxelGrid(space.origin + lo * space.cell, space.cell, tuple(int(v) for v in hi - lo))
         cost = grid.cost_field(voxels.clearance(local, self.occupied[crop]), self.hard, soft)
@@ -211,11 +213,7 @@ class VoxelFollower(PlannerBase):
             self.start()
         changed = self.update()
         goal, radius, key = self.target()
-        self.since_plan += 1
-        if (self.path is None or key != self.target_key or self.since_plan >= REPLAN_PERIOD
-                or (changed and self.since_plan >= self.replan_steps)):
-            self.target_key = key
-            self.plan(position, goal, radius)
+        self.replan_if_due(changed, position, goal, radius, key)
         if self.path is not None and self.since_plan >= self.replan_steps:
             off = TUBE_OFF_PATH if self.in_tube else OFF_PATH
             if _nearest(self.path, position)[0] > off:
@@ -266,30 +264,19 @@ class SonarVoxelMap(VoxelFollower):
                                                           float(sensed["altimeter"]))
 
     def update(self) -> bool:
-        """Marks the beams: voxels along each beam short of its range clear, its echo's voxel hit."""
+        """Marks the beams: voxels along each beam short of its range clear, its echo's voxel hit (the log-odds counts
+        of the planar map, `auv_mj.arenas.cells.count_beams`)."""
         origins, directions, ranges = self.beams()
         limits = np.append(np.full(len(ranges) - 1, SONAR_RANGE), ALTIMETER_RANGE)
-        step = 0.5 * float(np.min(self.grid.cell))
-        samples = np.arange(0.0, SONAR_RANGE, step)
-        clear = samples[None, :] < (ranges[:, None] - float(self.grid.cell[0]))
-        points = origins[:, None, :] + samples[None, :, None] * directions[:, None, :]
-        cells, inside = self.grid.index(points[clear])
-        missed = np.unique(np.ravel_multi_index(cells[inside].T, self.grid.shape))
-        hit = ranges < limits - 1e-6
-        echoes = origins + np.minimum(ranges, limits)[:, None] * directions
+        missed, echoes, hit = cells.beam_marks(self.grid, origins, directions, ranges, limits, SONAR_RANGE,
+                                               0.5 * float(np.min(self.grid.cell)), float(self.grid.cell[0]))
         a, b = _NEIGHBOURS[:, 0], _NEIGHBOURS[:, 1]
         join = hit[a] & hit[b] & (np.linalg.norm(echoes[a] - echoes[b], axis=1)
                                   < 2.0 * self.hard + float(self.grid.cell[0]))
         t = np.linspace(0.0, 1.0, JOIN_POINTS)[None, :, None]
         joined = (echoes[a[join]][:, None, :] * (1.0 - t) + echoes[b[join]][:, None, :] * t).reshape(-1, 3)
-        cells, inside = self.grid.index(np.vstack([echoes[hit], joined]))
-        echoed = np.unique(np.ravel_multi_index(cells[inside].T, self.grid.shape))
-        touched = np.union1d(missed, echoed)
-        odds = self.odds.flat[touched].astype(np.int16)
-        odds -= MISS * np.isin(touched, missed)
-        odds += HIT * np.isin(touched, echoed)
-        odds = np.clip(odds, -SATURATION, SATURATION)
-        self.odds.flat[touched] = odds
+        echoed = self.grid.flat_cells(np.vstack([echoes[hit], joined]))
+        touched, odds = cells.count_beams(self.odds, missed, echoed, HIT, MISS, SATURATION)
         occupied = (odds >= OCCUPIED) | self.surface.flat[touched]
         new = touched[occupied & ~self.occupied.flat[touched]]
         self.occupied.flat[touched] = occupied

@@ -248,7 +248,7 @@ class BatchTeacher:
     def actions(self) -> np.ndarray:
         """The teacher's actions (N, 2) at the env's current states."""
         state = self.env.privileged_state()
-        return teacher_actions(TeacherInput(**state), self.env.rules.action)
+        return teacher_actions(TeacherInput(**state), self.env.action_kind)
 
 
 def geodesic_teacher(env) -> GeodesicTeacher:

@@ -408,6 +408,44 @@ def target_features(achieved_goal, target) -> np.ndarray:
                      np.where(across > 1e-12, left / safe, 0.0), -offset[..., 2]], axis=-1)
 
 
+def planning_command(actions, heading, depth) -> np.ndarray:
+    """The executor's commands (V [m/s], psi [rad], depth [m]) of planning actions (N, 3) in [-1, 1]^3 from vehicles at
+    true `heading` [rad] and `depth` [m] (N,): speed 0..MAX_SPEED, heading offset up to HEADING_RANGE, depth offset up
+    to DEPTH_RANGE (not above MIN_DEPTH)."""
+    actions = np.asarray(actions, dtype=float)
+    return np.column_stack([0.5 * (actions[:, 0] + 1.0) * MAX_SPEED,
+                            wrap_angle(np.asarray(heading, dtype=float) + actions[:, 1] * HEADING_RANGE),
+                            np.maximum(MIN_DEPTH, np.asarray(depth, dtype=float) + actions[:, 2] * DEPTH_RANGE)])
+
+
+def step_info(collided, depth, distance, ranges, previous_achieved) -> dict[str, np.ndarray]:
+    """A 3-D planning step's info (`Planning3D.after_step`'s `last_info`) over a batch axis: the event ("collision":
+    the hull touches something; else "left_map": shallower than MIN_DEPTH; else "goal": within GOAL_RADIUS of the goal;
+    else ""), its flags, the closest fan range, the true depth [m], the distance to the goal [m], the achieved goal
+    before the step and the reward's goal-independent part. `collided`, `depth`, `distance` (N,); `ranges` (N, 27),
+    the fan as sensed; `previous_achieved` (N, GOAL_SIZE)."""
+    collided = np.asarray(collided, dtype=bool)
+    depth, distance = np.asarray(depth, dtype=float), np.asarray(distance, dtype=float)
+    left_map = ~collided & (depth < MIN_DEPTH)
+    goal = ~collided & ~left_map & (distance < GOAL_RADIUS)
+    event = np.full(collided.shape, "", dtype=object)
+    event[collided], event[left_map], event[goal] = "collision", "left_map", "goal"
+    failed = collided | left_map
+    return {"event": event, "success": goal, "is_success": goal.copy(), "collision": collided, "left_map": left_map,
+            "min_clearance": np.min(ranges, axis=-1), "depth": depth, "distance": distance,
+            "previous_achieved_goal": np.asarray(previous_achieved, dtype=float),
+            "goal_independent_reward": -STEP_COST + np.where(failed, COLLISION_REWARD, 0.0)}
+
+
+def planning_observation(head, achieved_goal, target, fan) -> np.ndarray:
+    """The planning observation (PLANNING_OBSERVATION, then the fan / SONAR_RANGE) over leading axes, from `head`: the
+    sensed (u, v, w, p, q, r, roll, pitch, depth, altitude [m]); the achieved goal (position and sensed heading); the
+    target point; and the 27 fan ranges as sensed [m]."""
+    head = np.array(head, dtype=float)
+    head[..., 9] = head[..., 9] / ALTIMETER_RANGE
+    return np.concatenate([head, target_features(achieved_goal, target), np.asarray(fan) / SONAR_RANGE], axis=-1)
+
+
 def route_time_limit(length: float) -> float:
     """The time limit [s] of a 3-D route of `length` m: ROUTE_TIME_FACTOR times its time at the classical planners'
     CRUISE_SPEED plus ROUTE_TIME_MARGIN, in steps of ROUTE_TIME_STEP (the planar tunnel's rule at 1.5 m/s)."""
@@ -474,6 +512,16 @@ class Planning3D(base.Task):
         super().__init__(random=options.seed(random))
 
     @property
+    def desired_goal(self) -> np.ndarray:
+        """The episode's desired_goal (GOAL_SIZE): the goal, with the heading of the way into it."""
+        return self._desired.copy()
+
+    @property
+    def achieved_goal(self) -> np.ndarray:
+        """The achieved_goal of the last observation (GOAL_SIZE): the position and the sensed heading."""
+        return self._achieved.copy()
+
+    @property
     def max_pitch(self) -> float:
         """The executor's pitch limit [rad], which the hard arenas' certified paths climb and dive within: its
         S-plane's, or the hand-set S-plane's for an executor with no gains of its own."""
@@ -537,6 +585,7 @@ class Planning3D(base.Task):
         self.ocean.start(physics, self.random)
         physics.set_tick(self._tick, EXECUTOR_DT)
         self._achieved = pose_goal(physics.position(), heading)
+        self.last_info = {}  # a reset's info is its own, not the last episode's end (as the planar tasks')
         super().initialize_episode(physics)
 
     def _move(self, physics: Physics3D) -> None:
@@ -558,9 +607,9 @@ class Planning3D(base.Task):
 
     def before_step(self, action, physics) -> None:
         a = checked_action(action, self.action_spec(physics), self)
-        speed = 0.5 * (float(a[0]) + 1.0) * MAX_SPEED
-        self.command = (speed, wrap_angle(physics.heading() + float(a[1]) * HEADING_RANGE),
-                        max(MIN_DEPTH, physics.depth() + float(a[2]) * DEPTH_RANGE))
+        command = planning_command(np.asarray(a, dtype=float)[None], np.array([physics.heading()]),
+                                   np.array([physics.depth()]))
+        self.command = tuple(command[0].tolist())
 
     def _collided(self, physics) -> bool:
         model, data = physics.model.ptr, physics.data.ptr
@@ -568,21 +617,11 @@ class Planning3D(base.Task):
         return any(hull in (data.contact[i].geom1, data.contact[i].geom2) for i in range(data.ncon))
 
     def after_step(self, physics) -> None:
-        distance = self._target_distance(physics)
-        event = ""
-        if self._collided(physics):
-            event = "collision"
-        elif physics.depth() < MIN_DEPTH:
-            event = "left_map"
-        elif distance < GOAL_RADIUS:
-            event = "goal"
         ranges = self.sensors.read(physics)["sonar"]
-        failed = event in ("collision", "left_map")
-        self.last_info = {"event": event, "success": event == "goal", "is_success": event == "goal",
-                          "collision": event == "collision", "left_map": event == "left_map",
-                          "min_clearance": float(np.min(ranges)), "depth": physics.depth(), "distance": distance,
-                          "previous_achieved_goal": self._achieved.copy(),
-                          "goal_independent_reward": -STEP_COST + (COLLISION_REWARD if failed else 0.0)}
+        info = step_info(np.array([self._collided(physics)]), np.array([physics.depth()]),
+                         np.array([self._target_distance(physics)]), ranges[None], self._achieved[None].copy())
+        self.last_info = {key: value[0].copy() if value.ndim > 1 else value[0] if value.dtype == object
+                          else value.tolist()[0] for key, value in info.items()}
         # the reward is compute_reward's: one definition for the step and for relabelled goals
         self._reward = float(self.compute_reward(pose_goal(physics.position(), 0.0), self._desired, self.last_info))
 
@@ -593,9 +632,8 @@ class Planning3D(base.Task):
         position = physics.position()
         self._achieved = pose_goal(position, state.heading)
         head = [state.u, state.v, state.w, state.p, state.q, state.r, state.roll, state.pitch, state.depth,
-                float(sensed["altimeter"]) / ALTIMETER_RANGE]
-        return np.concatenate([head, target_features(self._achieved, self.target(position)),
-                               sensed["sonar"] / SONAR_RANGE])
+                float(sensed["altimeter"])]
+        return planning_observation(np.array(head), self._achieved, self.target(position), sensed["sonar"])
 
     def observation_spec(self, physics) -> collections.OrderedDict:
         """"observation" (PLANNING_OBSERVATION and the fan), "achieved_goal" and "desired_goal" (GOAL_SIZE)."""
@@ -732,6 +770,43 @@ class Tunnel3D(Planning3D):
 
 def _los(position, path, lookahead):
     return los_command(position, path, lookahead, CRUISE_SPEED)
+
+
+def lookahead_targets(positions: np.ndarray, paths: np.ndarray, counts: np.ndarray,
+                      lookahead: float = LOOKAHEAD) -> np.ndarray:
+    """`Tunnel3D.target` of N vehicles at once (the batched env's, `auv_mj.tasks.vector3d`): the point `lookahead`
+    metres on from each vehicle towards `los_command`'s look-ahead point along its path, at that point's depth.
+
+    `positions` (N, 3); `paths` (N, K, 3), path i's first counts[i] points, the rest padding. The same arithmetic as
+    `los_command` on a batch axis (equal to rounding: tests/tasks/test_vector_env_3d.py)."""
+    positions, paths = np.asarray(positions, dtype=float), np.asarray(paths, dtype=float)
+    counts = np.asarray(counts, dtype=int)
+    n, k = paths.shape[:2]
+    rows = np.arange(n)
+    segments = np.diff(paths, axis=1)
+    lengths = np.linalg.norm(segments, axis=-1)
+    valid = np.arange(k - 1)[None, :] < (counts - 1)[:, None]
+    to_start = positions[:, None, :] - paths[:, :-1]
+    along = np.clip(np.sum(to_start * segments, axis=-1) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
+    nearest = paths[:, :-1] + along[..., None] * segments
+    gap = np.where(valid, np.linalg.norm(nearest - positions[:, None, :], axis=-1), np.inf)
+    best = np.argmin(gap, axis=1) if k > 1 else np.zeros(n, dtype=int)
+    arc = np.concatenate([np.zeros((n, 1)), np.cumsum(np.where(valid, lengths, 0.0), axis=1)], axis=1)
+    last = paths[rows, counts - 1]
+    total = arc[rows, counts - 1]
+    if k > 1:
+        s = arc[rows, best] + along[rows, best] * lengths[rows, best] + lookahead
+        inside = (np.arange(k)[None, :] < counts[:, None]) & (arc <= s[:, None])
+        j = np.minimum(np.sum(inside, axis=1) - 1, k - 2)
+        share = (s - arc[rows, j]) / np.maximum(lengths[rows, j], 1e-12)
+        target = paths[rows, j] + share[:, None] * segments[rows, j]
+        on_path = (counts >= 2) & np.any(valid & (lengths > 0), axis=1) & (s < total)
+        target = np.where(on_path[:, None], target, last)
+    else:
+        target = last
+    heading = np.arctan2(target[:, 1] - positions[:, 1], target[:, 0] - positions[:, 0])
+    return np.column_stack([positions[:, 0] + lookahead * np.cos(heading),
+                            positions[:, 1] + lookahead * np.sin(heading), target[:, 2]])
 
 
 class RouteEnvironment(control.Environment):

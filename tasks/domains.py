@@ -3,7 +3,9 @@
 A domain is one vehicle and its tasks (dm_control's suite has a domain per body: "cartpole", "walker"): "auv", the
 planar REMUS-100 of the paper (surge, sway, yaw), and "auv3d", the 6-DOF REMUS-100. Its `Domain` names its task
 registry, its physics class (a `auv_mj.sim.vehicle_physics.VehiclePhysics`), its vehicle MJCF, its classical
-executors and the entry-point group of its executor plugins, and its frame renderer. A new vehicle is a new record.
+executors and the entry-point group of its executor plugins, its frame renderer, its episode video and its episode
+figures (what `auv-mj render` draws, reading the record rather than asking which domain). A new vehicle is a new
+record.
 """
 
 from __future__ import annotations
@@ -45,21 +47,43 @@ class Domain:
     renderer: str
     """"module:class" of its frame renderer in `auv_mj.render` (the core), imported on first use: rendering loads
     OpenGL, which loading a task must not."""
+    video: str
+    """"module:function" of its episode video in `auv_mj.render`, imported on first use (as `renderer`):
+    `frames(env, policy, options: VideoOptions, recorder, track) -> Iterator[frame]`, the frames of one episode
+    (`auv_mj.render.episode_video.VideoOptions`)."""
+    figures: str | None = None
+    """"module:class" of its episode figures in `auv_mj.figures` (`auv-mj render --plots PREFIX`): made with
+    (prefix, title), it gathers beside the episode (`add(env)`, a video's `track`) and draws (`write(env)`); None for
+    a domain that draws none."""
 
     def frame_renderer(self) -> type:
         """The domain's frame renderer class."""
-        module, _, name = self.renderer.partition(":")
-        return getattr(importlib.import_module(module), name)
+        return _load(self.renderer)
+
+    def video_frames(self) -> Callable[..., Any]:
+        """The domain's episode video: `frames(env, policy, options, recorder, track)` (`video`)."""
+        return _load(self.video)
+
+    def episode_figures(self) -> type | None:
+        """The domain's episode figures class (`figures`), None where it has none."""
+        return _load(self.figures) if self.figures is not None else None
+
+
+def _load(reference: str) -> Any:
+    """The object a "module:name" reference names, its module imported now."""
+    module, _, name = reference.partition(":")
+    return getattr(importlib.import_module(module), name)
 
 
 DOMAINS: dict[str, Domain] = {
     "auv": Domain("auv", "planar", SUITE, AUVPhysics, "auv.xml",
                   {"splane": SPlaneController, "splane-ocean": lambda: SPlaneController(OCEAN_GAINS)},
-                  "auv_mj.executors", "auv_mj.render.frame:FrameRenderer"),
+                  "auv_mj.executors", "auv_mj.render.frame:FrameRenderer", "auv_mj.render.episode_video:video_frames"),
     DOMAIN_3D: Domain(DOMAIN_3D, "6-DOF", SUITE3D, AUV3DPhysics, "auv6.xml",
                          {"splane": DepthHeadingController,
                           "splane-ocean": lambda: DepthHeadingController(OCEAN_DEPTH_GAINS)},
-                         "auv_mj.executors_3d", "auv_mj.render.frame3d:FrameRenderer3D"),
+                         "auv_mj.executors_3d", "auv_mj.render.frame3d:FrameRenderer3D",
+                         "auv_mj.render.episode_video3d:video_frames_3d", "auv_mj.figures.trajectory3d:TrackFigures"),
 }
 """Every domain, by name."""
 

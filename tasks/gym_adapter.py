@@ -50,6 +50,13 @@ VECTOR_ENTRY_POINT = "auv_mj.tasks.vector:make_vector_env"
 """`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")` of the VECTOR_TASKS' ids."""
 VECTOR_TASKS = ("goal", "obstacles", "moving_obstacles", "tunnel")
 """The planning tasks with a batched environment (`auv_mj.tasks.vector.AUVVectorEnv`)."""
+VECTOR_ENTRY_POINT_3D = "auv_mj.tasks.vector3d:make_vector_env"
+"""`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")` of the VECTOR_TASKS_3D's ids."""
+VECTOR_TASKS_3D = ("goal3d", "tunnel3d")
+"""The 6-DOF planning tasks with a batched environment (`auv_mj.tasks.vector3d.AUV3DVectorEnv`)."""
+VECTOR_ENTRY_POINTS = {**dict.fromkeys(VECTOR_TASKS, VECTOR_ENTRY_POINT),
+                       **dict.fromkeys(VECTOR_TASKS_3D, VECTOR_ENTRY_POINT_3D)}
+"""Each batched task's `vector_entry_point`."""
 
 
 def gym_id(task_name: str) -> str:
@@ -367,7 +374,7 @@ def register_envs() -> None:
     for env_id, task_name in {**GYM_IDS, **GYM_IDS_3D}.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=ENTRY_POINT, kwargs={"task_name": task_name},
-                               vector_entry_point=VECTOR_ENTRY_POINT if task_name in VECTOR_TASKS else None)
+                               vector_entry_point=VECTOR_ENTRY_POINTS.get(task_name))
     if MIX_ID not in gymnasium.registry:
         gymnasium.register(id=MIX_ID, entry_point="auv_mj.tasks.gym_adapter:PlanningMix")
 

@@ -236,6 +236,21 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
             merged[key], merged["_" + key] = values, mask
         return merged
 
+    # --- what a privileged teacher reads ---------------------------------------------------------------------
+
+    @property
+    def action_kind(self) -> str:
+        """The action map of every cell (`planning.ACTIONS`; the task options are the same in every cell)."""
+        return self.subenvs[0].rules.action
+
+    def privileged_state(self) -> dict[str, Any]:
+        """`AUVVectorEnv.privileged_state` of every cell, rows concatenated in row order (a privileged teacher's
+        input, `auv_mj.planners.teacher.BatchTeacher`; never a learner's)."""
+        parts = [sub.privileged_state() for sub in self.subenvs]
+        return {key: (list(itertools.chain.from_iterable(p[key] for p in parts)) if isinstance(parts[0][key], list)
+                      else np.concatenate([p[key] for p in parts]))
+                for key in parts[0]}
+
     def close_extras(self, **kwargs) -> None:
         """Closes every cell's batch."""
         for sub in self.subenvs:

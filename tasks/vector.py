@@ -37,6 +37,9 @@ continues the sub-environment's RandomState, as `AUVGymEnv.reset()` without a se
 
 Infos are Gymnasium's dict of arrays, each key with its "_key" mask of the sub-environments that reported it.
 
+`GoalVectorEnv` is the Gymnasium side this env shares with the 6-DOF batch (`auv_mj.tasks.vector3d.AUV3DVectorEnv`):
+seeds, the autoreset modes, the actions' checks and the infos.
+
 `vector_bench(...)` measures environment steps per second of this env, beside the physics limit and Gymnasium's
 and Stable-Baselines3's process-parallel vectors (`auv-mj bench --sections vector`).
 """
@@ -83,18 +86,16 @@ def default_threads() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-class AUVVectorEnv(gymnasium.vector.VectorEnv):
-    """N episodes of one planning task, stepped together in C (see the module docstring)."""
+class GoalVectorEnv(gymnasium.vector.VectorEnv):
+    """What the batched goal envs share (`AUVVectorEnv`, planar; `auv_mj.tasks.vector3d.AUV3DVectorEnv`, 6-DOF): one
+    suite environment per sub-environment for its resets, the Gymnasium API (seeds, the autoreset modes, the actions'
+    checks, infos as dicts of arrays) and the goal-conditioned methods. A subclass reads a freshly reset episode into
+    its batch (`_load_episode`) and steps the batch (`_step_batch`)."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, task_name: str, num_envs: int = 1, task_kwargs: Mapping[str, Any] | None = None,
-                 environment_kwargs: Mapping[str, Any] | None = None, threads: int | None = None,
-                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
-        """`task_kwargs` go to every sub-environment's task factory (not "random": seed through `reset`);
-        goal tasks default to reward="paper" as `AUVGymEnv`'s. `threads` (default: this process's CPUs) share
-        out the physics."""
-        checks.choice("task_name", task_name, TASKS)
+    def _configure(self, num_envs, threads, autoreset_mode, task_kwargs, environment_kwargs) -> tuple[dict, dict]:
+        """Checks and keeps the options every batch takes; returns the task and environment kwargs, checked."""
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or not 1 <= num_envs <= MAX_ENVS:
             raise ValueError(f"num_envs must be a whole number in [1, {MAX_ENVS}], got {checks.shown(num_envs)}")
         self.threads = default_threads() if threads is None else threads
@@ -113,16 +114,191 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         task_kwargs = dict(task_kwargs or {})
         if "random" in task_kwargs:
             raise ValueError("seed the sub-environments through reset(seed=...), not task_kwargs['random']")
-        task_kwargs.setdefault("reward", GOAL_TASK_REWARD)
         environment_kwargs = checks.environment_kwargs(environment_kwargs)
         if environment_kwargs.get("flat_observation"):
             raise ValueError("environment_kwargs: flat_observation is not supported by the vector env")
-        self.task_name, self.task_kwargs = task_name, task_kwargs
-        self.policy_options = planning.policy_options(task_kwargs)
-        """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` given: what a policy trained here must run with."""
         self.num_envs = int(num_envs)
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.autoreset_mode = mode
+        self._warned_clip = False
+        self._needs_reset = True
+        return task_kwargs, environment_kwargs
+
+    def _load_episode(self, i: int) -> None:
+        """Reads sub-environment i's freshly reset episode into the batch."""
+        raise NotImplementedError
+
+    def _step_batch(self, index: np.ndarray, actions: np.ndarray):
+        """One step of the sub-environments `index` with their `actions` -> (rewards, terminated, truncated, infos as
+        `_batched_infos`)."""
+        raise NotImplementedError
+
+    # --- Gymnasium API ------------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):
+        """Starts every sub-environment's episode: `seed` an int (sub-environment i gets seed + i), a list of
+        seeds (None: continue its RandomState) or None."""
+        if seed is None:
+            seeds = [None] * self.num_envs
+        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"seed: {self.num_envs} seeds (one per sub-environment), got {len(seeds)}")
+        if options:
+            raise ValueError(f"reset options are not supported, got {checks.shown(options)}")
+        observations = []
+        for i, s in enumerate(seeds):
+            observations.append(self._reset_one(i, s))
+        for key in self._last_obs:
+            self._last_obs[key] = np.stack([o[key] for o in observations])
+        self._autoreset[:] = False
+        self._needs_reset = False
+        info = {"is_success": np.zeros(self.num_envs, dtype=bool), "_is_success": np.ones(self.num_envs, dtype=bool)}
+        for i in range(self.num_envs):
+            self._put_reset_info(info, i)
+        return self._copy_obs(), info
+
+    def _put_reset_info(self, infos: dict, i: int) -> None:
+        """Sub-environment i's reset info (beyond is_success) into row i of a batched info dict."""
+        for key, value in self._reset_infos[i].items():
+            value = np.asarray(value)
+            if key not in infos:
+                kind = object if value.dtype.kind in "UO" else value.dtype  # strings of any length
+                infos[key] = np.zeros((self.num_envs, *value.shape), dtype=kind)
+                infos["_" + key] = np.zeros(self.num_envs, dtype=bool)
+            infos[key][i], infos["_" + key][i] = value, True
+
+    def _reset_one(self, i: int, seed: int | None) -> dict:
+        """`AUVGymEnv.reset(seed=seed)` of sub-environment i; its first observation."""
+        env = self.envs[i]
+        if seed is not None:
+            checks.seed(seed, "seed")
+            env.task.random.seed(seed)
+        time_step = env.reset()
+        self._load_episode(i)
+        self._reset_infos[i] = dict(env.task.last_info)
+        return self._observe(time_step.observation)
+
+    def step(self, actions):
+        """One planner step of every sub-environment (see the module docstring for autoreset)."""
+        if self._needs_reset:
+            raise RuntimeError("call reset() before step()")
+        actions = self._checked(actions)
+        resetting = self._autoreset if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(self.num_envs,
+                                                                                                        bool)
+        index = np.flatnonzero(~resetting)
+        rewards_, terminated, truncated, infos = self._step_batch(index, actions[index])
+        reward = np.zeros(self.num_envs)
+        term = np.zeros(self.num_envs, dtype=bool)
+        trunc = np.zeros(self.num_envs, dtype=bool)
+        reward[index], term[index], trunc[index] = rewards_, terminated, truncated
+        done = term | trunc
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
+            for i in np.flatnonzero(resetting):
+                self._write_obs(i, self._reset_one(int(i), None))
+                self._put_reset_info(infos, int(i))
+            infos["is_success"][resetting] = False
+            infos["_is_success"][resetting] = True
+            self._autoreset = done
+        else:
+            ended = np.flatnonzero(done)
+            if ended.size:
+                final_obs = np.full(self.num_envs, None, dtype=object)
+                for i in ended:
+                    final_obs[i] = {key: value[i].copy() for key, value in self._last_obs.items()}
+                final_info = {key: value.copy() for key, value in infos.items()}
+                step_keys = [key for key in infos if not key.startswith("_")]  # STEP_INFO_KEYS and the options'
+                for key in step_keys:
+                    final_info["_" + key] = done.copy()
+                infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
+                infos["final_info"], infos["_final_info"] = final_info, done.copy()
+                for key in step_keys:
+                    infos["_" + key][done] = False
+                infos["is_success"][done] = False
+                infos["_is_success"][done] = True
+                for i in ended:
+                    self._write_obs(i, self._reset_one(int(i), None))
+                    self._put_reset_info(infos, int(i))
+        return self._copy_obs(), reward, term, trunc, infos
+
+    def _copy_obs(self) -> dict:
+        return {key: value.copy() for key, value in self._last_obs.items()}
+
+    def _write_obs(self, i: int, observation: dict) -> None:
+        for key, value in observation.items():
+            self._last_obs[key][i] = value
+
+    def _checked(self, actions) -> np.ndarray:
+        """The batch of actions as floats, by `auv_mj.tasks.actions.checked_action`'s convention for each row."""
+        try:
+            raw = np.asarray(actions)
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f"actions must be numbers of shape {self.action_space.shape}, got "
+                             f"{checks.shown(actions)}") from None
+        if raw.dtype.kind not in "biuf":
+            raise ValueError(f"actions must be numbers, got {checks.shown(actions)} (dtype {raw.dtype})")
+        value = raw.astype(float)
+        if value.shape != self.action_space.shape:
+            raise ValueError(f"actions must have shape {self.action_space.shape}, got {value.shape}")
+        if not np.all(np.isfinite(value)):
+            rows = np.flatnonzero(~np.all(np.isfinite(value), axis=1))
+            raise ValueError(f"actions must be finite; sub-environment(s) {rows[:8].tolist()} are not")
+        if np.any(value < self._low) or np.any(value > self._high):
+            if not self._warned_clip:
+                warnings.warn(f"{type(self).__name__}: actions outside [{self._low.tolist()}, {self._high.tolist()}] "
+                              "are clipped (warned once)", ActionClipped, stacklevel=3)
+                self._warned_clip = True
+            value = np.clip(value, self._low, self._high)
+        return value
+
+    def _batched_infos(self, index: np.ndarray, infos: dict) -> dict:
+        """Rows of the stepped sub-environments -> Gymnasium's dict of arrays with "_key" masks."""
+        batched = {}
+        mask = np.zeros(self.num_envs, dtype=bool)
+        mask[index] = True
+        for key, value in infos.items():
+            value = np.asarray(value)
+            full = np.zeros((self.num_envs, *value.shape[1:]), dtype=value.dtype)
+            if value.dtype == object:
+                full[:] = ""
+            full[index] = value
+            batched[key] = full
+            batched["_" + key] = mask.copy()
+        return batched
+
+    # --- goal-conditioned API -----------------------------------------------------------------------
+
+    def compute_reward(self, achieved_goal, desired_goal, info):
+        """The task's vectorised reward (`PlanningTask.compute_reward`) for batches of goals."""
+        return self.envs[0].task.compute_reward(achieved_goal, desired_goal, info)
+
+    def compute_terminated(self, achieved_goal, desired_goal, info):
+        """The task's `compute_terminated` for batches of goals."""
+        return self.envs[0].task.compute_terminated(achieved_goal, desired_goal, info)
+
+    def close_extras(self, **kwargs) -> None:
+        """Drops the sub-environments."""
+        self.envs = []
+
+
+class AUVVectorEnv(GoalVectorEnv):
+    """N episodes of one planning task, stepped together in C (see the module docstring)."""
+
+    def __init__(self, task_name: str, num_envs: int = 1, task_kwargs: Mapping[str, Any] | None = None,
+                 environment_kwargs: Mapping[str, Any] | None = None, threads: int | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
+        """`task_kwargs` go to every sub-environment's task factory (not "random": seed through `reset`);
+        goal tasks default to reward="paper" as `AUVGymEnv`'s. `threads` (default: this process's CPUs) share
+        out the physics."""
+        checks.choice("task_name", task_name, TASKS)
+        task_kwargs, environment_kwargs = self._configure(num_envs, threads, autoreset_mode, task_kwargs,
+                                                          environment_kwargs)
+        task_kwargs.setdefault("reward", GOAL_TASK_REWARD)
+        self.task_name, self.task_kwargs = task_name, task_kwargs
+        self.policy_options = planning.policy_options(task_kwargs)
+        """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` given: what a policy trained here must run with."""
         self.envs = [suite.load(suite.DOMAIN, task_name, task_kwargs=task_kwargs,
                                 environment_kwargs=environment_kwargs) for _ in range(self.num_envs)]
         first = self.envs[0]
@@ -149,8 +325,7 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         """The task options of every step (`planning_step.StepRules`)."""
         self._stepper = batch.BatchStepper(self.num_envs)
         self._allocate()
-        self._warned_clip = False
-        self._needs_reset = True
+
 
     # --- per-environment arrays ---------------------------------------------------------------------
 
@@ -239,125 +414,6 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         self._stepper.normals_end[i] = len(pending)
         self._current_rngs[i] = normals.rng
 
-    # --- Gymnasium API ------------------------------------------------------------------------------
-
-    def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):
-        """Starts every sub-environment's episode: `seed` an int (sub-environment i gets seed + i), a list of
-        seeds (None: continue its RandomState) or None."""
-        if seed is None:
-            seeds = [None] * self.num_envs
-        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"seed: {self.num_envs} seeds (one per sub-environment), got {len(seeds)}")
-        if options:
-            raise ValueError(f"reset options are not supported, got {checks.shown(options)}")
-        observations = []
-        for i, s in enumerate(seeds):
-            observations.append(self._reset_one(i, s))
-        for key in self._last_obs:
-            self._last_obs[key] = np.stack([o[key] for o in observations])
-        self._autoreset[:] = False
-        self._needs_reset = False
-        info = {"is_success": np.zeros(self.num_envs, dtype=bool), "_is_success": np.ones(self.num_envs, dtype=bool)}
-        for i in range(self.num_envs):
-            self._put_reset_info(info, i)
-        return self._copy_obs(), info
-
-    def _put_reset_info(self, infos: dict, i: int) -> None:
-        """Sub-environment i's reset info (beyond is_success) into row i of a batched info dict."""
-        for key, value in self._reset_infos[i].items():
-            value = np.asarray(value)
-            if key not in infos:
-                infos[key] = np.zeros((self.num_envs, *value.shape), dtype=value.dtype)
-                infos["_" + key] = np.zeros(self.num_envs, dtype=bool)
-            infos[key][i], infos["_" + key][i] = value, True
-
-    def _reset_one(self, i: int, seed: int | None) -> dict:
-        """`AUVGymEnv.reset(seed=seed)` of sub-environment i; its first observation."""
-        env = self.envs[i]
-        if seed is not None:
-            checks.seed(seed, "seed")
-            env.task.random.seed(seed)
-        time_step = env.reset()
-        self._load_episode(i)
-        self._reset_infos[i] = dict(env.task.last_info)
-        return self._observe(time_step.observation)
-
-    def step(self, actions):
-        """One planner step of every sub-environment (see the module docstring for autoreset)."""
-        if self._needs_reset:
-            raise RuntimeError("call reset() before step()")
-        actions = self._checked(actions)
-        resetting = self._autoreset if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(self.num_envs,
-                                                                                                        bool)
-        index = np.flatnonzero(~resetting)
-        rewards_, terminated, truncated, infos = self._step_batch(index, actions[index])
-        reward = np.zeros(self.num_envs)
-        term = np.zeros(self.num_envs, dtype=bool)
-        trunc = np.zeros(self.num_envs, dtype=bool)
-        reward[index], term[index], trunc[index] = rewards_, terminated, truncated
-        done = term | trunc
-        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            for i in np.flatnonzero(resetting):
-                self._write_obs(i, self._reset_one(int(i), None))
-                self._put_reset_info(infos, int(i))
-            infos["is_success"][resetting] = False
-            infos["_is_success"][resetting] = True
-            self._autoreset = done
-        else:
-            ended = np.flatnonzero(done)
-            if ended.size:
-                final_obs = np.full(self.num_envs, None, dtype=object)
-                for i in ended:
-                    final_obs[i] = {key: value[i].copy() for key, value in self._last_obs.items()}
-                final_info = {key: value.copy() for key, value in infos.items()}
-                step_keys = [key for key in infos if not key.startswith("_")]  # STEP_INFO_KEYS and the options'
-                for key in step_keys:
-                    final_info["_" + key] = done.copy()
-                infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
-                infos["final_info"], infos["_final_info"] = final_info, done.copy()
-                for key in step_keys:
-                    infos["_" + key][done] = False
-                infos["is_success"][done] = False
-                infos["_is_success"][done] = True
-                for i in ended:
-                    self._write_obs(i, self._reset_one(int(i), None))
-                    self._put_reset_info(infos, int(i))
-        return self._copy_obs(), reward, term, trunc, infos
-
-    def _copy_obs(self) -> dict:
-        return {key: value.copy() for key, value in self._last_obs.items()}
-
-    def _write_obs(self, i: int, observation: dict) -> None:
-        for key, value in observation.items():
-            self._last_obs[key][i] = value
-
-    def _checked(self, actions) -> np.ndarray:
-        """The batch of actions as floats, by `auv_mj.tasks.actions.checked_action`'s convention for each row."""
-        try:
-            raw = np.asarray(actions)
-        except (TypeError, ValueError, OverflowError):
-            raise ValueError(f"actions must be numbers of shape {self.action_space.shape}, got "
-                             f"{checks.shown(actions)}") from None
-        if raw.dtype.kind not in "biuf":
-            raise ValueError(f"actions must be numbers, got {checks.shown(actions)} (dtype {raw.dtype})")
-        value = raw.astype(float)
-        if value.shape != self.action_space.shape:
-            raise ValueError(f"actions must have shape {self.action_space.shape}, got {value.shape}")
-        if not np.all(np.isfinite(value)):
-            rows = np.flatnonzero(~np.all(np.isfinite(value), axis=1))
-            raise ValueError(f"actions must be finite; sub-environment(s) {rows[:8].tolist()} are not")
-        if np.any(value < self._low) or np.any(value > self._high):
-            if not self._warned_clip:
-                warnings.warn(f"{type(self).__name__}: actions outside [{self._low.tolist()}, {self._high.tolist()}] "
-                              "are clipped (warned once)", ActionClipped, stacklevel=3)
-                self._warned_clip = True
-            value = np.clip(value, self._low, self._high)
-        return value
-
     # --- the batched step: PlanningTask.before_step, the physics, after_step, get_observation -----
 
     def _step_batch(self, index: np.ndarray, actions: np.ndarray):
@@ -410,30 +466,10 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         terminated = ~at_limit & outcome.terminal
         return outcome.reward, terminated, truncated, self._batched_infos(index, outcome.info)
 
-    def _batched_infos(self, index: np.ndarray, infos: dict) -> dict:
-        """Rows of the stepped sub-environments -> Gymnasium's dict of arrays with "_key" masks."""
-        batched = {}
-        mask = np.zeros(self.num_envs, dtype=bool)
-        mask[index] = True
-        for key, value in infos.items():
-            value = np.asarray(value)
-            full = np.zeros((self.num_envs, *value.shape[1:]), dtype=value.dtype)
-            if value.dtype == object:
-                full[:] = ""
-            full[index] = value
-            batched[key] = full
-            batched["_" + key] = mask.copy()
-        return batched
-
-    # --- goal-conditioned API -----------------------------------------------------------------------
-
-    def compute_reward(self, achieved_goal, desired_goal, info):
-        """The task's vectorised reward (`PlanningTask.compute_reward`) for batches of goals."""
-        return self.envs[0].task.compute_reward(achieved_goal, desired_goal, info)
-
-    def compute_terminated(self, achieved_goal, desired_goal, info):
-        """The task's `compute_terminated` for batches of goals."""
-        return self.envs[0].task.compute_terminated(achieved_goal, desired_goal, info)
+    @property
+    def action_kind(self) -> str:
+        """The action map of the batch's task (`planning.ACTIONS`)."""
+        return self.rules.action
 
     def privileged_state(self) -> dict[str, Any]:
         """The true state of every row for a privileged teacher (`auv_mj.planners.teacher`; Chen et al. 2019), never
@@ -449,10 +485,6 @@ class AUVVectorEnv(gymnasium.vector.VectorEnv):
         return {"potentials": [env.task.episode.potential for env in self.envs], "goal_index": goal_index,
                 "position": self._position.copy(), "psi": self._psi.copy(), "heading_command": heading,
                 "movers": [planning.mover_states(env.physics, env.task) for env in self.envs]}
-
-    def close_extras(self, **kwargs) -> None:
-        """Drops the sub-environments."""
-        self.envs = []
 
 
 SINGLE_ENV_OPTIONS = ("protection", "residual", "guide", "speed", "render_mode", "render_size", "render_distance")

@@ -1,4 +1,5 @@
-"""Stable-Baselines3's `VecEnv` face of the batched planning env (`auv_mj.tasks.vector.AUVVectorEnv`).
+"""Stable-Baselines3's `VecEnv` face of the batched planning envs (`auv_mj.tasks.vector.AUVVectorEnv`, planar;
+`auv_mj.tasks.vector3d.AUV3DVectorEnv`, 6-DOF: both `GoalVectorEnv`s).
 
 SB3 resets a finished sub-environment in the step that finished it and keeps the last observation in
 info["terminal_observation"] (and info["TimeLimit.truncated"] for a time limit), as its `DummyVecEnv` does; that is
@@ -24,15 +25,15 @@ except ImportError:  # SB3 is no dependency of auv-mj: this adapter is for those
     raise ImportError("auv_mj.tasks.vector_sb3 is Stable-Baselines3's face of the batched environment: "
                       "pip install stable-baselines3") from None
 
-from auv_mj.tasks.vector import AUVVectorEnv
+from auv_mj.tasks.vector import GoalVectorEnv
 
 
 class SB3VectorEnv(VecEnv):
-    """A `VecEnv` over one `AUVVectorEnv` built with autoreset_mode SAME_STEP."""
+    """A `VecEnv` over one batched env (`GoalVectorEnv`) built with autoreset_mode SAME_STEP."""
 
-    def __init__(self, env: AUVVectorEnv):
-        if not isinstance(env, AUVVectorEnv):
-            raise ValueError(f"env must be an AUVVectorEnv, got {type(env).__name__}")
+    def __init__(self, env: GoalVectorEnv):
+        if not isinstance(env, GoalVectorEnv):
+            raise ValueError(f"env must be an AUVVectorEnv or an AUV3DVectorEnv, got {type(env).__name__}")
         if env.autoreset_mode != AutoresetMode.SAME_STEP:
             raise ValueError("env: SB3 resets in the step that ends an episode; build the AUVVectorEnv with "
                              "autoreset_mode='SameStep'")

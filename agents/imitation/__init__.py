@@ -1,6 +1,7 @@
 """Imitation of a privileged teacher (issue 51): DAgger for a recurrent student (`auv_mj.agents.imitation.dagger`)."""
 
 from auv_mj.agents.imitation.dagger import (
+    CELLS_LOG_NAME,
     CHECKPOINT_NAME,
     LOG_NAME,
     STUDENT_NAME,
@@ -8,6 +9,7 @@ from auv_mj.agents.imitation.dagger import (
     DaggerResult,
     Sequences,
     collect,
+    episodes_validator,
     evaluate_student,
     finetune,
     fit,
@@ -18,6 +20,6 @@ from auv_mj.agents.imitation.dagger import (
     train_dagger,
 )
 
-__all__ = ["CHECKPOINT_NAME", "LOG_NAME", "STUDENT_NAME", "DaggerConfig", "DaggerResult", "Sequences", "collect",
-           "evaluate_student", "finetune", "fit", "imitation_loss", "student_inputs", "student_spec", "student_view",
-           "train_dagger"]
+__all__ = ["CELLS_LOG_NAME", "CHECKPOINT_NAME", "LOG_NAME", "STUDENT_NAME", "DaggerConfig", "DaggerResult",
+           "Sequences", "collect", "episodes_validator", "evaluate_student", "finetune", "fit", "imitation_loss",
+           "student_inputs", "student_spec", "student_view", "train_dagger"]

@@ -62,6 +62,7 @@ from auv_mj.seeds import VALIDATION, train_seed
 CHECKPOINT_NAME = "dagger.pt"
 STUDENT_NAME = "student.pt"
 LOG_NAME = "dagger.csv"
+CELLS_LOG_NAME = "dagger_cells.csv"
 LOG_FIELDS = ("round", "beta", "dataset_steps", "teacher_share", "loss_before", "loss_after", "val_success",
               "val_collision", "val_episodes", "wall_s")
 """The columns of dagger.csv: a row a round (the fit's loss over the whole dataset before and after it)."""
@@ -166,21 +167,49 @@ def student_inputs(obs: Any) -> np.ndarray:
 
 
 def student_spec(env: VectorEnv) -> dict[str, Any]:
-    """The student's spaces (`auv_mj.agents.ppo.env_spec`): the observation vector alone, the env's actions."""
+    """The student's spaces (`auv_mj.agents.ppo.env_spec`): the observation vector alone, the env's actions, and the
+    task options it must run with (the env's `policy_options`, which the zoo applies when it deploys the file)."""
     space = env.single_observation_space
     if hasattr(space, "spaces") and "observation" in space.spaces:
         space = space["observation"]
-    return env_spec(space, env.single_action_space)
+    spec = env_spec(space, env.single_action_space)
+    options = dict(getattr(env, "policy_options", None) or {})
+    if options:  # the task options the student must run with (as `auv_mj.agents.ppo.train` keeps them)
+        spec["task_options"] = options
+    return spec
+
+
+class StudentView(TransformObservation):
+    """A goal-dict vector env as the student sees it (`student_view`); the dict's `achieved_goal` (the vehicle's
+    position) moves to info["achieved_goal"], for the training logs' speed, never an input."""
+
+    def __init__(self, env: VectorEnv):
+        single = env.single_observation_space["observation"]
+        super().__init__(env, student_inputs, batch_space(single, env.num_envs), single)
+        # a wrapper forwards no attributes: the options a policy must run with, and a mixture's cells for PPO's
+        # per-cell logs (`auv_mj.agents.ppo.Collector`)
+        self.policy_options = dict(getattr(env, "policy_options", None) or {})
+        for name in ("cells", "cell_of_row"):
+            if hasattr(env, name):
+                setattr(self, name, getattr(env, name))
+
+    def reset(self, *, seed: Any = None, options: dict | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self.func(obs), {**info, "achieved_goal": obs["achieved_goal"]}
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(actions)
+        return self.func(obs), reward, terminated, truncated, {**info, "achieved_goal": obs["achieved_goal"]}
 
 
 def student_view(env: VectorEnv) -> VectorEnv:
     """`env` as the student sees it, for PPO's fine-tune: its observation vector alone (a goal dict's `observation`;
-    no `desired_goal`), the info (info["privileged"] for the critic) and actions unchanged."""
+    no `desired_goal`), actions and the info unchanged (info["privileged"] for the critic) but for the achieved goal
+    (`StudentView`)."""
     space = env.single_observation_space
     if not (hasattr(space, "spaces") and "observation" in space.spaces):
         return env
-    single = space["observation"]
-    return TransformObservation(env, student_inputs, batch_space(single, env.num_envs), single)
+    return StudentView(env)
 
 
 def finetune(env: VectorEnv, teacher: Teacher, student: str | Path, run_dir: str | Path, config: PPOConfig,
@@ -305,6 +334,16 @@ def _save(run_dir: Path, model: ActorCritic, optimizer: torch.optim.Optimizer, d
              {"env_steps": 0, "iterations": 0, "episodes": 0, "dagger_rounds": rounds_done})
 
 
+def _log_cells(path: Path, round_index: int, cells: Mapping[str, float], fresh_file: bool) -> None:
+    """Appends a round's per-cell validation to `path` (a row a cell: round, cell, success)."""
+    new = fresh_file or not path.exists()
+    with open(path, "w" if new else "a", newline="") as f:
+        writer = csv.writer(f)
+        if new:
+            writer.writerow(("round", "cell", "val_success"))
+        writer.writerows((round_index, name, value) for name, value in cells.items())
+
+
 @dataclasses.dataclass
 class DaggerResult:
     """Where a run was written and how its last round went."""
@@ -319,12 +358,29 @@ class DaggerResult:
     """The run's config (the saved one on resume)."""
 
 
+Validator = Callable[[ActorCritic, DaggerConfig], Mapping[str, float]]
+"""A round's validation of the student: {"val_success", "val_collision", "val_episodes"} and, optionally, per-cell
+entries "cell:NAME" (success rates, written to dagger_cells.csv)."""
+
+
+def episodes_validator(env_fn: Callable[[int], VectorEnv]) -> Validator:
+    """The validation of one batched task: `evaluate_student` on config.validation_episodes episodes from
+    VALIDATION_FIRST_SEED, `env_fn(n)` making the n-vehicle batch."""
+    def validate(model: ActorCritic, config: DaggerConfig) -> Mapping[str, float]:
+        return evaluate_student(env_fn, model, config.validation_episodes, VALIDATION_FIRST_SEED,
+                                config.validation_max_steps)
+    return validate
+
+
 def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: DaggerConfig | None = None, *,
                  resume: bool = False, eval_env_fn: Callable[[int], VectorEnv] | None = None,
-                 progress: bool = True) -> DaggerResult:
+                 validate: Validator | None = None, progress: bool = True) -> DaggerResult:
     """Runs DAgger (module docstring) on the batched `env` with `teacher` labelling its current states, until
     config.rounds rounds are done, checkpointing after each; `resume=True` continues the run in `run_dir` (its
-    config; `config` must be None or the same). `eval_env_fn(n)`, if given, makes the validation batch."""
+    config; `config` must be None or the same). After each round the student is validated (when
+    config.validation_episodes > 0) by `validate`, or on `eval_env_fn(n)`'s batch (`episodes_validator`)."""
+    if validate is None and eval_env_fn is not None:
+        validate = episodes_validator(eval_env_fn)
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     spec = student_spec(env)
@@ -374,13 +430,16 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
                "teacher_share": float((fresh.teacher_drove * fresh.valid).sum() / max(fresh.valid.sum(), 1.0)),
                "loss_before": before, "loss_after": after, "val_success": float("nan"),
                "val_collision": float("nan"), "val_episodes": 0.0}
-        if eval_env_fn is not None and config.validation_episodes:
-            row.update(evaluate_student(eval_env_fn, model, config.validation_episodes, VALIDATION_FIRST_SEED,
-                                        config.validation_max_steps))
+        cells: dict[str, float] = {}
+        if validate is not None and config.validation_episodes:
+            for key, value in validate(model, config).items():
+                (cells if key.startswith("cell:") else row)[key.removeprefix("cell:")] = float(value)
         row["wall_s"] = time.perf_counter() - started
         _save(run_dir, model, optimizer, data, config, spec, i + 1, round_sizes)
         with open(log_path, "a", newline="") as f:
             csv.writer(f).writerow([row[k] for k in LOG_FIELDS])
+        if cells:
+            _log_cells(run_dir / CELLS_LOG_NAME, i, cells, fresh_file=not resume and i == 0)
         rows.append(row)
         if progress:
             print(" ".join(f"{k}={row[k]:.4g}" if isinstance(row[k], float) else f"{k}={row[k]}" for k in LOG_FIELDS),

@@ -34,11 +34,12 @@ import json
 import math
 import shutil
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from gymnasium.vector import VectorEnv
 
 from auv_mj.agents.checkpoint import config_to_dict
 from auv_mj.agents.ppo.checkpoint import CHECKPOINT_NAME, read_ppo
@@ -168,8 +169,10 @@ def mixture_from_dict(values: Mapping[str, Any]) -> MixtureConfig:
 def ground_speed(next_obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
     """Each vehicle's speed over the ground in the step just taken (m/s): from where it began
     (info["previous_achieved_goal"], (x, y)) to where it is (the observation's achieved_goal, whose first two
-    entries are (x, y)), over PLANNER_DT."""
-    moved = np.asarray(next_obs["achieved_goal"], float)[:, :2] - np.asarray(info["previous_achieved_goal"], float)
+    entries are (x, y); a student's view of the env, `auv_mj.agents.imitation.StudentView`, keeps it in
+    info["achieved_goal"]), over PLANNER_DT."""
+    achieved = next_obs["achieved_goal"] if isinstance(next_obs, Mapping) else info["achieved_goal"]
+    moved = np.asarray(achieved, float)[:, :2] - np.asarray(info["previous_achieved_goal"], float)
     return np.linalg.norm(moved, axis=-1) / PLANNER_DT
 
 
@@ -243,14 +246,19 @@ def _replace_file(source: Path, target: Path) -> None:
 
 def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: MixtureConfig, total_steps: int,
                   *, resume: bool = False, progress: bool = True, tensorboard: bool = True,
-                  threads: int | None = None) -> dict[str, Any]:
+                  threads: int | None = None, env: VectorEnv | None = None,
+                  teacher: Callable[[], np.ndarray] | None = None, init: str | Path | None = None) -> dict[str, Any]:
     """Trains the planner (see the module docstring) for `total_steps` env steps, the steps its schedules span;
     returns {"env_steps", "best_steps", "best_success" (the chosen window's mean), "best_point" (the chosen
     snapshot's own validation), "checkpoint", "best"}.
 
     Resuming continues from the last chunk's checkpoint (`ppo.train`'s exact resume when `validate_every` is a whole
     number of checkpoint periods) with the schedules the run started with. The mixture's training fields must be the
-    saved ones; its validation fields (SELECTION_FIELDS) may change, and are saved anew."""
+    saved ones; its validation fields (SELECTION_FIELDS) may change, and are saved anew.
+
+    A student's fine-tune (issue 51, `auv_mj.jobs.student`) passes `env`, the mixture as the student sees it (made by
+    the caller, kept open across the chunks), `teacher`, the teacher's labels on it (`ppo.train`'s imitation term),
+    and `init`, the student's checkpoint that a new run starts from."""
     run_dir = Path(run_dir)
     mixture_path = run_dir / MIXTURE_NAME
     if resume:
@@ -285,9 +293,10 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
     steps = done_steps
     while steps < target:
         goal = min(target, (steps // chunk + 1) * chunk)
-        result = train(lambda: mixture.make_env(threads), config, run_dir, goal, resume=steps > 0,
-                           progress=progress, tensorboard=tensorboard, schedule_steps=None if steps else target,
-                           step_speed=ground_speed)
+        result = train(env if env is not None else lambda: mixture.make_env(threads), config, run_dir, goal,
+                       resume=steps > 0, progress=progress, tensorboard=tensorboard,
+                       schedule_steps=None if steps else target, step_speed=ground_speed, teacher=teacher,
+                       init=None if steps else init)
         steps = result.env_steps
         meta = read_ppo(result.checkpoint)[0].metadata
         snapshot = snapshots / f"steps_{steps}.pt"

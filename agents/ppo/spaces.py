@@ -47,8 +47,9 @@ def env_spec(observation_space: spaces.Space, action_space: spaces.Space) -> dic
 
 
 def flatten_obs(obs: np.ndarray | Mapping[str, np.ndarray], spec: Mapping[str, Any]) -> np.ndarray:
-    """The network input of an observation or a batch (leading dims kept): a Box flattened, a goal Dict's
-    OBS_KEYS flattened and concatenated."""
+    """The network input of an observation or a batch (leading dims kept): a Box flattened (a goal Dict's
+    `observation` alone for a Box policy: a student of the vector alone), a goal Dict's OBS_KEYS flattened and
+    concatenated for a goal policy."""
     if spec["kind"] == "goal":
         if not isinstance(obs, Mapping):
             raise ValueError(f"a goal policy takes a dict observation with keys {OBS_KEYS}, got {type(obs).__name__}")
@@ -56,6 +57,11 @@ def flatten_obs(obs: np.ndarray | Mapping[str, np.ndarray], spec: Mapping[str, A
         lead = arrays[0].shape[:-1] if arrays[0].ndim else ()
         flat = np.concatenate([a.reshape(*lead, -1) for a in arrays], axis=-1)
     else:
+        if isinstance(obs, Mapping):  # a student of the vector alone (`auv_mj.agents.imitation.student_view`)
+            if "observation" not in obs:
+                raise ValueError(f"a Box policy takes an array or a dict with an 'observation' entry, got keys "
+                                 f"{sorted(obs)}")
+            obs = obs["observation"]
         arr = np.asarray(obs, np.float32)
         flat = arr.reshape(*arr.shape[: arr.ndim - len(spec["obs_shape"])], -1)
     if flat.shape[-1] != spec["obs_dim"]:

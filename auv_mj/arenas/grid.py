@@ -7,7 +7,8 @@ from its start to its goal keeps HARD_CLEARANCE from every footprint on this gri
 A grid is `Grid(origin, cell, shape)`: cell (i, j) covers x in origin_x + [i, i + 1) cell, y likewise. The
 search is Dijkstra's algorithm (scipy's compiled `csgraph.dijkstra`) on the 8-connected graph of the cells
 whose clearance is at least `hard`, each edge weighted by its length times the mean of its two cells' costs,
-so that a path keeps to the middle of a gap when it can (`cost_field`).
+so that a path keeps to the middle of a gap when it can (`cost_field`). The grid's indexing, the search's ends and
+the path back are the voxel grid's too (`auv_mj.arenas.cells`).
 """
 
 from __future__ import annotations
@@ -18,7 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
+
+from auv_mj.arenas.cells import CellGrid, goal_reach, path_to_goal
+from auv_mj.geometry import polyline_length
 
 CELL = 2.0
 """Cell size [m]: a fifth of the narrowest gap the hard tier leaves (hull width + 2 d_s, about 10.2 m)."""
@@ -35,15 +38,9 @@ _STEPS = ((1, 0), (0, 1), (1, 1), (1, -1))
 
 
 @dataclass(frozen=True)
-class Grid:
-    """A regular grid over a rectangle of the plane."""
-
-    origin: np.ndarray
-    """World (x, y) [m] of the corner of cell (0, 0)."""
-    cell: float
-    """Cell size [m]."""
-    shape: tuple[int, int]
-    """(nx, ny) cells."""
+class Grid(CellGrid):
+    """A regular grid over a rectangle of the plane: `origin` (x, y) [m] of the corner of cell (0, 0), `cell` its
+    size [m] (a float), `shape` (nx, ny) cells (`auv_mj.arenas.cells.CellGrid` in two dimensions)."""
 
     @classmethod
     def covering(cls, bounds, cell: float = CELL, margin: float = 0.0) -> Grid:
@@ -57,18 +54,12 @@ class Grid:
 
     def index(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Cell indices (i, j) of world points (n, 2) and whether each lies on the grid."""
-        cells = np.floor((np.asarray(points, dtype=float).reshape(-1, 2) - self.origin) / self.cell).astype(int)
-        inside = (cells[:, 0] >= 0) & (cells[:, 1] >= 0) & (cells[:, 0] < self.shape[0]) & (cells[:, 1] < self.shape[1])
+        cells, inside = self.cell_index(points)
         return cells[:, 0], cells[:, 1], inside
 
     def centre(self, i, j) -> np.ndarray:
         """World (x, y) [m] of the centres of cells (i, j)."""
-        return self.origin + (np.column_stack([i, j]) + 0.5) * self.cell
-
-    def nearest(self, point) -> tuple[int, int]:
-        """The cell holding `point`, clipped onto the grid."""
-        i, j, _ = self.index(point)
-        return int(np.clip(i[0], 0, self.shape[0] - 1)), int(np.clip(j[0], 0, self.shape[1] - 1))
+        return self.centre_of(np.column_stack([i, j]))
 
 
 def rasterise(grid: Grid, polygons, occupied: np.ndarray | None = None) -> np.ndarray:
@@ -81,9 +72,7 @@ def rasterise(grid: Grid, polygons, occupied: np.ndarray | None = None) -> np.nd
         x, y = polygon[:, 0], polygon[:, 1]
         if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:  # clockwise: make it counter-clockwise
             polygon = polygon[::-1]
-        low = np.floor((polygon.min(axis=0) - slack - grid.origin) / grid.cell).astype(int)
-        high = np.ceil((polygon.max(axis=0) + slack - grid.origin) / grid.cell).astype(int)
-        low, high = np.maximum(low, 0), np.minimum(high, grid.shape)
+        low, high = grid.block(polygon.min(axis=0) - slack, polygon.max(axis=0) + slack)
         if np.any(high <= low):
             continue
         ii, jj = np.meshgrid(np.arange(low[0], high[0]), np.arange(low[1], high[1]), indexing="ij")
@@ -127,8 +116,7 @@ def shortest_path(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float 
     lo, hi = np.zeros(2, int), np.array(grid.shape)
     if window is not None:
         ends = np.array([start, goal], dtype=float)[:, :2]
-        lo = np.maximum(np.floor((ends.min(axis=0) - window - grid.origin) / grid.cell).astype(int), 0)
-        hi = np.minimum(np.ceil((ends.max(axis=0) + window - grid.origin) / grid.cell).astype(int), grid.shape)
+        lo, hi = grid.block(ends.min(axis=0) - window, ends.max(axis=0) + window)
     local = cost[lo[0]:hi[0], lo[1]:hi[1]].copy()
     si, sj = start_cell[0] - lo[0], start_cell[1] - lo[1]
     local[si, sj] = min(local[si, sj], 1.0 + SOFT_WEIGHT)
@@ -137,7 +125,7 @@ def shortest_path(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float 
     graph = cell_graph(grid.cell, local)
     centres = grid.centre(*np.divmod(np.arange(nx * ny), ny)) + lo * grid.cell
     near_goal = np.hypot(*(centres - np.asarray(goal, dtype=float)[:2]).T)
-    return path_to_goal(graph, int(ids[si, sj]), centres, near_goal, *_goal_reach(grid, goal_radius))
+    return path_to_goal(graph, int(ids[si, sj]), centres, near_goal, *goal_reach(grid.cell, goal_radius))
 
 
 def cell_graph(cell: float, cost: np.ndarray):
@@ -157,12 +145,6 @@ def cell_graph(cell: float, cost: np.ndarray):
                       shape=(nx * ny, nx * ny)).tocsr()
 
 
-def _goal_reach(grid: Grid, goal_radius: float) -> tuple[float, float]:
-    """(reach, spare) [m] of `shortest_path`'s targets: cells within `reach` of the goal, else the nearest
-    reachable cell within `reach + spare` (`path_to_goal`)."""
-    return max(goal_radius, grid.cell), 4 * grid.cell
-
-
 _EIGHT = np.ones((3, 3), dtype=bool)
 """The 8-neighbourhood of `ndimage.label`: the edges of `shortest_path`'s graph (`_STEPS`, both ways)."""
 
@@ -173,8 +155,8 @@ def reaches(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float = 0.0)
 
     Dijkstra finds a path exactly when a target cell is connected to the start: its edges join 8-neighbours
     that are both passable (finite cost, the start cell always), with positive weights, and it returns a path
-    when a reached cell lies within reach + spare of the goal (`_goal_reach`; the nearer targets lie within
-    that too). So one connected-component labelling decides it, about 50 times faster on the arena grids: the
+    when a reached cell lies within reach + spare of the goal (`auv_mj.arenas.cells.goal_reach`; the nearer targets
+    lie within that too). So one connected-component labelling decides it, about 50 times faster on the arena grids: the
     hard tier's certificate at every reset (`auv_mj.arenas.traps.certified`). Tested equal to
     `shortest_path(...) is not None` (`tests/arenas/test_hard_tier_arenas.py`).
     """
@@ -182,38 +164,14 @@ def reaches(grid: Grid, cost: np.ndarray, start, goal, goal_radius: float = 0.0)
     passable = np.isfinite(cost)
     passable[si, sj] = True
     labels, _ = ndimage.label(passable, structure=_EIGHT)
-    reach, spare = _goal_reach(grid, goal_radius)
+    reach, spare = goal_reach(grid.cell, goal_radius)
     ci, cj = np.divmod(np.flatnonzero(labels == labels[si, sj]), grid.shape[1])
     near_goal = np.hypot(*(grid.centre(ci, cj) - np.asarray(goal, dtype=float)[:2]).T)
     return bool(np.any(near_goal <= reach + spare))
 
 
-def path_to_goal(graph, source: int, centres: np.ndarray, near_goal: np.ndarray, reach: float,
-                  spare: float) -> np.ndarray | None:
-    """The node centres of the shortest path in `graph` (Dijkstra) from node `source` to the nearest node (by path
-    length) within `reach` of the goal (`near_goal`: each node's distance to it), else to the reachable node nearest
-    the goal within `reach + spare`; None if there is none. The planar grid's and the voxel map's search share it."""
-    distance, previous = dijkstra(graph, directed=False, indices=source, return_predecessors=True)
-    reached = np.isfinite(distance)
-    targets = np.flatnonzero((near_goal <= reach) & reached)
-    if targets.size == 0:
-        nearby = np.flatnonzero(reached & (near_goal <= reach + spare))
-        if nearby.size == 0:
-            return None
-        targets = nearby[[int(np.argmin(near_goal[nearby]))]]
-    node = int(targets[np.argmin(distance[targets])])
-    path = [node]
-    while node != source:
-        node = int(previous[node])
-        if node < 0:
-            return None
-        path.append(node)
-    return centres[np.array(path[::-1])]
-
-
-def path_length(path: np.ndarray) -> float:
-    """Length [m] of a polyline (m, 2)."""
-    return float(np.sum(np.hypot(*np.diff(np.asarray(path, dtype=float), axis=0).T))) if len(path) > 1 else 0.0
+path_length = polyline_length
+"""Length [m] of a polyline (m, 2) (`auv_mj.geometry.polyline_length`)."""
 
 
 def ray_ranges(grid: Grid, occupied: np.ndarray, origin, angles, max_range: float) -> np.ndarray:

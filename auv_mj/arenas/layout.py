@@ -41,6 +41,7 @@ from auv_mj.arenas.tunnels import (
     WALL_RGBA,
     WALL_THICKNESS,
 )
+from auv_mj.inputs import is_number
 
 ROLES = {"obstacle": "obstacle_", "wall": "wall_", "unknown": "unknown_"}
 """A static shape's role -> its geom name prefix (the arena convention)."""
@@ -419,11 +420,11 @@ def _csv_layout(text: str, source: str) -> dict:
         named = kind in ("box", "cylinder", "polygon", "mover")
         name, numbers = (rest[0] if rest else "", rest[1:]) if named else ("", rest)
         role = None
-        if kind in ("box", "cylinder") and numbers and not _is_number(numbers[-1]):
+        if kind in ("box", "cylinder") and numbers and not is_number(numbers[-1]):
             role, numbers = numbers[-1], numbers[:-1]
         values = []
         for column, cell in enumerate(numbers, start=3 if named else 2):
-            if not _is_number(cell):
+            if not is_number(cell):
                 raise ValueError(f"{where}, column {column}: {cell[:40]!r} is not a number (a row is "
                                  f"{CSV_ROWS[kind]})")
             values.append(float(cell))
@@ -469,14 +470,6 @@ def _before_comment(cells: list[str]) -> list[str]:
 
 def _pairs(values: Sequence[float]) -> list[list[float]]:
     return [list(values[i:i + 2]) for i in range(0, len(values), 2)]
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def read_layout(path: str | Path, name: str | None = None) -> OpenWater:

@@ -47,6 +47,7 @@ from auv_mj.arenas.tunnels import (
     tunnel_element,
     wall_box,
 )
+from auv_mj.geometry import arc_lengths
 
 TIERS = ("standard", "hard")
 """The `tier` task option's values: today's distributions, or this module's."""
@@ -398,7 +399,7 @@ def random_hard_tunnel(random: int | np.random.RandomState | None, standard: Tun
 def _tunnel_traps(random, tunnel: ProceduralTunnel) -> list[Obstacle]:
     layout, width = tunnel.layout, tunnel.width
     path = layout.path
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+    s = arc_lengths(path)
     heading = np.arctan2(*np.diff(path, axis=0).T[::-1])
     taken = [shapely.polygons(o.corners()) for o in tunnel.unknown]
     taken += [shapely.LineString([(m.x0, m.y0), (m.x1, m.y1)]).buffer(m.radius) for m in tunnel.movers]

@@ -35,6 +35,7 @@ import numpy as np
 from auv_mj.arenas import grid, voxels
 from auv_mj.arenas.arena3d import arena_root, seabed
 from auv_mj.arenas.tubes import Tube, random_tube, tube_arena
+from auv_mj.geometry import arc_lengths
 
 KINDS = ("over", "under", "cave", "relief")
 """The hard goal3d arenas (module docstring)."""
@@ -203,7 +204,7 @@ def _plug(tube: Tube, point: np.ndarray, tangent: np.ndarray, angle: float, name
 def _draw_tube(random: np.random.RandomState) -> tuple[Tube, list[ET.Element]]:
     line = random_tube(random).centreline
     tube = Tube(line, HARD_TUBE_RADIUS, HARD_STAVE_RADIUS)
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+    arc = arc_lengths(line)
     count = int(random.randint(PLUGS[0], PLUGS[1] + 1))
     stations = np.sort(random.uniform(*PLUG_SPAN, count)) * arc[-1]
     plugs = []

@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from auv_mj.arenas.arena3d import arena_root, seabed
-from auv_mj.inputs import csv_rows, did_you_mean, read_text
+from auv_mj.inputs import check_numbers, csv_rows, did_you_mean, is_number, is_real, read_text
 
 N_STAVES = 20
 """Staves round the ring of a tube written before the ring was sized to the tube (no `tube_staves` numeric)."""
@@ -219,11 +219,6 @@ MOVER_NUMERIC = "mover3d_"
 the mocap body `mover_NAME`."""
 
 
-def _real(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)) \
-        and math.isfinite(value)
-
-
 def _checked_name(name, what: str) -> str:
     if not isinstance(name, str) or len(name) > 64 or not name.isascii() or (
             name and not name.replace("_", "").isalnum()):
@@ -231,17 +226,11 @@ def _checked_name(name, what: str) -> str:
     return name
 
 
-def _numbers(what: str, fields: tuple[tuple[str, object, float, float], ...]) -> None:
-    for key, value, low, high in fields:
-        if not (_real(value) and low <= value <= high):
-            raise ValueError(f"{what}: {key} = {value!r:.40} must be a finite number in [{low:g}, {high:g}]")
-
-
 def _spec(text: str, option: str, form: str, count: int) -> tuple[list[float], str]:
     """The numbers and optional trailing name of a comma-separated `option` value."""
     cells = [c.strip() for c in str(text).split(",")]
-    name = cells.pop() if len(cells) == count + 1 and not _is_number(cells[-1]) else ""
-    if len(cells) != count or not all(_is_number(c) for c in cells):
+    name = cells.pop() if len(cells) == count + 1 and not is_number(cells[-1], finite=True) else ""
+    if len(cells) != count or not all(is_number(c, finite=True) for c in cells):
         raise ValueError(f"{option} {text!r:.80}: expected {form}")
     return [float(c) for c in cells], name
 
@@ -259,7 +248,7 @@ class TubeObstacle:
     def __post_init__(self):
         what = f"obstacle {self.name}".strip()
         _checked_name(self.name, what)
-        _numbers(what, (("x", self.x, -MAX_EXTENT, MAX_EXTENT), ("y", self.y, -MAX_EXTENT, MAX_EXTENT),
+        check_numbers(what, (("x", self.x, -MAX_EXTENT, MAX_EXTENT), ("y", self.y, -MAX_EXTENT, MAX_EXTENT),
                         ("z", self.z, -MAX_EXTENT, MAX_EXTENT), ("radius", self.radius, 0.05, MAX_RADIUS)))
 
     @property
@@ -291,7 +280,7 @@ class TubeMover:
         _checked_name(self.name, what)
         if not (len(self.start) == 3 and len(self.end) == 3):
             raise ValueError(f"{what}: start and end must be x, y, z points")
-        _numbers(what, tuple((f"{end}.{axis}", v, -MAX_EXTENT, MAX_EXTENT)
+        check_numbers(what, tuple((f"{end}.{axis}", v, -MAX_EXTENT, MAX_EXTENT)
                              for end, point in (("start", self.start), ("end", self.end))
                              for axis, v in zip("xyz", point, strict=True))
                  + (("speed", self.speed, 0.0, MAX_MOVER_SPEED), ("radius", self.radius, 0.05, MAX_RADIUS)))
@@ -505,7 +494,7 @@ def read_centreline(path: str | Path) -> np.ndarray:
     text = read_text(path, "tube centreline CSV", 10_000_000)
     rows = [(line, row) for line, row in enumerate(csv_rows(text, str(path), "x,y,z"), start=1)
             if row and any(cell.strip() for cell in row) and not row[0].strip().startswith("#")]
-    if rows and not _is_number(rows[0][1][0]):
+    if rows and not is_number(rows[0][1][0], finite=True):
         header = [cell.strip() for cell in rows[0][1]]
         if [name.lower() for name in header[:3]] != ["x", "y", "z"]:
             raise ValueError(f"{path}: row {rows[0][0]}: the header must start x,y,z, got "
@@ -517,7 +506,7 @@ def read_centreline(path: str | Path) -> np.ndarray:
             raise ValueError(f"{path}: row {line} needs x,y,z [m], got {','.join(row)[:60]!r}")
         values = []
         for name, cell in zip("xyz", row[:3], strict=True):
-            if not _is_number(cell) or not abs(float(cell)) <= MAX_EXTENT:
+            if not is_number(cell, finite=True) or not abs(float(cell)) <= MAX_EXTENT:
                 raise ValueError(f"{path}: row {line}: {name} = {cell.strip()[:30]!r} is not a coordinate within "
                                  f"+-{MAX_EXTENT:g} m")
             values.append(float(cell))
@@ -566,11 +555,12 @@ def read_tube(path: str | Path) -> TubeSpec:
                          f"JSON may hold {', '.join(TUBE_JSON_KEYS)})")
     points = data.get("centreline")
     if not (isinstance(points, list) and 2 <= len(points) <= MAX_POINTS and all(
-            isinstance(p, list) and len(p) == 3 and all(_real(v) and abs(v) <= MAX_EXTENT for v in p) for p in points)):
+            isinstance(p, list) and len(p) == 3 and all(is_real(v) and abs(v) <= MAX_EXTENT for v in p)
+            for p in points)):
         raise ValueError(f"{path}: \"centreline\" must be a list of 2 to {MAX_POINTS} [x, y, z] points [m] within "
                          f"+-{MAX_EXTENT:g} m")
     width = data.get("width")
-    if width is not None and not (_real(width) and 2 * MIN_RADIUS <= width <= 2 * MAX_RADIUS):
+    if width is not None and not (is_real(width) and 2 * MIN_RADIUS <= width <= 2 * MAX_RADIUS):
         raise ValueError(f"{path}: \"width\" must be a diameter in [{2 * MIN_RADIUS:g}, {2 * MAX_RADIUS:g}] m, "
                          f"got {width!r:.40}")
     obstacles, movers = [], []
@@ -589,13 +579,6 @@ def read_tube(path: str | Path) -> TubeSpec:
                 raise ValueError(f"{path}: {key}[{k}]: {e}") from None
             (obstacles if key == "obstacles" else movers).append(made)
     return TubeSpec(np.array(points, dtype=float), width, tuple(obstacles), tuple(movers))
-
-
-def _is_number(text: str) -> bool:
-    try:
-        return math.isfinite(float(text))
-    except ValueError:
-        return False
 
 
 def check_tube(tube: Tube, water_depth: float | None = None) -> list[str]:

@@ -35,6 +35,7 @@ from auv_mj.arenas.arena import (
     vehicle_names,
 )
 from auv_mj.geometry import wrap_angle, xy_text
+from auv_mj.inputs import check_numbers, is_number, is_real
 from auv_mj.sim.vehicle import vehicle_facts
 
 
@@ -148,9 +149,9 @@ class Obstacle:
     def __post_init__(self):
         what = f"obstacle {self.name or ''} at ({self.x}, {self.y})".replace("  ", " ")
         _check_name(self.name, what)
-        _check_numbers(what, (("x", self.x, -MAX_EXTENT, MAX_EXTENT), ("y", self.y, -MAX_EXTENT, MAX_EXTENT),
+        check_numbers(what, (("x", self.x, -MAX_EXTENT, MAX_EXTENT), ("y", self.y, -MAX_EXTENT, MAX_EXTENT),
                               ("angle", self.angle, -360.0, 360.0)))
-        if not (_is_real(self.length) and _is_real(self.width) and 0 < self.length <= MAX_OBSTACLE_SIZE
+        if not (is_real(self.length) and is_real(self.width) and 0 < self.length <= MAX_OBSTACLE_SIZE
                 and 0 < self.width <= MAX_OBSTACLE_SIZE):
             raise ValueError(f"{what}: length {self.length} and width {self.width} must be positive, at most "
                              f"{MAX_OBSTACLE_SIZE:g} m")
@@ -186,8 +187,8 @@ class MovingObstacle:
     def __post_init__(self):
         what = f"mover {self.name}" if self.name else "mover"
         _check_name(self.name, what)
-        _check_numbers(what, [(k, getattr(self, k), -MAX_EXTENT, MAX_EXTENT) for k in ("x0", "y0", "x1", "y1")])
-        if not (_is_real(self.speed) and _is_real(self.radius) and 0 <= self.speed <= MAX_MOVER_SPEED
+        check_numbers(what, [(k, getattr(self, k), -MAX_EXTENT, MAX_EXTENT) for k in ("x0", "y0", "x1", "y1")])
+        if not (is_real(self.speed) and is_real(self.radius) and 0 <= self.speed <= MAX_MOVER_SPEED
                 and 0 < self.radius <= MAX_MOVER_RADIUS):
             raise ValueError(f"{what}: speed {self.speed} must be in [0, {MAX_MOVER_SPEED:g}] m/s and radius "
                              f"{self.radius} in (0, {MAX_MOVER_RADIUS:g}] m")
@@ -205,32 +206,19 @@ class MovingObstacle:
 def _split_spec(text: str, option: str, form: str, least: int, most: int) -> tuple[list[float], str]:
     cells = [c.strip() for c in text.split(",")]
     name = ""
-    if len(cells) > least and not _is_number(cells[-1]):
+    if len(cells) > least and not is_number(cells[-1]):
         name = cells.pop()
     if not least <= len(cells) <= most:
         raise ValueError(f"{option} {text!r}: expected {form}")
     numbers = []
     for cell in cells:
-        if not _is_number(cell) or not math.isfinite(float(cell)):
+        if not is_number(cell, finite=True):
             raise ValueError(f"{option} {text!r}: {cell!r} is not a finite number (expected {form})")
         numbers.append(float(cell))
     if name and not (name.replace("_", "").isalnum() and name.isascii() and len(name) <= MAX_NAME_LENGTH):
         raise ValueError(f"{option} {text!r}: name {name!r} may hold only letters, digits and _ "
                          f"(at most {MAX_NAME_LENGTH})")
     return numbers, name
-
-
-def _is_real(value) -> bool:
-    """A finite real number that is not a bool."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)) \
-        and math.isfinite(value)
-
-
-def _check_numbers(what: str, checks) -> None:
-    """ValueError naming `what` and the field unless each (field, value, low, high) is a finite number in range."""
-    for field_name, value, low, high in checks:
-        if not (_is_real(value) and low <= value <= high):
-            raise ValueError(f"{what}: {field_name} = {value!r:.40} must be a finite number in [{low:g}, {high:g}]")
 
 
 def _check_name(name, what: str) -> None:
@@ -242,14 +230,6 @@ def _check_name(name, what: str) -> None:
     if name in vehicle_names():
         raise ValueError(f"{what}: name {name!r} reuses a name of the vehicle model (auv, hull, x, y, yaw, sonar_*, "
                          "...): name it otherwise")
-
-
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
 
 
 def read_centreline(path: str | Path) -> Centreline:
@@ -273,7 +253,7 @@ def _parse_csv(text: str, source: str) -> Centreline:
         cells = [c.strip() for c in cells]
         if not any(cells) or cells[0].startswith("#"):
             continue
-        if not rows and not any(_is_number(c) for c in cells):
+        if not rows and not any(is_number(c) for c in cells):
             if [c.lower() for c in cells[:3]] == ["x", "y", "z"]:
                 raise ValueError(f"{source}: row {lineno}: the columns are x,y,z, a tube's centreline (a planar one "
                                  "is x,y[,width]): build it with `auv-mj tunnel --tube`")
@@ -285,7 +265,7 @@ def _parse_csv(text: str, source: str) -> Centreline:
                              f"have {len(rows[0])}")
         values = []
         for column, cell in zip(columns, cells, strict=False):
-            if not _is_number(cell):
+            if not is_number(cell):
                 raise ValueError(f"{source}: row {lineno}, column {column}: {cell!r} is not a number")
             values.append(float(cell))
         rows.append(values)
@@ -527,7 +507,7 @@ def check_parameters(source: str, *, width, smooth, path_spacing, wall_thickness
               ("merge tolerance", merge_tolerance, 0.0, MAX_MERGE_TOLERANCE)]
     if width is not None:
         checks.append(("width", width, 0.0, MAX_WIDTH))
-    _check_numbers(source, checks)
+    check_numbers(source, checks)
     if not wall_thickness > 0:
         raise ValueError(f"{source}: wall thickness must be above 0 m, got {wall_thickness:g}")
     if not merge_tolerance > 0:  # 0 keeps every vertex of the offset curves: a box per polyline point

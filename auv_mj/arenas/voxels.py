@@ -9,7 +9,8 @@ origin_z + [k, k + 1) v, with cell = (h, h, v). The search is Dijkstra's algorit
 planar grid, and climbs or dives of one layer over a horizontal run long enough that the flight path stays within
 the vehicle's pitch limit. A straight climb or dive is no edge: the REMUS cannot hover up or down. Each edge is
 weighted by its length times the mean cost of the voxels it crosses (`auv_mj.arenas.grid.cost_field`), so that a
-path keeps to the middle of the free water where it can.
+path keeps to the middle of the free water where it can. The grid's indexing, the search's ends and the path back
+are the planar grid's too (`auv_mj.arenas.cells`).
 """
 
 from __future__ import annotations
@@ -22,7 +23,9 @@ import numpy as np
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 
-from auv_mj.arenas.grid import SOFT_WEIGHT, path_to_goal
+from auv_mj.arenas.cells import CellGrid, goal_reach, path_to_goal
+from auv_mj.arenas.grid import SOFT_WEIGHT
+from auv_mj.geometry import arc_lengths, polyline_length
 
 CLIMB_MARGIN = 0.8
 """Share of the vehicle's pitch limit a planned climb or dive may use: the flight path of the buoyant REMUS is
@@ -37,15 +40,9 @@ _COMPASS = ((1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)
 
 
 @dataclass(frozen=True)
-class VoxelGrid:
-    """A regular grid over a box of water."""
-
-    origin: np.ndarray
-    """World (x, y, z) [m] of the corner of voxel (0, 0, 0)."""
-    cell: np.ndarray
-    """Voxel size (h, h, v) [m]."""
-    shape: tuple[int, int, int]
-    """(nx, ny, nz) voxels."""
+class VoxelGrid(CellGrid):
+    """A regular grid over a box of water: `origin` (x, y, z) [m] of the corner of voxel (0, 0, 0), `cell` the voxel
+    size (h, h, v) [m], `shape` (nx, ny, nz) voxels (`auv_mj.arenas.cells.CellGrid` in three dimensions)."""
 
     @classmethod
     def covering(cls, low, high, horizontal: float, vertical: float) -> VoxelGrid:
@@ -59,18 +56,11 @@ class VoxelGrid:
 
     def index(self, points) -> tuple[np.ndarray, np.ndarray]:
         """Voxel indices (n, 3) of world points (n, 3) and whether each lies on the grid."""
-        cells = np.floor((np.asarray(points, dtype=float).reshape(-1, 3) - self.origin) / self.cell).astype(int)
-        inside = np.all((cells >= 0) & (cells < np.array(self.shape)), axis=1)
-        return cells, inside
+        return self.cell_index(points)
 
     def centre(self, ijk) -> np.ndarray:
         """World (x, y, z) [m] of the centres of voxels (n, 3)."""
-        return self.origin + (np.asarray(ijk).reshape(-1, 3) + 0.5) * self.cell
-
-    def nearest(self, point) -> tuple[int, int, int]:
-        """The voxel holding `point`, clipped onto the grid."""
-        cells, _ = self.index(point)
-        return tuple(int(v) for v in np.clip(cells[0], 0, np.array(self.shape) - 1))
+        return self.centre_of(ijk)
 
     def centres(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The x, y and z [m] of the voxel centres along each axis."""
@@ -182,8 +172,7 @@ def shortest_path(grid: VoxelGrid, cost: np.ndarray, start, goal, max_slope: flo
     start_cell = np.array(grid.nearest(start))
     lo, hi = np.zeros(3, int), np.array(grid.shape)
     if box is not None:
-        lo = np.maximum(np.floor((np.asarray(box[0]) - grid.origin) / grid.cell).astype(int), 0)
-        hi = np.minimum(np.ceil((np.asarray(box[1]) - grid.origin) / grid.cell).astype(int), grid.shape)
+        lo, hi = grid.block(*box)
         lo = np.minimum(lo, start_cell)
         hi = np.maximum(hi, start_cell + 1)
     local = cost[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]].copy()
@@ -218,8 +207,7 @@ def shortest_path(grid: VoxelGrid, cost: np.ndarray, start, goal, max_slope: flo
                        shape=(local.size, local.size)).tocsr()
     centres = grid.centre(np.column_stack(np.unravel_index(np.arange(local.size), n)) + lo)
     near_goal = np.linalg.norm(centres - np.asarray(goal, dtype=float)[:3], axis=1)
-    cell = float(np.max(grid.cell))
-    return path_to_goal(graph, int(ids[si]), centres, near_goal, max(goal_radius, cell), 4 * cell)
+    return path_to_goal(graph, int(ids[si]), centres, near_goal, *goal_reach(float(np.max(grid.cell)), goal_radius))
 
 
 def smooth(path: np.ndarray, spacing: float, window: float) -> np.ndarray:
@@ -227,10 +215,10 @@ def smooth(path: np.ndarray, spacing: float, window: float) -> np.ndarray:
     lattice's steps ironed out for line of sight. The average cuts a corner by less than window^2 / (8 R) on a bend
     of radius R."""
     path = np.asarray(path, dtype=float)
-    length = path_length(path)
+    length = polyline_length(path)
     if len(path) < 3 or length < 2 * spacing:
         return path
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    arc = arc_lengths(path)
     s = np.linspace(0.0, length, int(math.ceil(length / spacing)) + 1)
     points = np.column_stack([np.interp(s, arc, path[:, a]) for a in range(3)])
     half = max(1, int(round(window / spacing / 2)))
@@ -240,8 +228,3 @@ def smooth(path: np.ndarray, spacing: float, window: float) -> np.ndarray:
     out[0], out[-1] = points[0], points[-1]
     return out
 
-
-def path_length(path: np.ndarray) -> float:
-    """Length [m] of a polyline (m, 3)."""
-    path = np.asarray(path, dtype=float)
-    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))) if len(path) > 1 else 0.0

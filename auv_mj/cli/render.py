@@ -1,4 +1,6 @@
-"""`auv-mj render`: one episode of a policy on a task to an MP4/GIF, off-screen (`auv_mj.render`)."""
+"""`auv-mj render`: one episode of a policy on a task to an MP4/GIF, off-screen (`auv_mj.render`), and the
+domain's episode figures (--plots): the task's domain record (`auv_mj.tasks.domains.Domain`) names its video and
+figures, so both domains take one path here."""
 
 from __future__ import annotations
 
@@ -19,15 +21,14 @@ from auv_mj.cli.options import (
     task_kwargs,
     usage_error,
 )
-from auv_mj.cli.render3d import render_3d
 from auv_mj.episode import EpisodeRecorder, outcome, outcome_label
 from auv_mj.planners.guidance import line_of_sight
 from auv_mj.render import glbackend
-from auv_mj.render.episode_video import DEFAULT_HOLD_END, iter_frames
+from auv_mj.render.episode_video import DEFAULT_HOLD_END, VideoOptions
 from auv_mj.render.frame import CAMERAS, DEFAULT_SIZE, FOLLOW_VIEW
 from auv_mj.render.writers import DEFAULT_FPS, VIDEO_SUFFIXES, write_video
 from auv_mj.speed.render import time_against_bare_renderer
-from auv_mj.tasks import suite
+from auv_mj.tasks import domains, suite
 from auv_mj.zoo import registry as policies
 
 
@@ -81,42 +82,41 @@ def run(args: argparse.Namespace) -> int:
                       f"frames/s, ratio {r['ratio']:.2f}")
             return 0
         try:
-            domain = suite.domain_of(args.task)
+            domain = domains.DOMAINS[suite.domain_of(args.task)]
         except ValueError as e:
             usage_error(args, str(e))
-        if domain == suite.DOMAIN_3D:  # a 6-DOF task: chase | top-down | side view
-            if args.output is None and args.plots is None:
-                usage_error(args, "give the video file with -o/--out (and/or --plots PREFIX)")
-            check_output(args, args.output, "-o", replace=args.force)
-            if args.plots is not None:
-                check_output(args, f"{args.plots}_depth.png", "--plots", replace=args.force)
-                check_output(args, f"{args.plots}_track.png", "--plots", replace=args.force)
-            env, policy = make_env_and_policy(args)
-            render_3d(env, policy, args.output, args.plots, args.max_steps, f"{args.task} / {args.policy}",
-                      width=args.width, height=args.height, fps=args.fps, speedup=args.speedup,
-                      hold_end=args.hold_end, gif=True if args.gif else None, progress=not args.no_progress)
-            return 0
-        if args.output is None:
-            usage_error(args, "give the video file with -o/--out")
+        figures_of = domain.episode_figures()  # the domain's --plots figures, if it draws any
+        if args.output is None and (args.plots is None or figures_of is None):
+            usage_error(args, "give the video file with -o/--out" + (" (and/or --plots PREFIX)" if figures_of else ""))
+        title = f"{args.task} / {args.policy}"
+        figures = figures_of(args.plots, title) if figures_of is not None and args.plots is not None else None
         check_output(args, args.output, "-o", replace=args.force)
+        for name in figures.files() if figures is not None else ():
+            check_output(args, name, "--plots", replace=args.force)
         check_output(args, args.save_episode, "--save-episode", replace=args.force)
         env, policy = make_env_and_policy(args)
         recorder = EpisodeRecorder(env, args.task, args.policy, args.seed)
-        frames = iter_frames(env, policy, max_steps=args.max_steps, width=args.width, height=args.height,
-                             camera=args.camera, fps=args.fps, speedup=args.speedup,
-                             follow_view=args.follow_view, hold_end=args.hold_end,
-                             title=f"{args.task} / {args.policy}", recorder=recorder,
-                             progress=not args.no_progress)
-        start = time.perf_counter()
-        path = write_video(frames, args.output, args.fps, gif=True if args.gif else None)
-        elapsed = time.perf_counter() - start
+        if args.output is not None:
+            options = VideoOptions(max_steps=args.max_steps, width=args.width, height=args.height, fps=args.fps,
+                                   speedup=args.speedup, hold_end=args.hold_end, title=title,
+                                   progress=not args.no_progress, camera=args.camera, follow_view=args.follow_view)
+            frames = domain.video_frames()(env, policy, options, recorder, figures)
+            start = time.perf_counter()
+            path = write_video(frames, args.output, args.fps, gif=True if args.gif else None)
+            elapsed = time.perf_counter() - start
+        else:  # figures alone: the same episode loop, nothing drawn
+            for _ in recorder.run(policy, args.max_steps):
+                figures.add(env)
     except glbackend.RenderingUnavailable as e:
         print(f"{args.prog}: {e}", file=sys.stderr)
         return 2
     record = recorder.record()
-    print(f"wrote {path}: {record.steps} steps, {record.time[-1]:.1f} s simulated, outcome "
-          f"{outcome_label(outcome(record.event), record.cut, args.max_steps)}, return {record.episode_return:.2f}, "
-          f"{elapsed:.1f} s to render")
+    if args.output is not None:
+        print(f"wrote {path}: {record.steps} steps, {record.time[-1]:.1f} s simulated, outcome "
+              f"{outcome_label(outcome(record.event), record.cut, args.max_steps)}, return "
+              f"{record.episode_return:.2f}, {elapsed:.1f} s to render")
     if args.save_episode:
         print(f"wrote {record.save(args.save_episode)}")
+    for written in figures.write(env) if figures is not None else ():
+        print(f"wrote {written}")
     return 0

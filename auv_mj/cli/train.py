@@ -47,7 +47,7 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.inputs import check_json_depth, did_you_mean, read_text, unknown_name
-from auv_mj.jobs.student import train_student
+from auv_mj.jobs.student import MIXTURE_TASK, train_student
 from auv_mj.planners.deploy import ChainConfig, deploy_env
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
@@ -172,10 +172,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def add_dagger_options(parser: argparse.ArgumentParser) -> None:
     """Options of `auv-mj train dagger --task TASK`: the batch and one `--dagger-FIELD` per DaggerConfig number
     (defaults: `auv_mj.agents.imitation.DaggerConfig`), and the fine-tune's imitation weight."""
-    group = parser.add_argument_group("dagger (--task obstacles | moving_obstacles | tunnel | goal; --task-kwargs "
+    group = parser.add_argument_group(f"dagger (--task obstacles | moving_obstacles | tunnel | goal, --task-kwargs "
                                       "over the student's problem, hard tier, action rate, reward geodesic, "
-                                      "observation planner; --steps: PPO fine-tune steps after DAgger, default 0)")
-    group.add_argument("--num-envs", type=positive_int, default=16, help="vehicles of the batch (default 16)")
+                                      f"observation planner; or --task {MIXTURE_TASK}, the whole training mixture "
+                                      "with the hard cells oversampled; --steps: PPO fine-tune steps after DAgger, "
+                                      "default 0)")
+    group.add_argument("--num-envs", type=positive_int, default=16,
+                       help=f"vehicles of the batch (default 16); with --task {MIXTURE_TASK}, vehicles a cell before "
+                            "the cells' weights")
     for f in dataclasses.fields(DaggerConfig):
         if f.type in ("int", "float") and f.name not in ("seed", "torch_threads"):
             group.add_argument(f"--dagger-{f.name.replace('_', '-')}", dest="dagger_" + f.name,
@@ -203,7 +207,7 @@ def _run_dagger(args: argparse.Namespace) -> int:
 
 PPO_PRESETS = {"shipped": (PLANNER_CONFIG, MixtureConfig()), "learned": (LEARNED_CONFIG, LEARNED_MIXTURE)}
 """`auv-mj train ppo --preset`: the PPOConfig and MixtureConfig every option defaults to."""
-PPO_TASK = "planning-mix"
+PPO_TASK = MIXTURE_TASK
 """The task name of `auv-mj train ppo`: `auv_mj.tasks.mixture.PlanningMixtureVectorEnv`."""
 
 

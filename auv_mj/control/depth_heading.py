@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from auv_mj.control.splane import s_plane
-from auv_mj.geometry import wrap_angle
+from auv_mj.geometry import nearest_on_polyline, wrap_angle
 
 EXECUTOR_DT = 0.1
 """The 3-D executor's period [s], as the planar executor's."""
@@ -125,6 +125,11 @@ class DepthHeadingController:
         """The speed, heading and depth integral contributions (each within +-integral_limit)."""
         return self._integral.copy()
 
+    @property
+    def last_speed(self) -> float | None:
+        """The surge speed of the last call (its rate is the speed channel's derivative), None after a reset."""
+        return self._last_u
+
     def __call__(self, command: Sequence[float], state: State3D, scale: Sequence[float] | None = None) -> np.ndarray:
         """(thrust [N], rudder [rad], stern [rad]) for command (V_cmd, psi_cmd, depth_cmd) and `state`.
 
@@ -169,21 +174,16 @@ def los_command(position: Sequence[float], path: np.ndarray, lookahead: float, s
     """
     path = np.asarray(path, dtype=float)
     here = np.asarray(position, dtype=float)
-    segments = np.diff(path, axis=0)
-    lengths = np.linalg.norm(segments, axis=1)
-    if len(path) < 2 or not np.any(lengths > 0):
+    k, along, lengths = nearest_on_polyline(path, here) if len(path) >= 2 else (0, 0.0, np.zeros(0))
+    if not np.any(lengths > 0):
         target = path[-1]
     else:
-        to_start = here - path[:-1]
-        along = np.clip(np.einsum("ij,ij->i", to_start, segments) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
-        nearest = path[:-1] + along[:, None] * segments
-        k = int(np.argmin(np.linalg.norm(nearest - here, axis=1)))
         arc = np.concatenate([[0.0], np.cumsum(lengths)])
-        s = arc[k] + along[k] * lengths[k] + lookahead
+        s = arc[k] + along * lengths[k] + lookahead
         if s >= arc[-1]:
             target = path[-1]
         else:
             j = int(np.searchsorted(arc, s, side="right") - 1)
-            target = path[j] + (s - arc[j]) / max(lengths[j], 1e-12) * segments[j]
+            target = path[j] + (s - arc[j]) / max(lengths[j], 1e-12) * (path[j + 1] - path[j])
     heading = math.atan2(target[1] - here[1], target[0] - here[0])
     return speed, heading, -float(target[2])

@@ -1,6 +1,6 @@
 """Figures of a 6-DOF episode (matplotlib, Agg): depth against time, and the track in 3-D with a tube's centreline
-or the goal. `auv-mj render --task tunnel3d ... --plots PREFIX` draws both (`auv_mj.cli.render3d`); `track` is the
-dict of arrays of `auv_mj.render.episode_video3d.Track3D.arrays` (time, position, depth_command).
+or the goal. `auv-mj render --task tunnel3d ... --plots PREFIX` draws both (`TrackFigures`, the 6-DOF domain's
+`figures`); `track` is the dict of arrays of `auv_mj.episode.Track3D.arrays` (time, position, depth_command).
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from auv_mj.episode import Track3D
 from auv_mj.figures.canvas import DPI
 
 
@@ -46,3 +47,29 @@ def plot_track(track: dict[str, np.ndarray], path: str | Path, centreline: np.nd
     fig.tight_layout()
     fig.savefig(path)
     return Path(path)
+
+
+class TrackFigures:
+    """The 6-DOF domain's figures of an episode (`auv_mj.tasks.domains.Domain.figures`): the 3-D track gathered
+    beside the episode (`add`, a video's `track`) and drawn as PREFIX_depth.png and PREFIX_track.png (`write`),
+    with the task's tube centreline or goal."""
+
+    def __init__(self, prefix: str, title: str = ""):
+        self.prefix, self.title = prefix, title
+        self.track = Track3D()
+
+    def files(self) -> list[str]:
+        """The figures' file names."""
+        return [f"{self.prefix}_depth.png", f"{self.prefix}_track.png"]
+
+    def add(self, env) -> None:
+        """The environment's state now (after the reset and each control step)."""
+        self.track.add(env)
+
+    def write(self, env) -> list[Path]:
+        """Draws the figures of the episode gathered, with `env`'s task's centreline and goal; the paths."""
+        arrays = self.track.arrays()
+        depth, track = self.files()
+        return [plot_depth(arrays, depth, self.title),
+                plot_track(arrays, track, getattr(env.task, "path", None), getattr(env.task, "goal", None),
+                           self.title)]

@@ -1,32 +1,45 @@
 """A sensor-only student of the privileged teacher (issue 51, item 5): DAgger, then PPO under a decaying imitation term.
 
-`train_student(run_dir, ...)` joins the pieces that live in separate layers: the batched env
-(`auv_mj.tasks.vector.AUVVectorEnv`, observation="planner", action="rate", reward="geodesic"), the teacher that reads
-its true state (`auv_mj.planners.teacher.BatchTeacher`; Chen et al. 2019), DAgger (`auv_mj.agents.imitation`; Ross et
-al. 2011) and, with `finetune_steps`, PPO from the student with the teacher's labels under the imitation term
-(`auv_mj.agents.ppo`, PPOConfig.imitation_coef). `auv-mj train dagger` is argparse over it.
+`train_student(run_dir, ...)` joins the pieces that live in separate layers: a batched env (one planning task,
+`auv_mj.tasks.vector.AUVVectorEnv`, or the whole training mixture, `task="planning-mix"`,
+`auv_mj.tasks.mixture.PlanningMixtureVectorEnv` as `LEARNED_MIXTURE` oversamples it; both with
+observation="planner", action="rate", reward="geodesic"), the teacher that reads its true state
+(`auv_mj.planners.teacher.BatchTeacher`; Chen et al. 2019), DAgger (`auv_mj.agents.imitation`; Ross et al. 2011)
+and, with `finetune_steps`, PPO from the student with the teacher's labels under the imitation term
+(`auv_mj.agents.ppo`, PPOConfig.imitation_coef): on one task `finetune`, on the mixture the planner's own training
+loop (`auv_mj.agents.ppo.planner.train_planner`: validation on the hard cells, the windowed choice, best.pt).
+`auv-mj train dagger` is argparse over it.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from auv_mj.agents.checkpoint import config_to_dict
 from auv_mj.agents.imitation import (
     CHECKPOINT_NAME,
     STUDENT_NAME,
     DaggerConfig,
     evaluate_student,
     finetune,
+    student_spec,
+    student_view,
     train_dagger,
 )
-from auv_mj.agents.imitation.dagger import VALIDATION_FIRST_SEED
+from auv_mj.agents.imitation.dagger import VALIDATION_FIRST_SEED, Validator
 from auv_mj.agents.ppo import CHECKPOINT_NAME as PPO_CHECKPOINT
 from auv_mj.agents.ppo import PPOConfig, load_model, read_ppo
-from auv_mj.agents.ppo.planner import LEARNED_CONFIG
+from auv_mj.agents.ppo.planner import LEARNED_CONFIG, LEARNED_MIXTURE, MixtureConfig, mixture_from_dict, train_planner
+from auv_mj.agents.ppo.planner import VALIDATION_FIRST_SEED as MIXTURE_VALIDATION_SEED
+from auv_mj.agents.ppo.planner import validate as validate_planner
+from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.planners.teacher import BatchTeacher
 from auv_mj.tasks.vector import AUVVectorEnv
 
@@ -38,15 +51,40 @@ FINETUNE_DIR = "ppo"
 """The fine-tune's run directory inside the student's."""
 OPTIONS_NAME = "student.json"
 """The task, its options and the batch size of a run (read back on resume)."""
+MIXTURE_TASK = "planning-mix"
+"""The task name of the whole training mixture (`auv_mj.tasks.mixture`), as `auv-mj train ppo` names it."""
+
+
+def student_mixture(envs_per_cell: int = LEARNED_MIXTURE.envs_per_cell) -> MixtureConfig:
+    """The student's mixture: `LEARNED_MIXTURE` (the geodesic reward, action="rate", observation="planner", the hard
+    cells and tunnels oversampled, validation on 50 episodes a hard cell) with `envs_per_cell` before the weights."""
+    return dataclasses.replace(LEARNED_MIXTURE, envs_per_cell=envs_per_cell)
+
+
+def mixture_validator(mixture: MixtureConfig, spec: Mapping[str, Any], threads: int | None = None) -> Validator:
+    """DAgger's per-round validation on the mixture: the deterministic student on config.validation_episodes
+    episodes of each hard cell (`auv_mj.agents.ppo.planner.validate`, the fine-tune's validation seeds), the mean as
+    val_success and each cell as "cell:task/tier/water"."""
+    def validate(model, config: DaggerConfig) -> dict[str, float]:
+        policy = PPOPolicy(copy.deepcopy(model), spec)  # a float64 copy: the fit goes on
+        rates = validate_planner(policy, config.validation_episodes, mixture.tasks, threads=threads,
+                                 first_seed=MIXTURE_VALIDATION_SEED, max_steps=config.validation_max_steps,
+                                 task_kwargs=mixture.policy_kwargs())
+        return {"val_success": float(np.mean(list(rates.values()))), "val_collision": float("nan"),
+                "val_episodes": float(config.validation_episodes * len(rates)),
+                **{f"cell:{name}": rate for name, rate in rates.items()}}
+    return validate
 
 
 def finetune_config(dagger: DaggerConfig, **overrides: Any) -> PPOConfig:
     """The fine-tune's PPOConfig: `LEARNED_CONFIG` (the privileged critic of its own, the discount, the schedules)
-    on the student's network, an imitation term of weight 1 decaying linearly to 0, the student's log std."""
+    on the student's network, an imitation term of weight 1 decaying linearly to 0, the student's log std, and the
+    fit's torch threads (DaggerConfig.torch_threads, 1 by default: on a 2-core machine shared with the batch and
+    the teacher, two intra-op threads made the update of the 56-vehicle mixture several times slower)."""
     base = dataclasses.replace(LEARNED_CONFIG, hidden_sizes=dagger.hidden_sizes, recurrent="gru",
                                recurrent_size=dagger.recurrent_size, init_log_std=dagger.init_log_std,
                                imitation_coef=1.0, min_imitation_coef=0.0, imitation_schedule="linear",
-                               seed=dagger.seed, checkpoint_every=10)
+                               seed=dagger.seed, checkpoint_every=10, torch_threads=dagger.torch_threads)
     return dataclasses.replace(base, **overrides)
 
 
@@ -55,24 +93,44 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
                   progress: bool = True, imitation_coef: float | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
-    `resume` continues both where they stopped. The fine-tune's config is `ppo_config`, else `finetune_config` of the
-    run's DaggerConfig (the saved one on resume) with `imitation_coef` where given. The paths written, DAgger's last
-    log row and, after a fine-tune, its student's validation (on DAgger's validation episodes, `evaluate_student`)."""
+    `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
+    over STUDENT_TASK_KWARGS) or MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
+    weights; task_kwargs must be empty). The fine-tune's config is `ppo_config`, else `finetune_config` of the run's
+    DaggerConfig (the saved one on resume) with `imitation_coef` where given. Returns the paths written, DAgger's
+    last log row and, after a fine-tune, the student's validation (one task: on DAgger's validation episodes,
+    `evaluate_student`; the mixture: `train_planner`'s choice)."""
     run_dir = Path(run_dir)
     options_path = run_dir / OPTIONS_NAME
+    mixture: MixtureConfig | None = None
     if resume and options_path.is_file():
         saved = json.loads(options_path.read_text())
         task, kwargs, num_envs = saved["task"], saved["task_kwargs"], int(saved["num_envs"])
+        mixture = mixture_from_dict(saved["mixture"]) if "mixture" in saved else None
     else:
-        kwargs = {**STUDENT_TASK_KWARGS, **dict(task_kwargs or {})}
+        if task == MIXTURE_TASK:
+            if task_kwargs:
+                raise ValueError(f"task {MIXTURE_TASK}: the mixture sets the task options itself "
+                                 f"({student_mixture().task_kwargs()}), got task_kwargs {dict(task_kwargs)}")
+            mixture = student_mixture(num_envs)
+            kwargs = mixture.task_kwargs()
+        else:
+            kwargs = {**STUDENT_TASK_KWARGS, **dict(task_kwargs or {})}
         run_dir.mkdir(parents=True, exist_ok=True)
-        options_path.write_text(json.dumps({"task": task, "task_kwargs": kwargs, "num_envs": num_envs}, indent=2))
-    env = AUVVectorEnv(task, num_envs=num_envs, task_kwargs=kwargs, threads=threads)
+        record = {"task": task, "task_kwargs": kwargs, "num_envs": num_envs}
+        if mixture is not None:
+            record["mixture"] = config_to_dict(mixture)
+        options_path.write_text(json.dumps(record, indent=2))
+    env = mixture.make_env(threads) if mixture is not None else AUVVectorEnv(task, num_envs=num_envs,
+                                                                            task_kwargs=kwargs, threads=threads)
     try:
         teacher = BatchTeacher(env).actions
         again = resume and (run_dir / CHECKPOINT_NAME).is_file()
+        if mixture is not None:
+            checks = {"validate": mixture_validator(mixture, student_spec(env), threads)}
+        else:
+            checks = {"eval_env_fn": lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs, threads=threads)}
         result = train_dagger(env, teacher, run_dir, None if again else dagger, resume=again, progress=progress,
-                              eval_env_fn=lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs, threads=threads))
+                              **checks)
         dagger = result.config
         out: dict[str, Any] = {"student": str(result.student), "dagger_rounds": result.rounds,
                                "dataset_steps": result.dataset_steps,
@@ -82,6 +140,14 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             again = resume and (ppo_dir / PPO_CHECKPOINT).is_file()
             extra = {} if imitation_coef is None else {"imitation_coef": imitation_coef}
             config = None if again else (ppo_config or finetune_config(dagger, **extra))
+            if mixture is not None:
+                tuned = train_planner(ppo_dir, config, mixture, finetune_steps, resume=again, progress=progress,
+                                      threads=threads, env=student_view(env), teacher=teacher,
+                                      init=run_dir / STUDENT_NAME)
+                out.update(finetune_checkpoint=str(tuned["checkpoint"]), finetune_steps=tuned["env_steps"],
+                           best=str(tuned["best"]), best_steps=tuned["best_steps"],
+                           best_success=tuned["best_success"])
+                return out
             tuned = finetune(env, teacher, run_dir / STUDENT_NAME, ppo_dir, config, finetune_steps, resume=again,
                              progress=progress)
             out.update(finetune_checkpoint=str(tuned.checkpoint), finetune_steps=tuned.env_steps)

@@ -5,8 +5,11 @@ or when no ffmpeg is found). This module holds what turns an episode into a sequ
 video (`iter_frames`), the interpolation between recorded states (`interpolate`), the trail and the goals a frame
 shows, the render's progress bar (`RenderBar`), the Gymnasium face's live frame (`LiveView`) and `render_episode`.
 The frame itself is drawn by `auv_mj.render.frame.FrameRenderer`; the files are written by
-`auv_mj.render.writers`. The 6-DOF videos (`auv_mj.render.episode_video3d`) share the progress bar, the bounds
-and the output step.
+`auv_mj.render.writers`. The 6-DOF videos (`auv_mj.render.episode_video3d`) share the episode's loop of frames
+(`stream_frames`: the one episode loop, the video's clock `VideoClock`, the progress bar, the closing frames, each
+domain drawing through its `EpisodeView`), the bounds and the output step, and the options of `auv-mj render`
+(`VideoOptions`): each domain's record names its video (`auv_mj.tasks.domains.Domain.video`: `video_frames` here),
+so the command draws either without asking which.
 
 Timing: a video frame every `speedup / fps` simulation seconds. By default one frame per control step
 (speedup = fps x control period: 15x real time for the 0.5 s planner at 30 fps); a smaller speedup
@@ -22,15 +25,16 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterable, Iterator
-from dataclasses import replace
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
 from auv_mj.console import complete, progress_bar
-from auv_mj.episode import EpisodeRecorder, Snapshot, outcome, outcome_label
-from auv_mj.geometry import wrap_angle
+from auv_mj.episode import EpisodeRecorder, Snapshot, StepObserver, outcome, outcome_label
+from auv_mj.geometry import distance_along, polyline_length, wrap_angle
 from auv_mj.render import glbackend
 from auv_mj.render.frame import CAMERAS, DEFAULT_SIZE, FOLLOW_VIEW, FrameRenderer
 from auv_mj.render.writers import DEFAULT_FPS, write_video
@@ -43,6 +47,33 @@ DEFAULT_HOLD_END = 1.0
 """The last frame is repeated for this many seconds of video."""
 TIME_TOLERANCE = 1e-6
 """Frame times within this of a recorded instant [s] show that instant (physics time drifts by ulps)."""
+
+
+@dataclass(frozen=True)
+class VideoOptions:
+    """How an episode's video is drawn, in either domain: what `auv-mj render` passes to the domain's video
+    (`video_frames`, `auv_mj.render.episode_video3d.video_frames_3d`), each reading the options of its views."""
+
+    max_steps: int | None = None
+    """Cut the episode after this many steps (None: to its end)."""
+    width: int = DEFAULT_SIZE[0]
+    """Frame width [px]."""
+    height: int = DEFAULT_SIZE[1]
+    """Frame height [px]."""
+    fps: float = DEFAULT_FPS
+    """Video frames per second."""
+    speedup: float | None = None
+    """Simulated seconds per video second (None: a frame per control step)."""
+    hold_end: float = DEFAULT_HOLD_END
+    """Seconds of video the last frame is held."""
+    title: str = ""
+    """The text the frames carry."""
+    progress: bool = False
+    """Whether a progress bar shows on the terminal."""
+    camera: str = "both"
+    """The planar views (one of CAMERAS); the 6-DOF video always shows its three panels."""
+    follow_view: float = FOLLOW_VIEW
+    """Height [m] of the planar follow view."""
 
 
 def interpolate(a: Snapshot, b: Snapshot, t: float) -> Snapshot:
@@ -145,6 +176,37 @@ class LiveView:
             self._renderer = None
 
 
+def frame_interval(env, fps: float, speedup: float | None) -> float:
+    """Simulated seconds [s] between two frames of a video of `env`: `speedup / fps`, or one control step where
+    `speedup` is None; ValueError unless positive."""
+    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
+    if not frame_dt > 0:
+        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
+    return frame_dt
+
+
+class VideoClock:
+    """The clock of an episode's video, planar and 6-DOF alike: a frame every `frame_interval` simulated seconds
+    from the episode's first instant, each showing the banner of the last event (goal, collision) for EVENT_HOLD
+    seconds of video after it."""
+
+    def __init__(self, env, fps: float, speedup: float | None):
+        self.frame_dt, self.fps = frame_interval(env, fps, speedup), fps
+        self.next_time: float | None = None
+        self.event, self.event_until = "", -math.inf
+
+    def frames_to(self, time: float, event: str = "") -> Iterator[tuple[float, str]]:
+        """The frames due up to the recorded instant `time` [s] (whose step ended with `event`, if any): each
+        frame's time and the banner it shows ("" for none)."""
+        if self.next_time is None:
+            self.next_time = time
+        if event:
+            self.event, self.event_until = event, time + EVENT_HOLD * self.fps * self.frame_dt
+        while self.next_time <= time + TIME_TOLERANCE:
+            yield self.next_time, self.event if self.next_time <= self.event_until else ""
+            self.next_time += self.frame_dt
+
+
 def closing_frames(bar, snap, recorder, max_steps: int | None, frame, hold_end: float,
                    fps: float) -> Iterator[np.ndarray]:
     """The end of an episode's video, planar and 6-DOF alike: the bar's last word (the outcome, or "cut" where
@@ -159,47 +221,108 @@ def iter_frames(env, policy, *, max_steps: int | None = None, width: int = DEFAU
                 height: int = DEFAULT_SIZE[1], camera: str = "both", fps: float = DEFAULT_FPS,
                 speedup: float | None = None, follow_view: float = FOLLOW_VIEW,
                 hold_end: float = DEFAULT_HOLD_END, title: str = "", recorder: EpisodeRecorder | None = None,
-                progress: bool = False) -> Iterator[np.ndarray]:
+                progress: bool = False, track: StepObserver | None = None) -> Iterator[np.ndarray]:
     """Runs one episode of `policy(time_step) -> action` on `env`, yielding (H, W, 3) uint8 frames.
 
     A frame every `speedup / fps` simulation seconds (default: one per control step). Pass a `recorder`
-    to keep the episode's record as well.
+    to keep the episode's record as well, and a `track` (anything with `add(env)`, called after the reset and each
+    control step, as the 6-DOF video calls it) to gather more beside the frames.
     """
+    def view_of(recorder: EpisodeRecorder, first: Snapshot) -> _PlanarView:
+        return _PlanarView(env, recorder, first, width, height, camera, follow_view, title)
+
+    yield from stream_frames(env, policy, view_of, max_steps=max_steps, fps=fps, speedup=speedup,
+                             hold_end=hold_end, recorder=recorder, progress=progress, track=track)
+
+
+class _PlanarView:
+    """The planar video's view of an episode (an `EpisodeView`): the frame renderer over the recorded arena, the
+    trail so far and the goals, the route of the progress bar (`route_of`)."""
+
+    def __init__(self, env, recorder: EpisodeRecorder, first: Snapshot, width: int, height: int, camera: str,
+                 follow_view: float, title: str):
+        self.trail, self.marks, self.arena = _Trail(TRAIL_SPACING * follow_view), _Goals(), recorder.arena
+        self.renderer = FrameRenderer(env.physics, width, height, camera, follow_view, arena=recorder.arena,
+                                      title=title)
+        self.route, self.goal_radius = route_of(recorder.arena, first), recorder.arena.goal_radius
+
+    def state(self, snap: Snapshot) -> Snapshot:
+        self.marks.update(snap, self.arena)
+        return snap
+
+    def draw(self, previous: Snapshot, state: Snapshot, time: float, banner: str) -> np.ndarray:
+        shown = interpolate(previous, state, time)
+        self.trail.add(shown.pose[:2])
+        return self.renderer.render(shown, self.trail.view(), self.marks.goals, self.marks.reached, banner)
+
+    def made_good(self, snap: Snapshot, state: Snapshot) -> float | None:
+        return distance_along(self.route, snap.pose[:2]) if self.route is not None else None
+
+    def close(self) -> None:
+        self.renderer.close()
+
+
+class EpisodeView(Protocol):
+    """What a domain's video draws of an episode (`stream_frames`), made after the episode's reset."""
+
+    route: np.ndarray | float | None
+    """The route the progress bar measures along (`RenderBar`): its points, its length, or None."""
+    goal_radius: float
+    """The task's goal radius [m] (the bar ends this short of the route's end)."""
+
+    def state(self, snap: Snapshot) -> Any:
+        """The drawable state of the recorded instant `snap`."""
+
+    def draw(self, previous: Any, state: Any, time: float, banner: str) -> np.ndarray:
+        """The (H, W, 3) uint8 frame at `time` [s] between two drawable states, with the event `banner` ("")."""
+
+    def made_good(self, snap: Snapshot, state: Any) -> float | None:
+        """The route made good [m] at a recorded instant (None without a route)."""
+
+    def close(self) -> None:
+        """Frees the view's renderer."""
+
+
+def stream_frames(env, policy, view_of: Callable[[EpisodeRecorder, Snapshot], EpisodeView], *,
+                  max_steps: int | None, fps: float, speedup: float | None, hold_end: float,
+                  recorder: EpisodeRecorder | None, progress: bool,
+                  track: StepObserver | None) -> Iterator[np.ndarray]:
+    """The one loop of an episode's video, planar and 6-DOF alike: runs the episode through the one episode loop
+    (`recorder`), makes the domain's view after the reset (`view_of(recorder, first snapshot)`), yields its frames on
+    the video's clock (`VideoClock`) and the closing ones, and moves the progress bar by the route made good."""
     recorder = recorder if recorder is not None else EpisodeRecorder(env)
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
-    if not frame_dt > 0:
-        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
+    clock = VideoClock(env, fps, speedup)
     glbackend.require()
-    trail, marks = _Trail(TRAIL_SPACING * follow_view), _Goals()
-    renderer, previous, frame = None, None, None
-    event, event_until, next_time = "", -math.inf, 0.0
-    bar = None
+    view, previous, frame, bar = None, None, None, None
     try:
         for snap in recorder.run(policy, max_steps):
-            if renderer is None:  # after the reset: the task has drawn its route
-                renderer = FrameRenderer(env.physics, width, height, camera, follow_view,
-                                         arena=recorder.arena, title=title)
-                previous, next_time = snap, snap.time
-                route = route_of(recorder.arena, snap)
-                bar = RenderBar(route, recorder.arena.goal_radius, step_bound(env, max_steps), progress)
-            marks.update(snap, recorder.arena)
-            if snap.event:
-                event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
-            while next_time <= snap.time + TIME_TOLERANCE:
-                state = interpolate(previous, snap, next_time)
-                trail.add(state.pose[:2])
-                shown = event if next_time <= event_until else ""
-                frame = renderer.render(state, trail.view(), marks.goals, marks.reached, shown)
+            if view is None:  # after the reset: the task has drawn its arena
+                view = view_of(recorder, snap)
+                bar = RenderBar(view.route, view.goal_radius, step_bound(env, max_steps), progress)
+            if track is not None:
+                track.add(env)
+            state = view.state(snap)
+            previous = state if previous is None else previous
+            for time, shown in clock.frames_to(snap.time, snap.event):
+                frame = view.draw(previous, state, time, shown)
                 yield frame
-                next_time += frame_dt
-            previous = snap
-            bar.advance(made_good(route, snap.pose[:2]) if route is not None else None, snap.step)
+            previous = state
+            bar.advance(view.made_good(snap, state), snap.step)
         yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
     finally:
         if bar is not None:
             bar.close()
-        if renderer is not None:
-            renderer.close()
+        if view is not None:
+            view.close()
+
+
+def video_frames(env, policy, options: VideoOptions, recorder: EpisodeRecorder | None = None,
+                 track: StepObserver | None = None) -> Iterator[np.ndarray]:
+    """The planar domain's video (`auv_mj.tasks.domains.Domain.video`): `iter_frames` with `options`."""
+    return iter_frames(env, policy, max_steps=options.max_steps, width=options.width, height=options.height,
+                       camera=options.camera, fps=options.fps, speedup=options.speedup,
+                       follow_view=options.follow_view, hold_end=options.hold_end, title=options.title,
+                       recorder=recorder, progress=options.progress, track=track)
 
 
 def step_bound(env, max_steps: int | None) -> int | None:
@@ -221,15 +344,6 @@ def route_of(arena, first: Snapshot) -> np.ndarray | None:
     return None
 
 
-def made_good(route: np.ndarray, position: np.ndarray) -> float:
-    """How far along `route` [m] the point of it nearest to `position` lies."""
-    a, ab = route[:-1], np.diff(route, axis=0)
-    lengths = np.hypot(ab[:, 0], ab[:, 1])
-    t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
-    nearest = int(np.argmin(np.hypot(*(a + t[:, None] * ab - position).T)))
-    return float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
-
-
 class RenderBar:
     """The render's progress bar: on a task with a goal, the metres made good along the route (`route_of`) out of
     its length short of the goal radius, so that it fills as the vehicle goes, ends full at the goal and stays where
@@ -239,7 +353,7 @@ class RenderBar:
     def __init__(self, route: np.ndarray | float | None, goal_radius: float, steps: int | None, enabled: bool):
         """`route`: its (P, 2) points or its length [m], None on a task without a goal."""
         if route is not None:
-            length = float(route) if np.ndim(route) == 0 else float(np.sum(np.hypot(*np.diff(route, axis=0).T)))
+            length = float(route) if np.ndim(route) == 0 else polyline_length(route)
             self.total = max(int(math.ceil(length - goal_radius)), 1)
             self.bar = progress_bar(total=self.total, unit="m", desc="render, route", disable=not enabled,
                                     bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} m "
@@ -281,7 +395,7 @@ def frame_bound(env, max_steps: int | None, fps: float, speedup: float | None, h
     steps = step_bound(env, max_steps)
     if steps is None:
         return None
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
+    frame_dt = frame_interval(env, fps, speedup)
     return int(math.floor(steps * env.control_timestep() / frame_dt + TIME_TOLERANCE)) + 1 + int(round(hold_end * fps))
 
 

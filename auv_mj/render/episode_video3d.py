@@ -1,10 +1,12 @@
 """Videos of 6-DOF episodes: the frames of one episode run by a policy, in time, streamed to a file or an array.
 
-`auv-mj render --task tunnel3d --policy los-avoid -o tube.mp4` runs one episode and writes it (through
-`auv_mj.cli.render3d`). This module holds what turns an episode into frames: the video's clock
-(`iter_frames_3d`), the interpolation between recorded states (`interpolate`), the progress a frame shows, the
-Gymnasium face's live frame (`LiveView3D`), `render_episode_3d` and `Track3D`, the 3-D track gathered beside the
-frames (`auv_mj.cli.render3d` plots it). The frame is drawn by `auv_mj.render.frame3d.FrameRenderer3D`.
+`auv-mj render --task tunnel3d --policy los-avoid -o tube.mp4` runs one episode and writes it (the domain record's
+`video`, `video_frames_3d`). This module holds what turns an episode into frames: its view of the episode
+(`iter_frames_3d` over the planar videos' `stream_frames`), the interpolation between recorded states
+(`interpolate`), the progress a frame shows, the Gymnasium face's live frame (`LiveView3D`) and
+`render_episode_3d`; the 3-D track gathered beside the frames (`auv_mj.episode.Track3D`, the `track` of
+`iter_frames_3d`) is what `auv_mj.figures.trajectory3d` plots. The frame is drawn by
+`auv_mj.render.frame3d.FrameRenderer3D`.
 
 Timing as the planar videos (`auv_mj.render.episode_video`): a frame every `speedup / fps` simulation seconds, one
 per control step by default (15x real time for the 0.5 s planner at DEFAULT_FPS); a smaller `speedup` interpolates
@@ -20,22 +22,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from auv_mj.episode import EpisodeRecorder
-from auv_mj.render import glbackend
+from auv_mj.episode import EpisodeRecorder, Track3D
+from auv_mj.geometry import distance_along, polyline_length
 from auv_mj.render.episode_video import (
     DEFAULT_HOLD_END,
-    EVENT_HOLD,
     TIME_TOLERANCE,
-    RenderBar,
-    closing_frames,
+    VideoOptions,
     episode_output,
     frame_bound,
-    step_bound,
+    stream_frames,
 )
 from auv_mj.render.frame import DEFAULT_SIZE
 from auv_mj.render.frame3d import FrameRenderer3D, State3D
@@ -58,29 +57,6 @@ def interpolate(a: State3D, b: State3D, time: float) -> State3D:
                    mix(a.altitude, b.altitude), mix(a.goal_distance, b.goal_distance), mix(a.progress, b.progress))
 
 
-@dataclass
-class Track3D:
-    """The 3-D track of an episode, gathered beside its EpisodeRecord: world positions and attitudes."""
-
-    time: list = field(default_factory=list)
-    position: list = field(default_factory=list)
-    """[m], world, z up."""
-    attitude: list = field(default_factory=list)
-    """(roll, pitch, yaw) [rad]."""
-    depth_command: list = field(default_factory=list)
-    """The task's depth command [m] where it has one (depth_heading), else NaN."""
-
-    def add(self, env) -> None:
-        physics = env.physics
-        self.time.append(physics.time())
-        self.position.append(physics.position())
-        self.attitude.append(physics.attitude())
-        self.depth_command.append(float((getattr(env.task, "last_info", {}) or {}).get("depth_command", np.nan)))
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        return {k: np.asarray(v, dtype=float) for k, v in vars(self).items()}
-
-
 def _progress_of(env, start_distance: float, time_limit: float) -> tuple[float, float]:
     """(distance to the goal [m] or NaN, share of the episode done): distance made good towards the goal on
     planning tasks (along the tube on tunnel3d), the time on tracking ones."""
@@ -89,12 +65,8 @@ def _progress_of(env, start_distance: float, time_limit: float) -> tuple[float, 
     path = getattr(task, "path", None)
     position = physics.position()
     if path is not None and len(path) >= 2:
-        lengths = np.linalg.norm(np.diff(path, axis=0), axis=1)
-        a, ab = path[:-1], np.diff(path, axis=0)
-        t = np.clip(np.einsum("ij,ij->i", position - a, ab) / np.maximum(lengths ** 2, 1e-12), 0.0, 1.0)
-        nearest = np.argmin(np.linalg.norm(a + t[:, None] * ab - position, axis=1))
-        along = float(np.sum(lengths[:nearest]) + t[nearest] * lengths[nearest])
-        return float(np.linalg.norm(goal - position)), along / max(float(np.sum(lengths)), 1e-9)
+        along = distance_along(path, position)
+        return float(np.linalg.norm(goal - position)), along / max(polyline_length(path), 1e-9)
     if goal is not None and math.isfinite(start_distance) and start_distance > 0:
         distance = float(np.linalg.norm(goal - position))
         return distance, float(np.clip(1.0 - distance / start_distance, 0.0, 1.0))
@@ -106,8 +78,14 @@ def _route_length(env, start_distance: float) -> float | None:
     goal; None on a task without a goal (depth_heading)."""
     path = getattr(env.task, "path", None)
     if path is not None and len(path) >= 2:
-        return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+        return polyline_length(path)
     return start_distance if math.isfinite(start_distance) and start_distance > 0 else None
+
+
+def _time_limit(env) -> float:
+    """The episode's time limit [s] (0 where it has none): the share of it gone is a tracking task's progress."""
+    limit = getattr(env, "_step_limit", None)
+    return (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
 
 
 def _state(env, event: str, start_distance: float, time_limit: float) -> State3D:
@@ -130,8 +108,7 @@ class LiveView3D:
         self._recorder = EpisodeRecorder(env)  # the episode loop's read-out of each step, as `iter_frames_3d` has it
         self._renderer: FrameRenderer3D | None = None
         self._event, self._start_distance, self._started = "", math.nan, False
-        limit = getattr(env, "_step_limit", None)
-        self._time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
+        self._time_limit = _time_limit(env)
 
     def start(self, time_step) -> None:
         """A new episode from its reset `time_step` (a new arena: a new renderer at the next frame)."""
@@ -172,45 +149,48 @@ def iter_frames_3d(env, policy: Callable, *, max_steps: int | None = None, width
     """Runs one episode of `policy(time_step) -> action` on the auv3d `env`, yielding (H, W, 3) uint8 frames, one
     every `speedup / fps` simulated seconds (default: one per control step); `track` (if given) gathers the 3-D
     track at the control steps, `recorder` keeps the episode's record."""
-    recorder = recorder if recorder is not None else EpisodeRecorder(env)
-    frame_dt = (speedup if speedup is not None else fps * env.control_timestep()) / fps
-    if not frame_dt > 0:
-        raise ValueError(f"speedup and fps must be positive, got speedup={speedup}, fps={fps}")
-    glbackend.require()
-    limit = getattr(env, "_step_limit", None)
-    time_limit = (limit if limit and math.isfinite(limit) else 0.0) * env.control_timestep()
-    renderer, previous, frame, bar, route = None, None, None, None, None
-    event, event_until, next_time, start_distance = "", -math.inf, 0.0, math.nan
-    try:
-        for snap in recorder.run(policy, max_steps):
-            if renderer is None:  # after the reset: the task has loaded its arena
-                renderer = FrameRenderer3D(env.physics, width, height, title)
-            if snap.step == 0:
-                goal = getattr(env.task, "goal", None)
-                start_distance = float(np.linalg.norm(goal - env.physics.position())) if goal is not None else math.nan
-                route = _route_length(env, start_distance)
-                bar = RenderBar(route, float(getattr(env.task, "goal_radius", 0.0)), step_bound(env, max_steps),
-                                progress)
-            if track is not None:
-                track.add(env)
-            state = _state(env, snap.event, start_distance, time_limit)
-            if previous is None:
-                previous, next_time = state, state.time
-            if snap.event:
-                event, event_until = snap.event, snap.time + EVENT_HOLD * fps * frame_dt
-            while next_time <= state.time + 1e-6:
-                frame = renderer.render(interpolate(previous, state, next_time),
-                                        event if next_time <= event_until else "")
-                yield frame
-                next_time += frame_dt
-            previous = state
-            bar.advance(state.progress * route if route is not None else None, snap.step)
-        yield from closing_frames(bar, snap, recorder, max_steps, frame, hold_end, fps)
-    finally:
-        if bar is not None:
-            bar.close()
-        if renderer is not None:
-            renderer.close()
+    time_limit = _time_limit(env)
+
+    def view_of(recorder: EpisodeRecorder, first) -> _View3D:
+        return _View3D(env, width, height, title, time_limit)
+
+    yield from stream_frames(env, policy, view_of, max_steps=max_steps, fps=fps, speedup=speedup,
+                             hold_end=hold_end, recorder=recorder, progress=progress, track=track)
+
+
+class _View3D:
+    """The 6-DOF video's view of an episode (an `auv_mj.render.episode_video.EpisodeView`): the three-panel frame
+    renderer, and the route the progress bar measures along (`_progress_of`)."""
+
+    def __init__(self, env, width: int, height: int, title: str, time_limit: float):
+        self.env, self.time_limit = env, time_limit
+        self.renderer = FrameRenderer3D(env.physics, width, height, title)
+        goal = getattr(env.task, "goal", None)
+        self.start_distance = float(np.linalg.norm(goal - env.physics.position())) if goal is not None else math.nan
+        self.route = _route_length(env, self.start_distance)
+        self.goal_radius = float(getattr(env.task, "goal_radius", 0.0))
+
+    def state(self, snap) -> State3D:
+        return _state(self.env, snap.event, self.start_distance, self.time_limit)
+
+    def draw(self, previous: State3D, state: State3D, time: float, banner: str) -> np.ndarray:
+        return self.renderer.render(interpolate(previous, state, time), banner)
+
+    def made_good(self, snap, state: State3D) -> float | None:
+        return state.progress * self.route if self.route is not None else None
+
+    def close(self) -> None:
+        self.renderer.close()
+
+
+def video_frames_3d(env, policy: Callable, options: VideoOptions, recorder: EpisodeRecorder | None = None,
+                    track: Track3D | None = None) -> Iterator[np.ndarray]:
+    """The 6-DOF domain's video (`auv_mj.tasks.domains.Domain.video`): `iter_frames_3d` with `options`; the chase,
+    top and side panels always show, so `options.camera` and `options.follow_view` (the planar views') do not
+    apply."""
+    return iter_frames_3d(env, policy, max_steps=options.max_steps, width=options.width, height=options.height,
+                          fps=options.fps, speedup=options.speedup, hold_end=options.hold_end, title=options.title,
+                          track=track, recorder=recorder, progress=options.progress)
 
 
 def render_episode_3d(env, policy: Callable, path: str | Path | None = None, *, in_memory: bool = False,

@@ -929,14 +929,7 @@ class FrameRenderer(GLOwner):
 
     def _banner(self, image: np.ndarray, text: str, colour: tuple[float, float, float]) -> None:
         """`text` in the big font, centred near the bottom of the frame on a dark box."""
-        font = self._font_big
-        text_w, text_h = font.width(text), font.height
-        pad = text_h // 2
-        left, bottom = self.width // 2 - text_w // 2 - pad, self.height // 12
-        width, height = text_w + 2 * pad, text_h + 2 * pad
-        top = self.height - bottom - height
-        raster.darken(image[max(top, 0):top + height, max(left, 0):left + width], 0.4)
-        font.text(image, text, left + pad, bottom + pad, np.floor(np.asarray(colour) * 255))
+        raster.banner(image, self._font_big, text, colour, self.width // 2, self.height // 12)
 
 
 def render_frame(physics, width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1], camera: str = "both",

@@ -318,11 +318,6 @@ class FrameRenderer3D(GLOwner):
                            "\n".join(values))
 
     def _banner(self, frame: np.ndarray, text: str, colour: tuple[float, float, float]) -> None:
-        font = self._font_big
+        """`text` in the big font on a dark box, centred near the bottom of the chase panel."""
         left, bottom, width, height = self.layout.panels["chase"]
-        text_w, text_h = font.width(text), font.height
-        pad = text_h // 2
-        x, y = left + width // 2 - text_w // 2 - pad, bottom + height // 10
-        top = self.height - y - text_h - 2 * pad
-        raster.darken(frame[max(top, 0):top + text_h + 2 * pad, max(x, 0):x + text_w + 2 * pad], 0.4)
-        font.text(frame, text, x + pad, y + pad, np.floor(np.asarray(colour) * 255))
+        raster.banner(frame, self._font_big, text, colour, left + width // 2, bottom + height // 10)

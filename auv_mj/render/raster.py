@@ -202,6 +202,18 @@ def darken(region: np.ndarray, keep: float) -> None:
         region[...] = (region * keep).astype(np.uint8)
 
 
+def banner(image: np.ndarray, font: BitmapFont, text: str, colour, centre: int, bottom: int) -> None:
+    """One line of `text` in `font` and `colour` (RGB in [0, 1]) on a darkened box, centred on column `centre`, the
+    box's lower edge `bottom` pixels above the image's (OpenGL rows, as `BitmapFont.text`): the event banner of the
+    planar and the 6-DOF frames."""
+    text_w, text_h = font.width(text), font.height
+    pad = text_h // 2
+    left, width, height = centre - text_w // 2 - pad, text_w + 2 * pad, text_h + 2 * pad
+    top = image.shape[0] - bottom - height
+    darken(image[max(top, 0):top + height, max(left, 0):left + width], 0.4)
+    font.text(image, text, left + pad, bottom + pad, np.floor(np.asarray(colour) * 255))
+
+
 class BitmapFont:
     """One of a MuJoCo context's bitmap fonts as numpy glyph masks, to draw text without OpenGL.
 

@@ -34,7 +34,7 @@ from auv_mj.sim import native
 from auv_mj.sim.sonar import SONAR_NAMES
 
 SOURCE = Path(__file__).with_name("batch_kernel.c")
-INCLUDED = (Path(__file__).with_name("hydro_kernel.c"),)
+INCLUDED = (Path(__file__).with_name("hydro_kernel.c"), Path(__file__).with_name("tick_kernel.c"))
 """Files `batch_kernel.c` includes (they key the compiled library too)."""
 STATE = ("speed_command", "heading_command", "int_speed", "int_heading", "last_u", "has_last_u", "collided",
          "ready", "ocean_time", "current_on", "current_speed", "current_speed_dt", "current_speed_a",
@@ -135,6 +135,21 @@ def mover_record(slot: int, start, end, speed: float, waypoints=None) -> np.ndar
     return np.array(head, dtype=float)
 
 
+def top_up_normals(normals: np.ndarray, position: int, end: int, rng: np.random.Generator,
+                   needed: int) -> tuple[int, int]:
+    """Makes at least `needed` draws of a vehicle's buffer `normals` (NORMALS_CAPACITY) ready after `position`
+    (its next draw; `end` is past its last), drawing blocks of NORMALS_BLOCK from `rng` (the current's generator)
+    as `auv_mj.sim.ocean.Normals` does, so that the stream is the same; returns the new (position, end)."""
+    while end - position < needed:
+        if end + NORMALS_BLOCK > NORMALS_CAPACITY:
+            left = end - position
+            normals[:left] = normals[position:end]
+            position, end = 0, left
+        normals[end:end + NORMALS_BLOCK] = rng.standard_normal(NORMALS_BLOCK)
+        end += NORMALS_BLOCK
+    return position, end
+
+
 class BatchStepper:
     """N vehicle slots and their state, parameter, output and normal-draw rows; `step` advances a set of them.
 
@@ -191,19 +206,11 @@ class BatchStepper:
         self._keep[i] = (model, data, coefficients, addresses, gains, movers, others)
 
     def top_up(self, i: int, rng: np.random.Generator, needed: int) -> None:
-        """Makes at least `needed` normal draws of vehicle `i` ready, drawing blocks of NORMALS_BLOCK from `rng`
-        (the current's generator) as `auv_mj.sim.ocean.Normals` does, so that the stream is the same."""
-        position = int(self.state[i, STATE_INDEX["normal_position"]])
-        end = int(self.normals_end[i])
-        while end - position < needed:
-            if end + NORMALS_BLOCK > NORMALS_CAPACITY:
-                left = end - position
-                self.normals[i, :left] = self.normals[i, position:end]
-                position, end = 0, left
-            self.normals[i, end:end + NORMALS_BLOCK] = rng.standard_normal(NORMALS_BLOCK)
-            end += NORMALS_BLOCK
-        self.state[i, STATE_INDEX["normal_position"]] = position
-        self.normals_end[i] = end
+        """Makes at least `needed` normal draws of vehicle `i` ready (`top_up_normals`)."""
+        at = STATE_INDEX["normal_position"]
+        position, self.normals_end[i] = top_up_normals(self.normals[i], int(self.state[i, at]),
+                                                       int(self.normals_end[i]), rng, needed)
+        self.state[i, at] = position
 
     def step(self, index: np.ndarray, ticks: int, substeps: int, cap: float, threads: int) -> None:
         """Advances the vehicles `index` by `ticks` executor periods of `substeps` physics steps each, on

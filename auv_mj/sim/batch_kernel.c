@@ -26,6 +26,7 @@
 #include <mujoco/mujoco.h>
 
 #include "hydro_kernel.c"
+#include "tick_kernel.c" /* py_mod, wrap_angle, gauss_markov */
 
 #define N_SONAR 9
 #define MAX_THREADS 64
@@ -78,34 +79,6 @@ int auv_batch_sizes(int which) {
         case 4: return N_SONAR;
         default: return N_GAINS;
     }
-}
-
-/* Python's float % (the sign of the divisor), as CPython's float_rem computes it. */
-static double py_mod(double x, double y) {
-    double mod = fmod(x, y);
-    if (mod != 0.0) {
-        if ((y < 0.0) != (mod < 0.0)) mod += y;
-    } else {
-        mod = copysign(0.0, y);
-    }
-    return mod;
-}
-
-/* auv_mj.geometry.wrap_angle of a scalar. */
-static double wrap_angle(double angle) { return py_mod(angle + M_PI, 2 * M_PI) - M_PI; }
-
-/* GaussMarkov.advance: the exact transition over dt, then saturation. */
-static void gauss_markov(double *state, int value, int gdt, int ga, int gb, const double *p, int mean, double dt,
-                         double w) {
-    if (dt != state[gdt]) {
-        state[gdt] = dt;
-        state[ga] = exp(-dt / p[mean + 2]);
-        state[gb] = p[mean + 1] * sqrt(1.0 - state[ga] * state[ga]);
-    }
-    double x = p[mean] + state[ga] * (state[value] - p[mean]) + state[gb] * w;
-    x = p[mean + 3] > x ? p[mean + 3] : x;
-    x = p[mean + 4] < x ? p[mean + 4] : x;
-    state[value] = x;
 }
 
 /* SPlaneController._integrate. */

@@ -352,6 +352,18 @@ class Hydro3D:
 
         return advance
 
+    def kernel_arguments(self, source_index: int, limits: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
+        """hydro3d_kernel.c's parameters (native3d.COEFFICIENTS among them) and addresses for this vehicle, its fins'
+        commands at `source_index` of their source array, within `limits` (2, 2) at `rate` [rad/s]."""
+        c = self.coefficients
+        parameters = np.concatenate([self.added_mass_frd.ravel(), self.added_mass.ravel(),
+                                     [getattr(c, name) for name in native3d.COEFFICIENTS], self._drag,
+                                     self._explicit.astype(float), self._mass_diagonal,
+                                     [rate, *np.asarray(limits, dtype=float).ravel()]])
+        indices = np.array([self.qpos_adr, self.dof_adr, *self._m_index, source_index],
+                           dtype=np.dtype(ctypes.c_long))
+        return parameters, indices
+
     def bind_native(self, model: mujoco.MjModel, data: mujoco.MjData, fins: np.ndarray, source: np.ndarray,
                     source_index: int, limits: np.ndarray, rate: float) -> Callable[..., None] | None:
         """`bind`'s stepper on the C loop (`auv_mj.sim.native3d`), or None where it cannot be built.
@@ -363,13 +375,7 @@ class Hydro3D:
         compiled = native3d.kernel()
         if compiled is None:
             return None
-        c = self.coefficients
-        parameters = np.concatenate([self.added_mass_frd.ravel(), self.added_mass.ravel(),
-                                     [getattr(c, name) for name in native3d.COEFFICIENTS], self._drag,
-                                     self._explicit.astype(float), self._mass_diagonal,
-                                     [rate, *np.asarray(limits, dtype=float).ravel()]])
-        indices = np.array([self.qpos_adr, self.dof_adr, *self._m_index, source_index],
-                           dtype=np.dtype(ctypes.c_long))
+        parameters, indices = self.kernel_arguments(source_index, limits, rate)
         if (len(parameters), len(indices)) != compiled.sizes:
             raise RuntimeError(f"hydro3d_kernel.c expects {compiled.sizes} values, auv_mj gives "
                                f"{(len(parameters), len(indices))}: the two are out of step")

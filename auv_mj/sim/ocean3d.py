@@ -68,6 +68,28 @@ class Ocean3D:
     def ideal(self) -> bool:
         return self.conditions.ideal
 
+    @property
+    def time(self) -> float:
+        """The time [s] the current was last moved on to."""
+        return self._time
+
+    @property
+    def noise_generator(self) -> np.random.Generator | None:
+        """The episode's generator of the sensors' noise (`noise`), None where `noise` adds none: what a batched
+        step draws the same noise from (`auv_mj.tasks.vector3d`)."""
+        if self.ideal or self._rng is None or self.conditions.sonar is None:
+            return None
+        return self._rng
+
+    @property
+    def last_dvl(self) -> np.ndarray | None:
+        """The last noisy DVL sample (what a dropout holds, across episodes too), None before the first."""
+        return getattr(self, "_last_dvl", None)
+
+    @last_dvl.setter
+    def last_dvl(self, value) -> None:
+        self._last_dvl = np.array(value, dtype=float)
+
     def start(self, physics, random: np.random.RandomState) -> None:
         """Draws this episode's ocean from one seed of `random`; applies the vehicle scaling and the current."""
         if self.ideal:

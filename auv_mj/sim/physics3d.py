@@ -220,6 +220,22 @@ class AUV3DPhysics(engine.Physics):
         self._hydro = Hydro3D(model, spec, self.source)
         self._bound, self._step_ready = None, False
 
+    @property
+    def fin_lagged(self) -> bool:
+        """Whether the fins follow the lagged commands (data.act, ocean conditions' thruster lag) or data.ctrl."""
+        return self._fin_lagged
+
+    @property
+    def fin_limits(self) -> np.ndarray:
+        """The fins' angle limits (rudder, stern) x (low, high) [rad]: the actuators' ctrlrange."""
+        return self._fin_limits
+
+    @property
+    def step_ready(self) -> bool:
+        """Whether the next step may skip `mj_step1` (M and the passive forces are the current state's): a batched
+        step that continues this physics starts the same way (`AUVPhysics.step_ready`)."""
+        return self._step_ready
+
     def reset_fins(self, rudder: float = 0.0, stern: float = 0.0) -> None:
         """Puts the fins at these angles [rad] (an episode start)."""
         self.fins[:] = rudder, stern

@@ -114,6 +114,16 @@ class Sensors3D:
         self._due = dict.fromkeys(self.rates, -math.inf)
         self._held: dict[str, np.ndarray] = {}
 
+    @property
+    def due(self) -> dict[str, float]:
+        """When each sensor next samples [s] (a copy)."""
+        return dict(self._due)
+
+    @property
+    def held(self) -> dict[str, np.ndarray]:
+        """The held samples (copies), as `read` returns them, without sampling."""
+        return {k: v.copy() for k, v in self._held.items()}
+
     def read(self, physics) -> dict[str, np.ndarray]:
         """The held samples, refreshing those that are due at the physics' time."""
         time = physics.time()

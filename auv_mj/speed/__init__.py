@@ -1,11 +1,11 @@
-"""How fast auv-mj runs (`auv-mj bench`): the simulator, the tasks, the renderer, the learners, the batched env
+"""How fast auv-mj runs (`auv-mj bench`): the simulator, the tasks, the renderer, the learners, the batched envs
 and training with collector processes, each beside its limit, as a library a script can call.
 
 Speed, not skill: how well a policy does is `auv_mj.benchmark`. The sections and their registry are
 `auv_mj.speed.sections`; a module per thing measured holds its sections (`sim`, `tasks`, `render`, `learners`,
-`vector`, `collectors`). `auv_mj.speed.run_bench(["physics"], auv_mj.speed.BenchSettings(repeats=3))` runs sections
-from Python, as `auv-mj bench --sections physics --repeats 3` does; the names here load on first use (PEP 562),
-so that `import auv_mj.speed.vector` does not import every section.
+`vector`, `vector3d`, `collectors`). `auv_mj.speed.run_bench(["physics"], auv_mj.speed.BenchSettings(repeats=3))`
+runs sections from Python, as `auv-mj bench --sections physics --repeats 3` does; the names here load on first use
+(PEP 562), so that `import auv_mj.speed.vector` does not import every section.
 """
 
 from __future__ import annotations

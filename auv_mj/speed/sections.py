@@ -5,8 +5,9 @@ less, so each section reports both and the medians over repeats. A section is a 
 `(BenchSettings) -> list[Measurement]` registered in SECTIONS with `@section(name)`; add one and it runs, prints and
 goes to `auv-mj bench --json`. The sections themselves live in a module per thing measured (`SECTION_MODULES`):
 the simulator (`auv_mj.speed.sim`), the suite's tasks (`auv_mj.speed.tasks`), the renderer (`auv_mj.speed.render`),
-the learners' updates (`auv_mj.speed.learners`), the batched env (`auv_mj.speed.vector`) and training with
-collector processes (`auv_mj.speed.collectors`); `load_sections()` imports them, in the order they run.
+the learners' updates (`auv_mj.speed.learners`), the batched envs (`auv_mj.speed.vector`, planar;
+`auv_mj.speed.vector3d`, 6-DOF) and training with collector processes (`auv_mj.speed.collectors`);
+`load_sections()` imports them, in the order they run.
 
 From Python: `run_bench(["physics", "sonar"], BenchSettings(repeats=3))` returns the measurements of each section;
 `bench_payload` is what `auv-mj bench --json` writes. The command (`auv_mj.cli.bench`) parses its options into
@@ -58,7 +59,7 @@ SECTIONS: dict[str, Section] = {}
 ON_REQUEST: set[str] = set()
 """Sections run only when asked for by name (minutes long: the batched env's)."""
 SECTION_MODULES = ("auv_mj.speed.sim", "auv_mj.speed.tasks", "auv_mj.speed.render", "auv_mj.speed.learners",
-                   "auv_mj.speed.vector", "auv_mj.speed.collectors")
+                   "auv_mj.speed.vector", "auv_mj.speed.vector3d", "auv_mj.speed.collectors")
 """The modules whose `@section`s are the bench, in the order their sections run."""
 Report = Callable[[str, list[Measurement]], None]
 

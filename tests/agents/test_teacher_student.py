@@ -21,6 +21,7 @@ from auv_mj.agents.ppo import Minibatch, PPOConfig, build_model, ppo_loss
 from auv_mj.agents.ppo.config import imitation_weight
 from auv_mj.planners.teacher import BatchTeacher, geodesic_teacher
 from auv_mj.tasks import suite
+from auv_mj.tasks.mixture import PlanningMixtureVectorEnv
 from auv_mj.tasks.vector import AUVVectorEnv
 from auv_mj.zoo import env_and_policy
 
@@ -200,3 +201,77 @@ def test_auv_mj_train_dagger_runs_and_resumes_into_the_fine_tune(tmp_path):
     assert again.returncode == 0, again.stderr
     tuned = read_checkpoint(tmp_path / "ppo" / "checkpoint.pt", "ppo")
     assert tuned.metadata["config"]["imitation_coef"] == 1.0 and tuned.metadata["config"]["recurrent_size"] == 128
+
+
+def test_the_teacher_labels_a_mixture_row_as_it_labels_that_cells_own_batch():
+    """`PlanningMixtureVectorEnv.privileged_state` is its cells' read-outs in row order: the teacher's labels on the
+    mixture are those on each cell's own batch, reset with the same seeds."""
+    options = {k: v for k, v in HARD.items() if k not in ("arena", "tier")}
+    mixture = PlanningMixtureVectorEnv(1, tasks=("obstacles", "tunnel"), tiers=("hard",), waters=("ideal",),
+                                       task_kwargs=options, threads=1)
+    mixture.reset(seed=3)
+    labels = BatchTeacher(mixture).actions()
+    assert mixture.action_kind == "rate" and labels.shape == (2, 2)
+    for k, (task, tier, water) in enumerate(mixture.cells):
+        one = AUVVectorEnv(task, num_envs=1, threads=1,
+                           task_kwargs={**options, "arena": "random", "tier": tier, "conditions": water})
+        one.reset(seed=[int(mixture.episode_seeds[k])])
+        np.testing.assert_allclose(BatchTeacher(one).actions()[0], labels[k], atol=1e-12)
+        one.close()
+    mixture.close()
+
+
+def test_the_student_keeps_the_task_options_it_must_run_with_and_deploys_on_the_dict_observation(tmp_path):
+    """student.pt records action="rate" and observation="planner" (the zoo applies them), and its policy reads a
+    goal dict's `observation` vector alone."""
+    from auv_mj.agents.ppo.policy import PPOPolicy
+
+    env = AUVVectorEnv("obstacles", num_envs=2, task_kwargs=HARD, threads=1)
+    try:
+        train_dagger(env, BatchTeacher(env).actions, tmp_path, dataclasses.replace(TINY, rounds=1), progress=False)
+        obs, _ = env.reset(seed=[5, 6])
+    finally:
+        env.close()
+    spec = read_checkpoint(tmp_path / "student.pt", "ppo").metadata["spec"]
+    assert spec["task_options"] == {"action": "rate", "observation": "planner"}
+    policy = PPOPolicy.load(tmp_path / "student.pt")
+    from_dict = policy(obs)
+    policy.reset()
+    np.testing.assert_array_equal(policy(obs["observation"]), from_dict)
+    with pytest.raises(ValueError, match="'observation'"):
+        policy({"desired_goal": obs["desired_goal"]})
+
+
+def test_dagger_on_the_mixture_validates_every_hard_cell(tmp_path):
+    """`train_student(..., "planning-mix")`: the student's mixture, a row of dagger_cells.csv per hard cell."""
+    from auv_mj.jobs.student import MIXTURE_TASK, train_student
+
+    config = dataclasses.replace(TINY, rounds=1, validation_episodes=1, validation_max_steps=3)
+    with pytest.raises(ValueError, match="sets the task options itself"):
+        train_student(tmp_path / "bad", MIXTURE_TASK, {"reward": "suite"}, 1, config)
+    out = train_student(tmp_path, MIXTURE_TASK, None, 1, config, threads=1, progress=False)
+    assert out["dagger_rounds"] == 1
+    cells = (tmp_path / "dagger_cells.csv").read_text().splitlines()
+    assert cells[0] == "round,cell,val_success" and len(cells) == 1 + 6
+    assert {line.split(",")[1] for line in cells[1:]} == {
+        f"{task}/hard/{water}" for task in ("obstacles", "moving_obstacles", "tunnel") for water in ("ideal", "ocean")}
+
+
+def test_the_students_view_of_the_mixture_keeps_its_cells_and_the_vehicles_position():
+    """PPO's per-cell logs read `cells` and `cell_of_row`, its speed log info["achieved_goal"]: the student's view
+    (its observation vector alone) keeps them."""
+    from auv_mj.agents.imitation import student_view
+
+    options = {k: v for k, v in HARD.items() if k not in ("arena", "tier")}
+    mixture = PlanningMixtureVectorEnv(1, tasks=("obstacles",), tiers=("hard",), waters=("ideal", "ocean"),
+                                       task_kwargs=options, threads=1)
+    view = student_view(mixture)
+    try:
+        obs, info = view.reset(seed=0)
+        raw = mixture.privileged_state()["position"]
+        assert view.cells == mixture.cells and list(view.cell_of_row) == [0, 1]
+        assert obs.shape == (2, view.single_observation_space.shape[0])
+        np.testing.assert_allclose(info["achieved_goal"][0, :2], raw[0])
+        assert view.policy_options == {"action": "rate", "observation": "planner"}
+    finally:
+        view.close()

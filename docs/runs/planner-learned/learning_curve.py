@@ -1,0 +1,104 @@
+"""Draws learning_curve.png and writes learning_curve.csv from a student run (and, optionally, a run from scratch).
+
+Usage (from the repository root):
+    python docs/runs/planner-learned/learning_curve.py STUDENT_RUN [SCRATCH_RUN]
+STUDENT_RUN is the run directory of `auv-mj train dagger --task planning-mix` (its dagger.csv, dagger_cells.csv and,
+after the fine-tune, ppo/validation.csv); SCRATCH_RUN that of `auv-mj train ppo --preset learned` (validation.csv),
+PPO from scratch on the same problem without a teacher. The x axes are env steps and wall-clock on this machine; the
+y axis is the mean hard-tier validation success over the six hard cells (DAgger's rounds: 10 episodes a cell; the
+fine-tune's and the scratch run's validations: 50 a cell). The DAgger points count the labelled steps collected.
+"""
+
+from __future__ import annotations
+
+import csv
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+HARD_CELLS = [f"{task}/hard/{water}" for task in ("obstacles", "moving_obstacles", "tunnel")
+              for water in ("ideal", "ocean")]
+
+
+def read(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def student_points(run: Path) -> list[dict[str, float | str]]:
+    """One point per DAgger round and per fine-tune validation: phase, env steps, wall seconds, mean and cells."""
+    cells: dict[int, dict[str, float]] = {}
+    if (run / "dagger_cells.csv").is_file():
+        for row in read(run / "dagger_cells.csv"):
+            cells.setdefault(int(row["round"]), {})[row["cell"]] = float(row["val_success"])
+    points, wall = [], 0.0
+    for row in read(run / "dagger.csv"):
+        wall += float(row["wall_s"])
+        points.append({"phase": "dagger", "env_steps": int(row["dataset_steps"]), "wall_s": round(wall, 1),
+                       "hard_success": float(row["val_success"]), **cells.get(int(row["round"]), {})})
+    steps0, wall0 = (points[-1]["env_steps"], points[-1]["wall_s"]) if points else (0, 0.0)
+    if (run / "ppo" / "validation.csv").is_file():
+        for row in read(run / "ppo" / "validation.csv"):
+            points.append({"phase": "finetune", "env_steps": steps0 + int(row["env_steps"]),
+                           "wall_s": round(wall0 + float(row["train_wall_s"]), 1),
+                           "hard_success": float(row["hard_success"]),
+                           **{c: float(row[c]) for c in HARD_CELLS if row.get(c)}})
+    return points
+
+
+def scratch_points(run: Path) -> list[dict[str, float | str]]:
+    return [{"phase": "scratch", "env_steps": int(row["env_steps"]), "wall_s": float(row["train_wall_s"]),
+             "hard_success": float(row["hard_success"]), **{c: float(row[c]) for c in HARD_CELLS if row.get(c)}}
+            for row in read(run / "validation.csv")]
+
+
+def main(student: Path, scratch: Path | None = None) -> None:
+    runs = {"student": student_points(student)}
+    if scratch is not None:
+        runs["scratch"] = scratch_points(scratch)
+    with open(HERE / "learning_curve.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, ["run", "phase", "env_steps", "wall_s", "hard_success", *HARD_CELLS])
+        writer.writeheader()
+        for name, points in runs.items():
+            for point in points:
+                writer.writerow({"run": name, **point})
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4))
+    labels = {"dagger": "DAgger rounds (student drives, teacher labels)", "finetune": "PPO fine-tune of the student",
+              "scratch": "PPO from scratch, no teacher (ablation)"}
+    for points in runs.values():
+        for phase in ("dagger", "finetune", "scratch"):
+            mine = [p for p in points if p["phase"] == phase]
+            if not mine:
+                continue
+            axes[0].plot([p["env_steps"] / 1e6 for p in mine], [p["hard_success"] for p in mine], marker="o",
+                         label=labels[phase])
+            axes[1].plot([p["wall_s"] / 60 for p in mine], [p["hard_success"] for p in mine], marker="o",
+                         label=labels[phase])
+    for cell in HARD_CELLS:
+        mine = [p for p in runs["student"] if cell in p]
+        axes[2].plot([p["wall_s"] / 60 for p in mine], [p[cell] for p in mine], marker=".", label=cell)
+    axes[0].set_xlabel("env steps [millions]")
+    axes[1].set_xlabel("wall-clock on the 2-core machine [min]")
+    axes[2].set_xlabel("wall-clock [min] (the student, per hard cell)")
+    axes[0].set_ylabel("hard-tier validation success")
+    for ax in axes:
+        ax.axhline(0.9, color="grey", lw=0.8, ls="--")
+        ax.axhline(0.95, color="grey", lw=0.8, ls=":")
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="lower right", fontsize=8)
+    axes[2].legend(loc="lower right", fontsize=7)
+    fig.suptitle("planner-learned: the privileged teacher's student on the planning mixture (validation seeds)")
+    fig.tight_layout()
+    fig.savefig(HERE / "learning_curve.png", dpi=100)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) not in (2, 3):
+        raise SystemExit(__doc__)
+    main(*(Path(a) for a in sys.argv[1:]))

@@ -1,0 +1,173 @@
+"""The batched 6-DOF env (`auv_mj.tasks.vector3d.AUV3DVectorEnv`, issue 52) against the single one (`AUVGymEnv`).
+
+Sub-environment i reset with seed s runs exactly the single environment's episode for seed s under the same actions --
+observations, rewards, terminated / truncated and every info entry to 1e-9 -- for goal3d and tunnel3d, ideal and ocean
+water, through autoresets (which continue each sub-environment's RandomState, as `AUVGymEnv.reset()` without a seed
+does). The actions steer at the target with noise, or wander at full speed into the tube's wall.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+import auv_mj.tasks  # noqa: F401  (registers the ids)
+from auv_mj.control.depth_heading import DepthHeadingController
+from auv_mj.tasks import auv3d, suite
+from auv_mj.tasks.gym_adapter import AUVGymEnv
+from auv_mj.tasks.vector3d import AUV3DVectorEnv
+
+TOLERANCE = 1e-9
+SEEDS = (3, 4)
+TIME_LIMIT = 12.0
+"""Seconds of an episode here (24 steps): every sub-environment goes through an autoreset."""
+STEPS = 40
+
+
+def steer(observation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Actions towards the target's bearing and depth (observation entries 11-13), with noise, float32."""
+    bearing = np.arctan2(observation[:, 12], observation[:, 11])
+    heading = np.clip(bearing / (math.pi / 4) + rng.normal(0.0, 0.3, len(bearing)), -1.2, 1.2)
+    depth = np.clip(observation[:, 13] / 5.0 + rng.normal(0.0, 0.3, len(bearing)), -1.0, 1.0)
+    return np.stack([rng.uniform(0.2, 0.8, len(bearing)), heading, depth], axis=1).astype(np.float32)
+
+
+def assert_close(vector_value, single_value, what: str) -> None:
+    if isinstance(single_value, str):
+        assert vector_value == single_value, what
+        return
+    a, b = np.asarray(vector_value, dtype=float), np.asarray(single_value, dtype=float)
+    assert a.shape == b.shape, what
+    np.testing.assert_allclose(a, b, rtol=0, atol=TOLERANCE, err_msg=what)
+
+
+def wander(observation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Uniform actions at full speed, float32: the vehicle hits the tube's wall or broaches."""
+    actions = rng.uniform(-1.0, 1.0, (len(observation), 3))
+    actions[:, 0] = 1.0
+    return actions.astype(np.float32)
+
+
+def run_side_by_side(task: str, options: dict, mode: AutoresetMode, policy=steer) -> dict:
+    """Steps the batch and one AUVGymEnv per sub-environment on the same actions of `policy`, comparing everything;
+    returns counts of the episode endings and events seen."""
+    vector = AUV3DVectorEnv(task, len(SEEDS), options, threads=2, autoreset_mode=mode)
+    singles = [AUVGymEnv(task, options) for _ in SEEDS]
+    observation, info = vector.reset(seed=list(SEEDS))
+    for i, (single, seed) in enumerate(zip(singles, SEEDS, strict=True)):
+        expected, expected_info = single.reset(seed=seed)
+        for key in expected:
+            assert_close(observation[key][i], expected[key], f"reset {i} {key}")
+        for key, value in expected_info.items():
+            assert info["_" + key][i], f"reset {i} info {key}"
+            assert_close(info[key][i], value, f"reset {i} info {key}")
+    rng = np.random.default_rng(0)
+    pending = np.zeros(len(SEEDS), dtype=bool)
+    seen = {"terminated": 0, "truncated": 0, "autoresets": 0}
+    for t in range(STEPS):
+        actions = policy(observation["observation"], rng)
+        observation, reward, terminated, truncated, info = vector.step(actions)
+        for i, single in enumerate(singles):
+            where = f"step {t} env {i}"
+            if pending[i]:
+                expected, expected_info = single.reset()
+                expected_reward, expected_terminated, expected_truncated = 0.0, False, False
+                seen["autoresets"] += 1
+            else:
+                expected, expected_reward, expected_terminated, expected_truncated, expected_info = \
+                    single.step(actions[i])
+            final = mode == AutoresetMode.SAME_STEP and (expected_terminated or expected_truncated)
+            assert_close(reward[i], expected_reward, f"{where} reward")
+            assert terminated[i] == expected_terminated and truncated[i] == expected_truncated, where
+            step_obs = {key: info["final_obs"][i][key] for key in expected} if final else \
+                {key: observation[key][i] for key in expected}
+            step_info = {key: info["final_info"][key][i] for key in info["final_info"]
+                         if not key.startswith("_") and info["final_info"]["_" + key][i]} if final else \
+                {key: info[key][i] for key in info if not key.startswith("_") and key not in ("final_obs", "final_info")
+                 and info["_" + key][i]}
+            for key in expected:
+                assert_close(step_obs[key], expected[key], f"{where} {key}")
+            assert set(step_info) == set(expected_info), where
+            for key, value in expected_info.items():
+                assert_close(step_info[key], value, f"{where} info {key}")
+            if final:
+                expected, _ = single.reset()
+                seen["autoresets"] += 1
+                for key in expected:
+                    assert_close(observation[key][i], expected[key], f"{where} reset {key}")
+            event = expected_info.get("event", "")
+            if event:
+                seen[event] = seen.get(event, 0) + 1
+        if not pending.any():  # both vehicles stepped, on two threads
+            assert vector._stepper.threads_used == 2
+        seen["terminated"] += int(terminated.sum())
+        seen["truncated"] += int(truncated.sum())
+        pending = (terminated | truncated) if mode == AutoresetMode.NEXT_STEP else np.zeros(len(SEEDS), dtype=bool)
+    vector.close()
+    return seen
+
+
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+@pytest.mark.parametrize("water", ["ideal", "ocean"])
+@pytest.mark.parametrize("task", ["goal3d", "tunnel3d"])
+def test_sub_environment_is_the_single_environment(task, water):
+    options = {"conditions": water, "arena": "random", "time_limit": TIME_LIMIT}
+    seen = run_side_by_side(task, options, AutoresetMode.NEXT_STEP)
+    assert seen["autoresets"] >= len(SEEDS)
+    assert seen["truncated"] >= 1
+
+
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+def test_hard_goal3d_arenas_in_ocean_water():
+    """Walls, caves and seabed relief: the fan's and the altimeter's rays meet every kind of geom."""
+    options = {"conditions": "ocean", "arena": "random", "tier": "hard", "time_limit": TIME_LIMIT}
+    seen = run_side_by_side("goal3d", options, AutoresetMode.NEXT_STEP)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+def test_collisions_and_same_step_autoresets_in_ocean_water():
+    options = {"conditions": "ocean", "arena": "random", "time_limit": TIME_LIMIT}
+    seen = run_side_by_side("tunnel3d", options, AutoresetMode.SAME_STEP, wander)
+    assert seen["autoresets"] >= len(SEEDS)
+    assert seen.get("collision", 0) >= 1 and seen["terminated"] >= 1
+
+
+def test_make_vec_returns_the_batch():
+    env = gymnasium.make_vec("auv_mj/Tunnel3D-v0", num_envs=2, vectorization_mode="vector_entry_point",
+                             task_kwargs={"arena": "random"})
+    assert isinstance(env, AUV3DVectorEnv) and env.num_envs == 2
+    assert env.single_observation_space == AUVGymEnv("tunnel3d").observation_space
+    env.close()
+
+
+def test_other_executors_are_refused():
+    class Other(DepthHeadingController):
+        pass
+
+    with pytest.raises(ValueError, match="depth-heading S-plane"):
+        AUV3DVectorEnv("goal3d", 1, {"executor": Other()})
+
+
+def test_lookahead_targets_are_the_tubes_targets():
+    """`auv3d.lookahead_targets` (the batch's) against `Tunnel3D.target` (the single env's), anywhere about tubes of
+    different lengths: before their start, along them, off them and past their end."""
+    envs = [suite.load("auv3d", "tunnel3d", task_kwargs={"arena": "random", "random": seed}) for seed in (0, 1, 2)]
+    tasks = []
+    for env in envs:
+        env.reset()
+        tasks.append(env.task)
+    longest = max(len(task.path) for task in tasks)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        paths = np.stack([np.vstack([t.path, np.repeat(t.path[-1:], longest - len(t.path), axis=0)]) for t in tasks])
+        along = rng.uniform(-0.2, 1.2, len(tasks))
+        positions = np.stack([t.path[0] + a * (t.path[-1] - t.path[0]) + rng.normal(0.0, 4.0, 3)
+                              for t, a in zip(tasks, along, strict=True)])
+        got = auv3d.lookahead_targets(positions, paths, [len(t.path) for t in tasks])
+        for k, task in enumerate(tasks):
+            np.testing.assert_allclose(got[k], task.target(positions[k]), rtol=0, atol=TOLERANCE)
