@@ -1,4 +1,4 @@
-"""The trainer's peer (issue 51, item 6): sb3-contrib's RecurrentPPO on our training mixture, the new learning problem.
+"""The trainer's peer: sb3-contrib's RecurrentPPO on our training mixture, the learning problem of `--preset learned`.
 
 `python -m experiments.recurrent_peer --run-dir runs/peer/recurrent-ppo --wall-clock 1800 --steps 10000000` trains
 `sb3_contrib.RecurrentPPO("MlpLstmPolicy")` on the same problem as `auv-mj train ppo --preset learned`:
@@ -263,6 +263,28 @@ def validate_peer(run_dir: str | Path, episodes: int, threads: int = 1,
                     max_steps=mixture.validation_max_steps, task_kwargs=mixture.policy_kwargs())
 
 
+def plot_curves(run_dir: str | Path, path: str | Path) -> Path:
+    """PNG of the training episodes' success and collision rates per rollout against env steps and against
+    wall-clock (progress.csv)."""
+    from auv_mj.figures.canvas import new_figure, save
+
+    with open(Path(run_dir) / "progress.csv") as f:
+        rows = [r for r in csv.DictReader(f) if r["success"] != ""]
+    fig, axes = new_figure(1100, 420, 1, 2, sharey=True)
+    for ax, x, label in ((axes[0], "env_steps", "environment steps"), (axes[1], "wall_s", "wall-clock (s)")):
+        xs = [float(r[x]) for r in rows]
+        for column, colour in (("success", "tab:blue"), ("collision", "tab:red")):
+            ax.plot(xs, [float(r[column]) for r in rows], color=colour, label=f"{column} (training episodes)")
+        ax.set_xlabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("rate per rollout")
+    axes[0].set_ylim(-0.05, 1.05)
+    axes[0].legend(loc="best", fontsize="small")
+    fig.suptitle("sb3-contrib RecurrentPPO on the learned mixture (all 12 cells)")
+    fig.tight_layout()
+    return save(fig, path)
+
+
 def main(argv: list[str] | None = None, mixture: MixtureConfig = LEARNED_MIXTURE) -> int:
     """Trains the peer (or resumes it) on `mixture`, validates it and writes result.json."""
     parser = argparse.ArgumentParser(prog="python -m experiments.recurrent_peer", description=__doc__,
@@ -292,6 +314,8 @@ def main(argv: list[str] | None = None, mixture: MixtureConfig = LEARNED_MIXTURE
                       hard_success=round(float(np.mean(list(rates.values()))), 4),
                       validation_wall_s=round(time.perf_counter() - started, 1))
     _write_json(args.run_dir / RESULT_NAME, result)
+    if (args.run_dir / "progress.csv").is_file():
+        plot_curves(args.run_dir, args.run_dir / "curves.png")
     print(json.dumps(result, indent=2))
     return 0
 
