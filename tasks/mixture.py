@@ -16,11 +16,17 @@ int (or the first seed of the list) of the last reset: the whole sequence of epi
 seeds, which PPO derives from its run seed. (The row's task RandomState is re-seeded with that seed as the
 episode ends, so that the sub-env's own NEXT_STEP autoreset is exactly `reset(seed=that seed)`.)
 
+Autoreset: NEXT_STEP by default, Gymnasium's (and `auv_mj.agents.ppo`'s). `autoreset_mode="SameStep"` resets a row
+in the step that ended its episode, with the same seed stream (each cell's `AUVVectorEnv.autoreset_seed` draws it),
+and puts the last observation and info in info["final_obs"] and info["final_info"], as `AUVVectorEnv` does: what
+Stable-Baselines3's `VecEnv` needs (`auv_mj.tasks.vector_sb3.SB3VectorEnv` takes either env).
+
 `reward_scale` multiplies every reward (PPO's value targets stay near 1 with the progress reward's metres).
 """
 
 from __future__ import annotations
 
+import functools
 import itertools
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -95,10 +101,11 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
     def __init__(self, envs_per_cell: int | Sequence[int] = 8, tasks: Sequence[str] = MIXTURE_TASKS,
                  tiers: Sequence[str] = TIERS, waters: Sequence[str] = WATERS,
                  task_kwargs: Mapping[str, Any] | None = None, reward_scale: float = 1.0,
-                 threads: int | None = None):
+                 threads: int | None = None, autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
         """`envs_per_cell` is the vehicles of every cell, or a list of one count per cell in `mixture_cells`
         order; `task_kwargs` go to every cell's tasks (e.g. {"reward": "progress"}), beside the cell's own arena,
-        tier and conditions; `threads` are each cell's C batch threads (default: this process's CPUs)."""
+        tier and conditions; `threads` are each cell's C batch threads (default: this process's CPUs);
+        `autoreset_mode` one of `auv_mj.tasks.vector.AUTORESET_MODES` (the module docstring)."""
         self.cells = mixture_cells(tasks, tiers, waters)
         counts = [envs_per_cell] * len(self.cells) if isinstance(envs_per_cell, int | np.integer) \
             else list(envs_per_cell) if isinstance(envs_per_cell, Sequence) else [envs_per_cell]
@@ -126,9 +133,14 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         self.task_kwargs = task_kwargs
         self.policy_options = planning.policy_options(task_kwargs)
         """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` given: what a policy trained here must run with."""
-        self.subenvs = [AUVVectorEnv(task, num_envs=n, threads=threads,
+        self.subenvs = [AUVVectorEnv(task, num_envs=n, threads=threads, autoreset_mode=autoreset_mode,
                                      task_kwargs={**task_kwargs, "arena": "random", "tier": tier, "conditions": water})
                         for (task, tier, water), n in zip(self.cells, self.cell_sizes, strict=True)]
+        self.autoreset_mode = self.subenvs[0].autoreset_mode
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:
+            for k, sub in enumerate(self.subenvs):
+                sub.autoreset_seed = functools.partial(self._autoreset_seed, k)
         self.num_envs = int(self.cell_start[-1])
         first = self.subenvs[0].single_observation_space
         for sub in self.subenvs[1:]:
@@ -156,6 +168,13 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
     def _next_seed(self) -> int:
         seed = seed_ranges.train_seed(self._base, self.num_envs + self._episodes)
         self._episodes += 1
+        return seed
+
+    def _autoreset_seed(self, cell: int, row: int) -> int:
+        """The seed of the episode a SAME_STEP autoreset starts in row `row` of cell `cell` (the cells step in row
+        order, so the stream is NEXT_STEP's)."""
+        seed = self._next_seed()
+        self.episode_seeds[self.cell_start[cell] + row] = seed
         return seed
 
     def reset(self, *, seed: int | Sequence[int] | None = None, options: dict | None = None):
@@ -193,8 +212,9 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
     # --- stepping --------------------------------------------------------------------------------------
 
     def step(self, actions):
-        """One planner step of every row; an ended episode's row is re-seeded with the next training seed and
-        resets at its next step (NEXT_STEP autoreset)."""
+        """One planner step of every row; an ended episode's row gets the next training seed and resets at its next
+        step (NEXT_STEP autoreset) or in this one (SAME_STEP, info["final_obs"] and info["final_info"] the ended
+        episodes')."""
         actions = np.asarray(actions)
         if actions.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
@@ -203,14 +223,25 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         reward = np.concatenate([p[1] for p in parts]) * self.reward_scale
         terminated = np.concatenate([p[2] for p in parts])
         truncated = np.concatenate([p[3] for p in parts])
-        for row in np.flatnonzero(terminated | truncated):
+        done = terminated | truncated
+        infos = self._concat_infos([p[4] for p in parts])
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:
+            if done.any():  # the cells' autoresets drew their seeds (`_autoreset_seed`)
+                final_obs = np.full(self.num_envs, None, dtype=object)
+                for k, part in enumerate(parts):
+                    if "final_obs" in part[4]:
+                        final_obs[start[k]:start[k + 1]] = part[4]["final_obs"]
+                infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
+                infos["final_info"] = self._concat_infos([part[4].get("final_info", {}) for part in parts])
+                infos["_final_info"] = done.copy()
+            return self._concat_obs([p[0] for p in parts]), reward, terminated, truncated, infos
+        for row in np.flatnonzero(done):
             seed = self._next_seed()
             self.episode_seeds[row] = seed
             cell = self.cell_of_row[row]
             sub = self.subenvs[cell]
             # the sub-env's autoreset is then reset(seed=seed)
             sub.envs[row - self.cell_start[cell]].task.random.seed(seed)
-        infos = self._concat_infos([p[4] for p in parts])
         return self._concat_obs([p[0] for p in parts]), reward, terminated, truncated, infos
 
     def _concat_obs(self, observations: list[dict]) -> dict:
@@ -225,7 +256,7 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         for key in keys:
             sample = next(np.asarray(info[key]) for info in infos if key in info)
             if sample.dtype == object or isinstance(infos[0].get(key), dict):
-                continue  # final_obs / final_info are SAME_STEP's; this env autoresets NEXT_STEP
+                continue  # final_obs / final_info: SAME_STEP's, merged by `step`
             values = np.zeros((self.num_envs, *sample.shape[1:]), dtype=sample.dtype)
             mask = np.zeros(self.num_envs, dtype=bool)
             for k, info in enumerate(infos):

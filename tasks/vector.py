@@ -33,7 +33,9 @@ after a sub-environment's episode ended resets it (its action ignored) and retur
 reward 0, terminated and truncated False and the reset's info. `autoreset_mode=AutoresetMode.SAME_STEP`
 resets in the step that ended the episode and puts the last observation and info in info["final_obs"] and
 info["final_info"] (what Stable-Baselines3's `VecEnv` convention needs, `auv_mj.tasks.vector_sb3`). An autoreset
-continues the sub-environment's RandomState, as `AUVGymEnv.reset()` without a seed does.
+continues the sub-environment's RandomState, as `AUVGymEnv.reset()` without a seed does, unless `autoreset_seed` is
+set: a function of the row that gives the seed of the episode an autoreset starts there (the training mixture's seed
+stream, `auv_mj.tasks.mixture`), called in row order.
 
 Infos are Gymnasium's dict of arrays, each key with its "_key" mask of the sub-environments that reported it.
 
@@ -49,7 +51,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import gymnasium
@@ -120,6 +122,9 @@ class GoalVectorEnv(gymnasium.vector.VectorEnv):
         self.num_envs = int(num_envs)
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.autoreset_mode = mode
+        self.autoreset_seed: Callable[[int], int] | None = None
+        """The seed of the episode an autoreset starts in a row, given the row (called in row order); None: continue
+        the row's RandomState."""
         self._warned_clip = False
         self._needs_reset = True
         return task_kwargs, environment_kwargs
@@ -197,7 +202,7 @@ class GoalVectorEnv(gymnasium.vector.VectorEnv):
         done = term | trunc
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
             for i in np.flatnonzero(resetting):
-                self._write_obs(i, self._reset_one(int(i), None))
+                self._write_obs(i, self._reset_one(int(i), self._next_seed(int(i))))
                 self._put_reset_info(infos, int(i))
             infos["is_success"][resetting] = False
             infos["_is_success"][resetting] = True
@@ -219,9 +224,13 @@ class GoalVectorEnv(gymnasium.vector.VectorEnv):
                 infos["is_success"][done] = False
                 infos["_is_success"][done] = True
                 for i in ended:
-                    self._write_obs(i, self._reset_one(int(i), None))
+                    self._write_obs(i, self._reset_one(int(i), self._next_seed(int(i))))
                     self._put_reset_info(infos, int(i))
         return self._copy_obs(), reward, term, trunc, infos
+
+    def _next_seed(self, i: int) -> int | None:
+        """The seed of row i's autoreset (`autoreset_seed`)."""
+        return None if self.autoreset_seed is None else self.autoreset_seed(i)
 
     def _copy_obs(self) -> dict:
         return {key: value.copy() for key, value in self._last_obs.items()}

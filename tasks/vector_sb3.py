@@ -1,5 +1,6 @@
 """Stable-Baselines3's `VecEnv` face of the batched planning envs (`auv_mj.tasks.vector.AUVVectorEnv`, planar;
-`auv_mj.tasks.vector3d.AUV3DVectorEnv`, 6-DOF: both `GoalVectorEnv`s).
+`auv_mj.tasks.vector3d.AUV3DVectorEnv`, 6-DOF: both `GoalVectorEnv`s) and of the training mixture
+(`auv_mj.tasks.mixture.PlanningMixtureVectorEnv`).
 
 SB3 resets a finished sub-environment in the step that finished it and keeps the last observation in
 info["terminal_observation"] (and info["TimeLimit.truncated"] for a time limit), as its `DummyVecEnv` does; that is
@@ -9,6 +10,11 @@ vectorised reward, so HER's relabelling works on it as on `AUVGymEnv`.
 
     env = SB3VectorEnv(AUVVectorEnv("obstacles", 64, {"arena": "random"}, autoreset_mode="SameStep"))
     PPO("MultiInputPolicy", env).learn(100_000)
+
+`seed(s)` seeds the next reset as `env.reset(seed=s)` does (sub-environment i gets s + i; the mixture's rows
+`train_seed(s, i)`, TRAIN seeds only), where SB3's own VecEnv would give each sub-environment s + i itself. A learner
+of the observation vector alone (no goals in the world frame) reads it through SB3's own view,
+`VecExtractDictObs(env, "observation")`, which takes the key out of info["terminal_observation"] too.
 """
 
 from __future__ import annotations
@@ -25,27 +31,37 @@ except ImportError:  # SB3 is no dependency of auv-mj: this adapter is for those
     raise ImportError("auv_mj.tasks.vector_sb3 is Stable-Baselines3's face of the batched environment: "
                       "pip install stable-baselines3") from None
 
+from auv_mj.tasks.mixture import PlanningMixtureVectorEnv
 from auv_mj.tasks.vector import GoalVectorEnv
 
 
 class SB3VectorEnv(VecEnv):
-    """A `VecEnv` over one batched env (`GoalVectorEnv`) built with autoreset_mode SAME_STEP."""
+    """A `VecEnv` over one batched env (`GoalVectorEnv`) or the training mixture (`PlanningMixtureVectorEnv`), built
+    with autoreset_mode SAME_STEP."""
 
-    def __init__(self, env: GoalVectorEnv):
-        if not isinstance(env, GoalVectorEnv):
-            raise ValueError(f"env must be an AUVVectorEnv or an AUV3DVectorEnv, got {type(env).__name__}")
+    def __init__(self, env: GoalVectorEnv | PlanningMixtureVectorEnv):
+        if not isinstance(env, GoalVectorEnv | PlanningMixtureVectorEnv):
+            raise ValueError(f"env must be an AUVVectorEnv, an AUV3DVectorEnv or a PlanningMixtureVectorEnv, got "
+                             f"{type(env).__name__}")
         if env.autoreset_mode != AutoresetMode.SAME_STEP:
-            raise ValueError("env: SB3 resets in the step that ends an episode; build the AUVVectorEnv with "
-                             "autoreset_mode='SameStep'")
+            raise ValueError(f"env: SB3 resets in the step that ends an episode; build the {type(env).__name__} "
+                             "with autoreset_mode='SameStep'")
         self.env = env
         super().__init__(env.num_envs, env.single_observation_space, env.single_action_space)
         self._actions: np.ndarray | None = None
+        self._seed: int | None = None
+
+    def seed(self, seed: int | None = None) -> Sequence[int | None]:
+        """Seeds the next reset: `env.reset(seed=seed)` (see the module docstring); None draws one."""
+        seeds = super().seed(seed)
+        self._seed = seeds[0]
+        return seeds
 
     def reset(self):
-        """Resets every sub-environment with the seeds given to `seed` (then forgotten), else continuing each one's
-        RandomState."""
-        seeds = None if all(s is None for s in self._seeds) else list(self._seeds)
-        observation, info = self.env.reset(seed=seeds)
+        """Resets every sub-environment, with the seed given to `seed` (then forgotten), else continuing each one's
+        RandomState (the mixture: its seed stream)."""
+        observation, info = self.env.reset(seed=self._seed)
+        self._seed = None
         self._reset_seeds()
         self._reset_options()
         self.reset_infos = self._split(info)

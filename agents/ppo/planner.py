@@ -153,12 +153,13 @@ class MixtureConfig:
         return {name: value for name, value in (("action", self.action), ("observation", self.observation))
                 if value is not None}
 
-    def make_env(self, threads: int | None = None) -> PlanningMixtureVectorEnv:
-        """The training env."""
+    def make_env(self, threads: int | None = None, autoreset_mode: str = "NextStep") -> PlanningMixtureVectorEnv:
+        """The training env (autoreset NEXT_STEP, ours; "SameStep" for Stable-Baselines3's face of it,
+        `auv_mj.tasks.vector_sb3`)."""
         counts = self.counts()
         return PlanningMixtureVectorEnv(counts[0] if len(set(counts)) == 1 else counts, self.tasks, self.tiers,
                                         self.waters, task_kwargs=self.task_kwargs(), reward_scale=self.reward_scale,
-                                        threads=threads)
+                                        threads=threads, autoreset_mode=autoreset_mode)
 
 
 def mixture_from_dict(values: Mapping[str, Any]) -> MixtureConfig:
