@@ -50,7 +50,7 @@ from stable_baselines3.common.vec_env import VecExtractDictObs, VecNormalize
 
 from auv_mj.agents.ppo.planner import LEARNED_CONFIG, LEARNED_MIXTURE, MixtureConfig, validate
 from auv_mj.cli.options import positive_int, seed_int
-from auv_mj.tasks.planning import GEODESIC_DISCOUNT
+from auv_mj.tasks.planning_rewards import GEODESIC_DISCOUNT
 from auv_mj.tasks.vector_sb3 import SB3VectorEnv
 
 MODEL_NAME = "model.zip"

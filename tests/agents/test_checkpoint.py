@@ -16,13 +16,15 @@ from auv_mj.zoo.checkpoints import _checkpoint_dir
 SHIPPED = {"depth_executor.pt": "td3", "executor.pt": "executor", "executor_ocean.pt": "td3",
            "planner.pt": "her-ddpg", "planner_e2e.pt": "her-ddpg", "planner_general.pt": "ddpg",
            "planner_memory.pt": "ppo", "planner_route.pt": "ddpg", "planner_tunnel.pt": "her-ddpg"}
-"""Each shipped checkpoint and the kind its format marker (and agent field) gives it."""
+"""Each shipped checkpoint written before the kind tag, and the kind its format marker (and agent field) gives it."""
+TAGGED = {"planner_learned.pt": "ppo"}
+"""Each shipped checkpoint written since, and the kind its tag says."""
 SPEC = {"kind": "box", "obs_dim": 4, "act_dim": 2, "obs_shape": [4], "action_low": [-1.0, -1.0],
         "action_high": [1.0, 1.0]}
 
 
 def test_shipped_checkpoints_have_no_tag_and_load_by_the_kind_their_format_gives():
-    assert sorted(p.name for p in _checkpoint_dir().glob("*.pt")) == sorted(SHIPPED)
+    assert sorted(p.name for p in _checkpoint_dir().glob("*.pt")) == sorted({**SHIPPED, **TAGGED})
     for name, kind in SHIPPED.items():
         path = _checkpoint_dir() / name
         raw = torch.load(path, weights_only=True)["metadata"]
@@ -31,6 +33,10 @@ def test_shipped_checkpoints_have_no_tag_and_load_by_the_kind_their_format_gives
         assert checkpoint.kind == kind == checkpoint.metadata["kind"]
         loaded = PPOPolicy.load(path) if kind == "ppo" else Policy.load(path)
         assert isinstance(loaded, PPOPolicy if kind == "ppo" else Policy)
+    for name, kind in TAGGED.items():
+        raw = torch.load(_checkpoint_dir() / name, weights_only=True)["metadata"]
+        assert raw["kind"] == kind and read_checkpoint(_checkpoint_dir() / name).kind == kind
+        assert isinstance(PPOPolicy.load(_checkpoint_dir() / name), PPOPolicy)
 
 
 @pytest.mark.parametrize(("learner", "config", "agent", "kind"), [
