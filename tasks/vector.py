@@ -287,6 +287,30 @@ class GoalVectorEnv(gymnasium.vector.VectorEnv):
         """The task's `compute_terminated` for batches of goals."""
         return self.envs[0].task.compute_terminated(achieved_goal, desired_goal, info)
 
+    def _load_current_processes(self, i: int, current, ocean_time: float, at_state: Mapping[str, int],
+                                at_parameter: Mapping[str, int]) -> None:
+        """The current's two processes (their parameters, values and transitions) and their one stream of normal
+        draws into the stepper's row i, at the indices of the batch's C state and parameters (both domains' kernels
+        integrate the same processes, `auv_mj.sim.ocean`)."""
+        state, parameters = self._stepper.state[i], self._stepper.parameters[i]
+        state[at_state["current_on"]] = 1.0
+        state[at_state["ocean_time"]] = ocean_time
+        for process, name in ((current.speed, "speed"), (current.direction, "direction")):
+            for field, value in (("mean", process.mean), ("sigma", process.sigma),
+                                 ("time_constant", process.time_constant), ("low", process.low),
+                                 ("high", process.high)):
+                parameters[at_parameter[f"{name}_{field}"]] = value
+            key = "current_speed" if name == "speed" else "current_direction"
+            state[at_state[key]] = process.value
+            state[at_state[f"{key}_dt"]], state[at_state[f"{key}_a"]], state[at_state[f"{key}_b"]] = process.transition
+        normals = current.speed.normal
+        if current.direction.normal is not normals:
+            raise RuntimeError("the current's two processes must share one stream of normal draws")
+        pending = normals.pending()
+        self._stepper.normals[i, :len(pending)] = pending
+        self._stepper.normals_end[i] = len(pending)
+        self._current_rngs[i] = normals.rng
+
     def close_extras(self, **kwargs) -> None:
         """Drops the sub-environments."""
         self.envs = []
@@ -390,7 +414,7 @@ class AUVVectorEnv(GoalVectorEnv):
     def _load_executor(self, i: int, task) -> None:
         """The episode's command, the executor's memory and the current's processes into the stepper's rows."""
         at_state, at_parameter = batch.STATE_INDEX, batch.PARAMETER_INDEX
-        state, parameters = self._stepper.state[i], self._stepper.parameters[i]
+        state = self._stepper.state[i]
         state[:] = 0.0
         state[at_state["speed_command"]], state[at_state["heading_command"]] = task.episode.command
         int_speed, int_heading, last_u = task.executor.memory
@@ -405,23 +429,7 @@ class AUVVectorEnv(GoalVectorEnv):
         self._stepper.normals_end[i] = 0
         if current is None:
             return
-        state[at_state["current_on"]] = 1.0
-        state[at_state["ocean_time"]] = ocean.time
-        for process, name in ((current.speed, "speed"), (current.direction, "direction")):
-            for field, value in (("mean", process.mean), ("sigma", process.sigma),
-                                 ("time_constant", process.time_constant), ("low", process.low),
-                                 ("high", process.high)):
-                parameters[at_parameter[f"{name}_{field}"]] = value
-            key = "current_speed" if name == "speed" else "current_direction"
-            state[at_state[key]] = process.value
-            state[at_state[f"{key}_dt"]], state[at_state[f"{key}_a"]], state[at_state[f"{key}_b"]] = process.transition
-        normals = current.speed.normal
-        if current.direction.normal is not normals:
-            raise RuntimeError("the current's two processes must share one stream of normal draws")
-        pending = normals.pending()
-        self._stepper.normals[i, :len(pending)] = pending
-        self._stepper.normals_end[i] = len(pending)
-        self._current_rngs[i] = normals.rng
+        self._load_current_processes(i, current, ocean.time, at_state, at_parameter)
 
     # --- the batched step: PlanningTask.before_step, the physics, after_step, get_observation -----
 

@@ -288,34 +288,18 @@ class AUV3DVectorEnv(GoalVectorEnv):
     def _load_current(self, i: int, ocean) -> None:
         """The current's processes and its depth profile into the stepper's rows."""
         at_state, at_parameter = batch3d.STATE_INDEX, batch3d.PARAMETER_INDEX
-        state, parameters = self._stepper.state[i], self._stepper.parameters[i]
+        parameters = self._stepper.parameters[i]
         current = ocean.current
         self._current_rngs[i] = None
         self._stepper.normals_end[i] = 0
         parameters[:] = 0.0
         if current is None:
             return
-        state[at_state["current_on"]] = 1.0
-        state[at_state["ocean_time"]] = ocean.time
         if ocean.profile is not None:
             parameters[at_parameter["profile_on"]] = 1.0
             parameters[at_parameter["water_depth"]] = ocean.profile.water_depth
             parameters[at_parameter["exponent"]] = ocean.profile.exponent
-        for process, name in ((current.speed, "speed"), (current.direction, "direction")):
-            for field, value in (("mean", process.mean), ("sigma", process.sigma),
-                                 ("time_constant", process.time_constant), ("low", process.low),
-                                 ("high", process.high)):
-                parameters[at_parameter[f"{name}_{field}"]] = value
-            key = "current_speed" if name == "speed" else "current_direction"
-            state[at_state[key]] = process.value
-            state[at_state[f"{key}_dt"]], state[at_state[f"{key}_a"]], state[at_state[f"{key}_b"]] = process.transition
-        normals = current.speed.normal
-        if current.direction.normal is not normals:
-            raise RuntimeError("the current's two processes must share one stream of normal draws")
-        pending = normals.pending()
-        self._stepper.normals[i, :len(pending)] = pending
-        self._stepper.normals_end[i] = len(pending)
-        self._current_rngs[i] = normals.rng
+        self._load_current_processes(i, current, ocean.time, at_state, at_parameter)
 
     # --- the batched step: Planning3D.before_step, the physics, after_step, get_observation ---------
 
