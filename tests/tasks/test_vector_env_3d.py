@@ -14,6 +14,8 @@ import gymnasium
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
+from side_by_side import TOLERANCE
+from side_by_side import run_side_by_side as side_by_side
 
 import auv_mj.tasks  # noqa: F401  (registers the ids)
 from auv_mj.control.depth_heading import DepthHeadingController
@@ -21,7 +23,6 @@ from auv_mj.tasks import auv3d, suite
 from auv_mj.tasks.gym_adapter import AUVGymEnv
 from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
-TOLERANCE = 1e-9
 SEEDS = (3, 4)
 TIME_LIMIT = 12.0
 """Seconds of an episode here (24 steps): every sub-environment goes through an autoreset."""
@@ -36,15 +37,6 @@ def steer(observation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return np.stack([rng.uniform(0.2, 0.8, len(bearing)), heading, depth], axis=1).astype(np.float32)
 
 
-def assert_close(vector_value, single_value, what: str) -> None:
-    if isinstance(single_value, str):
-        assert vector_value == single_value, what
-        return
-    a, b = np.asarray(vector_value, dtype=float), np.asarray(single_value, dtype=float)
-    assert a.shape == b.shape, what
-    np.testing.assert_allclose(a, b, rtol=0, atol=TOLERANCE, err_msg=what)
-
-
 def wander(observation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Uniform actions at full speed, float32: the vehicle hits the tube's wall or broaches."""
     actions = rng.uniform(-1.0, 1.0, (len(observation), 3))
@@ -53,62 +45,16 @@ def wander(observation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 
 def run_side_by_side(task: str, options: dict, mode: AutoresetMode, policy=steer) -> dict:
-    """Steps the batch and one AUVGymEnv per sub-environment on the same actions of `policy`, comparing everything;
-    returns counts of the episode endings and events seen."""
+    """The batch beside one AUVGymEnv per sub-environment on `policy`'s actions (`side_by_side`), each step where
+    no row awaits its reset run on two threads."""
     vector = AUV3DVectorEnv(task, len(SEEDS), options, threads=2, autoreset_mode=mode)
-    singles = [AUVGymEnv(task, options) for _ in SEEDS]
-    observation, info = vector.reset(seed=list(SEEDS))
-    for i, (single, seed) in enumerate(zip(singles, SEEDS, strict=True)):
-        expected, expected_info = single.reset(seed=seed)
-        for key in expected:
-            assert_close(observation[key][i], expected[key], f"reset {i} {key}")
-        for key, value in expected_info.items():
-            assert info["_" + key][i], f"reset {i} info {key}"
-            assert_close(info[key][i], value, f"reset {i} info {key}")
-    rng = np.random.default_rng(0)
-    pending = np.zeros(len(SEEDS), dtype=bool)
-    seen = {"terminated": 0, "truncated": 0, "autoresets": 0}
-    for t in range(STEPS):
-        actions = policy(observation["observation"], rng)
-        observation, reward, terminated, truncated, info = vector.step(actions)
-        for i, single in enumerate(singles):
-            where = f"step {t} env {i}"
-            if pending[i]:
-                expected, expected_info = single.reset()
-                expected_reward, expected_terminated, expected_truncated = 0.0, False, False
-                seen["autoresets"] += 1
-            else:
-                expected, expected_reward, expected_terminated, expected_truncated, expected_info = \
-                    single.step(actions[i])
-            final = mode == AutoresetMode.SAME_STEP and (expected_terminated or expected_truncated)
-            assert_close(reward[i], expected_reward, f"{where} reward")
-            assert terminated[i] == expected_terminated and truncated[i] == expected_truncated, where
-            step_obs = {key: info["final_obs"][i][key] for key in expected} if final else \
-                {key: observation[key][i] for key in expected}
-            step_info = {key: info["final_info"][key][i] for key in info["final_info"]
-                         if not key.startswith("_") and info["final_info"]["_" + key][i]} if final else \
-                {key: info[key][i] for key in info if not key.startswith("_") and key not in ("final_obs", "final_info")
-                 and info["_" + key][i]}
-            for key in expected:
-                assert_close(step_obs[key], expected[key], f"{where} {key}")
-            assert set(step_info) == set(expected_info), where
-            for key, value in expected_info.items():
-                assert_close(step_info[key], value, f"{where} info {key}")
-            if final:
-                expected, _ = single.reset()
-                seen["autoresets"] += 1
-                for key in expected:
-                    assert_close(observation[key][i], expected[key], f"{where} reset {key}")
-            event = expected_info.get("event", "")
-            if event:
-                seen[event] = seen.get(event, 0) + 1
+
+    def on_two_threads(pending: np.ndarray) -> None:
         if not pending.any():  # both vehicles stepped, on two threads
             assert vector._stepper.threads_used == 2
-        seen["terminated"] += int(terminated.sum())
-        seen["truncated"] += int(truncated.sum())
-        pending = (terminated | truncated) if mode == AutoresetMode.NEXT_STEP else np.zeros(len(SEEDS), dtype=bool)
-    vector.close()
-    return seen
+
+    return side_by_side(vector, [AUVGymEnv(task, options) for _ in SEEDS], SEEDS, mode, policy, STEPS,
+                        on_two_threads)
 
 
 @pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
