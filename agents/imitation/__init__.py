@@ -14,12 +14,10 @@ from auv_mj.agents.imitation.dagger import (
     finetune,
     fit,
     imitation_loss,
-    student_inputs,
     student_spec,
-    student_view,
     train_dagger,
 )
 
 __all__ = ["CELLS_LOG_NAME", "CHECKPOINT_NAME", "LOG_NAME", "STUDENT_NAME", "DaggerConfig", "DaggerResult",
            "Sequences", "collect", "episodes_validator", "evaluate_student", "finetune", "fit", "imitation_loss",
-           "student_inputs", "student_spec", "student_view", "train_dagger"]
+           "student_spec", "train_dagger"]

@@ -41,8 +41,6 @@ from typing import Any
 import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
-from gymnasium.wrappers.vector import TransformObservation
 
 from auv_mj.agents.checkpoint import (
     config_from_dict,
@@ -56,7 +54,7 @@ from auv_mj.agents.checkpoint import (
 )
 from auv_mj.agents.ppo import ActorCritic, PPOConfig, build_model, save_ppo
 from auv_mj.agents.ppo import train as ppo_train
-from auv_mj.agents.ppo.spaces import autoreset_mode, env_spec
+from auv_mj.agents.ppo.spaces import autoreset_mode, env_spec, student_inputs, student_view
 from auv_mj.seeds import VALIDATION, train_seed
 
 CHECKPOINT_NAME = "dagger.pt"
@@ -159,13 +157,6 @@ class Sequences:
         return int(self.valid.sum())
 
 
-def student_inputs(obs: Any) -> np.ndarray:
-    """The student's input of a (batched) observation: a goal dict's `observation` vector alone, else the array."""
-    if isinstance(obs, Mapping):
-        obs = obs["observation"]
-    return np.asarray(obs, np.float32)
-
-
 def student_spec(env: VectorEnv) -> dict[str, Any]:
     """The student's spaces (`auv_mj.agents.ppo.env_spec`): the observation vector alone, the env's actions, and the
     task options it must run with (the env's `policy_options`, which the zoo applies when it deploys the file)."""
@@ -177,39 +168,6 @@ def student_spec(env: VectorEnv) -> dict[str, Any]:
     if options:  # the task options the student must run with (as `auv_mj.agents.ppo.train` keeps them)
         spec["task_options"] = options
     return spec
-
-
-class StudentView(TransformObservation):
-    """A goal-dict vector env as the student sees it (`student_view`); the dict's `achieved_goal` (the vehicle's
-    position) moves to info["achieved_goal"], for the training logs' speed, never an input."""
-
-    def __init__(self, env: VectorEnv):
-        single = env.single_observation_space["observation"]
-        super().__init__(env, student_inputs, batch_space(single, env.num_envs), single)
-        # a wrapper forwards no attributes: the options a policy must run with, and a mixture's cells for PPO's
-        # per-cell logs (`auv_mj.agents.ppo.Collector`)
-        self.policy_options = dict(getattr(env, "policy_options", None) or {})
-        for name in ("cells", "cell_of_row"):
-            if hasattr(env, name):
-                setattr(self, name, getattr(env, name))
-
-    def reset(self, *, seed: Any = None, options: dict | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        obs, info = self.env.reset(seed=seed, options=options)
-        return self.func(obs), {**info, "achieved_goal": obs["achieved_goal"]}
-
-    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        obs, reward, terminated, truncated, info = self.env.step(actions)
-        return self.func(obs), reward, terminated, truncated, {**info, "achieved_goal": obs["achieved_goal"]}
-
-
-def student_view(env: VectorEnv) -> VectorEnv:
-    """`env` as the student sees it, for PPO's fine-tune: its observation vector alone (a goal dict's `observation`;
-    no `desired_goal`), actions and the info unchanged (info["privileged"] for the critic) but for the achieved goal
-    (`StudentView`)."""
-    space = env.single_observation_space
-    if not (hasattr(space, "spaces") and "observation" in space.spaces):
-        return env
-    return StudentView(env)
 
 
 def finetune(env: VectorEnv, teacher: Teacher, student: str | Path, run_dir: str | Path, config: PPOConfig,

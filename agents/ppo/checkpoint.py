@@ -60,15 +60,18 @@ def load_model(path: str | Path, tensors: Mapping[str, torch.Tensor], spec: Mapp
     return model.to(config.device)
 
 
-def load_actor(model: ActorCritic, tensors: Mapping[str, torch.Tensor], path: Path) -> None:
+def load_actor(model: ActorCritic, tensors: Mapping[str, torch.Tensor], path: Path, critic: bool = False) -> None:
     """A new run's actor (encoder, memory, head, log std) and observation normaliser from a checkpoint's tensors
-    (a student's); the critic keeps its fresh weights where the checkpoint's does not fit (a privileged critic)."""
+    (a student's); the critic keeps its fresh weights, unless `critic` and the checkpoint's whole critic (its own
+    networks and privileged normaliser) fits this one: a PPO run's own checkpoint continued on a new mixture
+    (`auv-mj train ppo --init`), whose trained critic spares the actor the first updates' wrong advantages."""
     own = model.state_dict()
     taken = {k[len("model."):]: v for k, v in tensors.items() if k.startswith("model.")}
-    fits = {k: v for k, v in taken.items() if k in own and own[k].shape == v.shape
-            and not k.startswith(("critic", "privileged_norm"))}
-    actor = [k for k in own if k.startswith(("encoder", "core", "actor", "obs_norm"))]
+    fits = {k: v for k, v in taken.items() if k in own and own[k].shape == v.shape}
+    actor = [k for k in own if not k.startswith(("critic", "privileged_norm"))]
     missing = [k for k in actor if k not in fits]
     if missing:
         raise ValueError(f"checkpoint {path} does not fit this actor: {missing[:4]}")
-    model.load_state_dict({**own, **fits})
+    critic_keys = [k for k in own if k not in actor]  # the critic's own networks and its privileged normaliser
+    keep = actor + (critic_keys if critic and all(k in fits for k in critic_keys) else [])
+    model.load_state_dict({**own, **{k: fits[k] for k in keep}})

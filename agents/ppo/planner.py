@@ -46,6 +46,7 @@ from auv_mj.agents.ppo.checkpoint import CHECKPOINT_NAME, read_ppo
 from auv_mj.agents.ppo.config import PPOConfig
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.agents.ppo.ppo import train
+from auv_mj.agents.ppo.spaces import student_view
 from auv_mj.seeds import VALIDATION
 from auv_mj.tasks.mixture import MIXTURE_TASKS, TIERS, WATERS, PlanningMixtureVectorEnv, cell_counts, mixture_cells
 from auv_mj.tasks.planning_rewards import GEODESIC_DISCOUNT
@@ -170,7 +171,7 @@ def mixture_from_dict(values: Mapping[str, Any]) -> MixtureConfig:
 def ground_speed(next_obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
     """Each vehicle's speed over the ground in the step just taken (m/s): from where it began
     (info["previous_achieved_goal"], (x, y)) to where it is (the observation's achieved_goal, whose first two
-    entries are (x, y); a student's view of the env, `auv_mj.agents.imitation.StudentView`, keeps it in
+    entries are (x, y); a student's view of the env, `auv_mj.agents.ppo.spaces.StudentView`, keeps it in
     info["achieved_goal"]), over PLANNER_DT."""
     achieved = next_obs["achieved_goal"] if isinstance(next_obs, Mapping) else info["achieved_goal"]
     moved = np.asarray(achieved, float)[:, :2] - np.asarray(info["previous_achieved_goal"], float)
@@ -245,10 +246,15 @@ def _replace_file(source: Path, target: Path) -> None:
     tmp.replace(target)
 
 
+def _view(env: VectorEnv, student: bool) -> VectorEnv:
+    return student_view(env) if student else env
+
+
 def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: MixtureConfig, total_steps: int,
                   *, resume: bool = False, progress: bool = True, tensorboard: bool = True,
                   threads: int | None = None, env: VectorEnv | None = None,
-                  teacher: Callable[[], np.ndarray] | None = None, init: str | Path | None = None) -> dict[str, Any]:
+                  teacher: Callable[[], np.ndarray] | None = None, init: str | Path | None = None,
+                  init_critic: bool = False) -> dict[str, Any]:
     """Trains the planner (see the module docstring) for `total_steps` env steps, the steps its schedules span;
     returns {"env_steps", "best_steps", "best_success" (the chosen window's mean), "best_point" (the chosen
     snapshot's own validation), "checkpoint", "best"}.
@@ -259,7 +265,10 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
 
     A student's fine-tune (issue 51, `auv_mj.jobs.student`) passes `env`, the mixture as the student sees it (made by
     the caller, kept open across the chunks), `teacher`, the teacher's labels on it (`ppo.train`'s imitation term),
-    and `init`, the student's checkpoint that a new run starts from."""
+    and `init`, the student's checkpoint that a new run starts from. `auv-mj train ppo --init` continues a trained
+    planner (its checkpoint, or a learned policy's name) on a new mixture as a new run, its critic included
+    (`init_critic`); the mixture is seen as `init` (or the resumed run's checkpoint) saw it: a student's
+    observation vector alone (`student_view`) where it read no goal dict."""
     run_dir = Path(run_dir)
     mixture_path = run_dir / MIXTURE_NAME
     if resume:
@@ -269,6 +278,7 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
         (_, meta), saved_config = read_ppo(run_dir / CHECKPOINT_NAME)
         config = saved_config if config is None else config
         done_steps = int(meta["counters"]["env_steps"])
+        student = meta["spec"]["kind"] == "box"
     else:
         if (run_dir / CHECKPOINT_NAME).exists():
             raise FileExistsError(f"{run_dir / CHECKPOINT_NAME} exists: resume it or choose another run "
@@ -276,6 +286,7 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
         run_dir.mkdir(parents=True, exist_ok=True)
         config = config or PPOConfig()
         done_steps = 0
+        student = init is not None and read_ppo(init)[0].metadata["spec"]["kind"] == "box"
     mixture_path.write_text(json.dumps(config_to_dict(mixture), indent=2))
     per_rollout = config.num_steps * mixture.num_envs
     period = per_rollout * config.checkpoint_every
@@ -294,10 +305,11 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
     steps = done_steps
     while steps < target:
         goal = min(target, (steps // chunk + 1) * chunk)
-        result = train(env if env is not None else lambda: mixture.make_env(threads), config, run_dir, goal,
+        result = train(env if env is not None else lambda: _view(mixture.make_env(threads), student), config,
+                       run_dir, goal,
                        resume=steps > 0, progress=progress, tensorboard=tensorboard,
                        schedule_steps=None if steps else target, step_speed=ground_speed, teacher=teacher,
-                       init=None if steps else init)
+                       init=None if steps else init, init_critic=init_critic)
         steps = result.env_steps
         meta = read_ppo(result.checkpoint)[0].metadata
         snapshot = snapshots / f"steps_{steps}.pt"

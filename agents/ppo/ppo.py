@@ -265,7 +265,8 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
           *, resume: bool = False, progress: bool = True, tensorboard: bool = False,
           schedule_steps: int | None = None,
           step_speed: Callable[[Any, Mapping[str, Any]], np.ndarray] | None = None,
-          teacher: Callable[[], np.ndarray] | None = None, init: str | Path | None = None) -> PPOResult:
+          teacher: Callable[[], np.ndarray] | None = None, init: str | Path | None = None,
+          init_critic: bool = False) -> PPOResult:
     """Trains PPO on a Gymnasium vector env (or a zero-argument function making one) for `total_steps` env steps
     (rounded up to whole rollouts of num_steps x num_envs), checkpointing to `run_dir/checkpoint.pt`.
 
@@ -288,6 +289,8 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
     student.pt, `auv_mj.agents.imitation`), gives a new run its networks and observation statistics; `teacher()`,
     the teacher's actions (N, act_dim) at the env's current states, labels every rollout step, and with
     config.imitation_coef > 0 the update adds the decaying imitation term (`imitation_weight`, `ppo_loss`).
+    With `init_critic`, `init`'s critic comes too where the whole of it fits (a PPO run's own checkpoint,
+    continued on a new mixture: `load_actor`).
     """
     if not isinstance(total_steps, int) or isinstance(total_steps, bool) or total_steps < 1:
         raise ValueError(f"total_steps must be a whole number >= 1, got {total_steps!r}")
@@ -347,7 +350,7 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
                 if {k: v for k, v in init_meta["spec"].items() if k != "privileged_dim"} != {
                         k: v for k, v in spec.items() if k != "privileged_dim"}:
                     raise ValueError(f"checkpoint {init} is for spaces {init_meta['spec']}, this env has {spec}")
-                load_actor(model, init_tensors, Path(init))
+                load_actor(model, init_tensors, Path(init), critic=init_critic)
             optimizer = make_optimizer(model, config)
         if config.imitation_coef > 0 and teacher is None:
             raise ValueError("PPOConfig.imitation_coef > 0 needs a teacher (train(..., teacher=...))")

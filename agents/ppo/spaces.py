@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+from gymnasium.wrappers.vector import TransformObservation
 
 OBS_KEYS = ("observation", "desired_goal")
 """The keys of a goal Dict observation that form the network input, concatenated in this order."""
@@ -57,7 +59,7 @@ def flatten_obs(obs: np.ndarray | Mapping[str, np.ndarray], spec: Mapping[str, A
         lead = arrays[0].shape[:-1] if arrays[0].ndim else ()
         flat = np.concatenate([a.reshape(*lead, -1) for a in arrays], axis=-1)
     else:
-        if isinstance(obs, Mapping):  # a student of the vector alone (`auv_mj.agents.imitation.student_view`)
+        if isinstance(obs, Mapping):  # a student of the vector alone (`student_view`)
             if "observation" not in obs:
                 raise ValueError(f"a Box policy takes an array or a dict with an 'observation' entry, got keys "
                                  f"{sorted(obs)}")
@@ -104,3 +106,43 @@ def final_observation(info: Mapping[str, Any], i: int) -> Any:
     if isinstance(final, Mapping):
         return {k: v[i] for k, v in final.items()}
     return final[i]
+
+
+def student_inputs(obs: Any) -> np.ndarray:
+    """The student's input of a (batched) observation: a goal dict's `observation` vector alone, else the array."""
+    if isinstance(obs, Mapping):
+        obs = obs["observation"]
+    return np.asarray(obs, np.float32)
+
+
+class StudentView(TransformObservation):
+    """A goal-dict vector env as the student sees it (`student_view`); the dict's `achieved_goal` (the vehicle's
+    position) moves to info["achieved_goal"], for the training logs' speed, never an input."""
+
+    def __init__(self, env: VectorEnv):
+        single = env.single_observation_space["observation"]
+        super().__init__(env, student_inputs, batch_space(single, env.num_envs), single)
+        # a wrapper forwards no attributes: the options a policy must run with, and a mixture's cells for PPO's
+        # per-cell logs (`auv_mj.agents.ppo.Collector`)
+        self.policy_options = dict(getattr(env, "policy_options", None) or {})
+        for name in ("cells", "cell_of_row"):
+            if hasattr(env, name):
+                setattr(self, name, getattr(env, name))
+
+    def reset(self, *, seed: Any = None, options: dict | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self.func(obs), {**info, "achieved_goal": obs["achieved_goal"]}
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(actions)
+        return self.func(obs), reward, terminated, truncated, {**info, "achieved_goal": obs["achieved_goal"]}
+
+
+def student_view(env: VectorEnv) -> VectorEnv:
+    """`env` as the student sees it, for PPO's fine-tune: its observation vector alone (a goal dict's `observation`;
+    no `desired_goal`), actions and the info unchanged (info["privileged"] for the critic) but for the achieved goal
+    (`StudentView`)."""
+    space = env.single_observation_space
+    if not (hasattr(space, "spaces") and "observation" in space.spaces):
+        return env
+    return StudentView(env)

@@ -294,6 +294,9 @@ def _run_ppo(args: argparse.Namespace) -> int:
                       "validation_window": args.validation_window,
                       "validation_max_steps": args.validation_max_steps}
         mix_overrides = {k: v for k, v in mix_fields.items() if v is not None}
+        if args.resume and args.init:
+            raise ValueError("--init starts a new run; it cannot be combined with --resume")
+        init = None if args.init is None else zoo.checkpoint_path(args.init, args.task)
         if args.resume:
             base_mix = mixture_from_dict(_read_options(run_dir / MIXTURE_NAME))
             base = ppo.read_ppo(run_dir / ppo.CHECKPOINT_NAME)[1]
@@ -305,7 +308,7 @@ def _run_ppo(args: argparse.Namespace) -> int:
         config = dataclasses.replace(base, **overrides)
         result = train_planner(run_dir, config, mixture, args.steps, resume=args.resume,
                                progress=not args.no_progress, tensorboard=not args.no_tensorboard,
-                               threads=args.threads)
+                               threads=args.threads, init=init, init_critic=init is not None)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(f"{result['env_steps']} steps; chosen: the snapshot at {result['best_steps']} steps, hard-tier "

@@ -30,7 +30,6 @@ from auv_mj.agents.imitation import (
     evaluate_student,
     finetune,
     student_spec,
-    student_view,
     train_dagger,
 )
 from auv_mj.agents.imitation.dagger import VALIDATION_FIRST_SEED, Validator
@@ -40,6 +39,7 @@ from auv_mj.agents.ppo.planner import LEARNED_CONFIG, LEARNED_MIXTURE, MixtureCo
 from auv_mj.agents.ppo.planner import VALIDATION_FIRST_SEED as MIXTURE_VALIDATION_SEED
 from auv_mj.agents.ppo.planner import validate as validate_planner
 from auv_mj.agents.ppo.policy import PPOPolicy
+from auv_mj.agents.ppo.spaces import student_view
 from auv_mj.planners.teacher import BatchTeacher
 from auv_mj.tasks.vector import AUVVectorEnv
 

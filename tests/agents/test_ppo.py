@@ -727,6 +727,24 @@ def test_a_privileged_critic_trains_resumes_and_its_policy_and_export_act_withou
         train(CueEnv(4), config, tmp_path / "no-privileged", total_steps=40, progress=False)
 
 
+def test_a_new_run_from_a_checkpoint_takes_its_actor_and_only_with_init_critic_its_critic(tmp_path):
+    config = dataclasses.replace(TOY_CONFIG, num_steps=10, num_minibatches=2, checkpoint_every=1,
+                                 separate_critic=True, privileged_critic=True)
+    source = train(PrivilegedCueEnv(4), config, tmp_path / "source", total_steps=80, progress=False).checkpoint
+    trained = read_ppo(source)[0].tensors
+    for init_critic in (False, True):
+        run = tmp_path / f"critic-{init_critic}"
+        # 1 step: the run stops after its first rollout, before the update changes a weight
+        fresh = train(PrivilegedCueEnv(4), dataclasses.replace(config, learning_rate=1e-12), run, total_steps=1,
+                      progress=False, init=source, init_critic=init_critic)
+        tensors = read_ppo(fresh.checkpoint)[0].tensors
+        for key in ("model.actor_head.weight", "model.core.weight_hh", "model.log_std"):
+            torch.testing.assert_close(tensors[key], trained[key], rtol=1e-6, atol=1e-9)
+        for key in ("model.critic_head.weight", "model.critic_core.weight_hh", "model.critic_encoder.0.weight"):
+            same = torch.allclose(tensors[key], trained[key], rtol=1e-6, atol=1e-9)
+            assert same == init_critic, key
+
+
 class CellCueEnv(CueEnv):
     """CueEnv in two cells of two rows, as the planning mixture: cell "easy/ideal" always succeeds, cell
     "hard/ocean" always collides; the ground speed is 1 m/s in the first cell and 3 m/s in the second."""

@@ -260,7 +260,7 @@ def test_dagger_on_the_mixture_validates_every_hard_cell(tmp_path):
 def test_the_students_view_of_the_mixture_keeps_its_cells_and_the_vehicles_position():
     """PPO's per-cell logs read `cells` and `cell_of_row`, its speed log info["achieved_goal"]: the student's view
     (its observation vector alone) keeps them."""
-    from auv_mj.agents.imitation import student_view
+    from auv_mj.agents.ppo.spaces import student_view
 
     options = {k: v for k, v in HARD.items() if k not in ("arena", "tier")}
     mixture = PlanningMixtureVectorEnv(1, tasks=("obstacles",), tiers=("hard",), waters=("ideal", "ocean"),
