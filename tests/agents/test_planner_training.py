@@ -4,6 +4,7 @@ short `auv-mj train ppo` run that checkpoints, validates and resumes exactly."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 
 import dm_env
@@ -237,3 +238,34 @@ def test_train_ppo_takes_the_new_options_and_a_resume_may_change_validation_but_
     assert _train(run, 432, "--resume", "--validation-window", "3") == 0  # the schedule stays the run's own
     assert json.loads((run / "mixture.json").read_text())["validation_window"] == 3
     assert float(_rows(run / "progress.csv")[-1]["learning_rate"]) == 0.0  # past the planned 288 steps: the floor
+
+
+def test_a_learner_without_the_goal_input_reads_the_observation_alone_and_a_new_run_continues_it(tmp_path,
+                                                                                                 monkeypatch):
+    from auv_mj.agents.ppo import planner
+
+    monkeypatch.setattr(planner, "validate", lambda policy, episodes, tasks, **kwargs: {
+        f"{task}/hard/ideal": 0.5 for task in tasks})
+    config = ppo.PPOConfig(num_steps=8, num_minibatches=1, update_epochs=1, hidden_sizes=(8,), recurrent="gru",
+                           recurrent_size=8, checkpoint_every=1, separate_critic=True)
+    cell = {"envs_per_cell": 1, "tasks": ("obstacles",), "tiers": ("hard",), "waters": ("ideal",),
+            "validate_every": 8, "observation": "planner"}
+    alone = planner.MixtureConfig(**cell, goal_input=False)
+    first = planner.train_planner(tmp_path / "alone", config, alone, 8, progress=False, tensorboard=False)
+    (tensors, meta), _ = ppo.read_ppo(first["checkpoint"])
+    with_goal = planner.MixtureConfig(**cell)
+    env = with_goal.make_env()
+    try:
+        parts = [int(np.prod(env.single_observation_space[k].shape)) for k in ("observation", "desired_goal")]
+    finally:
+        env.close()
+    assert meta["spec"]["kind"] == "box" and meta["spec"]["obs_dim"] == parts[0]
+    # a new run from it on a mixture that offers the goal dict sees it as the checkpoint did, its critic included
+    second = planner.train_planner(tmp_path / "on", dataclasses.replace(config, learning_rate=1e-12), with_goal, 8,
+                                   progress=False, tensorboard=False, init=first["checkpoint"], init_critic=True)
+    (again, meta2), _ = ppo.read_ppo(second["checkpoint"])
+    assert meta2["spec"]["obs_dim"] == parts[0]
+    for key in ("model.actor_head.weight", "model.critic_head.weight"):
+        torch.testing.assert_close(again[key], tensors[key], rtol=1e-6, atol=1e-9)
+    on_goal = planner.train_planner(tmp_path / "goal", config, with_goal, 8, progress=False, tensorboard=False)
+    assert ppo.read_ppo(on_goal["checkpoint"])[0].metadata["spec"]["obs_dim"] == sum(parts)
