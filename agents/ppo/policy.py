@@ -23,20 +23,27 @@ class PPOPolicy:
     alone (`ActorCritic.act`): a policy trained with a privileged critic needs no privileged input here. It takes
     one observation (a Box array or goal dict) or a batch of them with a leading env dimension; the memory is sized
     on the first call after a reset.
+
+    With `stochastic`, it acts as in training instead: the mean plus the policy's Gaussian noise (std exp(log_std),
+    drawn from a generator seeded with `seed`), then clipped; what the issue's "report the stochastic policy beside
+    the deterministic one" measures (issue 51, item 2).
     """
 
-    def __init__(self, model: ActorCritic, spec: Mapping[str, Any], device: str = "cpu"):
+    def __init__(self, model: ActorCritic, spec: Mapping[str, Any], device: str = "cpu", stochastic: bool = False,
+                 seed: int = 0):
         self.model = model.to(device).double().eval()
         self.spec = dict(spec)
         self.device = torch.device(device)
         self.state: torch.Tensor | None = None
+        self.stochastic = stochastic
+        self.rng = np.random.default_rng(seed)
 
     @classmethod
-    def load(cls, path: str | Path, device: str = "cpu") -> PPOPolicy:
+    def load(cls, path: str | Path, device: str = "cpu", stochastic: bool = False, seed: int = 0) -> PPOPolicy:
         """The policy of checkpoint `path` (of kind "ppo"); ValueError naming the file if it is unusable."""
         (tensors, meta), config = read_ppo(path)
         model = load_model(path, tensors, meta["spec"], dataclasses.replace(config, device="cpu"))
-        return cls(model, meta["spec"], device)
+        return cls(model, meta["spec"], device, stochastic, seed)
 
     def reset(self) -> None:
         """Forgets the memory: the next call starts an episode."""
@@ -55,5 +62,9 @@ class PPOPolicy:
             raise ValueError(f"a batch of {x.shape[0]} observations, the policy's memory holds {self.state.shape[0]} "
                              "envs: reset() before changing the batch size")
         mean, self.state = self.model.act(x[None], starts, self.state)
-        action = env_action(mean[0].cpu().numpy(), self.spec).reshape(-1, *self.spec["act_shape"])
+        normalised = mean[0].cpu().numpy()
+        if self.stochastic:
+            std = self.model.log_std.detach().exp().cpu().numpy()
+            normalised = normalised + std * self.rng.standard_normal(normalised.shape)
+        action = env_action(normalised, self.spec).reshape(-1, *self.spec["act_shape"])
         return action[0] if single else action

@@ -507,6 +507,21 @@ def test_policy_carries_memory_in_float64_and_reset_forgets_it(tmp_path):
         policy(seq[0])
 
 
+def test_a_stochastic_policy_adds_the_trained_noise_to_the_deterministic_mean_reproducibly(tmp_path):
+    config = dataclasses.replace(TOY_CONFIG, num_steps=5, num_minibatches=2, checkpoint_every=1, init_log_std=-2.0)
+    result = train(CueEnv(2), config, tmp_path, total_steps=10, progress=False)
+    mean_policy = PPOPolicy.load(result.checkpoint)
+    std = float(mean_policy.model.log_std.detach().exp()[0])
+    obs = np.zeros((4000, 1), np.float32)  # 4,000 envs, one step each: the noise's sample
+    mean = mean_policy(obs)[:, 0]
+    noisy = [PPOPolicy.load(result.checkpoint, stochastic=True, seed=seed)(obs)[:, 0] for seed in (3, 3, 4)]
+    np.testing.assert_array_equal(noisy[0], noisy[1])
+    assert not np.array_equal(noisy[0], noisy[2])
+    assert np.abs(noisy[0]).max() < 1.0  # a small std: the clip does not act, and the action is mean + N(0, std^2)
+    offsets = noisy[0] - mean
+    assert abs(offsets.std() - std) < 0.05 * std and abs(offsets.mean()) < 0.1 * std
+
+
 # ---------------------------------------------------------------------------------------------------------------------
 # Spaces and bad input
 
