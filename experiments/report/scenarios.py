@@ -10,7 +10,7 @@ from auv_mj.zoo import registry as policies
 from experiments.report.common import SCENARIOS, fmt
 from experiments.report.registry import ReportSettings, section
 
-SCENARIO_POLICIES = ("two-layer", "planner", "splane")
+SCENARIO_POLICIES = ("two-layer", "planner", "splane", "planner-learned")
 
 
 def scenarios(lines: list[str], figures: Path) -> None:
@@ -18,7 +18,8 @@ def scenarios(lines: list[str], figures: Path) -> None:
     lines += ["## Scenarios of Tables 6-8 and 12", "",
               "One episode per scenario (start, goal and obstacles from the table; obstacle shapes ours). "
               "`two-layer` = HER-DDPG planner on the DDPG executor (Sec. 4.3); `planner` = HER-DDPG on the "
-              "S-plane executor; `splane` = line-of-sight guidance on S-plane (no avoidance).", "",
+              "S-plane executor; `splane` = line-of-sight guidance on S-plane (no avoidance); `planner-learned` = "
+              "ours, the student of the privileged teacher (issue 51; not the paper's), on the same executor.", "",
               "| scenario | paper | policy | outcome | min clearance [m] | path length [m] | time [s] |",
               "| --- | --- | --- | --- | --- | --- | --- |"]
     for label, table, task, kwargs in SCENARIOS:

@@ -1,12 +1,11 @@
-"""Draws learning_curve.png and writes learning_curve.csv from a student run (and, optionally, a run from scratch).
+"""Draws learning_curve.png and writes learning_curve.csv from the run logs kept beside this script.
 
-Usage (from the repository root):
-    python docs/runs/planner-learned/learning_curve.py STUDENT_RUN [SCRATCH_RUN]
-STUDENT_RUN is the run directory of `auv-mj train dagger --task planning-mix` (its dagger.csv, dagger_cells.csv and,
-after the fine-tune, ppo/validation.csv); SCRATCH_RUN that of `auv-mj train ppo --preset learned` (validation.csv),
-PPO from scratch on the same problem without a teacher. The x axes are env steps and wall-clock on this machine; the
-y axis is the mean hard-tier validation success over the six hard cells (DAgger's rounds: 10 episodes a cell; the
-fine-tune's and the scratch run's validations: 50 a cell). The DAgger points count the labelled steps collected.
+Usage (from the repository root): `python docs/runs/planner-learned/learning_curve.py`. It reads the student's
+DAgger rounds (dagger.csv, dagger_cells.csv), its first fine-tune's validations (finetune_validation.csv), the
+second stage's (stage2_validation.csv, `auv-mj train ppo --init`) and PPO from scratch without a teacher
+(scratch_validation.csv). The x axes are env steps and wall-clock on this machine; the y axis is the mean hard-tier
+validation success over the six hard cells (DAgger's rounds: 10 episodes a cell; the validations after: 50 a cell).
+The DAgger points count the labelled steps collected; each later phase continues the one before on both axes.
 """
 
 from __future__ import annotations
@@ -30,37 +29,31 @@ def read(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(f))
 
 
-def student_points(run: Path) -> list[dict[str, float | str]]:
-    """One point per DAgger round and per fine-tune validation: phase, env steps, wall seconds, mean and cells."""
+def validation_points(path: Path, phase: str, steps0: float = 0, wall0: float = 0.0) -> list[dict[str, float | str]]:
+    """One point per validation row of `path` (a `validation.csv`), its steps and wall-clock after (steps0, wall0)."""
+    return [{"phase": phase, "env_steps": steps0 + int(row["env_steps"]),
+             "wall_s": round(wall0 + float(row["train_wall_s"]), 1), "hard_success": float(row["hard_success"]),
+             **{c: float(row[c]) for c in HARD_CELLS if row.get(c)}} for row in read(path)]
+
+
+def student_points() -> list[dict[str, float | str]]:
+    """One point per DAgger round and per validation of the two fine-tunes: phase, env steps, wall seconds, mean
+    and cells."""
     cells: dict[int, dict[str, float]] = {}
-    if (run / "dagger_cells.csv").is_file():
-        for row in read(run / "dagger_cells.csv"):
-            cells.setdefault(int(row["round"]), {})[row["cell"]] = float(row["val_success"])
+    for row in read(HERE / "dagger_cells.csv"):
+        cells.setdefault(int(row["round"]), {})[row["cell"]] = float(row["val_success"])
     points, wall = [], 0.0
-    for row in read(run / "dagger.csv"):
+    for row in read(HERE / "dagger.csv"):
         wall += float(row["wall_s"])
         points.append({"phase": "dagger", "env_steps": int(row["dataset_steps"]), "wall_s": round(wall, 1),
                        "hard_success": float(row["val_success"]), **cells.get(int(row["round"]), {})})
-    steps0, wall0 = (points[-1]["env_steps"], points[-1]["wall_s"]) if points else (0, 0.0)
-    if (run / "ppo" / "validation.csv").is_file():
-        for row in read(run / "ppo" / "validation.csv"):
-            points.append({"phase": "finetune", "env_steps": steps0 + int(row["env_steps"]),
-                           "wall_s": round(wall0 + float(row["train_wall_s"]), 1),
-                           "hard_success": float(row["hard_success"]),
-                           **{c: float(row[c]) for c in HARD_CELLS if row.get(c)}})
+    for phase, name in (("finetune", "finetune_validation.csv"), ("stage2", "stage2_validation.csv")):
+        points += validation_points(HERE / name, phase, points[-1]["env_steps"], points[-1]["wall_s"])
     return points
 
 
-def scratch_points(run: Path) -> list[dict[str, float | str]]:
-    return [{"phase": "scratch", "env_steps": int(row["env_steps"]), "wall_s": float(row["train_wall_s"]),
-             "hard_success": float(row["hard_success"]), **{c: float(row[c]) for c in HARD_CELLS if row.get(c)}}
-            for row in read(run / "validation.csv")]
-
-
-def main(student: Path, scratch: Path | None = None) -> None:
-    runs = {"student": student_points(student)}
-    if scratch is not None:
-        runs["scratch"] = scratch_points(scratch)
+def main() -> None:
+    runs = {"student": student_points(), "scratch": validation_points(HERE / "scratch_validation.csv", "scratch")}
     with open(HERE / "learning_curve.csv", "w", newline="") as f:
         writer = csv.DictWriter(f, ["run", "phase", "env_steps", "wall_s", "hard_success", *HARD_CELLS])
         writer.writeheader()
@@ -69,9 +62,10 @@ def main(student: Path, scratch: Path | None = None) -> None:
                 writer.writerow({"run": name, **point})
     fig, axes = plt.subplots(1, 3, figsize=(15, 4))
     labels = {"dagger": "DAgger rounds (student drives, teacher labels)", "finetune": "PPO fine-tune of the student",
+              "stage2": "second stage (train ppo --init, tunnels oversampled)",
               "scratch": "PPO from scratch, no teacher (ablation)"}
     for points in runs.values():
-        for phase in ("dagger", "finetune", "scratch"):
+        for phase in ("dagger", "finetune", "stage2", "scratch"):
             mine = [p for p in points if p["phase"] == phase]
             if not mine:
                 continue
@@ -99,6 +93,6 @@ def main(student: Path, scratch: Path | None = None) -> None:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) not in (2, 3):
+    if len(sys.argv) != 1:
         raise SystemExit(__doc__)
-    main(*(Path(a) for a in sys.argv[1:]))
+    main()
