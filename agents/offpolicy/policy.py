@@ -23,7 +23,10 @@ class Policy:
     actions. They run in float64: a float32 forward pass rounds differently on different CPUs (AVX2 against
     AVX-512 kernels), and a closed loop grows that last bit into metres (0.9 m in 60 steps of `two-layer`), so
     that an evaluation was the same only on the same kind of machine. In float64 the kernels still differ in
-    the last bit, about 1e-16, which the same growth (1e5 in that episode) leaves far below a test's 1e-9.
+    the last bit, about 1e-16, which the same growth (1e5 in that episode) leaves far below a test's 1e-9 over
+    60 steps; but over a whole scenario of several hundred steps the growth goes on, and the paper scenarios'
+    `two-layer` rows move by metres with the MKL kernels (goal a1: 340 m / 177 s by default on AVX-512, 338 m /
+    171 s with MKL_ENABLE_INSTRUCTIONS=AVX2, 344 m / 181 s with SSE4_2; `docs/reproduction.md`, "Scenarios").
     """
 
     def __init__(self, actor: Actor, obs_norm: Normalizer, metadata: Mapping[str, Any],
