@@ -241,6 +241,8 @@ def add_ppo_options(parser: argparse.ArgumentParser) -> None:
                        help=f"choose best.pt on the mean of K consecutive validations [{mix.validation_window}]")
     group.add_argument("--validation-max-steps", type=positive_int, metavar="N",
                        help="cut validation episodes after N steps (counted as failures) [the tasks' time limits]")
+    group.add_argument("--goal-input", type=_boolean, metavar="true|false",
+                       help=f"the learner reads desired_goal beside the observation [{mix.goal_input}]")
     group.add_argument("--threads", type=positive_int, help="threads of the batched physics [this process's CPUs]")
     docs = field_docs(PPOConfig)
     for field in dataclasses.fields(PPOConfig):
@@ -292,7 +294,7 @@ def _run_ppo(args: argparse.Namespace) -> int:
                       "cell_weights": tuple(args.cell_weights) if args.cell_weights else None,
                       "validate_every": args.validate_every, "validation_episodes": args.validation_episodes,
                       "validation_window": args.validation_window,
-                      "validation_max_steps": args.validation_max_steps}
+                      "validation_max_steps": args.validation_max_steps, "goal_input": args.goal_input}
         mix_overrides = {k: v for k, v in mix_fields.items() if v is not None}
         if args.resume and args.init:
             raise ValueError("--init starts a new run; it cannot be combined with --resume")

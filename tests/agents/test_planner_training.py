@@ -225,10 +225,10 @@ def test_train_planner_validates_on_validation_seeds_and_copies_the_windowed_cho
 def test_train_ppo_takes_the_new_options_and_a_resume_may_change_validation_but_not_training(tmp_path, capsys):
     run = tmp_path / "run"
     extra = ("--ppo-lr-schedule", "linear", "--ppo-separate-critic", "true", "--cell-weights", "hard=2",
-             "--validation-window", "2")
+             "--validation-window", "2", "--goal-input", "false")
     assert _train(run, 288, *extra) == 0  # 18 vehicles (the hard cells doubled), 144 steps a rollout
     mixture = json.loads((run / "mixture.json").read_text())
-    assert (mixture["cell_weights"], mixture["validation_window"]) == (["hard=2"], 2)
+    assert (mixture["cell_weights"], mixture["validation_window"], mixture["goal_input"]) == (["hard=2"], 2, False)
     (_, meta), config = ppo.read_ppo(run / "checkpoint.pt")
     assert config.separate_critic and config.lr_schedule == "linear" and meta["counters"]["schedule_steps"] == 288
     assert [float(r["learning_rate"]) for r in _rows(run / "progress.csv")] == pytest.approx([3e-4, 1.5e-4])
