@@ -199,12 +199,12 @@ register("planner-memory", PolicySpec(
     protection=False, accepts_path=True, role="comparison"))
 LEARNED_PLANNER = "planner_learned.pt"
 """The shipped checkpoint of `planner-learned`: a GRU student of the privileged geodesic teacher (DAgger on the
-training mixture), fine-tuned with PPO under a decaying imitation term, then a second PPO stage with the tunnels
+training mixture), fine-tuned with PPO under a decaying imitation term, then two more PPO stages with the tunnels
 oversampled (`auv-mj train ppo --init`), chosen on validation seeds (docs/runs/planner-learned/)."""
 register("planner-learned", PolicySpec(
     "the learned planner of the well-posed problem (geodesic reward, rate action, planner observation): a GRU "
     "student of the privileged geodesic teacher (DAgger on random obstacles, moving obstacles and tunnels, both tiers "
-    "and waters), fine-tuned with PPO on the geodesic reward in two stages; the sonars, its pose, the route target "
+    "and waters), fine-tuned with PPO on the geodesic reward in three stages; the sonars, its pose, the route target "
     "and its last action in, (speed, heading rate) out; no search, no line of sight, no protection domain, no residual",
     lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=LEARNED_PLANNER, tasks="planning",
     protection=False, accepts_path=True))

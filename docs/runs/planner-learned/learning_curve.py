@@ -2,7 +2,8 @@
 
 Usage (from the repository root): `python docs/runs/planner-learned/learning_curve.py`. It reads the student's
 DAgger rounds (dagger.csv, dagger_cells.csv), its first fine-tune's validations (finetune_validation.csv), the
-second stage's (stage2_validation.csv, `auv-mj train ppo --init`) and PPO from scratch without a teacher
+later stages' (stageK_validation.csv, each `auv-mj train ppo --init` from the stage before) and PPO from scratch
+without a teacher
 (scratch_validation.csv). The x axes are env steps and wall-clock on this machine; the y axis is the mean hard-tier
 validation success over the six hard cells (DAgger's rounds: 10 episodes a cell; the validations after: 50 a cell).
 The DAgger points count the labelled steps collected; each later phase continues the one before on both axes.
@@ -20,6 +21,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
+STAGES = sorted((p.name.split("_")[0] for p in HERE.glob("stage*_validation.csv")), key=lambda s: int(s[5:]))
+"""The later stages whose validations are kept here (stage2, stage3, ...), in order."""
+PHASES = ["dagger", "finetune", *STAGES]
+"""The student's phases, each continuing the one before."""
 HARD_CELLS = [f"{task}/hard/{water}" for task in ("obstacles", "moving_obstacles", "tunnel")
               for water in ("ideal", "ocean")]
 
@@ -37,7 +42,7 @@ def validation_points(path: Path, phase: str, steps0: float = 0, wall0: float = 
 
 
 def student_points() -> list[dict[str, float | str]]:
-    """One point per DAgger round and per validation of the two fine-tunes: phase, env steps, wall seconds, mean
+    """One point per DAgger round and per validation of each fine-tune: phase, env steps, wall seconds, mean
     and cells."""
     cells: dict[int, dict[str, float]] = {}
     for row in read(HERE / "dagger_cells.csv"):
@@ -47,8 +52,9 @@ def student_points() -> list[dict[str, float | str]]:
         wall += float(row["wall_s"])
         points.append({"phase": "dagger", "env_steps": int(row["dataset_steps"]), "wall_s": round(wall, 1),
                        "hard_success": float(row["val_success"]), **cells.get(int(row["round"]), {})})
-    for phase, name in (("finetune", "finetune_validation.csv"), ("stage2", "stage2_validation.csv")):
-        points += validation_points(HERE / name, phase, points[-1]["env_steps"], points[-1]["wall_s"])
+    for phase in PHASES[1:]:
+        points += validation_points(HERE / f"{phase}_validation.csv", phase, points[-1]["env_steps"],
+                                    points[-1]["wall_s"])
     return points
 
 
@@ -62,10 +68,10 @@ def main() -> None:
                 writer.writerow({"run": name, **point})
     fig, axes = plt.subplots(1, 3, figsize=(15, 4))
     labels = {"dagger": "DAgger rounds (student drives, teacher labels)", "finetune": "PPO fine-tune of the student",
-              "stage2": "second stage (train ppo --init, tunnels oversampled)",
+              **{stage: f"stage {stage[5:]} (train ppo --init, tunnels oversampled)" for stage in STAGES},
               "scratch": "PPO from scratch, no teacher (ablation)"}
     for points in runs.values():
-        for phase in ("dagger", "finetune", "stage2", "scratch"):
+        for phase in (*PHASES, "scratch"):
             mine = [p for p in points if p["phase"] == phase]
             if not mine:
                 continue
