@@ -1,8 +1,9 @@
 """The leaderboard: every published policy's results on a suite, as package data, and its Markdown tables.
 
 `LEADERBOARD` is the shipped board of suite v1 (`auv_mj/benchmark/data/leaderboard.json`, with `leaderboard.md` beside
-it), `LEADERBOARD_3D` the 3-D suite's (`leaderboard3d.json`), made by `auv-mj benchmark [--domain auv3d] --policy P
---publish`; `publish` adds a run to a board at any path the caller gives. A board holds one suite's runs.
+it), `LEADERBOARD_3D` the current 3-D suite's (suite 3d v2, `leaderboard3d_v2.json`; suite 3d v1's stays in
+`leaderboard3d.json`), made by `auv-mj benchmark [--domain auv3d] --policy P --publish`; `publish` adds a run to a
+board at any path the caller gives. A board holds one suite's runs.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ def board_path(suite: Suite) -> Path:
 LEADERBOARD = board_path(SUITES["auv"])
 """The shipped policies' results on suite v1 (package data), made by `auv-mj benchmark --publish`."""
 LEADERBOARD_3D = board_path(SUITES["auv3d"])
-"""The shipped policies' results on the 3-D suite, made by `auv-mj benchmark --domain auv3d --publish`."""
+"""The shipped policies' results on the current 3-D suite, made by `auv-mj benchmark --domain auv3d --publish`."""
 
 
 def read_board(path: Path = LEADERBOARD) -> dict:

@@ -24,7 +24,7 @@ import numpy as np
 
 from auv_mj.benchmark.journal import Interrupted, Journal, policy_identity
 from auv_mj.benchmark.metrics import cell_summary, oracle_times, success_rate, summarise
-from auv_mj.benchmark.suite import ORACLE, SUITES, Cell, Suite
+from auv_mj.benchmark.suite import ORACLE, SUITES, Cell, Suite, suite_for
 from auv_mj.console import progress_bar
 from auv_mj.episode import OUTCOMES, EpisodeRecord, episode_metrics, record_episode
 from auv_mj.jobs import distributed
@@ -285,39 +285,49 @@ def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = No
     with Journal(journal, run_name, force=force) if journal is not None else nullcontext() as log:
         by_cell, failed = run_episodes(policy_name, cells, episodes, max_steps, workers=workers,
                                        ray_address=ray_address, progress=progress, journal=log)
-    references = oracle_times(oracle)
     out = {"suite": suite.name, "suite_version": suite.version, "fingerprint": suite.fingerprint(),
            "policy": policy_name,
-           "episodes_per_cell": episodes or None, "max_steps": max_steps,
-           "time_efficiency_reference": ORACLE if references or policy_name == ORACLE else None, "cells": {}}
+           "episodes_per_cell": episodes or None, "max_steps": max_steps, "time_efficiency_reference": None,
+           "cells": {}}
     for cell in cells:
-        rows = by_cell[cell.name]
-        if policy_name == ORACLE:  # the oracle is always its own reference, never an older oracle run's
-            reference = {r["seed"]: r["time_to_goal"] for r in rows if r["success"]}
-        else:
-            reference = references.get(cell.name)
         out["cells"][cell.name] = {"task": cell.task, "tier": cell.tier, "water": cell.water,
                                    "task_kwargs": cell.task_kwargs, "seeds": [cell.first_seed, cell.first_seed
                                                                               + len(cell.seeds(episodes)) - 1],
-                                   "summary": cell_summary(rows, reference), "episodes": rows}
+                                   "episodes": by_cell[cell.name]}
     if failed:
         out["failed"] = failed
+    return rescore(out, oracle)
+
+
+def rescore(results: dict, oracle: dict | None) -> dict:
+    """`results` (a `benchmark` results dict) with every cell's summary made again from its episodes, time efficiency
+    against `oracle`'s results (None: none). A run keeps its episodes, so the reference can come after it: a suite's
+    rows run before its oracle is published take their time efficiency from it afterwards, the figures the same
+    as had they run after it. The oracle's own run is always its own reference, never an older oracle run's."""
+    references = oracle_times(oracle)
+    own = results["policy"] == ORACLE
+    out = {**results, "time_efficiency_reference": ORACLE if references or own else None, "cells": {}}
+    for name, cell in results["cells"].items():
+        rows = cell["episodes"]
+        reference = {r["seed"]: r["time_to_goal"] for r in rows if r["success"]} if own else references.get(name)
+        out["cells"][name] = {**{k: v for k, v in cell.items() if k not in ("summary", "episodes")},
+                              "summary": cell_summary(rows, reference), "episodes": rows}
     return out
 
 
 def run_suite(policy_name: str, cells: Sequence[Cell] | None = None, episodes: int | None = None, *,
               max_steps: int | None = None, oracle: dict | str | None = "published", workers: int = 1,
               ray_address: str | None = None, progress: bool = True, domain: str = "auv",
-              journal: str | Path | None = None, force: bool = False) -> dict:
+              version: int | None = None, journal: str | Path | None = None, force: bool = False) -> dict:
     """The named policy on the suite's `cells` (all of the `domain`'s suite by default: suite v1 of "auv", the 3-D
-    suite of "auv3d"): the results dict of `benchmark`.
+    suite of "auv3d", its newest `version` unless one is given): the results dict of `benchmark`.
 
     `oracle`: the oracle's results that time efficiency is measured against; "published" (the default) takes the
     shipped leaderboard's, None measures none (unless the policy is the oracle itself). `journal`: a file that keeps
     each finished episode, from which the same call resumes (`benchmark`)."""
     from auv_mj.benchmark.leaderboard import board_path, oracle_results, read_board
 
-    suite = SUITES[domain]
+    suite = suite_for(domain, version)
     if isinstance(oracle, str):
         if oracle != "published":
             raise ValueError(f"oracle must be 'published', a results dict or None, got {oracle!r}")

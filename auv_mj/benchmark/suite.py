@@ -1,5 +1,6 @@
 """The held-out benchmark's definitions: suite v1, one table of cells (`SUITE_V1`), and its fingerprint; the 3-D
-suite of the 6-DOF vehicle (`SUITE_3D_V1`, `auv-mj benchmark --domain auv3d`) with its own. `SUITES` names both.
+suites of the 6-DOF vehicle (`SUITE_3D_V1`, `SUITE_3D_V2`, `auv-mj benchmark --domain auv3d`) with their own.
+`VERSIONS` names every version of each domain's suite, `SUITES` the newest of each.
 
 Each row (a `Cell`) is a task with its options (a procedural arena of a tier in a water), a block of held-out TEST
 seeds (`auv_mj.seeds.TEST`) and its default number of episodes. Episode i of a cell runs with seed `cell.seeds[i]`.
@@ -80,8 +81,6 @@ FINGERPRINTS = {1: "4592ab23994f2ac5"}
 ORACLE = "oracle"
 """The policy whose times are the reference of time efficiency."""
 
-SUITE_3D_NAME = "suite 3d v1"
-SUITE_3D_VERSION = 1
 SUITE_3D_V1: tuple[Cell, ...] = (
     Cell("goal3d", "standard", "ideal", _block(3)),
     Cell("goal3d", "standard", "ocean", _block(3)),
@@ -94,8 +93,15 @@ SUITE_3D_V1: tuple[Cell, ...] = (
 )
 """The 3-D benchmark, version 1: the 6-DOF vehicle's goal3d (obstacles over a seabed; hard: walls to pass over or
 under, caves, seabed relief) and tunnel3d (tubes; hard: wide tubes with plugs), each in both tiers and both waters
-(`auv_mj.sim.ocean3d`), on their own TEST seed blocks; the same metrics as suite v1."""
-FINGERPRINTS_3D = {1: "80981134ec738137"}
+(`auv_mj.sim.ocean3d`), on their own TEST seed blocks; the same metrics as suite v1. Its board (`leaderboard3d.json`)
+was measured at commit 8b10ff2, before the tube-sized protection domain and the route time limits: that commit
+reproduces it; today's code runs its cells under version 2's rules."""
+SUITE_3D_V2: tuple[Cell, ...] = SUITE_3D_V1
+"""The 3-D benchmark, version 2: version 1's cells and seeds (so that the two pair by seed), measured under the rules
+version 1 lacked: the protection domain sized to the tube (`auv_mj.planners.los3d.tube_field`), time limits from
+the route (`auv_mj.tasks.auv3d.route_time_limit`) and the oracle's goal capture and tube clearance
+(`auv_mj.planners.map_planner3d`). Its board is `leaderboard3d_v2.json` (docs/benchmark.md, "suite 3d v2")."""
+FINGERPRINTS_3D = {1: "80981134ec738137", 2: "f8d702707f88071c"}
 """Version -> the first 16 hex digits of the 3-D suite's fingerprint."""
 
 
@@ -126,14 +132,33 @@ class Suite:
         return fingerprint(self.cells, self.name)
 
 
-SUITES = {"auv": Suite(SUITE_NAME, SUITE_VERSION, SUITE_V1, FINGERPRINTS, "leaderboard.json"),
-          "auv3d": Suite(SUITE_3D_NAME, SUITE_3D_VERSION, SUITE_3D_V1, FINGERPRINTS_3D, "leaderboard3d.json")}
-"""Domain (`auv-mj benchmark --domain`) -> its suite: the planar vehicle's suite v1, the 6-DOF vehicle's 3-D suite."""
+VERSIONS: dict[str, tuple[Suite, ...]] = {
+    "auv": (Suite(SUITE_NAME, SUITE_VERSION, SUITE_V1, FINGERPRINTS, "leaderboard.json"),),
+    "auv3d": (Suite("suite 3d v1", 1, SUITE_3D_V1, FINGERPRINTS_3D, "leaderboard3d.json"),
+              Suite("suite 3d v2", 2, SUITE_3D_V2, FINGERPRINTS_3D, "leaderboard3d_v2.json")),
+}
+"""Domain (`auv-mj benchmark --domain`) -> every version of its suite, oldest first; each keeps its board."""
+SUITES = {domain: versions[-1] for domain, versions in VERSIONS.items()}
+"""Domain -> its current suite: the planar vehicle's suite v1, the 6-DOF vehicle's suite 3d v2."""
+
+
+def suite_for(domain: str, version: int | None = None) -> Suite:
+    """The `domain`'s suite of `version` (its newest by default); ValueError naming both if there is none."""
+    if domain not in VERSIONS:
+        raise ValueError(f"no benchmark domain {domain!r}; the domains are {list(VERSIONS)}")
+    if version is None:
+        return SUITES[domain]
+    for suite in VERSIONS[domain]:
+        if suite.version == version:
+            return suite
+    raise ValueError(f"the {domain} suite has no version {version}; its versions are "
+                     f"{[s.version for s in VERSIONS[domain]]}")
 
 
 def suite_named(name: str) -> Suite:
     """The suite of SUITES called `name` (a results dict's "suite"); ValueError naming it if there is none."""
-    for suite in SUITES.values():
+    every = [suite for versions in VERSIONS.values() for suite in versions]
+    for suite in every:
         if suite.name == name:
             return suite
-    raise ValueError(f"no benchmark suite is called {name!r}; the suites are {[s.name for s in SUITES.values()]}")
+    raise ValueError(f"no benchmark suite is called {name!r}; the suites are {[s.name for s in every]}")

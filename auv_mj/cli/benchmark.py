@@ -1,11 +1,12 @@
 """`auv-mj benchmark`: the versioned held-out suite of planning cells in one command (`auv_mj.benchmark`).
 
-    auv-mj benchmark [--domain auv|auv3d] --policy P [--task obstacles,tunnel] [--tier standard,hard]
-                     [--water ideal,ocean] [--episodes N] [--workers N | --ray ADDRESS] -o DIR
+    auv-mj benchmark [--domain auv|auv3d [--suite-version N]] --policy P [--task obstacles,tunnel]
+                     [--tier standard,hard] [--water ideal,ocean] [--episodes N] [--workers N | --ray ADDRESS] -o DIR
 
-The suite (`auv_mj.benchmark.suite.SUITE_V1`; with `--domain auv3d` the 6-DOF vehicle's `SUITE_3D_V1`, its own
-suite with its own fingerprint and leaderboard) is one table of cells: a task with its options (a procedural arena
-of a tier in a water) on a block of held-out TEST seeds. Episodes run through the one episode loop and metric
+The suite (`auv_mj.benchmark.suite.SUITE_V1`; with `--domain auv3d` the 6-DOF vehicle's `SUITE_3D_V2`, its own
+suite with its own fingerprint and leaderboard; `--suite-version 1` runs suite 3d v1's cells against its board) is
+one table of cells: a task with its options (a procedural arena of a tier in a water) on a block of held-out TEST
+seeds. Episodes run through the one episode loop and metric
 definitions of `auv-mj eval` (`auv_mj.episode`, `auv_mj.benchmark.metrics`); changing what the suite measures is a
 new version with its own fingerprint.
 
@@ -51,7 +52,7 @@ from auv_mj.benchmark.leaderboard import (
     read_json,
 )
 from auv_mj.benchmark.runner import benchmark
-from auv_mj.benchmark.suite import EPISODES, ORACLE, SEED_BLOCK, SUITES, TIERS, WATERS
+from auv_mj.benchmark.suite import EPISODES, ORACLE, SEED_BLOCK, SUITES, TIERS, VERSIONS, WATERS, suite_for
 from auv_mj.cli.evaluate import interrupted, write_episodes_csv
 from auv_mj.cli.options import (
     MAX_PROCESSES,
@@ -93,6 +94,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of `auv-mj benchmark`."""
     parser.add_argument("--domain", choices=list(SUITES), default="auv", help="the suite: auv (suite v1, the planar "
                         "vehicle, the default) or auv3d (the 3-D suite of the 6-DOF vehicle)")
+    parser.add_argument("--suite-version", type=positive_int, default=None, metavar="N",
+                        help="the domain's suite of this version and its board (default: the newest; "
+                             + "; ".join(f"{d}: {', '.join(str(s.version) for s in v)}" for d, v in VERSIONS.items())
+                             + ")")
     parser.add_argument("--policy", required=True, help=policies.policy_help())
     parser.add_argument("--task", type=_choices(SUITE_TASKS, "--task"), default=None, metavar="TASKS",
                         help="only the cells of these tasks, comma-separated: "
@@ -146,7 +151,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    suite = SUITES[args.domain]
+    try:
+        suite = suite_for(args.domain, args.suite_version)
+    except ValueError as e:
+        usage_error(args, f"--suite-version: {e}")
     if args.leaderboard is None:
         args.leaderboard = board_path(suite)
     out = check_output_folder(args, args.out, "--out")

@@ -12,6 +12,7 @@ import pytest
 
 from auv_mj import seeds
 from auv_mj.benchmark import metrics, runner, suite
+from auv_mj.benchmark.leaderboard import board_path, read_board
 from auv_mj.benchmark.runner import run_episode
 
 AUV_MJ = [sys.executable, "-m", "auv_mj.cli"]
@@ -49,6 +50,25 @@ def test_the_3d_suite_is_pinned_to_its_version_and_apart_from_suite_v1():
     blocks = {c.first_seed for c in three.cells} | {c.first_seed for c in suite.SUITE_V1}
     assert all(first in seeds.TEST and first + suite.SEED_BLOCK - 1 in seeds.TEST for first in blocks)
     assert len({c.first_seed for c in three.cells} & {c.first_seed for c in suite.SUITE_V1}) == 0
+
+
+def test_suite_3d_v2_is_the_current_3d_suite_and_v1_keeps_its_fingerprint_and_board():
+    """suite 3d v2 pairs with v1 seed by seed under its own name, fingerprint and board; v1 and its published board
+    stay as they were (a board of v1 results names v1's fingerprint)."""
+    one, two = suite.VERSIONS["auv3d"]
+    assert suite.SUITES["auv3d"] is two and suite.suite_for("auv3d") is two and suite.suite_for("auv3d", 1) is one
+    assert (one.version, two.version) == (1, 2) and one.name == "suite 3d v1" and two.name == "suite 3d v2"
+    assert one.fingerprint() == suite.FINGERPRINTS_3D[1] == "80981134ec738137"
+    assert two.fingerprint() == suite.FINGERPRINTS_3D[2] != one.fingerprint()
+    assert [(c.name, c.first_seed) for c in two.cells] == [(c.name, c.first_seed) for c in one.cells]
+    assert one.board != two.board and suite.suite_named("suite 3d v1") is one
+    board = read_board(board_path(one))
+    assert board["suite"] == one.name and board["fingerprint"] == one.fingerprint()
+    assert {"oracle", "map-replan", "los-avoid", "splane", "two-layer-3d"} <= set(board["policies"])
+    with pytest.raises(ValueError, match="no version 3; its versions are \\[1, 2\\]"):
+        suite.suite_for("auv3d", 3)
+    with pytest.raises(ValueError, match="no benchmark domain 'auv4d'"):
+        suite.suite_for("auv4d")
 
 
 def test_the_suite_covers_every_set_tier_and_water_on_held_out_seeds():
@@ -208,3 +228,27 @@ def test_the_oracle_is_its_own_time_reference_beside_a_published_oracle():
     summary = results["cells"][cell.name]["summary"]
     assert results["cells"][cell.name]["episodes"][0]["success"]
     assert results["time_efficiency_reference"] == "oracle" and summary["time_efficiency"] == 1.0
+
+
+def test_rescore_gives_a_run_its_time_efficiency_against_an_oracle_that_came_after_it():
+    """A row run before its suite's oracle was published takes its time efficiency from it afterwards: the same
+    figures as a run after it (the shipped board's rows, rescored against the shipped oracle, are unchanged), the
+    oracle's time over the policy's on a success, 0 on a failure, and none without an oracle."""
+    board = read_board(board_path(suite.SUITES["auv"]))
+    oracle = board["policies"]["oracle"]
+    for name in ("planner-learned", "map-replan", "bug"):
+        entry = board["policies"][name]
+        assert json.dumps(runner.rescore(entry, oracle)) == json.dumps(entry)
+    bare = runner.rescore(board["policies"]["bug"], None)
+    assert bare["time_efficiency_reference"] is None
+    assert all(c["summary"]["time_efficiency"] is None for c in bare["cells"].values())
+    real = board["policies"]["bug"]["cells"]["tunnel/hard/ideal"]["episodes"][0]
+    cell = {"task": "tunnel", "tier": "hard", "water": "ideal", "episodes": [
+        {**real, "seed": 1, "success": True, "time_to_goal": 20.0, "outcome": "goal"},
+        {**real, "seed": 2, "success": False, "time_to_goal": None, "outcome": "collision"}]}
+    mine = {"policy": "mine", "cells": {"tunnel/hard/ideal": cell}}
+    theirs = {"policy": "oracle", "cells": {"tunnel/hard/ideal": {"episodes": [
+        {"seed": 1, "success": True, "time_to_goal": 10.0}, {"seed": 2, "success": True, "time_to_goal": 12.0}]}}}
+    summary = runner.rescore(mine, theirs)["cells"]["tunnel/hard/ideal"]["summary"]
+    assert summary["time_efficiency"] == pytest.approx((10.0 / 20.0 + 0.0) / 2)
+    assert summary["time_efficiency_episodes"] == 2

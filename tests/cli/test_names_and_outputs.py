@@ -255,6 +255,24 @@ def test_benchmark_help_shows_its_defaults_as_typed_and_task_picks_cells(tmp_pat
              "did you mean 'tunnel'?")
 
 
+def test_benchmark_suite_version_picks_the_3d_suite_and_its_board(tmp_path):
+    """--suite-version 1 runs suite 3d v1's cells and reads its board; a version the domain lacks is refused."""
+    import json
+
+    _refused(_run("benchmark", "--domain", "auv3d", "--suite-version", "3", "--policy", "splane", "-o", tmp_path / "b"),
+             "--suite-version: the auv3d suite has no version 3; its versions are [1, 2]")
+    out = tmp_path / "v1"
+    done = _run("benchmark", "--domain", "auv3d", "--suite-version", "1", "--policy", "splane", "--task", "tunnel3d",
+                "--tier", "standard", "--water", "ideal", "--episodes", "1", "--max-steps", "5", "--no-progress",
+                "-o", out, timeout=600)
+    assert done.returncode == 0, done.stderr
+    results = json.loads((out / "results.json").read_text())
+    assert (results["suite"], results["suite_version"], results["fingerprint"]) == ("suite 3d v1", 1,
+                                                                                     "80981134ec738137")
+    assert list(results["cells"]) == ["tunnel3d/standard/ideal"]
+    assert "suite 3d v1" in (out / "comparison.md").read_text()
+
+
 def test_benchmark_task_runs_only_its_cells(tmp_path):
     import json
 
