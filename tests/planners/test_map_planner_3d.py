@@ -162,3 +162,15 @@ def test_follower_captures_a_goal_inside_its_turning_circle():
         while not time_step.last():
             time_step = env.step(policy(time_step))
         assert env.task.last_info.get("event") == "goal", make.__name__
+
+
+def test_oracle_plans_over_a_wall_higher_than_its_search_window():
+    # the wall's top is 14 m above start and goal: the way over climbs past the window's 12 m above them
+    env = _wall_task(depth_below_top=14.0)
+    env.reset()
+    oracle = true_voxel_planner(env)
+    oracle.start()
+    oracle.plan(env.physics.position(), env.task.goal, GOAL_RADIUS)
+    assert oracle.path is not None
+    assert np.max(oracle.path[:, 2]) > -(30.0 - 14.0)  # over the wall's top
+    assert np.linalg.norm(oracle.path[-1] - env.task.goal) <= GOAL_RADIUS
