@@ -12,7 +12,7 @@ from auv_mj.arenas import traps3d, voxels
 from auv_mj.arenas.arena3d import arena_root, seabed
 from auv_mj.control.depth_heading import DepthHeadingGains
 from auv_mj.planners.los3d import classical_3d
-from auv_mj.planners.map_planner3d import SonarVoxelMap, sonar_voxel_planner
+from auv_mj.planners.map_planner3d import SonarVoxelMap, sonar_voxel_planner, true_voxel_planner, turning_radius
 from auv_mj.sim.sensors3d import FAN_AZIMUTHS
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import GOAL_RADIUS, MIN_DEPTH, WATER_DEPTH, Goal3D, Physics3D, Tunnel3D
@@ -127,3 +127,50 @@ def test_map_replan_passes_over_a_wall_that_los_avoid_stalls_at():
     assert outcomes["map-replan"][0] == "goal"
     assert outcomes["los-avoid"][0] != "goal"
     assert outcomes["los-avoid"][1][0] < 60.0  # it never got past the wall
+
+
+def _open_task(goal, time_limit: float = 120.0):
+    """Open water 60 m deep, the vehicle at 30 m heading east (x), the goal at `goal`."""
+
+    class OpenTask(Goal3D):
+        def draw_arena(self, random):
+            root = arena_root("open", [seabed(WATER_DEPTH)])
+            return root, np.array([0.0, 0.0, -30.0]), 0.0, np.asarray(goal, dtype=float), np.zeros((0, 3))
+
+    task = OpenTask(random=0)
+    return control.Environment(Physics3D.load(None, "ideal"), task, time_limit=time_limit, control_timestep=0.5)
+
+
+def test_turning_circle_is_wider_than_the_goal():
+    env = _open_task((100.0, 0.0, -30.0))
+    env.reset()
+    before = env.physics.position().copy(), env.physics.data.qvel.copy()
+    radius = turning_radius(env.task, env.physics)
+    assert 2.0 * GOAL_RADIUS < radius < 20.0  # why the capture is needed: a goal fits inside the circle
+    assert np.array_equal(env.physics.position(), before[0])  # measured on a copy: the episode is untouched
+    assert np.array_equal(env.physics.data.qvel, before[1])
+
+
+def test_follower_captures_a_goal_inside_its_turning_circle():
+    # 8 m abeam to port, inside the circle a hard left turn flies: pure pursuit circles it for ever
+    for make in (true_voxel_planner, sonar_voxel_planner):
+        env = _open_task((2.0, 8.0, -30.0))
+        policy = make(env)
+        time_step = env.reset()
+        radius = turning_radius(env.task, env.physics)
+        assert np.hypot(2.0, 8.0 - radius) < radius  # the goal lies inside the port turning circle
+        while not time_step.last():
+            time_step = env.step(policy(time_step))
+        assert env.task.last_info.get("event") == "goal", make.__name__
+
+
+def test_oracle_plans_over_a_wall_higher_than_its_search_window():
+    # the wall's top is 14 m above start and goal: the way over climbs past the window's 12 m above them
+    env = _wall_task(depth_below_top=14.0)
+    env.reset()
+    oracle = true_voxel_planner(env)
+    oracle.start()
+    oracle.plan(env.physics.position(), env.task.goal, GOAL_RADIUS)
+    assert oracle.path is not None
+    assert np.max(oracle.path[:, 2]) > -(30.0 - 14.0)  # over the wall's top
+    assert np.linalg.norm(oracle.path[-1] - env.task.goal) <= GOAL_RADIUS
