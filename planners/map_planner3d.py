@@ -188,7 +188,7 @@ class VoxelFollower(Replanning, PlannerBase):
     def start(self) -> None:
         """A new episode: an empty map over the episode's water, the surface closed."""
         task = self.task
-        self.max_slope = task.executor.gains.max_pitch * voxels.CLIMB_MARGIN
+        self.max_slope = task.max_pitch * voxels.CLIMB_MARGIN
         cell, self.hard = traps3d.map_cells(task.path if self.in_tube else np.zeros((0, 3)))
         points = np.vstack([self.physics.position(), task.goal, task.path.reshape(-1, 3)])
         margin = TUBE_MAP_MARGIN if self.in_tube else MAP_MARGIN

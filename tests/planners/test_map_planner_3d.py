@@ -129,15 +129,15 @@ def test_map_replan_passes_over_a_wall_that_los_avoid_stalls_at():
     assert outcomes["los-avoid"][1][0] < 60.0  # it never got past the wall
 
 
-def _open_task(goal, time_limit: float = 120.0):
-    """Open water 60 m deep, the vehicle at 30 m heading east (x), the goal at `goal`."""
+def _open_task(goal, time_limit: float = 120.0, executor=None):
+    """Open water 60 m deep, the vehicle at 30 m heading east (x), the goal at `goal`; `executor` the task's."""
 
     class OpenTask(Goal3D):
         def draw_arena(self, random):
             root = arena_root("open", [seabed(WATER_DEPTH)])
             return root, np.array([0.0, 0.0, -30.0]), 0.0, np.asarray(goal, dtype=float), np.zeros((0, 3))
 
-    task = OpenTask(random=0)
+    task = OpenTask(random=0, executor=executor)
     return control.Environment(Physics3D.load(None, "ideal"), task, time_limit=time_limit, control_timestep=0.5)
 
 
@@ -159,6 +159,19 @@ def test_follower_captures_a_goal_inside_its_turning_circle():
         time_step = env.reset()
         radius = turning_radius(env.task, env.physics)
         assert np.hypot(2.0, 8.0 - radius) < radius  # the goal lies inside the port turning circle
+        while not time_step.last():
+            time_step = env.step(policy(time_step))
+        assert env.task.last_info.get("event") == "goal", make.__name__
+
+
+def test_map_replan_and_oracle_fly_on_a_learned_depth_executor():
+    """An executor with no S-plane gains of its own (the learned depth executor) flies under both: the search's
+    pitch limit is the task's (`Planning3D.max_pitch`), not read off the executor's gains."""
+    for make in (true_voxel_planner, sonar_voxel_planner):
+        env = _open_task((60.0, 10.0, -26.0), executor="depth-executor")
+        assert not hasattr(env.task.executor, "gains")
+        policy = make(env)
+        time_step = env.reset()
         while not time_step.last():
             time_step = env.step(policy(time_step))
         assert env.task.last_info.get("event") == "goal", make.__name__
