@@ -243,6 +243,16 @@ class VoxelFollower(Replanning, PlannerBase):
         hi = np.minimum(ijk[0] + reach + 1, self.grid.shape)
         return bool(self.occupied[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]].any())
 
+    def _search(self, position: np.ndarray, goal: np.ndarray, radius: float, soft: float, lo: np.ndarray,
+                hi: np.ndarray, box) -> np.ndarray | None:
+        """The shortest flyable path on the map's voxels [lo, hi) (its costs from their clearance), within `box`
+        (None: anywhere in them); None if there is none."""
+        space = self.grid
+        crop = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
+        local = voxels.VoxelGrid(space.origin + lo * space.cell, space.cell, tuple(int(v) for v in hi - lo))
+        cost = grid.cost_field(voxels.clearance(local, self.occupied[crop]), self.hard, soft)
+        return voxels.shortest_path(local, cost, position, goal, self.max_slope, radius, box)
+
     def plan(self, position: np.ndarray, goal: np.ndarray, radius: float) -> None:
         """Searches the map round the vehicle and the target (the box grown by WINDOW, TUBE_WINDOW in a tube); where
         no path lies within that box and `whole_map_fallback`, the whole map; keeps the old path when neither finds one.
@@ -256,21 +266,11 @@ class VoxelFollower(Replanning, PlannerBase):
         window = TUBE_WINDOW if self.in_tube else WINDOW
         soft = self.hard + SOFT_CELLS * float(space.cell[0])
         ends = np.vstack([position, goal])
-        path, whole = None, False
-        while path is None:
-            if whole:
-                lo, hi = np.zeros(3, int), np.array(space.shape)
-                box = None
-            else:
-                lo, hi = space.block(ends.min(axis=0) - window - soft, ends.max(axis=0) + window + soft)
-                box = (ends.min(axis=0) - window, ends.max(axis=0) + window)
-            crop = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
-            local = voxels.VoxelGrid(space.origin + lo * space.cell, space.cell, tuple(int(v) for v in hi - lo))
-            cost = grid.cost_field(voxels.clearance(local, self.occupied[crop]), self.hard, soft)
-            path = voxels.shortest_path(local, cost, position, goal, self.max_slope, radius, box)
-            if whole or not self.whole_map_fallback or np.array_equal(hi - lo, space.shape):
-                break
-            whole = True
+        low, high = ends.min(axis=0), ends.max(axis=0)
+        lo, hi = space.block(low - window - soft, high + window + soft)
+        path = self._search(position, goal, radius, soft, lo, hi, (low - window, high + window))
+        if path is None and self.whole_map_fallback and not np.array_equal(hi - lo, space.shape):
+            path = self._search(position, goal, radius, soft, np.zeros(3, int), np.array(space.shape), None)
         if path is not None:
             if np.linalg.norm(path[-1] - goal) <= radius:
                 path[-1] = goal
