@@ -133,6 +133,13 @@ class Journal:
         self._append({"key": list(key), "metrics": metrics})
         self.episodes[tuple(key)] = metrics
 
+    def kept(self) -> int:
+        """How many episodes the file holds now, counted on disk (what a resumed run will find): Ctrl-C can fall
+        between an episode's line reaching the file and `episodes` taking it, so that is not counted there."""
+        self._sync()
+        self._file.seek(0)
+        return max(self._file.read().count(b"\n") - 1, 0)  # whole lines, less the run's first line
+
     def close(self) -> None:
         """Releases the file (and its lock); the episodes stay in it."""
         if not self._file.closed:

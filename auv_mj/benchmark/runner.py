@@ -163,7 +163,7 @@ def evaluate(policy_name: str, task_names: list[str], episodes: int, seed: int =
                 if on_episode is not None and (task, i) in finished:
                     on_episode(task, seed + i, finished[task, i])
     except KeyboardInterrupt:
-        raise Interrupted(log.path if log else None, len(finished), planned) from None
+        raise Interrupted(log.path if log else None, log.kept() if log else len(finished), planned) from None
     finally:
         bar.close()
         if log is not None:
@@ -260,7 +260,8 @@ def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None =
                 bar.update(1)
                 bar.set_postfix(success=_rate(list(rows.values())), failed=len(failed))
     except KeyboardInterrupt:
-        raise Interrupted(journal.path if journal else None, len(rows), len(jobs)) from None
+        raise Interrupted(journal.path if journal else None, journal.kept() if journal else len(rows),
+                          len(jobs)) from None
     finally:
         bar.close()
     by_cell = {c.name: [] for c in cells}

@@ -53,6 +53,20 @@ def test_a_journal_keeps_whole_lines_and_drops_one_cut_by_a_kill(tmp_path):
         {"key": ["goal", 2], "metrics": {"return": 2.0, "outcome": "collision"}}]
 
 
+def test_a_journal_counts_what_its_file_holds_for_the_interrupted_message(tmp_path):
+    """Ctrl-C can fall between an episode's line reaching the file and the run taking it: the count the message gives
+    (`kept`) is the file's, the episodes a resumed run will find, and includes those of an earlier run."""
+    path = tmp_path / "j.jsonl"
+    with Journal(path, {"policy": "p"}) as journal:
+        assert journal.kept() == 0
+        journal.add(("goal", 0), {"return": 0.1})
+        journal._append({"key": ["goal", 1], "metrics": {"return": 0.2}})  # on disk, not yet in `episodes`
+        assert (journal.kept(), len(journal.episodes)) == (2, 1)
+    with Journal(path, {"policy": "p"}) as journal:
+        journal.add(("goal", 2), {"return": 0.3})
+        assert journal.kept() == len(journal.episodes) == 3
+
+
 def test_another_runs_journal_is_refused_by_name_unless_forced(tmp_path):
     path = tmp_path / "j.jsonl"
     with Journal(path, {"policy": "p", "max_steps": 10}) as journal:
