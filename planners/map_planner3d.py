@@ -25,8 +25,10 @@ Algorithms*, Ch. 5-6):
   the tube's domain in a tube, sized to its radius (`auv_mj.planners.los3d.tube_field`) and reading the fan filtered
   over pings (`auv_mj.planners.los3d.domain_ranges`).
 
-The oracle is no competitor: it certifies the hard 3-D arenas (`auv_mj.arenas.traps3d.certify`, the same map and
-search) and gives the reference time of the 3-D suite's time efficiency.
+The oracle follows its path without the protection domain in a tube with no moving obstacles, where its map is
+exact (`TrueVoxelMap.guarded`). It is no competitor: it certifies the hard 3-D arenas
+(`auv_mj.arenas.traps3d.certify`, the same map and search) and gives the reference time of the 3-D suite's time
+efficiency.
 """
 
 from __future__ import annotations
@@ -309,12 +311,19 @@ class VoxelFollower(Replanning, PlannerBase):
         inside = distance < 2.0 * self.turn_radius * abs(math.sin(wrap_angle(bearing - heading)))
         return command[0], heading if inside else bearing, -float(goal[2])
 
+    @property
+    def guarded(self) -> bool:
+        """Whether the protection domain guards the path's command: it guards against what the map does not know."""
+        return True
+
     def act(self, time_step: dm_env.TimeStep) -> np.ndarray:
         if time_step.first():
             self.reset()
         command = self.command()
-        ranges = domain_ranges(self.task, self.fan, self.physics.time(), self.task.sensors.read(self.physics)["sonar"])
-        command = protect_command(command, self.physics.heading(), ranges, domain_field(self.task, PATH_FIELD))
+        if self.guarded:
+            ranges = domain_ranges(self.task, self.fan, self.physics.time(),
+                                   self.task.sensors.read(self.physics)["sonar"])
+            command = protect_command(command, self.physics.heading(), ranges, domain_field(self.task, PATH_FIELD))
         return command_action(command, self.physics)
 
 
@@ -386,6 +395,16 @@ class TrueVoxelMap(VoxelFollower):
 
     def update(self) -> bool:
         return False
+
+    @property
+    def guarded(self) -> bool:
+        """In a tube without moving obstacles the oracle's map holds every wall and plug exactly, so it follows its
+        path without the protection domain; a domain there only pushes: at a plug's edge, 1 m off the path it
+        certified, the tube's domain turned the vehicle harder than its fins could take back (validation seed 20003
+        of the hard tubes). Without it the oracle passed 50 and 48 of 50 hard validation tubes (seeds 20000-20049,
+        ideal and ocean water, `splane-ocean`) against 48 and 47 with it, and 20 and 20 of 20 standard ones.
+        In open water (goal3d) and among movers it keeps the domain."""
+        return not (self.in_tube and not self.task.movers)
 
 
 def sonar_voxel_planner(env) -> Planner:

@@ -3,7 +3,7 @@
 
     from auv_mj.benchmark import run_suite, SUITE_V1
     results = run_suite("map-replan", [c for c in SUITE_V1 if c.tier == "hard"], episodes=5, workers=2)
-    results_3d = run_suite("map-replan", episodes=5, workers=2, domain="auv3d")   # the 3-D suite, SUITE_3D_V2
+    results_3d = run_suite("map-replan", episodes=5, workers=2, domain="auv3d")   # the 3-D suite, SUITE_3D_V3
 
 The names below load their module on first use, so that `import auv_mj.benchmark.metrics` stays light (no torch).
 """
@@ -13,7 +13,8 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
-_NAMES = {"SUITE_V1": "suite", "SUITE_3D_V1": "suite", "SUITE_3D_V2": "suite", "SUITES": "suite", "VERSIONS": "suite",
+_NAMES = {"SUITE_V1": "suite", "SUITE_3D_V1": "suite", "SUITE_3D_V2": "suite", "SUITE_3D_V3": "suite",
+          "SUITES": "suite", "VERSIONS": "suite",
           "suite_for": "suite", "Cell": "suite",
           "fingerprint": "suite", "evaluate": "runner",
           "run_episode": "runner", "run_cell": "runner", "run_suite": "runner", "publish": "leaderboard",

@@ -1,9 +1,9 @@
 """The leaderboard: every published policy's results on a suite, as package data, and its Markdown tables.
 
 `LEADERBOARD` is the shipped board of suite v1 (`auv_mj/benchmark/data/leaderboard.json`, with `leaderboard.md` beside
-it), `LEADERBOARD_3D` the current 3-D suite's (suite 3d v2, `leaderboard3d_v2.json`; suite 3d v1's stays in
-`leaderboard3d.json`), made by `auv-mj benchmark [--domain auv3d] --policy P --publish`; `publish` adds a run to a
-board at any path the caller gives. A board holds one suite's runs.
+it), `LEADERBOARD_3D` the current 3-D suite's (suite 3d v3, `leaderboard3d_v3.json`; suite 3d v1's and v2's stay in
+`leaderboard3d.json` and `leaderboard3d_v2.json`), made by `auv-mj benchmark [--domain auv3d] --policy P
+--publish`; `publish` adds a run to a board at any path the caller gives. A board holds one suite's runs.
 """
 
 from __future__ import annotations

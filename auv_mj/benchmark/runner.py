@@ -222,8 +222,18 @@ def run_cell_episode(policy_name: str, task: str, seed: int, task_kwargs: dict, 
                                                      "return")}}
 
 
+def cell_task_kwargs(policy_name: str, cell: Cell) -> dict:
+    """The task options `policy_name` runs `cell` with: the cell's, less its executor for a policy that brings its
+    own (a `PolicySpec.executor`: `two-layer-3d` is line of sight on the learned depth executor in every suite)."""
+    options = cell.task_kwargs
+    if "executor" in options and policies.resolve(policy_name)[0].executor is not None:
+        options = {k: v for k, v in options.items() if k != "executor"}
+    return options
+
+
 def _jobs(policy_name: str, cells: Sequence[Cell], episodes: int | None, max_steps: int | None) -> list[tuple]:
-    return [(policy_name, c.task, s, c.task_kwargs, max_steps) for c in cells for s in c.seeds(episodes)]
+    return [(policy_name, c.task, s, cell_task_kwargs(policy_name, c), max_steps) for c in cells
+            for s in c.seeds(episodes)]
 
 
 def run_episodes(policy_name: str, cells: Sequence[Cell], episodes: int | None = None, max_steps: int | None = None,
@@ -291,9 +301,9 @@ def benchmark(policy_name: str, cells: Sequence[Cell], episodes: int | None = No
            "episodes_per_cell": episodes or None, "max_steps": max_steps, "time_efficiency_reference": None,
            "cells": {}}
     for cell in cells:
+        last = cell.first_seed + len(cell.seeds(episodes)) - 1
         out["cells"][cell.name] = {"task": cell.task, "tier": cell.tier, "water": cell.water,
-                                   "task_kwargs": cell.task_kwargs, "seeds": [cell.first_seed, cell.first_seed
-                                                                              + len(cell.seeds(episodes)) - 1],
+                                   "task_kwargs": cell_task_kwargs(policy_name, cell), "seeds": [cell.first_seed, last],
                                    "episodes": by_cell[cell.name]}
     if failed:
         out["failed"] = failed

@@ -1,5 +1,5 @@
 """The held-out benchmark's definitions: suite v1, one table of cells (`SUITE_V1`), and its fingerprint; the 3-D
-suites of the 6-DOF vehicle (`SUITE_3D_V1`, `SUITE_3D_V2`, `auv-mj benchmark --domain auv3d`) with their own.
+suites of the 6-DOF vehicle (`SUITE_3D_V1` to `SUITE_3D_V3`, `auv-mj benchmark --domain auv3d`) with their own.
 `VERSIONS` names every version of each domain's suite, `SUITES` the newest of each.
 
 Each row (a `Cell`) is a task with its options (a procedural arena of a tier in a water), a block of held-out TEST
@@ -13,7 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 from auv_mj import seeds
 
@@ -39,6 +39,11 @@ class Cell:
     first_seed: int
     """Episode i runs with seed first_seed + i (inside `auv_mj.seeds.TEST`)."""
     episodes: int = EPISODES
+    executor: str | None = None
+    """The execution layer every policy runs on in this cell (a name of `auv_mj.zoo.executors.EXECUTORS`), unless
+    the policy brings its own (a registered policy's fixed executor, e.g. `two-layer-3d`'s learned depth executor);
+    None: the task's own S-plane. Part of the definition only where set, so the cells of the suites that predate it
+    keep their fingerprints."""
 
     @property
     def name(self) -> str:
@@ -46,8 +51,10 @@ class Cell:
 
     @property
     def task_kwargs(self) -> dict:
-        """The task's options: a procedural arena of the cell's tier, in the cell's water."""
-        return {"arena": "random", "tier": self.tier, "conditions": self.water}
+        """The task's options: a procedural arena of the cell's tier, in the cell's water (on the cell's executor
+        where it names one)."""
+        options = {"arena": "random", "tier": self.tier, "conditions": self.water}
+        return options if self.executor is None else {**options, "executor": self.executor}
 
     def seeds(self, episodes: int | None = None) -> range:
         return range(self.first_seed, self.first_seed + (episodes or self.episodes))
@@ -101,14 +108,29 @@ SUITE_3D_V2: tuple[Cell, ...] = SUITE_3D_V1
 version 1 lacked: the protection domain sized to the tube (`auv_mj.planners.los3d.tube_field`), time limits from
 the route (`auv_mj.tasks.auv3d.route_time_limit`) and the oracle's goal capture and tube clearance
 (`auv_mj.planners.map_planner3d`). Its board is `leaderboard3d_v2.json` (docs/benchmark.md, "suite 3d v2")."""
-FINGERPRINTS_3D = {1: "80981134ec738137", 2: "f8d702707f88071c"}
+SUITE_3D_V3: tuple[Cell, ...] = tuple(replace(cell, executor="splane-ocean") for cell in SUITE_3D_V2)
+"""The 3-D benchmark, version 3: version 2's cells, seeds and rules, every policy on the depth-heading S-plane re-tuned
+in ocean water (`splane-ocean`, `auv_mj.control.splane.OCEAN_DEPTH_GAINS`) instead of the task's hand-set one, unless
+it brings its own executor. On version 2's hard tubes the re-tuned S-plane lifted the oracle from 47 and 38 to 48
+and 45 of 50 and `map-replan` from 22 and 14 to 44 and 26 (docs/executors.md): the hand-set S-plane's tracking, not
+the planners, failed there, and a benchmark of planners should measure them on the best classical execution layer.
+Its board is `leaderboard3d_v3.json` (docs/benchmark.md, "suite 3d v3")."""
+FINGERPRINTS_3D = {1: "80981134ec738137", 2: "f8d702707f88071c", 3: "d835f10a7865ba36"}
 """Version -> the first 16 hex digits of the 3-D suite's fingerprint."""
 
 
 def definition(suite: Sequence[Cell] = SUITE_V1, name: str = SUITE_NAME, version: int = SUITE_VERSION) -> dict:
     """The suite's definition as plain data: what its fingerprint hashes and its JSON names."""
     return {"name": name, "version": version, "metrics": list(METRICS),
-            "cells": [{**asdict(c), "name": c.name, "task_kwargs": c.task_kwargs} for c in suite]}
+            "cells": [{**_fields(c), "name": c.name, "task_kwargs": c.task_kwargs} for c in suite]}
+
+
+def _fields(cell: Cell) -> dict:
+    """A cell's fields as plain data, without an unset executor (the suites before it hash as they did)."""
+    fields = asdict(cell)
+    if fields["executor"] is None:
+        del fields["executor"]
+    return fields
 
 
 def fingerprint(suite: Sequence[Cell] = SUITE_V1, name: str = SUITE_NAME) -> str:
@@ -135,11 +157,12 @@ class Suite:
 VERSIONS: dict[str, tuple[Suite, ...]] = {
     "auv": (Suite(SUITE_NAME, SUITE_VERSION, SUITE_V1, FINGERPRINTS, "leaderboard.json"),),
     "auv3d": (Suite("suite 3d v1", 1, SUITE_3D_V1, FINGERPRINTS_3D, "leaderboard3d.json"),
-              Suite("suite 3d v2", 2, SUITE_3D_V2, FINGERPRINTS_3D, "leaderboard3d_v2.json")),
+              Suite("suite 3d v2", 2, SUITE_3D_V2, FINGERPRINTS_3D, "leaderboard3d_v2.json"),
+              Suite("suite 3d v3", 3, SUITE_3D_V3, FINGERPRINTS_3D, "leaderboard3d_v3.json")),
 }
 """Domain (`auv-mj benchmark --domain`) -> every version of its suite, oldest first; each keeps its board."""
 SUITES = {domain: versions[-1] for domain, versions in VERSIONS.items()}
-"""Domain -> its current suite: the planar vehicle's suite v1, the 6-DOF vehicle's suite 3d v2."""
+"""Domain -> its current suite: the planar vehicle's suite v1, the 6-DOF vehicle's suite 3d v3."""
 
 
 def suite_for(domain: str, version: int | None = None) -> Suite:

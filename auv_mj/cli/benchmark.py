@@ -3,10 +3,10 @@
     auv-mj benchmark [--domain auv|auv3d [--suite-version N]] --policy P [--task obstacles,tunnel]
                      [--tier standard,hard] [--water ideal,ocean] [--episodes N] [--workers N | --ray ADDRESS] -o DIR
 
-The suite (`auv_mj.benchmark.suite.SUITE_V1`; with `--domain auv3d` the 6-DOF vehicle's `SUITE_3D_V2`, its own
-suite with its own fingerprint and leaderboard; `--suite-version 1` runs suite 3d v1's cells against its board) is
-one table of cells: a task with its options (a procedural arena of a tier in a water) on a block of held-out TEST
-seeds. Episodes run through the one episode loop and metric
+The suite (`auv_mj.benchmark.suite.SUITE_V1`; with `--domain auv3d` the 6-DOF vehicle's `SUITE_3D_V3`, its own
+suite with its own fingerprint and leaderboard; `--suite-version 1` or `2` runs an earlier version's cells against
+its board) is one table of cells: a task with its options (a procedural arena of a tier in a water, and in
+suite 3d v3 the execution layer) on a block of held-out TEST seeds. Episodes run through the one episode loop and metric
 definitions of `auv-mj eval` (`auv_mj.episode`, `auv_mj.benchmark.metrics`); changing what the suite measures is a
 new version with its own fingerprint.
 
@@ -51,7 +51,7 @@ from auv_mj.benchmark.leaderboard import (
     read_board,
     read_json,
 )
-from auv_mj.benchmark.runner import benchmark
+from auv_mj.benchmark.runner import benchmark, cell_task_kwargs
 from auv_mj.benchmark.suite import EPISODES, ORACLE, SEED_BLOCK, SUITES, TIERS, VERSIONS, WATERS, suite_for
 from auv_mj.cli.evaluate import interrupted, write_episodes_csv
 from auv_mj.cli.options import (
@@ -187,7 +187,7 @@ def _run(args: argparse.Namespace) -> int:
                     f"{oracle.get('suite_version')}, not {suite.name} version {suite.version}")
     try:
         for cell in {(c.task, c.tier, c.water): c for c in cells}.values():  # refuse before the first episode
-            policies.env_and_policy(args.policy, cell.task, cell.first_seed, cell.task_kwargs)
+            policies.env_and_policy(args.policy, cell.task, cell.first_seed, cell_task_kwargs(args.policy, cell))
     except (ValueError, FileNotFoundError) as e:
         usage_error(args, str(e))
     try:
@@ -214,7 +214,7 @@ def _run(args: argparse.Namespace) -> int:
         for cell in cells:
             episodes = [(cell.task, e["seed"], e["outcome"]) for e in results["cells"][cell.name]["episodes"]]
             record_failures(args.policy, episodes, args.record_failures / cell.name.replace("/", "-"),
-                            cell.task_kwargs, args.max_steps)
+                            cell_task_kwargs(args.policy, cell), args.max_steps)
     print(f"wrote {out / 'results.json'}, {out / EPISODES_CSV}, {out / 'leaderboard_row.md'}, {out / 'comparison.md'}")
     for failure in results.get("failed", []):
         print(f"{args.prog}: episode seed {failure['seed']} of {failure['cell']} failed: {failure['error']}",

@@ -6,6 +6,7 @@ import json
 import os
 import subprocess
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -52,23 +53,45 @@ def test_the_3d_suite_is_pinned_to_its_version_and_apart_from_suite_v1():
     assert len({c.first_seed for c in three.cells} & {c.first_seed for c in suite.SUITE_V1}) == 0
 
 
-def test_suite_3d_v2_is_the_current_3d_suite_and_v1_keeps_its_fingerprint_and_board():
-    """suite 3d v2 pairs with v1 seed by seed under its own name, fingerprint and board; v1 and its published board
-    stay as they were (a board of v1 results names v1's fingerprint)."""
-    one, two = suite.VERSIONS["auv3d"]
-    assert suite.SUITES["auv3d"] is two and suite.suite_for("auv3d") is two and suite.suite_for("auv3d", 1) is one
-    assert (one.version, two.version) == (1, 2) and one.name == "suite 3d v1" and two.name == "suite 3d v2"
+def test_suite_3d_v3_is_the_current_3d_suite_and_v1_and_v2_keep_their_fingerprints_and_boards():
+    """suite 3d v2 and v3 pair with v1 seed by seed under their own names, fingerprints and boards; v1 and v2 and
+    their published boards stay as they were (a board of a version's results names its fingerprint)."""
+    one, two, three = suite.VERSIONS["auv3d"]
+    assert suite.SUITES["auv3d"] is three and suite.suite_for("auv3d") is three
+    assert suite.suite_for("auv3d", 1) is one and suite.suite_for("auv3d", 2) is two
+    assert [(s.version, s.name) for s in (one, two, three)] == [(1, "suite 3d v1"), (2, "suite 3d v2"),
+                                                                 (3, "suite 3d v3")]
     assert one.fingerprint() == suite.FINGERPRINTS_3D[1] == "80981134ec738137"
-    assert two.fingerprint() == suite.FINGERPRINTS_3D[2] != one.fingerprint()
+    assert two.fingerprint() == suite.FINGERPRINTS_3D[2] == "f8d702707f88071c"
+    assert three.fingerprint() == suite.FINGERPRINTS_3D[3] not in (one.fingerprint(), two.fingerprint())
     assert [(c.name, c.first_seed) for c in two.cells] == [(c.name, c.first_seed) for c in one.cells]
-    assert one.board != two.board and suite.suite_named("suite 3d v1") is one
-    board = read_board(board_path(one))
-    assert board["suite"] == one.name and board["fingerprint"] == one.fingerprint()
-    assert {"oracle", "map-replan", "los-avoid", "splane", "two-layer-3d"} <= set(board["policies"])
-    with pytest.raises(ValueError, match="no version 3; its versions are \\[1, 2\\]"):
-        suite.suite_for("auv3d", 3)
+    assert [(c.name, c.first_seed) for c in three.cells] == [(c.name, c.first_seed) for c in one.cells]
+    assert len({one.board, two.board, three.board}) == 3 and suite.suite_named("suite 3d v1") is one
+    for version in (one, two, three):
+        board = read_board(board_path(version))
+        assert board["suite"] == version.name and board["fingerprint"] == version.fingerprint()
+        assert {"oracle", "map-replan", "los-avoid", "splane", "two-layer-3d"} <= set(board["policies"])
+        assert all(run["fingerprint"] == version.fingerprint() for run in board["policies"].values())
+    with pytest.raises(ValueError, match="no version 4; its versions are \\[1, 2, 3\\]"):
+        suite.suite_for("auv3d", 4)
     with pytest.raises(ValueError, match="no benchmark domain 'auv4d'"):
         suite.suite_for("auv4d")
+
+
+def test_suite_3d_v3_runs_every_policy_on_the_re_tuned_s_plane_unless_it_brings_its_own_executor():
+    """v3's cells name `splane-ocean`, and the options a policy runs a cell with keep it, except for a policy that
+    always runs its own executor (two-layer-3d's learned depth executor); v1 and v2's cells name no executor, so
+    their definitions (and fingerprints) are what they were before cells could name one."""
+    one, two, three = suite.VERSIONS["auv3d"]
+    for old, new in zip(two.cells, three.cells, strict=True):
+        assert old.executor is None and "executor" not in old.task_kwargs
+        assert new.executor == "splane-ocean" and new.task_kwargs == {**old.task_kwargs, "executor": "splane-ocean"}
+        assert runner.cell_task_kwargs("map-replan", new) == new.task_kwargs
+        assert runner.cell_task_kwargs("two-layer-3d", new) == old.task_kwargs
+        assert runner.cell_task_kwargs("two-layer-3d", old) == old.task_kwargs
+    assert all("executor" not in cell for cell in suite.definition(two.cells, two.name)["cells"])
+    assert all(cell["executor"] == "splane-ocean" for cell in suite.definition(three.cells, three.name)["cells"])
+    assert suite.fingerprint([replace(two.cells[0], executor="splane")]) != suite.fingerprint(two.cells[:1])
 
 
 def test_the_suite_covers_every_set_tier_and_water_on_held_out_seeds():

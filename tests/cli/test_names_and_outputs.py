@@ -256,11 +256,19 @@ def test_benchmark_help_shows_its_defaults_as_typed_and_task_picks_cells(tmp_pat
 
 
 def test_benchmark_suite_version_picks_the_3d_suite_and_its_board(tmp_path):
-    """--suite-version 1 runs suite 3d v1's cells and reads its board; a version the domain lacks is refused."""
+    """--suite-version 1 runs suite 3d v1's cells and reads its board, the default is the newest (v3, on the re-tuned
+    S-plane); a version the domain lacks is refused."""
     import json
 
-    _refused(_run("benchmark", "--domain", "auv3d", "--suite-version", "3", "--policy", "splane", "-o", tmp_path / "b"),
-             "--suite-version: the auv3d suite has no version 3; its versions are [1, 2]")
+    _refused(_run("benchmark", "--domain", "auv3d", "--suite-version", "4", "--policy", "splane", "-o", tmp_path / "b"),
+             "--suite-version: the auv3d suite has no version 4; its versions are [1, 2, 3]")
+    newest = tmp_path / "v3"
+    done = _run("benchmark", "--domain", "auv3d", "--policy", "splane", "--task", "tunnel3d", "--tier", "standard",
+                "--water", "ideal", "--episodes", "1", "--max-steps", "5", "--no-progress", "-o", newest, timeout=600)
+    assert done.returncode == 0, done.stderr
+    results = json.loads((newest / "results.json").read_text())
+    assert (results["suite"], results["fingerprint"]) == ("suite 3d v3", "d835f10a7865ba36")
+    assert results["cells"]["tunnel3d/standard/ideal"]["task_kwargs"]["executor"] == "splane-ocean"
     out = tmp_path / "v1"
     done = _run("benchmark", "--domain", "auv3d", "--suite-version", "1", "--policy", "splane", "--task", "tunnel3d",
                 "--tier", "standard", "--water", "ideal", "--episodes", "1", "--max-steps", "5", "--no-progress",

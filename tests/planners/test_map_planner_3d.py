@@ -187,3 +187,31 @@ def test_oracle_plans_over_a_wall_higher_than_its_search_window():
     assert oracle.path is not None
     assert np.max(oracle.path[:, 2]) > -(30.0 - 14.0)  # over the wall's top
     assert np.linalg.norm(oracle.path[-1] - env.task.goal) <= GOAL_RADIUS
+
+
+def test_oracle_trusts_its_exact_map_in_a_tube_without_movers(monkeypatch):
+    """The protection domain guards a path against what the map does not know: the oracle's map of a tube without
+    moving obstacles knows every wall and plug, so it flies its path without the domain there; `map-replan`
+    always keeps it, and so does the oracle in open water or among movers."""
+    from auv_mj.planners import map_planner3d
+
+    consulted = []
+    real = map_planner3d.protect_command
+    monkeypatch.setattr(map_planner3d, "protect_command", lambda *a: consulted.append(1) or real(*a))
+
+    def domain_calls(env, make, steps: int = 6) -> int:
+        consulted.clear()
+        policy, time_step = make(env), env.reset()
+        for _ in range(steps):
+            time_step = env.step(policy(time_step))
+        return len(consulted)
+
+    tube = control.Environment(Physics3D.load(None, "ideal"), Tunnel3D(tier="hard", random=SEEDS[0]),
+                               time_limit=60.0, control_timestep=0.5)
+    assert domain_calls(tube, true_voxel_planner) == 0
+    assert domain_calls(tube, sonar_voxel_planner) == 6
+    assert domain_calls(_open_task((60.0, 10.0, -26.0)), true_voxel_planner) == 6
+    oracle = true_voxel_planner(tube)
+    assert not oracle.guarded
+    tube.task.movers = [(0, None)]  # what the rule reads: the tube's task has a moving obstacle
+    assert oracle.guarded
