@@ -82,6 +82,14 @@ class Ocean3D:
         return self._rng
 
     @property
+    def sonar_latency(self) -> int:
+        """Pings between a fan measurement and the task seeing it (`ocean.SonarNoise.latency`; 0 without sonar
+        effects): what a planner that registers the fan with the vehicle's pose needs, as a real sonar's ping
+        carries the time it was taken."""
+        sonar = self.conditions.sonar
+        return 0 if self.ideal or sonar is None else int(sonar.latency)
+
+    @property
     def last_dvl(self) -> np.ndarray | None:
         """The last noisy DVL sample (what a dropout holds, across episodes too), None before the first."""
         return getattr(self, "_last_dvl", None)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 
+import mujoco
 import numpy as np
+import pytest
 from dm_control.rl import control
 
 from auv_mj.arenas import traps3d, voxels
@@ -13,7 +15,7 @@ from auv_mj.arenas.arena3d import arena_root, seabed
 from auv_mj.control.depth_heading import DepthHeadingGains
 from auv_mj.planners.los3d import classical_3d
 from auv_mj.planners.map_planner3d import SonarVoxelMap, sonar_voxel_planner, true_voxel_planner, turning_radius
-from auv_mj.sim.sensors3d import FAN_AZIMUTHS
+from auv_mj.sim.sensors3d import FAN_AZIMUTHS, sonar_fan
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import GOAL_RADIUS, MIN_DEPTH, WATER_DEPTH, Goal3D, Physics3D, Tunnel3D
 
@@ -215,3 +217,75 @@ def test_oracle_trusts_its_exact_map_in_a_tube_without_movers(monkeypatch):
     assert not oracle.guarded
     tube.task.movers = [(0, None)]  # what the rule reads: the tube's task has a moving obstacle
     assert oracle.guarded
+
+
+def test_fan_is_cast_from_the_pose_of_its_ping():
+    """A sonar that delivers each ping one ping late (ocean water's latency, without its noise): `map-replan` casts
+    the ranges it sees now from the sonar's pose when they were taken, so each echo lies where the beam met the
+    wall (independent: the fan cast by MuJoCo from that pose), not 0.75 m beyond it."""
+    conditions = {"base": "ideal", "sonar": {"latency": 1, "floor": 0.0, "proportional": 0.0, "dropout": 0.0}}
+    env = control.Environment(Physics3D.load(None, conditions), Tunnel3D(tier="hard", random=SEEDS[0],
+                                                                         conditions=conditions),
+                              time_limit=60.0, control_timestep=0.5)
+    env.reset()
+    mapper = SonarVoxelMap(env)
+    mapper.start()
+    physics, site = env.physics, env.physics.model.ptr.site("sonar").id
+    for _ in range(3):
+        env.step([0.0, 0.0, 0.0])
+    then_origin = physics.data.site_xpos[site].copy()
+    then_ranges = sonar_fan(physics)
+    mapper.beams()  # the ping taken now reaches the planner one step later
+    env.step([0.0, 0.0, 0.0])
+    origins, directions, ranges = mapper.beams()
+    moved = float(np.linalg.norm(physics.data.site_xpos[site] - then_origin))
+    assert moved > 0.3  # a cast from the pose of now would differ by this much
+    np.testing.assert_allclose(origins[:-1], np.repeat(then_origin[None], len(then_ranges), axis=0), atol=1e-12)
+    np.testing.assert_allclose(ranges[:-1], then_ranges, atol=1e-9)
+    echo = then_ranges < SONAR_RANGE
+    assert echo.sum() >= 5
+    model, data = physics.model.ptr, physics.data.ptr
+
+    def wall_beyond(start: np.ndarray, direction: np.ndarray) -> float:
+        """Distance [m] from `start` along `direction` to the first surface (the vehicle's own body skipped)."""
+        return mujoco.mj_ray(model, data, start, direction, None, 1, model.site_bodyid[site], np.zeros(1, np.int32))
+
+    # 5 cm short of each echo along its beam the wall is 5 cm on: the echo lies on the wall.
+    for direction, distance in zip(directions[:-1][echo], then_ranges[echo], strict=True):
+        assert wall_beyond(then_origin + (distance - 0.05) * direction, direction) == pytest.approx(0.05, abs=1e-6)
+
+
+def _cross_track(monkeypatch, compensate: bool) -> float:
+    """Mean distance [m] of the vehicle from its planned path over the second half of a 100 m leg across a
+    0.4 m/s current (open water, no obstacle), `map-replan` with or without the crab angle."""
+    from auv_mj.planners import map_planner3d
+
+    if not compensate:
+        monkeypatch.setattr(map_planner3d, "course_command", lambda command, crab: tuple(command))
+    conditions = {"base": "ideal", "current": {"mean_speed": 0.4, "speed_sigma": 0.0, "mean_direction": math.pi / 2,
+                                               "direction_sigma": 0.0}}
+
+    class OpenTask(Goal3D):
+        def draw_arena(self, random):
+            root = arena_root("open", [seabed(WATER_DEPTH)])
+            return root, np.array([0.0, 0.0, -30.0]), 0.0, np.array([120.0, 0.0, -30.0]), np.zeros((0, 3))
+
+    env = control.Environment(Physics3D.load(None, conditions), OpenTask(random=0, conditions=conditions),
+                              time_limit=120.0, control_timestep=0.5)
+    planner = SonarVoxelMap(env)
+    time_step, gaps = env.reset(), []
+    while not time_step.last() and env.physics.position()[0] < 100.0:
+        time_step = env.step(planner.act(time_step))
+        if env.physics.position()[0] > 50.0:
+            gaps.append(map_planner3d._nearest(planner.path, env.physics.position())[0])
+    return float(np.mean(gaps))
+
+
+def test_line_of_sight_flies_its_course_in_a_cross_current(monkeypatch):
+    """Heading at the look-ahead point, a vehicle crabbing beta settles LOOKAHEAD tan(beta) off its path (over a
+    metre here); commanding the course instead keeps it on the path."""
+    uncompensated = _cross_track(monkeypatch, compensate=False)
+    monkeypatch.undo()
+    compensated = _cross_track(monkeypatch, compensate=True)
+    assert uncompensated > 1.0
+    assert compensated < 0.3

@@ -3,6 +3,7 @@ jumps away."""
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -152,3 +153,23 @@ def test_the_filter_is_the_tubes_and_open_water_reads_the_fan_as_it_is():
         for k, ranges in enumerate([steady, steady, lost]):
             out = los3d.domain_ranges(task, fan, k * PING, ranges)
         assert out == pytest.approx(expected)
+
+
+def test_crab_estimate_settles_on_the_course_over_ground():
+    """A vehicle at 1.5 m/s through the water carried 0.25 m/s sideways by a current, flying straight: its DVL
+    reads (1.5, -0.25) over the ground, its course is atan2(-0.25, 1.5) off its heading. Turning, or too slow to
+    tell a course, the angle is held."""
+    crab = los3d.CrabEstimate()
+    straight = np.zeros(3)
+    for _ in range(60):
+        angle = crab({"dvl": np.array([1.5, -0.25, 0.0]), "gyro": straight})
+    assert angle == pytest.approx(math.atan2(-0.25, 1.5), abs=1e-4)
+    assert crab({"dvl": np.array([0.1, 0.3, 0.0]), "gyro": straight}) == angle
+    turning = np.array([0.0, 0.0, 2.0 * los3d.CRAB_MAX_RATE])
+    assert crab({"dvl": np.array([1.5, 0.4, 0.0]), "gyro": turning}) == angle
+    assert crab({"dvl": np.array([1.5, 0.4, 0.0]), "gyro": -turning}) == angle
+    crab.reset()
+    assert crab({"dvl": np.zeros(3), "gyro": straight}) == 0.0
+    with pytest.raises(ValueError, match="gain"):
+        los3d.CrabEstimate(gain=0.0)
+    assert los3d.course_command((1.5, 0.3, 20.0), -0.2) == pytest.approx((1.5, 0.5, 20.0))

@@ -5,11 +5,14 @@ water) on validation seeds and prints one JSON line per episode: its outcome, wh
 collision and the speeds of its last steps.
 
     python docs/runs/map-replan-3d/episodes.py map-replan tunnel3d hard ideal 20000 20 [out.json]
+
+The environment variable EXECUTOR names the executor (suite 3d v3's is `splane-ocean`; unset, the task's own).
 """
 
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 
@@ -24,7 +27,8 @@ def _geom_name(model, geom: int) -> str:
 
 def run(policy_name: str, task: str, tier: str, water: str, seed: int) -> dict:
     """One episode's outcome, steps, time [s], mean and top speed [m/s]; on a collision, what the hull touched."""
-    env = policies.make_env(policy_name, task, seed, arena="random", tier=tier, conditions=water)
+    executor = {"executor": os.environ["EXECUTOR"]} if os.environ.get("EXECUTOR") else {}
+    env = policies.make_env(policy_name, task, seed, arena="random", tier=tier, conditions=water, **executor)
     planner = policies.make_policy(policy_name, env, seed, task)
     time_step = env.reset()
     planner.reset()
