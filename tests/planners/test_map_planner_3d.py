@@ -223,6 +223,10 @@ def test_fan_is_cast_from_the_pose_of_its_ping():
     """A sonar that delivers each ping one ping late (ocean water's latency, without its noise): `map-replan` casts
     the ranges it sees now from the sonar's pose when they were taken, so each echo lies where the beam met the
     wall (independent: the fan cast by MuJoCo from that pose), not 0.75 m beyond it."""
+    from auv_mj.sim.sonar import SONAR_RATE_HZ
+    from auv_mj.tasks.auv3d import PLANNER_DT
+
+    assert PLANNER_DT * SONAR_RATE_HZ == 1.0  # what `beams` counts on: a planner step is one ping
     conditions = {"base": "ideal", "sonar": {"latency": 1, "floor": 0.0, "proportional": 0.0, "dropout": 0.0}}
     env = control.Environment(Physics3D.load(None, conditions), Tunnel3D(tier="hard", random=SEEDS[0],
                                                                          conditions=conditions),
