@@ -87,7 +87,7 @@ class Ocean3D:
         effects): what a planner that registers the fan with the vehicle's pose needs, as a real sonar's ping
         carries the time it was taken."""
         sonar = self.conditions.sonar
-        return 0 if self.ideal or sonar is None else int(sonar.latency)
+        return 0 if sonar is None else sonar.latency
 
     @property
     def last_dvl(self) -> np.ndarray | None:

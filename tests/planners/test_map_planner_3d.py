@@ -131,16 +131,24 @@ def test_map_replan_passes_over_a_wall_that_los_avoid_stalls_at():
     assert outcomes["los-avoid"][1][0] < 60.0  # it never got past the wall
 
 
-def _open_task(goal, time_limit: float = 120.0, executor=None):
-    """Open water 60 m deep, the vehicle at 30 m heading east (x), the goal at `goal`; `executor` the task's."""
+def _open_task(goal, time_limit: float = 120.0, executor=None, conditions="ideal"):
+    """Open water 60 m deep, the vehicle at 30 m heading east (x), the goal at `goal`; `executor` and `conditions`
+    the task's."""
 
     class OpenTask(Goal3D):
         def draw_arena(self, random):
             root = arena_root("open", [seabed(WATER_DEPTH)])
             return root, np.array([0.0, 0.0, -30.0]), 0.0, np.asarray(goal, dtype=float), np.zeros((0, 3))
 
-    task = OpenTask(random=0, executor=executor)
-    return control.Environment(Physics3D.load(None, "ideal"), task, time_limit=time_limit, control_timestep=0.5)
+    task = OpenTask(random=0, executor=executor, conditions=conditions)
+    return control.Environment(Physics3D.load(None, conditions), task, time_limit=time_limit, control_timestep=0.5)
+
+
+def _hard_tube(conditions="ideal"):
+    """Hard validation tube SEEDS[0] in `conditions`."""
+    return control.Environment(Physics3D.load(None, conditions), Tunnel3D(tier="hard", random=SEEDS[0],
+                                                                          conditions=conditions),
+                               time_limit=60.0, control_timestep=0.5)
 
 
 def test_turning_circle_is_wider_than_the_goal():
@@ -208,8 +216,7 @@ def test_oracle_trusts_its_exact_map_in_a_tube_without_movers(monkeypatch):
             time_step = env.step(policy(time_step))
         return len(consulted)
 
-    tube = control.Environment(Physics3D.load(None, "ideal"), Tunnel3D(tier="hard", random=SEEDS[0]),
-                               time_limit=60.0, control_timestep=0.5)
+    tube = _hard_tube()
     assert domain_calls(tube, true_voxel_planner) == 0
     assert domain_calls(tube, sonar_voxel_planner) == 6
     assert domain_calls(_open_task((60.0, 10.0, -26.0)), true_voxel_planner) == 6
@@ -228,9 +235,7 @@ def test_fan_is_cast_from_the_pose_of_its_ping():
 
     assert PLANNER_DT * SONAR_RATE_HZ == 1.0  # what `beams` counts on: a planner step is one ping
     conditions = {"base": "ideal", "sonar": {"latency": 1, "floor": 0.0, "proportional": 0.0, "dropout": 0.0}}
-    env = control.Environment(Physics3D.load(None, conditions), Tunnel3D(tier="hard", random=SEEDS[0],
-                                                                         conditions=conditions),
-                              time_limit=60.0, control_timestep=0.5)
+    env = _hard_tube(conditions)
     env.reset()
     mapper = SonarVoxelMap(env)
     mapper.start()
@@ -268,14 +273,7 @@ def _cross_track(monkeypatch, compensate: bool) -> float:
         monkeypatch.setattr(map_planner3d, "course_command", lambda command, crab: tuple(command))
     conditions = {"base": "ideal", "current": {"mean_speed": 0.4, "speed_sigma": 0.0, "mean_direction": math.pi / 2,
                                                "direction_sigma": 0.0}}
-
-    class OpenTask(Goal3D):
-        def draw_arena(self, random):
-            root = arena_root("open", [seabed(WATER_DEPTH)])
-            return root, np.array([0.0, 0.0, -30.0]), 0.0, np.array([120.0, 0.0, -30.0]), np.zeros((0, 3))
-
-    env = control.Environment(Physics3D.load(None, conditions), OpenTask(random=0, conditions=conditions),
-                              time_limit=120.0, control_timestep=0.5)
+    env = _open_task((120.0, 0.0, -30.0), conditions=conditions)
     planner = SonarVoxelMap(env)
     time_step, gaps = env.reset(), []
     while not time_step.last() and env.physics.position()[0] < 100.0:
