@@ -8,7 +8,7 @@ lag when ocean conditions ask for it.
 
 from __future__ import annotations
 
-import copy
+import functools
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -21,12 +21,6 @@ VEHICLE_XML = "auv6.xml"
 LAG_DYNTYPE = "filterexact"
 SEABED_GEOM = "seabed"
 """Name of an arena's seabed plane (the altimeter's target)."""
-
-
-def vehicle_root() -> ET.Element:
-    """A fresh ElementTree of the shipped 6-DOF vehicle."""
-    path = model_path(VEHICLE_XML)
-    return parse_xml(read_text(path, "6-DOF vehicle MJCF", MAX_XML_BYTES), str(path), "6-DOF vehicle MJCF")
 
 
 def lag_actuators(root: ET.Element, source: str = "vehicle") -> ET.Element:
@@ -50,35 +44,53 @@ def lag_actuators(root: ET.Element, source: str = "vehicle") -> ET.Element:
     return root
 
 
+ARENA_SECTIONS = ("worldbody", "custom")
+"""The sections of an arena that `compose_xml` copies into the vehicle's."""
+_MARK = "auv-mj arena {}"
+"""The comment that marks where an arena's section goes in the vehicle's text (`_vehicle_template`)."""
+
+
+@functools.lru_cache(maxsize=8)
+def _vehicle_template(text: str, source: str, thruster_lag: bool) -> str:
+    """The vehicle's MJCF text, lagged if asked, with a marker comment (_MARK) at the end of each of ARENA_SECTIONS:
+    parsed and written once per vehicle text, not at every episode's reset (the arena's children are written into
+    the markers as text)."""
+    root = parse_xml(text, source, "6-DOF vehicle MJCF")
+    if thruster_lag:
+        lag_actuators(root, source)
+    for section in ARENA_SECTIONS:
+        target = root.find(section)
+        if target is None:
+            target = ET.SubElement(root, section)
+        target.append(ET.Comment(_MARK.format(section)))
+    return ET.tostring(root, encoding="unicode")
+
+
 def compose_xml(arena: ET.Element | str | Path | None = None, thruster_lag: bool = False) -> tuple[str, str]:
     """(MJCF text, source name) of the 6-DOF vehicle inside `arena` (an ElementTree root, an MJCF path, or None
     for open water)."""
-    root = vehicle_root()
+    path = model_path(VEHICLE_XML)
+    xml = _vehicle_template(read_text(path, "6-DOF vehicle MJCF", MAX_XML_BYTES), str(path), thruster_lag)
     source = VEHICLE_XML
-    if arena is not None:
-        if isinstance(arena, ET.Element):
-            world, source = arena, arena.get("model", "arena")
-        else:
-            path = Path(arena)
-            world = parse_xml(read_text(path, "3-D arena MJCF", MAX_XML_BYTES), str(path), "3-D arena MJCF")
-            source = str(path)
-        for section in ("worldbody", "custom"):
-            found = world.find(section)
-            if found is None:
-                continue
-            target = root.find(section)
-            if target is None:
-                target = ET.SubElement(root, section)
-            for child in found:
-                if child.tag not in ("geom", "site", "numeric", "light", "body"):
-                    raise ValueError(f"{source}: a 3-D arena's <{section}> may hold geoms, sites, lights, mocap "
-                                     f"bodies and numerics only, got <{child.tag}>")
-                if child.tag == "body":
-                    _check_mocap(child, source)
-                target.append(copy.deepcopy(child))
-    if thruster_lag:
-        lag_actuators(root, source)
-    return ET.tostring(root, encoding="unicode"), source
+    world = None
+    if isinstance(arena, ET.Element):
+        world, source = arena, arena.get("model", "arena")
+    elif arena is not None:
+        path = Path(arena)
+        world = parse_xml(read_text(path, "3-D arena MJCF", MAX_XML_BYTES), str(path), "3-D arena MJCF")
+        source = str(path)
+    for section in ARENA_SECTIONS:
+        found = None if world is None else world.find(section)
+        children = [] if found is None else list(found)
+        for child in children:
+            if child.tag not in ("geom", "site", "numeric", "light", "body"):
+                raise ValueError(f"{source}: a 3-D arena's <{section}> may hold geoms, sites, lights, mocap "
+                                 f"bodies and numerics only, got <{child.tag}>")
+            if child.tag == "body":
+                _check_mocap(child, source)
+        text = "".join(ET.tostring(child, encoding="unicode") for child in children)
+        xml = xml.replace(f"<!--{_MARK.format(section)}-->", text, 1)
+    return xml, source
 
 
 def _check_mocap(body: ET.Element, source: str) -> None:

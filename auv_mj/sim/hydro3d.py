@@ -123,20 +123,20 @@ class Hydro3DCoefficients:
     def from_mapping(cls, values: dict[str, object], source: str = "<dict>") -> Hydro3DCoefficients:
         """Coefficients from {"X_udot": ..., ...}; a ValueError names the file and any missing or bad field."""
         kwargs = {}
-        for f in fields(cls):
-            numeric = f'<numeric name="{NUMERIC_PREFIX}{f.name}">'
-            if f.name not in values:
+        for name in COEFFICIENT_NAMES:
+            numeric = f'<numeric name="{NUMERIC_PREFIX}{name}">'
+            if name not in values:
                 raise ValueError(f"{source}: missing 6-DOF hydrodynamic coefficient {numeric}")
             try:
-                value = float(values[f.name])
+                value = float(values[name])
             except (TypeError, ValueError):
-                raise ValueError(f"{source}: {numeric} has data={values[f.name]!r}, which is not a number") from None
+                raise ValueError(f"{source}: {numeric} has data={values[name]!r}, which is not a number") from None
             if not math.isfinite(value) or abs(value) > MAX_COEFFICIENT:
                 raise ValueError(f"{source}: {numeric} = {value!r} must be finite and within +-{MAX_COEFFICIENT:g}")
-            if f.name in NON_POSITIVE and value > 0:
+            if name in NON_POSITIVE and value > 0:
                 raise ValueError(f"{source}: {numeric} = {value:g} must be <= 0 (SNAME convention: added mass "
                                  "adds inertia, drag takes energy out)")
-            kwargs[f.name] = value
+            kwargs[name] = value
         for a, b in SYMMETRIC:
             if abs(kwargs[a] - kwargs[b]) > SYMMETRY_TOLERANCE * max(1.0, abs(kwargs[b])):
                 raise ValueError(f"{source}: {NUMERIC_PREFIX}{a} = {kwargs[a]:g} must equal {NUMERIC_PREFIX}{b} = "
@@ -144,6 +144,10 @@ class Hydro3DCoefficients:
         if kwargs["B"] <= 0:
             raise ValueError(f"{source}: {NUMERIC_PREFIX}B = {kwargs['B']:g} must be a positive buoyancy [N]")
         return cls(**kwargs)
+
+
+COEFFICIENT_NAMES = tuple(f.name for f in fields(Hydro3DCoefficients))
+"""The coefficients' names, in the dataclass's order (`<numeric name="hydro_NAME">`)."""
 
 
 @dataclass(frozen=True)
@@ -158,23 +162,37 @@ class VehicleSpec3D:
 def spec_from_xml(xml: str, source: str = "<string>") -> VehicleSpec3D | None:
     """The `hydro_*` numerics and `fin_rate` of MJCF text, or None when it has no `hydro_*` numeric."""
     root = parse_xml(xml, source, "6-DOF vehicle MJCF")
-    values: dict[str, str] = {}
-    fin_rate = None
-    known = {f.name for f in fields(Hydro3DCoefficients)}
-    for numeric in root.iter("numeric"):
-        name = numeric.get("name", "")
-        data = numeric.get("data")
+    return _spec_from_numerics(((numeric.get("name", ""), (numeric.get("data") or "").split())
+                                for numeric in root.iter("numeric")), source)
+
+
+def spec_from_model(model: mujoco.MjModel, source: str = "model") -> VehicleSpec3D | None:
+    """`spec_from_xml` of a compiled model: its numerics as MuJoCo compiled them (the vehicle's facts read from the
+    compiled MJCF, with no second parse of its text at every reload)."""
+    data, first, size = model.numeric_data, model.numeric_adr, model.numeric_size
+    return _spec_from_numerics(((mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_NUMERIC, i),
+                                 data[first[i]:first[i] + size[i]].tolist()) for i in range(model.nnumeric)), source)
+
+
+def _spec_from_numerics(numerics, source: str) -> VehicleSpec3D | None:
+    """The spec from (name, values) pairs of an MJCF's numerics (`spec_from_xml`: the data's words,
+    `spec_from_model`: the compiled numbers)."""
+    values: dict[str, object] = {}
+    fin_rate: object = None
+    known = set(COEFFICIENT_NAMES)
+    for name, data in numerics:
         if name == FIN_RATE_NUMERIC:
-            fin_rate = data
+            fin_rate = data[0] if len(data) == 1 else " ".join(map(str, data))
         if not name.startswith(NUMERIC_PREFIX):
             continue
         key = name[len(NUMERIC_PREFIX):]
         if key not in known:
             raise ValueError(f'{source}: unknown 6-DOF coefficient <numeric name="{name}">; known: '
                              f"{', '.join(NUMERIC_PREFIX + k for k in sorted(known))}")
-        if data is None or len(data.split()) != 1:
-            raise ValueError(f'{source}: <numeric name="{name}"> must have exactly one value, got data={data!r}')
-        values[key] = data
+        if len(data) != 1:
+            raise ValueError(f'{source}: <numeric name="{name}"> must have exactly one value, got data='
+                             f'{" ".join(map(str, data))!r}')
+        values[key] = data[0]
     if not values:
         return None
     coefficients = Hydro3DCoefficients.from_mapping(values, source)
@@ -267,13 +285,14 @@ class Hydro3D:
                              "the SNAME convention")
         rows, cols = np.tril_indices(6)
         index = []
-        for i, j in zip(rows, cols, strict=True):
+        for i in range(6):  # where row i's columns 0..i of the free joint's block sit in MuJoCo's sparse M
             row = self.dof_adr + i
-            start = model.M_rowadr[row]
-            hit = np.flatnonzero(model.M_colind[start:start + model.M_rownnz[row]] == self.dof_adr + j)
-            if hit.size != 1:
-                raise ValueError(f"{source}: the free joint's dofs must form a dense block of the mass matrix")
-            index.append(start + hit[0])
+            start = int(model.M_rowadr[row])
+            columns = model.M_colind[start:start + model.M_rownnz[row]].tolist()
+            for j in range(i + 1):
+                if columns.count(self.dof_adr + j) != 1:
+                    raise ValueError(f"{source}: the free joint's dofs must form a dense block of the mass matrix")
+                index.append(start + columns.index(self.dof_adr + j))
         self._m_index, self._m_rows, self._m_cols = np.array(index), rows, cols
         # Drag slopes |dF/dx| / |x| of each dof's own quadratic drag (FRD and FLU agree: T K T = K).
         self._drag = np.array([-c.X_uu, -c.Y_vv, -c.Z_ww, -c.K_pp, -c.M_qq, -c.N_rr])

@@ -17,11 +17,11 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from dm_control.mujoco import engine
+from dm_control.mujoco import engine, index, wrapper
 from dm_control.rl.control import PhysicsError
 
 from auv_mj.inputs import MAX_XML_BYTES, read_text, source_name
-from auv_mj.sim.hydro3d import ACTUATORS, Hydro3D, slew, spec_from_xml
+from auv_mj.sim.hydro3d import ACTUATORS, Hydro3D, slew, spec_from_model
 from auv_mj.sim.sensors3d import sonar_fan
 
 SUPPORTED_INTEGRATORS = (mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
@@ -54,14 +54,11 @@ class AUV3DPhysics(engine.Physics):
     @classmethod
     def from_xml_string(cls, xml_string: str, assets: dict | None = None, source: str = "<string>"):
         """Physics from MJCF text; `source` names it in error messages."""
-        spec = spec_from_xml(xml_string, source)
-        if spec is None:
-            raise ValueError(f'{source}: no 6-DOF coefficients (<numeric name="hydro_*">): not an auv-mj vehicle')
         try:
             physics = super().from_xml_string(xml_string, assets=assets)
         except Exception as e:  # dm_control wraps compile errors in its own Error
             raise ValueError(f"{source}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
-        physics._setup(spec, source)
+        physics._setup(source)
         return physics
 
     @classmethod
@@ -69,32 +66,30 @@ class AUV3DPhysics(engine.Physics):
         """Physics from an MJCF file."""
         path = Path(file_path)
         name = source_name(path)
-        spec = spec_from_xml(read_text(path, "6-DOF vehicle MJCF", MAX_XML_BYTES), name)
-        if spec is None:
-            raise ValueError(f'{name}: no 6-DOF coefficients (<numeric name="hydro_*">): not an auv-mj vehicle')
+        read_text(path, "6-DOF vehicle MJCF", MAX_XML_BYTES)  # a missing or oversized file named as such
         try:
             physics = super().from_xml_path(str(path))
         except Exception as e:
             raise ValueError(f"{name}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
-        physics._setup(spec, name)
+        physics._setup(name)
         return physics
 
     def reload_from_xml_string(self, xml_string: str, assets: dict | None = None, source: str = "<string>") -> None:
         """Recompiles in place (a new arena around the vehicle); the disturbance is kept."""
-        spec = spec_from_xml(xml_string, source)
-        if spec is None:
-            raise ValueError(f'{source}: no 6-DOF coefficients (<numeric name="hydro_*">): not an auv-mj vehicle')
         disturbance = self.disturbance
         self._hydro = None
         try:
             super().reload_from_xml_string(xml_string, assets=assets)
         except Exception as e:
             raise ValueError(f"{source}: MuJoCo cannot compile this model: {' '.join(str(e).split())}") from None
-        self._setup(spec, source)
+        self._setup(source)
         self.disturbance = disturbance
 
-    def _setup(self, spec, source: str) -> None:
+    def _setup(self, source: str) -> None:
         model = self.model.ptr
+        spec = spec_from_model(model, source)
+        if spec is None:
+            raise ValueError(f'{source}: no 6-DOF coefficients (<numeric name="hydro_*">): not an auv-mj vehicle')
         self.source = source
         _check_contract(model, source)
         self._hydro = Hydro3D(model, spec, source)
@@ -121,9 +116,35 @@ class AUV3DPhysics(engine.Physics):
     # --- stepping -------------------------------------------------------------------------------------------
 
     def _reload_from_data(self, data) -> None:
+        """dm_control's reload (the base class's steps: the data, the warning buffers, the render contexts freed,
+        `after_reset`) less one: it builds the named indexers of every field of the model and the data, about 4 ms
+        for a 6-DOF arena (more than MuJoCo's compile of it), at every episode's reset, which needs none of them (the
+        sensors read MuJoCo's own named access). Here `named` builds them at its first use."""
+        if not isinstance(data, wrapper.MjData):
+            raise TypeError(f"Expected wrapper.MjData. Got: {type(data)}.")
         self._bound = None
-        super()._reload_from_data(data)
+        self._data = data
+        self._warnings = data.warning.number
+        self._warnings_before = np.empty_like(self._warnings)
+        self._new_warnings = np.empty(len(self._warnings), dtype=bool)
+        with self._contexts_lock:
+            if self._contexts:
+                self._free_rendering_contexts()
+        self._named = None
+        try:
+            self.after_reset()
+        except PhysicsError as e:
+            logging.warning(e)
         self._bound = None
+
+    @property
+    def named(self) -> engine.NamedIndexStructs:
+        """dm_control's named indexing (`physics.named.data.qpos["root"]`), built at first use after a reload."""
+        if self._named is None:
+            axes = index.make_axis_indexers(self.model)
+            self._named = engine.NamedIndexStructs(model=index.struct_indexer(self.model, "mjmodel", axes),
+                                                   data=index.struct_indexer(self.data, "mjdata", axes))
+        return self._named
 
     def _bind(self) -> tuple:
         model, data = self.model.ptr, self.data.ptr

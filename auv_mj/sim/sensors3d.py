@@ -84,7 +84,7 @@ def altimeter(physics) -> float:
 
 def pressure(physics) -> float:
     """Gauge pressure at the pressure port [Pa]: RHO_WATER g (SURFACE_Z - z) (the sensors must be evaluated)."""
-    z = physics.named.data.sensordata["pressure_port"][2]
+    z = physics.data.ptr.sensor("pressure_port").data[2]
     return RHO_WATER * GRAVITY * (SURFACE_Z - float(z))
 
 
@@ -130,7 +130,7 @@ class Sensors3D:
         due = [name for name, at in self._due.items() if time >= at - 1e-9]
         if due:
             physics.evaluate_sensors()
-            named = physics.named.data.sensordata
+            data = physics.data.ptr  # MuJoCo's own named access (no dm_control indexers: see AUV3DPhysics.named)
             for name in due:
                 period = 1.0 / self.rates[name]
                 self._due[name] = (math.floor(time / period + 1e-9) + 1) * period
@@ -141,11 +141,11 @@ class Sensors3D:
                 elif name == "depth":
                     value = np.array(depth_from_pressure(pressure(physics)))
                 elif name == "dvl":
-                    value = named["dvl"].copy()
+                    value = data.sensor("dvl").data.copy()
                 else:  # imu
-                    self._held["gyro"] = self._noisy("gyro", named["gyro"].copy())
-                    self._held["accelerometer"] = self._noisy("accelerometer", named["accelerometer"].copy())
-                    self._held["attitude"] = named["attitude"].copy()
+                    self._held["gyro"] = self._noisy("gyro", data.sensor("gyro").data.copy())
+                    self._held["accelerometer"] = self._noisy("accelerometer", data.sensor("accelerometer").data.copy())
+                    self._held["attitude"] = data.sensor("attitude").data.copy()
                     continue
                 self._held[name] = self._noisy(name, value)
         return {k: v.copy() for k, v in self._held.items()}
