@@ -10,6 +10,9 @@ Algorithms*, Ch. 5-6):
   -MISS for each voxel a beam crossed, occupied at >= OCCUPIED), each ping cast from the pose it was taken at
   (`SonarVoxelMap.beams`: ocean water's sonar reaches the planner a ping late); the `oracle` from the true geoms
   (`auv_mj.arenas.traps3d.true_map`). Both know the surface: water shallower than the task's MIN_DEPTH is closed.
+- In open water `map-replan`'s search also keeps clear of the unknown water its echoes close round
+  (`SonarVoxelMap.search_map`: a morphological closing by CLOSING, where no beam has crossed): the fan's beams are
+  22.5 and 30 deg apart, and with unknown water free every hole between a wall's echoes looked like a way through.
 - The search (`auv_mj.arenas.voxels.shortest_path`) is Dijkstra's algorithm on the flyable lattice: level moves,
   and climbs or dives no steeper than the executor's pitch limit (read from the task's executor,
   `DepthHeadingGains.max_pitch`) times CLIMB_MARGIN. A voxel nearer than the hard clearance (OPEN_CLEARANCE 2.5 m,
@@ -43,6 +46,7 @@ from collections import deque
 import dm_env
 import mujoco
 import numpy as np
+from scipy import ndimage
 
 from auv_mj.arenas import cells, grid, traps3d, voxels
 from auv_mj.control.depth_heading import los_command
@@ -266,8 +270,12 @@ class VoxelFollower(Replanning, PlannerBase):
         space = self.grid
         crop = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
         local = voxels.VoxelGrid(space.origin + lo * space.cell, space.cell, tuple(int(v) for v in hi - lo))
-        cost = grid.cost_field(voxels.clearance(local, self.occupied[crop]), self.hard, soft)
+        cost = grid.cost_field(voxels.clearance(local, self.search_map(crop)), self.hard, soft)
         return voxels.shortest_path(local, cost, position, goal, self.max_slope, radius, box)
+
+    def search_map(self, crop: tuple[slice, ...]) -> np.ndarray:
+        """The occupied voxels the search keeps clear of in `crop`: the map's."""
+        return self.occupied[crop]
 
     def plan(self, position: np.ndarray, goal: np.ndarray, radius: float) -> None:
         """Searches the map round the vehicle and the target (the box grown by WINDOW, TUBE_WINDOW in a tube); where
@@ -350,6 +358,14 @@ _NEIGHBOURS = np.array([(r * len(FAN_AZIMUTHS) + c, r * len(FAN_AZIMUTHS) + c + 
 """Pairs of neighbouring fan beams (in azimuth within a row, in elevation within a column)."""
 JOIN_POINTS = 8
 """Points marked along the segment between two joined echoes (`SonarVoxelMap.update`)."""
+CLOSING = np.array([6.0, 6.0, 6.0])
+"""Half-extent [m] (x, y, z) of the box `SonarVoxelMap.search_map` closes the echoes with in open water: unknown
+water between echoes nearer than about twice this is taken for the wall they lie on. The fan's rows are 30 deg apart,
+so a wall 20 m off shows echoes some 10-12 m apart; with unknown water free the search took every hole between them for
+a way out of a hard goal3d arena's cave (seed 20006 of the hard tier flew inside its cave for 200 s and timed out).
+Chosen on validation seeds 20000-20049 (docs/runs/map-replan-3d/README.md): hard goal3d 38 and 39 of 50 (ideal,
+ocean) with none, 45 / 41 with 4 m, 47 / 44 with 6 m, 48 / 43 with 8 m; standard goal3d 50 / 50 with 6 m as
+without."""
 
 
 class SonarVoxelMap(VoxelFollower):
@@ -402,6 +418,27 @@ class SonarVoxelMap(VoxelFollower):
         new = touched[occupied & ~self.occupied.flat[touched]]
         self.occupied.flat[touched] = occupied
         return self.near_path(np.column_stack(np.unravel_index(new, self.grid.shape)))
+
+
+    def search_map(self, crop: tuple[slice, ...]) -> np.ndarray:
+        """In open water, the map's occupied voxels and the unknown ones its echoes close round: the morphological
+        closing (dilation, then erosion) of the echoed voxels by a box of half-extent CLOSING, kept where no beam has
+        crossed (log-odds count 0). A voxel a beam crossed stays open, so a gap the fan has seen through is kept.
+        The closing is taken on the crop grown by CLOSING (within the map), so that it is the same at the crop's
+        edge as inside. Not in a tube, whose 1 m voxels and 2.5 m radius such a closing would seal."""
+        occupied = self.occupied[crop]
+        if self.in_tube:
+            return occupied
+        reach = np.round(CLOSING / self.grid.cell).astype(int)
+        lo = np.maximum([c.start - r for c, r in zip(crop, reach, strict=True)], 0)
+        hi = np.minimum([c.stop + r for c, r in zip(crop, reach, strict=True)], self.grid.shape)
+        grown = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
+        size = tuple(int(v) for v in 2 * reach + 1)
+        echoes = self.occupied[grown] & ~self.surface[grown]
+        closed = ndimage.minimum_filter(ndimage.maximum_filter(echoes, size=size, mode="constant", cval=False),
+                                        size=size, mode="nearest")
+        inner = tuple(slice(c.start - a, c.stop - a) for c, a in zip(crop, lo, strict=True))
+        return occupied | (closed[inner] & (self.odds[crop] == 0))
 
 
 class TrueVoxelMap(VoxelFollower):

@@ -291,3 +291,62 @@ def test_line_of_sight_flies_its_course_in_a_cross_current(monkeypatch):
     compensated = _cross_track(monkeypatch, compensate=True)
     assert uncompensated > 1.0
     assert compensated < 0.3
+
+
+def test_the_search_takes_unknown_water_between_near_echoes_for_wall_but_keeps_what_a_beam_crossed():
+    from auv_mj.planners.map_planner3d import CLOSING
+
+    env = _open_task((60.0, 0.0, -20.0))  # the map reaches the surface
+    env.reset()
+    mapper = SonarVoxelMap(env)
+    mapper.start()
+    space = mapper.grid
+    assert mapper.surface.any()
+    i, k = space.index(np.array([30.0, 0.0, -30.0]))[0][0][[0, 2]]
+    gap = int(np.round(CLOSING[1] / space.cell[1]))  # echoes 2 * CLOSING apart in y: the closing fills between them
+    j = space.index(np.array([30.0, 0.0, -30.0]))[0][0][1]
+    near = [(i, j - gap, k), (i, j + gap, k)]
+    far_j = j + 6 * gap  # a second pair, 2 * CLOSING + 2 voxels apart: the closing leaves it open
+    far = [(i, far_j, k), (i, far_j + 2 * gap + 2, k)]
+    for cell in near + far:
+        mapper.occupied[cell] = True
+        mapper.odds[cell] = 4
+    everything = tuple(slice(0, n) for n in space.shape)
+    closed = mapper.search_map(everything) & ~mapper.occupied
+    assert closed[i, j - gap + 1:j + gap, k].all()  # the hole between the near echoes
+    edge = (slice(i - 3, i + 4), slice(j, j + 2 * gap), slice(k - 3, k + 4))  # a crop whose edge cuts the hole
+    np.testing.assert_array_equal(mapper.search_map(edge), mapper.search_map(everything)[edge])
+    assert not closed[i, far_j + 1:far_j + 2 * gap + 2, k].any()
+    # an echo 8 m below the closed surface water: the water between them stays open (a roof's top and the surface)
+    shallow = space.index(np.array([10.0, 0.0, -(MIN_DEPTH + 8.0)]))[0][0]
+    mapper.occupied[tuple(shallow)] = True
+    above = mapper.search_map(everything)[shallow[0], shallow[1], shallow[2] + 1:]
+    assert not above[space.centres()[2][shallow[2] + 1:] < -MIN_DEPTH].any() and above.any()
+    mapper.odds[i, j, k] = -1  # a beam crossed the hole's middle: it stays open
+    assert not mapper.search_map(everything)[i, j, k]
+    assert mapper.search_map(everything)[i, j + 1, k]
+    tube = SonarVoxelMap(_hard_tube())
+    tube.env.reset()
+    tube.start()
+    tube.occupied[10, 10, 5] = tube.occupied[10, 12, 5] = True
+    assert not tube.search_map(tuple(slice(0, n) for n in tube.grid.shape))[10, 11, 5]  # never in a tube
+
+
+def test_map_replan_leaves_a_hard_cave_it_would_search_for_holes_without_the_closing(monkeypatch):
+    """Validation seed 20006 of the hard goal3d tier: a cave 92 m wide and 41 m high across the route. With unknown
+    water free, `map-replan` flew inside it for 200 s, each hole between its walls' echoes a new way through, and
+    timed out; closing those holes, it flies out and over the roof to the goal."""
+    from auv_mj.planners.map_planner3d import VoxelFollower
+    from auv_mj.tasks import auv3d, suite
+
+    def outcome() -> str:
+        env = suite.load(auv3d.DOMAIN, "goal3d", task_kwargs={"arena": "random", "tier": "hard", "random": 20_006,
+                                                              "executor": "splane-ocean"})
+        policy, time_step = sonar_voxel_planner(env), env.reset()
+        while not time_step.last():
+            time_step = env.step(policy(time_step))
+        return env.task.last_info.get("event") or "timeout"
+
+    assert outcome() == "goal"
+    monkeypatch.setattr(SonarVoxelMap, "search_map", VoxelFollower.search_map)
+    assert outcome() == "timeout"
