@@ -17,7 +17,8 @@ Algorithms*, Ch. 5-6):
   and climbs or dives no steeper than the executor's pitch limit (read from the task's executor,
   `DepthHeadingGains.max_pitch`) times CLIMB_MARGIN. A voxel nearer than the hard clearance (OPEN_CLEARANCE 2.5 m,
   TUBE_CLEARANCE 1 m) to an occupied one is closed, and one within SOFT_CELLS voxels of it costs more, so a path
-  keeps to open water. It runs in a box round the vehicle and its target grown by WINDOW (TUBE_WINDOW in a tube).
+  keeps to open water. It runs in a box round the vehicle and its target grown by WINDOW (TUBE_WINDOW in a tube),
+  on the whole map where that box holds no way (the oracle's, and `map-replan`'s in open water).
 - Replanning, as in the plane: the search runs again when the map changed near the path (new occupied voxels
   within the soft clearance of the path left), at most every REPLAN_STEPS planner steps; when the target moved on;
   when the vehicle is further than OFF_PATH (TUBE_OFF_PATH) from its path; and every REPLAN_PERIOD steps regardless.
