@@ -435,7 +435,7 @@ class SonarVoxelMap(VoxelFollower):
         closing (dilation, then erosion) of the echoed voxels by a box of half-extent CLOSING, kept where no beam has
         crossed (log-odds count 0). A voxel a beam crossed stays open, so a gap the fan has seen through is kept.
         The closing is taken on the crop grown by CLOSING (within the map), so that it is the same at the crop's
-        edge as inside. Not in a tube, whose 1 m voxels and 2.5 m radius such a closing would seal."""
+        edge as inside. Not in a tube, whose 1 m voxels and 3-5 m radius such a closing would seal."""
         occupied = self.occupied[crop]
         if self.in_tube:
             return occupied
