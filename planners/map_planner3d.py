@@ -385,6 +385,26 @@ class SonarVoxelMap(VoxelFollower):
         docs/runs/map-replan-3d/README.md). Not in a tube, which keeps its map and search as they were."""
         return not self.in_tube
 
+    def search_map(self, crop: tuple[slice, ...]) -> np.ndarray:
+        """In open water, the map's occupied voxels and the unknown ones its echoes close round: the morphological
+        closing (dilation, then erosion) of the echoed voxels by a box of half-extent CLOSING, kept where no beam has
+        crossed (log-odds count 0). A voxel a beam crossed stays open, so a gap the fan has seen through is kept.
+        The closing is taken on the crop grown by CLOSING (within the map), so that it is the same at the crop's
+        edge as inside. Not in a tube, whose 1 m voxels and 3-5 m radius such a closing would seal."""
+        occupied = self.occupied[crop]
+        if self.in_tube:
+            return occupied
+        reach = np.round(CLOSING / self.grid.cell).astype(int)
+        lo = np.maximum([c.start - r for c, r in zip(crop, reach, strict=True)], 0)
+        hi = np.minimum([c.stop + r for c, r in zip(crop, reach, strict=True)], self.grid.shape)
+        grown = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
+        size = tuple(int(v) for v in 2 * reach + 1)
+        echoes = self.occupied[grown] & ~self.surface[grown]
+        closed = ndimage.minimum_filter(ndimage.maximum_filter(echoes, size=size, mode="constant", cval=False),
+                                        size=size, mode="nearest")
+        inner = tuple(slice(c.start - a, c.stop - a) for c, a in zip(crop, lo, strict=True))
+        return occupied | (closed[inner] & (self.odds[crop] == 0))
+
     def start(self) -> None:
         super().start()
         self.odds = np.zeros(self.grid.shape, np.int8)
@@ -429,26 +449,6 @@ class SonarVoxelMap(VoxelFollower):
         self.occupied.flat[touched] = occupied
         return self.near_path(np.column_stack(np.unravel_index(new, self.grid.shape)))
 
-
-    def search_map(self, crop: tuple[slice, ...]) -> np.ndarray:
-        """In open water, the map's occupied voxels and the unknown ones its echoes close round: the morphological
-        closing (dilation, then erosion) of the echoed voxels by a box of half-extent CLOSING, kept where no beam has
-        crossed (log-odds count 0). A voxel a beam crossed stays open, so a gap the fan has seen through is kept.
-        The closing is taken on the crop grown by CLOSING (within the map), so that it is the same at the crop's
-        edge as inside. Not in a tube, whose 1 m voxels and 3-5 m radius such a closing would seal."""
-        occupied = self.occupied[crop]
-        if self.in_tube:
-            return occupied
-        reach = np.round(CLOSING / self.grid.cell).astype(int)
-        lo = np.maximum([c.start - r for c, r in zip(crop, reach, strict=True)], 0)
-        hi = np.minimum([c.stop + r for c, r in zip(crop, reach, strict=True)], self.grid.shape)
-        grown = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
-        size = tuple(int(v) for v in 2 * reach + 1)
-        echoes = self.occupied[grown] & ~self.surface[grown]
-        closed = ndimage.minimum_filter(ndimage.maximum_filter(echoes, size=size, mode="constant", cval=False),
-                                        size=size, mode="nearest")
-        inner = tuple(slice(c.start - a, c.stop - a) for c, a in zip(crop, lo, strict=True))
-        return occupied | (closed[inner] & (self.odds[crop] == 0))
 
 
 class TrueVoxelMap(VoxelFollower):

@@ -44,12 +44,11 @@ import ctypes
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, fields
-from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
+from auv_mj.inputs import parse_xml
 from auv_mj.sim import native3d
 
 NUMERIC_PREFIX = "hydro_"
@@ -204,12 +203,6 @@ def _spec_from_numerics(numerics, source: str) -> VehicleSpec3D | None:
     if not (math.isfinite(rate) and rate > 0):
         raise ValueError(f'{source}: <numeric name="{FIN_RATE_NUMERIC}"> = {rate!r} must be a positive rate [rad/s]')
     return VehicleSpec3D(coefficients, rate)
-
-
-def spec_from_path(path: str | Path) -> VehicleSpec3D | None:
-    """`spec_from_xml` for a file."""
-    path = Path(path)
-    return spec_from_xml(read_text(path, "6-DOF vehicle MJCF", MAX_XML_BYTES), str(path))
 
 
 def force_frd(c: Hydro3DCoefficients, added_mass: np.ndarray, nu: np.ndarray, rudder: float,
