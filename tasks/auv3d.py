@@ -31,9 +31,17 @@ Their observation is the Gymnasium-Robotics goal dict, as the planar goal tasks'
 can know (its motion and attitude, depth and altitude, the goal, or the tube's look-ahead point, relative to
 itself, and the 27 fan ranges), "achieved_goal" and "desired_goal" are (x, y, z, cos psi, sin psi): where the vehicle
 is and the heading it senses, and the goal (goal3d's, or the tube's end) with the heading of the way into it. The
-reward (progress towards the goal, a bonus on reaching it, a step cost, a penalty for a collision or broaching) is
-`compute_reward(achieved_goal, desired_goal, info)`, vectorised, so that hindsight relabelling (HER) recomputes it
-exactly; on goal3d, whose observation holds the goal, `relabel_observation` recomputes the goal's entries.
+reward (reward="progress", the default: progress towards the goal, a bonus on reaching it, a step cost, a penalty
+for a collision or broaching) is `compute_reward(achieved_goal, desired_goal, info)`, vectorised, so that hindsight
+relabelling (HER) recomputes it exactly; on goal3d, whose observation holds the goal, `relabel_observation`
+recomputes the goal's entries. reward="geodesic" is the planar tasks' learning reward in 3-D
+(`auv_mj.tasks.planning_rewards`, "The geodesic reward", with its constants and its discount GEODESIC_DISCOUNT):
+potential-based shaping on the route length left on the arena's true static map, searched once at the reset over
+the oracle's voxel map on the lattice the vehicle can fly at its pitch limit (`auv_mj.arenas.traps3d.geodesic_field`;
+a tube's potential runs inside the tube), with the success bonus and the collision penalty that make no crash or
+broach pay more than the way round, over or under. Straight-line progress pays the way into a wall that must be
+climbed, a cave's mouth and a plug; the route length does not. The step's info then holds "route_distance_before",
+"route_distance" and "step_goal".
 
 An arena is a function of the task seed, as in the planar domain: `arena="random"` draws each episode's arena from
 the task's `random` first (the first episode of a task seeded s has the arena of `draw_arena(RandomState(s))`), so
@@ -60,6 +68,7 @@ from dm_control.utils import rewards
 from dm_env import specs
 
 from auv_mj.arenas import arena3d, arena_check, traps3d, tubes
+from auv_mj.arenas.geodesic import VoxelField
 from auv_mj.control.clock import ExecutorClock
 from auv_mj.control.depth_heading import (
     EXECUTOR_DT,
@@ -79,7 +88,7 @@ from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
 from auv_mj.tasks.depth_executor import SENSOR_NAMES, DepthExecutorMemory
-from auv_mj.tasks.planning_rewards import info_field
+from auv_mj.tasks.planning_rewards import geodesic_reward, info_field
 from auv_mj.tasks.registry import DOMAIN_3D, SUITE3D
 
 DOMAIN = DOMAIN_3D
@@ -164,6 +173,8 @@ FIXED_ARENA_SEED = 0
 """The seed of `arena="fixed"`'s one arena (outside the train, validation and test ranges of `auv_mj.seeds`)."""
 TARGET_ENTRIES = slice(10, 14)
 """Where PLANNING_OBSERVATION holds the target (distance, cos and sin of its bearing, depth offset)."""
+PLANNING_REWARDS = ("progress", "geodesic")
+"""The planning tasks' `reward` option (module docstring)."""
 TIERS = ("standard", "hard")
 """The planning tasks' `tier` option: the standard arenas, or the hard ones where depth is the way on
 (`auv_mj.arenas.traps3d`: walls to pass over or under, caves, seabed relief; tubes with plugs), each certified by
@@ -418,12 +429,14 @@ def planning_command(actions, heading, depth) -> np.ndarray:
                             np.maximum(MIN_DEPTH, np.asarray(depth, dtype=float) + actions[:, 2] * DEPTH_RANGE)])
 
 
-def step_info(collided, depth, distance, ranges, previous_achieved) -> dict[str, np.ndarray]:
+def step_info(collided, depth, distance, ranges, previous_achieved, route=None) -> dict[str, np.ndarray]:
     """A 3-D planning step's info (`Planning3D.after_step`'s `last_info`) over a batch axis: the event ("collision":
     the hull touches something; else "left_map": shallower than MIN_DEPTH; else "goal": within GOAL_RADIUS of the goal;
     else ""), its flags, the closest fan range, the true depth [m], the distance to the goal [m], the achieved goal
     before the step and the reward's goal-independent part. `collided`, `depth`, `distance` (N,); `ranges` (N, 27),
-    the fan as sensed; `previous_achieved` (N, GOAL_SIZE)."""
+    the fan as sensed; `previous_achieved` (N, GOAL_SIZE). Under reward="geodesic" `route` is (the route length left
+    before the step (N,), after it (N,), the goal (N, 3)): the info then holds "route_distance_before",
+    "route_distance" (0 on success) and "step_goal"."""
     collided = np.asarray(collided, dtype=bool)
     depth, distance = np.asarray(depth, dtype=float), np.asarray(distance, dtype=float)
     left_map = ~collided & (depth < MIN_DEPTH)
@@ -431,8 +444,13 @@ def step_info(collided, depth, distance, ranges, previous_achieved) -> dict[str,
     event = np.full(collided.shape, "", dtype=object)
     event[collided], event[left_map], event[goal] = "collision", "left_map", "goal"
     failed = collided | left_map
-    return {"event": event, "success": goal, "is_success": goal.copy(), "collision": collided, "left_map": left_map,
-            "min_clearance": np.min(ranges, axis=-1), "depth": depth, "distance": distance,
+    extra = {}
+    if route is not None:
+        before, after, step_goal = (np.asarray(v, dtype=float) for v in route)
+        extra = {"route_distance_before": before, "route_distance": np.where(goal, 0.0, after),
+                 "step_goal": step_goal}
+    return {**extra, "event": event, "success": goal, "is_success": goal.copy(), "collision": collided,
+            "left_map": left_map, "min_clearance": np.min(ranges, axis=-1), "depth": depth, "distance": distance,
             "previous_achieved_goal": np.asarray(previous_achieved, dtype=float),
             "goal_independent_reward": -STEP_COST + np.where(failed, COLLISION_REWARD, 0.0)}
 
@@ -476,14 +494,20 @@ class Planning3D(base.Task):
     """The `arena` choices every planning task has (a task may take arena files too: `_arena_option`)."""
 
     def __init__(self, arena: str = "random", random=None, conditions="ideal", tier: str = "standard",
-                 executor=None):
+                 executor=None, reward: str = "progress"):
         """`arena`: "random" (one per episode), "fixed" or (tunnel3d) a tube file; `conditions`: ocean
-        (`auv_mj.sim.ocean3d`); `tier`: TIERS; `executor`: None (the hand-set depth-heading S-plane), a name of
+        (`auv_mj.sim.ocean3d`); `tier`: TIERS; `reward`: PLANNING_REWARDS (module docstring); `executor`: None (the
+        hand-set depth-heading S-plane), a name of
         `auv_mj.tasks.executors.executor_names("auv3d")` (or a depth_heading checkpoint path), or a callable
         executor(command, State3D) -> (thrust [N], rudder [rad], stern [rad]) with `reset()`, called every
         EXECUTOR_DT."""
         self._arena_mode = self._arena_option(arena)
         self.tier = options.choice("tier", tier, TIERS)
+        self.reward_kind = options.choice("reward", reward, PLANNING_REWARDS)
+        self.potential: VoxelField | None = None
+        """reward="geodesic": the geodesic field of the episode's goal (`traps3d.geodesic_field`); else None."""
+        self.route_distance = math.nan
+        """reward="geodesic": the route length left [m] where the last step ended (at the reset, the start's)."""
         self.movers: list[tuple[int, tubes.TubeMover]] = []
         """(mocap index, track) of each moving obstacle of the arena."""
         self.ocean = ocean3d.Ocean3D(conditions)
@@ -576,6 +600,12 @@ class Planning3D(base.Task):
         self.movers = [(int(model.body_mocapid[model.body(f"mover_{m.name}").id]), m)
                        for m in tubes.items_from_arena(root)[1]]
         self._move(physics)
+        if self.reward_kind == "geodesic":
+            arena = traps3d.Arena3D(root, np.asarray(start, dtype=float), float(heading), self.goal, self.path, "")
+            self.potential = traps3d.geodesic_field(arena, self.max_pitch, None if tube is not None else MIN_DEPTH,
+                                                    GOAL_RADIUS,
+                                                    None if tube is None else (self.path, tube.radius))
+            self.route_distance = float(self.potential.distance(start)[0])
         self._desired = pose_goal(self.goal, self.goal_heading(start))
         set_pose(physics, start, yaw=heading, nu=(1.0, 0, 0, 0, 0, 0))
         physics.reset_fins()
@@ -618,8 +648,13 @@ class Planning3D(base.Task):
 
     def after_step(self, physics) -> None:
         ranges = self.sensors.read(physics)["sonar"]
+        route = None
+        if self.potential is not None:
+            route = (np.array([self.route_distance]), self.potential.distance(physics.position()), self.goal[None])
         info = step_info(np.array([self._collided(physics)]), np.array([physics.depth()]),
-                         np.array([self._target_distance(physics)]), ranges[None], self._achieved[None].copy())
+                         np.array([self._target_distance(physics)]), ranges[None], self._achieved[None].copy(), route)
+        if route is not None:
+            self.route_distance = float(info["route_distance"][0])
         self.last_info = {key: value[0].copy() if value.ndim > 1 else value[0] if value.dtype == object
                           else value.tolist()[0] for key, value in info.items()}
         # the reward is compute_reward's: one definition for the step and for relabelled goals
@@ -660,11 +695,25 @@ class Planning3D(base.Task):
         """The reward of steps that reached `achieved_goal` had the goal been `desired_goal`: PROGRESS_WEIGHT per
         metre gained on it, GOAL_REWARD on coming within GOAL_RADIUS (unless the step failed), and the step's
         goal-independent part (STEP_COST, COLLISION_REWARD). `info`: a step's `last_info` (or a sequence / a dict of
-        arrays of them) with "previous_achieved_goal", "goal_independent_reward", "collision" and "left_map"."""
+        arrays of them) with "previous_achieved_goal", "goal_independent_reward", "collision" and "left_map".
+
+        reward="geodesic": `planning_rewards.geodesic_reward` of the route lengths left before and after the step,
+        exactly the step's where `desired_goal` is its own goal (info "step_goal", "route_distance_before",
+        "route_distance", "success"); for a relabelled goal, which has no field (a search per sample), shaped on the
+        straight distance to its region, the geodesic of open water, with the bonus where it is reached without a
+        failure (as the planar tasks' `PlanningTask.compute_reward`)."""
         previous = info_field(info, "previous_achieved_goal")
         after = goal_distance(achieved_goal, desired_goal)
         failed = info_field(info, "collision").astype(bool) | info_field(info, "left_map").astype(bool)
         reached = (after < GOAL_RADIUS) & ~failed
+        if self.reward_kind == "geodesic":
+            desired = np.asarray(desired_goal, dtype=float)
+            own = np.all(desired[..., :3] == info_field(info, "step_goal"), axis=-1)
+            straight_before = np.maximum(goal_distance(previous, desired) - GOAL_RADIUS, 0.0)
+            straight_after = np.where(reached, 0.0, np.maximum(after - GOAL_RADIUS, 0.0))
+            return geodesic_reward(np.where(own, info_field(info, "route_distance_before"), straight_before),
+                                   np.where(own, info_field(info, "route_distance"), straight_after),
+                                   np.where(own, info_field(info, "success").astype(bool), reached), failed)
         return (PROGRESS_WEIGHT * (goal_distance(previous, desired_goal) - after) + np.where(reached, GOAL_REWARD, 0.0)
                 + info_field(info, "goal_independent_reward"))
 

@@ -21,7 +21,8 @@ How:
   (`sample_schedule`), and the noise is drawn here from the episode's own generator in the order `Ocean3D.noise`
   draws it (`draw_noise`); the fan's noise (`NoisySonar`, its own generator) is the episode's `Sensors3D.noise`
   called on the raw fan the step sampled. Then the events, the info and the reward (`Planning3D.compute_reward`,
-  vectorised) and the observation (`target_features`, vectorised; tunnel3d's look-ahead point is `Tunnel3D.target`'s,
+  vectorised; under reward="geodesic" each episode's route length left from its own field, `voxel_distances` over
+  the batch) and the observation (`target_features`, vectorised; tunnel3d's look-ahead point is `Tunnel3D.target`'s,
   `auv3d.lookahead_targets`) over the batch. Only the time limits (`RouteEnvironment`'s, each episode's) are here.
 - What an episode leaves to the next is written back before the sub-environment's next reset: the DVL's last
   noisy sample (`Ocean3D.last_dvl`, what a dropout at the next episode's first read holds).
@@ -45,6 +46,7 @@ from dm_control.rl.control import PhysicsError
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
+from auv_mj.arenas.geodesic import voxel_distances
 from auv_mj.control.depth_heading import (
     EXECUTOR_DT,
     FIN_LIMIT,
@@ -176,6 +178,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
         if self._ticks + 1 > batch3d.MAX_READS:
             raise ValueError(f"a planner step of {self._ticks} executor periods is longer than the batch reads")
         self._goal_task = isinstance(task, auv3d.Goal3D)
+        self._geodesic = task.reward_kind == "geodesic"
         self._fan = fan_directions()
         self._stepper = batch3d.BatchStepper3D(self.num_envs)
         self._allocate()
@@ -193,6 +196,10 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._paths = np.zeros((n, 2, 3))
         """Each episode's path (tunnel3d: the tube's centreline), padded with its last point (`lookahead_targets`)."""
         self._path_counts = np.zeros(n, dtype=int)
+        self._fields: list = [None] * n
+        """reward="geodesic": each episode's geodesic field (`Planning3D.potential`)."""
+        self._route_distance = np.full(n, np.nan)
+        """reward="geodesic": each vehicle's route length left [m] where its last step ended."""
         self._desired = np.zeros((n, auv3d.GOAL_SIZE))
         self._achieved = np.zeros((n, auv3d.GOAL_SIZE))
         self._sonar = np.zeros((n, FAN_BEAMS))
@@ -236,6 +243,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._heading[i] = physics.heading()
         self._goal[i] = task.goal
         self._put_path(i, task.path)
+        self._fields[i], self._route_distance[i] = task.potential, task.route_distance
         self._desired[i] = task.desired_goal
         self._achieved[i] = task.achieved_goal
         self._steps[i] = 0
@@ -346,8 +354,14 @@ class AUV3DVectorEnv(GoalVectorEnv):
         ranges = self._sonar[index]
         # Planning3D.after_step
         depth = -position[:, 2]
+        route = None
+        if self._geodesic:
+            after = voxel_distances([self._fields[i] for i in index], position)
+            route = (self._route_distance[index], after, self._goal[index])
         info = auv3d.step_info(out[:, at_out["collided"]] != 0, depth, auv3d.goal_distance(position, self._goal[index]),
-                               ranges, self._achieved[index].copy())
+                               ranges, self._achieved[index].copy(), route)
+        if route is not None:
+            self._route_distance[index] = info["route_distance"]
         at_position = np.column_stack([position, np.ones(len(index)), np.zeros(len(index))])  # pose_goal(p, 0.0)
         reward = self.envs[0].task.compute_reward(at_position, self._desired[index], info)
         # Planning3D.observe, from the held samples

@@ -17,6 +17,14 @@ least |point - centre| + field over the free cells of the REACH x REACH block ro
 convex map: the straight distance to the goal region, exactly (the grid's 8-connected route would be up to 8 % longer).
 `field_of_arena` picks it for an arena without static footprints. `distances(fields, points)` asks N fields (one per
 point, of either kind, a batch of episodes) at once: the batched environment's one call per step.
+
+`VoxelField.on_map(space, free, goal, goal_radius, max_slope)` is the field in 3-D, for the 6-DOF tasks: one Dijkstra
+search from the free voxels within the goal radius over the pitch-limited lattice a torpedo-shaped vehicle can fly
+(`auv_mj.arenas.voxels.lattice_graph`, unit cost: each edge its length), so that a wall in the way is climbed over
+at the vehicle's slope, not straight up. `voxel_distances(fields, points)` answers N of them at once, as `distances`:
+the least |point - centre| + field over the free voxels of a block round the point's voxel wide enough to reach past
+the clearance kept from the walls (`VoxelField.reach`); a point off the grid looks from the nearest voxel inside it,
+so the distance grows with the way back onto the map.
 """
 
 from __future__ import annotations
@@ -27,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse.csgraph import dijkstra
 
-from auv_mj.arenas import grid
+from auv_mj.arenas import grid, voxels
 
 REACH = 3
 """Cells on each side of a point's cell that `distance` looks through for a free cell (7 x 7: 6 m on a 2 m grid, so a
@@ -149,4 +157,79 @@ def distances(fields, points) -> np.ndarray:
         unreachable = np.array([f.unreachable for f in grids], dtype=float)
         best = np.where(np.isfinite(best), best, unreachable)
         result[rows] = np.where(straight[rows] <= radius[rows], 0.0, best)
+    return result
+
+
+@dataclass(frozen=True)
+class VoxelField:
+    """Route lengths [m] to a goal region over a voxel map's free voxels, on the flyable lattice (module docstring)."""
+
+    space: voxels.VoxelGrid
+    """The voxel grid."""
+    field: np.ndarray
+    """(nx, ny, nz) route length [m] from each voxel centre into the goal region; inf where blocked or cut off."""
+    goal: np.ndarray
+    """Goal (x, y, z) [m]."""
+    goal_radius: float
+    """Radius [m] of the goal region."""
+    reach: tuple[int, int, int]
+    """Voxels on each side of a point's voxel, per axis, that `distance` looks through for a free one."""
+    unreachable: float
+    """What `distance` gives where no voxel near the point leads to the goal [m]: longer than every route."""
+
+    @classmethod
+    def on_map(cls, space: voxels.VoxelGrid, free: np.ndarray, goal, goal_radius: float, max_slope: float,
+               clearance: float = 0.0) -> VoxelField:
+        """The field over `space` of the free voxels `free` (nx, ny, nz) bool, to within `goal_radius` [m] of `goal`
+        (the free voxel nearest the goal where none lies that near), climbing at most `max_slope` [rad]; `clearance`
+        [m] is what the free set keeps from the walls, which `distance` looks past."""
+        goal = np.asarray(goal, dtype=float)[:3]
+        graph = voxels.lattice_graph(space.cell, np.where(free, 1.0, np.inf), max_slope)
+        centres = space.centre(np.column_stack(np.unravel_index(np.arange(free.size), space.shape)))
+        near = np.linalg.norm(centres - goal, axis=1)
+        open_ = free.ravel()
+        sources = np.flatnonzero((near <= goal_radius) & open_)
+        if sources.size == 0 and open_.any():
+            sources = np.flatnonzero(open_)[[int(np.argmin(near[open_]))]]
+        field = np.full(free.size, np.inf)
+        if graph is not None and sources.size:
+            field = dijkstra(graph, directed=False, indices=sources, min_only=True)
+        field[sources] = 0.0
+        field = field.reshape(space.shape)
+        field[~free] = np.inf
+        finite = field[np.isfinite(field)]
+        longest = float(finite.max()) if finite.size else 0.0
+        reach = tuple(int(math.ceil(clearance / c)) + 1 for c in space.cell)
+        return cls(space, field, goal, float(goal_radius), reach,
+                   longest + 2.0 * float(np.linalg.norm(np.asarray(reach) * space.cell)))
+
+    def distance(self, points) -> np.ndarray:
+        """Route length [m] from each point (n, 3) into the goal region; see the module docstring."""
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        return voxel_distances((self,) * len(points), points)
+
+
+def voxel_distances(fields, points) -> np.ndarray:
+    """Route length [m] from point k (N, 3) into the goal region of the VoxelField fields[k], for N fields at once:
+    0 within the goal radius, else the least |point - centre| + field over the voxels within the field's `reach` of
+    the point's voxel (the nearest voxel on the grid for a point off it), `unreachable` where none leads to the goal."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    result = np.empty(len(points))
+    groups: dict[int, list[int]] = {}  # rows that ask the same field: one look-up each
+    for row, f in enumerate(fields):
+        groups.setdefault(id(f), []).append(row)
+    for members in groups.values():
+        f = fields[members[0]]
+        at = points[members]
+        shape = np.array(f.space.shape)
+        cells = np.clip(np.floor((at - f.space.origin) / f.space.cell).astype(int), 0, shape - 1)
+        offsets = [np.arange(-r, r + 1) for r in f.reach]
+        grid_ = np.stack(np.meshgrid(*offsets, indexing="ij"), axis=-1).reshape(-1, 3)
+        block = np.clip(cells[:, None, :] + grid_[None], 0, shape - 1)
+        values = f.field[block[..., 0], block[..., 1], block[..., 2]]
+        centres = f.space.origin + (block + 0.5) * f.space.cell
+        route = np.min(np.linalg.norm(centres - at[:, None, :], axis=-1) + values, axis=1)
+        route = np.where(np.isfinite(route), route, f.unreachable)
+        straight = np.linalg.norm(at - f.goal, axis=1)
+        result[members] = np.where(straight <= f.goal_radius, 0.0, route)
     return result

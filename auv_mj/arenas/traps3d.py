@@ -34,6 +34,7 @@ import numpy as np
 
 from auv_mj.arenas import grid, voxels
 from auv_mj.arenas.arena3d import arena_root, seabed
+from auv_mj.arenas.geodesic import VoxelField
 from auv_mj.arenas.tubes import Tube, random_tube, tube_arena
 from auv_mj.geometry import arc_lengths
 
@@ -250,10 +251,11 @@ def map_cells(path: np.ndarray) -> tuple[tuple[float, float], float]:
 
 
 def true_map(grid_: voxels.VoxelGrid, model: mujoco.MjModel, data: mujoco.MjData, surface: float | None,
-             skip_body: int | None = None) -> np.ndarray:
-    """The oracle's occupancy: every geom (`voxels.geom_occupancy`) and, if `surface` is given, the water shallower
-    than `surface` metres (the surface, which ends an episode, is a wall to the planners)."""
-    occupied = voxels.geom_occupancy(grid_, model, data, skip_body)
+             skip_body: int | None = None, skip_bodies: set[int] | None = None) -> np.ndarray:
+    """The oracle's occupancy: every geom (`voxels.geom_occupancy`; but those of `skip_body` or `skip_bodies` and
+    their children) and, if `surface` is given, the water shallower than `surface` metres (the surface, which ends an
+    episode, is a wall to the planners)."""
+    occupied = voxels.geom_occupancy(grid_, model, data, skip_body, skip_bodies=skip_bodies)
     if surface is not None:
         occupied[:, :, grid_.centres()[2] > -surface] = True
     return occupied
@@ -271,11 +273,13 @@ def corridor_mask(grid_: voxels.VoxelGrid, line: np.ndarray, radius: float) -> n
     return (best <= radius).reshape(grid_.shape)
 
 
-def certify(arena: Arena3D, max_pitch: float, surface: float | None, goal_radius: float,
-            corridor: tuple[np.ndarray, float] | None = None) -> np.ndarray | None:
-    """The oracle's certificate of `arena`: a pitch-limited voxel path (m, 3) from its start to within
-    `goal_radius` of its goal that keeps the oracle's clearance from every geom (and from the surface), inside
-    `corridor` (a centreline and a radius: a tube's inside) if given; None when there is none."""
+def oracle_map(arena: Arena3D, surface: float | None, corridor: tuple[np.ndarray, float] | None = None,
+               static_only: bool = False) -> tuple[voxels.VoxelGrid, np.ndarray, float]:
+    """The oracle's voxel map of `arena`: (the grid over its start, goal and corridor with a margin, the cost per metre
+    of each voxel (`grid.cost_field` of the clearance; inf nearer than the hard clearance to a geom, the surface or,
+    with `corridor` (a centreline and a radius: a tube's inside), outside the corridor), the hard clearance [m]).
+    `static_only` leaves the moving obstacles (mocap bodies) out. The certificate and the 3-D geodesic field share
+    it."""
     model, data = arena_model(arena.root)
     cell, hard = map_cells(arena.path)
     points = np.vstack([arena.start, arena.goal] + ([corridor[0]] if corridor is not None else []))
@@ -284,10 +288,22 @@ def certify(arena: Arena3D, max_pitch: float, surface: float | None, goal_radius
     if surface is not None:
         high[2] = min(high[2], 0.0)
     space = voxels.VoxelGrid.covering(points.min(axis=0) - margin, high, *cell)
-    occupied = true_map(space, model, data, surface)
+    skip = None
+    if static_only:
+        skip = {int(b) for b in range(model.nbody) if model.body_mocapid[b] >= 0}
+    occupied = true_map(space, model, data, surface, skip_bodies=skip)
     cost = grid.cost_field(voxels.clearance(space, occupied), hard, hard + 2.0 * cell[0])
     if corridor is not None:
         cost[~corridor_mask(space, *corridor)] = np.inf
+    return space, cost, hard
+
+
+def certify(arena: Arena3D, max_pitch: float, surface: float | None, goal_radius: float,
+            corridor: tuple[np.ndarray, float] | None = None) -> np.ndarray | None:
+    """The oracle's certificate of `arena`: a pitch-limited voxel path (m, 3) from its start to within
+    `goal_radius` of its goal that keeps the oracle's clearance from every geom (and from the surface), inside
+    `corridor` (a centreline and a radius: a tube's inside) if given; None when there is none."""
+    space, cost, _ = oracle_map(arena, surface, corridor)
     for end in (arena.start, arena.goal):  # the ends themselves must be clear
         i, inside = space.index(end)
         if not inside[0] or not np.isfinite(cost[tuple(i[0])]):
@@ -297,3 +313,12 @@ def certify(arena: Arena3D, max_pitch: float, surface: float | None, goal_radius
         return None
     return path
 
+
+def geodesic_field(arena: Arena3D, max_pitch: float, surface: float | None, goal_radius: float,
+                   corridor: tuple[np.ndarray, float] | None = None) -> VoxelField:
+    """The geodesic distance to `arena`'s goal on its true static map (the potential of the 6-DOF tasks'
+    reward="geodesic"): the route length [m] over the certificate's voxels (`oracle_map`, the moving obstacles left
+    out), climbing within the certificate's slope, `max_pitch` times CLIMB_MARGIN."""
+    space, cost, hard = oracle_map(arena, surface, corridor, static_only=True)
+    return VoxelField.on_map(space, np.isfinite(cost), arena.goal, goal_radius, max_pitch * voxels.CLIMB_MARGIN,
+                             hard)

@@ -97,16 +97,17 @@ VOXEL_GEOMS = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CAPSULE, mujo
 
 
 def geom_occupancy(grid: VoxelGrid, model: mujoco.MjModel, data: mujoco.MjData, skip_body: int | None = None,
-                   occupied: np.ndarray | None = None) -> np.ndarray:
+                   occupied: np.ndarray | None = None, skip_bodies: set[int] | None = None) -> np.ndarray:
     """Voxels (nx, ny, nz) bool whose centre lies within half a voxel diagonal of a geom (a wall thinner than a
-    voxel still closes), or-ed into `occupied` if given. Geoms of body `skip_body` and its children (the vehicle)
-    are left out; a plane (the seabed) fills the water below it. ValueError naming a geom of another type."""
+    voxel still closes), or-ed into `occupied` if given. Geoms of body `skip_body` and its children (the vehicle),
+    and of the root bodies `skip_bodies` (moving obstacles) and theirs, are left out; a plane (the seabed) fills
+    the water below it. ValueError naming a geom of another type."""
     occupied = np.zeros(grid.shape, bool) if occupied is None else occupied
     slack = 0.5 * float(np.linalg.norm(grid.cell))
     axes = grid.centres()
     for g in range(model.ngeom):
         root = int(model.body_rootid[int(model.geom_bodyid[g])])
-        if skip_body is not None and root == skip_body:
+        if (skip_body is not None and root == skip_body) or (skip_bodies and root in skip_bodies):
             continue
         kind = mujoco.mjtGeom(int(model.geom_type[g]))
         if kind not in VOXEL_GEOMS:
@@ -162,6 +163,40 @@ def lattice(cell, max_slope: float) -> list[tuple[np.ndarray, np.ndarray]]:
     return edges
 
 
+def lattice_graph(cell, cost: np.ndarray, max_slope: float):
+    """The flyable `lattice` over the voxels of `cost` (nx, ny, nz; per metre, inf: closed) as a sparse graph (scipy
+    CSR, node i the voxel of flat index i in C order), each edge weighted by its length times the mean cost of its two
+    ends; None where no edge joins two open voxels. The search (`shortest_path`) and the geodesic field of the 3-D
+    reward (`auv_mj.arenas.geodesic.VoxelField`) walk it."""
+    n = cost.shape
+    ids = np.arange(cost.size).reshape(n)
+    passable = np.isfinite(cost)
+    rows, cols, weights = [], [], []
+    for end, crossed in lattice(cell, max_slope):
+        low = np.maximum(-crossed.min(axis=0), 0)
+        high = np.array(n) - np.maximum(crossed.max(axis=0), 0)
+        if np.any(high <= low):
+            continue
+        region = tuple(slice(a, b) for a, b in zip(low, high, strict=True))
+
+        def shifted(array, offset, region=region):
+            return array[tuple(slice(s.start + o, s.stop + o) for s, o in zip(region, offset, strict=True))]
+
+        ok = np.ones(tuple(high - low), bool)
+        for offset in crossed:
+            ok &= shifted(passable, offset)
+        if not ok.any():
+            continue
+        length = float(np.linalg.norm(end * np.asarray(cell, dtype=float)))
+        rows.append(ids[region][ok])
+        cols.append(shifted(ids, end)[ok])
+        weights.append(0.5 * length * (cost[region][ok] + shifted(cost, end)[ok]))
+    if not rows:
+        return None
+    return coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(cost.size, cost.size)).tocsr()
+
+
 def shortest_path(grid: VoxelGrid, cost: np.ndarray, start, goal, max_slope: float, goal_radius: float = 0.0,
                   box: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray | None:
     """The cheapest path (m, 3) [m] of voxel centres on the flyable `lattice` from `start`'s voxel to a voxel
@@ -178,33 +213,11 @@ def shortest_path(grid: VoxelGrid, cost: np.ndarray, start, goal, max_slope: flo
     local = cost[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]].copy()
     si = tuple(start_cell - lo)
     local[si] = min(local[si], 1.0 + SOFT_WEIGHT)
+    graph = lattice_graph(grid.cell, local, max_slope)
+    if graph is None:
+        return None
     n = local.shape
     ids = np.arange(local.size).reshape(n)
-    passable = np.isfinite(local)
-    rows, cols, weights = [], [], []
-    for end, crossed in lattice(grid.cell, max_slope):
-        low = np.maximum(-crossed.min(axis=0), 0)
-        high = np.array(n) - np.maximum(crossed.max(axis=0), 0)
-        if np.any(high <= low):
-            continue
-        region = tuple(slice(a, b) for a, b in zip(low, high, strict=True))
-
-        def shifted(array, offset, region=region):
-            return array[tuple(slice(s.start + o, s.stop + o) for s, o in zip(region, offset, strict=True))]
-
-        ok = np.ones(tuple(high - low), bool)
-        for offset in crossed:
-            ok &= shifted(passable, offset)
-        if not ok.any():
-            continue
-        length = float(np.linalg.norm(end * grid.cell))
-        rows.append(ids[region][ok])
-        cols.append(shifted(ids, end)[ok])
-        weights.append(0.5 * length * (local[region][ok] + shifted(local, end)[ok]))
-    if not rows:
-        return None
-    graph = coo_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
-                       shape=(local.size, local.size)).tocsr()
     centres = grid.centre(np.column_stack(np.unravel_index(np.arange(local.size), n)) + lo)
     near_goal = np.linalg.norm(centres - np.asarray(goal, dtype=float)[:3], axis=1)
     return path_to_goal(graph, int(ids[si]), centres, near_goal, *goal_reach(float(np.max(grid.cell)), goal_radius))

@@ -83,6 +83,17 @@ def test_collisions_and_same_step_autoresets_in_ocean_water():
     assert seen.get("collision", 0) >= 1 and seen["terminated"] >= 1
 
 
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+@pytest.mark.parametrize(("task", "policy"), [("goal3d", steer), ("tunnel3d", wander)])
+def test_the_geodesic_reward_is_the_single_environments(task, policy):
+    """reward="geodesic": each episode's route length left, from its own field over the batch, and so the reward and
+    the info's route distances, are the single environment's, through autoresets onto new hard arenas."""
+    options = {"conditions": "ocean", "arena": "random", "tier": "hard", "reward": "geodesic",
+               "time_limit": TIME_LIMIT}
+    seen = run_side_by_side(task, options, AutoresetMode.SAME_STEP, policy)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
 def test_make_vec_returns_the_batch():
     env = gymnasium.make_vec("auv_mj/Tunnel3D-v0", num_envs=2, vectorization_mode="vector_entry_point",
                              task_kwargs={"arena": "random"})

@@ -1,0 +1,161 @@
+"""The 6-DOF tasks' learning reward (reward="geodesic" on goal3d and tunnel3d) and its geodesic field.
+
+As the planar test (`test_learning_problem.py`), on whole scripted episodes of certified arenas -- a wall to climb
+over, a curtain to pass under, a cave, seabed relief, a tube with plugs, rocks in open water -- at the discount a
+learner of it uses (GEODESIC_DISCOUNT): going round, over or under (the 3-D `oracle`, which reaches the goal)
+returns more than crashing (`splane`, line of sight, which flies the straight line or the tube's axis into the
+wall, the cave or the plug) and more than waiting at the start or half-way; of two arrivals (the oracle from the
+start, and started late) the sooner returns more; each return is the closed form that potential-based shaping
+telescopes to. The field itself is checked against
+the lattice's own distances on open water (the octile distance on a level layer) and against the oracle's
+certificate.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from auv_mj.arenas import traps3d, voxels
+from auv_mj.arenas.geodesic import VoxelField
+from auv_mj.control.depth_heading import DepthHeadingGains
+from auv_mj.geometry import polyline_length
+from auv_mj.tasks import auv3d, planning_rewards, suite
+from auv_mj.zoo import env_and_policy
+
+GAMMA = planning_rewards.GEODESIC_DISCOUNT
+IDLE = np.array([-1.0, 0.0, 0.0])
+"""Thrust off: V = 0, heading and depth kept."""
+LATE_STEPS = 10
+"""The late start idles this many planner steps (5 s) before the oracle drives: longer and the buoyant REMUS,
+without way on, floats into a tube's wall or to the surface."""
+TRAP_CASES = [("goal3d", "hard", 0), ("goal3d", "hard", 1), ("goal3d", "hard", 3), ("goal3d", "hard", 5),
+              ("tunnel3d", "hard", 1), ("goal3d", "standard", 1)]
+"""(task, tier, seed): certified arenas where `splane` crashes and the oracle goes over, under or round (hard goal3d
+seeds 0, 1, 3, 5 draw a wall, a curtain, a cave and seabed relief; tunnel3d hard 1 a tube with plugs; goal3d
+standard 1 rocks on the straight line)."""
+
+
+def discounted(rewards, gamma: float = GAMMA) -> float:
+    rewards = np.asarray(rewards, dtype=float)
+    return float(np.sum(rewards * gamma ** np.arange(len(rewards))))
+
+
+def episode(task: str, tier: str, seed: int, driver: str, idle_from: int | None = None,
+            idle_until: int = 0) -> tuple[np.ndarray, list[dict]]:
+    """One whole episode under reward="geodesic": `driver` acts, except that the thrust is off before step
+    `idle_until` (a late start) and from step `idle_from` on (waiting there until the episode ends)."""
+    env, policy = env_and_policy(driver, task, seed, {"arena": "random", "tier": tier, "reward": "geodesic"})
+    time_step, rewards, infos = env.reset(), [], []
+    while not time_step.last():
+        t = len(rewards)
+        idle = t < idle_until or (idle_from is not None and t >= idle_from)
+        time_step = env.step(IDLE if idle else policy(time_step))
+        rewards.append(time_step.reward)
+        infos.append(env.task.last_info)
+    return np.array(rewards), infos
+
+
+def closed_form(infos: list[dict]) -> float:
+    """The discounted return potential-based shaping telescopes to (`planning_rewards`, "The geodesic reward")."""
+    last, end = infos[-1], GAMMA ** len(infos)
+    value = planning_rewards.PROGRESS_GAIN * (infos[0]["route_distance_before"] - end * last["route_distance"])
+    value -= planning_rewards.GEODESIC_STEP_COST * (1 - end) / (1 - GAMMA)
+    if last["success"]:
+        value += end / GAMMA * planning_rewards.GEODESIC_SUCCESS_BONUS
+    if last["collision"] or last["left_map"]:
+        value -= end / GAMMA * planning_rewards.GEODESIC_COLLISION_PENALTY
+    return value
+
+
+@pytest.mark.parametrize(("task", "tier", "seed"), TRAP_CASES)
+def test_going_round_returns_more_than_crashing_waiting_or_arriving_late(task, tier, seed):
+    round_, round_infos = episode(task, tier, seed, "oracle")
+    crash, crash_infos = episode(task, tier, seed, "splane")
+    assert round_infos[-1]["success"] and crash_infos[-1]["collision"]
+    half = len(round_) // 2
+    wait_start, wait_start_infos = episode(task, tier, seed, "oracle", idle_from=0)
+    wait_half, wait_half_infos = episode(task, tier, seed, "oracle", idle_from=half)
+    late, late_infos = episode(task, tier, seed, "oracle", idle_until=LATE_STEPS)
+    assert late_infos[-1]["success"] and len(late) != len(round_)
+    assert not wait_start_infos[-1]["success"] and not wait_half_infos[-1]["success"]
+    returns = {name: discounted(r) for name, r in
+               (("round", round_), ("crash", crash), ("wait_start", wait_start), ("wait_half", wait_half),
+                ("late", late))}
+    print(task, tier, seed, {name: round(value, 1) for name, value in returns.items()},
+          {"round_steps": len(round_), "crash_steps": len(crash), "late_steps": len(late)})
+    failures = max(returns["crash"], returns["wait_start"], returns["wait_half"])
+    assert min(returns["round"], returns["late"]) > failures
+    # the sooner arrival returns more (the oracle replans from where the late start left it: its way may differ)
+    sooner, later = sorted((round_, late), key=len)
+    assert discounted(sooner) > discounted(later)
+    for infos, rewards in ((round_infos, round_), (crash_infos, crash), (wait_half_infos, wait_half)):
+        assert discounted(rewards) == pytest.approx(closed_form(infos), rel=1e-9, abs=1e-6)
+
+
+def test_on_open_water_the_field_is_the_lattices_octile_distance():
+    """No walls: on the goal's own layer the shortest flyable route is level, along the 8-connected plane, so the
+    field is the octile distance h (max + (sqrt 2 - 1) min) of the voxel offsets; off the layer it is at least the
+    straight distance and climbs within the slope limit (no straight climb: above the goal's voxel it is longer)."""
+    space = voxels.VoxelGrid.covering((-20.0, -16.0, -30.0), (20.0, 16.0, -10.0), 2.0, 1.0)
+    goal = space.centre(np.array([[10, 8, 10]]))[0]
+    slope = math.radians(20.0)
+    field = VoxelField.on_map(space, np.ones(space.shape, bool), goal, 0.0, slope)
+    di = np.abs(np.arange(space.shape[0]) - 10)[:, None]
+    dj = np.abs(np.arange(space.shape[1]) - 8)[None, :]
+    octile = 2.0 * (np.maximum(di, dj) + (math.sqrt(2.0) - 1.0) * np.minimum(di, dj))
+    np.testing.assert_allclose(field.field[:, :, 10], octile, atol=1e-9)
+    centres = space.centre(np.column_stack(np.unravel_index(np.arange(field.field.size), space.shape)))
+    straight = np.linalg.norm(centres - goal, axis=1).reshape(space.shape)
+    assert np.all(field.field >= straight - 1e-9)
+    above = field.field[10, 8, 14]  # 4 m straight above the goal: the climb takes a run of 4 / tan(slope) at least
+    assert above >= math.hypot(4.0, 4.0 / math.tan(slope)) - 1e-9
+    # the look-up adds the point's offset from the voxel centre it routes through
+    point = goal + np.array([0.3, -0.2, 0.0])
+    assert field.distance(point)[0] == pytest.approx(np.linalg.norm(point - goal), abs=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["goal", "tube"])
+def test_the_field_is_no_longer_than_the_oracles_certificate(kind):
+    """The certificate (the oracle's pitch-limited path, kept off the walls by its soft cost) is one flyable route on
+    the same voxels: the route length at the start is at most its length, and at least the straight distance to the
+    goal region."""
+    max_pitch = DepthHeadingGains().max_pitch
+    for seed in range(3):
+        random = np.random.RandomState(seed)
+        if kind == "goal":
+            arena = traps3d.hard_goal_arena(random, auv3d.WATER_DEPTH, max_pitch, auv3d.MIN_DEPTH, auv3d.GOAL_RADIUS)
+            field = traps3d.geodesic_field(arena, max_pitch, auv3d.MIN_DEPTH, auv3d.GOAL_RADIUS)
+        else:
+            arena = traps3d.hard_tube(random, max_pitch)
+            field = traps3d.geodesic_field(arena, max_pitch, None, auv3d.GOAL_RADIUS,
+                                           (arena.path, traps3d.HARD_TUBE_RADIUS))
+        start = field.distance(arena.start)[0]
+        certificate = polyline_length(np.vstack([arena.start, arena.route]))
+        assert np.linalg.norm(arena.goal - arena.start) - auv3d.GOAL_RADIUS <= start <= certificate + 1e-6
+
+
+def test_compute_reward_is_the_step_reward_and_relabels_on_the_straight_distance():
+    env, drive = env_and_policy("oracle", "goal3d", 0, {"arena": "random", "tier": "hard", "reward": "geodesic"})
+    task = env.task
+    time_step = env.reset()
+    rewards, infos, achieved, desired = [], [], [], []
+    while not time_step.last() and len(rewards) < 120:
+        desired.append(time_step.observation["desired_goal"])
+        time_step = env.step(drive(time_step))
+        rewards.append(time_step.reward)
+        infos.append(task.last_info)
+        achieved.append(auv3d.pose_goal(env.physics.position(), 0.0))
+    achieved, desired = np.array(achieved), np.array(desired)
+    np.testing.assert_array_equal(task.compute_reward(achieved, desired, infos), rewards)
+    relabelled = task.compute_reward(achieved, achieved, infos)  # reached at once: the bonus on every step
+    previous = np.array([info["previous_achieved_goal"] for info in infos])
+    before = np.maximum(auv3d.goal_distance(previous, achieved) - auv3d.GOAL_RADIUS, 0.0)
+    np.testing.assert_allclose(relabelled, planning_rewards.geodesic_reward(before, 0.0, True, False), atol=1e-12)
+    # the route length left falls along the oracle's way over the wall, and the progress reward's option stays
+    distances = [info["route_distance"] for info in infos]
+    assert distances[-1] < distances[0] - 60.0
+    with pytest.raises(ValueError, match="reward"):
+        suite.load(auv3d.DOMAIN, "goal3d", task_kwargs={"reward": "paper"})
