@@ -69,6 +69,7 @@ from dm_env import specs
 
 from auv_mj.arenas import arena3d, arena_check, traps3d, tubes
 from auv_mj.arenas.geodesic import VoxelField
+from auv_mj.arenas.voxels import CLIMB_MARGIN
 from auv_mj.control.clock import ExecutorClock
 from auv_mj.control.depth_heading import (
     EXECUTOR_DT,
@@ -505,7 +506,11 @@ class Planning3D(base.Task):
         self.tier = options.choice("tier", tier, TIERS)
         self.reward_kind = options.choice("reward", reward, PLANNING_REWARDS)
         self.potential: VoxelField | None = None
-        """reward="geodesic": the geodesic field of the episode's goal (`traps3d.geodesic_field`); else None."""
+        """The geodesic field of the episode's goal once searched (`geodesic_potential`; at the reset under
+        reward="geodesic"), else None."""
+        self._episode_arena = None
+        self._steering: dict[float | None, VoxelField] = {}
+        self._oracle_map: tuple | None = None
         self.route_distance = math.nan
         """reward="geodesic": the route length left [m] where the last step ended (at the reset, the start's)."""
         self.movers: list[tuple[int, tubes.TubeMover]] = []
@@ -600,12 +605,12 @@ class Planning3D(base.Task):
         self.movers = [(int(model.body_mocapid[model.body(f"mover_{m.name}").id]), m)
                        for m in tubes.items_from_arena(root)[1]]
         self._move(physics)
+        self._episode_arena = (traps3d.Arena3D(root, np.asarray(start, dtype=float), float(heading), self.goal,
+                                               self.path, ""), None if tube is None else (self.path, tube.radius))
+        self.potential = self._oracle_map = None
+        self._steering = {}
         if self.reward_kind == "geodesic":
-            arena = traps3d.Arena3D(root, np.asarray(start, dtype=float), float(heading), self.goal, self.path, "")
-            self.potential = traps3d.geodesic_field(arena, self.max_pitch, None if tube is not None else MIN_DEPTH,
-                                                    GOAL_RADIUS,
-                                                    None if tube is None else (self.path, tube.radius))
-            self.route_distance = float(self.potential.distance(start)[0])
+            self.route_distance = float(self.geodesic_potential().distance(start)[0])
         self._desired = pose_goal(self.goal, self.goal_heading(start))
         set_pose(physics, start, yaw=heading, nu=(1.0, 0, 0, 0, 0, 0))
         physics.reset_fins()
@@ -617,6 +622,37 @@ class Planning3D(base.Task):
         self._achieved = pose_goal(physics.position(), heading)
         self.last_info = {}  # a reset's info is its own, not the last episode's end (as the planar tasks')
         super().initialize_episode(physics)
+
+    def geodesic_potential(self) -> VoxelField:
+        """The geodesic field of this episode's goal on its arena's true static map (`traps3d.geodesic_field`: the
+        oracle's voxels, a tube's inside, the surface a wall in open water), searched at the first call of the episode
+        (at the reset under reward="geodesic") and kept: the reward's potential, and a privileged teacher's map."""
+        if self.potential is None:
+            arena, corridor = self._episode_arena
+            self.potential = traps3d.geodesic_field(arena, self.max_pitch, None if corridor is not None else MIN_DEPTH,
+                                                    GOAL_RADIUS, corridor, mapped=self._static_map())
+        return self.potential
+
+    def _static_map(self) -> tuple:
+        """The oracle's voxel map of this episode's static geoms (`traps3d.oracle_map`), made once an episode."""
+        if self._oracle_map is None:
+            arena, corridor = self._episode_arena
+            self._oracle_map = traps3d.oracle_map(arena, None if corridor is not None else MIN_DEPTH, corridor,
+                                                  static_only=True)
+        return self._oracle_map
+
+    def steering_field(self, open_water_slope: float | None = None) -> VoxelField:
+        """This episode's field weighed by the oracle's soft clearance (`traps3d.geodesic_field(soft=True)`), searched
+        at the first call of the episode and kept: the way down it (`VoxelField.next_hop`) is a privileged teacher's
+        map (`auv_mj.planners.teacher3d`), never a learner's input. `open_water_slope` [rad]: the steepest climb of its
+        lattice in open water (None: the certificate's, max_pitch times CLIMB_MARGIN; a tube's is always that)."""
+        key = open_water_slope
+        if self._steering.get(key) is None:
+            arena, corridor = self._episode_arena
+            pitch = self.max_pitch if corridor is not None or key is None else key / CLIMB_MARGIN
+            self._steering[key] = traps3d.geodesic_field(arena, pitch, None if corridor is not None else MIN_DEPTH,
+                                                         GOAL_RADIUS, corridor, soft=True, mapped=self._static_map())
+        return self._steering[key]
 
     def _move(self, physics: Physics3D) -> None:
         """Puts the moving obstacles where their tracks have them now."""

@@ -1,4 +1,7 @@
-"""A batched training mixture of planning tasks: one `AUVVectorEnv` per (task, tier, water), side by side.
+"""A batched training mixture of planning tasks: one batched env per (task, tier, water), side by side.
+
+Either domain: the planar tasks (MIXTURE_TASKS, each cell an `AUVVectorEnv`) or the 6-DOF ones (MIXTURE_TASKS_3D,
+goal3d and tunnel3d, each cell an `auv_mj.tasks.vector3d.AUV3DVectorEnv`); one mixture holds one domain's.
 
 `PlanningMixtureVectorEnv` holds `envs_per_cell` vehicles of each combination of MIXTURE_TASKS (random
 obstacles, random moving obstacles, random tunnels: every task with `arena="random"`), the two tiers and the two
@@ -39,11 +42,14 @@ from gymnasium.vector.utils import batch_space
 
 from auv_mj import seeds as seed_ranges
 from auv_mj.tasks import options as checks
-from auv_mj.tasks import planning
+from auv_mj.tasks import planning, vector3d
 from auv_mj.tasks.vector import AUVVectorEnv
+from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
 MIXTURE_TASKS = ("obstacles", "moving_obstacles", "tunnel")
 """The planning tasks of the mixture, each on procedural arenas (`arena="random"`)."""
+MIXTURE_TASKS_3D = vector3d.TASKS
+"""The 6-DOF planning tasks a mixture may hold instead (goal3d, tunnel3d; random arenas too)."""
 TIERS = ("standard", "hard")
 """The arena tiers (the benchmark's `tier` option)."""
 WATERS = ("ideal", "ocean")
@@ -56,8 +62,11 @@ OWN_OPTIONS = ("arena", "tier", "conditions", "random")
 
 def mixture_cells(tasks: Sequence[str] = MIXTURE_TASKS, tiers: Sequence[str] = TIERS,
                   waters: Sequence[str] = WATERS) -> list[tuple[str, str, str]]:
-    """The (task, tier, water) cells of a mixture, in row order."""
-    for name, values, allowed in (("tasks", tasks, MIXTURE_TASKS), ("tiers", tiers, TIERS),
+    """The (task, tier, water) cells of a mixture, in row order; the tasks all of one domain (MIXTURE_TASKS or
+    MIXTURE_TASKS_3D)."""
+    domain = MIXTURE_TASKS_3D if not isinstance(tasks, str) and tasks and tasks[0] in MIXTURE_TASKS_3D \
+        else MIXTURE_TASKS
+    for name, values, allowed in (("tasks", tasks, domain), ("tiers", tiers, TIERS),
                                   ("waters", waters, WATERS)):
         if not values or isinstance(values, str):
             raise ValueError(f"{name} must be a non-empty list drawn from {list(allowed)}, got {checks.shown(values)}")
@@ -133,8 +142,9 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         self.task_kwargs = task_kwargs
         self.policy_options = planning.policy_options(task_kwargs)
         """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` given: what a policy trained here must run with."""
-        self.subenvs = [AUVVectorEnv(task, num_envs=n, threads=threads, autoreset_mode=autoreset_mode,
-                                     task_kwargs={**task_kwargs, "arena": "random", "tier": tier, "conditions": water})
+        batch = AUV3DVectorEnv if self.cells[0][0] in MIXTURE_TASKS_3D else AUVVectorEnv
+        self.subenvs = [batch(task, num_envs=n, threads=threads, autoreset_mode=autoreset_mode,
+                              task_kwargs={**task_kwargs, "arena": "random", "tier": tier, "conditions": water})
                         for (task, tier, water), n in zip(self.cells, self.cell_sizes, strict=True)]
         self.autoreset_mode = self.subenvs[0].autoreset_mode
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
@@ -274,10 +284,11 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         """The action map of every cell (`planning.ACTIONS`; the task options are the same in every cell)."""
         return self.subenvs[0].rules.action
 
-    def privileged_state(self) -> dict[str, Any]:
-        """`AUVVectorEnv.privileged_state` of every cell, rows concatenated in row order (a privileged teacher's
-        input, `auv_mj.planners.teacher.BatchTeacher`; never a learner's)."""
-        parts = [sub.privileged_state() for sub in self.subenvs]
+    def privileged_state(self, *args) -> dict[str, Any]:
+        """The cells' `privileged_state(*args)` (`AUVVectorEnv`'s, `AUV3DVectorEnv`'s), rows concatenated in row order
+        (a privileged teacher's input, `auv_mj.planners.teacher.BatchTeacher`, `teacher3d.BatchTeacher3D`; never a
+        learner's)."""
+        parts = [sub.privileged_state(*args) for sub in self.subenvs]
         return {key: (list(itertools.chain.from_iterable(p[key] for p in parts)) if isinstance(parts[0][key], list)
                       else np.concatenate([p[key] for p in parts]))
                 for key in parts[0]}

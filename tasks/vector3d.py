@@ -188,6 +188,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
     def _allocate(self) -> None:
         n = self.num_envs
         self._position = np.zeros((n, 3))
+        self._previous_position = np.zeros((n, 3))
         self._time = np.zeros(n)
         """Each vehicle's physics time [s] (MuJoCo's data.time)."""
         self._heading = np.zeros(n)
@@ -239,11 +240,13 @@ class AUV3DVectorEnv(GoalVectorEnv):
         if tuple(sensors.rates) != SAMPLE_ORDER:
             raise ValueError(f"the 6-DOF vector env reads the sensors {SAMPLE_ORDER}, got {tuple(sensors.rates)}")
         self._position[i] = physics.position()
+        self._previous_position[i] = self._position[i]
         self._time[i] = physics.data.time
         self._heading[i] = physics.heading()
         self._goal[i] = task.goal
         self._put_path(i, task.path)
-        self._fields[i], self._route_distance[i] = task.potential, task.route_distance
+        self._fields[i] = task.potential
+        self._route_distance[i] = task.route_distance
         self._desired[i] = task.desired_goal
         self._achieved[i] = task.achieved_goal
         self._steps[i] = 0
@@ -340,6 +343,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
             raise PhysicsError(f"Physics state is invalid in sub-environment(s) {bad[:8].tolist()}: the 6-DOF step "
                                "diverged or MuJoCo reset it")
         position = out[:, at_out["x"]:at_out["z"] + 1]
+        self._previous_position[index] = self._position[index]
         self._position[index], self._heading[index] = position, out[:, at_out["heading"]]
         self._time[index] = out[:, at_out["time"]]
         first_beam = at_out["sonar_1"]
@@ -390,6 +394,16 @@ class AUV3DVectorEnv(GoalVectorEnv):
         terminated = ~at_limit & (info["event"] != "")
         self._stepped[index] = True
         return reward, terminated, truncated, self._batched_infos(index, info)
+
+    def privileged_state(self, open_water_slope: float | None = None) -> dict[str, Any]:
+        """The true state of every row for a privileged teacher (`auv_mj.planners.teacher3d`; Chen et al. 2019),
+        never a learner's input: each episode's steering field ("steering", `Planning3D.steering_field`: the true
+        map's way to the goal, searched at the first call of an episode), the position ("position" (N, 3)), where
+        the last step began ("previous_position"; the position itself after a reset) and the true heading
+        ("heading" (N,)). Rows awaiting an autoreset still show the episode that ended."""
+        return {"steering": [env.task.steering_field(open_water_slope) for env in self.envs],
+                "position": self._position.copy(), "previous_position": self._previous_position.copy(),
+                "heading": self._heading.copy()}
 
     def relabel_observation(self, observation, achieved_goal, desired_goal):
         """The task's observation had `desired_goal` been the goal (`Planning3D.relabel_observation`), vectorised."""

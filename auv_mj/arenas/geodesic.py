@@ -176,15 +176,28 @@ class VoxelField:
     """Voxels on each side of a point's voxel, per axis, that `distance` looks through for a free one."""
     unreachable: float
     """What `distance` gives where no voxel near the point leads to the goal [m]: longer than every route."""
+    room: np.ndarray
+    """(nx, ny, nz) distance [m] from each voxel centre to the nearest closed voxel's (0 on a closed one): how far
+    a point is from leaving the free water (a privileged teacher keeps to the middle of it)."""
+    outside_closed: bool = False
+    """Whether the water off the grid is closed too (a tube's field: its grid covers the tube), or open (open water:
+    the grid is the search's box)."""
+    next_hop: np.ndarray | None = None
+    """(nx * ny * nz) flat index of the next voxel on the cheapest way from each voxel to the goal region (-9999
+    where none: a source, closed or cut off): the search's predecessors, the way down the field."""
 
     @classmethod
     def on_map(cls, space: voxels.VoxelGrid, free: np.ndarray, goal, goal_radius: float, max_slope: float,
-               clearance: float = 0.0) -> VoxelField:
+               clearance: float = 0.0, outside_closed: bool = False, cost: np.ndarray | None = None) -> VoxelField:
         """The field over `space` of the free voxels `free` (nx, ny, nz) bool, to within `goal_radius` [m] of `goal`
         (the free voxel nearest the goal where none lies that near), climbing at most `max_slope` [rad]; `clearance`
-        [m] is what the free set keeps from the walls, which `distance` looks past."""
+        [m] is what the free set keeps from the walls, which `distance` looks past; `outside_closed` whether the water
+        off the grid is closed. `cost` (nx, ny, nz) weighs each edge by its length times the mean cost per metre of
+        its ends (the oracle's soft clearance: the way down keeps to the middle of the water), else by its length
+        alone: the field is then the route length."""
         goal = np.asarray(goal, dtype=float)[:3]
-        graph = voxels.lattice_graph(space.cell, np.where(free, 1.0, np.inf), max_slope)
+        weights = np.ones(space.shape) if cost is None else np.asarray(cost, dtype=float)
+        graph = voxels.lattice_graph(space.cell, np.where(free, weights, np.inf), max_slope)
         centres = space.centre(np.column_stack(np.unravel_index(np.arange(free.size), space.shape)))
         near = np.linalg.norm(centres - goal, axis=1)
         open_ = free.ravel()
@@ -192,16 +205,20 @@ class VoxelField:
         if sources.size == 0 and open_.any():
             sources = np.flatnonzero(open_)[[int(np.argmin(near[open_]))]]
         field = np.full(free.size, np.inf)
+        next_hop = np.full(free.size, -9999, dtype=np.int64)
         if graph is not None and sources.size:
-            field = dijkstra(graph, directed=False, indices=sources, min_only=True)
+            field, next_hop, _ = dijkstra(graph, directed=False, indices=sources, min_only=True,
+                                          return_predecessors=True)
         field[sources] = 0.0
         field = field.reshape(space.shape)
         field[~free] = np.inf
         finite = field[np.isfinite(field)]
         longest = float(finite.max()) if finite.size else 0.0
         reach = tuple(int(math.ceil(clearance / c)) + 1 for c in space.cell)
+        room = voxels.clearance(space, ~free) if not free.all() else np.full(space.shape, np.inf)
         return cls(space, field, goal, float(goal_radius), reach,
-                   longest + 2.0 * float(np.linalg.norm(np.asarray(reach) * space.cell)))
+                   longest + 2.0 * float(np.linalg.norm(np.asarray(reach) * space.cell)), room, outside_closed,
+                   np.asarray(next_hop, dtype=np.int64))
 
     def distance(self, points) -> np.ndarray:
         """Route length [m] from each point (n, 3) into the goal region; see the module docstring."""

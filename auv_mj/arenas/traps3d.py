@@ -262,15 +262,24 @@ def true_map(grid_: voxels.VoxelGrid, model: mujoco.MjModel, data: mujoco.MjData
 
 
 def corridor_mask(grid_: voxels.VoxelGrid, line: np.ndarray, radius: float) -> np.ndarray:
-    """Voxels whose centre lies within `radius` of the polyline `line` (K, 3): inside a tube."""
-    x, y, z = np.meshgrid(*grid_.centres(), indexing="ij")
-    points = np.stack([x, y, z], axis=-1).reshape(-1, 3)
-    best = np.full(len(points), np.inf)
+    """Voxels whose centre lies within `radius` of the polyline `line` (K, 3): inside a tube. Each segment looks only
+    through the voxels of its bounding box grown by `radius` (no voxel outside it lies that near)."""
+    axes = grid_.centres()
+    mask = np.zeros(grid_.shape, bool)
+    line = np.asarray(line, dtype=float)
     for a, b in zip(line[:-1], line[1:], strict=True):
+        low, high = np.minimum(a, b) - radius, np.maximum(a, b) + radius
+        lo = [int(np.searchsorted(axes[k], low[k])) for k in range(3)]
+        hi = [int(np.searchsorted(axes[k], high[k], "right")) for k in range(3)]
+        if any(h <= l_ for l_, h in zip(lo, hi, strict=True)):
+            continue
+        x, y, z = np.meshgrid(axes[0][lo[0]:hi[0]], axes[1][lo[1]:hi[1]], axes[2][lo[2]:hi[2]], indexing="ij")
+        points = np.stack([x, y, z], axis=-1)
         d = b - a
         t = np.clip((points - a) @ d / max(float(d @ d), 1e-12), 0.0, 1.0)
-        best = np.minimum(best, np.linalg.norm(points - (a + t[:, None] * d), axis=1))
-    return (best <= radius).reshape(grid_.shape)
+        near = np.linalg.norm(points - (a + t[..., None] * d), axis=-1) <= radius
+        mask[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]] |= near
+    return mask
 
 
 def oracle_map(arena: Arena3D, surface: float | None, corridor: tuple[np.ndarray, float] | None = None,
@@ -315,10 +324,14 @@ def certify(arena: Arena3D, max_pitch: float, surface: float | None, goal_radius
 
 
 def geodesic_field(arena: Arena3D, max_pitch: float, surface: float | None, goal_radius: float,
-                   corridor: tuple[np.ndarray, float] | None = None) -> VoxelField:
+                   corridor: tuple[np.ndarray, float] | None = None, soft: bool = False,
+                   mapped: tuple[voxels.VoxelGrid, np.ndarray, float] | None = None) -> VoxelField:
     """The geodesic distance to `arena`'s goal on its true static map (the potential of the 6-DOF tasks'
     reward="geodesic"): the route length [m] over the certificate's voxels (`oracle_map`, the moving obstacles left
-    out), climbing within the certificate's slope, `max_pitch` times CLIMB_MARGIN."""
-    space, cost, hard = oracle_map(arena, surface, corridor, static_only=True)
+    out), climbing within the certificate's slope, `max_pitch` times CLIMB_MARGIN. `soft`: weighed by the oracle's
+    soft clearance instead (its values are then costs, not lengths; its way down, `VoxelField.next_hop`, keeps to
+    the middle of the water: a privileged teacher's). `mapped`: `oracle_map(arena, surface, corridor,
+    static_only=True)` where the caller has it already."""
+    space, cost, hard = mapped or oracle_map(arena, surface, corridor, static_only=True)
     return VoxelField.on_map(space, np.isfinite(cost), arena.goal, goal_radius, max_pitch * voxels.CLIMB_MARGIN,
-                             hard)
+                             hard, outside_closed=corridor is not None, cost=cost if soft else None)

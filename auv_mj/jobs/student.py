@@ -9,6 +9,13 @@ and, with `finetune_steps`, PPO from the student with the teacher's labels under
 (`auv_mj.agents.ppo`, PPOConfig.imitation_coef): on one task `finetune`, on the mixture the planner's own training
 loop (`auv_mj.agents.ppo.planner.train_planner`: validation on the hard cells, the windowed choice, best.pt).
 `auv-mj train dagger` is argparse over it.
+
+In 3-D (`task="planning-mix-3d"`, MIXTURE_TASK_3D): the 6-DOF training mixture (`PlanningMixtureVectorEnv` over goal3d
+and tunnel3d, both tiers and waters, the hard cells oversampled by MIXTURE_3D_WEIGHTS, reward="geodesic"), the 3-D
+teacher (`auv_mj.planners.teacher3d.BatchTeacher3D`), and DAgger's validation on each hard cell
+(`mixture_3d_validator`); the student reads the 3-D planning observation (`auv_mj.tasks.auv3d.PLANNING_OBSERVATION`
+and the fan) alone. Its PPO fine-tune is not built yet (the privileged critic's inputs are the planar env's):
+`finetune_steps` must be 0 there.
 """
 
 from __future__ import annotations
@@ -41,7 +48,10 @@ from auv_mj.agents.ppo.planner import validate as validate_planner
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.agents.ppo.spaces import student_view
 from auv_mj.planners.teacher import BatchTeacher
+from auv_mj.planners.teacher3d import BatchTeacher3D
+from auv_mj.tasks.mixture import MIXTURE_TASKS_3D, PlanningMixtureVectorEnv, cell_counts, mixture_cells
 from auv_mj.tasks.vector import AUVVectorEnv
+from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
 STUDENT_TASK_KWARGS = {"arena": "random", "tier": "hard", "action": "rate", "reward": "geodesic",
                        "observation": "planner"}
@@ -53,6 +63,39 @@ OPTIONS_NAME = "student.json"
 """The task, its options and the batch size of a run (read back on resume)."""
 MIXTURE_TASK = "planning-mix"
 """The task name of the whole training mixture (`auv_mj.tasks.mixture`), as `auv-mj train ppo` names it."""
+MIXTURE_TASK_3D = "planning-mix-3d"
+"""The task name of the 6-DOF training mixture (goal3d and tunnel3d, both tiers and waters)."""
+MIXTURE_3D_WEIGHTS = {"standard": 0.5, "hard": 1.5}
+"""Cell weights of the 6-DOF mixture (`auv_mj.tasks.mixture.cell_counts`): three hard vehicles to a standard one."""
+MIXTURE_3D_OPTIONS = {"reward": "geodesic"}
+"""The 6-DOF student's task options (beside each cell's arena, tier and water)."""
+
+
+def mixture_3d_env(envs_per_cell: int, threads: int | None = None) -> PlanningMixtureVectorEnv:
+    """The 6-DOF training mixture: `envs_per_cell` vehicles a cell before MIXTURE_3D_WEIGHTS."""
+    cells = mixture_cells(MIXTURE_TASKS_3D)
+    return PlanningMixtureVectorEnv(cell_counts(envs_per_cell, cells, MIXTURE_3D_WEIGHTS), tasks=MIXTURE_TASKS_3D,
+                                    task_kwargs=MIXTURE_3D_OPTIONS, threads=threads)
+
+
+def mixture_3d_validator(threads: int | None = None) -> Validator:
+    """DAgger's per-round validation in 3-D: the deterministic student on config.validation_episodes episodes of each
+    hard cell (goal3d and tunnel3d, ideal and ocean water; seeds from VALIDATION_FIRST_SEED), the mean as val_success
+    and each cell as "cell:task/hard/water"."""
+    def validate(model, config: DaggerConfig) -> dict[str, float]:
+        rates, collisions = {}, []
+        for task in MIXTURE_TASKS_3D:
+            for water in ("ideal", "ocean"):
+                options = {**MIXTURE_3D_OPTIONS, "arena": "random", "tier": "hard", "conditions": water}
+                result = evaluate_student(
+                    lambda n, task=task, options=options: AUV3DVectorEnv(task, n, options, threads=threads), model,
+                    config.validation_episodes, VALIDATION_FIRST_SEED, config.validation_max_steps)
+                rates[f"{task}/hard/{water}"] = result["val_success"]
+                collisions.append(result["val_collision"])
+        return {"val_success": float(np.mean(list(rates.values()))), "val_collision": float(np.mean(collisions)),
+                "val_episodes": float(config.validation_episodes * len(rates)),
+                **{f"cell:{name}": rate for name, rate in rates.items()}}
+    return validate
 
 
 def student_mixture(envs_per_cell: int = LEARNED_MIXTURE.envs_per_cell) -> MixtureConfig:
@@ -102,6 +145,9 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     run_dir = Path(run_dir)
     options_path = run_dir / OPTIONS_NAME
     mixture: MixtureConfig | None = None
+    if task == MIXTURE_TASK_3D or (resume and options_path.is_file()
+                                   and json.loads(options_path.read_text())["task"] == MIXTURE_TASK_3D):
+        return _train_student_3d(run_dir, task_kwargs, num_envs, dagger, finetune_steps, resume, threads, progress)
     if resume and options_path.is_file():
         saved = json.loads(options_path.read_text())
         task, kwargs, num_envs = saved["task"], saved["task_kwargs"], int(saved["num_envs"])
@@ -159,5 +205,32 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                     lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs, threads=threads), model, episodes,
                     VALIDATION_FIRST_SEED, dagger.validation_max_steps)
         return out
+    finally:
+        env.close()
+
+
+def _train_student_3d(run_dir: Path, task_kwargs: Mapping[str, Any] | None, num_envs: int,
+                      dagger: DaggerConfig | None, finetune_steps: int, resume: bool, threads: int | None,
+                      progress: bool) -> dict[str, Any]:
+    """`train_student` on the 6-DOF mixture (module docstring): DAgger only."""
+    if task_kwargs:
+        raise ValueError(f"task {MIXTURE_TASK_3D}: the mixture sets the task options itself ({MIXTURE_3D_OPTIONS}), "
+                         f"got task_kwargs {dict(task_kwargs)}")
+    if finetune_steps:
+        raise ValueError(f"task {MIXTURE_TASK_3D}: the PPO fine-tune is not built in 3-D yet; give --steps 0")
+    options_path = run_dir / OPTIONS_NAME
+    if resume and options_path.is_file():
+        num_envs = int(json.loads(options_path.read_text())["num_envs"])
+    else:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        options_path.write_text(json.dumps({"task": MIXTURE_TASK_3D, "task_kwargs": MIXTURE_3D_OPTIONS,
+                                            "num_envs": num_envs, "weights": MIXTURE_3D_WEIGHTS}, indent=2))
+    env = mixture_3d_env(num_envs, threads)
+    try:
+        again = resume and (run_dir / CHECKPOINT_NAME).is_file()
+        result = train_dagger(env, BatchTeacher3D(env).actions, run_dir, None if again else dagger, resume=again,
+                              progress=progress, validate=mixture_3d_validator(threads))
+        return {"student": str(result.student), "dagger_rounds": result.rounds, "dataset_steps": result.dataset_steps,
+                "last_round": result.log[-1] if result.log else {}}
     finally:
         env.close()

@@ -46,6 +46,7 @@ from auv_mj.planners.los3d import classical_3d, los_policy
 from auv_mj.planners.map_planner import fast_line_of_sight, sonar_map_planner, true_map_planner
 from auv_mj.planners.map_planner3d import sonar_voxel_planner, true_voxel_planner
 from auv_mj.planners.teacher import geodesic_teacher
+from auv_mj.planners.teacher3d import geodesic_teacher_3d
 from auv_mj.tasks import domains as suite_domains
 from auv_mj.tasks import suite
 from auv_mj.tasks.auv3d import DOMAIN as DOMAIN_3D
@@ -236,9 +237,12 @@ register("oracle", PolicySpec("plans on the true map (every geom, movers where t
                               protection="speed-aware", role="reference", domains=BOTH))
 register("geodesic-teacher", PolicySpec("the privileged teacher of the learned planner: steers down the episode's "
                                         "geodesic field on the true map, round the movers where they truly are, in "
-                                        "action=\"rate\" (`auv_mj.planners.teacher`); it uses the true map",
-                                        lambda d: geodesic_teacher(d.env), family="reference", tasks="planning",
-                                        role="reference"))
+                                        "action=\"rate\" (`auv_mj.planners.teacher`; auv3d: line of sight down "
+                                        "the field of the true voxel map, `auv_mj.planners.teacher3d`); it uses the "
+                                        "true map",
+                                        by_domain(auv=lambda d: geodesic_teacher(d.env),
+                                                  auv3d=lambda d: geodesic_teacher_3d(d.env)),
+                                        family="reference", tasks="planning", role="reference", domains=BOTH))
 register("random", PolicySpec("uniform random actions", lambda d: uniform_random(d.env, d.seed), family="reference",
                               role="reference", domains=BOTH))
 
