@@ -332,10 +332,12 @@ def episodes_validator(env_fn: Callable[[int], VectorEnv]) -> Validator:
 
 def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: DaggerConfig | None = None, *,
                  resume: bool = False, eval_env_fn: Callable[[int], VectorEnv] | None = None,
-                 validate: Validator | None = None, progress: bool = True) -> DaggerResult:
+                 validate: Validator | None = None, progress: bool = True,
+                 rounds: int | None = None) -> DaggerResult:
     """Runs DAgger (module docstring) on the batched `env` with `teacher` labelling its current states, until
     config.rounds rounds are done, checkpointing after each; `resume=True` continues the run in `run_dir` (its
-    config; `config` must be None or the same). After each round the student is validated (when
+    config; `config` must be None or the same; `rounds` more than it had extends it to that many rounds, the rest of
+    its config kept). After each round the student is validated (when
     config.validation_episodes > 0) by `validate`, or on `eval_env_fn(n)`'s batch (`episodes_validator`)."""
     if validate is None and eval_env_fn is not None:
         validate = episodes_validator(eval_env_fn)
@@ -350,6 +352,11 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
         if config is not None and config != saved:
             raise ValueError(f"{run_dir / CHECKPOINT_NAME} was written with another DaggerConfig; pass None to resume")
         config = saved
+        if rounds is not None:
+            if isinstance(rounds, bool) or not isinstance(rounds, int) or rounds < saved.rounds:
+                raise ValueError(f"rounds: a resumed DAgger run goes on to at least its {saved.rounds} rounds, got "
+                                 f"{rounds!r}")
+            config = dataclasses.replace(saved, rounds=rounds)
     config = config or DaggerConfig()
     torch.set_num_threads(config.torch_threads)
     model = build_model(spec, config.student_config())

@@ -183,7 +183,9 @@ def add_dagger_options(parser: argparse.ArgumentParser) -> None:
     for f in dataclasses.fields(DaggerConfig):
         if f.type in ("int", "float") and f.name not in ("seed", "torch_threads"):
             group.add_argument(f"--dagger-{f.name.replace('_', '-')}", dest="dagger_" + f.name,
-                               type=int if f.type == "int" else float, help=f"DaggerConfig.{f.name}")
+                               type=int if f.type == "int" else float,
+                               help=f"DaggerConfig.{f.name}" + (" (with --resume: the rounds to go on to)"
+                                                                 if f.name == "rounds" else ""))
     group.add_argument("--imitation-coef", type=float, help="the fine-tune's imitation weight at its start, "
                        "decaying linearly to 0 (default 1)")
 
@@ -198,7 +200,8 @@ def _run_dagger(args: argparse.Namespace) -> int:
             overrides["seed"] = args.seed
         result = train_student(run_dir, args.task, task_kwargs(args) or None, args.num_envs,
                                DaggerConfig(**overrides), args.steps or 0, resume=args.resume, threads=args.threads,
-                               progress=not args.no_progress, imitation_coef=args.imitation_coef)
+                               progress=not args.no_progress, imitation_coef=args.imitation_coef,
+                               rounds=args.dagger_rounds if args.resume else None)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(json.dumps(result, indent=2, default=str))

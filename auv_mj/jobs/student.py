@@ -14,8 +14,9 @@ In 3-D (`task="planning-mix-3d"`, MIXTURE_TASK_3D): the 6-DOF training mixture (
 and tunnel3d, both tiers and waters, the hard cells oversampled by MIXTURE_3D_WEIGHTS, reward="geodesic"), the 3-D
 teacher (`auv_mj.planners.teacher3d.BatchTeacher3D`), and DAgger's validation on each hard cell
 (`mixture_3d_validator`); the student reads the 3-D planning observation (`auv_mj.tasks.auv3d.PLANNING_OBSERVATION`
-and the fan) alone. Its PPO fine-tune is not built yet (the privileged critic's inputs are the planar env's):
-`finetune_steps` must be 0 there.
+and the fan) alone. Its PPO fine-tune (`finetune_steps`) is `finetune` on the mixture with the teacher's labels
+under the decaying imitation term, a critic of its own that reads no privileged inputs (the 6-DOF env gives none
+yet: `finetune_config(privileged_critic=False)`), then the validation of DAgger's rounds on the last snapshot.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from auv_mj.agents.imitation import (
     student_spec,
     train_dagger,
 )
-from auv_mj.agents.imitation.dagger import VALIDATION_FIRST_SEED, Validator
+from auv_mj.agents.imitation.dagger import VALIDATION_FIRST_SEED, Validator, episodes_validator
 from auv_mj.agents.ppo import CHECKPOINT_NAME as PPO_CHECKPOINT
 from auv_mj.agents.ppo import PPOConfig, load_model, read_ppo
 from auv_mj.agents.ppo.planner import LEARNED_CONFIG, LEARNED_MIXTURE, MixtureConfig, mixture_from_dict, train_planner
@@ -134,49 +135,59 @@ def finetune_config(dagger: DaggerConfig, **overrides: Any) -> PPOConfig:
 def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Mapping[str, Any] | None = None,
                   num_envs: int = 16, dagger: DaggerConfig | None = None, finetune_steps: int = 0,
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
-                  progress: bool = True, imitation_coef: float | None = None) -> dict[str, Any]:
+                  progress: bool = True, imitation_coef: float | None = None,
+                  rounds: int | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
-    over STUDENT_TASK_KWARGS) or MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
-    weights; task_kwargs must be empty). The fine-tune's config is `ppo_config`, else `finetune_config` of the run's
-    DaggerConfig (the saved one on resume) with `imitation_coef` where given. Returns the paths written, DAgger's
-    last log row and, after a fine-tune, the student's validation (one task: on DAgger's validation episodes,
-    `evaluate_student`; the mixture: `train_planner`'s choice)."""
+    over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
+    weights) or MIXTURE_TASK_3D (`mixture_3d_env(num_envs)`); a mixture takes no task_kwargs. `rounds`: on resume,
+    DAgger goes on to that many rounds (its config's otherwise). The fine-tune's config is `ppo_config`, else
+    `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given (in 3-D
+    without the privileged critic). Returns the paths written, DAgger's last log row and, after a fine-tune, the
+    student's validation (one task: on DAgger's validation episodes, `evaluate_student`; the planar mixture:
+    `train_planner`'s choice; the 6-DOF mixture: `mixture_3d_validator` on the last snapshot)."""
     run_dir = Path(run_dir)
     options_path = run_dir / OPTIONS_NAME
     mixture: MixtureConfig | None = None
-    if task == MIXTURE_TASK_3D or (resume and options_path.is_file()
-                                   and json.loads(options_path.read_text())["task"] == MIXTURE_TASK_3D):
-        return _train_student_3d(run_dir, task_kwargs, num_envs, dagger, finetune_steps, resume, threads, progress)
     if resume and options_path.is_file():
         saved = json.loads(options_path.read_text())
         task, kwargs, num_envs = saved["task"], saved["task_kwargs"], int(saved["num_envs"])
         mixture = mixture_from_dict(saved["mixture"]) if "mixture" in saved else None
     else:
+        own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
+        if task in own and task_kwargs:
+            raise ValueError(f"task {task}: the mixture sets the task options itself ({own[task]}), got task_kwargs "
+                             f"{dict(task_kwargs)}")
         if task == MIXTURE_TASK:
-            if task_kwargs:
-                raise ValueError(f"task {MIXTURE_TASK}: the mixture sets the task options itself "
-                                 f"({student_mixture().task_kwargs()}), got task_kwargs {dict(task_kwargs)}")
             mixture = student_mixture(num_envs)
-            kwargs = mixture.task_kwargs()
-        else:
-            kwargs = {**STUDENT_TASK_KWARGS, **dict(task_kwargs or {})}
+        kwargs = mixture.task_kwargs() if mixture is not None else dict(own[task]) if task in own \
+            else {**STUDENT_TASK_KWARGS, **dict(task_kwargs or {})}
         run_dir.mkdir(parents=True, exist_ok=True)
-        record = {"task": task, "task_kwargs": kwargs, "num_envs": num_envs}
+        record: dict[str, Any] = {"task": task, "task_kwargs": kwargs, "num_envs": num_envs}
         if mixture is not None:
             record["mixture"] = config_to_dict(mixture)
+        if task == MIXTURE_TASK_3D:
+            record["weights"] = MIXTURE_3D_WEIGHTS
         options_path.write_text(json.dumps(record, indent=2))
-    env = mixture.make_env(threads) if mixture is not None else AUVVectorEnv(task, num_envs=num_envs,
-                                                                            task_kwargs=kwargs, threads=threads)
+    in_3d = task == MIXTURE_TASK_3D
+    if in_3d:
+        env = mixture_3d_env(num_envs, threads)
+    elif mixture is not None:
+        env = mixture.make_env(threads)
+    else:
+        env = AUVVectorEnv(task, num_envs=num_envs, task_kwargs=kwargs, threads=threads)
     try:
-        teacher = BatchTeacher(env).actions
-        again = resume and (run_dir / CHECKPOINT_NAME).is_file()
-        if mixture is not None:
-            checks = {"validate": mixture_validator(mixture, student_spec(env), threads)}
+        teacher = (BatchTeacher3D(env) if in_3d else BatchTeacher(env)).actions
+        if in_3d:
+            validate = mixture_3d_validator(threads)
+        elif mixture is not None:
+            validate = mixture_validator(mixture, student_spec(env), threads)
         else:
-            checks = {"eval_env_fn": lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs, threads=threads)}
+            validate = episodes_validator(lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs,
+                                                                 threads=threads))
+        again = resume and (run_dir / CHECKPOINT_NAME).is_file()
         result = train_dagger(env, teacher, run_dir, None if again else dagger, resume=again, progress=progress,
-                              **checks)
+                              rounds=rounds if again else None, validate=validate)
         dagger = result.config
         out: dict[str, Any] = {"student": str(result.student), "dagger_rounds": result.rounds,
                                "dataset_steps": result.dataset_steps,
@@ -185,6 +196,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             ppo_dir = run_dir / FINETUNE_DIR
             again = resume and (ppo_dir / PPO_CHECKPOINT).is_file()
             extra = {} if imitation_coef is None else {"imitation_coef": imitation_coef}
+            if in_3d:  # the 6-DOF env gives no info["privileged"] yet
+                extra["privileged_critic"] = False
             config = None if again else (ppo_config or finetune_config(dagger, **extra))
             if mixture is not None:
                 tuned = train_planner(ppo_dir, config, mixture, finetune_steps, resume=again, progress=progress,
@@ -197,40 +210,10 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             tuned = finetune(env, teacher, run_dir / STUDENT_NAME, ppo_dir, config, finetune_steps, resume=again,
                              progress=progress)
             out.update(finetune_checkpoint=str(tuned.checkpoint), finetune_steps=tuned.env_steps)
-            episodes = dagger.validation_episodes
-            if episodes:
+            if dagger.validation_episodes:
                 (tensors, meta), saved = read_ppo(tuned.checkpoint)
                 model = load_model(tuned.checkpoint, tensors, meta["spec"], saved)
-                out["finetune_validation"] = evaluate_student(
-                    lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs, threads=threads), model, episodes,
-                    VALIDATION_FIRST_SEED, dagger.validation_max_steps)
+                out["finetune_validation"] = dict(validate(model, dagger))
         return out
-    finally:
-        env.close()
-
-
-def _train_student_3d(run_dir: Path, task_kwargs: Mapping[str, Any] | None, num_envs: int,
-                      dagger: DaggerConfig | None, finetune_steps: int, resume: bool, threads: int | None,
-                      progress: bool) -> dict[str, Any]:
-    """`train_student` on the 6-DOF mixture (module docstring): DAgger only."""
-    if task_kwargs:
-        raise ValueError(f"task {MIXTURE_TASK_3D}: the mixture sets the task options itself ({MIXTURE_3D_OPTIONS}), "
-                         f"got task_kwargs {dict(task_kwargs)}")
-    if finetune_steps:
-        raise ValueError(f"task {MIXTURE_TASK_3D}: the PPO fine-tune is not built in 3-D yet; give --steps 0")
-    options_path = run_dir / OPTIONS_NAME
-    if resume and options_path.is_file():
-        num_envs = int(json.loads(options_path.read_text())["num_envs"])
-    else:
-        run_dir.mkdir(parents=True, exist_ok=True)
-        options_path.write_text(json.dumps({"task": MIXTURE_TASK_3D, "task_kwargs": MIXTURE_3D_OPTIONS,
-                                            "num_envs": num_envs, "weights": MIXTURE_3D_WEIGHTS}, indent=2))
-    env = mixture_3d_env(num_envs, threads)
-    try:
-        again = resume and (run_dir / CHECKPOINT_NAME).is_file()
-        result = train_dagger(env, BatchTeacher3D(env).actions, run_dir, None if again else dagger, resume=again,
-                              progress=progress, validate=mixture_3d_validator(threads))
-        return {"student": str(result.student), "dagger_rounds": result.rounds, "dataset_steps": result.dataset_steps,
-                "last_round": result.log[-1] if result.log else {}}
     finally:
         env.close()

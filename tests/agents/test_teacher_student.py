@@ -140,6 +140,16 @@ def test_the_dataset_grows_each_round_and_resume_gives_the_uninterrupted_run(tmp
     b = read_checkpoint(tmp_path / "b" / CHECKPOINT_NAME, "dagger").tensors
     assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
     assert a["data.obs"].shape[1] == 4  # two rounds of two vehicles
+    # a finished run goes on to more rounds on resume, its config otherwise kept; never to fewer
+    env = AUVVectorEnv("obstacles", num_envs=2, task_kwargs=HARD, threads=1)
+    longer = train_dagger(env, BatchTeacher(env).actions, tmp_path / "b", resume=True, progress=False, rounds=3)
+    with pytest.raises(ValueError, match="rounds"):
+        train_dagger(env, BatchTeacher(env).actions, tmp_path / "b", resume=True, progress=False, rounds=2)
+    env.close()
+    assert longer.rounds == 3 and [row["round"] for row in longer.log] == [2]
+    assert longer.config == dataclasses.replace(TINY, rounds=3)
+    saved = read_checkpoint(tmp_path / "b" / CHECKPOINT_NAME, "dagger")
+    assert saved.metadata["counters"]["rounds"] == 3 and saved.metadata["config"]["rounds"] == 3
 
 
 def test_behaviour_cloning_drives_the_loss_down_on_a_toy_problem():
@@ -201,6 +211,28 @@ def test_auv_mj_train_dagger_runs_and_resumes_into_the_fine_tune(tmp_path):
     assert again.returncode == 0, again.stderr
     tuned = read_checkpoint(tmp_path / "ppo" / "checkpoint.pt", "ppo")
     assert tuned.metadata["config"]["imitation_coef"] == 1.0 and tuned.metadata["config"]["recurrent_size"] == 128
+
+
+def test_auv_mj_train_dagger_on_the_6dof_mixture_runs_validates_and_fine_tunes(tmp_path):
+    """`--task planning-mix-3d`: the 6-DOF mixture (both tasks, tiers and waters), the 3-D teacher, the validation on
+    each hard cell, and the fine-tune on resume; the student reads the 3-D planning observation and the fan alone."""
+    from auv_mj.tasks.auv3d import PLANNING_OBSERVATION
+
+    command = [sys.executable, "-m", "auv_mj.cli", "train", "dagger", "--task", "planning-mix-3d", "--num-envs", "1",
+               "--dagger-rounds", "1", "--dagger-steps-per-round", "4", "--dagger-epochs", "1",
+               "--dagger-validation-episodes", "1", "-o", str(tmp_path), "--no-progress", "--threads", "1"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    spec = read_checkpoint(tmp_path / "student.pt", "ppo").metadata["spec"]
+    assert spec["obs_shape"] == [len(PLANNING_OBSERVATION) + 27] and spec["act_shape"] == [3]
+    with open(tmp_path / "dagger_cells.csv") as f:
+        cells = [row.split(",")[1] for row in f.read().splitlines()[1:]]
+    assert cells == ["goal3d/hard/ideal", "goal3d/hard/ocean", "tunnel3d/hard/ideal", "tunnel3d/hard/ocean"]
+    again = subprocess.run(command + ["--resume", "--steps", "64"], capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    tuned = read_checkpoint(tmp_path / "ppo" / "checkpoint.pt", "ppo").metadata
+    assert tuned["config"]["imitation_coef"] == 1.0 and not tuned["config"]["privileged_critic"]
+    assert '"finetune_validation"' in again.stdout
 
 
 def test_the_teacher_labels_a_mixture_row_as_it_labels_that_cells_own_batch():
