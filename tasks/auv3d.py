@@ -174,6 +174,9 @@ FIXED_ARENA_SEED = 0
 """The seed of `arena="fixed"`'s one arena (outside the train, validation and test ranges of `auv_mj.seeds`)."""
 TARGET_ENTRIES = slice(10, 14)
 """Where PLANNING_OBSERVATION holds the target (distance, cos and sin of its bearing, depth offset)."""
+POLICY_OPTIONS = ("executor",)
+"""The 6-DOF planning tasks' options a learned planner trained with runs with (a batched env reports them as
+`policy_options`, a PPO checkpoint keeps them, the zoo applies them): the execution layer under it, by name."""
 PLANNING_REWARDS = ("progress", "geodesic")
 """The planning tasks' `reward` option (module docstring)."""
 TIERS = ("standard", "hard")
@@ -626,7 +629,7 @@ class Planning3D(base.Task):
     def geodesic_potential(self) -> VoxelField:
         """The geodesic field of this episode's goal on its arena's true static map (`traps3d.geodesic_field`: the
         oracle's voxels, a tube's inside, the surface a wall in open water), searched at the first call of the episode
-        (at the reset under reward="geodesic") and kept: the reward's potential, and a privileged teacher's map."""
+        (at the reset under reward="geodesic") and kept: the reward's potential."""
         if self.potential is None:
             arena, corridor = self._episode_arena
             self.potential = traps3d.geodesic_field(arena, self.max_pitch, None if corridor is not None else MIN_DEPTH,

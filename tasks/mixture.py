@@ -41,8 +41,8 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from auv_mj import seeds as seed_ranges
+from auv_mj.tasks import auv3d, planning, vector3d
 from auv_mj.tasks import options as checks
-from auv_mj.tasks import planning, vector3d
 from auv_mj.tasks.vector import AUVVectorEnv
 from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
@@ -140,9 +140,12 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         self.envs_per_cell = self.cell_sizes[0] if len(set(self.cell_sizes)) == 1 else self.cell_sizes
         self.reward_scale = float(reward_scale)
         self.task_kwargs = task_kwargs
-        self.policy_options = planning.policy_options(task_kwargs)
-        """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` given: what a policy trained here must run with."""
-        batch = AUV3DVectorEnv if self.cells[0][0] in MIXTURE_TASKS_3D else AUVVectorEnv
+        three_d = self.cells[0][0] in MIXTURE_TASKS_3D
+        self.policy_options = {k: v for k, v in task_kwargs.items() if k in auv3d.POLICY_OPTIONS
+                               and isinstance(v, str)} if three_d else planning.policy_options(task_kwargs)
+        """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` (6-DOF: `auv3d.POLICY_OPTIONS`, given by name)
+        given: what a policy trained here must run with."""
+        batch = AUV3DVectorEnv if three_d else AUVVectorEnv
         self.subenvs = [batch(task, num_envs=n, threads=threads, autoreset_mode=autoreset_mode,
                               task_kwargs={**task_kwargs, "arena": "random", "tier": tier, "conditions": water})
                         for (task, tier, water), n in zip(self.cells, self.cell_sizes, strict=True)]

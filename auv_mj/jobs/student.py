@@ -11,7 +11,7 @@ loop (`auv_mj.agents.ppo.planner.train_planner`: validation on the hard cells, t
 `auv-mj train dagger` is argparse over it.
 
 In 3-D (`task="planning-mix-3d"`, MIXTURE_TASK_3D): the 6-DOF training mixture (`PlanningMixtureVectorEnv` over goal3d
-and tunnel3d, both tiers and waters, the hard cells oversampled by MIXTURE_3D_WEIGHTS, reward="geodesic"), the 3-D
+and tunnel3d, both tiers and waters, the hard cells oversampled by MIXTURE_3D_WEIGHTS, MIXTURE_3D_OPTIONS), the 3-D
 teacher (`auv_mj.planners.teacher3d.BatchTeacher3D`), and DAgger's validation on each hard cell
 (`mixture_3d_validator`); the student reads the 3-D planning observation (`auv_mj.tasks.auv3d.PLANNING_OBSERVATION`
 and the fan) alone. Its PPO fine-tune (`finetune_steps`) is `finetune` on the mixture with the teacher's labels
@@ -68,8 +68,10 @@ MIXTURE_TASK_3D = "planning-mix-3d"
 """The task name of the 6-DOF training mixture (goal3d and tunnel3d, both tiers and waters)."""
 MIXTURE_3D_WEIGHTS = {"standard": 0.5, "hard": 1.5}
 """Cell weights of the 6-DOF mixture (`auv_mj.tasks.mixture.cell_counts`): three hard vehicles to a standard one."""
-MIXTURE_3D_OPTIONS = {"reward": "geodesic"}
-"""The 6-DOF student's task options (beside each cell's arena, tier and water)."""
+MIXTURE_3D_OPTIONS = {"reward": "geodesic", "executor": "splane-ocean"}
+"""The 6-DOF student's task options (beside each cell's arena, tier and water): the geodesic reward, and the
+execution layer the 3-D benchmark runs every planner on (suite 3d v3: the S-plane re-tuned in ocean water), which the
+student's checkpoint keeps as a task option (`auv3d.POLICY_OPTIONS`) and the zoo applies."""
 
 
 def mixture_3d_env(envs_per_cell: int, threads: int | None = None) -> PlanningMixtureVectorEnv:

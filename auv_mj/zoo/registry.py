@@ -202,13 +202,19 @@ LEARNED_PLANNER = "planner_learned.pt"
 """The shipped checkpoint of `planner-learned`: a GRU student of the privileged geodesic teacher (DAgger on the
 training mixture), fine-tuned with PPO under a decaying imitation term, then two more PPO stages with the tunnels
 oversampled (`auv-mj train ppo --init`), chosen on validation seeds (docs/runs/planner-learned/)."""
+LEARNED_PLANNER_3D = "planner_learned_3d.pt"
+"""The shipped checkpoint of `planner-learned` on the 6-DOF tasks: a GRU student of the 3-D geodesic teacher (DAgger
+on the 6-DOF mixture, then PPO under a decaying imitation term), on the re-tuned S-plane (docs/runs/planner-learned-3d/)."""
 register("planner-learned", PolicySpec(
     "the learned planner of the well-posed problem (geodesic reward, rate action, planner observation): a GRU "
     "student of the privileged geodesic teacher (DAgger on random obstacles, moving obstacles and tunnels, both tiers "
     "and waters), fine-tuned with PPO on the geodesic reward in three stages; the sonars, its pose, the route target "
-    "and its last action in, (speed, heading rate) out; no search, no line of sight, no protection domain, no residual",
-    lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=LEARNED_PLANNER, tasks="planning",
-    protection=False, accepts_path=True))
+    "and its last action in, (speed, heading rate) out; no search, no line of sight, no protection domain, no residual "
+    "(auv3d: its own student of the 3-D teacher on goal3d and tunnel3d, the fan, altimeter and target in, (speed, "
+    "heading, depth) out, on splane-ocean)",
+    lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=LEARNED_PLANNER,
+    checkpoint_on={"goal3d": LEARNED_PLANNER_3D, "tunnel3d": LEARNED_PLANNER_3D}, tasks="planning",
+    protection=False, accepts_path=True, domains=BOTH))
 register("planner-memory-safe", PolicySpec(
     "planner-memory inside the speed-aware protection domain and the geofence (the safety layer under it)",
     lambda d: recurrent_policy(d.checkpoint, d.env, "speed-aware"), family="learned", checkpoint=MEMORY_PLANNER,

@@ -225,6 +225,7 @@ def test_auv_mj_train_dagger_on_the_6dof_mixture_runs_validates_and_fine_tunes(t
     assert done.returncode == 0, done.stderr
     spec = read_checkpoint(tmp_path / "student.pt", "ppo").metadata["spec"]
     assert spec["obs_shape"] == [len(PLANNING_OBSERVATION) + 27] and spec["act_shape"] == [3]
+    assert spec["task_options"] == {"executor": "splane-ocean"}  # the benchmark's execution layer, which it keeps
     with open(tmp_path / "dagger_cells.csv") as f:
         cells = [row.split(",")[1] for row in f.read().splitlines()[1:]]
     assert cells == ["goal3d/hard/ideal", "goal3d/hard/ocean", "tunnel3d/hard/ideal", "tunnel3d/hard/ocean"]

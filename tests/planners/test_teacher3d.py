@@ -96,8 +96,9 @@ def test_the_batch_teacher_labels_the_rows_as_the_teacher_acts_on_each_single_en
 
 def test_the_mixture_holds_one_domains_cells():
     env = PlanningMixtureVectorEnv(1, tasks=MIXTURE_TASKS_3D, tiers=("hard",), waters=("ocean",),
-                                   task_kwargs={"reward": "geodesic"}, threads=1)
+                                   task_kwargs={"reward": "geodesic", "executor": "splane-ocean"}, threads=1)
     assert [type(sub) for sub in env.subenvs] == [AUV3DVectorEnv] * 2
+    assert env.policy_options == {"executor": "splane-ocean"}  # what a student trained here runs on
     obs, _ = env.reset(seed=0)
     assert obs["observation"].shape == (2, len(auv3d.PLANNING_OBSERVATION) + 27)
     state = env.privileged_state(teacher3d.OPEN_WATER_SLOPE)
