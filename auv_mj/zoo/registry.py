@@ -203,8 +203,9 @@ LEARNED_PLANNER = "planner_learned.pt"
 training mixture), fine-tuned with PPO under a decaying imitation term, then two more PPO stages with the tunnels
 oversampled (`auv-mj train ppo --init`), chosen on validation seeds (docs/runs/planner-learned/)."""
 LEARNED_PLANNER_3D = "planner_learned_3d.pt"
-"""The shipped checkpoint of `planner-learned` on the 6-DOF tasks: a GRU student of the 3-D geodesic teacher (DAgger
-on the 6-DOF mixture, then PPO under a decaying imitation term), on the re-tuned S-plane (docs/runs/planner-learned-3d/)."""
+"""The shipped checkpoint of `planner-learned` on the 6-DOF tasks: a GRU student of the 3-D geodesic teacher by DAgger
+on the 6-DOF mixture, on the re-tuned S-plane; chosen on validation seeds over its PPO fine-tune
+(docs/runs/planner-learned-3d/)."""
 register("planner-learned", PolicySpec(
     "the learned planner of the well-posed problem (geodesic reward, rate action, planner observation): a GRU "
     "student of the privileged geodesic teacher (DAgger on random obstacles, moving obstacles and tunnels, both tiers "
