@@ -38,7 +38,7 @@ from collections.abc import Sequence
 import dm_env
 import numpy as np
 
-from auv_mj.arenas.geodesic import VoxelField
+from auv_mj.arenas.geodesic import VoxelField, entry_voxels, field_groups
 from auv_mj.episode import PlannerBase
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.map_planner3d import LOOKAHEAD
@@ -82,22 +82,15 @@ def aim_points(field: VoxelField, points: np.ndarray) -> np.ndarray:
     the vehicle, whose climb lags its command, starts a climb over a wall before the way's own, taken at the
     lattice's steepest. The goal where the way ends sooner (the goal region reached) or none leads on."""
     points = np.asarray(points, dtype=float).reshape(-1, 3)
-    space, shape = field.space, np.array(field.space.shape)
-    cells = np.clip(np.floor((points - space.origin) / space.cell).astype(int), 0, shape - 1)
-    offsets = np.stack(np.meshgrid(*[np.arange(-r, r + 1) for r in field.reach], indexing="ij"), -1).reshape(-1, 3)
-    block = np.clip(cells[:, None, :] + offsets[None], 0, shape - 1)
-    centres = space.origin + (block + 0.5) * space.cell
-    score = np.linalg.norm(centres - points[:, None, :], axis=-1) + field.field[block[..., 0], block[..., 1],
-                                                                                  block[..., 2]]
-    best = np.argmin(score, axis=1)
+    space = field.space
     n = len(points)
-    node = np.ravel_multi_index(tuple(block[np.arange(n), best].T), space.shape)
+    node, entered = entry_voxels(field, points)
     reach = TEACHER_TUBE_LOOKAHEAD if field.outside_closed else LOOKAHEAD
     preview = TEACHER_TUBE_LOOKAHEAD if field.outside_closed else PREVIEW
     here = points.copy()
     travelled = np.zeros(n)
     aim = np.tile(field.goal, (n, 1))
-    aimed = ~np.isfinite(score[np.arange(n), best])
+    aimed = ~np.isfinite(entered)
     steepest = np.zeros(n)
     done = aimed.copy()
     for _ in range(int(math.ceil(3.0 * max(reach, preview) / float(np.min(space.cell)))) + 1):
@@ -123,23 +116,19 @@ def aim_points(field: VoxelField, points: np.ndarray) -> np.ndarray:
     return aim
 
 
-def teacher_actions_3d(fields: Sequence[VoxelField], position: np.ndarray, course: np.ndarray,
-                       heading: np.ndarray) -> np.ndarray:
-    """The teacher's actions (N, 3) for N vehicles at `position` (N, 3) with true `heading` (N,) [rad] travelling
-    along `course` (N,) [rad], each down its episode's steering field (module docstring)."""
+def teacher_actions_3d(fields: Sequence[VoxelField], position: np.ndarray, course: np.ndarray) -> np.ndarray:
+    """The teacher's actions (N, 3) for N vehicles at `position` (N, 3) travelling along `course` (N,) [rad], each
+    down its episode's steering field (module docstring). The heading offset is the aim's bearing off the course:
+    the task's action map adds it to the heading, which turns the course by as much."""
     position = np.asarray(position, dtype=float).reshape(-1, 3)
     aim = np.empty_like(position)
-    groups: dict[int, list[int]] = {}
-    for row, f in enumerate(fields):
-        groups.setdefault(id(f), []).append(row)
-    for members in groups.values():
+    for members in field_groups(fields):
         aim[members] = aim_points(fields[members[0]], position[members])
     offset = aim - position
     turn = wrap_angle(np.arctan2(offset[:, 1], offset[:, 0]) - np.asarray(course, dtype=float))
     depth = np.clip(-offset[:, 2] / DEPTH_RANGE, -1.0, 1.0)
     speed = np.where(np.abs(turn) > SLOW_TURN, TURN_SPEED,
                      np.where(np.abs(depth) >= CLIMB_SPEED_DEMAND, MAX_SPEED, CRUISE_SPEED))
-    del heading  # the offset is added to the heading by the task's action map: the turn off the course is the aim
     return np.column_stack([2.0 * speed / MAX_SPEED - 1.0, np.clip(turn / HEADING_RANGE, -1.0, 1.0), depth])
 
 
@@ -158,9 +147,8 @@ class GeodesicTeacher3D(PlannerBase):
         position = np.asarray(physics.position(), dtype=float)[None].copy()
         previous = position if time_step.first() or self._previous is None else self._previous
         self._previous = position
-        heading = np.array([physics.heading()])
-        course = course_over_ground(previous, position, heading)
-        return teacher_actions_3d([task.steering_field(OPEN_WATER_SLOPE)], position, course, heading)[0]
+        course = course_over_ground(previous, position, np.array([physics.heading()]))
+        return teacher_actions_3d([task.steering_field(OPEN_WATER_SLOPE)], position, course)[0]
 
 
 class BatchTeacher3D:
@@ -176,7 +164,7 @@ class BatchTeacher3D:
         """The teacher's actions (N, 3) at the env's current states."""
         state = self.env.privileged_state(OPEN_WATER_SLOPE)
         course = course_over_ground(state["previous_position"], state["position"], state["heading"])
-        return teacher_actions_3d(state["steering"], state["position"], course, state["heading"])
+        return teacher_actions_3d(state["steering"], state["position"], course)
 
 
 def geodesic_teacher_3d(env) -> GeodesicTeacher3D:

@@ -226,26 +226,42 @@ class VoxelField:
         return voxel_distances((self,) * len(points), points)
 
 
+def field_groups(fields) -> list[list[int]]:
+    """The rows of `fields` that hold the same field object, group by group: a batch looks each field up once."""
+    groups: dict[int, list[int]] = {}
+    for row, f in enumerate(fields):
+        groups.setdefault(id(f), []).append(row)
+    return list(groups.values())
+
+
+def entry_voxels(field: VoxelField, points) -> tuple[np.ndarray, np.ndarray]:
+    """For each of `points` (n, 3), the voxel of its reach block round the point's voxel (the nearest on the grid
+    for a point off it) with the least |point - centre| + field: its flat index (n,) and that sum (n,; inf where no
+    voxel of the block leads to the goal). What `voxel_distances` answers, and where a teacher enters the field."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    shape = np.array(field.space.shape)
+    cells = np.clip(np.floor((points - field.space.origin) / field.space.cell).astype(int), 0, shape - 1)
+    offsets = np.stack(np.meshgrid(*[np.arange(-r, r + 1) for r in field.reach], indexing="ij"), -1).reshape(-1, 3)
+    block = np.clip(cells[:, None, :] + offsets[None], 0, shape - 1)
+    centres = field.space.origin + (block + 0.5) * field.space.cell
+    score = np.linalg.norm(centres - points[:, None, :], axis=-1) + field.field[block[..., 0], block[..., 1],
+                                                                                  block[..., 2]]
+    best = np.argmin(score, axis=1)
+    rows = np.arange(len(points))
+    return np.ravel_multi_index(tuple(block[rows, best].T), field.space.shape), score[rows, best]
+
+
 def voxel_distances(fields, points) -> np.ndarray:
     """Route length [m] from point k (N, 3) into the goal region of the VoxelField fields[k], for N fields at once:
     0 within the goal radius, else the least |point - centre| + field over the voxels within the field's `reach` of
-    the point's voxel (the nearest voxel on the grid for a point off it), `unreachable` where none leads to the goal."""
+    the point's voxel (the nearest voxel on the grid for a point off it, `entry_voxels`), `unreachable` where none
+    leads to the goal."""
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     result = np.empty(len(points))
-    groups: dict[int, list[int]] = {}  # rows that ask the same field: one look-up each
-    for row, f in enumerate(fields):
-        groups.setdefault(id(f), []).append(row)
-    for members in groups.values():
+    for members in field_groups(fields):
         f = fields[members[0]]
         at = points[members]
-        shape = np.array(f.space.shape)
-        cells = np.clip(np.floor((at - f.space.origin) / f.space.cell).astype(int), 0, shape - 1)
-        offsets = [np.arange(-r, r + 1) for r in f.reach]
-        grid_ = np.stack(np.meshgrid(*offsets, indexing="ij"), axis=-1).reshape(-1, 3)
-        block = np.clip(cells[:, None, :] + grid_[None], 0, shape - 1)
-        values = f.field[block[..., 0], block[..., 1], block[..., 2]]
-        centres = f.space.origin + (block + 0.5) * f.space.cell
-        route = np.min(np.linalg.norm(centres - at[:, None, :], axis=-1) + values, axis=1)
+        route = entry_voxels(f, at)[1]
         route = np.where(np.isfinite(route), route, f.unreachable)
         straight = np.linalg.norm(at - f.goal, axis=1)
         result[members] = np.where(straight <= f.goal_radius, 0.0, route)

@@ -68,7 +68,7 @@ def test_in_open_water_the_teacher_aims_its_look_ahead_down_the_straight_way():
     assert np.linalg.norm(aim - (start[0] + toward * np.dot(aim - start[0], toward))) <= 1.5  # on the line
     assert LOOKAHEAD <= np.dot(aim - start[0], toward) <= LOOKAHEAD + 3.0
     course = np.array([0.3])
-    action = teacher3d.teacher_actions_3d([field], start, course, course)[0]
+    action = teacher3d.teacher_actions_3d([field], start, course)[0]
     bearing = math.atan2(aim[1] - start[0, 1], aim[0] - start[0, 0])
     assert action[1] == pytest.approx((bearing - 0.3) / auv3d.HEADING_RANGE, abs=1e-9)
     assert action[2] == pytest.approx(0.0, abs=1e-9)
