@@ -41,7 +41,8 @@ the oracle's voxel map on the lattice the vehicle can fly at its pitch limit (`a
 a tube's potential runs inside the tube), with the success bonus and the collision penalty that make no crash or
 broach pay more than the way round, over or under. Straight-line progress pays the way into a wall that must be
 climbed, a cave's mouth and a plug; the route length does not. The step's info then holds "route_distance_before",
-"route_distance" and "step_goal".
+"route_distance" and "step_goal", and "privileged" (PRIVILEGED_FIELDS), what an asymmetric critic may read and the
+actor must not.
 
 An arena is a function of the task seed, as in the planar domain: `arena="random"` draws each episode's arena from
 the task's `random` first (the first episode of a task seeded s has the arena of `draw_arena(RandomState(s))`), so
@@ -68,7 +69,7 @@ from dm_control.utils import rewards
 from dm_env import specs
 
 from auv_mj.arenas import arena3d, arena_check, traps3d, tubes
-from auv_mj.arenas.geodesic import VoxelField
+from auv_mj.arenas.geodesic import VoxelField, voxel_room
 from auv_mj.arenas.voxels import CLIMB_MARGIN
 from auv_mj.control.clock import ExecutorClock
 from auv_mj.control.depth_heading import (
@@ -90,6 +91,7 @@ from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
 from auv_mj.tasks.depth_executor import SENSOR_NAMES, DepthExecutorMemory
 from auv_mj.tasks.planning_rewards import geodesic_reward, info_field
+from auv_mj.tasks.planning_step import GOAL_DISTANCE_SCALE, PRIVILEGED_TIME_SCALE
 from auv_mj.tasks.registry import DOMAIN_3D, SUITE3D
 
 DOMAIN = DOMAIN_3D
@@ -167,6 +169,14 @@ MIN_DEPTH = 1.0
 """Shallower than this [m] is broaching: an episode ends in "left_map"."""
 LOOKAHEAD = 8.0
 """Line-of-sight look-ahead [m] along a tube's centreline."""
+PRIVILEGED_FIELDS = ("route_distance", "room", "time_left", "hard_tier", "tube")
+"""info["privileged"] under reward="geodesic" (at the reset and every step): what a critic may know and the actor
+must not (an asymmetric critic, Pinto et al. 2018; the planar tasks' `planning_step.PRIVILEGED_FIELDS` in 3-D).
+route_distance: the route length left on the true static map (the reward's potential) / GOAL_DISTANCE_SCALE; room:
+the distance from the vehicle's voxel of that map to its nearest closed voxel (`geodesic.voxel_room`: the true
+clearance at the map's resolution) / SONAR_RANGE; time_left: the episode's route time limit (`episode_time_limit`;
+a user's `time_limit` is not counted) less its time [s] / PRIVILEGED_TIME_SCALE; hard_tier: 1 on the hard tier; tube:
+1 in an episode along a tube (tunnel3d's)."""
 GOAL_SIZE = 5
 """Entries of achieved_goal / desired_goal: x, y, z [m] and the heading as (cos, sin), which no reward reads (it lets
 hindsight relabelling recompute goal3d's body-frame goal)."""
@@ -459,6 +469,16 @@ def step_info(collided, depth, distance, ranges, previous_achieved, route=None) 
             "goal_independent_reward": -STEP_COST + np.where(failed, COLLISION_REWARD, 0.0)}
 
 
+def privileged(route_distance, room, time_left, hard_tier, tube) -> np.ndarray:
+    """info["privileged"] (N, len(PRIVILEGED_FIELDS)) of N vehicles from the route length left [m], the room [m],
+    the time left [s] and the episode's tier (1: hard) and kind (1: along a tube), each (N,). For a critic: never in
+    the actor's observation."""
+    return np.stack([np.asarray(route_distance, dtype=float) / GOAL_DISTANCE_SCALE,
+                     np.asarray(room, dtype=float) / SONAR_RANGE,
+                     np.asarray(time_left, dtype=float) / PRIVILEGED_TIME_SCALE,
+                     np.asarray(hard_tier, dtype=float), np.asarray(tube, dtype=float)], axis=1)
+
+
 def planning_observation(head, achieved_goal, target, fan) -> np.ndarray:
     """The planning observation (PLANNING_OBSERVATION, then the fan / SONAR_RANGE) over leading axes, from `head`: the
     sensed (u, v, w, p, q, r, roll, pitch, depth, altitude [m]); the achieved goal (position and sensed heading); the
@@ -624,6 +644,8 @@ class Planning3D(base.Task):
         physics.set_tick(self._tick, EXECUTOR_DT)
         self._achieved = pose_goal(physics.position(), heading)
         self.last_info = {}  # a reset's info is its own, not the last episode's end (as the planar tasks')
+        if self.reward_kind == "geodesic":
+            self.last_info["privileged"] = self._privileged(physics)[0]
         super().initialize_episode(physics)
 
     def geodesic_potential(self) -> VoxelField:
@@ -656,6 +678,12 @@ class Planning3D(base.Task):
             self._steering[key] = traps3d.geodesic_field(arena, pitch, None if corridor is not None else MIN_DEPTH,
                                                          GOAL_RADIUS, corridor, soft=True, mapped=self._static_map())
         return self._steering[key]
+
+    def _privileged(self, physics) -> np.ndarray:
+        """info["privileged"] (1, len(PRIVILEGED_FIELDS)) of the vehicle now (`privileged`)."""
+        position = physics.position()[None]
+        return privileged([self.route_distance], voxel_room([self.potential], position),
+                          [self.episode_time_limit - physics.time()], [self.tier == "hard"], [len(self.path) >= 2])
 
     def _move(self, physics: Physics3D) -> None:
         """Puts the moving obstacles where their tracks have them now."""
@@ -696,6 +724,8 @@ class Planning3D(base.Task):
             self.route_distance = float(info["route_distance"][0])
         self.last_info = {key: value[0].copy() if value.ndim > 1 else value[0] if value.dtype == object
                           else value.tolist()[0] for key, value in info.items()}
+        if route is not None:
+            self.last_info["privileged"] = self._privileged(physics)[0]
         # the reward is compute_reward's: one definition for the step and for relabelled goals
         self._reward = float(self.compute_reward(pose_goal(physics.position(), 0.0), self._desired, self.last_info))
 

@@ -46,7 +46,7 @@ from dm_control.rl.control import PhysicsError
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from auv_mj.arenas.geodesic import voxel_distances
+from auv_mj.arenas.geodesic import voxel_distances, voxel_room
 from auv_mj.control.depth_heading import (
     EXECUTOR_DT,
     FIN_LIMIT,
@@ -201,6 +201,10 @@ class AUV3DVectorEnv(GoalVectorEnv):
         """reward="geodesic": each episode's geodesic field (`Planning3D.potential`)."""
         self._route_distance = np.full(n, np.nan)
         """reward="geodesic": each vehicle's route length left [m] where its last step ended."""
+        self._route_limit = np.zeros(n)
+        """Each episode's route time limit [s] (`Planning3D.episode_time_limit`: the privileged time left's)."""
+        self._hard = np.zeros(n, dtype=bool)
+        """Whether each episode is on the hard tier (the privileged input's)."""
         self._desired = np.zeros((n, auv3d.GOAL_SIZE))
         self._achieved = np.zeros((n, auv3d.GOAL_SIZE))
         self._sonar = np.zeros((n, FAN_BEAMS))
@@ -247,6 +251,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._put_path(i, task.path)
         self._fields[i] = task.potential
         self._route_distance[i] = task.route_distance
+        self._route_limit[i] = task.episode_time_limit
+        self._hard[i] = task.tier == "hard"
         self._desired[i] = task.desired_goal
         self._achieved[i] = task.achieved_goal
         self._steps[i] = 0
@@ -366,6 +372,10 @@ class AUV3DVectorEnv(GoalVectorEnv):
                                ranges, self._achieved[index].copy(), route)
         if route is not None:
             self._route_distance[index] = info["route_distance"]
+            info["privileged"] = auv3d.privileged(info["route_distance"], voxel_room([self._fields[i] for i in index],
+                                                                                    position),
+                                                  self._route_limit[index] - self._time[index], self._hard[index],
+                                                  self._path_counts[index] >= 2)
         at_position = np.column_stack([position, np.ones(len(index)), np.zeros(len(index))])  # pose_goal(p, 0.0)
         reward = self.envs[0].task.compute_reward(at_position, self._desired[index], info)
         # Planning3D.observe, from the held samples

@@ -54,6 +54,7 @@ from auv_mj.agents.checkpoint import (
 )
 from auv_mj.agents.ppo import ActorCritic, PPOConfig, build_model, save_ppo
 from auv_mj.agents.ppo import train as ppo_train
+from auv_mj.agents.ppo.config import RECURRENT_KINDS
 from auv_mj.agents.ppo.spaces import autoreset_mode, env_spec, student_inputs, student_view
 from auv_mj.seeds import VALIDATION, train_seed
 
@@ -92,8 +93,11 @@ class DaggerConfig:
     """Keep only the last this many rounds of data (None: all of them, DAgger's aggregate)."""
     hidden_sizes: tuple[int, ...] = (128, 128)
     """The student's tanh encoder (as `auv_mj.agents.ppo.planner.PLANNER_CONFIG`)."""
+    recurrent: str | None = "gru"
+    """The student's memory: "gru" (the shipped students), "lstm", or None, a feed-forward student (the no-memory
+    ablation of issue 52, item 6)."""
     recurrent_size: int = 128
-    """The student's GRU units."""
+    """The student's memory units (unused without a memory)."""
     init_log_std: float = -1.0
     """The student's Gaussian log std for PPO's fine-tune (the fit leaves it as it is)."""
     validation_episodes: int = 8
@@ -116,14 +120,16 @@ class DaggerConfig:
                 raise ValueError(f"DaggerConfig.{name} must be in [0, 1], got {value!r}")
         if self.learning_rate <= 0 or self.max_grad_norm <= 0:
             raise ValueError("DaggerConfig.learning_rate and max_grad_norm must be > 0")
+        if self.recurrent not in RECURRENT_KINDS:
+            raise ValueError(f"DaggerConfig.recurrent must be one of {RECURRENT_KINDS}, got {self.recurrent!r}")
 
     def beta(self, round_index: int) -> float:
         """beta_i, the teacher's share of the executed actions in round i."""
         return float(self.beta0) * float(self.beta_decay) ** int(round_index)
 
     def student_config(self) -> PPOConfig:
-        """The PPOConfig of the student's network (a GRU actor-critic PPO can fine-tune)."""
-        return PPOConfig(hidden_sizes=self.hidden_sizes, recurrent="gru", recurrent_size=self.recurrent_size,
+        """The PPOConfig of the student's network (an actor-critic PPO can fine-tune)."""
+        return PPOConfig(hidden_sizes=self.hidden_sizes, recurrent=self.recurrent, recurrent_size=self.recurrent_size,
                          init_log_std=self.init_log_std, seed=self.seed)
 
 

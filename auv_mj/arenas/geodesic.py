@@ -234,13 +234,20 @@ def field_groups(fields) -> list[list[int]]:
     return list(groups.values())
 
 
+def point_voxels(field: VoxelField, points: np.ndarray) -> np.ndarray:
+    """The (i, j, k) voxel (n, 3) of each of `points` (n, 3) on the field's grid, the nearest on the grid for a point
+    off it."""
+    shape = np.array(field.space.shape)
+    return np.clip(np.floor((points - field.space.origin) / field.space.cell).astype(int), 0, shape - 1)
+
+
 def entry_voxels(field: VoxelField, points) -> tuple[np.ndarray, np.ndarray]:
     """For each of `points` (n, 3), the voxel of its reach block round the point's voxel (the nearest on the grid
     for a point off it) with the least |point - centre| + field: its flat index (n,) and that sum (n,; inf where no
     voxel of the block leads to the goal). What `voxel_distances` answers, and where a teacher enters the field."""
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     shape = np.array(field.space.shape)
-    cells = np.clip(np.floor((points - field.space.origin) / field.space.cell).astype(int), 0, shape - 1)
+    cells = point_voxels(field, points)
     offsets = np.stack(np.meshgrid(*[np.arange(-r, r + 1) for r in field.reach], indexing="ij"), -1).reshape(-1, 3)
     block = np.clip(cells[:, None, :] + offsets[None], 0, shape - 1)
     centres = field.space.origin + (block + 0.5) * field.space.cell
@@ -249,6 +256,18 @@ def entry_voxels(field: VoxelField, points) -> tuple[np.ndarray, np.ndarray]:
     best = np.argmin(score, axis=1)
     rows = np.arange(len(points))
     return np.ravel_multi_index(tuple(block[rows, best].T), field.space.shape), score[rows, best]
+
+
+def voxel_room(fields, points) -> np.ndarray:
+    """The field's `room` [m] at point k (N, 3) of the VoxelField fields[k], for N fields at once: the distance from
+    the point's voxel (the nearest on the grid for a point off it) to the nearest closed voxel, 0 in a closed one. A
+    critic's privileged clearance (`auv_mj.tasks.auv3d.PRIVILEGED_FIELDS`)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    result = np.empty(len(points))
+    for members in field_groups(fields):
+        cells = point_voxels(fields[members[0]], points[members])
+        result[members] = fields[members[0]].room[cells[:, 0], cells[:, 1], cells[:, 2]]
+    return result
 
 
 def voxel_distances(fields, points) -> np.ndarray:

@@ -47,7 +47,7 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.inputs import check_json_depth, did_you_mean, read_text, unknown_name
-from auv_mj.jobs.student import MIXTURE_TASK, train_student
+from auv_mj.jobs.student import MIXTURE_TASK, MIXTURE_TASK_3D, scratch_3d_config, train_ppo_3d, train_student
 from auv_mj.planners.deploy import ChainConfig, deploy_env
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
@@ -127,7 +127,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("agent", choices=(*AGENTS, "ppo", "dagger"),
                         help="ddpg | her-ddpg (goal tasks) | executor (SpeedHeading) | td3 (DDPG with twin "
                              "critics, delayed actor, target smoothing; any task) | ppo (--task planning-mix: "
-                             "the batched mixture of planning tasks, tiers and waters; options under 'ppo') | "
+                             "the batched mixture of planning tasks, tiers and waters; options under 'ppo'; "
+                             f"--task {MIXTURE_TASK_3D}: the 6-DOF mixture, from scratch) | "
                              "dagger (a sensor-only student of the privileged geodesic-teacher on one batched "
                              "planning task, then PPO with a decaying imitation term for --steps; options under "
                              "'dagger')")
@@ -186,6 +187,8 @@ def add_dagger_options(parser: argparse.ArgumentParser) -> None:
                                type=int if f.type == "int" else float,
                                help=f"DaggerConfig.{f.name}" + (" (with --resume: the rounds to go on to)"
                                                                  if f.name == "rounds" else ""))
+    group.add_argument("--dagger-recurrent", choices=("gru", "lstm", "none"),
+                       help="DaggerConfig.recurrent, the student's memory (none: a feed-forward student; default gru)")
     group.add_argument("--imitation-coef", type=float, help="the fine-tune's imitation weight at its start, "
                        "decaying linearly to 0 (default 1)")
 
@@ -196,6 +199,8 @@ def _run_dagger(args: argparse.Namespace) -> int:
         run_dir = args.run_dir or Path("runs") / f"dagger-{args.task}" / f"seed{args.seed or 0}"
         overrides = {f.name: getattr(args, "dagger_" + f.name) for f in dataclasses.fields(DaggerConfig)
                      if getattr(args, "dagger_" + f.name, None) is not None}
+        if overrides.get("recurrent") == "none":
+            overrides["recurrent"] = None
         if args.seed is not None:
             overrides["seed"] = args.seed
         result = train_student(run_dir, args.task, task_kwargs(args) or None, args.num_envs,
@@ -276,22 +281,18 @@ def _boolean(text: str) -> bool:
 
 
 def _run_ppo(args: argparse.Namespace) -> int:
-    """`auv-mj train ppo --task planning-mix`: `auv_mj.agents.ppo.planner.train_planner`."""
+    """`auv-mj train ppo --task planning-mix`: `auv_mj.agents.ppo.planner.train_planner`; `--task planning-mix-3d`:
+    `auv_mj.jobs.student.train_ppo_3d`."""
     try:
-        if args.task != PPO_TASK:
-            raise ValueError(f"agent ppo trains on --task {PPO_TASK} (the batched mixture), got {args.task!r}")
+        if args.task not in (PPO_TASK, MIXTURE_TASK_3D):
+            raise ValueError(f"agent ppo trains on --task {PPO_TASK} (the batched mixture) or {MIXTURE_TASK_3D} (the "
+                             f"6-DOF mixture), got {args.task!r}")
         if args.steps is None:
             raise ValueError("agent ppo needs --steps (total env steps)")
+        if args.task == MIXTURE_TASK_3D:
+            return _run_ppo_3d(args)
         run_dir = args.run_dir or Path("runs") / PPO_TASK / f"ppo-seed{args.seed or 0}"
-        overrides = {f.name: getattr(args, "ppo_" + f.name) for f in dataclasses.fields(PPOConfig)
-                     if getattr(args, "ppo_" + f.name, None) is not None}
-        if "hidden_sizes" in overrides:
-            overrides["hidden_sizes"] = tuple(overrides["hidden_sizes"])
-        if overrides.get("recurrent") == "none":
-            overrides["recurrent"] = None
-        for name in ("seed", "device"):
-            if getattr(args, name) is not None:
-                overrides[name] = getattr(args, name)
+        overrides = _ppo_overrides(args)
         mix_fields = {"envs_per_cell": args.envs_per_cell, "reward": args.reward,
                       "collision_penalty": args.collision_penalty, "reward_scale": args.reward_scale,
                       "cell_weights": tuple(args.cell_weights) if args.cell_weights else None,
@@ -319,6 +320,39 @@ def _run_ppo(args: argparse.Namespace) -> int:
     print(f"{result['env_steps']} steps; chosen: the snapshot at {result['best_steps']} steps, hard-tier "
           f"validation success {result['best_point']:.3f} (mean of its window {result['best_success']:.3f})")
     print(f"checkpoint: {result['checkpoint']}  best: {result['best']}")
+    return 0
+
+
+def _ppo_overrides(args: argparse.Namespace) -> dict:
+    """The PPOConfig fields given as `--ppo-FIELD` options (and --seed, --device)."""
+    overrides = {f.name: getattr(args, "ppo_" + f.name) for f in dataclasses.fields(PPOConfig)
+                 if getattr(args, "ppo_" + f.name, None) is not None}
+    if "hidden_sizes" in overrides:
+        overrides["hidden_sizes"] = tuple(overrides["hidden_sizes"])
+    if overrides.get("recurrent") == "none":
+        overrides["recurrent"] = None
+    for name in ("seed", "device"):
+        if getattr(args, name) is not None:
+            overrides[name] = getattr(args, name)
+    return overrides
+
+
+def _run_ppo_3d(args: argparse.Namespace) -> int:
+    """`auv-mj train ppo --task planning-mix-3d`: PPO without a teacher on the 6-DOF mixture (the learned 3-D
+    planner's no-teacher ablation), `--envs-per-cell` vehicles a cell before its weights, the `--ppo-*` options over
+    `scratch_3d_config()`; the mixture options of the planar one do not apply."""
+    planar = [name for name in ("reward", "collision_penalty", "reward_scale", "cell_weights", "validate_every",
+                                "validation_max_steps", "goal_input", "init")
+              if getattr(args, name, None) is not None]
+    if planar:
+        raise ValueError(f"--task {MIXTURE_TASK_3D} takes its own problem and batch (--preset does not apply either); "
+                         "drop " + ", ".join(f"--{name.replace('_', '-')}" for name in planar))
+    run_dir = args.run_dir or Path("runs") / MIXTURE_TASK_3D / f"ppo-seed{args.seed or 0}"
+    config = None if args.resume else scratch_3d_config(**_ppo_overrides(args))
+    result = train_ppo_3d(run_dir, args.steps, config, args.envs_per_cell or 4, resume=args.resume,
+                          threads=args.threads, progress=not args.no_progress, tensorboard=not args.no_tensorboard,
+                          validation_episodes=args.validation_episodes or 50)
+    print(json.dumps(result, indent=2, default=str))
     return 0
 
 

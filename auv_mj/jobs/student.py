@@ -15,8 +15,8 @@ and tunnel3d, both tiers and waters, the hard cells oversampled by MIXTURE_3D_WE
 teacher (`auv_mj.planners.teacher3d.BatchTeacher3D`), and DAgger's validation on each hard cell
 (`mixture_3d_validator`); the student reads the 3-D planning observation (`auv_mj.tasks.auv3d.PLANNING_OBSERVATION`
 and the fan) alone. Its PPO fine-tune (`finetune_steps`) is `finetune` on the mixture with the teacher's labels
-under the decaying imitation term, a critic of its own that reads no privileged inputs (the 6-DOF env gives none
-yet: `finetune_config(privileged_critic=False)`), then the validation of DAgger's rounds on the last snapshot.
+under the decaying imitation term, a critic of its own that reads the 6-DOF env's privileged inputs
+(`auv_mj.tasks.auv3d.PRIVILEGED_FIELDS`), then the validation of DAgger's rounds on the last snapshot.
 """
 
 from __future__ import annotations
@@ -43,6 +43,7 @@ from auv_mj.agents.imitation import (
 from auv_mj.agents.imitation.dagger import VALIDATION_FIRST_SEED, Validator, episodes_validator
 from auv_mj.agents.ppo import CHECKPOINT_NAME as PPO_CHECKPOINT
 from auv_mj.agents.ppo import PPOConfig, load_model, read_ppo
+from auv_mj.agents.ppo import train as ppo_train
 from auv_mj.agents.ppo.planner import LEARNED_CONFIG, LEARNED_MIXTURE, MixtureConfig, mixture_from_dict, train_planner
 from auv_mj.agents.ppo.planner import VALIDATION_FIRST_SEED as MIXTURE_VALIDATION_SEED
 from auv_mj.agents.ppo.planner import validate as validate_planner
@@ -101,6 +102,47 @@ def mixture_3d_validator(threads: int | None = None) -> Validator:
     return validate
 
 
+def validate_3d(checkpoint: str | Path, episodes: int = 50, threads: int | None = None) -> dict[str, float]:
+    """The deterministic policy of a PPO-kind checkpoint (a student.pt, a fine-tune's or a run's checkpoint.pt) on
+    `episodes` validation episodes of each hard 6-DOF cell (`mixture_3d_validator`: the choice between 3-D students)."""
+    (tensors, meta), saved = read_ppo(checkpoint)
+    model = load_model(checkpoint, tensors, meta["spec"], saved)
+    return dict(mixture_3d_validator(threads)(model, DaggerConfig(validation_episodes=episodes)))
+
+
+def scratch_3d_config(**overrides: Any) -> PPOConfig:
+    """PPO from scratch on the 6-DOF mixture: `LEARNED_CONFIG` (the geodesic reward's discount, the annealed learning
+    rate, the KL limit, the privileged critic of its own) with the student's network (DaggerConfig's encoder and GRU)
+    and one torch thread (`finetune_config`'s reason); no teacher, so no imitation term."""
+    student = DaggerConfig()
+    base = dataclasses.replace(LEARNED_CONFIG, hidden_sizes=student.hidden_sizes, recurrent=student.recurrent,
+                               recurrent_size=student.recurrent_size, torch_threads=student.torch_threads,
+                               checkpoint_every=10)
+    return dataclasses.replace(base, **overrides)
+
+
+def train_ppo_3d(run_dir: str | Path, total_steps: int, config: PPOConfig | None = None, envs_per_cell: int = 4, *,
+                 resume: bool = False, threads: int | None = None, progress: bool = True, tensorboard: bool = False,
+                 validation_episodes: int = 50) -> dict[str, Any]:
+    """PPO without a teacher on the 6-DOF mixture (`mixture_3d_env(envs_per_cell)`, the student's problem and batch):
+    the learned 3-D planner's no-teacher ablation. `config` defaults to `scratch_3d_config()` (on resume: the
+    checkpoint's). Then the last snapshot's validation (`validate_3d`, `validation_episodes` a hard cell; 0: none).
+    Returns the checkpoint, the env steps and the validation."""
+    run_dir = Path(run_dir)
+    if not resume and (run_dir / PPO_CHECKPOINT).exists():
+        raise FileExistsError(f"{run_dir / PPO_CHECKPOINT} exists: give --resume or another -o/--out")
+    env = mixture_3d_env(envs_per_cell, threads)
+    try:
+        result = ppo_train(student_view(env), None if resume else (config or scratch_3d_config()), run_dir,
+                           total_steps, resume=resume, progress=progress, tensorboard=tensorboard)
+    finally:
+        env.close()
+    out: dict[str, Any] = {"checkpoint": str(result.checkpoint), "env_steps": result.env_steps}
+    if validation_episodes:
+        out["validation"] = validate_3d(result.checkpoint, validation_episodes, threads)
+    return out
+
+
 def student_mixture(envs_per_cell: int = LEARNED_MIXTURE.envs_per_cell) -> MixtureConfig:
     """The student's mixture: `LEARNED_MIXTURE` (the geodesic reward, action="rate", observation="planner", the hard
     cells and tunnels oversampled, validation on 50 episodes a hard cell) with `envs_per_cell` before the weights."""
@@ -127,7 +169,7 @@ def finetune_config(dagger: DaggerConfig, **overrides: Any) -> PPOConfig:
     on the student's network, an imitation term of weight 1 decaying linearly to 0, the student's log std, and the
     fit's torch threads (DaggerConfig.torch_threads, 1 by default: on a 2-core machine shared with the batch and
     the teacher, two intra-op threads made the update of the 56-vehicle mixture several times slower)."""
-    base = dataclasses.replace(LEARNED_CONFIG, hidden_sizes=dagger.hidden_sizes, recurrent="gru",
+    base = dataclasses.replace(LEARNED_CONFIG, hidden_sizes=dagger.hidden_sizes, recurrent=dagger.recurrent,
                                recurrent_size=dagger.recurrent_size, init_log_std=dagger.init_log_std,
                                imitation_coef=1.0, min_imitation_coef=0.0, imitation_schedule="linear",
                                seed=dagger.seed, checkpoint_every=10, torch_threads=dagger.torch_threads)
@@ -144,10 +186,10 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
     weights) or MIXTURE_TASK_3D (`mixture_3d_env(num_envs)`); a mixture takes no task_kwargs. `rounds`: on resume,
     DAgger goes on to that many rounds (its config's otherwise). The fine-tune's config is `ppo_config`, else
-    `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given (in 3-D
-    without the privileged critic). Returns the paths written, DAgger's last log row and, after a fine-tune, the
-    student's validation (one task: on DAgger's validation episodes, `evaluate_student`; the planar mixture:
-    `train_planner`'s choice; the 6-DOF mixture: `mixture_3d_validator` on the last snapshot)."""
+    `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given.
+    Returns the paths written, DAgger's last log row and, after a fine-tune, the student's validation (one task: on
+    DAgger's validation episodes, `evaluate_student`; the planar mixture: `train_planner`'s choice; the 6-DOF
+    mixture: `mixture_3d_validator` on the last snapshot)."""
     run_dir = Path(run_dir)
     options_path = run_dir / OPTIONS_NAME
     mixture: MixtureConfig | None = None
@@ -198,8 +240,6 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             ppo_dir = run_dir / FINETUNE_DIR
             again = resume and (ppo_dir / PPO_CHECKPOINT).is_file()
             extra = {} if imitation_coef is None else {"imitation_coef": imitation_coef}
-            if in_3d:  # the 6-DOF env gives no info["privileged"] yet
-                extra["privileged_critic"] = False
             config = None if again else (ppo_config or finetune_config(dagger, **extra))
             if mixture is not None:
                 tuned = train_planner(ppo_dir, config, mixture, finetune_steps, resume=again, progress=progress,

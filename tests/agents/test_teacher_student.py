@@ -216,7 +216,7 @@ def test_auv_mj_train_dagger_runs_and_resumes_into_the_fine_tune(tmp_path):
 def test_auv_mj_train_dagger_on_the_6dof_mixture_runs_validates_and_fine_tunes(tmp_path):
     """`--task planning-mix-3d`: the 6-DOF mixture (both tasks, tiers and waters), the 3-D teacher, the validation on
     each hard cell, and the fine-tune on resume; the student reads the 3-D planning observation and the fan alone."""
-    from auv_mj.tasks.auv3d import PLANNING_OBSERVATION
+    from auv_mj.tasks.auv3d import PLANNING_OBSERVATION, PRIVILEGED_FIELDS
 
     command = [sys.executable, "-m", "auv_mj.cli", "train", "dagger", "--task", "planning-mix-3d", "--num-envs", "1",
                "--dagger-rounds", "1", "--dagger-steps-per-round", "4", "--dagger-epochs", "1",
@@ -232,8 +232,49 @@ def test_auv_mj_train_dagger_on_the_6dof_mixture_runs_validates_and_fine_tunes(t
     again = subprocess.run(command + ["--resume", "--steps", "64"], capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr
     tuned = read_checkpoint(tmp_path / "ppo" / "checkpoint.pt", "ppo").metadata
-    assert tuned["config"]["imitation_coef"] == 1.0 and not tuned["config"]["privileged_critic"]
+    # the critic of its own reads the 6-DOF env's privileged inputs; the actor reads the observation alone
+    assert tuned["config"]["imitation_coef"] == 1.0 and tuned["config"]["privileged_critic"]
+    assert tuned["spec"]["privileged_dim"] == len(PRIVILEGED_FIELDS)
+    assert tuned["spec"]["obs_shape"] == spec["obs_shape"]
     assert '"finetune_validation"' in again.stdout
+
+
+def test_a_student_without_memory_is_feed_forward(tmp_path):
+    """`--dagger-recurrent none` (the no-memory ablation): the student has no memory, and DaggerConfig refuses a
+    memory it does not know."""
+    command = [sys.executable, "-m", "auv_mj.cli", "train", "dagger", "--task", "obstacles", "--num-envs", "2",
+               "--dagger-rounds", "1", "--dagger-steps-per-round", "4", "--dagger-epochs", "1",
+               "--dagger-validation-episodes", "0", "--dagger-recurrent", "none", "-o", str(tmp_path),
+               "--no-progress", "--threads", "1"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    student = read_checkpoint(tmp_path / "student.pt", "ppo").metadata["config"]
+    assert student["recurrent"] is None
+    dagger = read_checkpoint(tmp_path / CHECKPOINT_NAME, "dagger").metadata["config"]
+    assert dagger["recurrent"] is None
+    with pytest.raises(ValueError, match="recurrent"):
+        DaggerConfig(recurrent="rnn")
+
+
+def test_auv_mj_train_ppo_on_the_6dof_mixture_learns_without_a_teacher(tmp_path):
+    from auv_mj.tasks.auv3d import PRIVILEGED_FIELDS
+
+    """`auv-mj train ppo --task planning-mix-3d` (the no-teacher ablation): PPO from scratch on the student's batch and
+    problem, its critic reading the privileged inputs, no imitation term; the planar mixture's options are refused,
+    and an existing run is not overwritten."""
+    command = [sys.executable, "-m", "auv_mj.cli", "train", "ppo", "--task", "planning-mix-3d", "--steps", "32",
+               "--envs-per-cell", "1", "--ppo-num-steps", "4", "--validation-episodes", "1", "-o", str(tmp_path),
+               "--no-progress", "--no-tensorboard", "--threads", "1"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    tuned = read_checkpoint(tmp_path / "checkpoint.pt", "ppo").metadata
+    assert tuned["config"]["privileged_critic"] and tuned["config"]["imitation_coef"] == 0.0
+    assert tuned["spec"]["privileged_dim"] == len(PRIVILEGED_FIELDS)
+    assert '"cell:tunnel3d/hard/ocean"' in done.stdout
+    again = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 2 and "--resume" in again.stderr
+    planar = subprocess.run(command + ["--reward", "progress"], capture_output=True, text=True, timeout=300)
+    assert planar.returncode == 2 and "--reward" in planar.stderr
 
 
 def test_the_teacher_labels_a_mixture_row_as_it_labels_that_cells_own_batch():

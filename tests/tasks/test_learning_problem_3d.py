@@ -112,3 +112,31 @@ def test_compute_reward_is_the_step_reward_and_relabels_on_the_straight_distance
     assert distances[-1] < distances[0] - 60.0
     with pytest.raises(ValueError, match="reward"):
         suite.load(auv3d.DOMAIN, "goal3d", task_kwargs={"reward": "paper"})
+
+
+@pytest.mark.parametrize(("task_name", "tube"), [("tunnel3d", True), ("goal3d", False)])
+def test_the_critics_privileged_input_is_the_route_the_room_and_the_time_left(task_name, tube):
+    """info["privileged"] (auv3d.PRIVILEGED_FIELDS) from the reset on: the route length left the reward shapes on,
+    the room (the true map's clearance, within a tube's radius in a tube), the route's time left falling a planner
+    step a step, and the episode's tier and kind."""
+    env, drive = env_and_policy("oracle", task_name, 1, {"arena": "random", "tier": "hard", "reward": "geodesic"})
+    task = env.task
+    time_step = env.reset()
+    at_reset = task.last_info["privileged"]
+    assert at_reset.shape == (len(auv3d.PRIVILEGED_FIELDS),)
+    fields = dict(zip(auv3d.PRIVILEGED_FIELDS, at_reset.tolist(), strict=True))
+    assert fields["route_distance"] * auv3d.GOAL_DISTANCE_SCALE == pytest.approx(task.route_distance, abs=1e-9)
+    assert fields["time_left"] * auv3d.PRIVILEGED_TIME_SCALE == pytest.approx(task.episode_time_limit, abs=1e-9)
+    assert (fields["hard_tier"], fields["tube"]) == (1.0, float(tube))
+    for step in range(1, 41):
+        time_step = env.step(drive(time_step))
+        now = dict(zip(auv3d.PRIVILEGED_FIELDS, task.last_info["privileged"].tolist(), strict=True))
+        assert now["route_distance"] * auv3d.GOAL_DISTANCE_SCALE == pytest.approx(task.last_info["route_distance"],
+                                                                                 abs=1e-9)
+        assert now["time_left"] * auv3d.PRIVILEGED_TIME_SCALE == pytest.approx(
+            task.episode_time_limit - step * auv3d.PLANNER_DT, abs=1e-6)
+        room = now["room"] * auv3d.SONAR_RANGE
+        assert room > 0.0  # the oracle flies in free water
+        if tube:
+            assert room <= task.tube_radius + 1.0
+        assert not time_step.last()

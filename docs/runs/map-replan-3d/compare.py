@@ -2,15 +2,15 @@
 
     python docs/runs/map-replan-3d/compare.py pairs BEFORE.json:AFTER.json [BEFORE.json:AFTER.json ...]
     python docs/runs/map-replan-3d/compare.py boards OLD_BOARD.json NEW_BOARD.json POLICY
-    python docs/runs/map-replan-3d/compare.py executor DIR [BOARD.json]
+    python docs/runs/map-replan-3d/compare.py executor DIR [BOARD.json|-] [POLICY]
 
 - `pairs`: `episodes.py` outputs (its JSON file), one pair a cell: successes before and after, the seeds gained and
   lost, and over all pairs given the exact McNemar test of gained against lost (`auv_mj.benchmark.metrics`).
 - `boards`: one policy's entries on two leaderboard files of the same suite (the old one from git, e.g.
   `git show c7cba50:auv_mj/benchmark/data/leaderboard3d_v3.json > old.json`), cell by cell.
-- `executor`: `auv-mj eval ... --json DIR/depth-executor-TASK-TIER-WATER.json` runs of `map-replan` on another
-  executor (their `_episodes.csv`), against a suite 3d v3 board's `map-replan` row (the shipped board, or BOARD.json
-  from git: the board the runs were measured beside): successes and time
+- `executor`: `auv-mj eval ... --json DIR/depth-executor-TASK-TIER-WATER.json` runs of POLICY (`map-replan` by
+  default) on another executor (their `_episodes.csv`), against that policy's row on a suite 3d v3 board (the shipped
+  board, also given as -, or BOARD.json from git: the board the runs were measured beside): successes and time
   efficiency a cell, and the paired time efficiency with its 95 % bootstrap interval.
 """
 
@@ -61,11 +61,11 @@ def boards(old_path: str, new_path: str, policy: str) -> None:
     print(f"all: gained {total[0]}, lost {total[1]}, exact McNemar p = {metrics.exact_mcnemar(*total):.3f}")
 
 
-def executor(folder: str, board_file: str | None = None) -> None:
-    path = Path(board_file) if board_file else leaderboard.board_path(suite.suite_for("auv3d", 3))
+def executor(folder: str, board_file: str | None = None, policy: str = "map-replan") -> None:
+    path = Path(board_file) if board_file not in (None, "-") else leaderboard.board_path(suite.suite_for("auv3d", 3))
     board = leaderboard.read_board(path)["policies"]
     references = metrics.oracle_times(board["oracle"])
-    shipped = board["map-replan"]
+    shipped = board[policy]
     ours: dict = {"cells": {}}
     for name, cell in shipped["cells"].items():
         task, tier, water = name.split("/")
