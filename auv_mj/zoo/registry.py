@@ -216,6 +216,14 @@ register("planner-learned", PolicySpec(
     lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=LEARNED_PLANNER,
     checkpoint_on={"goal3d": LEARNED_PLANNER_3D, "tunnel3d": LEARNED_PLANNER_3D}, tasks="planning",
     protection=False, accepts_path=True, domains=BOTH))
+LEARNED_PLANNER_3D_NO_MEMORY = "planner_learned_3d_no_memory.pt"
+"""The learned 3-D planner's no-memory ablation: the shipped student's DAgger (teacher, batch, rounds, seed) with a
+feed-forward student (`--dagger-recurrent none`; docs/runs/planner-learned-3d/)."""
+register("planner-learned-3d-no-memory", PolicySpec(
+    "planner-learned on the 6-DOF tasks without its memory (the ablation): the same DAgger of the 3-D teacher, a "
+    "feed-forward student", lambda d: recurrent_policy(d.checkpoint, d.env), family="learned",
+    checkpoint=LEARNED_PLANNER_3D_NO_MEMORY, tasks="planning", protection=False, accepts_path=True,
+    domains=(DOMAIN_3D,), role="comparison"))
 register("planner-memory-safe", PolicySpec(
     "planner-memory inside the speed-aware protection domain and the geofence (the safety layer under it)",
     lambda d: recurrent_policy(d.checkpoint, d.env, "speed-aware"), family="learned", checkpoint=MEMORY_PLANNER,
