@@ -133,10 +133,12 @@ def teacher_actions_3d(fields: Sequence[VoxelField], position: np.ndarray, cours
 
 
 class GeodesicTeacher3D(PlannerBase):
-    """The teacher on one dm_env 3-D planning task (module docstring)."""
+    """The teacher on one dm_env 3-D planning task (module docstring); with `horizon` [m], it knows a tube's plug
+    only once it has come within that of it (`Planning3D.unseen_plugs`)."""
 
-    def __init__(self, env):
+    def __init__(self, env, horizon: float | None = None):
         self.env = env
+        self.horizon = horizon
         self._previous: np.ndarray | None = None
 
     def reset(self) -> None:
@@ -148,21 +150,24 @@ class GeodesicTeacher3D(PlannerBase):
         previous = position if time_step.first() or self._previous is None else self._previous
         self._previous = position
         course = course_over_ground(previous, position, np.array([physics.heading()]))
-        return teacher_actions_3d([task.steering_field(OPEN_WATER_SLOPE)], position, course)[0]
+        hidden = frozenset() if self.horizon is None else task.unseen_plugs(position[0], self.horizon)
+        return teacher_actions_3d([task.steering_field(OPEN_WATER_SLOPE, hidden)], position, course)[0]
 
 
 class BatchTeacher3D:
     """The teacher over the batched 6-DOF env (`auv_mj.tasks.vector3d.AUV3DVectorEnv` or a mixture of them):
     `actions()` reads the env's `privileged_state()` and labels every row at once."""
 
-    def __init__(self, env):
+    def __init__(self, env, horizon: float | None = None):
+        """`horizon` [m]: as `GeodesicTeacher3D`'s."""
         if not hasattr(env, "privileged_state"):
             raise TypeError("the teacher needs an env with privileged_state() (auv_mj.tasks.vector3d.AUV3DVectorEnv)")
         self.env = env
+        self.horizon = horizon
 
     def actions(self) -> np.ndarray:
         """The teacher's actions (N, 3) at the env's current states."""
-        state = self.env.privileged_state(OPEN_WATER_SLOPE)
+        state = self.env.privileged_state(OPEN_WATER_SLOPE, self.horizon)
         course = course_over_ground(state["previous_position"], state["position"], state["heading"])
         return teacher_actions_3d(state["steering"], state["position"], course)
 

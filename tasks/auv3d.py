@@ -532,8 +532,10 @@ class Planning3D(base.Task):
         """The geodesic field of the episode's goal once searched (`geodesic_potential`; at the reset under
         reward="geodesic"), else None."""
         self._episode_arena = None
-        self._steering: dict[float | None, VoxelField] = {}
-        self._oracle_map: tuple | None = None
+        self._steering: dict[tuple, VoxelField] = {}
+        self._oracle_maps: dict[frozenset[str], tuple] = {}
+        self._plugs: dict[str, np.ndarray] = {}
+        self._seen_plugs: set[str] = set()
         self.route_distance = math.nan
         """reward="geodesic": the route length left [m] where the last step ended (at the reset, the start's)."""
         self.movers: list[tuple[int, tubes.TubeMover]] = []
@@ -630,8 +632,11 @@ class Planning3D(base.Task):
         self._move(physics)
         self._episode_arena = (traps3d.Arena3D(root, np.asarray(start, dtype=float), float(heading), self.goal,
                                                self.path, ""), None if tube is None else (self.path, tube.radius))
-        self.potential = self._oracle_map = None
+        self.potential = None
+        self._oracle_maps = {}
         self._steering = {}
+        self._plugs = traps3d.plug_centres(root)
+        self._seen_plugs: set[str] = set()
         if self.reward_kind == "geodesic":
             self.route_distance = float(self.geodesic_potential().distance(start)[0])
         self._desired = pose_goal(self.goal, self.goal_heading(start))
@@ -658,26 +663,42 @@ class Planning3D(base.Task):
                                                     GOAL_RADIUS, corridor, mapped=self._static_map())
         return self.potential
 
-    def _static_map(self) -> tuple:
-        """The oracle's voxel map of this episode's static geoms (`traps3d.oracle_map`), made once an episode."""
-        if self._oracle_map is None:
+    def _static_map(self, hidden: frozenset[str] = frozenset()) -> tuple:
+        """The oracle's voxel map of this episode's static geoms (`traps3d.oracle_map`) but those named in `hidden`,
+        made once an episode for each `hidden`."""
+        if hidden not in self._oracle_maps:
             arena, corridor = self._episode_arena
-            self._oracle_map = traps3d.oracle_map(arena, None if corridor is not None else MIN_DEPTH, corridor,
-                                                  static_only=True)
-        return self._oracle_map
+            if hidden:
+                arena = traps3d.without_geoms(arena, hidden)
+            self._oracle_maps[hidden] = traps3d.oracle_map(arena, None if corridor is not None else MIN_DEPTH,
+                                                           corridor, static_only=True)
+        return self._oracle_maps[hidden]
 
-    def steering_field(self, open_water_slope: float | None = None) -> VoxelField:
+    def steering_field(self, open_water_slope: float | None = None,
+                       hidden: frozenset[str] = frozenset()) -> VoxelField:
         """This episode's field weighed by the oracle's soft clearance (`traps3d.geodesic_field(soft=True)`), searched
         at the first call of the episode and kept: the way down it (`VoxelField.next_hop`) is a privileged teacher's
         map (`auv_mj.planners.teacher3d`), never a learner's input. `open_water_slope` [rad]: the steepest climb of its
-        lattice in open water (None: the certificate's, max_pitch times CLIMB_MARGIN; a tube's is always that)."""
-        key = open_water_slope
+        lattice in open water (None: the certificate's, max_pitch times CLIMB_MARGIN; a tube's is always that).
+        `hidden`: geoms left off the map (`unseen_plugs`: a teacher that knows a plug only once near it)."""
+        key = (open_water_slope, hidden)
         if self._steering.get(key) is None:
             arena, corridor = self._episode_arena
-            pitch = self.max_pitch if corridor is not None or key is None else key / CLIMB_MARGIN
+            pitch = self.max_pitch if corridor is not None or open_water_slope is None \
+                else open_water_slope / CLIMB_MARGIN
             self._steering[key] = traps3d.geodesic_field(arena, pitch, None if corridor is not None else MIN_DEPTH,
-                                                         GOAL_RADIUS, corridor, soft=True, mapped=self._static_map())
+                                                         GOAL_RADIUS, corridor, soft=True,
+                                                         mapped=self._static_map(hidden))
         return self._steering[key]
+
+    def unseen_plugs(self, position, horizon: float) -> frozenset[str]:
+        """The plugs of this episode's tube (`traps3d.plug_centres`) whose centre the vehicle has not yet come within
+        `horizon` [m] of, counting `position` (3,): what a teacher limited to a sensing horizon does not know. The
+        plugs seen are kept until the next reset."""
+        position = np.asarray(position, dtype=float)
+        self._seen_plugs.update(name for name, centre in self._plugs.items()
+                                if np.linalg.norm(centre - position) <= horizon)
+        return frozenset(self._plugs) - frozenset(self._seen_plugs)
 
     def _privileged(self, physics) -> np.ndarray:
         """info["privileged"] (1, len(PRIVILEGED_FIELDS)) of the vehicle now (`privileged`)."""

@@ -405,13 +405,18 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._stepped[index] = True
         return reward, terminated, truncated, self._batched_infos(index, info)
 
-    def privileged_state(self, open_water_slope: float | None = None) -> dict[str, Any]:
+    def privileged_state(self, open_water_slope: float | None = None,
+                         horizon: float | None = None) -> dict[str, Any]:
         """The true state of every row for a privileged teacher (`auv_mj.planners.teacher3d`; Chen et al. 2019),
         never a learner's input: each episode's steering field ("steering", `Planning3D.steering_field`: the true
-        map's way to the goal, searched at the first call of an episode), the position ("position" (N, 3)), where
+        map's way to the goal, searched at the first call of an episode; with `horizon` [m], without the plugs the
+        vehicle has not yet come within that of, `Planning3D.unseen_plugs`), the position ("position" (N, 3)), where
         the last step began ("previous_position"; the position itself after a reset) and the true heading
         ("heading" (N,)). Rows awaiting an autoreset still show the episode that ended."""
-        return {"steering": [env.task.steering_field(open_water_slope) for env in self.envs],
+        hidden = [frozenset() if horizon is None else env.task.unseen_plugs(self._position[i], horizon)
+                  for i, env in enumerate(self.envs)]
+        return {"steering": [env.task.steering_field(open_water_slope, unseen)
+                             for env, unseen in zip(self.envs, hidden, strict=True)],
                 "position": self._position.copy(), "previous_position": self._previous_position.copy(),
                 "heading": self._heading.copy()}
 

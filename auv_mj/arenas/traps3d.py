@@ -25,6 +25,7 @@ are drawn from wide ranges and never tuned to any planner.
 
 from __future__ import annotations
 
+import copy
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, replace
@@ -280,6 +281,26 @@ def corridor_mask(grid_: voxels.VoxelGrid, line: np.ndarray, radius: float) -> n
         near = np.linalg.norm(points - (a + t[..., None] * d), axis=-1) <= radius
         mask[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]] |= near
     return mask
+
+
+PLUG_PREFIX = "plug_"
+"""The names of a hard tube's plugs (`_plug`): the obstacles inside a tube, which its walls do not foretell."""
+
+
+def plug_centres(root: ET.Element) -> dict[str, np.ndarray]:
+    """Each plug's name -> its box centre (3,) [m], of an arena's MJCF root (none: an empty dict)."""
+    return {g.get("name"): np.array([float(v) for v in g.get("pos", "0 0 0").split()])
+            for g in root.iter("geom") if (g.get("name") or "").startswith(PLUG_PREFIX)}
+
+
+def without_geoms(arena: Arena3D, names: frozenset[str]) -> Arena3D:
+    """`arena` with the geoms called `names` taken out of a copy of its root (a map of what is known of it)."""
+    root = copy.deepcopy(arena.root)
+    for parent in list(root.iter()):
+        for child in list(parent):
+            if child.tag == "geom" and child.get("name") in names:
+                parent.remove(child)
+    return replace(arena, root=root)
 
 
 def oracle_map(arena: Arena3D, surface: float | None, corridor: tuple[np.ndarray, float] | None = None,

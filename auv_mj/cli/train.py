@@ -187,6 +187,9 @@ def add_dagger_options(parser: argparse.ArgumentParser) -> None:
                                type=int if f.type == "int" else float,
                                help=f"DaggerConfig.{f.name}" + (" (with --resume: the rounds to go on to)"
                                                                  if f.name == "rounds" else ""))
+    group.add_argument("--teacher-horizon", type=float, metavar="M",
+                       help=f"--task {MIXTURE_TASK_3D}: the teacher knows a tube's plug only once within M metres of "
+                            "it (default: it knows the whole tube)")
     group.add_argument("--dagger-recurrent", choices=("gru", "lstm", "none"),
                        help="DaggerConfig.recurrent, the student's memory (none: a feed-forward student; default gru)")
     group.add_argument("--imitation-coef", type=float, help="the fine-tune's imitation weight at its start, "
@@ -206,7 +209,8 @@ def _run_dagger(args: argparse.Namespace) -> int:
         result = train_student(run_dir, args.task, task_kwargs(args) or None, args.num_envs,
                                DaggerConfig(**overrides), args.steps or 0, resume=args.resume, threads=args.threads,
                                progress=not args.no_progress, imitation_coef=args.imitation_coef,
-                               rounds=args.dagger_rounds if args.resume else None)
+                               rounds=args.dagger_rounds if args.resume else None,
+                               teacher_horizon=args.teacher_horizon)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(json.dumps(result, indent=2, default=str))

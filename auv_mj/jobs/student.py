@@ -180,7 +180,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                   num_envs: int = 16, dagger: DaggerConfig | None = None, finetune_steps: int = 0,
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
                   progress: bool = True, imitation_coef: float | None = None,
-                  rounds: int | None = None) -> dict[str, Any]:
+                  rounds: int | None = None, teacher_horizon: float | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
@@ -189,13 +189,16 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given.
     Returns the paths written, DAgger's last log row and, after a fine-tune, the student's validation (one task: on
     DAgger's validation episodes, `evaluate_student`; the planar mixture: `train_planner`'s choice; the 6-DOF
-    mixture: `mixture_3d_validator` on the last snapshot)."""
+    mixture: `mixture_3d_validator` on the last snapshot). `teacher_horizon` [m] (MIXTURE_TASK_3D only; kept for
+    resume): the 3-D teacher knows a tube's plug only once within that of it (`BatchTeacher3D`'s horizon), a teacher
+    whose knowledge the fan can follow."""
     run_dir = Path(run_dir)
     options_path = run_dir / OPTIONS_NAME
     mixture: MixtureConfig | None = None
     if resume and options_path.is_file():
         saved = json.loads(options_path.read_text())
         task, kwargs, num_envs = saved["task"], saved["task_kwargs"], int(saved["num_envs"])
+        teacher_horizon = saved.get("teacher_horizon")
         mixture = mixture_from_dict(saved["mixture"]) if "mixture" in saved else None
     else:
         own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
@@ -206,8 +209,13 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             mixture = student_mixture(num_envs)
         kwargs = mixture.task_kwargs() if mixture is not None else dict(own[task]) if task in own \
             else {**STUDENT_TASK_KWARGS, **dict(task_kwargs or {})}
+        if teacher_horizon is not None and (task != MIXTURE_TASK_3D or not teacher_horizon > 0):
+            raise ValueError(f"teacher_horizon: a distance > 0 [m] for task {MIXTURE_TASK_3D} (the 3-D teacher's), "
+                             f"got {teacher_horizon!r} for task {task}")
         run_dir.mkdir(parents=True, exist_ok=True)
         record: dict[str, Any] = {"task": task, "task_kwargs": kwargs, "num_envs": num_envs}
+        if teacher_horizon is not None:
+            record["teacher_horizon"] = float(teacher_horizon)
         if mixture is not None:
             record["mixture"] = config_to_dict(mixture)
         if task == MIXTURE_TASK_3D:
@@ -221,7 +229,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     else:
         env = AUVVectorEnv(task, num_envs=num_envs, task_kwargs=kwargs, threads=threads)
     try:
-        teacher = (BatchTeacher3D(env) if in_3d else BatchTeacher(env)).actions
+        teacher = (BatchTeacher3D(env, teacher_horizon) if in_3d else BatchTeacher(env)).actions
         if in_3d:
             validate = mixture_3d_validator(threads)
         elif mixture is not None:

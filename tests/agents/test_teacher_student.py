@@ -8,6 +8,7 @@ them round by round, fit them, and resume to the run it interrupts.
 from __future__ import annotations
 
 import dataclasses
+import json
 import subprocess
 import sys
 
@@ -220,9 +221,11 @@ def test_auv_mj_train_dagger_on_the_6dof_mixture_runs_validates_and_fine_tunes(t
 
     command = [sys.executable, "-m", "auv_mj.cli", "train", "dagger", "--task", "planning-mix-3d", "--num-envs", "1",
                "--dagger-rounds", "1", "--dagger-steps-per-round", "4", "--dagger-epochs", "1",
-               "--dagger-validation-episodes", "1", "-o", str(tmp_path), "--no-progress", "--threads", "1"]
+               "--dagger-validation-episodes", "1", "--teacher-horizon", "8", "-o", str(tmp_path), "--no-progress",
+               "--threads", "1"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "student.json").read_text())["teacher_horizon"] == 8.0  # kept for the resume
     spec = read_checkpoint(tmp_path / "student.pt", "ppo").metadata["spec"]
     assert spec["obs_shape"] == [len(PLANNING_OBSERVATION) + 27] and spec["act_shape"] == [3]
     assert spec["task_options"] == {"executor": "splane-ocean"}  # the benchmark's execution layer, which it keeps
@@ -254,6 +257,10 @@ def test_a_student_without_memory_is_feed_forward(tmp_path):
     assert dagger["recurrent"] is None
     with pytest.raises(ValueError, match="recurrent"):
         DaggerConfig(recurrent="rnn")
+    refused = subprocess.run(command + ["--teacher-horizon", "8", "-o", str(tmp_path / "refused")],
+                             capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 2 and "teacher_horizon" in refused.stderr  # the 3-D teacher's only
+    assert not (tmp_path / "refused").exists()
 
 
 def test_auv_mj_train_ppo_on_the_6dof_mixture_learns_without_a_teacher(tmp_path):

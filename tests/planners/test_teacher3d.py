@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from auv_mj.arenas import voxels
-from auv_mj.arenas.geodesic import VoxelField
+from auv_mj.arenas.geodesic import VoxelField, point_voxels
 from auv_mj.planners import teacher3d
 from auv_mj.planners.map_planner3d import LOOKAHEAD
 from auv_mj.tasks import auv3d, suite
@@ -74,24 +74,53 @@ def test_in_open_water_the_teacher_aims_its_look_ahead_down_the_straight_way():
     assert action[2] == pytest.approx(0.0, abs=1e-9)
 
 
-def test_the_batch_teacher_labels_the_rows_as_the_teacher_acts_on_each_single_env():
+@pytest.mark.parametrize(("task", "horizon", "steps"), [("goal3d", None, 30), ("tunnel3d", 8.0, 90)])
+def test_the_batch_teacher_labels_the_rows_as_the_teacher_acts_on_each_single_env(task, horizon, steps):
     """The batched env's rows are the single envs' episodes (tests/tasks/test_vector_env_3d.py): the teacher's labels
-    from `privileged_state` equal the single-env teacher's actions, step by step, while the teacher drives."""
-    seeds = (3, 4)
+    from `privileged_state` equal the single-env teacher's actions, step by step, while the teacher drives; with a
+    horizon too, through the steps where a plug comes into it."""
+    seeds = (1, 3)
     options = {"arena": "random", "tier": "hard", "conditions": "ocean"}
-    batch = AUV3DVectorEnv("goal3d", len(seeds), options, threads=1)
-    labels = teacher3d.BatchTeacher3D(batch)
-    singles = [suite.load(auv3d.DOMAIN, "goal3d", task_kwargs={**options, "random": s}) for s in seeds]
-    teachers = [teacher3d.geodesic_teacher_3d(env) for env in singles]
+    batch = AUV3DVectorEnv(task, len(seeds), options, threads=1)
+    labels = teacher3d.BatchTeacher3D(batch, horizon)
+    singles = [suite.load(auv3d.DOMAIN, task, task_kwargs={**options, "random": s}) for s in seeds]
+    teachers = [teacher3d.GeodesicTeacher3D(env, horizon) for env in singles]
     batch.reset(seed=list(seeds))
-    steps = [env.reset() for env in singles]
-    for _ in range(30):
+    time_steps = [env.reset() for env in singles]
+    unseen = []
+    for _ in range(steps):
         batched = labels.actions()
-        single = np.array([t(step) for t, step in zip(teachers, steps, strict=True)])
+        single = np.array([t(step) for t, step in zip(teachers, time_steps, strict=True)])
         np.testing.assert_allclose(batched, single, rtol=0, atol=1e-9)
         batch.step(batched.astype(np.float32))
-        steps = [env.step(a.astype(np.float32)) for env, a in zip(singles, batched, strict=True)]
+        time_steps = [env.step(a.astype(np.float32)) for env, a in zip(singles, batched, strict=True)]
+        if horizon is not None:
+            unseen.append([len(env.task.unseen_plugs(env.physics.position(), horizon)) for env in singles])
+    if horizon is not None:  # a plug came into the horizon on the way
+        assert np.any(np.diff(np.array(unseen), axis=0) < 0)
     batch.close()
+
+
+def test_a_teacher_with_a_horizon_knows_a_plug_only_once_near_it():
+    """`Planning3D.unseen_plugs`: every plug is unknown from afar, a plug is known once the vehicle comes within the
+    horizon of it and stays known until the reset; the steering field without the unknown plugs runs through them."""
+    env = suite.load(auv3d.DOMAIN, "tunnel3d", task_kwargs={"arena": "random", "tier": "hard", "random": 1})
+    env.reset()
+    task = env.task
+    names = [env.physics.model.geom(g).name for g in range(env.physics.model.ngeom)]
+    plugs = {n: env.physics.named.data.geom_xpos[n].copy() for n in names if n.startswith("plug_")}
+    assert plugs
+    far = np.array([1e4, 1e4, -1e4])
+    assert task.unseen_plugs(far, 8.0) == frozenset(plugs)
+    first, centre = sorted(plugs.items())[0]
+    assert first not in task.unseen_plugs(centre + np.array([0.0, 0.0, 7.0]), 8.0)
+    assert first not in task.unseen_plugs(far, 8.0)  # kept
+    full, blind = task.steering_field(None), task.steering_field(None, frozenset(plugs))
+    i, j, k = point_voxels(full, centre[None])[0]
+    assert not np.isfinite(full.field[i, j, k]) and np.isfinite(blind.field[i, j, k])  # the plug is water to it
+    env.reset()  # the next episode's plugs, none seen
+    names = [env.physics.model.geom(g).name for g in range(env.physics.model.ngeom)]
+    assert task.unseen_plugs(far, 8.0) == frozenset(n for n in names if n.startswith("plug_"))
 
 
 def test_the_mixture_holds_one_domains_cells():
