@@ -83,6 +83,10 @@ class DaggerConfig:
     """beta_i = beta0 * beta_decay^i (0: the student drives from round 1 on, Ross et al.'s usual choice)."""
     epochs: int = 8
     """Passes over the aggregated dataset in each fit."""
+    final_epochs: int = 0
+    """Passes of one more fit over the whole aggregate after the last round (0: none): the student of the last
+    round's fit is the one DAgger's rollouts needed, not a fitted one (the 3-D student's imitation loss was still
+    falling at 4 epochs a round)."""
     batch_sequences: int = 16
     """Whole vehicles' sequences in one minibatch of the fit."""
     learning_rate: float = 1e-3
@@ -114,6 +118,8 @@ class DaggerConfig:
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                 raise ValueError(f"DaggerConfig.{name} must be a whole number >= 1, got {value!r}")
+        if not isinstance(self.final_epochs, int) or isinstance(self.final_epochs, bool) or self.final_epochs < 0:
+            raise ValueError(f"DaggerConfig.final_epochs must be a whole number >= 0, got {self.final_epochs!r}")
         for name in ("beta0", "beta_decay"):
             value = getattr(self, name)
             if not 0.0 <= float(value) <= 1.0:
@@ -285,7 +291,8 @@ def evaluate_student(env_fn: Callable[[int], VectorEnv], model: ActorCritic, epi
 
 
 def _save(run_dir: Path, model: ActorCritic, optimizer: torch.optim.Optimizer, data: Sequences | None,
-          config: DaggerConfig, spec: Mapping[str, Any], rounds_done: int, round_sizes: Sequence[int]) -> None:
+          config: DaggerConfig, spec: Mapping[str, Any], rounds_done: int, round_sizes: Sequence[int],
+          final_fit: bool = False) -> None:
     tensors = module_tensors(model, "model")
     tensors.update(optimizer_tensors(optimizer, "optimizer"))
     if data is not None:
@@ -293,7 +300,8 @@ def _save(run_dir: Path, model: ActorCritic, optimizer: torch.optim.Optimizer, d
             tensors[f"data.{name}"] = torch.as_tensor(value)
     save_checkpoint(run_dir / CHECKPOINT_NAME, "dagger", tensors,
                     {"agent": "dagger", "config": config_to_dict(config), "spec": dict(spec),
-                     "counters": {"rounds": rounds_done, "round_sizes": list(round_sizes)}})
+                     "counters": {"rounds": rounds_done, "round_sizes": list(round_sizes),
+                                  "final_fit_after": rounds_done if final_fit else -1}})
     save_ppo(run_dir / STUDENT_NAME, model, None, None, config.student_config(), spec,
              {"env_steps": 0, "iterations": 0, "episodes": 0, "dagger_rounds": rounds_done})
 
@@ -339,12 +347,14 @@ def episodes_validator(env_fn: Callable[[int], VectorEnv]) -> Validator:
 def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: DaggerConfig | None = None, *,
                  resume: bool = False, eval_env_fn: Callable[[int], VectorEnv] | None = None,
                  validate: Validator | None = None, progress: bool = True,
-                 rounds: int | None = None) -> DaggerResult:
+                 rounds: int | None = None, final_epochs: int | None = None) -> DaggerResult:
     """Runs DAgger (module docstring) on the batched `env` with `teacher` labelling its current states, until
     config.rounds rounds are done, checkpointing after each; `resume=True` continues the run in `run_dir` (its
     config; `config` must be None or the same; `rounds` more than it had extends it to that many rounds, the rest of
-    its config kept). After each round the student is validated (when
-    config.validation_episodes > 0) by `validate`, or on `eval_env_fn(n)`'s batch (`episodes_validator`)."""
+    its config kept; `final_epochs` likewise sets the final fit's, which runs after the last round where it has not
+    yet). After each round, and after the final fit, the student is validated (when config.validation_episodes > 0) by
+    `validate`, or on `eval_env_fn(n)`'s batch (`episodes_validator`); the final fit's row in dagger.csv has the
+    round number config.rounds and beta nan."""
     if validate is None and eval_env_fn is not None:
         validate = episodes_validator(eval_env_fn)
     run_dir = Path(run_dir)
@@ -352,6 +362,7 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
     spec = student_spec(env)
     data: Sequences | None = None
     rounds_done, round_sizes = 0, []
+    final_done = False
     if resume:
         checkpoint = read_checkpoint(run_dir / CHECKPOINT_NAME, "dagger")
         saved = config_from_dict(checkpoint.metadata["config"], run_dir / CHECKPOINT_NAME, DaggerConfig)
@@ -363,6 +374,8 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
                 raise ValueError(f"rounds: a resumed DAgger run goes on to at least its {saved.rounds} rounds, got "
                                  f"{rounds!r}")
             config = dataclasses.replace(saved, rounds=rounds)
+        if final_epochs is not None:
+            config = dataclasses.replace(config, final_epochs=final_epochs)
     config = config or DaggerConfig()
     torch.set_num_threads(config.torch_threads)
     model = build_model(spec, config.student_config())
@@ -373,6 +386,7 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
         load_optimizer(optimizer, tensors, "optimizer", run_dir / CHECKPOINT_NAME)
         counters = checkpoint.metadata["counters"]
         rounds_done, round_sizes = int(counters["rounds"]), [int(s) for s in counters["round_sizes"]]
+        final_done = int(counters.get("final_fit_after", -1)) == rounds_done
         if "data.obs" in tensors:
             data = Sequences(*(tensors[f"data.{f.name}"].numpy() for f in dataclasses.fields(Sequences)))
     log_path = run_dir / LOG_NAME
@@ -412,10 +426,29 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
         if cells:
             _log_cells(run_dir / CELLS_LOG_NAME, i, cells, fresh_file=not resume and i == 0)
         rows.append(row)
+        final_done = False
         if progress:
             print(" ".join(f"{k}={row[k]:.4g}" if isinstance(row[k], float) else f"{k}={row[k]}" for k in LOG_FIELDS),
                   flush=True)
-    if data is None or rounds_done >= config.rounds and not rows:
-        _save(run_dir, model, optimizer, data, config, spec, max(rounds_done, 0), round_sizes)
+    if config.final_epochs and data is not None and not final_done:
+        started = time.perf_counter()
+        generator = torch.Generator().manual_seed(config.seed * 1_000_003 + config.rounds)
+        before, after = fit(model, optimizer, data, dataclasses.replace(config, epochs=config.final_epochs), generator)
+        row = {"round": config.rounds, "beta": float("nan"), "dataset_steps": data.steps, "teacher_share": float("nan"),
+               "loss_before": before, "loss_after": after, "val_success": float("nan"),
+               "val_collision": float("nan"), "val_episodes": 0.0}
+        cells = {}
+        if validate is not None and config.validation_episodes:
+            for key, value in validate(model, config).items():
+                (cells if key.startswith("cell:") else row)[key.removeprefix("cell:")] = float(value)
+        row["wall_s"] = time.perf_counter() - started
+        _save(run_dir, model, optimizer, data, config, spec, config.rounds, round_sizes, final_fit=True)
+        with open(log_path, "a", newline="") as f:
+            csv.writer(f).writerow([row[k] for k in LOG_FIELDS])
+        if cells:
+            _log_cells(run_dir / CELLS_LOG_NAME, config.rounds, cells, fresh_file=False)
+        rows.append(row)
+    elif data is None or rounds_done >= config.rounds and not rows:
+        _save(run_dir, model, optimizer, data, config, spec, max(rounds_done, 0), round_sizes, final_fit=final_done)
     return DaggerResult(run_dir, run_dir / STUDENT_NAME, config.rounds, 0 if data is None else data.steps, rows,
                         config)

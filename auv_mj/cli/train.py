@@ -185,8 +185,9 @@ def add_dagger_options(parser: argparse.ArgumentParser) -> None:
         if f.type in ("int", "float") and f.name not in ("seed", "torch_threads"):
             group.add_argument(f"--dagger-{f.name.replace('_', '-')}", dest="dagger_" + f.name,
                                type=int if f.type == "int" else float,
-                               help=f"DaggerConfig.{f.name}" + (" (with --resume: the rounds to go on to)"
-                                                                 if f.name == "rounds" else ""))
+                               help=f"DaggerConfig.{f.name}" + {
+                                   "rounds": " (with --resume: the rounds to go on to)",
+                                   "final_epochs": " (with --resume: a final fit of a finished run)"}.get(f.name, ""))
     group.add_argument("--teacher-horizon", type=float, metavar="M",
                        help=f"--task {MIXTURE_TASK_3D}: the teacher knows a tube's plug only once within M metres of "
                             "it (default: it knows the whole tube)")
@@ -210,7 +211,8 @@ def _run_dagger(args: argparse.Namespace) -> int:
                                DaggerConfig(**overrides), args.steps or 0, resume=args.resume, threads=args.threads,
                                progress=not args.no_progress, imitation_coef=args.imitation_coef,
                                rounds=args.dagger_rounds if args.resume else None,
-                               teacher_horizon=args.teacher_horizon)
+                               teacher_horizon=args.teacher_horizon,
+                               final_epochs=args.dagger_final_epochs if args.resume else None)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(json.dumps(result, indent=2, default=str))

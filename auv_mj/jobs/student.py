@@ -180,12 +180,14 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                   num_envs: int = 16, dagger: DaggerConfig | None = None, finetune_steps: int = 0,
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
                   progress: bool = True, imitation_coef: float | None = None,
-                  rounds: int | None = None, teacher_horizon: float | None = None) -> dict[str, Any]:
+                  rounds: int | None = None, teacher_horizon: float | None = None,
+                  final_epochs: int | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
     weights) or MIXTURE_TASK_3D (`mixture_3d_env(num_envs)`); a mixture takes no task_kwargs. `rounds`: on resume,
-    DAgger goes on to that many rounds (its config's otherwise). The fine-tune's config is `ppo_config`, else
+    DAgger goes on to that many rounds (its config's otherwise), and `final_epochs` sets its final fit's epochs.
+    The fine-tune's config is `ppo_config`, else
     `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given.
     Returns the paths written, DAgger's last log row and, after a fine-tune, the student's validation (one task: on
     DAgger's validation episodes, `evaluate_student`; the planar mixture: `train_planner`'s choice; the 6-DOF
@@ -239,7 +241,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                                                                  threads=threads))
         again = resume and (run_dir / CHECKPOINT_NAME).is_file()
         result = train_dagger(env, teacher, run_dir, None if again else dagger, resume=again, progress=progress,
-                              rounds=rounds if again else None, validate=validate)
+                              rounds=rounds if again else None, validate=validate,
+                              final_epochs=final_epochs if again else None)
         dagger = result.config
         out: dict[str, Any] = {"student": str(result.student), "dagger_rounds": result.rounds,
                                "dataset_steps": result.dataset_steps,

@@ -151,6 +151,19 @@ def test_the_dataset_grows_each_round_and_resume_gives_the_uninterrupted_run(tmp
     assert longer.config == dataclasses.replace(TINY, rounds=3)
     saved = read_checkpoint(tmp_path / "b" / CHECKPOINT_NAME, "dagger")
     assert saved.metadata["counters"]["rounds"] == 3 and saved.metadata["config"]["rounds"] == 3
+    # a final fit over the whole aggregate after the last round, once: its row is round config.rounds
+    env = AUVVectorEnv("obstacles", num_envs=2, task_kwargs=HARD, threads=1)
+    student_before = read_checkpoint(tmp_path / "b" / "student.pt", "ppo").tensors
+    fitted = train_dagger(env, BatchTeacher(env).actions, tmp_path / "b", resume=True, progress=False, final_epochs=5)
+    again = train_dagger(env, BatchTeacher(env).actions, tmp_path / "b", resume=True, progress=False)
+    env.close()
+    assert [row["round"] for row in fitted.log] == [3] and np.isnan(fitted.log[0]["beta"])
+    assert fitted.log[0]["loss_after"] < fitted.log[0]["loss_before"]
+    assert fitted.dataset_steps == longer.dataset_steps and again.log == []  # no new data, and not fitted twice
+    student_after = read_checkpoint(tmp_path / "b" / "student.pt", "ppo").tensors
+    assert any(not torch.equal(student_before[k], student_after[k]) for k in student_before)
+    saved = read_checkpoint(tmp_path / "b" / CHECKPOINT_NAME, "dagger")
+    assert saved.metadata["counters"]["final_fit_after"] == 3 and saved.metadata["config"]["final_epochs"] == 5
 
 
 def test_behaviour_cloning_drives_the_loss_down_on_a_toy_problem():
