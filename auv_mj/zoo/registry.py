@@ -204,8 +204,8 @@ training mixture), fine-tuned with PPO under a decaying imitation term, then two
 oversampled (`auv-mj train ppo --init`), chosen on validation seeds (docs/runs/planner-learned/)."""
 LEARNED_PLANNER_3D = "planner_learned_3d.pt"
 """The shipped checkpoint of `planner-learned` on the 6-DOF tasks: a GRU student of the 3-D geodesic teacher by DAgger
-on the 6-DOF mixture, on the re-tuned S-plane; chosen on validation seeds over its PPO fine-tune
-(docs/runs/planner-learned-3d/)."""
+on the 6-DOF mixture and a final fit of 128 epochs over DAgger's data, on the re-tuned S-plane; chosen on validation
+seeds over DAgger alone, its PPO fine-tunes and its ablations (docs/runs/planner-learned-3d/)."""
 register("planner-learned", PolicySpec(
     "the learned planner of the well-posed problem (geodesic reward, rate action, planner observation): a GRU "
     "student of the privileged geodesic teacher (DAgger on random obstacles, moving obstacles and tunnels, both tiers "
@@ -223,6 +223,15 @@ register("planner-learned-3d-no-memory", PolicySpec(
     "planner-learned on the 6-DOF tasks without its memory (the ablation): the same DAgger of the 3-D teacher, a "
     "feed-forward student", lambda d: recurrent_policy(d.checkpoint, d.env), family="learned",
     checkpoint=LEARNED_PLANNER_3D_NO_MEMORY, tasks="planning", protection=False, accepts_path=True,
+    domains=(DOMAIN_3D,), role="comparison"))
+LEARNED_PLANNER_3D_NO_TEACHER = "planner_learned_3d_no_teacher.pt"
+"""The learned 3-D planner's no-teacher ablation: PPO from scratch on the student's batch, problem and network, its
+critic reading the privileged inputs, for about the student's training wall-clock (`auv-mj train ppo --task
+planning-mix-3d`; docs/runs/planner-learned-3d/)."""
+register("planner-learned-3d-no-teacher", PolicySpec(
+    "planner-learned on the 6-DOF tasks without its teacher (the ablation): PPO from scratch on the same problem, "
+    "batch and network", lambda d: recurrent_policy(d.checkpoint, d.env), family="learned",
+    checkpoint=LEARNED_PLANNER_3D_NO_TEACHER, tasks="planning", protection=False, accepts_path=True,
     domains=(DOMAIN_3D,), role="comparison"))
 register("planner-memory-safe", PolicySpec(
     "planner-memory inside the speed-aware protection domain and the geofence (the safety layer under it)",

@@ -17,7 +17,8 @@ SHIPPED = {"depth_executor.pt": "td3", "executor.pt": "executor", "executor_ocea
            "planner.pt": "her-ddpg", "planner_e2e.pt": "her-ddpg", "planner_general.pt": "ddpg",
            "planner_memory.pt": "ppo", "planner_route.pt": "ddpg", "planner_tunnel.pt": "her-ddpg"}
 """Each shipped checkpoint written before the kind tag, and the kind its format marker (and agent field) gives it."""
-TAGGED = {"planner_learned.pt": "ppo", "planner_learned_3d.pt": "ppo", "planner_learned_3d_no_memory.pt": "ppo"}
+TAGGED = {"planner_learned.pt": "ppo", "planner_learned_3d.pt": "ppo", "planner_learned_3d_no_memory.pt": "ppo",
+          "planner_learned_3d_no_teacher.pt": "ppo"}
 """Each shipped checkpoint written since, and the kind its tag says."""
 SPEC = {"kind": "box", "obs_dim": 4, "act_dim": 2, "obs_shape": [4], "action_low": [-1.0, -1.0],
         "action_high": [1.0, 1.0]}

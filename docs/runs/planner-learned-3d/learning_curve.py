@@ -18,6 +18,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
+PLOTTED = ("dagger", "final fit", "finetune")
+"""The validations drawn (validation.csv's other rows, the ablations and tries, are in the README's table)."""
 
 
 def rows(name: str) -> list[dict]:
@@ -34,21 +36,22 @@ def main() -> None:
         total += float(r["wall_s"])
         wall.append(total)
     tune = rows("finetune_progress.csv")
-    tune_steps = [steps[-1] + float(r["env_steps"]) for r in tune]
-    tune_wall, at = [], wall[-1]
+    rounds = [k for k, r in enumerate(dagger) if r["beta"] != "nan"]  # the final fit's row has no beta
+    tune_steps = [steps[rounds[-1]] + float(r["env_steps"]) for r in tune]
+    tune_wall, at = [], wall[rounds[-1]]
     last = 0.0
     for r in tune:
         at += (float(r["env_steps"]) - last) / max(float(r["samples_per_s"]), 1e-9)
         last = float(r["env_steps"])
         tune_wall.append(at)
-    validation = rows("validation.csv")
+    validation = [r for r in rows("validation.csv") if r["phase"] in PLOTTED]
     fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
     for ax, x_dagger, x_tune, label in ((axes[0], steps, tune_steps, "env steps"),
                                         (axes[1], [w / 60 for w in wall], [w / 60 for w in tune_wall],
                                          "training wall-clock [min]")):
         ax.plot(x_dagger, [float(r["val_success"]) for r in dagger], "o-", label="DAgger: validation, 10 a hard cell")
         ax.plot(x_tune, [float(r["success_rate"]) for r in tune], "-", alpha=0.6,
-                label="fine-tune: training success (stochastic, every cell)")
+                label="fine-tune from the DAgger student: training success (stochastic, every cell)")
         for r in validation:
             x = float(r["env_steps"]) if label == "env steps" else float(r["wall_s"]) / 60
             ax.plot([x], [float(r["hard_mean"])], "k*", markersize=12)
@@ -58,7 +61,8 @@ def main() -> None:
     axes[0].set_ylabel("success")
     axes[0].set_ylim(0, 1)
     axes[0].legend(fontsize=8, loc="lower right")
-    fig.suptitle("planner-learned in 3-D: DAgger from the 3-D geodesic teacher, then PPO")
+    fig.suptitle("planner-learned in 3-D: DAgger from the 3-D geodesic teacher, its final fit (shipped), "
+                 "and a PPO fine-tune (not shipped)")
     fig.tight_layout()
     fig.savefig(HERE / "learning_curve.png", dpi=120)
 
