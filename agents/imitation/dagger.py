@@ -1,4 +1,5 @@
-"""DAgger for a recurrent student (issue 51, item 5): the student drives, a privileged teacher labels.
+"""DAgger for a recurrent student (issue 51, item 5; a feed-forward one too): the student drives, a privileged teacher
+labels.
 
 Learning by Cheating (Chen et al. 2019) splits a hard problem in two: an expert that sees the world as it is (here
 `auv_mj.planners.teacher`, steering down the true map's geodesic field), then a student on the sensors alone trained
