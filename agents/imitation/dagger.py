@@ -396,6 +396,28 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
         with open(log_path, "w", newline="") as f:
             csv.writer(f).writerow(LOG_FIELDS)
     n = int(env.num_envs)
+    def finish(index: int, beta: float, teacher_share: float, losses: tuple[float, float], started: float,
+               final_fit: bool) -> None:
+        """A round's (or the final fit's) validation, checkpoint and log rows."""
+        row = {"round": index, "beta": beta, "dataset_steps": data.steps, "teacher_share": teacher_share,
+               "loss_before": losses[0], "loss_after": losses[1], "val_success": float("nan"),
+               "val_collision": float("nan"), "val_episodes": 0.0}
+        cells: dict[str, float] = {}
+        if validate is not None and config.validation_episodes:
+            for key, value in validate(model, config).items():
+                (cells if key.startswith("cell:") else row)[key.removeprefix("cell:")] = float(value)
+        row["wall_s"] = time.perf_counter() - started
+        _save(run_dir, model, optimizer, data, config, spec, min(index + 1, config.rounds), round_sizes,
+              final_fit=final_fit)
+        with open(log_path, "a", newline="") as f:
+            csv.writer(f).writerow([row[k] for k in LOG_FIELDS])
+        if cells:
+            _log_cells(run_dir / CELLS_LOG_NAME, index, cells, fresh_file=not resume and index == 0)
+        rows.append(row)
+        if progress:
+            print(" ".join(f"{k}={row[k]:.4g}" if isinstance(row[k], float) else f"{k}={row[k]}" for k in LOG_FIELDS),
+                  flush=True)
+
     for i in range(rounds_done, config.rounds):
         started = time.perf_counter()
         rng = np.random.default_rng([config.seed, i])
@@ -411,44 +433,15 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
             round_sizes = round_sizes[-config.max_dataset_rounds:]
             data = Sequences(*(a[:, drop:] for a in dataclasses.astuple(data)))
         generator = torch.Generator().manual_seed(config.seed * 1_000_003 + i)
-        before, after = fit(model, optimizer, data, config, generator)
-        row = {"round": i, "beta": beta, "dataset_steps": data.steps,
-               "teacher_share": float((fresh.teacher_drove * fresh.valid).sum() / max(fresh.valid.sum(), 1.0)),
-               "loss_before": before, "loss_after": after, "val_success": float("nan"),
-               "val_collision": float("nan"), "val_episodes": 0.0}
-        cells: dict[str, float] = {}
-        if validate is not None and config.validation_episodes:
-            for key, value in validate(model, config).items():
-                (cells if key.startswith("cell:") else row)[key.removeprefix("cell:")] = float(value)
-        row["wall_s"] = time.perf_counter() - started
-        _save(run_dir, model, optimizer, data, config, spec, i + 1, round_sizes)
-        with open(log_path, "a", newline="") as f:
-            csv.writer(f).writerow([row[k] for k in LOG_FIELDS])
-        if cells:
-            _log_cells(run_dir / CELLS_LOG_NAME, i, cells, fresh_file=not resume and i == 0)
-        rows.append(row)
+        losses = fit(model, optimizer, data, config, generator)
+        finish(i, beta, float((fresh.teacher_drove * fresh.valid).sum() / max(fresh.valid.sum(), 1.0)), losses,
+               started, final_fit=False)
         final_done = False
-        if progress:
-            print(" ".join(f"{k}={row[k]:.4g}" if isinstance(row[k], float) else f"{k}={row[k]}" for k in LOG_FIELDS),
-                  flush=True)
     if config.final_epochs and data is not None and not final_done:
         started = time.perf_counter()
         generator = torch.Generator().manual_seed(config.seed * 1_000_003 + config.rounds)
-        before, after = fit(model, optimizer, data, dataclasses.replace(config, epochs=config.final_epochs), generator)
-        row = {"round": config.rounds, "beta": float("nan"), "dataset_steps": data.steps, "teacher_share": float("nan"),
-               "loss_before": before, "loss_after": after, "val_success": float("nan"),
-               "val_collision": float("nan"), "val_episodes": 0.0}
-        cells = {}
-        if validate is not None and config.validation_episodes:
-            for key, value in validate(model, config).items():
-                (cells if key.startswith("cell:") else row)[key.removeprefix("cell:")] = float(value)
-        row["wall_s"] = time.perf_counter() - started
-        _save(run_dir, model, optimizer, data, config, spec, config.rounds, round_sizes, final_fit=True)
-        with open(log_path, "a", newline="") as f:
-            csv.writer(f).writerow([row[k] for k in LOG_FIELDS])
-        if cells:
-            _log_cells(run_dir / CELLS_LOG_NAME, config.rounds, cells, fresh_file=False)
-        rows.append(row)
+        losses = fit(model, optimizer, data, dataclasses.replace(config, epochs=config.final_epochs), generator)
+        finish(config.rounds, float("nan"), float("nan"), losses, started, final_fit=True)
     elif data is None or rounds_done >= config.rounds and not rows:
         _save(run_dir, model, optimizer, data, config, spec, max(rounds_done, 0), round_sizes, final_fit=final_done)
     return DaggerResult(run_dir, run_dir / STUDENT_NAME, config.rounds, 0 if data is None else data.steps, rows,
