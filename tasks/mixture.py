@@ -93,6 +93,21 @@ def cell_counts(envs_per_cell: int, cells: Sequence[tuple[str, str, str]],
     return [max(1, round(envs_per_cell * float(np.prod([weights.get(n, 1.0) for n in cell])))) for cell in cells]
 
 
+def parse_weights(entries: Sequence[str]) -> dict[str, float]:
+    """Cell weights written as "NAME=WEIGHT" (the command line's `--cell-weights hard=1.5 tunnel=2.5`) as
+    {name: weight}; ValueError naming an entry that is not NAME=WEIGHT. `cell_counts` checks the names and values."""
+    out = {}
+    for entry in entries:
+        name, sep, weight = str(entry).partition("=")
+        try:
+            out[name.strip()] = float(weight)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise ValueError(f"cell weights are NAME=WEIGHT (e.g. hard=1.5), got {checks.shown(entry)}")
+    return out
+
+
 def _merged_box(boxes: Sequence[spaces.Box], name: str) -> spaces.Box:
     shapes = {b.shape for b in boxes}
     if len(shapes) != 1:

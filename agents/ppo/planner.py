@@ -48,7 +48,15 @@ from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.agents.ppo.ppo import train
 from auv_mj.agents.ppo.spaces import student_view
 from auv_mj.seeds import VALIDATION
-from auv_mj.tasks.mixture import MIXTURE_TASKS, TIERS, WATERS, PlanningMixtureVectorEnv, cell_counts, mixture_cells
+from auv_mj.tasks.mixture import (
+    MIXTURE_TASKS,
+    TIERS,
+    WATERS,
+    PlanningMixtureVectorEnv,
+    cell_counts,
+    mixture_cells,
+    parse_weights,
+)
 from auv_mj.tasks.planning_rewards import GEODESIC_DISCOUNT
 from auv_mj.tasks.planning_step import PLANNER_DT
 from auv_mj.tasks.vector import AUVVectorEnv
@@ -121,17 +129,8 @@ class MixtureConfig:
         cell_counts(self.envs_per_cell, self.cells(), self.weights())
 
     def weights(self) -> dict[str, float]:
-        """cell_weights as {name: weight}; ValueError for an entry that is not "NAME=WEIGHT"."""
-        out = {}
-        for entry in self.cell_weights:
-            name, sep, weight = str(entry).partition("=")
-            try:
-                out[name.strip()] = float(weight)
-            except ValueError:
-                sep = ""
-            if not sep:
-                raise ValueError(f"MixtureConfig.cell_weights entries are NAME=WEIGHT (e.g. hard=1.5), got {entry!r}")
-        return out
+        """cell_weights as {name: weight} (`auv_mj.tasks.mixture.parse_weights`)."""
+        return parse_weights(self.cell_weights)
 
     def cells(self) -> list[tuple[str, str, str]]:
         """The (task, tier, water) cells in row order."""

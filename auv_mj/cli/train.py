@@ -212,7 +212,8 @@ def _run_dagger(args: argparse.Namespace) -> int:
                                progress=not args.no_progress, imitation_coef=args.imitation_coef,
                                rounds=args.dagger_rounds if args.resume else None,
                                teacher_horizon=args.teacher_horizon,
-                               final_epochs=args.dagger_final_epochs if args.resume else None)
+                               final_epochs=args.dagger_final_epochs if args.resume else None,
+                               cell_weights=args.cell_weights)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(json.dumps(result, indent=2, default=str))
@@ -241,7 +242,8 @@ def add_ppo_options(parser: argparse.ArgumentParser) -> None:
                        help=f"vehicles per (task, tier, water) before --cell-weights [{mix.envs_per_cell}]")
     group.add_argument("--cell-weights", nargs="+", metavar="NAME=WEIGHT",
                        help="oversample cells: weights of tasks, tiers or waters, multiplied per cell, e.g. "
-                            "hard=1.5 standard=0.5 tunnel=1.5 [none]")
+                            "hard=1.5 standard=0.5 tunnel=1.5 [none]; dagger on a mixture: in place of its own "
+                            f"(--task {MIXTURE_TASK_3D}: standard=0.5 hard=1.5), kept for --resume")
     group.add_argument("--reward", choices=REWARDS, help=f"the tasks' reward [{mix.reward}]")
     group.add_argument("--collision-penalty", type=float, help=f"penalty on a collision or leaving the map "
                                                                f"[{mix.collision_penalty}]")

@@ -24,7 +24,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +51,7 @@ from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.agents.ppo.spaces import student_view
 from auv_mj.planners.teacher import BatchTeacher
 from auv_mj.planners.teacher3d import BatchTeacher3D
-from auv_mj.tasks.mixture import MIXTURE_TASKS_3D, PlanningMixtureVectorEnv, cell_counts, mixture_cells
+from auv_mj.tasks.mixture import MIXTURE_TASKS_3D, PlanningMixtureVectorEnv, cell_counts, mixture_cells, parse_weights
 from auv_mj.tasks.vector import AUVVectorEnv
 from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
@@ -75,10 +75,13 @@ execution layer the 3-D benchmark runs every planner on (suite 3d v3: the S-plan
 student's checkpoint keeps as a task option (`auv3d.POLICY_OPTIONS`) and the zoo applies."""
 
 
-def mixture_3d_env(envs_per_cell: int, threads: int | None = None) -> PlanningMixtureVectorEnv:
-    """The 6-DOF training mixture: `envs_per_cell` vehicles a cell before MIXTURE_3D_WEIGHTS."""
+def mixture_3d_env(envs_per_cell: int, threads: int | None = None,
+                   weights: Mapping[str, float] | None = None) -> PlanningMixtureVectorEnv:
+    """The 6-DOF training mixture: `envs_per_cell` vehicles a cell before `weights` (names of tasks, tiers or
+    waters, multiplied per cell; default MIXTURE_3D_WEIGHTS)."""
     cells = mixture_cells(MIXTURE_TASKS_3D)
-    return PlanningMixtureVectorEnv(cell_counts(envs_per_cell, cells, MIXTURE_3D_WEIGHTS), tasks=MIXTURE_TASKS_3D,
+    counts = cell_counts(envs_per_cell, cells, MIXTURE_3D_WEIGHTS if weights is None else weights)
+    return PlanningMixtureVectorEnv(counts, tasks=MIXTURE_TASKS_3D,
                                     task_kwargs=MIXTURE_3D_OPTIONS, threads=threads)
 
 
@@ -143,10 +146,13 @@ def train_ppo_3d(run_dir: str | Path, total_steps: int, config: PPOConfig | None
     return out
 
 
-def student_mixture(envs_per_cell: int = LEARNED_MIXTURE.envs_per_cell) -> MixtureConfig:
+def student_mixture(envs_per_cell: int = LEARNED_MIXTURE.envs_per_cell,
+                    cell_weights: Sequence[str] | None = None) -> MixtureConfig:
     """The student's mixture: `LEARNED_MIXTURE` (the geodesic reward, action="rate", observation="planner", the hard
-    cells and tunnels oversampled, validation on 50 episodes a hard cell) with `envs_per_cell` before the weights."""
-    return dataclasses.replace(LEARNED_MIXTURE, envs_per_cell=envs_per_cell)
+    cells and tunnels oversampled, validation on 50 episodes a hard cell) with `envs_per_cell` before the weights
+    (`cell_weights`, "NAME=WEIGHT" entries, in place of LEARNED_MIXTURE's where given)."""
+    weights = LEARNED_MIXTURE.cell_weights if cell_weights is None else tuple(cell_weights)
+    return dataclasses.replace(LEARNED_MIXTURE, envs_per_cell=envs_per_cell, cell_weights=weights)
 
 
 def mixture_validator(mixture: MixtureConfig, spec: Mapping[str, Any], threads: int | None = None) -> Validator:
@@ -181,7 +187,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
                   progress: bool = True, imitation_coef: float | None = None,
                   rounds: int | None = None, teacher_horizon: float | None = None,
-                  final_epochs: int | None = None) -> dict[str, Any]:
+                  final_epochs: int | None = None, cell_weights: Sequence[str] | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
@@ -193,8 +199,11 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     DAgger's validation episodes, `evaluate_student`; the planar mixture: `train_planner`'s choice; the 6-DOF
     mixture: `mixture_3d_validator` on the last snapshot). `teacher_horizon` [m] (MIXTURE_TASK_3D only; kept for
     resume): the 3-D teacher knows a tube's plug only once within that of it (`BatchTeacher3D`'s horizon), a teacher
-    whose knowledge the fan can follow."""
+    whose knowledge the fan can follow. `cell_weights` (a mixture only; kept for resume): "NAME=WEIGHT" entries
+    that oversample cells by task, tier or water, in place of the mixture's own (LEARNED_MIXTURE's,
+    MIXTURE_3D_WEIGHTS)."""
     run_dir = Path(run_dir)
+    weights: dict[str, float] | None = None
     options_path = run_dir / OPTIONS_NAME
     mixture: MixtureConfig | None = None
     if resume and options_path.is_file():
@@ -202,13 +211,20 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         task, kwargs, num_envs = saved["task"], saved["task_kwargs"], int(saved["num_envs"])
         teacher_horizon = saved.get("teacher_horizon")
         mixture = mixture_from_dict(saved["mixture"]) if "mixture" in saved else None
+        weights = saved.get("weights")
     else:
         own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
         if task in own and task_kwargs:
             raise ValueError(f"task {task}: the mixture sets the task options itself ({own[task]}), got task_kwargs "
                              f"{dict(task_kwargs)}")
+        if cell_weights is not None and task not in own:
+            raise ValueError(f"cell_weights: the mixtures' option ({MIXTURE_TASK}, {MIXTURE_TASK_3D}), got "
+                             f"{list(cell_weights)} for task {task}")
         if task == MIXTURE_TASK:
-            mixture = student_mixture(num_envs)
+            mixture = student_mixture(num_envs, cell_weights)
+        elif task == MIXTURE_TASK_3D:
+            weights = MIXTURE_3D_WEIGHTS if cell_weights is None else parse_weights(cell_weights)
+            cell_counts(num_envs, mixture_cells(MIXTURE_TASKS_3D), weights)  # refused before the run is written
         kwargs = mixture.task_kwargs() if mixture is not None else dict(own[task]) if task in own \
             else {**STUDENT_TASK_KWARGS, **dict(task_kwargs or {})}
         if teacher_horizon is not None and (task != MIXTURE_TASK_3D or not teacher_horizon > 0):
@@ -221,11 +237,11 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         if mixture is not None:
             record["mixture"] = config_to_dict(mixture)
         if task == MIXTURE_TASK_3D:
-            record["weights"] = MIXTURE_3D_WEIGHTS
+            record["weights"] = weights
         options_path.write_text(json.dumps(record, indent=2))
     in_3d = task == MIXTURE_TASK_3D
     if in_3d:
-        env = mixture_3d_env(num_envs, threads)
+        env = mixture_3d_env(num_envs, threads, weights)
     elif mixture is not None:
         env = mixture.make_env(threads)
     else:

@@ -255,6 +255,37 @@ def test_auv_mj_train_dagger_on_the_6dof_mixture_runs_validates_and_fine_tunes(t
     assert '"finetune_validation"' in again.stdout
 
 
+def test_dagger_on_a_mixture_takes_its_cell_weights_and_keeps_them_for_the_resume(tmp_path):
+    """`cell_weights` (`--cell-weights`) oversample a mixture's cells in place of its own weights: on the 6-DOF
+    mixture tunnel3d=2 adds one vehicle to each hard tube cell (1 a cell before the weights: 14 vehicles, not 12), a
+    resume keeps them, and a weight that names no cell, or a task that is no mixture, is refused before the run is
+    written."""
+    from auv_mj.jobs.student import MIXTURE_3D_WEIGHTS, student_mixture, train_student
+
+    config = DaggerConfig(rounds=1, steps_per_round=2, epochs=1, batch_sequences=2, hidden_sizes=(8,),
+                          recurrent_size=4, validation_episodes=0)
+    weights = ["standard=0.5", "hard=1.5", "tunnel3d=2"]
+    run = tmp_path / "tubes"
+    first = train_student(run, "planning-mix-3d", num_envs=1, dagger=config, progress=False, threads=1,
+                          cell_weights=weights)
+    assert first["dataset_steps"] == 14 * 2  # goal3d 1 + 2, tunnel3d 1 + 3, in each water
+    assert json.loads((run / "student.json").read_text())["weights"] == {"standard": 0.5, "hard": 1.5,
+                                                                         "tunnel3d": 2.0}
+    again = train_student(run, resume=True, progress=False, threads=1, rounds=2)
+    assert again["dataset_steps"] == 2 * 14 * 2  # the resume's batch is the run's own
+    default = train_student(tmp_path / "default", "planning-mix-3d", num_envs=1, dagger=config, progress=False,
+                            threads=1)
+    assert default["dataset_steps"] == 12 * 2
+    assert json.loads((tmp_path / "default" / "student.json").read_text())["weights"] == MIXTURE_3D_WEIGHTS
+    planar = student_mixture(2, ["tunnel=3"])
+    assert planar.cell_weights == ("tunnel=3",) and sum(planar.counts()) == 4 * 2 + 4 * 2 + 4 * 6
+    for task, bad in (("planning-mix-3d", ["deep=2"]), ("planning-mix-3d", ["hard"]), ("obstacles", ["hard=2"]),
+                      ("planning-mix", ["tunnel3d=2"])):
+        with pytest.raises(ValueError, match="cell weight|NAME=WEIGHT|cell_weights"):
+            train_student(tmp_path / "refused", task, num_envs=1, dagger=config, progress=False, cell_weights=bad)
+        assert not (tmp_path / "refused").exists()
+
+
 def test_a_student_without_memory_is_feed_forward(tmp_path):
     """`--dagger-recurrent none` (the no-memory ablation): the student has no memory, and DaggerConfig refuses a
     memory it does not know."""
