@@ -212,6 +212,10 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         teacher_horizon = saved.get("teacher_horizon")
         mixture = mixture_from_dict(saved["mixture"]) if "mixture" in saved else None
         weights = saved.get("weights")
+        kept = mixture.weights() if mixture is not None else weights
+        if cell_weights is not None and parse_weights(cell_weights) != kept:
+            raise ValueError(f"cell_weights {list(cell_weights)}: the run in {run_dir} keeps its own ({kept}); "
+                             "leave them out on resume")
     else:
         own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
         if task in own and task_kwargs:

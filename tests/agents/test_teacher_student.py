@@ -273,6 +273,8 @@ def test_dagger_on_a_mixture_takes_its_cell_weights_and_keeps_them_for_the_resum
                                                                          "tunnel3d": 2.0}
     again = train_student(run, resume=True, progress=False, threads=1, rounds=2)
     assert again["dataset_steps"] == 2 * 14 * 2  # the resume's batch is the run's own
+    with pytest.raises(ValueError, match="keeps its own"):  # other weights on resume are refused, not ignored
+        train_student(run, resume=True, progress=False, threads=1, rounds=3, cell_weights=["tunnel3d=3"])
     default = train_student(tmp_path / "default", "planning-mix-3d", num_envs=1, dagger=config, progress=False,
                             threads=1)
     assert default["dataset_steps"] == 12 * 2
