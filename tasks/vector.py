@@ -23,7 +23,9 @@ How, without one Python step per environment:
   the five 10 Hz executor ticks (current, S-plane executor, movers, contacts) and the 50 physics steps, then the
   sonar and the clearance. NumPy's tanh and exp differ from libm's in the last bit, which a closed loop of 1,800
   steps would grow, so the executor runs in C with libm as the Python executor does with `math`; the C code reads
-  the S-plane gains from the task's controller (`SPlaneController.parameters`).
+  the S-plane gains from the task's controller (`SPlaneController.parameters`). On two threads or more, the
+  autoresets of the rows whose episode ended last step run on a helper thread while the C step runs
+  (`GoalVectorEnv._physics_alongside`): each touches only its own rows, so the result is the serial one.
 After each reset the batch reads the episode's record (`PlanningTask.episode`: route, command, goals reached,
 collision, sonar; `PlanningTask.binding`: the model's addresses), the controller's memory
 (`SPlaneController.memory`) and the current's processes.
@@ -50,6 +52,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import threading
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -133,10 +136,42 @@ class GoalVectorEnv(gymnasium.vector.VectorEnv):
         """Reads sub-environment i's freshly reset episode into the batch."""
         raise NotImplementedError
 
-    def _step_batch(self, index: np.ndarray, actions: np.ndarray):
+    def _step_batch(self, index: np.ndarray, actions: np.ndarray, alongside: Callable[[], None] | None):
         """One step of the sub-environments `index` with their `actions` -> (rewards, terminated, truncated, infos as
-        `_batched_infos`)."""
+        `_batched_infos`). Calls `alongside` (the autoresets of other rows; None: none) once, through
+        `_physics_alongside`."""
         raise NotImplementedError
+
+    def _physics_alongside(self, index: np.ndarray, physics: Callable[[], None],
+                           alongside: Callable[[], None] | None) -> None:
+        """Runs `physics` (the C batch step, which releases the GIL) and `alongside` (Python work on rows the step
+        does not touch: the autoresets of NEXT_STEP mode) together where `threads` > 1: the resets on a helper thread,
+        the C step on this one across `threads` threads, so that a batch whose episodes end often (each reset draws
+        and compiles its arena in Python) does not leave the other cores idle meanwhile. (This way round the C step
+        starts at once: a helper thread would wait for the GIL the resets hold before it could enter it.) Each touches
+        only its own rows of the batch's arrays and its own sub-environments, so the result is the serial one. On 1
+        thread, or with no resets (`alongside` None) or no vehicle to step (`index` empty), one after the other."""
+        if alongside is None or self.threads == 1 or len(index) == 0:
+            if alongside is not None:
+                alongside()
+            physics()
+            return
+        failed: list[BaseException] = []
+
+        def run() -> None:
+            try:
+                alongside()
+            except BaseException as error:  # noqa: BLE001 -- raised again on the caller's thread below
+                failed.append(error)
+
+        helper = threading.Thread(target=run, name="auv-mj-autoresets")
+        helper.start()
+        try:
+            physics()
+        finally:
+            helper.join()
+        if failed:
+            raise failed[0]
 
     # --- Gymnasium API ------------------------------------------------------------------------------
 
@@ -194,15 +229,23 @@ class GoalVectorEnv(gymnasium.vector.VectorEnv):
         resetting = self._autoreset if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(self.num_envs,
                                                                                                         bool)
         index = np.flatnonzero(~resetting)
-        rewards_, terminated, truncated, infos = self._step_batch(index, actions[index])
+        reset_rows = np.flatnonzero(resetting)
+        first_observations: dict[int, dict] = {}
+
+        def autoresets() -> None:  # NEXT_STEP: the rows whose episode ended last step, beside the physics
+            for i in reset_rows:
+                first_observations[int(i)] = self._reset_one(int(i), self._next_seed(int(i)))
+
+        rewards_, terminated, truncated, infos = self._step_batch(index, actions[index],
+                                                                  autoresets if len(reset_rows) else None)
         reward = np.zeros(self.num_envs)
         term = np.zeros(self.num_envs, dtype=bool)
         trunc = np.zeros(self.num_envs, dtype=bool)
         reward[index], term[index], trunc[index] = rewards_, terminated, truncated
         done = term | trunc
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            for i in np.flatnonzero(resetting):
-                self._write_obs(i, self._reset_one(int(i), self._next_seed(int(i))))
+            for i in reset_rows:
+                self._write_obs(i, first_observations[int(i)])
                 self._put_reset_info(infos, int(i))
             infos["is_success"][resetting] = False
             infos["_is_success"][resetting] = True
@@ -433,7 +476,7 @@ class AUVVectorEnv(GoalVectorEnv):
 
     # --- the batched step: PlanningTask.before_step, the physics, after_step, get_observation -----
 
-    def _step_batch(self, index: np.ndarray, actions: np.ndarray):
+    def _step_batch(self, index: np.ndarray, actions: np.ndarray, alongside: Callable[[], None] | None):
         at_state, at_out = batch.STATE_INDEX, batch.OUTPUT_INDEX
         stepper = self._stepper
         heading_command = stepper.state[index, at_state["heading_command"]]
@@ -446,7 +489,8 @@ class AUVVectorEnv(GoalVectorEnv):
             rng = self._current_rngs[i]
             if rng is not None:
                 stepper.top_up(i, rng, 2 * self._ticks)
-        stepper.step(index, self._ticks, self._substeps, SONAR_RANGE, self.threads)
+        self._physics_alongside(
+            index, lambda: stepper.step(index, self._ticks, self._substeps, SONAR_RANGE, self.threads), alongside)
         out = stepper.out[index]
         if np.any(out[:, at_out["invalid"]] != 0):
             bad = index[out[:, at_out["invalid"]] != 0]

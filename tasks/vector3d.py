@@ -16,7 +16,9 @@ How:
 - The step is `Planning3D.before_step`, the physics and `after_step` / `observe` over the batch: the action map
   (speed, heading and depth offsets from the true heading and depth), then one call of the C batch
   (`auv_mj.sim.batch3d`) over all stepped vehicles across `threads` threads: the five 10 Hz ticks (movers, current,
-  sensors, the depth-heading S-plane) with the 50 physics steps, and the after-step read of the sensors. The
+  sensors, the depth-heading S-plane) with the 50 physics steps, and the after-step read of the sensors (on two
+  threads or more, the autoresets of the rows whose episode ended run meanwhile on a helper thread:
+  `GoalVectorEnv._physics_alongside`). The
   sensors' sample-and-hold and noise stay the episode's: which sensors each read samples is `Sensors3D`'s rule
   (`sample_schedule`), and the noise is drawn here from the episode's own generator in the order `Ocean3D.noise`
   draws it (`draw_noise`); the fan's noise (`NoisySonar`, its own generator) is the episode's `Sensors3D.noise`
@@ -38,7 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -320,7 +322,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
 
     # --- the batched step: Planning3D.before_step, the physics, after_step, get_observation ---------
 
-    def _step_batch(self, index: np.ndarray, actions: np.ndarray):
+    def _step_batch(self, index: np.ndarray, actions: np.ndarray, alongside: Callable[[], None] | None):
         at_state, at_out = batch3d.STATE_INDEX, batch3d.OUTPUT_INDEX
         stepper = self._stepper
         command = auv3d.planning_command(actions, self._heading[index], -self._position[index, 2])  # before_step
@@ -342,7 +344,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
             raise ValueError("the 6-DOF vector env samples the fan at most once a planner step")
         if len(index):
             stepper.masks[index, :self._ticks + 1] = schedules
-        stepper.step(index, self._ticks, self._substeps, self.threads)
+        self._physics_alongside(index, lambda: stepper.step(index, self._ticks, self._substeps, self.threads),
+                                alongside)
         out = stepper.out[index]
         if np.any(out[:, at_out["invalid"]] != 0):
             bad = index[out[:, at_out["invalid"]] != 0]

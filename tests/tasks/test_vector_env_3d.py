@@ -9,6 +9,7 @@ does). The actions steer at the target with noise, or wander at full speed into 
 from __future__ import annotations
 
 import math
+import threading
 
 import gymnasium
 import numpy as np
@@ -128,3 +129,38 @@ def test_lookahead_targets_are_the_tubes_targets():
         got = auv3d.lookahead_targets(positions, paths, [len(t.path) for t in tasks])
         for k, task in enumerate(tasks):
             np.testing.assert_allclose(got[k], task.target(positions[k]), rtol=0, atol=TOLERANCE)
+
+
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+def test_autoresets_run_beside_the_physics_on_two_threads():
+    """NEXT_STEP autoresets run on a helper thread while the C step of the other rows runs
+    (`GoalVectorEnv._physics_alongside`): the reset and the step each wait for the other to begin, which one after the
+    other, in either order, never happens; on one thread the reset runs first. The side-by-side tests above show that
+    the result is the serial one."""
+    for threads in (2, 1):
+        vector = AUV3DVectorEnv("goal3d", 2, {"arena": "random", "time_limit": 2.0}, threads=threads)
+        began = {"reset": threading.Event(), "step": threading.Event()}
+        met: dict[str, list[bool]] = {"reset": [], "step": []}
+        reset_one, step = vector._reset_one, vector._stepper.step
+
+        def waiting_reset(i, seed, reset_one=reset_one, began=began, met=met, threads=threads):
+            began["reset"].set()
+            if threads == 2:
+                met["reset"].append(began["step"].wait(timeout=10.0))
+            return reset_one(i, seed)
+
+        def waiting_step(index, *args, step=step, began=began, met=met, vector=vector, threads=threads):
+            if vector._autoreset.any():
+                assert list(index) == [0]  # row 1 resets, row 0 steps
+                began["step"].set()
+                met["step"].append(began["reset"].wait(timeout=10.0 if threads == 2 else 0.0))
+            step(index, *args)
+
+        vector.reset(seed=0)
+        vector._stepper.step, vector._reset_one = waiting_step, waiting_reset
+        vector._step_limit[1] = 1  # row 1's episode ends after one step, row 0's goes on (4 steps)
+        actions = np.zeros((2, 3), dtype=np.float32)
+        for _ in range(2):
+            vector.step(actions)
+        assert met["step"] == [True] and met["reset"] == ([True] if threads == 2 else [])
+        vector.close()
