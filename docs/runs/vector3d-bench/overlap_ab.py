@@ -1,9 +1,10 @@
-"""The batched 6-DOF env at N = 256 with its autoresets after the C step and beside it, alternately, in one process.
+"""A batched env at N = 256 with its autoresets after the C step and beside it, alternately, in one process.
 
 `python docs/runs/vector3d-bench/overlap_ab.py TASK KIND` (TASK goal3d or tunnel3d, KIND random or follow, as in
-`auv_mj.speed.vector3d`): 3 repeats of 5 s each of 1 thread, 2 threads with the resets after the step (the serial
-order, put in place of `GoalVectorEnv._physics_alongside`), and 2 threads with the resets beside it (main); prints
-each timing and the means with their ratio to 1 thread.
+`auv_mj.speed.vector3d`; or a planar task, e.g. obstacles, with KIND random: the planar `AUVVectorEnv`): 3 repeats
+of 5 s each of 1 thread, 2 threads with the resets after the step (the serial order, put in place of
+`GoalVectorEnv._physics_alongside`), and 2 threads with the resets beside it (main); prints each timing and the
+means with their ratio to 1 thread.
 """
 
 from __future__ import annotations
@@ -13,7 +14,8 @@ import sys
 import numpy as np
 
 from auv_mj.speed.vector3d import follow, timed_with_cpu
-from auv_mj.tasks.vector import GoalVectorEnv
+from auv_mj.tasks.vector import AUVVectorEnv, GoalVectorEnv
+from auv_mj.tasks.vector3d import TASKS as TASKS_3D
 from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
 SIZE, REPEATS, SECONDS = 256, 3, 5.0
@@ -27,9 +29,14 @@ def serial(self, index, physics, alongside) -> None:
 
 
 def main(task: str, kind: str) -> None:
-    env = AUV3DVectorEnv(task, SIZE, {"arena": "random"})
+    if task in TASKS_3D:
+        env = AUV3DVectorEnv(task, SIZE, {"arena": "random"})
+    elif kind == "random":
+        env = AUVVectorEnv(task, SIZE, {"arena": "random"})
+    else:
+        raise ValueError(f"a planar task runs KIND random only, got {kind!r}")
     beside = GoalVectorEnv._physics_alongside
-    batches = np.random.default_rng(0).uniform(-1.0, 1.0, (64, SIZE, 3))
+    batches = np.random.default_rng(0).uniform(-1.0, 1.0, (64, SIZE, *env.single_action_space.shape))
     rates: dict[tuple[str, int], list[float]] = {}
     for repeat in range(REPEATS):
         for name, threads, method in (("serial", 1, serial), ("after", 2, serial), ("beside", 2, beside)):
