@@ -126,8 +126,9 @@ class GoalVectorEnv(gymnasium.vector.VectorEnv):
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.autoreset_mode = mode
         self.autoreset_seed: Callable[[int], int] | None = None
-        """The seed of the episode an autoreset starts in a row, given the row (called in row order); None: continue
-        the row's RandomState."""
+        """The seed of the episode an autoreset starts in a row, given the row (called in row order, from the helper
+        thread where NEXT_STEP resets run beside the step: `_physics_alongside`); None: continue the row's
+        RandomState."""
         self._warned_clip = False
         self._needs_reset = True
         return task_kwargs, environment_kwargs
