@@ -30,7 +30,8 @@ import dm_env
 import mujoco
 import numpy as np
 
-from auv_mj.arenas import arena, cells, grid
+from auv_mj.arenas import arena, grid
+from auv_mj.arenas.sonar_memory import MEMORY_BEAMS, SonarMemory, memory_bounds
 from auv_mj.episode import VEHICLE_BODY, FunctionPlanner, Planner, PlannerBase, arena_geometry, geom_footprint
 from auv_mj.planners.avoidance import PROTECTIONS, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed, los_heading
@@ -49,9 +50,6 @@ INFLATION = grid.HARD_CLEARANCE
 the 1.4 m of rasterisation, to spare); the protection domain keeps d_s = 5 m beyond it."""
 SOFT_CLEARANCE = grid.SOFT_CLEARANCE
 """Cells nearer than this [m] to an echo cost more: paths keep hull + d_s and more where there is room."""
-HIT, MISS, OCCUPIED, SATURATION = 2, 1, 2, 6
-"""Log-odds counts of a cell: +HIT for an echo in it, -MISS for a beam through it, occupied at >= OCCUPIED,
-clipped to [-SATURATION, SATURATION]. One echo marks a cell; two clear passes free it (a mover gone)."""
 REPLAN_STEPS = 4
 """Least planner steps (2 s) between two searches when the map changed near the path ..."""
 REPLAN_PERIOD = 40
@@ -70,9 +68,6 @@ MOVER_HORIZON = 6.0
 """The oracle closes each mover's footprint swept over this many seconds [s] at its measured velocity."""
 SONAR_OFFSET = 0.665
 """The sonars' origin ahead of the vehicle's centre [m] (the `sonar_site_*` of the vehicle MJCF)."""
-_RAY_STEP = CELL / 2
-"""Spacing [m] of the points a beam marks free."""
-
 
 def sonar_rays(pose) -> tuple[np.ndarray, np.ndarray]:
     """The sonars' origin (x, y) [m] and the nine beams' unit directions (9 x 2) in the world frame at `pose`
@@ -102,11 +97,7 @@ def los_fast(env) -> Planner:
 def _bounds(env) -> tuple[float, float, float, float]:
     """The episode's map (`arena_bounds`), or the box round its start and goals grown by SONAR_RANGE."""
     info = arena.arena_info(env.physics)
-    if info.bounds is not None:
-        return tuple(float(b) for b in info.bounds)
-    points = np.vstack([env.physics.pose()[:2], env.task.goals])
-    low, high = points.min(axis=0) - SONAR_RANGE, points.max(axis=0) + SONAR_RANGE
-    return (*low, *high)
+    return memory_bounds(info.bounds, np.vstack([env.physics.pose()[:2], env.task.goals]), SONAR_RANGE)
 
 
 def route_target(task) -> tuple[np.ndarray, float, int]:
@@ -225,23 +216,20 @@ class GridFollower(Replanning, PlannerBase):
 
 
 class SonarMap(GridFollower):
-    """`map_replan`'s map: log-odds counts of the sonar's echoes and clear beams, unknown space free."""
+    """`map_replan`'s map: log-odds counts of the sonar's echoes and clear beams, unknown space free
+    (`auv_mj.arenas.sonar_memory.SonarMemory`, the map a learned planner reads under observation="planner-map")."""
 
     def start(self) -> None:
         super().start()
-        self.odds = np.zeros(self.grid.shape, np.int8)
+        self.memory = SonarMemory(_bounds(self.env))
 
     def update(self, time_step: dm_env.TimeStep, pose: np.ndarray) -> bool:
-        """Marks the nine beams: cells along each beam short of its range clear, its echo's cell hit (the log-odds
-        counts of the voxel map too, `auv_mj.arenas.cells.count_beams`)."""
+        """Marks the nine beams: cells along each beam short of its range clear, its echo's cell hit
+        (`SonarMemory.add_scan`)."""
         ranges = np.asarray(time_step.observation["observation"])[SONAR_SLICE] * SONAR_RANGE
         origin, directions = sonar_rays(pose)
-        missed, echoes, hit = cells.beam_marks(self.grid, origin, directions, ranges, SONAR_RANGE, SONAR_RANGE,
-                                               _RAY_STEP, CELL)
-        cells.count_beams(self.odds, missed, self.grid.flat_cells(echoes[hit]), HIT, MISS, SATURATION)
-        occupied = self.odds >= OCCUPIED
-        new = occupied & ~self.occupied
-        self.occupied = occupied
+        new = self.memory.add_scan(origin, directions, ranges, SONAR_RANGE)
+        self.occupied = self.memory.occupied
         if not new.any() or self.path is None:
             return bool(new.any())
         fresh = self.grid.centre(*np.nonzero(new))
@@ -331,11 +319,6 @@ GUIDES = ("route", "map", "map-memory")
 """What a residual planner's goal input is: "route", the task's own goal (the straight route), "map", the
 virtual goal along `map_replan`'s planned path (`MapGuide`), or "map-memory", that goal and the map itself as
 an input too: MEMORY_BEAMS ranges cast on the sonar map all round the vehicle (`MapGuide`, `memory=True`)."""
-MEMORY_BEAMS = 16
-"""Rays of the map-memory scan, evenly all round the vehicle from its bow (22.5 deg apart): what the map
-remembers all round it, behind it too, where the nine sonars (-90 to +90 deg from the bow) do not look."""
-MEMORY_RANGE = 60.0
-"""Reach [m] of the map-memory scan: twice the protection domain's d0, about a cup's depth."""
 
 
 class MapGuide:
@@ -365,10 +348,8 @@ class MapGuide:
 
     def memory_scan(self, pose: np.ndarray) -> np.ndarray:
         """The map's memory in the body frame: MEMORY_BEAMS ranges / MEMORY_RANGE cast on the sonar map's
-        occupied cells from the vehicle's centre (`auv_mj.arenas.grid.ray_ranges`), beam k at psi + k 2 pi / 16."""
-        follower = self.follower
-        angles = float(pose[2]) + np.arange(MEMORY_BEAMS) * (2 * math.pi / MEMORY_BEAMS)
-        return grid.ray_ranges(follower.grid, follower.occupied, pose[:2], angles, MEMORY_RANGE) / MEMORY_RANGE
+        occupied cells from the vehicle's centre (`SonarMemory.scan`), beam k at psi + k 2 pi / 16."""
+        return self.follower.memory.scan(pose[:2], pose[2])
 
     def reset(self) -> None:
         """Forgets the map (the next step starts a new episode)."""

@@ -44,6 +44,7 @@ from dm_env import specs
 
 from auv_mj.arenas import arena
 from auv_mj.arenas.geodesic import field_of_arena
+from auv_mj.arenas.sonar_memory import SonarMemory, memory_bounds
 from auv_mj.control.splane import EXECUTOR_DT, SPlaneController
 from auv_mj.episode import arena_geometry
 from auv_mj.sim import ocean
@@ -51,7 +52,13 @@ from auv_mj.sim.physics import AUVPhysics
 from auv_mj.sim.sonar import SONAR_NAMES, SONAR_RANGE, fence_ranges
 from auv_mj.tasks import options, planning_observation, planning_step
 from auv_mj.tasks.actions import checked_action
-from auv_mj.tasks.planning_observation import OBSERVATION_FIELDS, OBSERVATIONS, PLANNER_FIELDS, RELATIVE_FIELDS
+from auv_mj.tasks.planning_observation import (
+    OBSERVATION_FIELDS,
+    OBSERVATIONS,
+    PLANNER_FIELDS,
+    PLANNER_MAP_FIELDS,
+    RELATIVE_FIELDS,
+)
 from auv_mj.tasks.planning_physics import Physics
 from auv_mj.tasks.planning_rewards import (
     HULL,
@@ -69,6 +76,7 @@ from auv_mj.tasks.planning_step import (
     ACTIONS,
     ONE_ROW,
     PLANNER_DT,
+    PLANNER_OBSERVATIONS,
     PRIVILEGED_KINDS,
     Binding,
     Episode,
@@ -210,7 +218,8 @@ class PlanningTask(base.Task):
         the map, beside Eq. 24's -1 (ours, 0 by default: the paper's reward), in [0, MAX_COLLISION_PENALTY] (under
         reward="geodesic", beside GEODESIC_COLLISION_PENALTY); `action` one of ACTIONS: "paper" (Table 3's heading
         offset, the default) or "rate" (the heading command's change per step, `planning_step`); `observation` may
-        also be "planner" (PLANNER_FIELDS, with info["privileged"] for a critic)."""
+        also be "planner" (PLANNER_FIELDS, with info["privileged"] for a critic) or "planner-map" (PLANNER_MAP_FIELDS:
+        that and the vehicle's own sonar map, `auv_mj.arenas.sonar_memory`)."""
         self.reward_kind = options.choice("reward", reward, REWARDS)
         self.action_kind = options.choice("action", action, ACTIONS)
         self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
@@ -297,6 +306,9 @@ class PlanningTask(base.Task):
         self.episode.cell = np.array([float(getattr(self, "tier", "standard") == "hard"),
                                       *(float(self.kind == k) for k in PRIVILEGED_KINDS)])
         self._routes = RouteBatch.of(self.episode, binding.repulsion_range, binding.sonar_offset)
+        if self.observation_kind == "planner-map":
+            self.episode.memory = SonarMemory(memory_bounds(info.bounds, np.vstack([route.start, goals]),
+                                                            SONAR_RANGE))
         self.last_info = {}
         physics.set_tick(self._tick, EXECUTOR_DT)
         self.ocean.start(physics, self.random, len(SONAR_NAMES))
@@ -366,7 +378,7 @@ class PlanningTask(base.Task):
         return StepRules(reward_kind=self.reward_kind, goal_radius=self.goal_radius,
                          collision_penalty=self.collision_penalty, relative=self.goal_in_observation,
                          observation=self.observation_kind, action=self.action_kind,
-                         potential=self.reward_kind == "geodesic" or self.observation_kind == "planner")
+                         potential=self.reward_kind == "geodesic" or self.observation_kind in PLANNER_OBSERVATIONS)
 
     @property
     def episode_time_limit(self) -> float | None:
@@ -409,13 +421,13 @@ class PlanningTask(base.Task):
     @property
     def goal_in_observation(self) -> bool:
         """Whether "observation" holds the goal itself (relative, planner) so that a policy needs no desired_goal."""
-        return self.observation_kind in ("relative", "planner")
+        return self.observation_kind in ("relative", *PLANNER_OBSERVATIONS)
 
     @property
     def observation_fields(self) -> tuple[str, ...]:
         """Names of the "observation" vector's entries."""
         return {"relative": RELATIVE_FIELDS, "paper": OBSERVATION_FIELDS,
-                "planner": PLANNER_FIELDS}[self.observation_kind]
+                "planner": PLANNER_FIELDS, "planner-map": PLANNER_MAP_FIELDS}[self.observation_kind]
 
     def observation_spec(self, physics: Physics) -> collections.OrderedDict:
         """"observation" (observation_fields); "achieved_goal" and "desired_goal": (x, y) [m], and with the
@@ -433,9 +445,14 @@ class PlanningTask(base.Task):
         if episode.sonar is None:
             episode.sonar = self.ocean.sense(physics.sonar())
         readout = self._readout(physics)
+        if episode.memory is not None and episode.memory_steps != episode.steps:  # once a ping
+            episode.memory_scan = planning_observation.remember([episode.memory], readout,
+                                                                np.array([self.binding.sonar_offset]))[0]
+            episode.memory_steps = episode.steps
         observation = planning_observation.observe(self._routes, ONE_ROW, np.array([episode.reached]), readout,
-                              np.array([episode.command]), self.observation_kind, episode.action[None])
-        if self.observation_kind == "planner" and episode.steps == 0:  # the reset's info: the critic's first input
+                              np.array([episode.command]), self.observation_kind, episode.action[None],
+                              None if episode.memory is None else episode.memory_scan[None])
+        if self.observation_kind in PLANNER_OBSERVATIONS and episode.steps == 0:  # the reset's info: the critic's input
             distance = np.array([episode.distance])
             self.last_info = {"privileged": planning_step.privileged(self._routes, ONE_ROW, distance,
                                                        np.array([self._clearance(physics)]),

@@ -4,7 +4,10 @@ The task option `observation` picks one: "relative" (default, RELATIVE_FIELDS): 
 motion, the command and the sonar; "paper" (OBSERVATION_FIELDS): Table 2's vector beside the absolute `desired_goal`;
 "planner" (ours, issue 51, PLANNER_FIELDS): what the classical planners read (docs/planners.md) -- the route target
 ROUTE_HORIZON ahead (`route_target_index`, the rule `map-replan` and `bug` aim by), the pose across the map, the
-previous action, the motion, the command, the geofence and the sonar.
+previous action, the motion, the command, the geofence and the sonar; "planner-map" (ours, PLANNER_MAP_FIELDS): that
+vector with the map the vehicle's own sonar has built beside it (`auv_mj.arenas.sonar_memory.SonarMemory`, the map
+`map-replan` plans on), cast as MEMORY_BEAMS rays all round the vehicle: what `map-replan` remembers and the sonars no
+longer show.
 
 Every vector ends in the nine sonar ranges (SONAR_SLICE). `observe` builds them for N vehicles from the step's arrays
 (`auv_mj.tasks.planning_step`: `RouteBatch`, `Readout`), with N = 1 for `PlanningTask.get_observation` and N for the
@@ -16,18 +19,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from auv_mj.arenas.sonar_memory import MEMORY_NAMES
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_NAMES, SONAR_RANGE, fence_ranges
 from auv_mj.tasks.planning_step import (
     GOAL_DISTANCE_SCALE,
     MAX_HEADING_DIFFERENCE,
     MAX_SPEED,
+    PLANNER_OBSERVATIONS,
     Readout,
     RouteBatch,
 )
 from auv_mj.tasks.routes import route_target_index
 
-OBSERVATIONS = ("relative", "paper", "planner")
+OBSERVATIONS = ("relative", "paper", "planner", "planner-map")
 """The values of the task option `observation` (module docstring)."""
 
 POSITION_SCALE = 600.0
@@ -59,6 +64,12 @@ route target and the geofence are measured in too; the previous action (a0, a1) 
 the heading and speed commands as in the paper's vector; fence_1..fence_9: the geofence / SONAR_RANGE (`map_fence`,
 what the planners' protection domain adds to the echoes); then the nine sonar ranges / SONAR_RANGE (last, as in
 every observation: SONAR_SLICE). No goal coordinates: `desired_goal` is for rewards and relabelling only."""
+PLANNER_MAP_FIELDS = (*PLANNER_FIELDS[:-len(SONAR_NAMES)], *MEMORY_NAMES, *SONAR_NAMES)
+"""The "planner-map" observation: PLANNER_FIELDS with memory_1..memory_16 before the sonar block -- the sonar map's
+scan (`SonarMemory.scan`: the range / MEMORY_RANGE to the nearest occupied cell along each of MEMORY_BEAMS rays from
+the vehicle's centre, ray k at psi + k 22.5 deg, 1 where the map holds nothing within MEMORY_RANGE), the map updated
+with this step's ping (the sensed ranges, cast from the sonars' origin at the pose of now, as `map-replan` casts
+them) before it is read."""
 
 GOAL_DISTANCE_CLIP = 5.0
 """Distances to the goal / GOAL_DISTANCE_SCALE are capped here (500 m): far goals differ only in bearing."""
@@ -81,13 +92,15 @@ def relative_goal(achieved_goal, desired_goal) -> np.ndarray:
 
 
 def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, readout: Readout, command: np.ndarray,
-            kind: str | bool, action: np.ndarray | None = None) -> dict[str, np.ndarray]:
+            kind: str | bool, action: np.ndarray | None = None,
+            memory: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """`PlanningTask.get_observation` of N vehicles, rows `rows` of `routes`: "observation" (of `kind`: "relative"
     RELATIVE_FIELDS, "paper" OBSERVATION_FIELDS, "planner" PLANNER_FIELDS, which reads `action` (N, 2), the last
-    step's; True and False stand for "relative" and "paper"), "achieved_goal" and "desired_goal", each (N, k)."""
+    step's, "planner-map" PLANNER_MAP_FIELDS, which reads `memory` (N, MEMORY_BEAMS) too, the sonar maps' scans;
+    True and False stand for "relative" and "paper"), "achieved_goal" and "desired_goal", each (N, k)."""
     if isinstance(kind, bool | np.bool_):
         kind = "relative" if kind else "paper"
-    relative = kind in ("relative", "planner")
+    relative = kind in ("relative", *PLANNER_OBSERVATIONS)
     psi, (u, v, r) = readout.psi, readout.velocity.T
     motion = np.stack([u / MAX_SPEED, v / MAX_SPEED, r, wrap_angle(command[:, 1] - psi) / MAX_HEADING_DIFFERENCE,
                        command[:, 0] / MAX_SPEED], axis=1)
@@ -100,9 +113,10 @@ def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, r
     if relative:
         achieved = np.stack([x, y, c, s], axis=1)
         desired = np.concatenate([goal, routes.goal_cos_sin[rows][line, at]], axis=1)
-        if kind == "planner":
+        if kind in PLANNER_OBSERVATIONS:
             head, fence = planner_inputs(routes, rows, at, readout, action)
-            vector = np.concatenate([head, motion, fence, sonar], axis=1)
+            scan = [] if kind == "planner" else [np.asarray(memory, dtype=float).reshape(len(at), len(MEMORY_NAMES))]
+            vector = np.concatenate([head, motion, fence, *scan, sonar], axis=1)
         else:
             vector = np.concatenate([relative_goal(achieved, desired), motion, sonar], axis=1)
     else:
@@ -110,6 +124,18 @@ def observe(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarray, r
         vector = np.concatenate([np.stack([x / POSITION_SCALE, y / POSITION_SCALE, c, s], axis=1), motion, sonar],
                                 axis=1)
     return {"observation": vector, "achieved_goal": achieved, "desired_goal": desired}
+
+
+def remember(memories, readout: Readout, sonar_offset: np.ndarray) -> np.ndarray:
+    """Adds the step's ping (`readout.sonar`, the sensed ranges) to each vehicle's sonar map (`memories`, N
+    `SonarMemory`) at its pose, its sonars `sonar_offset` (N,) [m] ahead of its centre; the maps' scans (N,
+    MEMORY_BEAMS), the "planner-map" observation's memory block."""
+    scans = np.empty((len(memories), len(MEMORY_NAMES)))
+    for k, memory in enumerate(memories):
+        psi = float(readout.psi[k])
+        memory.add_ping(readout.position[k], psi, float(sonar_offset[k]), readout.sonar[k])
+        scans[k] = memory.scan(readout.position[k], psi)
+    return scans
 
 
 def planner_inputs(routes: RouteBatch, rows: np.ndarray | slice, at: np.ndarray, readout: Readout,

@@ -41,9 +41,9 @@ default the straight legs from the start through the goals) and the executor's t
 errors count in the metrics: on routes of several goals (paths, tunnels) only once the vehicle has reached
 the first one, so that the drive to the path is left out, as the paper does for Tables 10-11.
 
-Under observation="planner" the step's info also holds "privileged" (PRIVILEGED_FIELDS: the route length left on the
-true map, the true clearance, the time left, the cell) for a critic that the actor must not read (`observe` never
-sees them).
+Under observation="planner" or "planner-map" the step's info also holds "privileged" (PRIVILEGED_FIELDS: the route
+length left on the true map, the true clearance, the time left, the cell) for a critic that the actor must not read
+(`observe` never sees them).
 """
 
 from __future__ import annotations
@@ -56,6 +56,7 @@ import numpy as np
 
 from auv_mj.arenas.arena import SAFETY_DISTANCE
 from auv_mj.arenas.geodesic import distances
+from auv_mj.arenas.sonar_memory import SonarMemory
 from auv_mj.geometry import wrap_angle
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import planning_rewards as rewards
@@ -76,6 +77,10 @@ MAX_HEADING_CHANGE = math.pi / 30
 
 ACTIONS = ("paper", "rate")
 """The action maps (module docstring): "paper", Table 3's heading offset; "rate", the heading command's change."""
+
+PLANNER_OBSERVATIONS = ("planner", "planner-map")
+"""The observations of the learning problem (issue 51, `auv_mj.tasks.planning_observation`): the planner's vector,
+with or without the sonar map; under them the step's info holds the critic's privileged input."""
 
 PASS_WINDOW = 5
 """How many sub-goals ahead of the current one the passing rule looks at."""
@@ -189,6 +194,12 @@ class Episode:
     action: np.ndarray = field(default_factory=lambda: np.zeros(2))
     """The last step's action (a0, a1), as clipped to [-1, 1]; 0 before the first step (the planner observation)."""
     cell: np.ndarray = field(default_factory=lambda: np.zeros(1 + len(PRIVILEGED_KINDS)))
+    memory: SonarMemory | None = None
+    """The vehicle's own sonar map under observation="planner-map" (None otherwise)."""
+    memory_steps: int = -1
+    """The planner steps taken when the last ping went into `memory` (each ping goes in once)."""
+    memory_scan: np.ndarray | None = None
+    """`memory`'s scan after that ping (the observation's memory block)."""
     """The privileged input's cell: hard tier, then the task kind one-hot (PRIVILEGED_FIELDS)."""
 
     @property
@@ -439,7 +450,7 @@ def step_outcome(routes: RouteBatch, rows: np.ndarray | slice, reached: np.ndarr
     }
     if rules.potential:
         info.update({"step_goal": desired, "route_distance_before": before, "route_distance": after})
-    if rules.observation == "planner":
+    if rules.observation in PLANNER_OBSERVATIONS:
         info["privileged"] = privileged(routes, rows, after, readout.clearance, steps_left - 1)
     return StepOutcome(reward=reward, terminal=failed | (now == n), reached=now, info=info)
 

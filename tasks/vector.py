@@ -516,8 +516,12 @@ class AUVVectorEnv(GoalVectorEnv):
         self._reached[index] = outcome.reached
         if self.rules.potential:
             self._distance[index] = outcome.info["route_distance"]
+        scans = None
+        if self.rules.observation == "planner-map":  # each row's sonar map is its single env's episode's
+            scans = planning_observation.remember([self.envs[i].task.episode.memory for i in index], readout,
+                                                  self._routes.sonar_offset[index])
         observation = planning_observation.observe(self._routes, index, outcome.reached, readout, command,
-                                                   self.rules.observation, self._action[index])
+                                                   self.rules.observation, self._action[index], scans)
         for key, value in observation.items():
             self._last_obs[key][index] = value
         self._steps[index] += 1

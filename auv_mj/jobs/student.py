@@ -52,6 +52,7 @@ from auv_mj.agents.ppo.spaces import student_view
 from auv_mj.planners.teacher import BatchTeacher
 from auv_mj.planners.teacher3d import BatchTeacher3D
 from auv_mj.tasks.mixture import MIXTURE_TASKS_3D, PlanningMixtureVectorEnv, cell_counts, mixture_cells, parse_weights
+from auv_mj.tasks.planning_step import PLANNER_OBSERVATIONS
 from auv_mj.tasks.vector import AUVVectorEnv
 from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
@@ -147,12 +148,14 @@ def train_ppo_3d(run_dir: str | Path, total_steps: int, config: PPOConfig | None
 
 
 def student_mixture(envs_per_cell: int = LEARNED_MIXTURE.envs_per_cell,
-                    cell_weights: Sequence[str] | None = None) -> MixtureConfig:
+                    cell_weights: Sequence[str] | None = None, observation: str | None = None) -> MixtureConfig:
     """The student's mixture: `LEARNED_MIXTURE` (the geodesic reward, action="rate", observation="planner", the hard
     cells and tunnels oversampled, validation on 50 episodes a hard cell) with `envs_per_cell` before the weights
-    (`cell_weights`, "NAME=WEIGHT" entries, in place of LEARNED_MIXTURE's where given)."""
+    (`cell_weights`, "NAME=WEIGHT" entries, in place of LEARNED_MIXTURE's where given) and `observation` in place of
+    "planner" where given ("planner-map": the vehicle's own sonar map beside it)."""
     weights = LEARNED_MIXTURE.cell_weights if cell_weights is None else tuple(cell_weights)
-    return dataclasses.replace(LEARNED_MIXTURE, envs_per_cell=envs_per_cell, cell_weights=weights)
+    return dataclasses.replace(LEARNED_MIXTURE, envs_per_cell=envs_per_cell, cell_weights=weights,
+                               observation=observation or LEARNED_MIXTURE.observation)
 
 
 def mixture_validator(mixture: MixtureConfig, spec: Mapping[str, Any], threads: int | None = None) -> Validator:
@@ -191,7 +194,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
-    weights) or MIXTURE_TASK_3D (`mixture_3d_env(num_envs)`); a mixture takes no task_kwargs. `rounds`: on resume,
+    weights) or MIXTURE_TASK_3D (`mixture_3d_env(num_envs)`); a mixture takes no task_kwargs but the planar one's
+    {"observation": ...} (one of PLANNER_OBSERVATIONS). `rounds`: on resume,
     DAgger goes on to that many rounds (its config's otherwise), and `final_epochs` sets its final fit's epochs.
     The fine-tune's config is `ppo_config`, else
     `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given.
@@ -218,14 +222,22 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                              "leave them out on resume")
     else:
         own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
+        observation = None
+        if task == MIXTURE_TASK and task_kwargs and set(task_kwargs) == {"observation"}:
+            observation = task_kwargs["observation"]
+            if observation not in PLANNER_OBSERVATIONS:
+                raise ValueError(f"task {task}: task_kwargs observation must be one of {PLANNER_OBSERVATIONS}, got "
+                                 f"{observation!r}")
+            task_kwargs = None
         if task in own and task_kwargs:
-            raise ValueError(f"task {task}: the mixture sets the task options itself ({own[task]}), got task_kwargs "
+            raise ValueError(f"task {task}: the mixture sets the task options itself ({own[task]}; the planar one "
+                             f"takes only an observation, one of {PLANNER_OBSERVATIONS}), got task_kwargs "
                              f"{dict(task_kwargs)}")
         if cell_weights is not None and task not in own:
             raise ValueError(f"cell_weights: the mixtures' option ({MIXTURE_TASK}, {MIXTURE_TASK_3D}), got "
                              f"{list(cell_weights)} for task {task}")
         if task == MIXTURE_TASK:
-            mixture = student_mixture(num_envs, cell_weights)
+            mixture = student_mixture(num_envs, cell_weights, observation)
         elif task == MIXTURE_TASK_3D:
             weights = MIXTURE_3D_WEIGHTS if cell_weights is None else parse_weights(cell_weights)
             cell_counts(num_envs, mixture_cells(MIXTURE_TASKS_3D), weights)  # refused before the run is written

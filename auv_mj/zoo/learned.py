@@ -13,9 +13,9 @@ import numpy as np
 from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.agents.offpolicy.policy import Policy
 from auv_mj.agents.ppo.policy import PPOPolicy
+from auv_mj.arenas.sonar_memory import MEMORY_BEAMS
 from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.planners.deploy import Chain, ChainConfig, deployed
-from auv_mj.planners.map_planner import MEMORY_BEAMS
 from auv_mj.tasks.gym_adapter import gym_spaces
 from auv_mj.zoo.spec import Deployment
 

@@ -384,6 +384,28 @@ def test_dagger_on_the_mixture_validates_every_hard_cell(tmp_path):
         f"{task}/hard/{water}" for task in ("obstacles", "moving_obstacles", "tunnel") for water in ("ideal", "ocean")}
 
 
+def test_dagger_on_the_mixture_takes_the_sonar_map_observation_and_its_student_keeps_it(tmp_path):
+    """`--task planning-mix --task-kwargs '{"observation": "planner-map"}'`: the student reads the planner vector and
+    its own sonar map (16 inputs more), its checkpoint names the observation (what the zoo deploys it with), and the
+    resume keeps it; any other task option of the mixture is refused before the run is written."""
+    from auv_mj.jobs.student import MIXTURE_TASK, train_student
+    from auv_mj.tasks.planning_observation import PLANNER_FIELDS, PLANNER_MAP_FIELDS
+
+    config = dataclasses.replace(TINY, rounds=1)
+    out = train_student(tmp_path / "map", MIXTURE_TASK, {"observation": "planner-map"}, 1, config, threads=1,
+                        progress=False)
+    spec = read_checkpoint(out["student"], "ppo").metadata["spec"]
+    assert spec["task_options"]["observation"] == "planner-map"
+    assert tuple(spec["obs_shape"]) == (len(PLANNER_MAP_FIELDS),) == (len(PLANNER_FIELDS) + 16,)
+    again = train_student(tmp_path / "map", resume=True, progress=False, threads=1, rounds=2)
+    assert again["dagger_rounds"] == 2
+    assert read_checkpoint(again["student"], "ppo").metadata["spec"]["task_options"]["observation"] == "planner-map"
+    for bad in ({"observation": "paper"}, {"observation": "planner-map", "reward": "suite"}):
+        with pytest.raises(ValueError, match="observation"):
+            train_student(tmp_path / "refused", MIXTURE_TASK, bad, 1, config, progress=False)
+        assert not (tmp_path / "refused").exists()
+
+
 def test_the_students_view_of_the_mixture_keeps_its_cells_and_the_vehicles_position():
     """PPO's per-cell logs read `cells` and `cell_of_row`, its speed log info["achieved_goal"]: the student's view
     (its observation vector alone) keeps them."""

@@ -15,8 +15,9 @@ from test_hard_tier_arenas import CUP, _known_arena
 from auv_mj.agents.normalizer import Normalizer
 from auv_mj.agents.offpolicy.networks import Actor, Critic, widen_inputs
 from auv_mj.arenas import grid
+from auv_mj.arenas.sonar_memory import MEMORY_BEAMS, MEMORY_RANGE
 from auv_mj.planners.deploy import deploy_env
-from auv_mj.planners.map_planner import MEMORY_BEAMS, MEMORY_RANGE, MapGuide
+from auv_mj.planners.map_planner import MapGuide
 from auv_mj.sim.sonar import SONAR_NAMES
 from auv_mj.tasks import planning_observation
 

@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 from geodesic_returns import GAMMA, discounted, trap_runs
 
 from auv_mj.arenas.geodesic import GeodesicField
-from auv_mj.episode import arena_geometry
+from auv_mj.arenas.sonar_memory import CELL, MEMORY_BEAMS, MEMORY_NAMES, MEMORY_RANGE, SonarMemory, memory_bounds
+from auv_mj.episode import VEHICLE_BODY, arena_geometry
 from auv_mj.planners.guidance import classical
 from auv_mj.planners.map_planner import route_target
 from auv_mj.sim.sonar import SONAR_RANGE
@@ -200,3 +202,57 @@ def test_the_planner_observation_shows_map_replans_target_and_no_privileged_inpu
     np.testing.assert_array_equal(planning_observation.observe(blind, *args)["observation"],
                                   planning_observation.observe(routes, *args)["observation"])
     assert readout.clearance is None and readout.true_ranges is None
+
+
+def _true_range(physics, psi: float) -> float:
+    """The distance [m] from the vehicle's centre to the nearest geom along the world direction `psi`, in the plane
+    of the vehicle (mujoco.mj_ray, the vehicle's own body left out); inf where nothing lies on the ray."""
+    model, data = physics.model.ptr, physics.data.ptr
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, VEHICLE_BODY)
+    x, y, _ = physics.pose()
+    geom = np.zeros(1, np.int32)
+    start = np.array([x, y, data.xpos[body][2]])
+    hit = mujoco.mj_ray(model, data, start, np.array([math.cos(psi), math.sin(psi), 0.0]), None, 1, body, geom)
+    return math.inf if hit < 0 else float(hit)
+
+
+def test_the_planner_map_observation_is_the_planner_one_and_what_its_sonar_has_shown():
+    """observation="planner-map" is the planner vector with the sonar map's scan before the sonar block. The scan
+    remembers: flying a tunnel, the side rays read the true walls beside the vehicle (mj_ray) within two cells (but
+    where a ray slips between the echoes' cells, a map of nine points a ping being sparse in a bend), never a wall
+    nearer than the true one, and a new episode starts from an empty map."""
+    options = {"arena": "random", "random": 2, "observation": "planner-map", "reward": "geodesic", "action": "rate"}
+    env = suite.load("auv", "tunnel", task_kwargs=options)
+    plain = suite.load("auv", "tunnel", task_kwargs={**options, "observation": "planner"})
+    fields = planning_observation.PLANNER_MAP_FIELDS
+    assert env.task.observation_fields == fields and len(fields) == len(planning_observation.PLANNER_FIELDS) + 16
+    memory = [fields.index(name) for name in MEMORY_NAMES]
+    assert memory == list(range(memory[0], memory[0] + MEMORY_BEAMS))
+    assert memory[-1] + 1 == planning_observation.SONAR_SLICE.indices(len(fields))[0]  # just before the sonar
+    errors = []
+    for _ in range(2):  # the second episode starts from an empty map again
+        time_step, other = env.reset(), plain.reset()
+        for step in range(60):
+            vector, without = time_step.observation["observation"], other.observation["observation"]
+            np.testing.assert_array_equal(np.delete(vector, memory), without)
+            if step == 0:
+                x, y, psi = env.physics.pose()
+                fresh = SonarMemory(memory_bounds(env.task.episode.bounds, np.vstack([[x, y], env.task.goals]),
+                                                  SONAR_RANGE))
+                fresh.add_ping([x, y], psi, env.task.binding.sonar_offset,
+                               vector[planning_observation.SONAR_SLICE] * SONAR_RANGE)
+                np.testing.assert_allclose(vector[memory], fresh.scan([x, y], psi), atol=1e-12)
+            elif step > 20:
+                psi = env.physics.pose()[2]
+                for beam in (4, 12):  # port and starboard, square to the hull
+                    true = _true_range(env.physics, psi + beam * 2 * math.pi / MEMORY_BEAMS)
+                    if true < MEMORY_RANGE - 2 * CELL:
+                        remembered = vector[memory[beam]] * MEMORY_RANGE
+                        assert remembered > true - 2 * CELL  # no wall where there is none
+                        errors.append(abs(remembered - true))
+            cos_target, sin_target = vector[1:3]
+            action = np.array([0.0, np.clip(math.atan2(sin_target, cos_target) / planning_step.MAX_HEADING_CHANGE
+                                            * 0.1, -1.0, 1.0)])
+            time_step, other = env.step(action), plain.step(action)
+            assert not time_step.last()
+    assert len(errors) > 100 and np.mean(np.array(errors) <= 2 * CELL) >= 0.95

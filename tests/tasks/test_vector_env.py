@@ -61,6 +61,8 @@ def test_sub_environment_is_the_single_environment(task, tier, water):
 
 ISSUE_51_OPTIONS = {"reward": "geodesic", "observation": "planner", "action": "rate"}
 """The learning problem's options (issue 51): the geodesic reward, the planner observation, the rate action."""
+MAP_OPTIONS = ISSUE_51_OPTIONS | {"observation": "planner-map"}
+"""The same with the vehicle's own sonar map in the observation."""
 
 
 @pytest.mark.parametrize(("task", "tier", "water", "changes"), [
@@ -69,10 +71,13 @@ ISSUE_51_OPTIONS = {"reward": "geodesic", "observation": "planner", "action": "r
     ("obstacles", "hard", "ocean", ISSUE_51_OPTIONS),
     ("tunnel", "hard", "ideal", ISSUE_51_OPTIONS),
     ("tunnel", "standard", "ideal", {"reward": "geodesic"}),
+    ("tunnel", "hard", "ocean", MAP_OPTIONS),
+    ("moving_obstacles", "standard", "ocean", MAP_OPTIONS),
 ])
 def test_sub_environment_is_the_single_environment_on_the_learning_problem(task, tier, water, changes):
     """The geodesic reward (its fields, asked for the batch at once), the planner observation (route target, pose,
-    previous action, geofence) and its info["privileged"], and the rate action are the single env's in the batch."""
+    previous action, geofence; with "planner-map" the sonar map too, one map a row through its autoresets) and its
+    info["privileged"], and the rate action are the single env's in the batch."""
     seen = run_side_by_side(task, task_options(task, tier, water) | changes, AutoresetMode.NEXT_STEP)
     assert seen["autoresets"] >= len(SEEDS)
 
