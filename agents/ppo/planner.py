@@ -57,6 +57,7 @@ from auv_mj.tasks.mixture import (
     mixture_cells,
     parse_weights,
 )
+from auv_mj.tasks.planning import POLICY_OPTIONS
 from auv_mj.tasks.planning_rewards import GEODESIC_DISCOUNT
 from auv_mj.tasks.planning_step import PLANNER_DT
 from auv_mj.tasks.vector import AUVVectorEnv
@@ -155,8 +156,7 @@ class MixtureConfig:
     def policy_kwargs(self) -> dict[str, Any]:
         """The task options that shape what the policy reads and does (action map, observation): validation and
         deployment must run the policy with them too."""
-        return {name: value for name, value in (("action", self.action), ("observation", self.observation))
-                if value is not None}
+        return {name: getattr(self, name) for name in POLICY_OPTIONS if getattr(self, name) is not None}
 
     def make_env(self, threads: int | None = None, autoreset_mode: str = "NextStep") -> PlanningMixtureVectorEnv:
         """The training env (autoreset NEXT_STEP, ours; "SameStep" for Stable-Baselines3's face of it,
@@ -272,7 +272,8 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
     and `init`, the student's checkpoint that a new run starts from. `auv-mj train ppo --init` continues a trained
     planner (its checkpoint, or a learned policy's name) on a new mixture as a new run, its critic included
     (`init_critic`); the mixture is seen as `init` (or the resumed run's checkpoint) saw it: a student's
-    observation vector alone (`student_view`) where it read no goal dict."""
+    observation vector alone (`student_view`) where it read no goal dict, with the action map and observation it was
+    trained with (its checkpoint's task options, e.g. a student of observation="planner-map")."""
     run_dir = Path(run_dir)
     mixture_path = run_dir / MIXTURE_NAME
     if resume:
@@ -292,6 +293,9 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
         done_steps = 0
         student = not mixture.goal_input or (init is not None
                                              and read_ppo(init)[0].metadata["spec"]["kind"] == "box")
+        if init is not None:  # the network reads and does what it was trained on: its action map and observation
+            trained = read_ppo(init)[0].metadata["spec"].get("task_options", {})
+            mixture = dataclasses.replace(mixture, **{k: trained[k] for k in POLICY_OPTIONS if k in trained})
     mixture_path.write_text(json.dumps(config_to_dict(mixture), indent=2))
     per_rollout = config.num_steps * mixture.num_envs
     period = per_rollout * config.checkpoint_every

@@ -269,3 +269,11 @@ def test_a_learner_without_the_goal_input_reads_the_observation_alone_and_a_new_
         torch.testing.assert_close(again[key], tensors[key], rtol=1e-6, atol=1e-9)
     on_goal = planner.train_planner(tmp_path / "goal", config, with_goal, 8, progress=False, tensorboard=False)
     assert ppo.read_ppo(on_goal["checkpoint"])[0].metadata["spec"]["obs_dim"] == sum(parts)
+    # a learner of the sonar map: a new run from it on the planner mixture keeps its observation, and says so
+    mapped = planner.train_planner(tmp_path / "map", config, dataclasses.replace(alone, observation="planner-map"), 8,
+                                   progress=False, tensorboard=False)
+    third = planner.train_planner(tmp_path / "from-map", dataclasses.replace(config, learning_rate=1e-12), alone, 8,
+                                  progress=False, tensorboard=False, init=mapped["checkpoint"], init_critic=True)
+    spec = ppo.read_ppo(third["checkpoint"])[0].metadata["spec"]
+    assert spec["task_options"]["observation"] == "planner-map" and spec["obs_dim"] == parts[0] + 16
+    assert json.loads((tmp_path / "from-map" / "mixture.json").read_text())["observation"] == "planner-map"
