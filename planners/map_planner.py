@@ -30,12 +30,12 @@ import dm_env
 import mujoco
 import numpy as np
 
-from auv_mj.arenas import arena, grid
+from auv_mj.arenas import arena, grid, sonar_memory
 from auv_mj.arenas.sonar_memory import MEMORY_BEAMS, SonarMemory, memory_bounds
 from auv_mj.episode import VEHICLE_BODY, FunctionPlanner, Planner, PlannerBase, arena_geometry, geom_footprint
 from auv_mj.planners.avoidance import PROTECTIONS, map_fence, with_repulsion
 from auv_mj.planners.guidance import approach_speed, los_heading
-from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
+from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.planning_observation import SONAR_SLICE
 from auv_mj.tasks.planning_rewards import FOLLOW_REACHED, PROGRESS_GAIN
 from auv_mj.tasks.planning_step import MAX_SPEED, PLANNER_DT
@@ -71,10 +71,8 @@ SONAR_OFFSET = 0.665
 
 def sonar_rays(pose) -> tuple[np.ndarray, np.ndarray]:
     """The sonars' origin (x, y) [m] and the nine beams' unit directions (9 x 2) in the world frame at `pose`
-    (x, y, psi): a beam's echo at range r lies at origin + r * direction."""
-    x, y, psi = (float(p) for p in pose[:3])
-    origin = np.array([x, y]) + SONAR_OFFSET * np.array([math.cos(psi), math.sin(psi)])
-    return origin, np.column_stack([np.cos(psi + BEAM_ANGLES), np.sin(psi + BEAM_ANGLES)])
+    (x, y, psi) (`auv_mj.arenas.sonar_memory.sonar_rays`): a beam's echo at range r lies at origin + r * direction."""
+    return sonar_memory.sonar_rays(pose[:2], pose[2], SONAR_OFFSET)
 
 
 def fast_line_of_sight(env) -> Planner:

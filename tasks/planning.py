@@ -341,11 +341,20 @@ class PlanningTask(base.Task):
         episode.command = (float(command[0, 0]), float(command[0, 1]))
         episode.previous = data.qpos[qpos[:2]].copy()
 
+    def _sense(self, physics: Physics, true_ranges) -> None:
+        """The ping of this planner step: the ranges as perceived (`ocean.sense`), and under "planner-map" the ping
+        added to the vehicle's sonar map at the pose of now (`SonarMemory.add_ping`), once a ping."""
+        episode = self.episode
+        episode.sonar = self.ocean.sense(true_ranges)
+        if episode.memory is not None:
+            pose = physics.data.ptr.qpos[self.binding.qpos]
+            episode.memory.add_ping(pose[:2], float(pose[2]), self.binding.sonar_offset, episode.sonar)
+
     def after_step(self, physics: Physics) -> None:
         """Senses, then `step_outcome` (N = 1): events, goals, the step's reward and `last_info`."""
         data, episode = physics.data.ptr, self.episode
         true_ranges = physics.sonar()
-        episode.sonar = self.ocean.sense(true_ranges)
+        self._sense(physics, true_ranges)
         episode.collided = episode.collided or (data.ncon > 0 and self._vehicle_contact(physics))
         episode.steps += 1
         readout = self._readout(physics, true_ranges=np.asarray(true_ranges, dtype=float)[None],
@@ -443,15 +452,12 @@ class PlanningTask(base.Task):
         """Vehicle state, command and sonar, normalised (`observe`, N = 1); the goals in metres."""
         episode = self.episode
         if episode.sonar is None:
-            episode.sonar = self.ocean.sense(physics.sonar())
+            self._sense(physics, physics.sonar())
         readout = self._readout(physics)
-        if episode.memory is not None and episode.memory_steps != episode.steps:  # once a ping
-            episode.memory_scan = planning_observation.remember([episode.memory], readout,
-                                                                np.array([self.binding.sonar_offset]))[0]
-            episode.memory_steps = episode.steps
+        scan = None if episode.memory is None else episode.memory.scan(readout.position[0], float(readout.psi[0]))
         observation = planning_observation.observe(self._routes, ONE_ROW, np.array([episode.reached]), readout,
                               np.array([episode.command]), self.observation_kind, episode.action[None],
-                              None if episode.memory is None else episode.memory_scan[None])
+                              None if scan is None else scan[None])
         if self.observation_kind in PLANNER_OBSERVATIONS and episode.steps == 0:  # the reset's info: the critic's input
             distance = np.array([episode.distance])
             self.last_info = {"privileged": planning_step.privileged(self._routes, ONE_ROW, distance,

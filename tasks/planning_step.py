@@ -195,11 +195,9 @@ class Episode:
     """The last step's action (a0, a1), as clipped to [-1, 1]; 0 before the first step (the planner observation)."""
     cell: np.ndarray = field(default_factory=lambda: np.zeros(1 + len(PRIVILEGED_KINDS)))
     memory: SonarMemory | None = None
-    """The vehicle's own sonar map under observation="planner-map" (None otherwise)."""
-    memory_steps: int = -1
-    """The planner steps taken when the last ping went into `memory` (each ping goes in once)."""
-    memory_scan: np.ndarray | None = None
-    """`memory`'s scan after that ping (the observation's memory block)."""
+    """The vehicle's own sonar map under observation="planner-map" (None otherwise): every ping goes in as it is
+    sensed."""
+
     """The privileged input's cell: hard tier, then the task kind one-hot (PRIVILEGED_FIELDS)."""
 
     @property

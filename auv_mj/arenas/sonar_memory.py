@@ -45,6 +45,14 @@ def memory_bounds(bounds, points, margin: float) -> tuple[float, float, float, f
     return (*(float(v) for v in low), *(float(v) for v in high))
 
 
+def sonar_rays(position, psi: float, sonar_offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sonars' origin (x, y) [m], `sonar_offset` ahead of `position` at heading `psi`, and the nine beams' unit
+    directions (9 x 2) in the world frame: a beam's echo at range r lies at origin + r * direction."""
+    psi = float(psi)
+    origin = np.asarray(position, dtype=float)[:2] + sonar_offset * np.array([math.cos(psi), math.sin(psi)])
+    return origin, np.column_stack([np.cos(psi + BEAM_ANGLES), np.sin(psi + BEAM_ANGLES)])
+
+
 class SonarMemory:
     """One episode's sonar map: log-odds counts (`odds`) and the occupied cells (`occupied`) on `grid`, a grid of
     CELL metres over `bounds` grown by a cell."""
@@ -78,9 +86,7 @@ class SonarMemory:
     def add_ping(self, position, psi: float, sonar_offset: float, ranges: np.ndarray) -> np.ndarray:
         """`add_scan` of the nine sonars' ping at the pose (`position` (x, y) [m], `psi` [rad]): the beams leave the
         sonars' origin `sonar_offset` [m] ahead of the centre at BEAM_ANGLES from the bow, reach SONAR_RANGE."""
-        c, s = math.cos(psi), math.sin(psi)
-        origin = np.asarray(position, dtype=float)[:2] + sonar_offset * np.array([c, s])
-        directions = np.column_stack([np.cos(psi + BEAM_ANGLES), np.sin(psi + BEAM_ANGLES)])
+        origin, directions = sonar_rays(position, psi, sonar_offset)
         return self.add_scan(origin, directions, ranges, SONAR_RANGE)
 
     def scan(self, position, psi: float) -> np.ndarray:
