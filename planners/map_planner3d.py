@@ -49,7 +49,8 @@ import mujoco
 import numpy as np
 from scipy import ndimage
 
-from auv_mj.arenas import cells, grid, traps3d, voxels
+from auv_mj.arenas import cells, grid, sonar_memory, traps3d, voxels
+from auv_mj.arenas.sonar_memory import HIT, MISS, OCCUPIED, SATURATION
 from auv_mj.control.depth_heading import los_command
 from auv_mj.episode import VEHICLE_BODY, Planner, PlannerBase
 from auv_mj.geometry import arc_lengths, wrap_angle
@@ -70,8 +71,6 @@ from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import CRUISE_SPEED, GOAL_RADIUS, HEADING_RANGE, MIN_DEPTH, State3D, Tunnel3D
 from auv_mj.tasks.auv3d import LOOKAHEAD as TUBE_LOS_LOOKAHEAD
 
-HIT, MISS, OCCUPIED, SATURATION = 2, 1, 2, 6
-"""Log-odds counts of a voxel, as in the plane (`auv_mj.planners.map_planner`)."""
 SOFT_CELLS = 3.0
 """Voxels (horizontal size) beyond the hard clearance within which a voxel costs more."""
 REPLAN_STEPS = 4
@@ -103,10 +102,6 @@ WINDOW = np.array([20.0, 20.0, 12.0])
 """The open-water search stays within the box round vehicle and target grown by this [m] ..."""
 TUBE_WINDOW = np.array([8.0, 8.0, 8.0])
 """... in a tube, by this."""
-MAP_MARGIN = np.array([60.0, 60.0, 25.0])
-"""The open-water map covers start and goal grown by this [m] (below the surface) ..."""
-TUBE_MAP_MARGIN = np.array([12.0, 12.0, 10.0])
-"""... a tube's map its centreline grown by this."""
 TURN_TEST_TIME = 60.0
 """Seconds of the hard-over turn that `turning_radius` flies in a copy of the physics (2 to 3 full circles of the
 REMUS at cruise speed): the first half settles the turn, the second half is measured."""
@@ -209,12 +204,8 @@ class VoxelFollower(Replanning, PlannerBase):
         """A new episode: an empty map over the episode's water, the surface closed."""
         task = self.task
         self.max_slope = task.max_pitch * voxels.CLIMB_MARGIN
-        cell, self.hard = traps3d.map_cells(task.path if self.in_tube else np.zeros((0, 3)))
-        points = np.vstack([self.physics.position(), task.goal, task.path.reshape(-1, 3)])
-        margin = TUBE_MAP_MARGIN if self.in_tube else MAP_MARGIN
-        high = points.max(axis=0) + margin
-        high[2] = min(high[2], 0.0)
-        self.grid = voxels.VoxelGrid.covering(points.min(axis=0) - margin, high, *cell)
+        _, self.hard = traps3d.map_cells(task.path if self.in_tube else np.zeros((0, 3)))
+        self.grid = sonar_memory.memory_grid3d(self.physics.position(), task.goal, task.path, self.in_tube)
         self.surface = np.zeros(self.grid.shape, bool)
         self.surface[:, :, self.grid.centres()[2] > -MIN_DEPTH] = True
         self.occupied = self.surface.copy()

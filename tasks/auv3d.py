@@ -70,6 +70,7 @@ from dm_env import specs
 
 from auv_mj.arenas import arena3d, arena_check, traps3d, tubes
 from auv_mj.arenas.geodesic import VoxelField, voxel_room
+from auv_mj.arenas.sonar_memory import FAN_MEMORY_BEAMS, VoxelMemory, fan_beams, memory_grid3d
 from auv_mj.arenas.voxels import CLIMB_MARGIN
 from auv_mj.control.clock import ExecutorClock
 from auv_mj.control.depth_heading import (
@@ -184,9 +185,15 @@ FIXED_ARENA_SEED = 0
 """The seed of `arena="fixed"`'s one arena (outside the train, validation and test ranges of `auv_mj.seeds`)."""
 TARGET_ENTRIES = slice(10, 14)
 """Where PLANNING_OBSERVATION holds the target (distance, cos and sin of its bearing, depth offset)."""
-POLICY_OPTIONS = ("executor",)
+POLICY_OPTIONS = ("executor", "observation")
 """The 6-DOF planning tasks' options a learned planner trained with runs with (a batched env reports them as
-`policy_options`, a PPO checkpoint keeps them, the zoo applies them): the execution layer under it, by name."""
+`policy_options`, a PPO checkpoint keeps them, the zoo applies them): the execution layer under it, by name, and
+its observation."""
+OBSERVATIONS = ("fan", "fan-map")
+"""The planning tasks' `observation` option: "fan" (PLANNING_OBSERVATION and the fan), or "fan-map": that vector
+with the vehicle's own sonar map beside it (FAN_MEMORY_NAMES before the fan; `auv_mj.arenas.sonar_memory.VoxelMemory`,
+the map `map-replan` plans on, filled from the fan and the altimeter this episode, nothing of the true map), what the
+fan has shown and no longer shows: a plug passed under, a wall beside or behind."""
 PLANNING_REWARDS = ("progress", "geodesic")
 """The planning tasks' `reward` option (module docstring)."""
 TIERS = ("standard", "hard")
@@ -479,13 +486,17 @@ def privileged(route_distance, room, time_left, hard_tier, tube) -> np.ndarray:
                      np.asarray(hard_tier, dtype=float), np.asarray(tube, dtype=float)], axis=1)
 
 
-def planning_observation(head, achieved_goal, target, fan) -> np.ndarray:
-    """The planning observation (PLANNING_OBSERVATION, then the fan / SONAR_RANGE) over leading axes, from `head`: the
-    sensed (u, v, w, p, q, r, roll, pitch, depth, altitude [m]); the achieved goal (position and sensed heading); the
-    target point; and the 27 fan ranges as sensed [m]."""
+def planning_observation(head, achieved_goal, target, fan, memory=None) -> np.ndarray:
+    """The planning observation (PLANNING_OBSERVATION, then the sonar map's scan if `memory` is given, then the fan /
+    SONAR_RANGE) over leading axes, from `head`: the sensed (u, v, w, p, q, r, roll, pitch, depth, altitude [m]); the
+    achieved goal (position and sensed heading); the target point; the map's scan (FAN_MEMORY_BEAMS, in [0, 1]:
+    observation="fan-map"); and the 27 fan ranges as sensed [m]."""
     head = np.array(head, dtype=float)
     head[..., 9] = head[..., 9] / ALTIMETER_RANGE
-    return np.concatenate([head, target_features(achieved_goal, target), np.asarray(fan) / SONAR_RANGE], axis=-1)
+    blocks = [head, target_features(achieved_goal, target)]
+    if memory is not None:
+        blocks.append(np.asarray(memory, dtype=float))
+    return np.concatenate([*blocks, np.asarray(fan) / SONAR_RANGE], axis=-1)
 
 
 def route_time_limit(length: float) -> float:
@@ -518,9 +529,10 @@ class Planning3D(base.Task):
     """The `arena` choices every planning task has (a task may take arena files too: `_arena_option`)."""
 
     def __init__(self, arena: str = "random", random=None, conditions="ideal", tier: str = "standard",
-                 executor=None, reward: str = "progress"):
+                 executor=None, reward: str = "progress", observation: str = "fan"):
         """`arena`: "random" (one per episode), "fixed" or (tunnel3d) a tube file; `conditions`: ocean
-        (`auv_mj.sim.ocean3d`); `tier`: TIERS; `reward`: PLANNING_REWARDS (module docstring); `executor`: None (the
+        (`auv_mj.sim.ocean3d`); `tier`: TIERS; `reward`: PLANNING_REWARDS (module docstring); `observation`:
+        OBSERVATIONS; `executor`: None (the
         hand-set depth-heading S-plane), a name of
         `auv_mj.tasks.executors.executor_names("auv3d")` (or a depth_heading checkpoint path), or a callable
         executor(command, State3D) -> (thrust [N], rudder [rad], stern [rad]) with `reset()`, called every
@@ -528,6 +540,13 @@ class Planning3D(base.Task):
         self._arena_mode = self._arena_option(arena)
         self.tier = options.choice("tier", tier, TIERS)
         self.reward_kind = options.choice("reward", reward, PLANNING_REWARDS)
+        self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
+        self.memory: VoxelMemory | None = None
+        """The vehicle's own sonar map this episode under observation="fan-map" (`remember`), else None."""
+        self._ping_poses: collections.deque = collections.deque(maxlen=1)
+        self._remembered_at = math.nan
+        self._scan = np.zeros(FAN_MEMORY_BEAMS)
+        self._sites = (np.zeros(3), np.zeros(3))
         self.potential: VoxelField | None = None
         """The geodesic field of the episode's goal once searched (`geodesic_potential`; at the reset under
         reward="geodesic"), else None."""
@@ -648,6 +667,13 @@ class Planning3D(base.Task):
         self.ocean.start(physics, self.random)
         physics.set_tick(self._tick, EXECUTOR_DT)
         self._achieved = pose_goal(physics.position(), heading)
+        if self.observation_kind == "fan-map":
+            self.memory = VoxelMemory(memory_grid3d(start, self.goal, self.path, self.tube_radius is not None))
+            self._ping_poses = collections.deque(maxlen=1 + self.ocean.sonar_latency)
+            model = physics.model.ptr
+            self._sites = (model.site_pos[model.site("sonar").id].copy(),
+                           model.site_pos[model.site("altimeter").id].copy())
+        self._remembered_at = math.nan
         self.last_info = {}  # a reset's info is its own, not the last episode's end (as the planar tasks')
         if self.reward_kind == "geodesic":
             self.last_info["privileged"] = self._privileged(physics)[0]
@@ -751,18 +777,40 @@ class Planning3D(base.Task):
         self._reward = float(self.compute_reward(pose_goal(physics.position(), 0.0), self._desired, self.last_info))
 
     def observe(self, physics) -> np.ndarray:
-        """PLANNING_OBSERVATION, then the fan ranges over SONAR_RANGE (and sets the achieved goal)."""
+        """PLANNING_OBSERVATION, then (observation="fan-map") the sonar map's scan, then the fan ranges over
+        SONAR_RANGE (and sets the achieved goal)."""
         sensed = self.sensors.read(physics)
         state = read_state(physics, sensed)
         position = physics.position()
         self._achieved = pose_goal(position, state.heading)
         head = [state.u, state.v, state.w, state.p, state.q, state.r, state.roll, state.pitch, state.depth,
                 float(sensed["altimeter"])]
-        return planning_observation(np.array(head), self._achieved, self.target(position), sensed["sonar"])
+        memory = None
+        if self.memory is not None:
+            if self._remembered_at != physics.time():  # one ping a planner step, however often this is called
+                self._remembered_at = physics.time()
+                self._scan = self.remember(position, sensed["attitude"], sensed["sonar"], float(sensed["altimeter"]),
+                                           state.heading)
+            memory = self._scan
+        return planning_observation(np.array(head), self._achieved, self.target(position), sensed["sonar"], memory)
+
+    def remember(self, position, attitude, fan, altitude: float, heading: float) -> np.ndarray:
+        """Adds the ping seen now to the episode's sonar map (observation="fan-map") and returns the map's scan
+        (FAN_MEMORY_BEAMS, `VoxelMemory.scan`) from `position` (3,) [m] at the sensed `heading` [rad]. The fan's
+        ranges `fan` (27,) [m] were taken `Ocean3D.sonar_latency` pings ago (a planner step is one ping), so they are
+        cast from the pose of then (as `map-replan`'s, `auv_mj.planners.map_planner3d.SonarVoxelMap.beams`); the
+        altimeter's `altitude` [m] from now. The pose is the true position and the attitude sample held
+        (`attitude` (w, x, y, z)), what the single and the batched env both hold."""
+        pose = (np.asarray(position, dtype=float).copy(), np.asarray(attitude, dtype=float).copy())
+        self._ping_poses.append(pose)
+        origins, directions, limits = fan_beams(pose[0], pose[1], *self._sites, ping_pose=self._ping_poses[0])
+        self.memory.add_beams(origins, directions, np.append(np.asarray(fan, dtype=float), altitude), limits)
+        return self.memory.scan(pose[0], heading)
 
     def observation_spec(self, physics) -> collections.OrderedDict:
-        """"observation" (PLANNING_OBSERVATION and the fan), "achieved_goal" and "desired_goal" (GOAL_SIZE)."""
-        size = len(PLANNING_OBSERVATION) + FAN_BEAMS
+        """"observation" (PLANNING_OBSERVATION, the map's scan under observation="fan-map", and the fan),
+        "achieved_goal" and "desired_goal" (GOAL_SIZE)."""
+        size = len(PLANNING_OBSERVATION) + FAN_BEAMS + (FAN_MEMORY_BEAMS if self.observation_kind == "fan-map" else 0)
         return collections.OrderedDict(observation=specs.Array((size,), float, name="observation"),
                                        achieved_goal=specs.Array((GOAL_SIZE,), float, name="achieved_goal"),
                                        desired_goal=specs.Array((GOAL_SIZE,), float, name="desired_goal"))

@@ -49,6 +49,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from auv_mj.arenas.geodesic import voxel_distances, voxel_room
+from auv_mj.arenas.sonar_memory import FAN_MEMORY_BEAMS
 from auv_mj.control.depth_heading import (
     EXECUTOR_DT,
     FIN_LIMIT,
@@ -181,6 +182,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
             raise ValueError(f"a planner step of {self._ticks} executor periods is longer than the batch reads")
         self._goal_task = isinstance(task, auv3d.Goal3D)
         self._geodesic = task.reward_kind == "geodesic"
+        self._fan_map = task.observation_kind == "fan-map"
         self._fan = fan_directions()
         self._stepper = batch3d.BatchStepper3D(self.num_envs)
         self._allocate()
@@ -396,7 +398,15 @@ class AUV3DVectorEnv(GoalVectorEnv):
         head = np.column_stack([state[:, at_state["dvl_x"]:at_state["dvl_z"] + 1],
                                 state[:, at_state["gyro_x"]:at_state["gyro_z"] + 1], out[:, at_out["roll"]],
                                 out[:, at_out["pitch"]], state[:, at_state["depth"]], state[:, at_state["altimeter"]]])
-        observation = auv3d.planning_observation(head, achieved, target, ranges)
+        memory = None
+        if self._fan_map:  # Planning3D.remember: each row's ping into its own sonar map, and the map's scan
+            attitude = state[:, at_state["attitude_w"]:at_state["attitude_z"] + 1]
+            altitude = state[:, at_state["altimeter"]]
+            memory = np.zeros((len(index), FAN_MEMORY_BEAMS))
+            for k, i in enumerate(index):
+                memory[k] = self.envs[i].task.remember(position[k], attitude[k], ranges[k], float(altitude[k]),
+                                                       float(heading[k]))
+        observation = auv3d.planning_observation(head, achieved, target, ranges, memory)
         self._last_obs["observation"][index] = observation
         self._last_obs["achieved_goal"][index] = achieved
         self._last_obs["desired_goal"][index] = self._desired[index]

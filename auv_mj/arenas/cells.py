@@ -12,7 +12,9 @@ module holds what the two grids, their searches and the two mapping planners (`a
   (LaValle, *Planning Algorithms*, Ch. 5-6);
 - `beam_marks` and `count_beams`: the log-odds occupancy counts of range beams (Thrun et al., *Probabilistic
   Robotics*, Ch. 9, in small): the cells a beam crosses short of its range count a miss, the cell of its echo a
-  hit, both clipped to a saturation.
+  hit, both clipped to a saturation;
+- `ray_ranges`: a rangefinder cast on a map instead of on the world (the scans of a sonar map's memory,
+  `auv_mj.arenas.sonar_memory`).
 
 Each grid keeps its own numbers where the two differ on purpose (the planar edge weights and clearances, the
 voxels' pitch-limited lattice), so that both give exactly the results they gave before they shared this core.
@@ -132,3 +134,19 @@ def count_beams(odds: np.ndarray, missed: np.ndarray, echoed: np.ndarray, hit: i
     counts = np.clip(counts, -saturation, saturation)
     odds.flat[touched] = counts
     return touched, counts
+
+
+def ray_ranges(grid: CellGrid, occupied: np.ndarray, origin, directions, max_range: float,
+               step: float) -> np.ndarray:
+    """Range [m] along each ray from `origin` (d,) along the unit `directions` (n, d) to the first occupied cell of
+    `occupied` (the grid's shape), or `max_range` where none lies within it. Rays are sampled every `step` metres
+    from `step` on; off the grid counts as free. Vectorised over rays and samples."""
+    directions = np.asarray(directions, dtype=float).reshape(-1, len(grid.shape))
+    samples = np.arange(step, max_range, step)
+    points = np.asarray(origin, dtype=float)[:len(grid.shape)] + samples[None, :, None] * directions[:, None, :]
+    index, inside = grid.cell_index(points)
+    hit = np.zeros(len(index), bool)
+    hit[inside] = occupied[tuple(index[inside].T)]
+    hit = hit.reshape(len(directions), len(samples))
+    first = np.argmax(hit, axis=1)
+    return np.where(hit.any(axis=1), samples[first], float(max_range))

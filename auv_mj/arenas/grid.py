@@ -20,6 +20,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 
+from auv_mj.arenas import cells
 from auv_mj.arenas.cells import CellGrid, goal_reach, path_to_goal
 from auv_mj.geometry import polyline_length
 
@@ -180,12 +181,5 @@ def ray_ranges(grid: Grid, occupied: np.ndarray, origin, angles, max_range: floa
     ego-centric scan of a map-memory planner, `auv_mj.planners.map_planner.MapGuide`). Rays are sampled every half cell;
     off the grid counts as free. Vectorised over rays and samples."""
     angles = np.asarray(angles, dtype=float).ravel()
-    samples = np.arange(grid.cell / 2, max_range, grid.cell / 2)
     directions = np.column_stack([np.cos(angles), np.sin(angles)])
-    points = np.asarray(origin, dtype=float)[:2] + samples[None, :, None] * directions[:, None, :]
-    i, j, inside = grid.index(points)
-    hit = np.zeros(i.shape, bool)
-    hit[inside] = occupied[i[inside], j[inside]]
-    hit = hit.reshape(len(angles), len(samples))
-    first = np.argmax(hit, axis=1)
-    return np.where(hit.any(axis=1), samples[first], float(max_range))
+    return cells.ray_ranges(grid, occupied, origin, directions, max_range, grid.cell / 2)

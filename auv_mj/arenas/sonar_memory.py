@@ -8,6 +8,12 @@ the sum of one ping, at most SATURATION + HIT, fits before the clip); unknown
 space counts as free. `SonarMemory.add_scan` adds one ping of the nine beams; `SonarMemory.scan` casts MEMORY_BEAMS
 rays on the map all round the vehicle (`auv_mj.arenas.grid.ray_ranges`), what the map remembers behind and beside
 the vehicle where the sonars (-90 to +90 deg from the bow) no longer look.
+
+In 3-D the same counts fill voxels (`VoxelMemory`): the map `map-replan` plans on there
+(`auv_mj.planners.map_planner3d.SonarVoxelMap`, on the grid of `memory_grid3d`) and the map a learned 3-D planner
+reads under observation="fan-map" (`auv_mj.tasks.auv3d`), filled from the 27-beam fan and the altimeter, each ping
+cast from the pose it was taken at (`fan_beams`); `VoxelMemory.scan` casts FAN_MEMORY_BEAMS rays on it round the
+vehicle, level and 30 degrees up and down.
 """
 
 from __future__ import annotations
@@ -16,7 +22,9 @@ import math
 
 import numpy as np
 
-from auv_mj.arenas import cells, grid
+from auv_mj.arenas import cells, grid, voxels
+from auv_mj.arenas.traps3d import map_cells
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_ELEVATIONS, fan_directions
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 
 CELL = grid.CELL
@@ -45,6 +53,22 @@ def memory_bounds(bounds, points, margin: float) -> tuple[float, float, float, f
     return (*(float(v) for v in low), *(float(v) for v in high))
 
 
+def _count(odds: np.ndarray, occupied: np.ndarray, missed: np.ndarray,
+           echoed: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Adds a ping's counts to a map in place: `cells.count_beams`'s sum, -MISS for each cell of `missed` then +HIT
+    for each of `echoed` (flat indices, once each), clipped once at the end, on the touched cells alone (a ping
+    touches a few hundred of a map's 10^5-10^6 cells, and this is every vehicle's every step under a map
+    observation); `occupied` follows. Returns (the cells touched, whether each was occupied before, is now)."""
+    odds, occupied = odds.reshape(-1), occupied.reshape(-1)
+    odds[missed] -= MISS
+    odds[echoed] += HIT
+    touched = np.concatenate([missed, echoed])
+    odds[touched] = np.clip(odds[touched], -SATURATION, SATURATION)
+    was, now = occupied[touched], odds[touched] >= OCCUPIED
+    occupied[touched] = now
+    return touched, was, now
+
+
 def sonar_rays(position, psi: float, sonar_offset: float) -> tuple[np.ndarray, np.ndarray]:
     """The sonars' origin (x, y) [m], `sonar_offset` ahead of `position` at heading `psi`, and the nine beams' unit
     directions (9 x 2) in the world frame: a beam's echo at range r lies at origin + r * direction."""
@@ -69,16 +93,7 @@ class SonarMemory:
         the grid's shape)."""
         missed, echoes, hit = cells.beam_marks(self.grid, origin, directions, np.asarray(ranges, dtype=float),
                                                reach, reach, RAY_STEP, CELL)
-        echoed = self.grid.flat_cells(echoes[hit])
-        # `cells.count_beams`'s sum, -MISS then +HIT, clipped once at the end, on the touched cells alone: a ping
-        # touches a few hundred of a map's ~10^5 cells, and this is every vehicle's every step under "planner-map".
-        odds, occupied = self.odds.reshape(-1), self.occupied.reshape(-1)
-        odds[missed] -= MISS
-        odds[echoed] += HIT
-        touched = np.concatenate([missed, echoed])
-        odds[touched] = np.clip(odds[touched], -SATURATION, SATURATION)
-        was, now = occupied[touched], odds[touched] >= OCCUPIED
-        occupied[touched] = now
+        touched, was, now = _count(self.odds, self.occupied, missed, self.grid.flat_cells(echoes[hit]))
         new = np.zeros(self.grid.shape, bool)
         new.reshape(-1)[touched] = now & ~was
         return new
@@ -94,3 +109,91 @@ class SonarMemory:
         cells from `position` (x, y) [m], beam k at `psi` + k 2 pi / MEMORY_BEAMS."""
         angles = float(psi) + np.arange(MEMORY_BEAMS) * (2 * math.pi / MEMORY_BEAMS)
         return grid.ray_ranges(self.grid, self.occupied, position, angles, MEMORY_RANGE) / MEMORY_RANGE
+
+
+# --- in 3-D: the fan's voxel map -----------------------------------------------------------------------------
+
+MAP_MARGIN_3D = np.array([60.0, 60.0, 25.0])
+"""An open-water voxel map covers the vehicle, the goal and the route grown by this [m] (below the surface) ..."""
+TUBE_MAP_MARGIN_3D = np.array([12.0, 12.0, 10.0])
+"""... a tube's map its centreline grown by this."""
+FAN_MEMORY_AZIMUTHS = 12
+"""Rays of the 3-D memory scan in each row, evenly all round the vehicle from its bow (30 deg apart)."""
+FAN_MEMORY_ELEVATIONS = FAN_ELEVATIONS
+"""The 3-D memory scan's rows: 30 deg down, level, 30 deg up (the fan's)."""
+FAN_MEMORY_BEAMS = FAN_MEMORY_AZIMUTHS * len(FAN_MEMORY_ELEVATIONS)
+FAN_MEMORY_RANGE = 40.0
+"""Reach [m] of the 3-D memory scan: ten tube radii, the hard goal3d arena's obstacles a few lengths off."""
+FAN_MEMORY_NAMES = tuple(f"fan_memory_{k + 1}" for k in range(FAN_MEMORY_BEAMS))
+"""The 3-D scan's entries, elevation-major: beam (row e, column a) at elevation FAN_MEMORY_ELEVATIONS[e] and
+azimuth heading + a 2 pi / FAN_MEMORY_AZIMUTHS (a = 0 the bow, counter-clockwise), level (no roll or pitch)."""
+_FAN = fan_directions()
+
+
+def memory_grid3d(position, goal, path, tube: bool) -> voxels.VoxelGrid:
+    """The voxel grid of an episode's sonar map: voxels of `traps3d.map_cells` (a tube's finer), over the vehicle's
+    `position`, the `goal` and the `path` (k, 3) [m] grown by MAP_MARGIN_3D, or TUBE_MAP_MARGIN_3D along a `tube`;
+    not above the surface."""
+    (horizontal, vertical), _ = map_cells(np.asarray(path, dtype=float).reshape(-1, 3) if tube else np.zeros((0, 3)))
+    points = np.vstack([np.asarray(position, dtype=float), np.asarray(goal, dtype=float),
+                        np.asarray(path, dtype=float).reshape(-1, 3)])
+    margin = TUBE_MAP_MARGIN_3D if tube else MAP_MARGIN_3D
+    high = points.max(axis=0) + margin
+    high[2] = min(high[2], 0.0)
+    return voxels.VoxelGrid.covering(points.min(axis=0) - margin, high, horizontal, vertical)
+
+
+def quaternion_matrix(quaternion) -> np.ndarray:
+    """The rotation matrix (3, 3) of a unit (w, x, y, z) quaternion (MuJoCo's order): body to world."""
+    w, x, y, z = (float(v) for v in np.asarray(quaternion, dtype=float).ravel()[:4])
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def fan_beams(position, attitude, sonar_site, altimeter_site,
+              ping_pose: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(origins (28, 3), unit directions (28, 3), range limits (28,)) in the world of the fan's 27 beams and the
+    altimeter's, the vehicle at `position` (3,) [m] with `attitude` (w, x, y, z): its sonar and altimeter sites at
+    `sonar_site` and `altimeter_site` (3,) [m] in the body frame, the fan along the body's axes, the altimeter down
+    its -z. `ping_pose` (position, attitude): where the fan's ping was taken, if not here (a ping seen late)."""
+    rotation = quaternion_matrix(attitude)
+    origin, fan_rotation = position, rotation
+    if ping_pose is not None:
+        origin, fan_rotation = ping_pose[0], quaternion_matrix(ping_pose[1])
+    sonar = np.asarray(origin, dtype=float) + fan_rotation @ np.asarray(sonar_site, dtype=float)
+    altimeter = np.asarray(position, dtype=float) + rotation @ np.asarray(altimeter_site, dtype=float)
+    origins = np.vstack([np.repeat(sonar[None], len(_FAN), axis=0), altimeter])
+    directions = np.vstack([_FAN @ fan_rotation.T, -rotation[:, 2]])
+    return origins, directions, np.append(np.full(len(_FAN), SONAR_RANGE), ALTIMETER_RANGE)
+
+
+class VoxelMemory:
+    """One episode's 3-D sonar map: log-odds counts (`odds`) and the occupied voxels (`occupied`) on `grid`
+    (`memory_grid3d`), counted as the planar map's (HIT, MISS, OCCUPIED, SATURATION)."""
+
+    def __init__(self, grid_: voxels.VoxelGrid):
+        self.grid = grid_
+        self.odds = np.zeros(grid_.shape, np.int8)
+        self.occupied = np.zeros(grid_.shape, bool)
+
+    def add_beams(self, origins, directions, ranges, limits) -> None:
+        """Adds one ping: beam k leaves `origins[k]` (3,) [m] along the unit `directions[k]` and read `ranges[k]` [m],
+        an echo where that is under its `limits[k]`. Voxels a beam crossed a voxel short of its range count -MISS,
+        its echo's +HIT (`auv_mj.arenas.cells.count_beams`)."""
+        limits = np.asarray(limits, dtype=float)
+        missed, echoes, hit = cells.beam_marks(self.grid, origins, np.asarray(directions, dtype=float),
+                                               np.asarray(ranges, dtype=float), limits, float(np.max(limits)),
+                                               0.5 * float(np.min(self.grid.cell)), float(self.grid.cell[0]))
+        _count(self.odds, self.occupied, missed, self.grid.flat_cells(echoes[hit]))
+
+    def scan(self, position, heading: float) -> np.ndarray:
+        """The map's memory round the vehicle: FAN_MEMORY_BEAMS ranges / FAN_MEMORY_RANGE in [0, 1] cast on the
+        occupied voxels from `position` (3,) [m], in FAN_MEMORY_NAMES' order (azimuths from `heading` [rad])."""
+        azimuth = float(heading) + np.arange(FAN_MEMORY_AZIMUTHS) * (2 * math.pi / FAN_MEMORY_AZIMUTHS)
+        elevation, azimuth = np.meshgrid(FAN_MEMORY_ELEVATIONS, azimuth, indexing="ij")
+        directions = np.stack([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
+                               np.sin(elevation)], axis=-1).reshape(-1, 3)
+        step = 0.5 * float(np.min(self.grid.cell))
+        return cells.ray_ranges(self.grid, self.occupied, position, directions, FAN_MEMORY_RANGE,
+                                step) / FAN_MEMORY_RANGE

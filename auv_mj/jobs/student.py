@@ -51,6 +51,7 @@ from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.agents.ppo.spaces import student_view
 from auv_mj.planners.teacher import BatchTeacher
 from auv_mj.planners.teacher3d import BatchTeacher3D
+from auv_mj.tasks import auv3d
 from auv_mj.tasks.mixture import MIXTURE_TASKS_3D, PlanningMixtureVectorEnv, cell_counts, mixture_cells, parse_weights
 from auv_mj.tasks.planning_step import PLANNER_OBSERVATIONS
 from auv_mj.tasks.vector import AUVVectorEnv
@@ -76,25 +77,38 @@ execution layer the 3-D benchmark runs every planner on (suite 3d v3: the S-plan
 student's checkpoint keeps as a task option (`auv3d.POLICY_OPTIONS`) and the zoo applies."""
 
 
-def mixture_3d_env(envs_per_cell: int, threads: int | None = None,
-                   weights: Mapping[str, float] | None = None) -> PlanningMixtureVectorEnv:
+def mixture_3d_options(observation: str | None = None) -> dict[str, str]:
+    """The 6-DOF student's task options: MIXTURE_3D_OPTIONS, with `observation` (one of `auv3d.OBSERVATIONS`) where
+    given (ValueError naming it otherwise)."""
+    if observation is None:
+        return dict(MIXTURE_3D_OPTIONS)
+    if observation not in auv3d.OBSERVATIONS:
+        raise ValueError(f"task {MIXTURE_TASK_3D}: task_kwargs observation must be one of {auv3d.OBSERVATIONS}, got "
+                         f"{observation!r}")
+    return {**MIXTURE_3D_OPTIONS, "observation": observation}
+
+
+def mixture_3d_env(envs_per_cell: int, threads: int | None = None, weights: Mapping[str, float] | None = None,
+                   options: Mapping[str, str] | None = None) -> PlanningMixtureVectorEnv:
     """The 6-DOF training mixture: `envs_per_cell` vehicles a cell before `weights` (names of tasks, tiers or
-    waters, multiplied per cell; default MIXTURE_3D_WEIGHTS)."""
+    waters, multiplied per cell; default MIXTURE_3D_WEIGHTS), with the task `options` (`mixture_3d_options`)."""
     cells = mixture_cells(MIXTURE_TASKS_3D)
     counts = cell_counts(envs_per_cell, cells, MIXTURE_3D_WEIGHTS if weights is None else weights)
     return PlanningMixtureVectorEnv(counts, tasks=MIXTURE_TASKS_3D,
-                                    task_kwargs=MIXTURE_3D_OPTIONS, threads=threads)
+                                    task_kwargs=dict(options or MIXTURE_3D_OPTIONS), threads=threads)
 
 
-def mixture_3d_validator(threads: int | None = None) -> Validator:
+def mixture_3d_validator(threads: int | None = None, options: Mapping[str, str] | None = None) -> Validator:
     """DAgger's per-round validation in 3-D: the deterministic student on config.validation_episodes episodes of each
     hard cell (goal3d and tunnel3d, ideal and ocean water; seeds from VALIDATION_FIRST_SEED), the mean as val_success
-    and each cell as "cell:task/hard/water"."""
+    and each cell as "cell:task/hard/water"; the task `options` the student was trained with (`mixture_3d_options`)."""
+    trained = dict(options or MIXTURE_3D_OPTIONS)
+
     def validate(model, config: DaggerConfig) -> dict[str, float]:
         rates, collisions = {}, []
         for task in MIXTURE_TASKS_3D:
             for water in ("ideal", "ocean"):
-                options = {**MIXTURE_3D_OPTIONS, "arena": "random", "tier": "hard", "conditions": water}
+                options = {**trained, "arena": "random", "tier": "hard", "conditions": water}
                 result = evaluate_student(
                     lambda n, task=task, options=options: AUV3DVectorEnv(task, n, options, threads=threads), model,
                     config.validation_episodes, VALIDATION_FIRST_SEED, config.validation_max_steps)
@@ -111,7 +125,8 @@ def validate_3d(checkpoint: str | Path, episodes: int = 50, threads: int | None 
     `episodes` validation episodes of each hard 6-DOF cell (`mixture_3d_validator`: the choice between 3-D students)."""
     (tensors, meta), saved = read_ppo(checkpoint)
     model = load_model(checkpoint, tensors, meta["spec"], saved)
-    return dict(mixture_3d_validator(threads)(model, DaggerConfig(validation_episodes=episodes)))
+    options = {**MIXTURE_3D_OPTIONS, **meta["spec"].get("task_options", {})}
+    return dict(mixture_3d_validator(threads, options)(model, DaggerConfig(validation_episodes=episodes)))
 
 
 def scratch_3d_config(**overrides: Any) -> PPOConfig:
@@ -194,8 +209,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
-    weights) or MIXTURE_TASK_3D (`mixture_3d_env(num_envs)`); a mixture takes no task_kwargs but the planar one's
-    {"observation": ...} (one of PLANNER_OBSERVATIONS). `rounds`: on resume,
+    weights) or MIXTURE_TASK_3D (`mixture_3d_env(num_envs)`); a mixture takes no task_kwargs but {"observation": ...}
+    (the planar one's: one of PLANNER_OBSERVATIONS; the 6-DOF one's: `auv3d.OBSERVATIONS`). `rounds`: on resume,
     DAgger goes on to that many rounds (its config's otherwise), and `final_epochs` sets its final fit's epochs.
     The fine-tune's config is `ppo_config`, else
     `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given.
@@ -223,6 +238,9 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     else:
         own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
         observation = None
+        if task == MIXTURE_TASK_3D and task_kwargs and set(task_kwargs) == {"observation"}:
+            own[task] = mixture_3d_options(task_kwargs["observation"])
+            task_kwargs = None
         if task == MIXTURE_TASK and task_kwargs and set(task_kwargs) == {"observation"}:
             observation = task_kwargs["observation"]
             if observation not in PLANNER_OBSERVATIONS:
@@ -230,8 +248,9 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                                  f"{observation!r}")
             task_kwargs = None
         if task in own and task_kwargs:
-            raise ValueError(f"task {task}: the mixture sets the task options itself ({own[task]}; the planar one "
-                             f"takes only an observation, one of {PLANNER_OBSERVATIONS}), got task_kwargs "
+            raise ValueError(f"task {task}: the mixture sets the task options itself ({own[task]}; it takes only an "
+                             f"observation: the planar one's {PLANNER_OBSERVATIONS}, the 6-DOF one's "
+                             f"{auv3d.OBSERVATIONS}), got task_kwargs "
                              f"{dict(task_kwargs)}")
         if cell_weights is not None and task not in own:
             raise ValueError(f"cell_weights: the mixtures' option ({MIXTURE_TASK}, {MIXTURE_TASK_3D}), got "
@@ -257,7 +276,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         options_path.write_text(json.dumps(record, indent=2))
     in_3d = task == MIXTURE_TASK_3D
     if in_3d:
-        env = mixture_3d_env(num_envs, threads, weights)
+        env = mixture_3d_env(num_envs, threads, weights, kwargs)
     elif mixture is not None:
         env = mixture.make_env(threads)
     else:
@@ -265,7 +284,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     try:
         teacher = (BatchTeacher3D(env, teacher_horizon) if in_3d else BatchTeacher(env)).actions
         if in_3d:
-            validate = mixture_3d_validator(threads)
+            validate = mixture_3d_validator(threads, kwargs)
         elif mixture is not None:
             validate = mixture_validator(mixture, student_spec(env), threads)
         else:

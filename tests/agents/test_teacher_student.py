@@ -384,25 +384,36 @@ def test_dagger_on_the_mixture_validates_every_hard_cell(tmp_path):
         f"{task}/hard/{water}" for task in ("obstacles", "moving_obstacles", "tunnel") for water in ("ideal", "ocean")}
 
 
-def test_dagger_on_the_mixture_takes_the_sonar_map_observation_and_its_student_keeps_it(tmp_path):
+@pytest.mark.parametrize(("task", "observation", "other"), [("planning-mix", "planner-map", "paper"),
+                                                           ("planning-mix-3d", "fan-map", "planner-map")])
+def test_dagger_on_a_mixture_takes_the_sonar_map_observation_and_its_student_keeps_it(tmp_path, task, observation,
+                                                                                      other):
     """`--task planning-mix --task-kwargs '{"observation": "planner-map"}'`: the student reads the planner vector and
-    its own sonar map (16 inputs more), its checkpoint names the observation (what the zoo deploys it with), and the
-    resume keeps it; any other task option of the mixture is refused before the run is written."""
-    from auv_mj.jobs.student import MIXTURE_TASK, train_student
+    its own sonar map (MEMORY_BEAMS inputs more); on `planning-mix-3d` with "fan-map" the fan and its own voxel map
+    (FAN_MEMORY_BEAMS more). Its checkpoint names the observation (beside the 3-D executor: what the zoo and the
+    validation deploy it with), and the resume keeps it; another observation or any other task option of the mixture
+    is refused before the run is written."""
+    from auv_mj.arenas.sonar_memory import FAN_MEMORY_BEAMS, MEMORY_BEAMS
+    from auv_mj.jobs.student import train_student
+    from auv_mj.tasks.auv3d import PLANNING_OBSERVATION
     from auv_mj.tasks.planning_observation import PLANNER_FIELDS, PLANNER_MAP_FIELDS
 
+    if observation == "planner-map":
+        assert len(PLANNER_MAP_FIELDS) == len(PLANNER_FIELDS) + MEMORY_BEAMS
+    size = {"planner-map": len(PLANNER_MAP_FIELDS), "fan-map": len(PLANNING_OBSERVATION) + FAN_MEMORY_BEAMS + 27}
     config = dataclasses.replace(TINY, rounds=1)
-    out = train_student(tmp_path / "map", MIXTURE_TASK, {"observation": "planner-map"}, 1, config, threads=1,
-                        progress=False)
+    out = train_student(tmp_path / "map", task, {"observation": observation}, 1, config, threads=1, progress=False)
     spec = read_checkpoint(out["student"], "ppo").metadata["spec"]
-    assert spec["task_options"]["observation"] == "planner-map"
-    assert tuple(spec["obs_shape"]) == (len(PLANNER_MAP_FIELDS),) == (len(PLANNER_FIELDS) + 16,)
+    assert spec["task_options"]["observation"] == observation
+    if task == "planning-mix-3d":
+        assert spec["task_options"] == {"executor": "splane-ocean", "observation": observation}
+    assert spec["obs_shape"] == [size[observation]]
     again = train_student(tmp_path / "map", resume=True, progress=False, threads=1, rounds=2)
     assert again["dagger_rounds"] == 2
-    assert read_checkpoint(again["student"], "ppo").metadata["spec"]["task_options"]["observation"] == "planner-map"
-    for bad in ({"observation": "paper"}, {"observation": "planner-map", "reward": "suite"}):
+    assert read_checkpoint(again["student"], "ppo").metadata["spec"]["task_options"]["observation"] == observation
+    for bad in ({"observation": other}, {"observation": observation, "reward": "suite"}):
         with pytest.raises(ValueError, match="observation"):
-            train_student(tmp_path / "refused", MIXTURE_TASK, bad, 1, config, progress=False)
+            train_student(tmp_path / "refused", task, bad, 1, config, progress=False)
         assert not (tmp_path / "refused").exists()
 
 

@@ -5,20 +5,32 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 
 from auv_mj.arenas import cells
 from auv_mj.arenas.sonar_memory import (
     CELL,
+    FAN_MEMORY_AZIMUTHS,
+    FAN_MEMORY_BEAMS,
+    FAN_MEMORY_ELEVATIONS,
+    FAN_MEMORY_NAMES,
+    FAN_MEMORY_RANGE,
     HIT,
     MEMORY_BEAMS,
     MEMORY_RANGE,
     MISS,
     OCCUPIED,
+    TUBE_MAP_MARGIN_3D,
     SonarMemory,
+    VoxelMemory,
+    fan_beams,
     memory_bounds,
+    memory_grid3d,
+    quaternion_matrix,
 )
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 
 OFFSET = 0.665
@@ -120,3 +132,94 @@ def test_a_ping_counts_as_the_voxel_maps_count_beams_does():
         np.testing.assert_array_equal(memory.occupied, occupied)
         turned, most = turned + int(new.sum()), max(most, int(occupied.sum()))
     assert turned > 100 and most > 20 and (odds < 0).sum() > 500
+
+
+# --- in 3-D: the fan's voxel map -----------------------------------------------------------------------------
+
+
+def _voxel_memory() -> VoxelMemory:
+    """An open-water map round a vehicle at 20 m depth and a goal 100 m east and 10 m deeper."""
+    return VoxelMemory(memory_grid3d([0.0, 0.0, -20.0], [100.0, 0.0, -30.0], np.zeros((0, 3)), tube=False))
+
+
+def test_the_quaternion_matrix_is_mujocos():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        expected = np.zeros(9)
+        mujoco.mju_quat2Mat(expected, q)
+        np.testing.assert_allclose(quaternion_matrix(q), expected.reshape(3, 3), atol=1e-12)
+
+
+def test_the_fan_is_cast_from_its_site_and_the_ping_from_the_pose_it_was_taken_at():
+    """A vehicle yawed 90 deg (bow north): the fan leaves the sonar site ahead of it, its level bow beam points north,
+    its upper row 30 deg up; the altimeter looks straight down from its own site; a ping taken at another pose is
+    cast from there, the altimeter from now."""
+    yaw = np.array([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)])
+    position, sonar, altimeter = np.array([5.0, 6.0, -20.0]), np.array([0.665, 0.0, 0.0]), np.array([0.3, 0.0, -0.1])
+    origins, directions, limits = fan_beams(position, yaw, sonar, altimeter)
+    assert origins.shape == directions.shape == (28, 3) and limits.shape == (28,)
+    np.testing.assert_allclose(origins[0], [5.0, 6.665, -20.0], atol=1e-12)
+    np.testing.assert_allclose(origins[-1], [5.0, 6.3, -20.1], atol=1e-12)
+    bow = len(BEAM_ANGLES) + len(BEAM_ANGLES) // 2  # the level row's middle beam
+    np.testing.assert_allclose(directions[bow], [0.0, 1.0, 0.0], atol=1e-12)
+    up = 2 * len(BEAM_ANGLES) + len(BEAM_ANGLES) // 2
+    np.testing.assert_allclose(directions[up], [0.0, math.cos(math.pi / 6), math.sin(math.pi / 6)], atol=1e-12)
+    np.testing.assert_allclose(directions[-1], [0.0, 0.0, -1.0], atol=1e-12)
+    assert np.all(limits[:-1] == SONAR_RANGE) and limits[-1] == ALTIMETER_RANGE
+    earlier = (np.array([5.0, 5.0, -19.0]), np.array([1.0, 0.0, 0.0, 0.0]))  # bow east
+    late, late_directions, _ = fan_beams(position, yaw, sonar, altimeter, ping_pose=earlier)
+    np.testing.assert_allclose(late[0], [5.665, 5.0, -19.0], atol=1e-12)
+    np.testing.assert_allclose(late_directions[bow], [1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(late[-1], origins[-1], atol=1e-12)
+    np.testing.assert_allclose(late_directions[-1], directions[-1], atol=1e-12)
+
+
+def test_a_voxel_echo_marks_its_voxel_and_its_beam_clears_the_way():
+    memory = _voxel_memory()
+    level = np.array([1.0, 0.0, 0.0, 0.0])
+    origins, directions, limits = fan_beams([10.0, 0.0, -20.0], level, [0.665, 0.0, 0.0], [0.3, 0.0, -0.1])
+    ranges = limits.copy()
+    bow = len(BEAM_ANGLES) + len(BEAM_ANGLES) // 2
+    ranges[bow] = 21.0  # an echo 21 m ahead of the sonar
+    memory.add_beams(origins, directions, ranges, limits)
+    echo = origins[bow] + 21.0 * directions[bow]
+    (ijk,), _ = memory.grid.index(echo[None])
+    assert memory.odds[tuple(ijk)] == HIT and memory.occupied[tuple(ijk)] and memory.occupied.sum() == 1
+    (half,), _ = memory.grid.index((origins[bow] + 10.0 * directions[bow])[None])
+    assert memory.odds[tuple(half)] == -MISS
+    (below,), _ = memory.grid.index(np.array([[10.3, 0.0, -40.0]]))  # the altimeter read nothing: crossed
+    assert memory.odds[tuple(below)] == -MISS
+    (behind,), _ = memory.grid.index(np.array([[-10.0, 0.0, -20.0]]))
+    assert memory.odds[tuple(behind)] == 0
+
+
+def test_the_voxel_scan_reads_each_row_all_round_from_the_heading():
+    """Three echoes, one in the level row's ray 90 deg to port of the heading, one 30 deg down and 180 deg round, one
+    30 deg up and ahead: each reads its distance in its own entry; every other entry reads the scan's reach."""
+    memory = _voxel_memory()
+    position, heading = np.array([20.0, 5.0, -25.0]), math.radians(40.0)
+    expected = np.ones(FAN_MEMORY_BEAMS)
+    for row, column, distance in ((1, 3, 12.0), (0, 6, 9.0), (2, 0, 15.0)):
+        elevation, azimuth = FAN_MEMORY_ELEVATIONS[row], heading + column * 2 * math.pi / FAN_MEMORY_AZIMUTHS
+        direction = np.array([math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth),
+                              math.sin(elevation)])
+        (ijk,), _ = memory.grid.index((position + distance * direction)[None])
+        memory.occupied[tuple(ijk)] = True
+        expected[row * FAN_MEMORY_AZIMUTHS + column] = distance / FAN_MEMORY_RANGE
+    scan = memory.scan(position, heading)
+    assert scan.shape == (FAN_MEMORY_BEAMS,) == (len(FAN_MEMORY_NAMES),)
+    # a ray stops at its first sample inside the echo's voxel: within the voxel's diagonal short of the echo
+    diagonal = float(np.linalg.norm(memory.grid.cell))
+    assert np.all(scan <= expected + 1e-12) and np.all(scan >= expected - diagonal / FAN_MEMORY_RANGE)
+    assert np.count_nonzero(scan < 1.0) == 3
+
+
+def test_the_voxel_map_covers_the_route_below_the_surface():
+    tube = np.array([[0.0, 0.0, -10.0], [40.0, 10.0, -15.0], [80.0, 0.0, -5.0]])
+    grid_ = memory_grid3d(tube[0], tube[-1], tube, tube=True)
+    low, high = grid_.origin, grid_.origin + np.array(grid_.shape) * grid_.cell
+    assert np.all(low <= tube.min(axis=0) - TUBE_MAP_MARGIN_3D) and high[2] >= 0.0 - 1e-9 and high[2] < 1.0
+    assert np.all(high[:2] >= tube.max(axis=0)[:2] + TUBE_MAP_MARGIN_3D[:2])
+    assert grid_.cell[0] < memory_grid3d(tube[0], tube[-1], tube, tube=False).cell[0]  # a tube's voxels are finer

@@ -21,6 +21,7 @@ from geodesic_returns import discounted, trap_runs
 
 from auv_mj.arenas import traps3d, voxels
 from auv_mj.arenas.geodesic import VoxelField
+from auv_mj.arenas.sonar_memory import FAN_MEMORY_AZIMUTHS, FAN_MEMORY_BEAMS, FAN_MEMORY_RANGE
 from auv_mj.control.depth_heading import DepthHeadingGains
 from auv_mj.geometry import polyline_length
 from auv_mj.tasks import auv3d, planning_rewards, suite
@@ -140,3 +141,41 @@ def test_the_critics_privileged_input_is_the_route_the_room_and_the_time_left(ta
         if tube:
             assert room <= task.tube_radius + 1.0
         assert not time_step.last()
+
+
+# --- observation="fan-map": the vehicle's own sonar map beside the fan ---------------------------------------
+
+
+def _fan_map_pair(task_name: str, seed: int) -> tuple:
+    """The same episode under observation="fan" and "fan-map" (a standard tube in ideal water)."""
+    options = {"arena": "random", "conditions": "ideal"}
+    return tuple(suite.load(auv3d.DOMAIN, task_name, task_kwargs={**options, "observation": kind, "random": seed})
+                 for kind in auv3d.OBSERVATIONS)
+
+
+def test_the_sonar_map_is_inserted_before_the_fan_and_remembers_the_walls_passed():
+    """The "fan-map" vector is the "fan" one with FAN_MEMORY_BEAMS entries before the fan, step after step of the same
+    episode; at the reset the map holds the first ping alone, so the scan's rays back along the tube's walls (120 and
+    150 deg either side of the bow, level) read nothing, and after 30 m flown they read the walls the fan showed on
+    the way, which it no longer shows: about the tube's radius off."""
+    plain, mapped = _fan_map_pair("tunnel3d", 7)
+    fan, memory = plain.reset().observation["observation"], mapped.reset().observation["observation"]
+    head, scan = len(auv3d.PLANNING_OBSERVATION), slice(len(auv3d.PLANNING_OBSERVATION),
+                                                        len(auv3d.PLANNING_OBSERVATION) + FAN_MEMORY_BEAMS)
+    assert memory.shape == (fan.size + FAN_MEMORY_BEAMS,)
+    assert mapped.observation_spec()["observation"].shape == memory.shape
+    behind = [FAN_MEMORY_AZIMUTHS + k for k in (4, 5, 7, 8)]  # level row, +120, +150, -150, -120 deg
+    assert np.all(memory[scan][behind] == 1.0)
+    action = np.array([0.5, 0.0, 0.0])
+    for _ in range(20):  # 10 s at about 1.5 m/s
+        fan, memory = plain.step(action).observation["observation"], mapped.step(action).observation["observation"]
+        np.testing.assert_array_equal(memory[:head], fan[:head])
+        np.testing.assert_array_equal(memory[scan.stop:], fan[head:])
+    assert not mapped.task.last_info["event"]
+    radius = mapped.task.tube_radius
+    assert np.all(memory[scan][behind] * FAN_MEMORY_RANGE < 2.0 * radius)
+
+
+def test_a_mistyped_observation_is_refused_with_a_suggestion():
+    with pytest.raises(ValueError, match="fan-map"):
+        suite.load(auv3d.DOMAIN, "goal3d", task_kwargs={"observation": "fan_map"})

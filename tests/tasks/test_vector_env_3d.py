@@ -95,6 +95,18 @@ def test_the_geodesic_reward_is_the_single_environments(task, policy):
     assert seen["autoresets"] >= len(SEEDS)
 
 
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+@pytest.mark.parametrize(("task", "tier", "mode"), [("tunnel3d", "hard", AutoresetMode.NEXT_STEP),
+                                                    ("goal3d", "hard", AutoresetMode.SAME_STEP)])
+def test_the_sonar_map_is_the_single_environments(task, tier, mode):
+    """observation="fan-map": each row's sonar map (its pings cast from the pose of a ping a step late in ocean
+    water) and so its scan are the single environment's, through autoresets onto new arenas."""
+    options = {"conditions": "ocean", "arena": "random", "tier": tier, "observation": "fan-map",
+               "time_limit": TIME_LIMIT}
+    seen = run_side_by_side(task, options, mode)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
 def test_make_vec_returns_the_batch():
     env = gymnasium.make_vec("auv_mj/Tunnel3D-v0", num_envs=2, vectorization_mode="vector_entry_point",
                              task_kwargs={"arena": "random"})
