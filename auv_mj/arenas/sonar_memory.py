@@ -12,8 +12,10 @@ the vehicle where the sonars (-90 to +90 deg from the bow) no longer look.
 In 3-D the same counts fill voxels (`VoxelMemory`): the map `map-replan` plans on there
 (`auv_mj.planners.map_planner3d.SonarVoxelMap`, on the grid of `memory_grid3d`) and the map a learned 3-D planner
 reads under observation="fan-map" (`auv_mj.tasks.auv3d`), filled from the 27-beam fan and the altimeter, each ping
-cast from the pose it was taken at (`fan_beams`); `VoxelMemory.scan` casts FAN_MEMORY_BEAMS rays on it round the
-vehicle, level and 30 degrees up and down.
+cast from the pose it was taken at (`fan_beams`); `VoxelMemory.scan` reads the nearest occupied voxel in each of
+FAN_MEMORY_BEAMS sectors round the vehicle (12 azimuths, three elevation bands). Not rays: the fan's 27 beams leave
+a wall as scattered voxels, which rays cast 30 degrees apart pass between (a tube's wall read 5 m on one ray and
+nothing on the next, step after step); a sector holds the nearest of them wherever it lies.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ import numpy as np
 
 from auv_mj.arenas import cells, grid, voxels
 from auv_mj.arenas.traps3d import map_cells
-from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_ELEVATIONS, fan_directions
+from auv_mj.geometry import wrap_angle
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, fan_directions
 from auv_mj.sim.sonar import BEAM_ANGLES, SONAR_RANGE
 
 CELL = grid.CELL
@@ -118,15 +121,18 @@ MAP_MARGIN_3D = np.array([60.0, 60.0, 25.0])
 TUBE_MAP_MARGIN_3D = np.array([12.0, 12.0, 10.0])
 """... a tube's map its centreline grown by this."""
 FAN_MEMORY_AZIMUTHS = 12
-"""Rays of the 3-D memory scan in each row, evenly all round the vehicle from its bow (30 deg apart)."""
-FAN_MEMORY_ELEVATIONS = FAN_ELEVATIONS
-"""The 3-D memory scan's rows: 30 deg down, level, 30 deg up (the fan's)."""
-FAN_MEMORY_BEAMS = FAN_MEMORY_AZIMUTHS * len(FAN_MEMORY_ELEVATIONS)
+"""Azimuth sectors of the 3-D memory scan, 30 deg wide, all round the vehicle: sector a is centred on
+heading + a 2 pi / FAN_MEMORY_AZIMUTHS (a = 0 the bow, counter-clockwise)."""
+FAN_MEMORY_BAND = math.radians(15.0)
+"""The 3-D memory scan's elevation bands: below -FAN_MEMORY_BAND, within it (level), above it (half the angle
+between the fan's rows, which are 30 deg down, level and 30 deg up: `FAN_ELEVATIONS`)."""
+FAN_MEMORY_BEAMS = FAN_MEMORY_AZIMUTHS * 3
 FAN_MEMORY_RANGE = 40.0
 """Reach [m] of the 3-D memory scan: ten tube radii, the hard goal3d arena's obstacles a few lengths off."""
 FAN_MEMORY_NAMES = tuple(f"fan_memory_{k + 1}" for k in range(FAN_MEMORY_BEAMS))
-"""The 3-D scan's entries, elevation-major: beam (row e, column a) at elevation FAN_MEMORY_ELEVATIONS[e] and
-azimuth heading + a 2 pi / FAN_MEMORY_AZIMUTHS (a = 0 the bow, counter-clockwise), level (no roll or pitch)."""
+"""The 3-D scan's entries, band-major (below, level, above), then the azimuth sectors from the bow: the distance to
+the nearest occupied voxel's centre in each, over FAN_MEMORY_RANGE (1: none within it). In the world's vertical and
+the vehicle's heading: no roll or pitch."""
 _FAN = fan_directions()
 
 
@@ -169,13 +175,15 @@ def fan_beams(position, attitude, sonar_site, altimeter_site,
 
 
 class VoxelMemory:
-    """One episode's 3-D sonar map: log-odds counts (`odds`) and the occupied voxels (`occupied`) on `grid`
-    (`memory_grid3d`), counted as the planar map's (HIT, MISS, OCCUPIED, SATURATION)."""
+    """One episode's 3-D sonar map: log-odds counts (`odds`) and the occupied voxels (`occupied`, and their flat
+    indices `cells`, sorted) on `grid` (`memory_grid3d`), counted as the planar map's (HIT, MISS, OCCUPIED,
+    SATURATION)."""
 
     def __init__(self, grid_: voxels.VoxelGrid):
         self.grid = grid_
         self.odds = np.zeros(grid_.shape, np.int8)
         self.occupied = np.zeros(grid_.shape, bool)
+        self.cells = np.zeros(0, dtype=np.intp)
 
     def add_beams(self, origins, directions, ranges, limits) -> None:
         """Adds one ping: beam k leaves `origins[k]` (3,) [m] along the unit `directions[k]` and read `ranges[k]` [m],
@@ -185,15 +193,26 @@ class VoxelMemory:
         missed, echoes, hit = cells.beam_marks(self.grid, origins, np.asarray(directions, dtype=float),
                                                np.asarray(ranges, dtype=float), limits, float(np.max(limits)),
                                                0.5 * float(np.min(self.grid.cell)), float(self.grid.cell[0]))
-        _count(self.odds, self.occupied, missed, self.grid.flat_cells(echoes[hit]))
+        touched, was, now = _count(self.odds, self.occupied, missed, self.grid.flat_cells(echoes[hit]))
+        if np.any(was != now):
+            self.cells = np.union1d(np.setdiff1d(self.cells, touched[was & ~now]), touched[now & ~was])
 
     def scan(self, position, heading: float) -> np.ndarray:
-        """The map's memory round the vehicle: FAN_MEMORY_BEAMS ranges / FAN_MEMORY_RANGE in [0, 1] cast on the
-        occupied voxels from `position` (3,) [m], in FAN_MEMORY_NAMES' order (azimuths from `heading` [rad])."""
-        azimuth = float(heading) + np.arange(FAN_MEMORY_AZIMUTHS) * (2 * math.pi / FAN_MEMORY_AZIMUTHS)
-        elevation, azimuth = np.meshgrid(FAN_MEMORY_ELEVATIONS, azimuth, indexing="ij")
-        directions = np.stack([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
-                               np.sin(elevation)], axis=-1).reshape(-1, 3)
-        step = 0.5 * float(np.min(self.grid.cell))
-        return cells.ray_ranges(self.grid, self.occupied, position, directions, FAN_MEMORY_RANGE,
-                                step) / FAN_MEMORY_RANGE
+        """The map's memory round the vehicle at `position` (3,) [m] and `heading` [rad]: in each of FAN_MEMORY_BEAMS
+        sectors (FAN_MEMORY_NAMES), the distance to the nearest occupied voxel's centre / FAN_MEMORY_RANGE, 1 where
+        none lies within it."""
+        scan = np.full(FAN_MEMORY_BEAMS, FAN_MEMORY_RANGE)
+        if len(self.cells):
+            offset = self.grid.centre_of(np.column_stack(np.unravel_index(self.cells, self.grid.shape))) \
+                - np.asarray(position, dtype=float)
+            across = np.hypot(offset[:, 0], offset[:, 1])
+            distance = np.hypot(across, offset[:, 2])
+            near = distance < FAN_MEMORY_RANGE
+            offset, across, distance = offset[near], across[near], distance[near]
+            width = 2 * math.pi / FAN_MEMORY_AZIMUTHS
+            bearing = wrap_angle(np.arctan2(offset[:, 1], offset[:, 0]) - float(heading))
+            sector = np.floor((bearing + 0.5 * width) / width).astype(int) % FAN_MEMORY_AZIMUTHS
+            elevation = np.arctan2(offset[:, 2], across)
+            band = np.where(elevation < -FAN_MEMORY_BAND, 0, np.where(elevation > FAN_MEMORY_BAND, 2, 1))
+            np.minimum.at(scan, band * FAN_MEMORY_AZIMUTHS + sector, distance)
+        return scan / FAN_MEMORY_RANGE

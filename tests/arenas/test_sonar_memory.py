@@ -13,8 +13,8 @@ from auv_mj.arenas import cells
 from auv_mj.arenas.sonar_memory import (
     CELL,
     FAN_MEMORY_AZIMUTHS,
+    FAN_MEMORY_BAND,
     FAN_MEMORY_BEAMS,
-    FAN_MEMORY_ELEVATIONS,
     FAN_MEMORY_NAMES,
     FAN_MEMORY_RANGE,
     HIT,
@@ -195,25 +195,56 @@ def test_a_voxel_echo_marks_its_voxel_and_its_beam_clears_the_way():
     assert memory.odds[tuple(behind)] == 0
 
 
-def test_the_voxel_scan_reads_each_row_all_round_from_the_heading():
-    """Three echoes, one in the level row's ray 90 deg to port of the heading, one 30 deg down and 180 deg round, one
-    30 deg up and ahead: each reads its distance in its own entry; every other entry reads the scan's reach."""
+def test_the_voxel_scan_reads_the_nearest_voxel_in_each_sector_from_the_heading():
+    """Echoed voxels in three sectors -- level 90 deg to port of the heading, 30 deg down and 180 deg round, 30 deg
+    up and ahead -- and a farther one behind the first: each sector reads its nearest voxel's centre, every other
+    sector the scan's reach; a voxel beyond the reach is not read."""
     memory = _voxel_memory()
     position, heading = np.array([20.0, 5.0, -25.0]), math.radians(40.0)
     expected = np.ones(FAN_MEMORY_BEAMS)
-    for row, column, distance in ((1, 3, 12.0), (0, 6, 9.0), (2, 0, 15.0)):
-        elevation, azimuth = FAN_MEMORY_ELEVATIONS[row], heading + column * 2 * math.pi / FAN_MEMORY_AZIMUTHS
+    marked = []
+    for band, sector, distance in ((1, 3, 12.0), (1, 3, 20.0), (0, 6, 9.0), (2, 0, 15.0), (1, 9, 45.0)):
+        elevation = (-2 * FAN_MEMORY_BAND, 0.0, 2 * FAN_MEMORY_BAND)[band]
+        azimuth = heading + sector * 2 * math.pi / FAN_MEMORY_AZIMUTHS
         direction = np.array([math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth),
                               math.sin(elevation)])
         (ijk,), _ = memory.grid.index((position + distance * direction)[None])
+        marked.append(np.ravel_multi_index(ijk, memory.grid.shape))
         memory.occupied[tuple(ijk)] = True
-        expected[row * FAN_MEMORY_AZIMUTHS + column] = distance / FAN_MEMORY_RANGE
+        centre = float(np.linalg.norm(memory.grid.centre(ijk[None])[0] - position))
+        if centre < FAN_MEMORY_RANGE:
+            k = band * FAN_MEMORY_AZIMUTHS + sector
+            expected[k] = min(expected[k], centre / FAN_MEMORY_RANGE)
+    memory.cells = np.sort(np.array(marked))
     scan = memory.scan(position, heading)
     assert scan.shape == (FAN_MEMORY_BEAMS,) == (len(FAN_MEMORY_NAMES),)
-    # a ray stops at its first sample inside the echo's voxel: within the voxel's diagonal short of the echo
-    diagonal = float(np.linalg.norm(memory.grid.cell))
-    assert np.all(scan <= expected + 1e-12) and np.all(scan >= expected - diagonal / FAN_MEMORY_RANGE)
+    np.testing.assert_allclose(scan, expected, rtol=0, atol=1e-12)
     assert np.count_nonzero(scan < 1.0) == 3
+
+
+def test_the_voxel_maps_cells_are_its_occupied_voxels_ping_after_ping():
+    """`VoxelMemory.cells`, which the scan reads, follows `occupied` as echoes mark voxels and clear passes free them
+    (the counts of `cells.count_beams`)."""
+    rng = np.random.default_rng(5)
+    memory = _voxel_memory()
+    odds = np.zeros(memory.grid.shape, np.int8)
+    freed = 0
+    for _ in range(150):
+        position = np.array([*rng.uniform(0.0, 60.0, 2), rng.uniform(-40.0, -5.0)])
+        attitude = np.array([math.cos(rng.uniform(-1.5, 1.5)), 0.0, 0.0, 0.0])
+        attitude[3] = math.sqrt(1.0 - attitude[0] ** 2)
+        origins, directions, limits = fan_beams(position, attitude, [0.665, 0.0, 0.0], [0.3, 0.0, -0.1])
+        ranges = np.where(rng.random(28) < 0.5, rng.uniform(2.0, 30.0, 28), limits)
+        before = memory.occupied.copy()
+        memory.add_beams(origins, directions, ranges, limits)
+        missed, echoes, hit = cells.beam_marks(memory.grid, origins, directions, ranges, limits, SONAR_RANGE,
+                                               0.5 * float(np.min(memory.grid.cell)), float(memory.grid.cell[0]))
+        cells.count_beams(odds, missed, memory.grid.flat_cells(echoes[hit]), HIT, MISS, 6)
+        np.testing.assert_array_equal(memory.odds, odds)
+        np.testing.assert_array_equal(memory.occupied, odds >= OCCUPIED)
+        np.testing.assert_array_equal(memory.cells, np.flatnonzero(memory.occupied))
+        freed += int(np.count_nonzero(before & ~memory.occupied))
+    assert len(memory.cells) > 100 and freed > 0
 
 
 def test_the_voxel_map_covers_the_route_below_the_surface():
