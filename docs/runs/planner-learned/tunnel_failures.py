@@ -1,9 +1,9 @@
-"""What a learned planner struck in the hard tunnels: each collision of a benchmark run, run again.
+"""What a learned planner struck in the tunnels: each collision of a benchmark run, run again.
 
     python docs/runs/planner-learned/tunnel_failures.py POLICY EPISODES_CSV
 
 POLICY is a `--policy` value (`planner-learned`, `planner-learned=PATH`); EPISODES_CSV a benchmark's `episodes.csv`
-for it. For every collision in `tunnel/hard/*` the episode is run again (episodes are functions of their seed) and
+for it. For every collision in a `tunnel/*` cell the episode is run again (episodes are functions of their seed) and
 the script prints what the vehicle struck: "mover" when the nearest mover's centre is within MOVER_STRIKE of the
 vehicle at the end, else "wall" (a wall of the tunnel or an obstacle); then that mover's distance [m] and bearing from
 the bow [deg] 20, 10 and 5 s before the end, and the vehicle's speed over the last 1.5 s [m/s]. An episode that ends
@@ -30,8 +30,8 @@ LOOK_BACK = (20.0, 10.0, 5.0)
 
 def rerun(policy: str, cell: str, seed: int) -> str:
     """One line on collision `seed` of `cell` run again."""
-    conditions = cell.split("/")[2]
-    env, planner = env_and_policy(policy, "tunnel", seed, {"arena": "random", "tier": "hard",
+    _, tier, conditions = cell.split("/")
+    env, planner = env_and_policy(policy, "tunnel", seed, {"arena": "random", "tier": tier,
                                                             "conditions": conditions})
     planner.reset()
     step = env.reset()  # the arena's model is built here: read it after
@@ -64,7 +64,7 @@ def rerun(policy: str, cell: str, seed: int) -> str:
 
 
 def main(policy: str, episodes: str) -> None:
-    rows = [r for r in csv.DictReader(open(episodes)) if r["cell"].startswith("tunnel/hard/")
+    rows = [r for r in csv.DictReader(open(episodes)) if r["cell"].startswith("tunnel/")
             and r["outcome"] == "collision"]
     counts: dict[str, int] = {}
     for row in rows:
