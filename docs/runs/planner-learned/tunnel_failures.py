@@ -18,48 +18,43 @@ import sys
 
 import numpy as np
 
-from auv_mj.episode import arena_geometry
-from auv_mj.tasks.planning_step import PLANNER_DT
+from auv_mj.episode import outcome, record_episode
 from auv_mj.zoo.registry import env_and_policy
 
 MOVER_STRIKE = 8.0
 """A mover's centre this near [m] at a collision: the mover was struck (movers' radii are 2-5 m, the hull's 0.67)."""
 LOOK_BACK = (20.0, 10.0, 5.0)
 """Seconds before the end at which the struck mover's place is printed."""
+SPEED_SPAN = 1.5
+"""The speed at the end is the distance flown over this many last seconds [s], over that time."""
 
 
 def rerun(policy: str, cell: str, seed: int) -> str:
-    """One line on collision `seed` of `cell` run again."""
+    """One line on collision `seed` of `cell` run again (the project's episode loop, `record_episode`)."""
     _, tier, conditions = cell.split("/")
     env, planner = env_and_policy(policy, "tunnel", seed, {"arena": "random", "tier": tier,
                                                             "conditions": conditions})
-    planner.reset()
-    step = env.reset()  # the arena's model is built here: read it after
-    physics = env.physics
-    model, data = physics.model.ptr, physics.data.ptr
-    movers = [model.body(name).id for name in arena_geometry(physics, env.task).mover_names]
-    poses, places = [], []
-    while not step.last():
-        step = env.step(planner.act(step))
-        poses.append(np.array(physics.pose(), dtype=float))
-        places.append(np.array([data.xpos[b][:2] for b in movers]).reshape(len(movers), 2))
-    event = env.task.last_info.get("event")
-    if event != "collision":
-        return f"{cell} {seed}: ran again to {event!r}, not a collision"
-    end = poses[-1]
-    gaps = [float(np.hypot(*(p - end[:2]))) for p in places[-1]]
-    if not gaps or min(gaps) > MOVER_STRIKE:
-        struck, where = "wall", ""
-    else:
+    record = record_episode(env, planner, task="tunnel", policy_name=policy, seed=seed)
+    ending = outcome(record.event)
+    if ending != "collision":
+        return f"{cell} {seed}: ran again to {ending!r}, not a collision"
+    pose, movers = record.pose, record.movers
+
+    def before(seconds: float) -> int:  # the recorded instant `seconds` before the end, counted in control steps
+        return max(0, len(pose) - 1 - int(round(seconds / record.control_dt)))
+
+    gaps = np.hypot(*(movers[-1] - pose[-1, :2]).T) if movers.shape[1] else np.zeros(0)
+    struck, where = "wall", ""
+    if len(gaps) and gaps.min() <= MOVER_STRIKE:
         k = int(np.argmin(gaps))
-        struck, where = "mover", ""
+        struck = "mover"
         for seconds in LOOK_BACK:
-            i = max(0, len(poses) - 1 - int(round(seconds / PLANNER_DT)))
-            offset = places[i][k] - poses[i][:2]
-            bearing = math.degrees(math.remainder(math.atan2(offset[1], offset[0]) - poses[i][2], 2 * math.pi))
+            i = before(seconds)
+            offset = movers[i, k] - pose[i, :2]
+            bearing = math.degrees(math.remainder(math.atan2(offset[1], offset[0]) - pose[i, 2], 2 * math.pi))
             where += f" {seconds:g} s before: {np.hypot(*offset):.0f} m at {bearing:+.0f} deg;"
-    back = max(1, int(round(1.5 / PLANNER_DT)))
-    speed = np.hypot(*(poses[-1][:2] - poses[-1 - back][:2])) / (back * PLANNER_DT)
+    back = before(SPEED_SPAN)
+    speed = np.hypot(*(pose[-1, :2] - pose[back, :2])) / (record.time[-1] - record.time[back])
     return f"{cell} {seed}: {struck};{where} speed at the end {speed:.2f} m/s"
 
 
