@@ -236,19 +236,54 @@ class GeodesicTeacher(PlannerBase):
         return teacher_actions(state, self.env.task.action_kind)[0]
 
 
+def checked_reach(mover_reach: float | None) -> float | None:
+    """`BatchTeacher`'s mover_reach, checked: None, or a finite distance > 0 [m] (ValueError naming it else)."""
+    if mover_reach is not None and not (isinstance(mover_reach, (int, float)) and math.isfinite(mover_reach)
+                                        and mover_reach > 0):
+        raise ValueError(f"mover_reach: a distance > 0 [m] or None, got {mover_reach!r}")
+    return None if mover_reach is None else float(mover_reach)
+
+
+def near_movers(position: np.ndarray, movers: Sequence[np.ndarray], reach: float) -> np.ndarray:
+    """(N,) bool: whether a mover's disc comes within `reach` [m] of each vehicle `position` (N, 2) now (`movers`:
+    each row's (M, 5) of `TeacherInput.movers`)."""
+    position = np.asarray(position, float).reshape(-1, 2)
+    near = np.zeros(len(position), dtype=bool)
+    for k, m in enumerate(movers):
+        m = np.asarray(m, float).reshape(-1, 5)
+        if len(m):
+            near[k] = bool(np.any(np.hypot(*(m[:, :2] - position[k]).T) - m[:, 2] < reach))
+    return near
+
+
 class BatchTeacher:
     """The teacher over a batched env (`auv_mj.tasks.vector.AUVVectorEnv` or a mixture of them): `actions()` reads
-    the env's `privileged_state()` and labels every row at once."""
+    the env's `privileged_state()` and labels every row at once.
 
-    def __init__(self, env):
+    With `mover_reach` [m], it labels only the rows with a mover's disc within that of the vehicle (`near_movers`)
+    and leaves the others NaN, which the imitation term skips (`auv_mj.agents.ppo.ppo.ppo_loss`): imitation weighted
+    against RL state by state (issue 51, item 5), kept where the learned planners still fail, an oncoming mover
+    (docs/runs/planner-learned), and RL left alone elsewhere."""
+
+    def __init__(self, env, mover_reach: float | None = None):
         if not hasattr(env, "privileged_state"):
             raise TypeError("the teacher needs an env with privileged_state() (auv_mj.tasks.vector.AUVVectorEnv)")
         self.env = env
+        self.mover_reach = checked_reach(mover_reach)
 
     def actions(self) -> np.ndarray:
-        """The teacher's actions (N, 2) at the env's current states."""
+        """The teacher's actions (N, 2) at the env's current states (NaN rows away from movers, with mover_reach)."""
         state = self.env.privileged_state()
-        return teacher_actions(TeacherInput(**state), self.env.action_kind)
+        if self.mover_reach is None:
+            return teacher_actions(TeacherInput(**state), self.env.action_kind)
+        rows = np.flatnonzero(near_movers(state["position"], state["movers"], self.mover_reach))
+        actions = np.full((len(state["potentials"]), 2), np.nan)
+        if len(rows):  # the teacher asked at those rows alone (its cost is per row)
+            actions[rows] = teacher_actions(TeacherInput(**{key: ([value[k] for k in rows] if isinstance(value, list)
+                                                                  else np.asarray(value)[rows])
+                                                            for key, value in state.items()}),
+                                            self.env.action_kind)
+        return actions
 
 
 def geodesic_teacher(env) -> GeodesicTeacher:

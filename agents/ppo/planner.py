@@ -258,7 +258,8 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
                   *, resume: bool = False, progress: bool = True, tensorboard: bool = True,
                   threads: int | None = None, env: VectorEnv | None = None,
                   teacher: Callable[[], np.ndarray] | None = None, init: str | Path | None = None,
-                  init_critic: bool = False) -> dict[str, Any]:
+                  init_critic: bool = False,
+                  teacher_of: Callable[[VectorEnv], Callable[[], np.ndarray]] | None = None) -> dict[str, Any]:
     """Trains the planner (see the module docstring) for `total_steps` env steps, the steps its schedules span;
     returns {"env_steps", "best_steps", "best_success" (the chosen window's mean), "best_point" (the chosen
     snapshot's own validation), "checkpoint", "best"}.
@@ -273,7 +274,9 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
     planner (its checkpoint, or a learned policy's name) on a new mixture as a new run, its critic included
     (`init_critic`); the mixture is seen as `init` (or the resumed run's checkpoint) saw it: a student's
     observation vector alone (`student_view`) where it read no goal dict, with the action map and observation it was
-    trained with (its checkpoint's task options, e.g. a student of observation="planner-map")."""
+    trained with (its checkpoint's task options, e.g. a student of observation="planner-map"). `teacher_of(env)`,
+    where no `env` is given, labels the mixture this function makes (the teacher of its privileged state, e.g.
+    `auv_mj.planners.teacher.BatchTeacher(env, mover_reach).actions`): a continued run under an imitation term."""
     run_dir = Path(run_dir)
     mixture_path = run_dir / MIXTURE_NAME
     if resume:
@@ -311,11 +314,23 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
         writer.writeheader()
         writer.writerows(rows)
     scores = [float(r["hard_success"]) for r in rows]
+    labels: list[Callable[[], np.ndarray]] = []
+
+    def make_env() -> VectorEnv:  # the chunk's mixture, and its teacher where one labels it
+        made = mixture.make_env(threads)
+        if teacher_of is not None:
+            labels[:] = [teacher_of(made)]
+        return _view(made, student)
+
+    def chunk_teacher() -> np.ndarray:  # the current chunk's env's teacher
+        return labels[0]()
+
+    if teacher_of is not None and env is None:
+        teacher = chunk_teacher
     steps = done_steps
     while steps < target:
         goal = min(target, (steps // chunk + 1) * chunk)
-        result = train(env if env is not None else lambda: _view(mixture.make_env(threads), student), config,
-                       run_dir, goal,
+        result = train(env if env is not None else make_env, config, run_dir, goal,
                        resume=steps > 0, progress=progress, tensorboard=tensorboard,
                        schedule_steps=None if steps else target, step_speed=ground_speed, teacher=teacher,
                        init=None if steps else init, init_critic=init_critic)

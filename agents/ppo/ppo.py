@@ -134,7 +134,9 @@ def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef:
     """The PPO objective to minimise, -L^CLIP + vf_coef L^VF - ent_coef S (Schulman et al. 2017, Eq. 9), on one
     minibatch, and its parts (detached) for the logs; `clip_coef` is the scheduled clip range (None:
     config.clip_coef). With `imitation` > 0 and the batch's teacher labels, plus imitation times the squared error
-    between the actor's mean action and the label (the decaying imitation term of a fine-tune, `imitation_weight`)."""
+    between the actor's mean action and the label (the decaying imitation term of a fine-tune, `imitation_weight`),
+    averaged over the labelled states: a NaN label is a state the teacher leaves to RL (`BatchTeacher`'s
+    mover_reach)."""
     clip_coef = config.clip_coef if clip_coef is None else clip_coef
     action_mean, value, _ = model(batch.obs, batch.starts, batch.state, batch.privileged)
     dist = model.distribution(action_mean)
@@ -150,7 +152,9 @@ def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef:
     loss = pg + config.vf_coef * vf - config.ent_coef * ent
     bc = torch.zeros((), dtype=loss.dtype, device=loss.device)
     if imitation > 0 and batch.labels is not None:
-        bc = masked_mean(((action_mean - batch.labels) ** 2).sum(-1), mask)
+        labelled = torch.isfinite(batch.labels).all(-1)  # a NaN label: a state the teacher leaves to RL
+        error = ((action_mean - torch.nan_to_num(batch.labels)) ** 2).sum(-1)
+        bc = masked_mean(error, mask * labelled.to(mask.dtype))
         loss = loss + imitation * bc
     with torch.no_grad():
         log_ratio = logprob - batch.logprobs

@@ -34,7 +34,6 @@ from auv_mj.agents.ppo.planner import (
     PLANNER_CONFIG,
     MixtureConfig,
     mixture_from_dict,
-    train_planner,
 )
 from auv_mj.cli.options import (
     MAX_PROCESSES,
@@ -47,7 +46,14 @@ from auv_mj.cli.options import (
     usage_error,
 )
 from auv_mj.inputs import check_json_depth, did_you_mean, read_text, unknown_name
-from auv_mj.jobs.student import MIXTURE_TASK, MIXTURE_TASK_3D, scratch_3d_config, train_ppo_3d, train_student
+from auv_mj.jobs.student import (
+    MIXTURE_TASK,
+    MIXTURE_TASK_3D,
+    continue_planner,
+    scratch_3d_config,
+    train_ppo_3d,
+    train_student,
+)
 from auv_mj.planners.deploy import ChainConfig, deploy_env
 from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
@@ -154,6 +160,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="start a new run from this checkpoint's networks (fine-tuning): a checkpoint path or "
                              "a learned policy's name, for its shipped checkpoint (e.g. planner-route; "
                              "`auv-mj policies` lists them)")
+    parser.add_argument("--teacher-mover-reach", type=float, metavar="M",
+                        help=f"--task {PPO_TASK} with --ppo-imitation-coef: the privileged teacher labels only the "
+                             "states with a mover within M metres of the vehicle, and the imitation term leaves the "
+                             "rest to RL (default: every state)")
     parser.add_argument("--zero-actor-head", action="store_true",
                         help="a new run's actor output layer starts at zero: a residual planner starts as its "
                              "classical skeleton (with --actor-burn-in, the critic learns it first)")
@@ -320,9 +330,9 @@ def _run_ppo(args: argparse.Namespace) -> int:
                 raise FileExistsError(f"{run_dir / ppo.CHECKPOINT_NAME} exists: give --resume or another -o/--out")
         mixture = dataclasses.replace(base_mix, **mix_overrides)
         config = dataclasses.replace(base, **overrides)
-        result = train_planner(run_dir, config, mixture, args.steps, resume=args.resume,
-                               progress=not args.no_progress, tensorboard=not args.no_tensorboard,
-                               threads=args.threads, init=init, init_critic=init is not None)
+        result = continue_planner(run_dir, config, mixture, args.steps, resume=args.resume,
+                                  progress=not args.no_progress, tensorboard=not args.no_tensorboard,
+                                  threads=args.threads, init=init, mover_reach=args.teacher_mover_reach)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(f"{result['env_steps']} steps; chosen: the snapshot at {result['best_steps']} steps, hard-tier "

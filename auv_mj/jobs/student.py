@@ -49,7 +49,7 @@ from auv_mj.agents.ppo.planner import VALIDATION_FIRST_SEED as MIXTURE_VALIDATIO
 from auv_mj.agents.ppo.planner import validate as validate_planner
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.agents.ppo.spaces import student_view
-from auv_mj.planners.teacher import BatchTeacher
+from auv_mj.planners.teacher import BatchTeacher, checked_reach
 from auv_mj.planners.teacher3d import BatchTeacher3D
 from auv_mj.tasks import auv3d
 from auv_mj.tasks.mixture import MIXTURE_TASKS_3D, PlanningMixtureVectorEnv, cell_counts, mixture_cells, parse_weights
@@ -75,6 +75,45 @@ MIXTURE_3D_OPTIONS = {"reward": "geodesic", "executor": "splane-ocean"}
 """The 6-DOF student's task options (beside each cell's arena, tier and water): the geodesic reward, and the
 execution layer the 3-D benchmark runs every planner on (suite 3d v3: the S-plane re-tuned in ocean water), which the
 student's checkpoint keeps as a task option (`auv3d.POLICY_OPTIONS`) and the zoo applies."""
+
+
+TEACHER_NAME = "teacher.json"
+"""A continued planner run's teacher (`continue_planner`), read back on resume."""
+
+
+def continue_planner(run_dir: str | Path, config: PPOConfig, mixture: MixtureConfig, steps: int, *,
+                     resume: bool = False, progress: bool = True, tensorboard: bool = True,
+                     threads: int | None = None, init: str | Path | None = None,
+                     mover_reach: float | None = None) -> dict[str, Any]:
+    """`auv-mj train ppo --task planning-mix`: `train_planner` (a new run from `init`, or the run in `run_dir`
+    resumed), with the privileged teacher labelling the rollouts where config.imitation_coef > 0 (the imitation term
+    of issue 51, item 5, on a continued run): every state, or with `mover_reach` [m] only the states with a mover
+    within that of the vehicle (`BatchTeacher`: imitation weighted against RL state by state). The teacher's options
+    are kept in the run directory (TEACHER_NAME) and read back on resume."""
+    path = Path(run_dir) / TEACHER_NAME
+    if resume and path.is_file():
+        saved = json.loads(path.read_text())
+        if mover_reach is not None and mover_reach != saved.get("mover_reach"):
+            raise ValueError(f"{path}: the run's teacher has mover_reach {saved.get('mover_reach')!r}, not "
+                             f"{mover_reach!r}")
+        mover_reach = saved.get("mover_reach")
+    teaches = config.imitation_coef > 0
+    if mover_reach is not None and not teaches:
+        raise ValueError(f"mover_reach {mover_reach!r} needs an imitation term: give the PPO config an "
+                         "imitation_coef > 0 (--ppo-imitation-coef)")
+    teacher_of = None
+    if teaches:
+        mover_reach = checked_reach(mover_reach)  # before the run starts
+
+        def teacher_of(env):
+            return BatchTeacher(env, mover_reach).actions
+
+        if not resume:
+            Path(run_dir).mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps({"teacher": "geodesic-teacher", "mover_reach": mover_reach}, indent=2))
+    return train_planner(run_dir, config, mixture, steps, resume=resume, progress=progress,
+                         tensorboard=tensorboard, threads=threads, init=init, init_critic=init is not None,
+                         teacher_of=teacher_of)
 
 
 def mixture_3d_options(observation: str | None = None) -> dict[str, str]:

@@ -7,6 +7,7 @@ them round by round, fit them, and resume to the run it interrupts.
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import json
 import subprocess
@@ -20,7 +21,7 @@ from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.agents.imitation import CHECKPOINT_NAME, DaggerConfig, Sequences, collect, fit, imitation_loss, train_dagger
 from auv_mj.agents.ppo import Minibatch, PPOConfig, build_model, ppo_loss
 from auv_mj.agents.ppo.config import imitation_weight
-from auv_mj.planners.teacher import BatchTeacher, geodesic_teacher
+from auv_mj.planners.teacher import BatchTeacher, geodesic_teacher, near_movers
 from auv_mj.tasks import suite
 from auv_mj.tasks.mixture import PlanningMixtureVectorEnv
 from auv_mj.tasks.vector import AUVVectorEnv
@@ -435,3 +436,99 @@ def test_the_students_view_of_the_mixture_keeps_its_cells_and_the_vehicles_posit
         assert view.policy_options == {"action": "rate", "observation": "planner"}
     finally:
         view.close()
+
+
+def test_near_movers_measures_from_the_movers_disc_not_its_centre():
+    position = np.array([[0.0, 0.0], [100.0, 0.0]])
+    movers = [np.array([[10.0, 0.0, 2.0, -1.0, 0.0]]), np.zeros((0, 5))]  # 8 m from the first vehicle's disc
+    assert near_movers(position, movers, 9.0).tolist() == [True, False]
+    assert near_movers(position, movers, 7.0).tolist() == [False, False]
+    with pytest.raises(ValueError, match="mover_reach"):
+        BatchTeacher(AUVVectorEnv("obstacles", num_envs=1, task_kwargs=HARD, threads=1), -1.0)
+
+
+def test_the_teacher_with_a_mover_reach_labels_the_rows_near_a_mover_alone_as_the_full_teacher_does():
+    """State-by-state imitation: with mover_reach the teacher's rows near a mover are the full teacher's labels and
+    the others NaN; a reach past the arena labels every row, one of a millimetre none of them (no collision here)."""
+    vec = AUVVectorEnv("moving_obstacles", num_envs=4, task_kwargs=HARD, threads=1)
+    vec.reset(seed=[20000, 20001, 20002, 20003])
+    full, near, everywhere, nowhere = (BatchTeacher(vec), BatchTeacher(vec, 120.0), BatchTeacher(vec, 1e4),
+                                       BatchTeacher(vec, 1e-3))
+    seen = set()
+    for _ in range(20):
+        labels, gated = full.actions(), near.actions()
+        state = vec.privileged_state()
+        gaps = [np.min(np.hypot(*(m[:, :2] - p).T) - m[:, 2])
+                for p, m in zip(state["position"], state["movers"], strict=True)]
+        expected = np.array(gaps) < 120.0  # at these seeds' starts: one vehicle 85-104 m from a mover, the rest 155+
+        np.testing.assert_array_equal(np.isfinite(gated).all(1), expected)
+        np.testing.assert_allclose(gated[expected], labels[expected], atol=1e-12)
+        seen |= set(expected.tolist())
+        np.testing.assert_allclose(everywhere.actions(), labels, atol=1e-12)
+        assert np.isnan(nowhere.actions()).all()
+        vec.step(labels)
+    assert seen == {True, False}  # both kinds of row were met
+    vec.close()
+
+
+def test_the_imitation_term_skips_the_states_the_teacher_left_unlabelled():
+    config = PPOConfig(imitation_coef=1.0, recurrent="gru", hidden_sizes=(8,), recurrent_size=4)
+    spec = {"kind": "box", "obs_shape": [3], "obs_dim": 3, "act_dim": 2, "act_shape": [2],
+            "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0]}
+    model = build_model(spec, config)
+    T, B = 6, 2
+    ones, zeros = torch.ones(T, B), torch.zeros(T, B)
+    labels = torch.full((T, B, 2), 0.7)
+    labels[::2, 0] = float("nan")  # every other step of the first vehicle: left to RL
+    batch = Minibatch(torch.randn(T, B, 3), zeros, model.initial_state(B), torch.zeros(T, B, 2), zeros, zeros, ones,
+                      ones, ones, None, labels)
+    loss, stats = ppo_loss(model, batch, config, imitation=1.0)
+    loss.backward()
+    assert torch.isfinite(loss) and all(torch.isfinite(p.grad).all() for p in model.parameters() if p.grad is not None)
+    with torch.no_grad():
+        action_mean, _ = model.act(batch.obs, batch.starts, batch.state[:, :model.actor_state_size])
+    labelled = torch.isfinite(labels).all(-1)
+    expected = float(((action_mean - 0.7) ** 2).sum(-1)[labelled].mean())
+    assert float(stats["imitation_loss"]) == pytest.approx(expected, rel=1e-5)
+    plain, _ = ppo_loss(model, batch, config, imitation=0.0)
+    unlabelled = batch._replace(labels=torch.full_like(labels, float("nan")))
+    none, stats = ppo_loss(model, unlabelled, config, imitation=1.0)
+    assert float(stats["imitation_loss"]) == 0.0
+    assert float(none.detach()) == pytest.approx(float(plain.detach()), rel=1e-6)
+
+
+def test_auv_mj_train_ppo_continues_a_planner_under_the_teacher_near_movers_and_resumes_with_it(tmp_path,
+                                                                                                monkeypatch):
+    """`auv-mj train ppo --init ... --ppo-imitation-coef C --teacher-mover-reach M`: the run keeps its teacher
+    (teacher.json) for the resume, imitates only where labelled (a reach past the arena: a term > 0; a millimetre:
+    none), and a reach without an imitation term, or another reach on resume, is refused before anything is run."""
+    from auv_mj.agents.ppo import planner
+    from auv_mj.cli import main
+    from auv_mj.jobs.student import continue_planner
+
+    monkeypatch.setattr(planner, "validate", lambda policy, episodes, tasks, **kwargs: {
+        f"{task}/hard/ideal": 0.5 for task in tasks})
+    config = PPOConfig(num_steps=8, num_minibatches=1, update_epochs=1, hidden_sizes=(8,), recurrent="gru",
+                       recurrent_size=8, checkpoint_every=1, separate_critic=True)
+    mixture = planner.MixtureConfig(envs_per_cell=2, tasks=("moving_obstacles",), tiers=("hard",), waters=("ideal",),
+                                    validate_every=16, reward="geodesic", action="rate", observation="planner",
+                                    goal_input=False)
+    first = planner.train_planner(tmp_path / "first", config, mixture, 16, progress=False, tensorboard=False)
+    taught = dataclasses.replace(config, imitation_coef=1.0)
+    losses = {}
+    for name, reach in (("far", 1e4), ("none", 1e-3)):
+        continue_planner(tmp_path / name, taught, mixture, 16, progress=False, tensorboard=False,
+                         init=first["checkpoint"], mover_reach=reach)
+        assert json.loads((tmp_path / name / "teacher.json").read_text())["mover_reach"] == reach
+        with open(tmp_path / name / "progress.csv") as f:
+            losses[name] = [float(row["imitation_loss"]) for row in csv.DictReader(f)]
+    assert min(losses["far"]) > 0 and max(losses["none"]) == 0
+    again = continue_planner(tmp_path / "far", taught, mixture, 32, resume=True, progress=False, tensorboard=False)
+    assert again["env_steps"] == 32
+    with pytest.raises(ValueError, match="mover_reach"):
+        continue_planner(tmp_path / "far", taught, mixture, 48, resume=True, progress=False, tensorboard=False,
+                         mover_reach=5.0)
+    with pytest.raises(SystemExit):
+        main(["train", "ppo", "--task", "planning-mix", "--init", str(first["checkpoint"]), "--steps", "16",
+              "--teacher-mover-reach", "20", "-o", str(tmp_path / "refused"), "--no-progress"])
+    assert not (tmp_path / "refused").exists()
