@@ -190,6 +190,17 @@ def test_behaviour_cloning_drives_the_loss_down_on_a_toy_problem():
         assert float(imitation_loss(model, data)) == pytest.approx(after)
 
 
+def _labelled_batch(config: PPOConfig, steps: int, labels: torch.Tensor):
+    """A model of `config` on a 3-input, 2-action box, and a minibatch of `steps` x 2 random states carrying `labels`
+    (steps, 2, 2): what the imitation term's tests feed ppo_loss."""
+    spec = {"kind": "box", "obs_shape": [3], "obs_dim": 3, "act_dim": 2, "act_shape": [2],
+            "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0]}
+    model = build_model(spec, config)
+    ones, zeros = torch.ones(steps, 2), torch.zeros(steps, 2)
+    return model, Minibatch(torch.randn(steps, 2, 3), zeros, model.initial_state(2), torch.zeros(steps, 2, 2), zeros,
+                            zeros, ones, ones, ones, None, labels)
+
+
 def test_the_imitation_weight_decays_as_configured_and_enters_the_loss():
     config = PPOConfig(imitation_coef=2.0, min_imitation_coef=0.5, imitation_schedule="linear", recurrent="gru",
                        hidden_sizes=(8,), recurrent_size=4)
@@ -197,14 +208,8 @@ def test_the_imitation_weight_decays_as_configured_and_enters_the_loss():
     assert imitation_weight(dataclasses.replace(config, imitation_schedule="constant"), 90, 100) == 2.0
     with pytest.raises(ValueError):
         PPOConfig(imitation_coef=0.1, min_imitation_coef=0.2)
-    spec = {"kind": "box", "obs_shape": [3], "obs_dim": 3, "act_dim": 2, "act_shape": [2],
-            "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0]}
-    model = build_model(spec, config)
-    T, B = 5, 2
-    ones, zeros = torch.ones(T, B), torch.zeros(T, B)
-    labels = torch.full((T, B, 2), 0.7)
-    batch = Minibatch(torch.randn(T, B, 3), zeros, model.initial_state(B), torch.zeros(T, B, 2), zeros, zeros, ones,
-                      ones, ones, None, labels)
+    labels = torch.full((5, 2, 2), 0.7)
+    model, batch = _labelled_batch(config, 5, labels)
     plain, _ = ppo_loss(model, batch, config, imitation=0.0)
     with_term, stats = ppo_loss(model, batch, config, imitation=1.5)
     assert float((with_term - plain).detach()) == pytest.approx(1.5 * float(stats["imitation_loss"]), rel=1e-5)
@@ -473,15 +478,9 @@ def test_the_teacher_with_a_mover_reach_labels_the_rows_near_a_mover_alone_as_th
 
 def test_the_imitation_term_skips_the_states_the_teacher_left_unlabelled():
     config = PPOConfig(imitation_coef=1.0, recurrent="gru", hidden_sizes=(8,), recurrent_size=4)
-    spec = {"kind": "box", "obs_shape": [3], "obs_dim": 3, "act_dim": 2, "act_shape": [2],
-            "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0]}
-    model = build_model(spec, config)
-    T, B = 6, 2
-    ones, zeros = torch.ones(T, B), torch.zeros(T, B)
-    labels = torch.full((T, B, 2), 0.7)
+    labels = torch.full((6, 2, 2), 0.7)
     labels[::2, 0] = float("nan")  # every other step of the first vehicle: left to RL
-    batch = Minibatch(torch.randn(T, B, 3), zeros, model.initial_state(B), torch.zeros(T, B, 2), zeros, zeros, ones,
-                      ones, ones, None, labels)
+    model, batch = _labelled_batch(config, 6, labels)
     loss, stats = ppo_loss(model, batch, config, imitation=1.0)
     loss.backward()
     assert torch.isfinite(loss) and all(torch.isfinite(p.grad).all() for p in model.parameters() if p.grad is not None)
