@@ -277,6 +277,8 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
     trained with (its checkpoint's task options, e.g. a student of observation="planner-map"). `teacher_of(env)`,
     where no `env` is given, labels the mixture this function makes (the teacher of its privileged state, e.g.
     `auv_mj.planners.teacher.BatchTeacher(env, mover_reach).actions`): a continued run under an imitation term."""
+    if teacher_of is not None and (env is not None or teacher is not None):
+        raise ValueError("train_planner: give teacher_of (a teacher of the env made here) or env and teacher, not both")
     run_dir = Path(run_dir)
     mixture_path = run_dir / MIXTURE_NAME
     if resume:
@@ -325,7 +327,7 @@ def train_planner(run_dir: str | Path, config: PPOConfig | None, mixture: Mixtur
     def chunk_teacher() -> np.ndarray:  # the current chunk's env's teacher
         return labels[0]()
 
-    if teacher_of is not None and env is None:
+    if teacher_of is not None:
         teacher = chunk_teacher
     steps = done_steps
     while steps < target:

@@ -527,6 +527,10 @@ def test_auv_mj_train_ppo_continues_a_planner_under_the_teacher_near_movers_and_
     with pytest.raises(ValueError, match="mover_reach"):
         continue_planner(tmp_path / "far", taught, mixture, 48, resume=True, progress=False, tensorboard=False,
                          mover_reach=5.0)
+    with pytest.raises(ValueError, match="not both"):  # a teacher of its own env, or the caller's env and teacher
+        planner.train_planner(tmp_path / "both", taught, mixture, 16, progress=False, tensorboard=False,
+                              teacher=lambda: np.zeros((2, 2)), teacher_of=lambda env: BatchTeacher(env).actions)
+    assert not (tmp_path / "both").exists()
     with pytest.raises(SystemExit):
         main(["train", "ppo", "--task", "planning-mix", "--init", str(first["checkpoint"]), "--steps", "16",
               "--teacher-mover-reach", "20", "-o", str(tmp_path / "refused"), "--no-progress"])
