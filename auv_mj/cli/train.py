@@ -217,13 +217,17 @@ def _run_dagger(args: argparse.Namespace) -> int:
             overrides["recurrent"] = None
         if args.seed is not None:
             overrides["seed"] = args.seed
+        finetune = {name: value for name, value in _ppo_overrides(args).items() if name not in ("seed", "device")}
+        if finetune and not args.steps:
+            raise ValueError(f"{', '.join('--ppo-' + n.replace('_', '-') for n in sorted(finetune))}: options of the "
+                             "fine-tune after DAgger; give its env steps with --steps")
         result = train_student(run_dir, args.task, task_kwargs(args) or None, args.num_envs,
                                DaggerConfig(**overrides), args.steps or 0, resume=args.resume, threads=args.threads,
                                progress=not args.no_progress, imitation_coef=args.imitation_coef,
                                rounds=args.dagger_rounds if args.resume else None,
                                teacher_horizon=args.teacher_horizon,
                                final_epochs=args.dagger_final_epochs if args.resume else None,
-                               cell_weights=args.cell_weights)
+                               cell_weights=args.cell_weights, finetune_options=finetune or None)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(json.dumps(result, indent=2, default=str))

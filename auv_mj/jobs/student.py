@@ -239,12 +239,39 @@ def finetune_config(dagger: DaggerConfig, **overrides: Any) -> PPOConfig:
     return dataclasses.replace(base, **overrides)
 
 
+STUDENT_NETWORK_FIELDS = ("hidden_sizes", "recurrent", "recurrent_size", "init_log_std")
+"""PPOConfig fields a fine-tune takes from its student (DaggerConfig's), not from `finetune_options`."""
+
+
+def checked_finetune_options(options: Mapping[str, Any] | None, ppo_config: PPOConfig | None = None
+                             ) -> dict[str, Any]:
+    """`train_student`'s finetune_options, checked before anything is written: PPOConfig fields (ValueError naming
+    an unknown one, one of STUDENT_NETWORK_FIELDS, which the student's network fixes, or options beside a whole
+    `ppo_config`) with values PPOConfig takes; a JSON-able dict (for the run's options file)."""
+    options = dict(options or {})
+    if not options:
+        return {}
+    if ppo_config is not None:
+        raise ValueError("train_student: give ppo_config (the whole fine-tune config) or finetune_options, not both")
+    names = {f.name for f in dataclasses.fields(PPOConfig)}
+    unknown = sorted(set(options) - names)
+    if unknown:
+        raise ValueError(f"finetune_options: {', '.join(unknown)} not PPOConfig fields (of {sorted(names)})")
+    fixed = sorted(set(options) & set(STUDENT_NETWORK_FIELDS))
+    if fixed:
+        raise ValueError(f"finetune_options: {', '.join(fixed)} come from the student's network; set them with "
+                         "the DaggerConfig (auv-mj train dagger --dagger-*)")
+    dataclasses.replace(PPOConfig(), **options)  # a value PPOConfig refuses is refused here, before the run
+    return options
+
+
 def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Mapping[str, Any] | None = None,
                   num_envs: int = 16, dagger: DaggerConfig | None = None, finetune_steps: int = 0,
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
                   progress: bool = True, imitation_coef: float | None = None,
                   rounds: int | None = None, teacher_horizon: float | None = None,
-                  final_epochs: int | None = None, cell_weights: Sequence[str] | None = None) -> dict[str, Any]:
+                  final_epochs: int | None = None, cell_weights: Sequence[str] | None = None,
+                  finetune_options: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
@@ -252,7 +279,10 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     (the planar one's: one of PLANNER_OBSERVATIONS; the 6-DOF one's: `auv3d.OBSERVATIONS`). `rounds`: on resume,
     DAgger goes on to that many rounds (its config's otherwise), and `final_epochs` sets its final fit's epochs.
     The fine-tune's config is `ppo_config`, else
-    `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given.
+    `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given and the
+    PPOConfig fields of `finetune_options` laid over it (`checked_finetune_options`: an ablation of the pipeline such
+    as privileged_critic=False), given when the run starts or on the resume that starts its fine-tune, and kept in
+    the run's options for every resume after.
     Returns the paths written, DAgger's last log row and, after a fine-tune, the student's validation (one task: on
     DAgger's validation episodes, `evaluate_student`; the planar mixture: `train_planner`'s choice; the 6-DOF
     mixture: `mixture_3d_validator` on the last snapshot). `teacher_horizon` [m] (MIXTURE_TASK_3D only; kept for
@@ -264,9 +294,17 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     weights: dict[str, float] | None = None
     options_path = run_dir / OPTIONS_NAME
     mixture: MixtureConfig | None = None
+    finetune_options = checked_finetune_options(finetune_options, ppo_config)
     if resume and options_path.is_file():
         saved = json.loads(options_path.read_text())
         task, kwargs, num_envs = saved["task"], saved["task_kwargs"], int(saved["num_envs"])
+        kept_options = saved.get("finetune_options")
+        started = (run_dir / FINETUNE_DIR / PPO_CHECKPOINT).is_file()
+        if finetune_options and (kept_options is not None or started) and finetune_options != kept_options:
+            raise ValueError(f"finetune_options {finetune_options}: the run in {run_dir} keeps its own "
+                             f"({kept_options or 'those its fine-tune started with'}); leave them out on resume")
+        newly_given = bool(finetune_options) and kept_options is None  # on the resume that starts the fine-tune
+        finetune_options = finetune_options or kept_options or {}
         teacher_horizon = saved.get("teacher_horizon")
         mixture = mixture_from_dict(saved["mixture"]) if "mixture" in saved else None
         weights = saved.get("weights")
@@ -274,6 +312,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         if cell_weights is not None and parse_weights(cell_weights) != kept:
             raise ValueError(f"cell_weights {list(cell_weights)}: the run in {run_dir} keeps its own ({kept}); "
                              "leave them out on resume")
+        if newly_given:  # kept for every resume after, once nothing else is refused
+            options_path.write_text(json.dumps({**saved, "finetune_options": finetune_options}, indent=2))
     else:
         own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
         observation = None
@@ -308,6 +348,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         record: dict[str, Any] = {"task": task, "task_kwargs": kwargs, "num_envs": num_envs}
         if teacher_horizon is not None:
             record["teacher_horizon"] = float(teacher_horizon)
+        if finetune_options:
+            record["finetune_options"] = finetune_options
         if mixture is not None:
             record["mixture"] = config_to_dict(mixture)
         if task == MIXTURE_TASK_3D:
@@ -340,7 +382,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         if finetune_steps:
             ppo_dir = run_dir / FINETUNE_DIR
             again = resume and (ppo_dir / PPO_CHECKPOINT).is_file()
-            extra = {} if imitation_coef is None else {"imitation_coef": imitation_coef}
+            extra = {**finetune_options, **({} if imitation_coef is None else {"imitation_coef": imitation_coef})}
             config = None if again else (ppo_config or finetune_config(dagger, **extra))
             if mixture is not None:
                 tuned = train_planner(ppo_dir, config, mixture, finetune_steps, resume=again, progress=progress,

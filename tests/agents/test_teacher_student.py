@@ -233,6 +233,55 @@ def test_auv_mj_train_dagger_runs_and_resumes_into_the_fine_tune(tmp_path):
     assert tuned.metadata["config"]["imitation_coef"] == 1.0 and tuned.metadata["config"]["recurrent_size"] == 128
 
 
+def test_the_fine_tune_after_dagger_takes_ppo_options_keeps_them_for_the_resume_and_refuses_the_wrong_ones(tmp_path):
+    """`auv-mj train dagger --ppo-FIELD ...`: PPOConfig fields of the fine-tune (an ablation of the pipeline, e.g. its
+    critic without privileged inputs), written to the run's options and kept on resume; a field of the student's
+    network, an unknown field, options without a fine-tune and other options on resume are refused before anything
+    runs."""
+    from auv_mj.jobs.student import OPTIONS_NAME, checked_finetune_options, train_student
+
+    command = [sys.executable, "-m", "auv_mj.cli", "train", "dagger", "--task", "obstacles", "--num-envs", "4",
+               "--dagger-rounds", "1", "--dagger-steps-per-round", "4", "--dagger-epochs", "1",
+               "--dagger-validation-episodes", "0", "-o", str(tmp_path / "run"), "--no-progress", "--threads", "1"]
+    refused = subprocess.run(command + ["--ppo-privileged-critic", "false"], capture_output=True, text=True,
+                             timeout=300)
+    assert refused.returncode == 2 and "--ppo-privileged-critic" in refused.stderr and "--steps" in refused.stderr
+    assert not (tmp_path / "run").exists()
+    network = subprocess.run(command + ["--steps", "64", "--ppo-recurrent-size", "8"], capture_output=True,
+                             text=True, timeout=300)
+    assert network.returncode == 2 and "recurrent_size" in network.stderr and "--dagger-" in network.stderr
+    assert not (tmp_path / "run").exists()
+    done = subprocess.run(command + ["--steps", "32", "--ppo-privileged-critic", "false", "--ppo-target-kl", "0.05"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    kept = {"privileged_critic": False, "target_kl": 0.05}
+    assert json.loads((tmp_path / "run" / OPTIONS_NAME).read_text())["finetune_options"] == kept
+    tuned = read_checkpoint(tmp_path / "run" / "ppo" / "checkpoint.pt", "ppo").metadata["config"]
+    assert tuned["privileged_critic"] is False and tuned["target_kl"] == 0.05 and tuned["imitation_coef"] == 1.0
+    with pytest.raises(ValueError, match="keeps its own"):
+        train_student(tmp_path / "run", resume=True, progress=False, threads=1, finetune_steps=64,
+                      finetune_options={"privileged_critic": True})
+    again = train_student(tmp_path / "run", resume=True, progress=False, threads=1, finetune_steps=64)
+    assert again["finetune_steps"] >= 64
+    assert read_checkpoint(tmp_path / "run" / "ppo" / "checkpoint.pt", "ppo").metadata["config"][
+        "privileged_critic"] is False
+    later = tmp_path / "later"  # DAgger alone, then the options on the resume that starts the fine-tune
+    train_student(later, "obstacles", None, 4, TINY, progress=False, threads=1)
+    train_student(later, resume=True, progress=False, threads=1, finetune_steps=32,
+                  finetune_options={"privileged_critic": False})
+    assert json.loads((later / OPTIONS_NAME).read_text())["finetune_options"] == {"privileged_critic": False}
+    assert read_checkpoint(later / "ppo" / "checkpoint.pt", "ppo").metadata["config"]["privileged_critic"] is False
+    with pytest.raises(ValueError, match="keeps its own"):
+        train_student(later, resume=True, progress=False, threads=1, finetune_steps=64,
+                      finetune_options={"target_kl": 0.01})
+    with pytest.raises(ValueError, match="no_such_field"):
+        checked_finetune_options({"no_such_field": 1})
+    with pytest.raises(ValueError, match="clip_coef"):
+        checked_finetune_options({"clip_coef": -1.0})
+    with pytest.raises(ValueError, match="not both"):
+        checked_finetune_options({"target_kl": 0.05}, PPOConfig())
+
+
 def test_auv_mj_train_dagger_on_the_6dof_mixture_runs_validates_and_fine_tunes(tmp_path):
     """`--task planning-mix-3d`: the 6-DOF mixture (both tasks, tiers and waters), the 3-D teacher, the validation on
     each hard cell, and the fine-tune on resume; the student reads the 3-D planning observation and the fan alone."""
