@@ -426,8 +426,51 @@ def _read_options(path: Path) -> dict:
     return value
 
 
+OFF_POLICY = tuple(AGENTS)
+"""The agents of `auv_mj.agents.offpolicy.train.train`."""
+ONLY_READ_BY = {"zero_actor_head": OFF_POLICY, "collectors": OFF_POLICY, "checkpoint_every": OFF_POLICY,
+                "episodes": OFF_POLICY, "env_kwargs": OFF_POLICY, "teacher_mover_reach": ("ppo",),
+                "init": (*OFF_POLICY, "ppo"), "no_tensorboard": (*OFF_POLICY, "ppo")}
+"""Options of the shared parser that only some agents read (their groups' options: `option_readers`)."""
+DAGGER_READS_PPO = ("cell_weights", "threads")
+"""Options of the ppo group that `train dagger` reads too, beside its fine-tune's --ppo-FIELD options."""
+
+
+def _dests(add) -> list[str]:
+    """The options `add(parser)` adds, by dest (read off a parser of their own)."""
+    probe = argparse.ArgumentParser(add_help=False)
+    add(probe)
+    return list(vars(probe.parse_args([])))
+
+
+def option_readers() -> dict[str, tuple[str, tuple[str, ...], Any]]:
+    """Each agent-specific option: dest -> (its flag, the agents that read it, its default in `add_arguments`). One
+    parser serves every agent, so an option of another agent would otherwise parse and be ignored without a word."""
+    readers: dict[str, tuple[str, ...]] = dict(ONLY_READ_BY)
+    for add, agents in ((add_config_options, OFF_POLICY), (add_dagger_options, ("dagger",))):
+        readers.update(dict.fromkeys(_dests(add), agents))
+    for dest in _dests(add_ppo_options):
+        readers[dest] = ("ppo", "dagger") if dest.startswith("ppo_") or dest in DAGGER_READS_PPO else ("ppo",)
+    full = argparse.ArgumentParser(add_help=False)
+    add_arguments(full)
+    return {dest: ("--" + dest.replace("_", "-"), agents, full.get_default(dest)) for dest, agents in readers.items()}
+
+
+def stray_options(args: argparse.Namespace) -> list[str]:
+    """Messages for the options given that `args.agent` does not read (empty: none)."""
+    found = []
+    for dest, (flag, agents, default) in option_readers().items():
+        if args.agent not in agents and getattr(args, dest, default) != default:
+            found.append(f"train {args.agent} does not read {flag} (an option of `auv-mj train "
+                         f"{' | '.join(agents)}`)")
+    return found
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs `auv-mj train`; returns the exit status."""
+    stray = stray_options(args)
+    if stray:
+        usage_error(args, "; ".join(stray) + ": leave it out")
     if args.agent == "ppo":
         return _run_ppo(args)
     if args.agent == "dagger":

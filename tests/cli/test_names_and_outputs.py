@@ -205,6 +205,25 @@ def test_the_cli_suggests_for_policies_tasks_and_agents(tmp_path):
              "did you mean 'hard'?")
 
 
+def test_train_refuses_an_option_its_agent_would_ignore_and_names_the_agents_that_read_it(tmp_path):
+    """One parser serves every `auv-mj train` agent: an option of another agent is refused, not silently ignored, and
+    nothing is written; the options an agent does read still pass this check."""
+    from auv_mj.cli.train import option_readers
+
+    out = tmp_path / "r"
+    _refused(_run("train", "ddpg", "--task", "goal", "--steps", "10", "--ppo-learning-rate", "0.1", "-o", out),
+             "train ddpg does not read --ppo-learning-rate", "`auv-mj train ppo | dagger`")
+    _refused(_run("train", "ppo", "--task", "planning-mix", "--steps", "10", "--dagger-epochs", "3", "-o", out),
+             "train ppo does not read --dagger-epochs", "`auv-mj train dagger`")
+    _refused(_run("train", "dagger", "--task", "planning-mix", "--steps", "10", "--init", "planner-learned",
+                  "--actor-lr", "0.1", "-o", out), "train dagger does not read --init", "--actor-lr")
+    assert not out.exists()
+    readers = option_readers()
+    assert readers["ppo_privileged_critic"][1] == ("ppo", "dagger") and readers["cell_weights"][1] == ("ppo", "dagger")
+    assert readers["validate_every"][1] == ("ppo",) and readers["dagger_rounds"][1] == ("dagger",)
+    assert "dagger" not in readers["actor_lr"][1] and "td3" in readers["policy_delay"][1]
+
+
 def test_a_tube_arena_given_to_a_planar_task_points_to_tunnel3d(tmp_path):
     from auv_mj.arenas import tubes
     from auv_mj.arenas.tunnels import save
