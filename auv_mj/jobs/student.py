@@ -227,20 +227,19 @@ def mixture_validator(mixture: MixtureConfig, spec: Mapping[str, Any], threads: 
     return validate
 
 
+STUDENT_NETWORK_FIELDS = ("hidden_sizes", "recurrent", "recurrent_size", "init_log_std")
+"""PPOConfig fields a fine-tune takes from its student (DaggerConfig's), not from `finetune_options`."""
+
+
 def finetune_config(dagger: DaggerConfig, **overrides: Any) -> PPOConfig:
     """The fine-tune's PPOConfig: `LEARNED_CONFIG` (the privileged critic of its own, the discount, the schedules)
     on the student's network, an imitation term of weight 1 decaying linearly to 0, the student's log std, and the
     fit's torch threads (DaggerConfig.torch_threads, 1 by default: on a 2-core machine shared with the batch and
     the teacher, two intra-op threads made the update of the 56-vehicle mixture several times slower)."""
-    base = dataclasses.replace(LEARNED_CONFIG, hidden_sizes=dagger.hidden_sizes, recurrent=dagger.recurrent,
-                               recurrent_size=dagger.recurrent_size, init_log_std=dagger.init_log_std,
+    base = dataclasses.replace(LEARNED_CONFIG, **{name: getattr(dagger, name) for name in STUDENT_NETWORK_FIELDS},
                                imitation_coef=1.0, min_imitation_coef=0.0, imitation_schedule="linear",
                                seed=dagger.seed, checkpoint_every=10, torch_threads=dagger.torch_threads)
     return dataclasses.replace(base, **overrides)
-
-
-STUDENT_NETWORK_FIELDS = ("hidden_sizes", "recurrent", "recurrent_size", "init_log_std")
-"""PPOConfig fields a fine-tune takes from its student (DaggerConfig's), not from `finetune_options`."""
 
 
 def checked_finetune_options(options: Mapping[str, Any] | None, ppo_config: PPOConfig | None = None
@@ -295,6 +294,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     options_path = run_dir / OPTIONS_NAME
     mixture: MixtureConfig | None = None
     finetune_options = checked_finetune_options(finetune_options, ppo_config)
+    if imitation_coef is not None and "imitation_coef" in finetune_options:
+        raise ValueError("train_student: give imitation_coef or finetune_options' imitation_coef, not both")
     if resume and options_path.is_file():
         saved = json.loads(options_path.read_text())
         task, kwargs, num_envs = saved["task"], saved["task_kwargs"], int(saved["num_envs"])

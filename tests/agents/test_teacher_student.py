@@ -280,6 +280,10 @@ def test_the_fine_tune_after_dagger_takes_ppo_options_keeps_them_for_the_resume_
         checked_finetune_options({"clip_coef": -1.0})
     with pytest.raises(ValueError, match="not both"):
         checked_finetune_options({"target_kl": 0.05}, PPOConfig())
+    with pytest.raises(ValueError, match="imitation_coef or finetune_options"):
+        train_student(tmp_path / "twice", "obstacles", None, 4, TINY, finetune_steps=32, imitation_coef=0.5,
+                      finetune_options={"imitation_coef": 0.2})
+    assert not (tmp_path / "twice").exists()
 
 
 def test_auv_mj_train_dagger_on_the_6dof_mixture_runs_validates_and_fine_tunes(tmp_path):
