@@ -25,7 +25,8 @@ Algorithms*, Ch. 5-6):
   The target is the goal (goal3d) or the centreline's point ROUTE_HORIZON metres on from the vehicle's nearest one,
   moved on in ROUTE_STEP steps, and on past any obstacle the map holds there (tunnel3d).
 - The follower is 3-D line of sight on the planned path (`auv_mj.control.depth_heading.los_command`: heading to the
-  point LOOKAHEAD metres along it, its depth as the depth command) at the classical planners' CRUISE_SPEED, its
+  point LOOKAHEAD metres along it, in a tube TUBE_LOOKAHEAD, `map-replan`'s MAP_TUBE_LOOKAHEAD, its depth as the
+  depth command) at the classical planners' CRUISE_SPEED, its
   heading the course over the ground (less the crab angle the DVL measures, `auv_mj.planners.los3d.CrabEstimate`:
   a cross current would otherwise hold the vehicle LOOKAHEAD tan(crab) off its path), inside
   the protection domain on the 3-D fan (`auv_mj.planners.los3d.protect_command`) with PATH_FIELD in open water and
@@ -82,7 +83,16 @@ OFF_PATH, TUBE_OFF_PATH = 8.0, 2.0
 LOOKAHEAD = 10.0
 """Line of sight aims at the path's point this far [m] along it (chosen on validation seeds, docs/benchmark.md) ..."""
 TUBE_LOOKAHEAD = TUBE_LOS_LOOKAHEAD
-"""... in a tube, as far as `los-avoid` aims along the centreline."""
+"""... in a tube, as far as `los-avoid` aims along the centreline (the oracle's, which plans ORACLE_ROUTE_HORIZON
+ahead and passes a plug in a long, gentle swing) ..."""
+MAP_TUBE_LOOKAHEAD = 5.0
+"""... and `map-replan`'s in a tube. The fan shows a plug's free side only some 12 m before it, so `map-replan`'s
+path passes a plug in a detour a few metres long; aimed 8 m along it, line of sight cut the detour's corner (pure
+pursuit's, Coulter 1992) and flew into the plug though its path went round it (validation seed 20002 of the hard
+tubes, traced: from 7.7 m before the plug the path went round its edge and the vehicle held its line, 0.7 m inside
+it). Chosen on the hard validation tubes, seeds 20000-20099 in ideal / ocean water
+(docs/runs/map-replan-3d/README.md): 8 m passed 81 / 66 of 100, 4 m 86 / 83, 5 m 94 / 87, 6 m 91 / 80. The 3-D
+teacher's look-ahead came to 5 m the same way (`auv_mj.planners.teacher3d.TEACHER_TUBE_LOOKAHEAD`)."""
 SMOOTH_SPACING = 0.5
 SMOOTH_WINDOW = 4.0
 """A planned path is resampled every SMOOTH_SPACING metres and averaged over SMOOTH_WINDOW voxels
@@ -179,6 +189,8 @@ class VoxelFollower(Replanning, PlannerBase):
     replan_steps = REPLAN_STEPS
     replan_period = REPLAN_PERIOD
     route_horizon = ROUTE_HORIZON
+    tube_lookahead = TUBE_LOOKAHEAD
+    """Line of sight's look-ahead [m] on the path in a tube (LOOKAHEAD in open water)."""
     whole_map_fallback = False
     """Whether a search that finds nothing in its window searches the whole map (`plan`): the oracle's, and
     `map-replan`'s in open water (`SonarVoxelMap.whole_map_fallback`)."""
@@ -304,7 +316,7 @@ class VoxelFollower(Replanning, PlannerBase):
             if _nearest(self.path, position)[0] > off:
                 self.plan(position, goal, radius)
         path = self.path if self.path is not None else np.vstack([position, goal])
-        command = los_command(position, path, TUBE_LOOKAHEAD if self.in_tube else LOOKAHEAD, CRUISE_SPEED)
+        command = los_command(position, path, self.tube_lookahead if self.in_tube else LOOKAHEAD, CRUISE_SPEED)
         command = course_command(command, self.crab(self.task.sensors.read(self.physics)))
         return command if self.in_tube else self.capture(command, position)
 
@@ -365,6 +377,8 @@ class SonarVoxelMap(VoxelFollower):
     Two neighbouring beams' echoes nearer each other than twice the hard clearance plus a voxel are joined (the
     voxels along the segment between them are hit too): the search could not pass between them anyway, and a wall
     seen by a sparse fan has no holes between its beams."""
+
+    tube_lookahead = MAP_TUBE_LOOKAHEAD
 
     @property
     def whole_map_fallback(self) -> bool:

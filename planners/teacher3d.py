@@ -61,9 +61,10 @@ TURN_SPEED = 1.2
 SLOW_TURN = math.radians(60.0)
 """Turns sharper than this [rad] are flown at TURN_SPEED."""
 TEACHER_TUBE_LOOKAHEAD = 5.0
-"""Line of sight's look-ahead [m] in a tube: shorter than the classical planners' (TUBE_LOOKAHEAD, 8 m), which
+"""Line of sight's look-ahead [m] in a tube: shorter than `los-avoid`'s and the oracle's (TUBE_LOOKAHEAD, 8 m), which
 cuts the corner round a plug; on validation seeds 20000-20029 of the hard tubes (ideal / ocean) 4 m reached 23 / 23,
-5 m 29 / 26, 6 m 27 / 27 and 8 m 23 / 26 of 30."""
+5 m 29 / 26, 6 m 27 / 27 and 8 m 23 / 26 of 30. `map-replan` came to 5 m too
+(`auv_mj.planners.map_planner3d.MAP_TUBE_LOOKAHEAD`)."""
 PREVIEW = 30.0
 """How far [m] down the way in open water the teacher looks for the steepest climb or dive it must start now."""
 MIN_PREVIEW = 4.0

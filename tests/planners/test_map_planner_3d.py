@@ -351,3 +351,28 @@ def test_map_replan_leaves_a_hard_cave_it_would_search_for_holes_without_the_clo
     monkeypatch.setattr(SonarVoxelMap, "search_map", VoxelFollower.search_map)
     monkeypatch.setattr(SonarVoxelMap, "whole_map_fallback", False)
     assert outcome() == "timeout"
+
+
+def test_map_replan_follows_its_detour_round_a_plug_that_the_8_m_look_ahead_cut_into(monkeypatch):
+    """Validation seed 20002 of the hard tubes (ideal water): `map-replan`'s path goes round the first plug's edge
+    from 7.7 m before it. Aimed 8 m along the path (TUBE_LOOKAHEAD), line of sight looks past the detour's end,
+    cuts its corner and flies into the plug; aimed MAP_TUBE_LOOKAHEAD (5 m) along it, it flies the detour, and
+    the episode ends at the goal."""
+    from auv_mj.planners.map_planner3d import MAP_TUBE_LOOKAHEAD, TUBE_LOOKAHEAD
+    from auv_mj.tasks import auv3d, suite
+
+    def outcome() -> tuple[str, list[str]]:
+        env = suite.load(auv3d.DOMAIN, "tunnel3d", task_kwargs={"arena": "random", "tier": "hard", "random": 20_002,
+                                                                "conditions": "ideal", "executor": "splane-ocean"})
+        policy, time_step = sonar_voxel_planner(env), env.reset()
+        while not time_step.last():
+            time_step = env.step(policy(time_step))
+        model, data = env.physics.model.ptr, env.physics.data.ptr
+        touched = [model.geom(int(g)).name for c in data.contact[:data.ncon] for g in (c.geom1, c.geom2)]
+        return env.task.last_info.get("event") or "timeout", touched
+
+    assert MAP_TUBE_LOOKAHEAD < TUBE_LOOKAHEAD
+    assert outcome()[0] == "goal"
+    monkeypatch.setattr(SonarVoxelMap, "tube_lookahead", TUBE_LOOKAHEAD)
+    event, touched = outcome()
+    assert event == "collision" and "plug_0" in touched
