@@ -26,9 +26,9 @@ Algorithms*, Ch. 5-6):
   moved on in ROUTE_STEP steps, and on past any obstacle the map holds there (tunnel3d).
 - The follower is 3-D line of sight on the planned path (`auv_mj.control.depth_heading.los_command`: heading to the
   point LOOKAHEAD metres along it, in a tube TUBE_LOOKAHEAD, `map-replan`'s MAP_TUBE_LOOKAHEAD, its depth as the
-  depth command) at the classical planners' CRUISE_SPEED, its
-  heading the course over the ground (less the crab angle the DVL measures, `auv_mj.planners.los3d.CrabEstimate`:
-  a cross current would otherwise hold the vehicle LOOKAHEAD tan(crab) off its path), inside
+  depth command) at the classical planners' CRUISE_SPEED, its heading the course over the ground (less the crab
+  angle the DVL measures, `auv_mj.planners.los3d.CrabEstimate`: a cross current would otherwise hold the vehicle
+  LOOKAHEAD tan(crab) off its path), inside
   the protection domain on the 3-D fan (`auv_mj.planners.los3d.protect_command`) with PATH_FIELD in open water and
   the tube's domain in a tube, sized to its radius (`auv_mj.planners.los3d.tube_field`) and reading the fan filtered
   over pings (`auv_mj.planners.los3d.domain_ranges`).
