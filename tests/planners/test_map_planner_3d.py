@@ -376,3 +376,60 @@ def test_map_replan_follows_its_detour_round_a_plug_that_the_8_m_look_ahead_cut_
     monkeypatch.setattr(SonarVoxelMap, "tube_lookahead", TUBE_LOOKAHEAD)
     event, touched = outcome()
     assert event == "collision" and "plug_0" in touched
+
+
+def _tube_episode(seed: int, conditions: str) -> tuple[str, list[str]]:
+    """`map-replan` on hard tube `seed` (`splane-ocean`): how the episode ended and the geoms touching at its end."""
+    from auv_mj.tasks import auv3d, suite
+
+    env = suite.load(auv3d.DOMAIN, "tunnel3d", task_kwargs={"arena": "random", "tier": "hard", "random": seed,
+                                                            "conditions": conditions, "executor": "splane-ocean"})
+    policy, time_step = sonar_voxel_planner(env), env.reset()
+    while not time_step.last():
+        time_step = env.step(policy(time_step))
+    model, data = env.physics.model.ptr, env.physics.data.ptr
+    touched = [model.geom(int(g)).name for c in data.contact[:data.ncon] for g in (c.geom1, c.geom2)]
+    return env.task.last_info.get("event") or "timeout", touched
+
+
+def test_map_replan_in_a_tube_leaves_the_echoes_its_path_was_planned_round_to_the_path(monkeypatch):
+    """Validation seed 20076 of the hard tubes (ocean water): `map-replan`'s path passes the first plug 1-1.5 m
+    from its edge. With the domain guarding against every echo, the plug's echoes bend the heading away from the
+    plug, and past it the vehicle cannot turn back within its turning circle: it strikes the far wall. Guarding
+    only against the echoes the path was not planned round, it flies its path to the goal."""
+    from auv_mj.planners.map_planner3d import VoxelFollower
+
+    assert _tube_episode(20_076, "ocean")[0] == "goal"
+    monkeypatch.setattr(SonarVoxelMap, "unplanned_echoes", VoxelFollower.unplanned_echoes)
+    event, touched = _tube_episode(20_076, "ocean")
+    assert event == "collision" and any(name.startswith("wall_") for name in touched)
+
+
+def test_only_a_tube_without_movers_leaves_planned_echoes_out_of_the_domain():
+    """In open water (goal3d) every echo stays in the domain's reading. In a tube, a beam whose echo lies on a voxel
+    the last search kept clear of reads the range limit, and one whose echo lies in open water a metre ahead keeps
+    its range."""
+    from auv_mj.tasks import auv3d, suite
+
+    for task, tier in (("goal3d", "standard"), ("tunnel3d", "hard")):
+        env = suite.load(auv3d.DOMAIN, task, task_kwargs={"arena": "random", "tier": tier, "random": 20_001})
+        planner, time_step = sonar_voxel_planner(env), env.reset()
+        for _ in range(6):
+            time_step = env.step(planner(time_step))
+        ranges = np.full(27, SONAR_RANGE)
+        if task == "goal3d":
+            assert planner.planned_map is None
+            ranges[:] = 10.0
+            np.testing.assert_array_equal(planner.unplanned_echoes(ranges), ranges)
+            continue
+        origin, fan = planner.poses[0]
+        walls = planner.grid.centre(np.argwhere(planner.planned_map))
+        wall = walls[np.argmin(np.abs(np.linalg.norm(walls - origin, axis=1) - 6.0))]
+        ahead = fan[13] / np.linalg.norm(fan[13])  # the level row's middle beam: dead ahead
+        fan = fan.copy()
+        fan[0] = (wall - origin) / np.linalg.norm(wall - origin)
+        planner.poses[0] = (origin, fan)
+        ranges[0], ranges[13] = float(np.linalg.norm(wall - origin)), 1.0
+        assert np.min(np.linalg.norm(walls - (origin + ahead), axis=1)) > 2.0  # open water a metre ahead
+        seen = planner.unplanned_echoes(ranges)
+        assert seen[0] == SONAR_RANGE and seen[13] == 1.0
