@@ -5,10 +5,10 @@
 - `protect_command`: the protection domain of Sec. 3.2.2 (`auv_mj.planners.avoidance.RepulsiveField`) on the 3-D
   fan: the level row's echoes bend the heading as in the plane, the down and up rows' echoes push the depth command
   up or down.
-- `FanFilter`: the fan as a tube's domain reads it, each beam the nearer of its newest ping and its median over the
-  last FILTER_PINGS, so that one lost echo or one range that jumps away does not turn the vehicle towards the wall
-  (ocean water loses 5 % of echoes, `auv_mj.sim.ocean.SonarNoise`), while an echo that comes nearer is heard at once.
-  `domain_ranges` applies it in a tube only (its docstring says why).
+- `FanFilter` (`auv_mj.sim.sensors3d`): the fan as a tube's domain reads it, each beam the nearer of its newest ping
+  and its median over the last FILTER_PINGS, so that one lost echo or one range that jumps away does not turn the
+  vehicle towards the wall (ocean water loses 5 % of echoes, `auv_mj.sim.ocean.SonarNoise`), while an echo that
+  comes nearer is heard at once. `domain_ranges` applies it in a tube only (its docstring says why).
 - `CrabEstimate`: the angle between the vehicle's course over ground and its heading, from the DVL, so that line of
   sight on a planned path can command the course it means (a cross current otherwise holds the vehicle off its
   path; `auv_mj.planners.map_planner3d`).
@@ -30,8 +30,8 @@ from auv_mj.episode import FunctionPlanner, Planner
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.avoidance import RepulsiveField
 from auv_mj.planners.guidance import heading_action
-from auv_mj.sim.sensors3d import FAN_AZIMUTHS, FAN_ELEVATIONS
-from auv_mj.sim.sonar import SONAR_RANGE, SONAR_RATE_HZ
+from auv_mj.sim.sensors3d import FAN_AZIMUTHS, FAN_ELEVATIONS, FanFilter
+from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks.auv3d import (
     CRUISE_SPEED,
     DEPTH_RANGE,
@@ -52,9 +52,6 @@ and one that has drifted 0.4 R off it has. The fixed d0 = 2.5 m it replaces reac
 where both walls repelled at once. On 10 validation tubes in ocean water (seeds 20000-20009, `los-avoid`), 0.5, 0.6
 and 0.8 each passed 10 of 10 standard tubes (least clearance 1.09, 1.26 and 1.53 m) and 2, 2 and 1 of 10 hard ones
 (docs/benchmark.md); 0.6 was set before the scan and kept."""
-FILTER_PINGS = 3
-"""Pings of each beam the domain takes the median of (`FanFilter`): a lost echo (reading SONAR_RANGE) or a range
-that jumps away on one ping of three is outvoted."""
 CRAB_GAIN = 0.2
 """Weight of each planner step's DVL crab angle in `CrabEstimate`'s average (0.5 s steps: a time constant of 2.2 s)."""
 CRAB_MIN_SPEED = 0.5
@@ -83,40 +80,6 @@ def domain_field(task: Planning3D, open_water: RepulsiveField = OPEN_FIELD) -> R
     radius of the tube the vehicle is in), elsewhere `open_water`."""
     radius = getattr(task, "tube_radius", None)
     return tube_field(radius) if radius is not None else open_water
-
-
-class FanFilter:
-    """The fan as the protection domain reads it: each beam the nearer of its newest ping and its median over the
-    last FILTER_PINGS pings.
-
-    A beam's range is filtered over time, as an occupancy grid accumulates readings (Borenstein and Koren's vector
-    field histogram, 1991; Thrun et al., *Probabilistic Robotics*, Ch. 6, on max-range readings as failures): an echo
-    lost for one ping (SONAR_RANGE) or a range that jumps away for one ping does not move the median, so the domain
-    does not let go of a wall whose echo dropped, which turned the vehicle into it. An echo that comes nearer is
-    taken at once, as the domain's purpose asks: waiting for a second ping would cost a ping (0.5 s, 0.75 m at
-    cruise speed) on every obstacle, and a false near echo only turns the vehicle away for a ping. Call it with
-    the time and the fan's held ranges; it takes a new ping once per sonar period (`SONAR_RATE_HZ`)."""
-
-    def __init__(self, pings: int = FILTER_PINGS):
-        if isinstance(pings, bool) or not isinstance(pings, int) or pings < 1:
-            raise ValueError(f"a fan filter needs a whole number of pings >= 1, got {pings!r}")
-        self.pings = pings
-        self.reset()
-
-    def reset(self) -> None:
-        """Forgets the pings (a new episode)."""
-        self._history: list[np.ndarray] = []
-        self._ping = None
-
-    def __call__(self, time: float, ranges: np.ndarray) -> np.ndarray:
-        """The filtered ranges [m] after the fan's `ranges` [m] held at `time` [s]: per beam, the nearer of the
-        newest ping and the median of the last FILTER_PINGS."""
-        ping = math.floor(float(time) * SONAR_RATE_HZ + 1e-9)
-        if ping != self._ping or not self._history:
-            self._ping = ping
-            kept = self._history[max(len(self._history) - self.pings + 1, 0):]
-            self._history = [*kept, np.asarray(ranges, dtype=float).copy()]
-        return np.minimum(np.median(np.stack(self._history), axis=0), self._history[-1])
 
 
 class CrabEstimate:

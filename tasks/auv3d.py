@@ -86,7 +86,7 @@ from auv_mj.geometry import wrap_angle
 from auv_mj.inputs import MAX_XML_BYTES, parse_xml, read_text
 from auv_mj.sim import ocean3d
 from auv_mj.sim.physics3d import AUV3DPhysics, euler_angles, set_pose
-from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_BEAMS, Sensors3D
+from auv_mj.sim.sensors3d import ALTIMETER_RANGE, FAN_BEAMS, FanFilter, Sensors3D
 from auv_mj.sim.sonar import SONAR_RANGE
 from auv_mj.tasks import options
 from auv_mj.tasks.actions import checked_action
@@ -189,11 +189,14 @@ POLICY_OPTIONS = ("executor", "observation")
 """The 6-DOF planning tasks' options a learned planner trained with runs with (a batched env reports them as
 `policy_options`, a PPO checkpoint keeps them, the zoo applies them): the execution layer under it, by name, and
 its observation."""
-OBSERVATIONS = ("fan", "fan-map")
-"""The planning tasks' `observation` option: "fan" (PLANNING_OBSERVATION and the fan), or "fan-map": that vector
+OBSERVATIONS = ("fan", "fan-map", "fan-held")
+"""The planning tasks' `observation` option: "fan" (PLANNING_OBSERVATION and the fan), "fan-map": that vector
 with the vehicle's own sonar map beside it (FAN_MEMORY_NAMES before the fan; `auv_mj.arenas.sonar_memory.VoxelMemory`,
 the map `map-replan` plans on, filled from the fan and the altimeter this episode, nothing of the true map), what the
-fan has shown and no longer shows: a plug passed under, a wall beside or behind."""
+fan has shown and no longer shows: a plug passed under, a wall beside or behind; or "fan-held": the "fan" vector
+with the fan filtered over pings as the 3-D protection domain reads it in a tube (`auv_mj.sim.sensors3d.FanFilter`:
+each beam the nearer of its newest ping and its median over the last three), so that a lost echo (ocean water's
+dropouts) does not show open water where a wall is."""
 PLANNING_REWARDS = ("progress", "geodesic")
 """The planning tasks' `reward` option (module docstring)."""
 TIERS = ("standard", "hard")
@@ -543,6 +546,9 @@ class Planning3D(base.Task):
         self.observation_kind = options.choice("observation", observation, OBSERVATIONS)
         self.memory: VoxelMemory | None = None
         """The vehicle's own sonar map this episode under observation="fan-map" (`remember`), else None."""
+        self.fan_filter = FanFilter() if self.observation_kind == "fan-held" else None
+        """The fan's filter over pings under observation="fan-held" (`observe`; the batched env calls it too), else
+        None."""
         self._ping_poses: collections.deque = collections.deque(maxlen=1)
         self._remembered_at = math.nan
         self._scan = np.zeros(FAN_MEMORY_BEAMS)
@@ -674,6 +680,8 @@ class Planning3D(base.Task):
             self._sites = (model.site_pos[model.site("sonar").id].copy(),
                            model.site_pos[model.site("altimeter").id].copy())
         self._remembered_at = math.nan
+        if self.fan_filter is not None:
+            self.fan_filter.reset()
         self.last_info = {}  # a reset's info is its own, not the last episode's end (as the planar tasks')
         if self.reward_kind == "geodesic":
             self.last_info["privileged"] = self._privileged(physics)[0]
@@ -778,7 +786,7 @@ class Planning3D(base.Task):
 
     def observe(self, physics) -> np.ndarray:
         """PLANNING_OBSERVATION, then (observation="fan-map") the sonar map's scan, then the fan ranges over
-        SONAR_RANGE (and sets the achieved goal)."""
+        SONAR_RANGE (observation="fan-held": filtered over pings) (and sets the achieved goal)."""
         sensed = self.sensors.read(physics)
         state = read_state(physics, sensed)
         position = physics.position()
@@ -792,7 +800,8 @@ class Planning3D(base.Task):
                 self._scan = self.remember(position, sensed["attitude"], sensed["sonar"], float(sensed["altimeter"]),
                                            state.heading)
             memory = self._scan
-        return planning_observation(np.array(head), self._achieved, self.target(position), sensed["sonar"], memory)
+        fan = sensed["sonar"] if self.fan_filter is None else self.fan_filter(physics.time(), sensed["sonar"])
+        return planning_observation(np.array(head), self._achieved, self.target(position), fan, memory)
 
     def remember(self, position, attitude, fan, altitude: float, heading: float) -> np.ndarray:
         """Adds the ping seen now to the episode's sonar map (observation="fan-map") and returns the map's scan

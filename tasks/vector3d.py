@@ -183,6 +183,7 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._goal_task = isinstance(task, auv3d.Goal3D)
         self._geodesic = task.reward_kind == "geodesic"
         self._fan_map = task.observation_kind == "fan-map"
+        self._fan_held = task.observation_kind == "fan-held"
         self._fan = fan_directions()
         self._stepper = batch3d.BatchStepper3D(self.num_envs)
         self._allocate()
@@ -406,7 +407,10 @@ class AUV3DVectorEnv(GoalVectorEnv):
             for k, i in enumerate(index):
                 memory[k] = self.envs[i].task.remember(position[k], attitude[k], ranges[k], float(altitude[k]),
                                                        float(heading[k]))
-        observation = auv3d.planning_observation(head, achieved, target, ranges, memory)
+        fan = ranges
+        if self._fan_held:  # Planning3D.observe: each row's fan through its own filter over pings
+            fan = np.stack([self.envs[i].task.fan_filter(self._time[i], ranges[k]) for k, i in enumerate(index)])
+        observation = auv3d.planning_observation(head, achieved, target, fan, memory)
         self._last_obs["observation"][index] = observation
         self._last_obs["achieved_goal"][index] = achieved
         self._last_obs["desired_goal"][index] = self._desired[index]

@@ -150,7 +150,7 @@ def _fan_map_pair(task_name: str, seed: int) -> tuple:
     """The same episode under observation="fan" and "fan-map" (a standard tube in ideal water)."""
     options = {"arena": "random", "conditions": "ideal"}
     return tuple(suite.load(auv3d.DOMAIN, task_name, task_kwargs={**options, "observation": kind, "random": seed})
-                 for kind in auv3d.OBSERVATIONS)
+                 for kind in ("fan", "fan-map"))
 
 
 def test_the_sonar_map_is_inserted_before_the_fan_and_remembers_the_walls_passed():
@@ -174,6 +174,29 @@ def test_the_sonar_map_is_inserted_before_the_fan_and_remembers_the_walls_passed
     assert not mapped.task.last_info["event"]
     radius = mapped.task.tube_radius
     assert np.all(memory[scan][behind] * FAN_MEMORY_RANGE < 2.0 * radius)
+
+
+def test_the_held_fan_is_the_fan_filtered_over_pings_and_shows_the_wall_a_lost_echo_hid():
+    """Under observation="fan-held" the vector is the "fan" one with each fan beam the nearer of its newest ping and
+    its median over the last three (worked out here from the "fan" episode's pings), step after step of the same
+    episode in ocean water; and some beam that read nothing (a lost echo: ocean water's dropouts) reads a wall in the
+    held fan."""
+    options = {"arena": "random", "conditions": "ocean", "random": 7}
+    plain, held = (suite.load(auv3d.DOMAIN, "tunnel3d", task_kwargs={**options, "observation": kind})
+                   for kind in ("fan", "fan-held"))
+    head = len(auv3d.PLANNING_OBSERVATION)
+    first, first_held = plain.reset().observation["observation"], held.reset().observation["observation"]
+    np.testing.assert_array_equal(first_held, first)
+    pings, hidden = [first[head:]], 0
+    action = np.array([0.5, 0.0, 0.0])
+    for _ in range(40):  # 20 s along the tube
+        fan, fan_held = plain.step(action).observation["observation"], held.step(action).observation["observation"]
+        np.testing.assert_array_equal(fan_held[:head], fan[:head])
+        pings.append(fan[head:])
+        np.testing.assert_allclose(fan_held[head:], np.minimum(np.median(np.stack(pings[-3:]), axis=0), pings[-1]))
+        hidden += int(np.sum((fan[head:] == 1.0) & (fan_held[head:] < 1.0)))
+    assert not held.task.last_info["event"]
+    assert hidden >= 1
 
 
 def test_a_mistyped_observation_is_refused_with_a_suggestion():

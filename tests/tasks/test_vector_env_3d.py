@@ -107,6 +107,16 @@ def test_the_sonar_map_is_the_single_environments(task, tier, mode):
     assert seen["autoresets"] >= len(SEEDS)
 
 
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+def test_the_held_fan_is_the_single_environments():
+    """observation="fan-held": each row's fan filtered over its own pings (ocean water's dropouts and noise) is the
+    single environment's, through same-step autoresets onto new arenas."""
+    options = {"conditions": "ocean", "arena": "random", "tier": "hard", "observation": "fan-held",
+               "time_limit": TIME_LIMIT}
+    seen = run_side_by_side("tunnel3d", options, AutoresetMode.SAME_STEP, wander)
+    assert seen["autoresets"] >= len(SEEDS)
+
+
 def test_make_vec_returns_the_batch():
     env = gymnasium.make_vec("auv_mj/Tunnel3D-v0", num_envs=2, vectorization_mode="vector_entry_point",
                              task_kwargs={"arena": "random"})
