@@ -353,31 +353,6 @@ def test_map_replan_leaves_a_hard_cave_it_would_search_for_holes_without_the_clo
     assert outcome() == "timeout"
 
 
-def test_map_replan_follows_its_detour_round_a_plug_that_the_8_m_look_ahead_cut_into(monkeypatch):
-    """Validation seed 20002 of the hard tubes (ideal water): `map-replan`'s path goes round the first plug's edge
-    from 7.7 m before it. Aimed 8 m along the path (TUBE_LOOKAHEAD), line of sight looks past the detour's end,
-    cuts its corner and flies into the plug; aimed MAP_TUBE_LOOKAHEAD (5 m) along it, it flies the detour, and
-    the episode ends at the goal."""
-    from auv_mj.planners.map_planner3d import MAP_TUBE_LOOKAHEAD, TUBE_LOOKAHEAD
-    from auv_mj.tasks import auv3d, suite
-
-    def outcome() -> tuple[str, list[str]]:
-        env = suite.load(auv3d.DOMAIN, "tunnel3d", task_kwargs={"arena": "random", "tier": "hard", "random": 20_002,
-                                                                "conditions": "ideal", "executor": "splane-ocean"})
-        policy, time_step = sonar_voxel_planner(env), env.reset()
-        while not time_step.last():
-            time_step = env.step(policy(time_step))
-        model, data = env.physics.model.ptr, env.physics.data.ptr
-        touched = [model.geom(int(g)).name for c in data.contact[:data.ncon] for g in (c.geom1, c.geom2)]
-        return env.task.last_info.get("event") or "timeout", touched
-
-    assert MAP_TUBE_LOOKAHEAD < TUBE_LOOKAHEAD
-    assert outcome()[0] == "goal"
-    monkeypatch.setattr(SonarVoxelMap, "tube_lookahead", TUBE_LOOKAHEAD)
-    event, touched = outcome()
-    assert event == "collision" and "plug_0" in touched
-
-
 def _tube_episode(seed: int, conditions: str) -> tuple[str, list[str]]:
     """`map-replan` on hard tube `seed` (`splane-ocean`): how the episode ended and the geoms touching at its end."""
     from auv_mj.tasks import auv3d, suite
@@ -390,6 +365,20 @@ def _tube_episode(seed: int, conditions: str) -> tuple[str, list[str]]:
     model, data = env.physics.model.ptr, env.physics.data.ptr
     touched = [model.geom(int(g)).name for c in data.contact[:data.ncon] for g in (c.geom1, c.geom2)]
     return env.task.last_info.get("event") or "timeout", touched
+
+
+def test_map_replan_follows_its_detour_round_a_plug_that_the_8_m_look_ahead_cut_into(monkeypatch):
+    """Validation seed 20002 of the hard tubes (ideal water): `map-replan`'s path goes round the first plug's edge
+    from 7.7 m before it. Aimed 8 m along the path (TUBE_LOOKAHEAD), line of sight looks past the detour's end,
+    cuts its corner and flies into the plug; aimed MAP_TUBE_LOOKAHEAD (5 m) along it, it flies the detour, and
+    the episode ends at the goal."""
+    from auv_mj.planners.map_planner3d import MAP_TUBE_LOOKAHEAD, TUBE_LOOKAHEAD
+
+    assert MAP_TUBE_LOOKAHEAD < TUBE_LOOKAHEAD
+    assert _tube_episode(20_002, "ideal")[0] == "goal"
+    monkeypatch.setattr(SonarVoxelMap, "tube_lookahead", TUBE_LOOKAHEAD)
+    event, touched = _tube_episode(20_002, "ideal")
+    assert event == "collision" and "plug_0" in touched
 
 
 def test_map_replan_in_a_tube_leaves_the_echoes_its_path_was_planned_round_to_the_path(monkeypatch):
