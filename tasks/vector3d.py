@@ -409,7 +409,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
                                                        float(heading[k]))
         fan = ranges
         if self._fan_held:  # Planning3D.observe: each row's fan through its own filter over pings
-            fan = np.stack([self.envs[i].task.fan_filter(self._time[i], ranges[k]) for k, i in enumerate(index)])
+            fan = np.array([self.envs[i].task.fan_filter(self._time[i], ranges[k]) for k, i in enumerate(index)],
+                           dtype=float).reshape(ranges.shape)
         observation = auv3d.planning_observation(head, achieved, target, fan, memory)
         self._last_obs["observation"][index] = observation
         self._last_obs["achieved_goal"][index] = achieved

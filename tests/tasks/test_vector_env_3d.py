@@ -117,6 +117,28 @@ def test_the_held_fan_is_the_single_environments():
     assert seen["autoresets"] >= len(SEEDS)
 
 
+@pytest.mark.filterwarnings("ignore:auv-mj. time_limit")
+@pytest.mark.parametrize("observation", ["fan", "fan-map", "fan-held"])
+def test_a_step_where_every_row_resets_steps_no_vehicle(observation):
+    """Next-step autoreset with one vehicle: the step after its episode ends resets it and steps no vehicle at all
+    (an empty batch), under every observation."""
+    env = AUV3DVectorEnv("tunnel3d", 1, {"arena": "random", "observation": observation, "time_limit": 2.0},
+                         autoreset_mode=AutoresetMode.NEXT_STEP)
+    env.reset(seed=5)
+    action = np.zeros((1, 3))
+    ended = False
+    for _ in range(10):
+        _, _, terminated, truncated, _ = env.step(action)
+        ended = bool(terminated[0] or truncated[0])
+        if ended:
+            break
+    assert ended
+    observation_after, reward, terminated, truncated, _ = env.step(action)
+    assert reward[0] == 0.0 and not (terminated[0] or truncated[0])
+    assert np.all(np.isfinite(observation_after["observation"]))
+    env.close()
+
+
 def test_make_vec_returns_the_batch():
     env = gymnasium.make_vec("auv_mj/Tunnel3D-v0", num_envs=2, vectorization_mode="vector_entry_point",
                              task_kwargs={"arena": "random"})
