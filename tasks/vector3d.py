@@ -26,8 +26,8 @@ How:
   vectorised; under reward="geodesic" each episode's route length left from its own field, `voxel_distances` over
   the batch) and the observation (`target_features`, vectorised; tunnel3d's look-ahead point is `Tunnel3D.target`'s,
   `auv3d.lookahead_targets`) over the batch. Only the time limits (`RouteEnvironment`'s, each episode's) are here.
-- What an episode leaves to the next is written back before the sub-environment's next reset: the DVL's last
-  noisy sample (`Ocean3D.last_dvl`, what a dropout at the next episode's first read holds).
+- An episode leaves nothing to the next: the DVL's last noisy sample (`Ocean3D.last_dvl`, what a dropout holds) is
+  the episode's own, read from the sub-environment after its reset.
 
 Autoreset: as `AUVVectorEnv`'s (NEXT_STEP by default; SAME_STEP puts the last observation and info in
 info["final_obs"] and info["final_info"]). An autoreset continues the sub-environment's RandomState.
@@ -223,19 +223,8 @@ class AUV3DVectorEnv(GoalVectorEnv):
         self._autoreset = np.zeros(n, dtype=bool)
         self._step_limit = np.full(n, np.inf)
         """Each episode's step limit (`RouteEnvironment`'s, from its route or the given time limit)."""
-        self._stepped = np.zeros(n, dtype=bool)
-        """Whether the batch has stepped each sub-environment since its reset (its ocean then has state to write
-        back)."""
         self._last_obs = {key: np.zeros(space.shape) for key, space in self.observation_space.spaces.items()}
         self._reset_infos: list[dict] = [{} for _ in range(n)]
-
-    def _reset_one(self, i: int, seed: int | None) -> dict:
-        """`AUVGymEnv.reset(seed=seed)` of sub-environment i, after the batch's last step is written back."""
-        if self._stepped[i] and self._noise_rngs[i] is not None and self._has_last_dvl[i]:
-            at = batch3d.STATE_INDEX["last_dvl_x"]
-            self.envs[i].task.ocean.last_dvl = self._stepper.state[i, at:at + 3]
-        self._stepped[i] = False
-        return super()._reset_one(i, seed)
 
     def _load_episode(self, i: int) -> None:
         """Reads sub-environment i's freshly reset episode into the batch (see the module docstring)."""
@@ -420,7 +409,6 @@ class AUV3DVectorEnv(GoalVectorEnv):
         at_limit = self._steps[index] >= self._step_limit[index]
         truncated = at_limit
         terminated = ~at_limit & (info["event"] != "")
-        self._stepped[index] = True
         return reward, terminated, truncated, self._batched_infos(index, info)
 
     def privileged_state(self, open_water_slope: float | None = None,
