@@ -416,8 +416,8 @@ class SonarVoxelMap(VoxelFollower):
         next search. Chosen on the hard validation tubes (docs/runs/map-replan-3d/README.md): seeds 20000-20099,
         94 / 87 of 100 (ideal, ocean) with every echo guarded, 95 / 93 with the planned ones left out, 93 / 92
         with no domain in a tube."""
-        planned = getattr(self, "planned_map", None)
-        if planned is None or not self.in_tube or self.task.movers:
+        planned = self.planned_map  # None until a search in a tube without movers (`plan`)
+        if planned is None:
             return ranges
         ranges = np.array(ranges, dtype=float)
         origin, fan = self.poses[0]

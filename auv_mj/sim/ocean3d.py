@@ -62,6 +62,7 @@ class Ocean3D:
         self.scales: dict[str, float] = {}
         self._sonar: ocean.NoisySonar | None = None
         self._rng: np.random.Generator | None = None
+        self._last_dvl: np.ndarray | None = None
         self._time = 0.0
 
     @property
@@ -92,11 +93,7 @@ class Ocean3D:
     @property
     def last_dvl(self) -> np.ndarray | None:
         """The episode's last noisy DVL sample (what a dropout holds), None before its first."""
-        return getattr(self, "_last_dvl", None)
-
-    @last_dvl.setter
-    def last_dvl(self, value) -> None:
-        self._last_dvl = np.array(value, dtype=float)
+        return self._last_dvl
 
     def start(self, physics, random: np.random.RandomState) -> None:
         """Draws this episode's ocean from one seed of `random`; applies the vehicle scaling and the current; forgets
@@ -104,7 +101,7 @@ class Ocean3D:
         a dropout at its first read gave it the last episode's velocity, and an environment reseeded for each episode
         (as `auv-mj benchmark` reuses one) flew a seed differently after different episodes (goal3d seeds 13011, 13017
         and 13025 in ocean water drop their first read)."""
-        self.__dict__.pop("_last_dvl", None)
+        self._last_dvl = None
         if self.ideal:
             return
         seeds = np.random.SeedSequence(int(random.randint(2**31 - 1))).spawn(3)
@@ -148,7 +145,7 @@ class Ocean3D:
             return value if self._sonar is None else self._sonar.ping(value)
         if self.conditions.sonar is None or name not in SENSOR_NOISE:
             return value
-        if name == "dvl" and self._rng.random() < DVL_DROPOUT and hasattr(self, "_last_dvl"):
+        if name == "dvl" and self._rng.random() < DVL_DROPOUT and self._last_dvl is not None:
             return self._last_dvl
         noisy = np.asarray(value, dtype=float) + SENSOR_NOISE[name] * self._rng.standard_normal(np.shape(value))
         if name == "dvl":

@@ -394,7 +394,7 @@ def test_map_replan_in_a_tube_leaves_the_echoes_its_path_was_planned_round_to_th
     assert event == "collision" and any(name.startswith("wall_") for name in touched)
 
 
-def test_only_a_tube_without_movers_leaves_planned_echoes_out_of_the_domain():
+def test_a_tube_leaves_planned_echoes_out_of_the_domain_and_open_water_keeps_every_echo():
     """In open water (goal3d) every echo stays in the domain's reading. In a tube, a beam whose echo lies on a voxel
     the last search kept clear of reads the range limit, and one whose echo lies in open water a metre ahead keeps
     its range."""
