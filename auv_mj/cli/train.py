@@ -55,7 +55,7 @@ from auv_mj.jobs.student import (
     train_student,
 )
 from auv_mj.planners.deploy import ChainConfig, deploy_env
-from auv_mj.tasks import suite
+from auv_mj.tasks import auv3d, suite
 from auv_mj.tasks.gym_adapter import gym_id
 from auv_mj.tasks.planning_rewards import REWARDS
 
@@ -369,9 +369,14 @@ def _run_ppo_3d(args: argparse.Namespace) -> int:
     if planar:
         raise ValueError(f"--task {MIXTURE_TASK_3D} takes its own problem and batch (--preset does not apply either); "
                          "drop " + ", ".join(f"--{name.replace('_', '-')}" for name in planar))
+    given = task_kwargs(args) or {}
+    if set(given) - {"observation"}:
+        raise ValueError(f"--task {MIXTURE_TASK_3D} sets its task options itself; --task-kwargs takes only an "
+                         f"observation (one of {auv3d.OBSERVATIONS}), got {given}")
     run_dir = args.run_dir or Path("runs") / MIXTURE_TASK_3D / f"ppo-seed{args.seed or 0}"
     config = None if args.resume else scratch_3d_config(**_ppo_overrides(args))
-    result = train_ppo_3d(run_dir, args.steps, config, args.envs_per_cell or 4, resume=args.resume,
+    result = train_ppo_3d(run_dir, args.steps, config, args.envs_per_cell or 4,
+                          observation=given.get("observation"), resume=args.resume,
                           threads=args.threads, progress=not args.no_progress, tensorboard=not args.no_tensorboard,
                           validation_episodes=args.validation_episodes or 50)
     print(json.dumps(result, indent=2, default=str))

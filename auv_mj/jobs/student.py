@@ -180,16 +180,26 @@ def scratch_3d_config(**overrides: Any) -> PPOConfig:
 
 
 def train_ppo_3d(run_dir: str | Path, total_steps: int, config: PPOConfig | None = None, envs_per_cell: int = 4, *,
-                 resume: bool = False, threads: int | None = None, progress: bool = True, tensorboard: bool = False,
-                 validation_episodes: int = 50) -> dict[str, Any]:
+                 observation: str | None = None, resume: bool = False, threads: int | None = None,
+                 progress: bool = True, tensorboard: bool = False, validation_episodes: int = 50) -> dict[str, Any]:
     """PPO without a teacher on the 6-DOF mixture (`mixture_3d_env(envs_per_cell)`, the student's problem and batch):
-    the learned 3-D planner's no-teacher ablation. `config` defaults to `scratch_3d_config()` (on resume: the
-    checkpoint's). Then the last snapshot's validation (`validate_3d`, `validation_episodes` a hard cell; 0: none).
-    Returns the checkpoint, the env steps and the validation."""
+    the learned 3-D planner's no-teacher ablation. `observation` (one of `auv3d.OBSERVATIONS`; the task's own where
+    None) is the input it learns from, as a student's (`mixture_3d_options`): the checkpoint keeps it and a resume
+    reads it back (another one given on resume is refused). `config` defaults to `scratch_3d_config()` (on resume:
+    the checkpoint's). Then the last snapshot's validation (`validate_3d`, `validation_episodes` a hard cell; 0:
+    none). Returns the checkpoint, the env steps and the validation."""
     run_dir = Path(run_dir)
-    if not resume and (run_dir / PPO_CHECKPOINT).exists():
-        raise FileExistsError(f"{run_dir / PPO_CHECKPOINT} exists: give --resume or another -o/--out")
-    env = mixture_3d_env(envs_per_cell, threads)
+    checkpoint = run_dir / PPO_CHECKPOINT
+    if not resume and checkpoint.exists():
+        raise FileExistsError(f"{checkpoint} exists: give --resume or another -o/--out")
+    options = mixture_3d_options(observation)
+    if resume and checkpoint.is_file():
+        kept = {**MIXTURE_3D_OPTIONS, **read_ppo(checkpoint)[0].metadata["spec"].get("task_options", {})}
+        if observation is not None and kept.get("observation") != options["observation"]:
+            raise ValueError(f"observation {observation!r}: the run in {run_dir} learns from its own "
+                             f"({kept.get('observation', 'the task default')!r}); leave it out on resume")
+        options = kept
+    env = mixture_3d_env(envs_per_cell, threads, None, options)
     try:
         result = ppo_train(student_view(env), None if resume else (config or scratch_3d_config()), run_dir,
                            total_steps, resume=resume, progress=progress, tensorboard=tensorboard)

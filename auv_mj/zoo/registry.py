@@ -204,30 +204,32 @@ training mixture), fine-tuned with PPO under a decaying imitation term, then two
 oversampled (`auv-mj train ppo --init`), chosen on validation seeds (docs/runs/planner-learned/)."""
 LEARNED_PLANNER_3D = "planner_learned_3d.pt"
 """The shipped checkpoint of `planner-learned` on the 6-DOF tasks: a GRU student of the 3-D geodesic teacher by DAgger
-on the 6-DOF mixture and a final fit of 128 epochs over DAgger's data, on the re-tuned S-plane; chosen on validation
-seeds over DAgger alone, its PPO fine-tunes and its ablations (docs/runs/planner-learned-3d/)."""
+on the 6-DOF mixture and a final fit of 128 epochs over DAgger's data, reading the fan held over pings
+(observation="fan-held"), on the re-tuned S-plane; the best of three training seeds on validation seeds, chosen over
+the same recipe on the plain fan, on the sonar map, DAgger alone, its PPO fine-tunes and its ablations
+(docs/runs/planner-learned-3d/)."""
 register("planner-learned", PolicySpec(
     "the learned planner of the well-posed problem (geodesic reward, rate action, planner observation): a GRU "
     "student of the privileged geodesic teacher (DAgger on random obstacles, moving obstacles and tunnels, both tiers "
     "and waters), fine-tuned with PPO on the geodesic reward in three stages; the sonars, its pose, the route target "
     "and its last action in, (speed, heading rate) out; no search, no line of sight, no protection domain, no residual "
-    "(auv3d: its own student of the 3-D teacher on goal3d and tunnel3d, the fan, altimeter and target in, (speed, "
-    "heading, depth) out, on splane-ocean)",
+    "(auv3d: its own student of the 3-D teacher on goal3d and tunnel3d, the fan held over pings, altimeter and "
+    "target in, (speed, heading, depth) out, on splane-ocean)",
     lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=LEARNED_PLANNER,
     checkpoint_on={"goal3d": LEARNED_PLANNER_3D, "tunnel3d": LEARNED_PLANNER_3D}, tasks="planning",
     protection=False, accepts_path=True, domains=BOTH))
 LEARNED_PLANNER_3D_NO_MEMORY = "planner_learned_3d_no_memory.pt"
-"""The learned 3-D planner's no-memory ablation: the shipped student's DAgger (teacher, batch, rounds, seed) with a
-feed-forward student (`--dagger-recurrent none`; docs/runs/planner-learned-3d/)."""
+"""The learned 3-D planner's no-memory ablation: the shipped student's DAgger (teacher, batch, rounds, final fit, seed,
+the held fan) with a feed-forward student (`--dagger-recurrent none`; docs/runs/planner-learned-3d/)."""
 register("planner-learned-3d-no-memory", PolicySpec(
     "planner-learned on the 6-DOF tasks without its memory (the ablation): the same DAgger of the 3-D teacher, a "
     "feed-forward student", lambda d: recurrent_policy(d.checkpoint, d.env), family="learned",
     checkpoint=LEARNED_PLANNER_3D_NO_MEMORY, tasks="planning", protection=False, accepts_path=True,
     domains=(DOMAIN_3D,), role="comparison"))
 LEARNED_PLANNER_3D_NO_TEACHER = "planner_learned_3d_no_teacher.pt"
-"""The learned 3-D planner's no-teacher ablation: PPO from scratch on the student's batch, problem and network, its
-critic reading the privileged inputs, for about the student's training wall-clock (`auv-mj train ppo --task
-planning-mix-3d`; docs/runs/planner-learned-3d/)."""
+"""The learned 3-D planner's no-teacher ablation: PPO from scratch on the student's batch, problem, input (the held
+fan) and network, its critic reading the privileged inputs, for about the student's training wall-clock (`auv-mj train
+ppo --task planning-mix-3d --task-kwargs '{"observation": "fan-held"}'`; docs/runs/planner-learned-3d/)."""
 register("planner-learned-3d-no-teacher", PolicySpec(
     "planner-learned on the 6-DOF tasks without its teacher (the ablation): PPO from scratch on the same problem, "
     "batch and network", lambda d: recurrent_policy(d.checkpoint, d.env), family="learned",

@@ -387,6 +387,35 @@ def test_auv_mj_train_ppo_on_the_6dof_mixture_learns_without_a_teacher(tmp_path)
     assert again.returncode == 2 and "--resume" in again.stderr
     planar = subprocess.run(command + ["--reward", "progress"], capture_output=True, text=True, timeout=300)
     assert planar.returncode == 2 and "--reward" in planar.stderr
+    other = subprocess.run(command + ["--task-kwargs", '{"reward": "suite"}', "-o", str(tmp_path / "refused")],
+                           capture_output=True, text=True, timeout=300)
+    assert other.returncode == 2 and "observation" in other.stderr and "reward" in other.stderr
+    assert not (tmp_path / "refused").exists()
+
+
+def test_ppo_from_scratch_on_the_6dof_mixture_learns_from_the_observation_given_and_keeps_it(tmp_path):
+    """`auv-mj train ppo --task planning-mix-3d --task-kwargs '{"observation": "fan-held"}'`: the no-teacher ablation
+    learns from the input its student had (the batch's tasks are built with it, and the checkpoint names it, so the
+    zoo and the validation deploy it so); the resume reads it back, another one on resume is refused, and an
+    observation the 6-DOF tasks do not know is refused before the run is written."""
+    from auv_mj.jobs.student import scratch_3d_config, train_ppo_3d
+
+    config = dataclasses.replace(scratch_3d_config(), num_steps=4, num_minibatches=1, update_epochs=1)
+    out = train_ppo_3d(tmp_path / "held", 16, config, 1, observation="fan-held", threads=1, progress=False,
+                       validation_episodes=0)
+    spec = read_checkpoint(out["checkpoint"], "ppo").metadata["spec"]
+    assert spec["task_options"] == {"executor": "splane-ocean", "observation": "fan-held"}
+    again = train_ppo_3d(tmp_path / "held", 2 * out["env_steps"], None, 1, resume=True, threads=1, progress=False,
+                         validation_episodes=0)
+    assert again["env_steps"] == 2 * out["env_steps"]
+    assert read_checkpoint(again["checkpoint"], "ppo").metadata["spec"]["task_options"]["observation"] == "fan-held"
+    with pytest.raises(ValueError, match="observation 'fan'"):
+        train_ppo_3d(tmp_path / "held", 3 * out["env_steps"], None, 1, observation="fan", resume=True, threads=1,
+                     progress=False, validation_episodes=0)
+    with pytest.raises(ValueError, match="planner-map"):
+        train_ppo_3d(tmp_path / "refused", 16, config, 1, observation="planner-map", threads=1, progress=False,
+                     validation_episodes=0)
+    assert not (tmp_path / "refused").exists()
 
 
 def test_the_teacher_labels_a_mixture_row_as_it_labels_that_cells_own_batch():

@@ -306,3 +306,23 @@ def test_the_general_planner_slows_to_the_reference_speed_whenever_an_echo_is_cl
     assert record.succeeded and close.sum() >= 5  # the scenario puts obstacles in its way
     assert np.all(record.command[close, 0] <= field.reference_speed + 1e-9)
     assert np.any(record.command[~close, 0] > field.reference_speed + 0.2)  # and it does cruise faster elsewhere
+
+
+@pytest.mark.parametrize("name", ["planner-learned", "planner-learned-3d-no-memory", "planner-learned-3d-no-teacher"])
+def test_the_shipped_3d_students_fly_on_the_held_fan_their_checkpoints_name(name):
+    """The learned 3-D planner and its two ablations were trained on observation="fan-held" (the fan filtered over
+    pings, `FanFilter`) over the 3-D benchmark's executor: each checkpoint names both, the zoo builds the task with
+    them (an env on the plain fan would feed the network other inputs), and the deterministic policy acts within
+    the action box from the first step of a hard ocean tube."""
+    from auv_mj.agents.ppo.checkpoint import read_ppo
+
+    checkpoint = policies.shipped_checkpoint(name, "tunnel3d")
+    options = read_ppo(checkpoint)[0].metadata["spec"]["task_options"]
+    assert options == {"executor": "splane-ocean", "observation": "fan-held"}
+    env, policy = policies.env_and_policy(name, "tunnel3d", 14_000, {"tier": "hard", "conditions": "ocean"})
+    assert env.task.observation_kind == "fan-held" and env.task.fan_filter is not None
+    time_step = env.reset()
+    for _ in range(5):
+        action = policy(time_step)
+        assert np.all(np.abs(action) <= 1.0) and action.shape == env.action_spec().shape
+        time_step = env.step(action)
