@@ -43,7 +43,13 @@ from auv_mj.episode import PlannerBase
 from auv_mj.geometry import wrap_angle
 from auv_mj.planners.guidance import APPROACH, APPROACH_RADIUS
 from auv_mj.tasks.planning import mover_states, route_potential
-from auv_mj.tasks.planning_step import ACTION_HEADING_RANGE, MAX_HEADING_CHANGE, MAX_SPEED, speed_action
+from auv_mj.tasks.planning_step import (
+    ACTION_HEADING_RANGE,
+    MAX_HEADING_CHANGE,
+    MAX_SPEED,
+    executor_command,
+    speed_action,
+)
 from auv_mj.tasks.routes import TARGET_SPEED, RoutePotential
 
 LOOKAHEAD = 16.0
@@ -134,6 +140,35 @@ def heading_actions(desired: np.ndarray, psi: np.ndarray, command: np.ndarray, k
     if kind == "rate":
         return np.clip(wrap_angle(desired - command) / MAX_HEADING_CHANGE, -1.0, 1.0)
     return np.clip(wrap_angle(desired - psi) / ACTION_HEADING_RANGE, -1.0, 1.0)
+
+
+def rate_from_paper(action: np.ndarray, psi: float, heading_command: float) -> np.ndarray:
+    """The action in action="rate" that gives the executor the very command `action` gives in action="paper" (Table
+    3's offset from the heading psi [rad], from the previous heading command [rad]): the same speed action, and the
+    command's change over MAX_HEADING_CHANGE (paper's turn is clipped to that change, and both maps then clip the
+    command's difference from the heading alike, `executor_command`)."""
+    action = np.asarray(action, dtype=float)
+    command = executor_command(action[None], np.array([psi]), np.array([heading_command]), "paper")[0, 1]
+    return np.array([action[0], np.clip(wrap_angle(command - heading_command) / MAX_HEADING_CHANGE, -1.0, 1.0)])
+
+
+class InTaskActions(PlannerBase):
+    """A planner written for action="paper" (every classical planner of the plane) acting on a planning task of
+    either action map: on action="rate" its action is read through `rate_from_paper`, so the executor gets the
+    command it would have got (what `auv_mj.jobs.student.PlannerTeacher` labels a rate student with)."""
+
+    def __init__(self, planner, env):
+        self.planner, self.env = planner, env
+
+    def reset(self) -> None:
+        self.planner.reset()
+
+    def act(self, time_step: dm_env.TimeStep) -> np.ndarray:
+        action = np.asarray(self.planner.act(time_step), dtype=float)
+        task = self.env.task
+        if task.action_kind == "paper":
+            return action
+        return rate_from_paper(action, float(self.env.physics.pose()[2]), float(task.episode.command[1]))
 
 
 def teacher_actions(state: TeacherInput, kind: str = "rate") -> np.ndarray:

@@ -25,6 +25,12 @@ and puts the last observation and info in info["final_obs"] and info["final_info
 Stable-Baselines3's `VecEnv` needs (`auv_mj.tasks.vector_sb3.SB3VectorEnv` takes either env).
 
 `reward_scale` multiplies every reward (PPO's value targets stay near 1 with the progress reward's metres).
+
+`serial=True` steps each vehicle in its own suite environment instead (`auv_mj.tasks.gym_adapter.AUVGymEnv`, a cell
+a `gymnasium.vector.SyncVectorEnv` of them; NEXT_STEP autoreset only): the same episodes from the same seeds (the
+batch's contract), many times slower, but each row's environment is there to read as one episode (`row_env`), so that
+a planner written for one environment (`map-replan`) can act on it beside the learner: a teacher that senses what
+the student senses (`auv_mj.jobs.student.PlannerTeacher`).
 """
 
 from __future__ import annotations
@@ -43,6 +49,7 @@ from gymnasium.vector.utils import batch_space
 from auv_mj import seeds as seed_ranges
 from auv_mj.tasks import auv3d, planning, vector3d
 from auv_mj.tasks import options as checks
+from auv_mj.tasks.gym_adapter import AUVGymEnv
 from auv_mj.tasks.vector import AUVVectorEnv
 from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
@@ -125,11 +132,13 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
     def __init__(self, envs_per_cell: int | Sequence[int] = 8, tasks: Sequence[str] = MIXTURE_TASKS,
                  tiers: Sequence[str] = TIERS, waters: Sequence[str] = WATERS,
                  task_kwargs: Mapping[str, Any] | None = None, reward_scale: float = 1.0,
-                 threads: int | None = None, autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
+                 threads: int | None = None, autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+                 serial: bool = False):
         """`envs_per_cell` is the vehicles of every cell, or a list of one count per cell in `mixture_cells`
         order; `task_kwargs` go to every cell's tasks (e.g. {"reward": "progress"}), beside the cell's own arena,
         tier and conditions; `threads` are each cell's C batch threads (default: this process's CPUs);
-        `autoreset_mode` one of `auv_mj.tasks.vector.AUTORESET_MODES` (the module docstring)."""
+        `autoreset_mode` one of `auv_mj.tasks.vector.AUTORESET_MODES` (the module docstring); `serial` each vehicle
+        in its own suite environment (the module docstring; NEXT_STEP only, `threads` unused)."""
         self.cells = mixture_cells(tasks, tiers, waters)
         counts = [envs_per_cell] * len(self.cells) if isinstance(envs_per_cell, int | np.integer) \
             else list(envs_per_cell) if isinstance(envs_per_cell, Sequence) else [envs_per_cell]
@@ -160,7 +169,13 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
                                and isinstance(v, str)} if three_d else planning.policy_options(task_kwargs)
         """The options of `auv_mj.tasks.planning.POLICY_OPTIONS` (6-DOF: `auv3d.POLICY_OPTIONS`, given by name)
         given: what a policy trained here must run with."""
-        batch = AUV3DVectorEnv if three_d else AUVVectorEnv
+        if not isinstance(serial, bool):
+            raise ValueError(f"serial must be True or False, got {checks.shown(serial)}")
+        if serial and AutoresetMode(autoreset_mode) != AutoresetMode.NEXT_STEP:
+            raise ValueError(f"autoreset_mode: a serial mixture resets NEXT_STEP only, got "
+                             f"{checks.shown(autoreset_mode)}")
+        self.serial = serial
+        batch = _serial_cell if serial else AUV3DVectorEnv if three_d else AUVVectorEnv
         self.subenvs = [batch(task, num_envs=n, threads=threads, autoreset_mode=autoreset_mode,
                               task_kwargs={**task_kwargs, "arena": "random", "tier": tier, "conditions": water})
                         for (task, tier, water), n in zip(self.cells, self.cell_sizes, strict=True)]
@@ -295,7 +310,16 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
             merged[key], merged["_" + key] = values, mask
         return merged
 
-    # --- what a privileged teacher reads ---------------------------------------------------------------------
+    # --- what a teacher reads ---------------------------------------------------------------------------------
+
+    def row_env(self, row: int) -> AUVGymEnv:
+        """Row `row`'s own environment (a serial mixture's: `AUVGymEnv`, its `dm_env` and `last_time_step` the
+        episode's as one environment runs it); ValueError on a batched mixture, whose rows share the C batch."""
+        if not self.serial:
+            raise ValueError("row_env: a batched mixture's rows have no environment of their own; build it with "
+                             "serial=True")
+        cell = int(self.cell_of_row[row])
+        return self.subenvs[cell].envs[row - int(self.cell_start[cell])]
 
     @property
     def action_kind(self) -> str:
@@ -316,3 +340,11 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
         for sub in self.subenvs:
             sub.close()
         self.subenvs = []
+
+
+def _serial_cell(task: str, num_envs: int, threads: int | None, autoreset_mode, task_kwargs: Mapping[str, Any]
+                 ) -> gymnasium.vector.SyncVectorEnv:
+    """One cell of a serial mixture: `num_envs` suite environments of `task` stepped one after another (`threads`
+    unused)."""
+    return gymnasium.vector.SyncVectorEnv([functools.partial(AUVGymEnv, task, dict(task_kwargs))] * num_envs,
+                                          autoreset_mode=autoreset_mode)

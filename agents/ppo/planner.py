@@ -158,13 +158,14 @@ class MixtureConfig:
         deployment must run the policy with them too."""
         return {name: getattr(self, name) for name in POLICY_OPTIONS if getattr(self, name) is not None}
 
-    def make_env(self, threads: int | None = None, autoreset_mode: str = "NextStep") -> PlanningMixtureVectorEnv:
+    def make_env(self, threads: int | None = None, autoreset_mode: str = "NextStep",
+                 serial: bool = False) -> PlanningMixtureVectorEnv:
         """The training env (autoreset NEXT_STEP, ours; "SameStep" for Stable-Baselines3's face of it,
-        `auv_mj.tasks.vector_sb3`)."""
+        `auv_mj.tasks.vector_sb3`; `serial`: each vehicle in its own environment, `PlanningMixtureVectorEnv`)."""
         counts = self.counts()
         return PlanningMixtureVectorEnv(counts[0] if len(set(counts)) == 1 else counts, self.tasks, self.tiers,
                                         self.waters, task_kwargs=self.task_kwargs(), reward_scale=self.reward_scale,
-                                        threads=threads, autoreset_mode=autoreset_mode)
+                                        threads=threads, autoreset_mode=autoreset_mode, serial=serial)
 
 
 def mixture_from_dict(values: Mapping[str, Any]) -> MixtureConfig:

@@ -49,13 +49,15 @@ from auv_mj.inputs import check_json_depth, did_you_mean, read_text, unknown_nam
 from auv_mj.jobs.student import (
     MIXTURE_TASK,
     MIXTURE_TASK_3D,
+    TEACHERS,
     continue_planner,
+    mixture_observation,
     scratch_3d_config,
     train_ppo_3d,
     train_student,
 )
 from auv_mj.planners.deploy import ChainConfig, deploy_env
-from auv_mj.tasks import auv3d, suite
+from auv_mj.tasks import suite
 from auv_mj.tasks.gym_adapter import gym_id
 from auv_mj.tasks.planning_rewards import REWARDS
 
@@ -201,6 +203,11 @@ def add_dagger_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--teacher-horizon", type=float, metavar="M",
                        help=f"--task {MIXTURE_TASK_3D}: the teacher knows a tube's plug only once within M metres of "
                             "it (default: it knows the whole tube)")
+    group.add_argument("--dagger-teacher", choices=TEACHERS,
+                       help=f"who labels the student's states: geodesic, the privileged teacher on the true map "
+                            f"(default), or map-replan acting on each vehicle's own episode, a teacher that senses "
+                            f"what the student senses (--task {MIXTURE_TASK} or {MIXTURE_TASK_3D}; its vehicles "
+                            f"step one by one, several times slower)")
     group.add_argument("--dagger-recurrent", choices=("gru", "lstm", "none"),
                        help="DaggerConfig.recurrent, the student's memory (none: a feed-forward student; default gru)")
     group.add_argument("--imitation-coef", type=float, help="the fine-tune's imitation weight at its start, "
@@ -227,7 +234,8 @@ def _run_dagger(args: argparse.Namespace) -> int:
                                rounds=args.dagger_rounds if args.resume else None,
                                teacher_horizon=args.teacher_horizon,
                                final_epochs=args.dagger_final_epochs if args.resume else None,
-                               cell_weights=args.cell_weights, finetune_options=finetune or None)
+                               cell_weights=args.cell_weights, finetune_options=finetune or None,
+                               teacher=args.dagger_teacher)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:
         usage_error(args, str(exc))
     print(json.dumps(result, indent=2, default=str))
@@ -369,14 +377,11 @@ def _run_ppo_3d(args: argparse.Namespace) -> int:
     if planar:
         raise ValueError(f"--task {MIXTURE_TASK_3D} takes its own problem and batch (--preset does not apply either); "
                          "drop " + ", ".join(f"--{name.replace('_', '-')}" for name in planar))
-    given = task_kwargs(args) or {}
-    if set(given) - {"observation"}:
-        raise ValueError(f"--task {MIXTURE_TASK_3D} sets its task options itself; --task-kwargs takes only an "
-                         f"observation (one of {auv3d.OBSERVATIONS}), got {given}")
+    observation = mixture_observation(MIXTURE_TASK_3D, task_kwargs(args))
     run_dir = args.run_dir or Path("runs") / MIXTURE_TASK_3D / f"ppo-seed{args.seed or 0}"
     config = None if args.resume else scratch_3d_config(**_ppo_overrides(args))
     result = train_ppo_3d(run_dir, args.steps, config, args.envs_per_cell or 4,
-                          observation=given.get("observation"), resume=args.resume,
+                          observation=observation, resume=args.resume,
                           threads=args.threads, progress=not args.no_progress, tensorboard=not args.no_tensorboard,
                           validation_episodes=args.validation_episodes or 50)
     print(json.dumps(result, indent=2, default=str))

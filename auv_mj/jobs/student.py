@@ -49,7 +49,10 @@ from auv_mj.agents.ppo.planner import VALIDATION_FIRST_SEED as MIXTURE_VALIDATIO
 from auv_mj.agents.ppo.planner import validate as validate_planner
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.agents.ppo.spaces import student_view
-from auv_mj.planners.teacher import BatchTeacher, checked_reach
+from auv_mj.episode import Planner, as_planner
+from auv_mj.planners.map_planner import map_replan
+from auv_mj.planners.map_planner3d import sonar_voxel_planner
+from auv_mj.planners.teacher import BatchTeacher, InTaskActions, checked_reach
 from auv_mj.planners.teacher3d import BatchTeacher3D
 from auv_mj.tasks import auv3d
 from auv_mj.tasks.mixture import MIXTURE_TASKS_3D, PlanningMixtureVectorEnv, cell_counts, mixture_cells, parse_weights
@@ -116,6 +119,24 @@ def continue_planner(run_dir: str | Path, config: PPOConfig, mixture: MixtureCon
                          teacher_of=teacher_of)
 
 
+def mixture_observation(task: str, task_kwargs: Mapping[str, Any] | None) -> str | None:
+    """The observation a training mixture's `task_kwargs` name (None where they name none): the one task option a
+    mixture takes, one of PLANNER_OBSERVATIONS (MIXTURE_TASK) or `auv3d.OBSERVATIONS` (MIXTURE_TASK_3D), as `auv-mj
+    train dagger` and `auv-mj train ppo` take it. ValueError naming the options otherwise."""
+    given = dict(task_kwargs or {})
+    if not given:
+        return None
+    choices = auv3d.OBSERVATIONS if task == MIXTURE_TASK_3D else PLANNER_OBSERVATIONS
+    own = MIXTURE_3D_OPTIONS if task == MIXTURE_TASK_3D else student_mixture().task_kwargs()
+    if set(given) != {"observation"}:
+        raise ValueError(f"task {task}: the mixture sets the task options itself ({own}); task_kwargs takes only an "
+                         f"observation (one of {choices}), got {given}")
+    if given["observation"] not in choices:
+        raise ValueError(f"task {task}: task_kwargs observation must be one of {choices}, got "
+                         f"{given['observation']!r}")
+    return given["observation"]
+
+
 def mixture_3d_options(observation: str | None = None) -> dict[str, str]:
     """The 6-DOF student's task options: MIXTURE_3D_OPTIONS, with `observation` (one of `auv3d.OBSERVATIONS`) where
     given (ValueError naming it otherwise)."""
@@ -128,13 +149,53 @@ def mixture_3d_options(observation: str | None = None) -> dict[str, str]:
 
 
 def mixture_3d_env(envs_per_cell: int, threads: int | None = None, weights: Mapping[str, float] | None = None,
-                   options: Mapping[str, str] | None = None) -> PlanningMixtureVectorEnv:
+                   options: Mapping[str, str] | None = None, serial: bool = False) -> PlanningMixtureVectorEnv:
     """The 6-DOF training mixture: `envs_per_cell` vehicles a cell before `weights` (names of tasks, tiers or
-    waters, multiplied per cell; default MIXTURE_3D_WEIGHTS), with the task `options` (`mixture_3d_options`)."""
+    waters, multiplied per cell; default MIXTURE_3D_WEIGHTS), with the task `options` (`mixture_3d_options`);
+    `serial`: each vehicle in its own environment (what `PlannerTeacher` needs)."""
     cells = mixture_cells(MIXTURE_TASKS_3D)
     counts = cell_counts(envs_per_cell, cells, MIXTURE_3D_WEIGHTS if weights is None else weights)
     return PlanningMixtureVectorEnv(counts, tasks=MIXTURE_TASKS_3D,
-                                    task_kwargs=dict(options or MIXTURE_3D_OPTIONS), threads=threads)
+                                    task_kwargs=dict(options or MIXTURE_3D_OPTIONS), threads=threads, serial=serial)
+
+
+class PlannerTeacher:
+    """A teacher that senses what the student senses (issue 51, item 5's other answer; Weihs et al. 2020's imitation
+    gap): a classical planner acting beside the student on each vehicle's own episode, its action the label.
+
+    The privileged teachers (`BatchTeacher`, `BatchTeacher3D`) read the true map; what they know a student on the
+    sonars cannot, and it learns an average of their answers to states it cannot tell apart. `map-replan` knows only
+    what the vehicle's own sonar has shown: each row of a serial mixture (`PlanningMixtureVectorEnv(serial=True)`)
+    runs its own planner (`factory(dm_env)`), which is called once at every step of its row's episode, whoever
+    drives, and so builds its map from the student's own flight. Called at the env's current states, it returns the
+    planners' actions (N, act_dim) in the task's action space; a row whose episode has ended (NEXT_STEP's pending
+    reset) gets the planner's action at the last state, which DAgger does not count as a transition."""
+
+    def __init__(self, env: PlanningMixtureVectorEnv, factory) -> None:
+        self.env = env
+        self.rows = [env.row_env(i) for i in range(env.num_envs)]
+        self.planners: list[Planner] = [as_planner(factory(row.dm_env)) for row in self.rows]
+
+    def actions(self) -> np.ndarray:
+        """The planners' actions at every row's current state."""
+        out = []
+        for row, planner in zip(self.rows, self.planners, strict=True):
+            time_step = row.last_time_step
+            if time_step.first():
+                planner.reset()
+            out.append(np.asarray(planner.act(time_step), dtype=float))
+        return np.stack(out)
+
+
+def planar_map_replan(env) -> Planner:
+    """`map-replan` on a planar planning task (inside its domain and geofence), acting in the task's action map
+    (`InTaskActions`: the student's action="rate")."""
+    return InTaskActions(map_replan(env), env)
+
+
+TEACHERS = ("geodesic", "map-replan")
+"""Who labels DAgger's states: the privileged geodesic teacher (`BatchTeacher`, `BatchTeacher3D`), or `map-replan`
+acting on the student's own episodes (`PlannerTeacher`; the two mixtures only)."""
 
 
 def mixture_3d_validator(threads: int | None = None, options: Mapping[str, str] | None = None) -> Validator:
@@ -280,7 +341,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                   progress: bool = True, imitation_coef: float | None = None,
                   rounds: int | None = None, teacher_horizon: float | None = None,
                   final_epochs: int | None = None, cell_weights: Sequence[str] | None = None,
-                  finetune_options: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                  finetune_options: Mapping[str, Any] | None = None, teacher: str | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
@@ -298,7 +359,11 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     resume): the 3-D teacher knows a tube's plug only once within that of it (`BatchTeacher3D`'s horizon), a teacher
     whose knowledge the fan can follow. `cell_weights` (a mixture only; kept for resume): "NAME=WEIGHT" entries
     that oversample cells by task, tier or water, in place of the mixture's own (LEARNED_MIXTURE's,
-    MIXTURE_3D_WEIGHTS)."""
+    MIXTURE_3D_WEIGHTS). `teacher` (one of TEACHERS; kept for resume; default "geodesic"): "map-replan" labels
+    with `map-replan` on each vehicle's own episode (`PlannerTeacher`; the mixtures only, whose rows then run
+    serially)."""
+    if teacher is not None and teacher not in TEACHERS:
+        raise ValueError(f"teacher must be one of {TEACHERS}, got {teacher!r}")
     run_dir = Path(run_dir)
     weights: dict[str, float] | None = None
     options_path = run_dir / OPTIONS_NAME
@@ -317,6 +382,10 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         newly_given = bool(finetune_options) and kept_options is None  # on the resume that starts the fine-tune
         finetune_options = finetune_options or kept_options or {}
         teacher_horizon = saved.get("teacher_horizon")
+        if teacher is not None and teacher != saved.get("teacher", "geodesic"):
+            raise ValueError(f"teacher {teacher!r}: the run in {run_dir} keeps its own "
+                             f"({saved.get('teacher', 'geodesic')!r}); leave it out on resume")
+        teacher = saved.get("teacher", "geodesic")
         mixture = mixture_from_dict(saved["mixture"]) if "mixture" in saved else None
         weights = saved.get("weights")
         kept = mixture.weights() if mixture is not None else weights
@@ -328,20 +397,11 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
     else:
         own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
         observation = None
-        if task == MIXTURE_TASK_3D and task_kwargs and set(task_kwargs) == {"observation"}:
-            own[task] = mixture_3d_options(task_kwargs["observation"])
+        if task in own:
+            observation = mixture_observation(task, task_kwargs)
             task_kwargs = None
-        if task == MIXTURE_TASK and task_kwargs and set(task_kwargs) == {"observation"}:
-            observation = task_kwargs["observation"]
-            if observation not in PLANNER_OBSERVATIONS:
-                raise ValueError(f"task {task}: task_kwargs observation must be one of {PLANNER_OBSERVATIONS}, got "
-                                 f"{observation!r}")
-            task_kwargs = None
-        if task in own and task_kwargs:
-            raise ValueError(f"task {task}: the mixture sets the task options itself ({own[task]}; it takes only an "
-                             f"observation: the planar one's {PLANNER_OBSERVATIONS}, the 6-DOF one's "
-                             f"{auv3d.OBSERVATIONS}), got task_kwargs "
-                             f"{dict(task_kwargs)}")
+            if task == MIXTURE_TASK_3D:
+                own[task] = mixture_3d_options(observation)
         if cell_weights is not None and task not in own:
             raise ValueError(f"cell_weights: the mixtures' option ({MIXTURE_TASK}, {MIXTURE_TASK_3D}), got "
                              f"{list(cell_weights)} for task {task}")
@@ -355,8 +415,15 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         if teacher_horizon is not None and (task != MIXTURE_TASK_3D or not teacher_horizon > 0):
             raise ValueError(f"teacher_horizon: a distance > 0 [m] for task {MIXTURE_TASK_3D} (the 3-D teacher's), "
                              f"got {teacher_horizon!r} for task {task}")
+        teacher = teacher or "geodesic"
+        if teacher == "map-replan" and (task not in (MIXTURE_TASK, MIXTURE_TASK_3D) or teacher_horizon is not None):
+            raise ValueError(f"teacher 'map-replan': tasks {MIXTURE_TASK} and {MIXTURE_TASK_3D} only, without "
+                             f"teacher_horizon (its map is what its own sonar has shown), got task {task}"
+                             + ("" if teacher_horizon is None else f" and teacher_horizon {teacher_horizon!r}"))
         run_dir.mkdir(parents=True, exist_ok=True)
         record: dict[str, Any] = {"task": task, "task_kwargs": kwargs, "num_envs": num_envs}
+        if teacher != "geodesic":
+            record["teacher"] = teacher
         if teacher_horizon is not None:
             record["teacher_horizon"] = float(teacher_horizon)
         if finetune_options:
@@ -367,14 +434,16 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             record["weights"] = weights
         options_path.write_text(json.dumps(record, indent=2))
     in_3d = task == MIXTURE_TASK_3D
+    sensed = teacher == "map-replan"
     if in_3d:
-        env = mixture_3d_env(num_envs, threads, weights, kwargs)
+        env = mixture_3d_env(num_envs, threads, weights, kwargs, serial=sensed)
     elif mixture is not None:
-        env = mixture.make_env(threads)
+        env = mixture.make_env(threads, serial=sensed)
     else:
         env = AUVVectorEnv(task, num_envs=num_envs, task_kwargs=kwargs, threads=threads)
     try:
-        teacher = (BatchTeacher3D(env, teacher_horizon) if in_3d else BatchTeacher(env)).actions
+        labels = (PlannerTeacher(env, sonar_voxel_planner if in_3d else planar_map_replan) if sensed
+                  else BatchTeacher3D(env, teacher_horizon) if in_3d else BatchTeacher(env)).actions
         if in_3d:
             validate = mixture_3d_validator(threads, kwargs)
         elif mixture is not None:
@@ -383,7 +452,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             validate = episodes_validator(lambda n: AUVVectorEnv(task, num_envs=n, task_kwargs=kwargs,
                                                                  threads=threads))
         again = resume and (run_dir / CHECKPOINT_NAME).is_file()
-        result = train_dagger(env, teacher, run_dir, None if again else dagger, resume=again, progress=progress,
+        result = train_dagger(env, labels, run_dir, None if again else dagger, resume=again, progress=progress,
                               rounds=rounds if again else None, validate=validate,
                               final_epochs=final_epochs if again else None)
         dagger = result.config
@@ -397,13 +466,13 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             config = None if again else (ppo_config or finetune_config(dagger, **extra))
             if mixture is not None:
                 tuned = train_planner(ppo_dir, config, mixture, finetune_steps, resume=again, progress=progress,
-                                      threads=threads, env=student_view(env), teacher=teacher,
+                                      threads=threads, env=student_view(env), teacher=labels,
                                       init=run_dir / STUDENT_NAME)
                 out.update(finetune_checkpoint=str(tuned["checkpoint"]), finetune_steps=tuned["env_steps"],
                            best=str(tuned["best"]), best_steps=tuned["best_steps"],
                            best_success=tuned["best_success"])
                 return out
-            tuned = finetune(env, teacher, run_dir / STUDENT_NAME, ppo_dir, config, finetune_steps, resume=again,
+            tuned = finetune(env, labels, run_dir / STUDENT_NAME, ppo_dir, config, finetune_steps, resume=again,
                              progress=progress)
             out.update(finetune_checkpoint=str(tuned.checkpoint), finetune_steps=tuned.env_steps)
             if dagger.validation_episodes:

@@ -617,3 +617,16 @@ def test_auv_mj_train_ppo_continues_a_planner_under_the_teacher_near_movers_and_
         main(["train", "ppo", "--task", "planning-mix", "--init", str(first["checkpoint"]), "--steps", "16",
               "--teacher-mover-reach", "20", "-o", str(tmp_path / "refused"), "--no-progress"])
     assert not (tmp_path / "refused").exists()
+
+
+def test_a_mixture_takes_an_observation_alone_and_names_what_it_refuses():
+    """`mixture_observation`, the one reading of a mixture's task options for `train dagger` and `train ppo`."""
+    from auv_mj.jobs.student import mixture_observation
+
+    assert mixture_observation("planning-mix", None) is None and mixture_observation("planning-mix-3d", {}) is None
+    assert mixture_observation("planning-mix", {"observation": "planner-map"}) == "planner-map"
+    assert mixture_observation("planning-mix-3d", {"observation": "fan-held"}) == "fan-held"
+    with pytest.raises(ValueError, match="observation must be one of .*got 'fan-held'"):
+        mixture_observation("planning-mix", {"observation": "fan-held"})  # the 6-DOF one's, not the planar one's
+    with pytest.raises(ValueError, match="takes only an observation .*'tier': 'hard'"):
+        mixture_observation("planning-mix-3d", {"observation": "fan-held", "tier": "hard"})
