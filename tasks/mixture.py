@@ -324,12 +324,17 @@ class PlanningMixtureVectorEnv(gymnasium.vector.VectorEnv):
     @property
     def action_kind(self) -> str:
         """The action map of every cell (`planning.ACTIONS`; the task options are the same in every cell)."""
+        if self.serial:
+            return self.row_env(0).task.action_kind
         return self.subenvs[0].rules.action
 
     def privileged_state(self, *args) -> dict[str, Any]:
         """The cells' `privileged_state(*args)` (`AUVVectorEnv`'s, `AUV3DVectorEnv`'s), rows concatenated in row order
         (a privileged teacher's input, `auv_mj.planners.teacher.BatchTeacher`, `teacher3d.BatchTeacher3D`; never a
-        learner's)."""
+        learner's). A serial mixture has none (ValueError): its rows are read one by one (`row_env`)."""
+        if self.serial:
+            raise ValueError("privileged_state: a serial mixture's rows are read one by one (row_env); the batched "
+                             "teachers need the batched mixture (serial=False)")
         parts = [sub.privileged_state(*args) for sub in self.subenvs]
         return {key: (list(itertools.chain.from_iterable(p[key] for p in parts)) if isinstance(parts[0][key], list)
                       else np.concatenate([p[key] for p in parts]))

@@ -165,5 +165,7 @@ def test_planar_map_replan_labels_in_the_students_rate_action_map():
         labels = teacher.actions()
         assert labels.shape == (env.num_envs, 2) and np.all(np.abs(labels) <= 1.0)
         env.step(labels.astype(np.float32))
-    assert np.all([row.task.action_kind == "rate" for row in teacher.rows])
+    assert np.all([row.task.action_kind == "rate" for row in teacher.rows]) and env.action_kind == "rate"
+    with pytest.raises(ValueError, match="row_env"):
+        env.privileged_state()  # the batched teachers' read-out is the batch's alone
     env.close()
