@@ -172,7 +172,6 @@ class PlannerTeacher:
     reset) gets the planner's action at the last state, which DAgger does not count as a transition."""
 
     def __init__(self, env: PlanningMixtureVectorEnv, factory) -> None:
-        self.env = env
         self.rows = [env.row_env(i) for i in range(env.num_envs)]
         self.planners: list[Planner] = [as_planner(factory(row.dm_env)) for row in self.rows]
 

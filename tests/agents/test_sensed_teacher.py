@@ -76,7 +76,7 @@ def test_rate_from_paper_gives_the_executor_the_paper_actions_command():
     rng = np.random.default_rng(1)
     for _ in range(200):
         action = rng.uniform(-1, 1, 2)
-        psi, command = rng.uniform(-np.pi, np.pi), 0.0
+        psi = rng.uniform(-np.pi, np.pi)
         command = psi + rng.uniform(-np.pi / 6, np.pi / 6)  # the executor keeps its command within 30 deg
         rate = rate_from_paper(action, psi, command)
         assert -1.0 <= rate[1] <= 1.0 and rate[0] == action[0]
