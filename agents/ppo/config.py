@@ -90,6 +90,12 @@ class PPOConfig:
     """imitation_coef over the run's planned steps, as lr_schedule: it decays so that RL has the last word."""
     min_imitation_coef: float = 0.0
     """The imitation weight's floor, reached at the last planned step (not used by "constant")."""
+    critic_warmup_steps: int = 0
+    """Env steps at the start of a run (global steps, so a resumed run keeps them) whose updates train the critic
+    alone: the actor's weights and log std are held as loaded while a new critic learns its values. For a fine-tune
+    from an imitation student, whose actor is good and whose critic starts untrained: the first updates' advantages
+    are then the critic's noise, and PPO spends the student on them (a critic warm-up, as in fine-tunes after
+    behaviour cloning). Its observation statistics keep their running update. 0: none."""
     torch_threads: int = 1
     """Intra-op CPU threads of the update (`torch.set_num_threads`). Rollouts always run the policy on one thread:
     its per-step batches are small, and a vector env's physics threads then have the cores to themselves (a second
@@ -108,6 +114,9 @@ class PPOConfig:
         if self.privileged_critic and self.recurrent is not None and not self.separate_critic:
             raise ValueError("PPOConfig.privileged_critic needs separate_critic=True with a memory: a shared "
                              "encoder would pass the privileged inputs to the actor")
+        if self.critic_warmup_steps and self.recurrent is not None and not self.separate_critic:
+            raise ValueError("PPOConfig.critic_warmup_steps needs separate_critic=True with a memory: the value "
+                             "loss would train the encoder the actor shares")
 
 
 def _whole(value: Any) -> bool:
@@ -121,6 +130,7 @@ def _number(value: Any) -> bool:
 _CONFIG_CHECKS: tuple[tuple[tuple[str, ...], Callable[[Any], bool], str], ...] = (
     (("num_steps", "num_minibatches", "update_epochs", "recurrent_size", "checkpoint_every", "torch_threads"),
      lambda v: _whole(v) and v >= 1, "a whole number >= 1"),
+    (("critic_warmup_steps",), lambda v: _whole(v) and v >= 0, "a whole number >= 0"),
     (("learning_rate", "adam_eps", "clip_coef", "max_grad_norm"), lambda v: _number(v) and 0 < v < math.inf,
      "a finite number > 0"),
     (("gamma", "gae_lambda"), lambda v: _number(v) and 0 <= v <= 1, "in [0, 1]"),

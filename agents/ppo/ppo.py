@@ -130,13 +130,14 @@ class Minibatch(NamedTuple):
 
 
 def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef: float | None = None,
-             imitation: float = 0.0) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+             imitation: float = 0.0, critic_only: bool = False) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """The PPO objective to minimise, -L^CLIP + vf_coef L^VF - ent_coef S (Schulman et al. 2017, Eq. 9), on one
     minibatch, and its parts (detached) for the logs; `clip_coef` is the scheduled clip range (None:
     config.clip_coef). With `imitation` > 0 and the batch's teacher labels, plus imitation times the squared error
     between the actor's mean action and the label (the decaying imitation term of a fine-tune, `imitation_weight`),
     averaged over the labelled states: a NaN label is a state the teacher leaves to RL (`BatchTeacher`'s
-    mover_reach)."""
+    mover_reach). With `critic_only` (config.critic_warmup_steps), vf_coef L^VF alone: the actor gets no gradient;
+    the other parts are still measured for the logs."""
     clip_coef = config.clip_coef if clip_coef is None else clip_coef
     action_mean, value, _ = model(batch.obs, batch.starts, batch.state, batch.privileged)
     dist = model.distribution(action_mean)
@@ -156,6 +157,8 @@ def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef:
         error = ((action_mean - torch.nan_to_num(batch.labels)) ** 2).sum(-1)
         bc = masked_mean(error, mask * labelled.to(mask.dtype))
         loss = loss + imitation * bc
+    if critic_only:
+        loss = config.vf_coef * vf
     with torch.no_grad():
         log_ratio = logprob - batch.logprobs
         stats = {"policy_loss": pg.detach(), "value_loss": vf.detach(), "entropy": ent.detach(),
@@ -191,12 +194,13 @@ def minibatches(rollout: Rollout, advantages: torch.Tensor, returns: torch.Tenso
 
 
 def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollout, config: PPOConfig,
-           generator: torch.Generator, clip_coef: float | None = None, imitation: float = 0.0) -> dict[str, float]:
+           generator: torch.Generator, clip_coef: float | None = None, imitation: float = 0.0,
+           critic_only: bool = False) -> dict[str, float]:
     """update_epochs passes of minibatch gradient steps on `ppo_loss` over one rollout (Schulman et al. 2017,
     Algorithm 1), with the optimiser's learning rate as it is and the clip range `clip_coef` (None:
     config.clip_coef); with config.target_kl the passes stop after the first epoch whose mean approximate KL
-    exceeds it (CleanRL's early stop). The mean of each loss part over the steps, the explained variance of the
-    returns, the gradient steps and the epochs run."""
+    exceeds it (CleanRL's early stop). With `critic_only` the critic alone learns (`ppo_loss`), every epoch. The mean
+    of each loss part over the steps, the explained variance of the returns, the gradient steps and the epochs run."""
     advantages, returns = advantages_of(rollout, config)
     totals: dict[str, float] = {}
     steps = epochs = 0
@@ -204,7 +208,7 @@ def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollou
         kls = []
         epochs += 1
         for batch in minibatches(rollout, advantages, returns, config, generator):
-            loss, stats = ppo_loss(model, batch, config, clip_coef, imitation)
+            loss, stats = ppo_loss(model, batch, config, clip_coef, imitation, critic_only)
             optimizer.zero_grad()
             loss.backward()
             nn.utils.clip_grad_norm_(model.parameters(), config.max_grad_norm)
@@ -213,7 +217,7 @@ def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollou
                 totals[key] = totals.get(key, 0.0) + float(value)
             kls.append(stats["approx_kl"])
             steps += 1
-        if config.target_kl is not None and float(torch.stack(kls).mean()) > config.target_kl:
+        if not critic_only and config.target_kl is not None and float(torch.stack(kls).mean()) > config.target_kl:
             break
     out = {key: value / max(steps, 1) for key, value in totals.items()}
     valid = rollout.valid.bool()
@@ -398,7 +402,8 @@ def _train_loop(collector: Collector, optimizer: torch.optim.Optimizer, config: 
             rollout = collector.rollout(config.num_steps)
             model.train()
             torch.set_num_threads(config.torch_threads)
-            stats = update(model, optimizer, rollout, config, generator, clip, imitation)
+            critic_only = counters["env_steps"] < config.critic_warmup_steps
+            stats = update(model, optimizer, rollout, config, generator, clip, imitation, critic_only)
             model.obs_norm.sync()
             if model.privileged_dim:
                 model.privileged_norm.sync()

@@ -760,6 +760,36 @@ def test_a_new_run_from_a_checkpoint_takes_its_actor_and_only_with_init_critic_i
             assert same == init_critic, key
 
 
+def test_a_critic_warmup_holds_the_actor_as_loaded_while_the_new_critic_learns_then_lets_it_learn(tmp_path):
+    config = dataclasses.replace(TOY_CONFIG, num_steps=10, num_minibatches=2, checkpoint_every=1,
+                                 separate_critic=True, privileged_critic=True)
+    source = train(PrivilegedCueEnv(4), config, tmp_path / "source", total_steps=80, progress=False).checkpoint
+    trained = read_ppo(source)[0].tensors
+    warm = dataclasses.replace(config, critic_warmup_steps=80, learning_rate=1e-2)  # 2 rollouts of 4 x 10 steps
+    run = tmp_path / "warm"
+    first = read_ppo(train(PrivilegedCueEnv(4), warm, run, total_steps=80, progress=False, init=source).checkpoint)
+    tensors = first[0].tensors
+    actor = [k for k in trained if k.startswith("model.") and not k.startswith(("model.critic", "model.privileged_norm",
+                                                                               "model.obs_norm"))]
+    assert {"model.actor_head.weight", "model.core.weight_hh", "model.log_std"} <= set(actor)
+    for key in actor:
+        torch.testing.assert_close(tensors[key], trained[key], rtol=0, atol=0, msg=key)
+    new_critic = train(PrivilegedCueEnv(4), dataclasses.replace(config, learning_rate=1e-12), tmp_path / "fresh",
+                       total_steps=1, progress=False, init=source).checkpoint
+    for key in ("model.critic_head.weight", "model.critic_core.weight_hh"):  # the critic learnt from its new start
+        assert not torch.allclose(tensors[key], read_ppo(new_critic)[0].tensors[key], rtol=1e-6, atol=1e-9), key
+    rows = _log_rows(run)
+    assert [int(r["epochs"]) for r in rows] == [warm.update_epochs] * 2
+    # past the warm-up (global steps, kept across the resume) the actor learns
+    later = read_ppo(train(PrivilegedCueEnv(4), None, run, total_steps=120, resume=True, progress=False).checkpoint)
+    later = later[0].tensors
+    assert not torch.allclose(later["model.actor_head.weight"], trained["model.actor_head.weight"])
+    with pytest.raises(ValueError, match="PPOConfig.critic_warmup_steps needs separate_critic"):
+        PPOConfig(recurrent="gru", critic_warmup_steps=10)
+    with pytest.raises(ValueError, match="PPOConfig.critic_warmup_steps"):
+        PPOConfig(critic_warmup_steps=-1)
+
+
 class CellCueEnv(CueEnv):
     """CueEnv in two cells of two rows, as the planning mixture: cell "easy/ideal" always succeeds, cell
     "hard/ocean" always collides; the ground speed is 1 m/s in the first cell and 3 m/s in the second."""
