@@ -95,7 +95,8 @@ class PPOConfig:
     alone: the actor's weights and log std are held as loaded while a new critic learns its values. For a fine-tune
     from an imitation student, whose actor is good and whose critic starts untrained: the first updates' advantages
     are then the critic's noise, and PPO spends the student on them (a critic warm-up, as in fine-tunes after
-    behaviour cloning). Its observation statistics keep their running update. 0: none."""
+    behaviour cloning; PPO's counterpart of the off-policy agents' `actor_burn_in`, counted in env steps). Its
+    observation statistics keep their running update. 0: none."""
     torch_threads: int = 1
     """Intra-op CPU threads of the update (`torch.set_num_threads`). Rollouts always run the policy on one thread:
     its per-step batches are small, and a vector env's physics threads then have the cores to themselves (a second

@@ -150,15 +150,13 @@ def ppo_loss(model: ActorCritic, batch: Minibatch, config: PPOConfig, clip_coef:
     pg = clipped_surrogate(logprob, batch.logprobs, advantages, clip_coef, mask)
     vf = value_loss(value, batch.values, batch.returns, clip_coef if config.clip_vloss else None, mask)
     ent = masked_mean(entropy, mask)
-    loss = pg + config.vf_coef * vf - config.ent_coef * ent
-    bc = torch.zeros((), dtype=loss.dtype, device=loss.device)
+    bc = torch.zeros_like(vf)
     if imitation > 0 and batch.labels is not None:
         labelled = torch.isfinite(batch.labels).all(-1)  # a NaN label: a state the teacher leaves to RL
         error = ((action_mean - torch.nan_to_num(batch.labels)) ** 2).sum(-1)
         bc = masked_mean(error, mask * labelled.to(mask.dtype))
-        loss = loss + imitation * bc
-    if critic_only:
-        loss = config.vf_coef * vf
+    # the critic warm-up trains the value alone; otherwise the sum in the order of Eq. 9, then the imitation term
+    loss = config.vf_coef * vf if critic_only else pg + config.vf_coef * vf - config.ent_coef * ent + imitation * bc
     with torch.no_grad():
         log_ratio = logprob - batch.logprobs
         stats = {"policy_loss": pg.detach(), "value_loss": vf.detach(), "entropy": ent.detach(),
@@ -199,8 +197,9 @@ def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollou
     """update_epochs passes of minibatch gradient steps on `ppo_loss` over one rollout (Schulman et al. 2017,
     Algorithm 1), with the optimiser's learning rate as it is and the clip range `clip_coef` (None:
     config.clip_coef); with config.target_kl the passes stop after the first epoch whose mean approximate KL
-    exceeds it (CleanRL's early stop). With `critic_only` the critic alone learns (`ppo_loss`), every epoch. The mean
-    of each loss part over the steps, the explained variance of the returns, the gradient steps and the epochs run."""
+    exceeds it (CleanRL's early stop; with `critic_only` the actor is held, its KL is 0 and every epoch runs). The
+    mean of each loss part over the steps, the explained variance of the returns, the gradient steps and the epochs
+    run."""
     advantages, returns = advantages_of(rollout, config)
     totals: dict[str, float] = {}
     steps = epochs = 0
@@ -217,7 +216,7 @@ def update(model: ActorCritic, optimizer: torch.optim.Optimizer, rollout: Rollou
                 totals[key] = totals.get(key, 0.0) + float(value)
             kls.append(stats["approx_kl"])
             steps += 1
-        if not critic_only and config.target_kl is not None and float(torch.stack(kls).mean()) > config.target_kl:
+        if config.target_kl is not None and float(torch.stack(kls).mean()) > config.target_kl:
             break
     out = {key: value / max(steps, 1) for key, value in totals.items()}
     valid = rollout.valid.bool()
