@@ -7,6 +7,7 @@ run the actor of another's checkpoint (a DAgger student's, for a fine-tune).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,9 @@ from auv_mj.agents.checkpoint import (
 from auv_mj.agents.ppo.config import PPOConfig
 from auv_mj.agents.ppo.model import ActorCritic
 
+ANCHOR_PREFIX = "anchor"
+"""The tensors' prefix of a run's frozen anchor in its checkpoint (`save_ppo`, `load_anchor`)."""
+
 CHECKPOINT_NAME = "checkpoint.pt"
 """The checkpoint's name in a run's directory (`auv_mj.agents.ppo.ppo.train` writes it every checkpoint_every
 rollouts)."""
@@ -33,16 +37,37 @@ rollouts)."""
 
 def save_ppo(path: str | Path, model: ActorCritic, optimizer: torch.optim.Optimizer | None,
              generator: torch.Generator | None, config: PPOConfig, spec: Mapping[str, Any],
-             counters: Mapping[str, Any]) -> None:
+             counters: Mapping[str, Any], anchor: ActorCritic | None = None) -> None:
     """Atomically writes a checkpoint of kind "ppo": the model (normaliser included), Adam's moments and the
-    generator (either None for a deployable file), with the config, the spaces and the counters."""
+    generator (either None for a deployable file), with the config, the spaces and the counters; a training run
+    under an imitation term of source "init" also its frozen anchor (`load_anchor`), which no deployable file has."""
     tensors = module_tensors(model, "model")
+    if anchor is not None:
+        tensors.update(module_tensors(anchor, ANCHOR_PREFIX))
     if optimizer is not None:
         tensors.update(optimizer_tensors(optimizer, "optimizer"))
     if generator is not None:
         tensors["generator"] = generator.get_state().cpu()
     save_checkpoint(path, "ppo", tensors, {"agent": "ppo", "config": config_to_dict(config), "spec": dict(spec),
                                            "counters": dict(counters)})
+
+
+def load_anchor(path: str | Path, tensors: Mapping[str, torch.Tensor], model: ActorCritic) -> ActorCritic:
+    """The frozen anchor a run under PPOConfig.imitation_source "init" saved beside its model (the actor it started
+    from), with `model`'s architecture; ValueError naming the file where the checkpoint holds none."""
+    if not any(k.startswith(ANCHOR_PREFIX + ".") for k in tensors):
+        raise ValueError(f"checkpoint {path} holds no anchor: it was not trained with PPOConfig.imitation_source "
+                         "'init'")
+    anchor = copy.deepcopy(model)
+    load_module(anchor, tensors, ANCHOR_PREFIX, Path(path))
+    return frozen(anchor)
+
+
+def frozen(model: ActorCritic) -> ActorCritic:
+    """`model` in eval mode with no parameter asking for a gradient (an anchor: it labels, it never learns)."""
+    for parameter in model.parameters():
+        parameter.requires_grad_(False)
+    return model.eval()
 
 
 def read_ppo(path: str | Path) -> tuple[Checkpoint, PPOConfig]:

@@ -18,6 +18,9 @@ RECURRENT_KINDS = (None, "gru", "lstm")
 SCHEDULES = ("constant", "linear", "cosine")
 """How a scheduled hyper-parameter goes from its value to its floor over the run's planned steps (`scheduled`)."""
 
+IMITATION_SOURCES = ("teacher", "init")
+"""Who labels the imitation term (PPOConfig.imitation_source): the caller's teacher, or the run's frozen start."""
+
 
 @dataclasses.dataclass(frozen=True)
 class PPOConfig:
@@ -90,6 +93,12 @@ class PPOConfig:
     """imitation_coef over the run's planned steps, as lr_schedule: it decays so that RL has the last word."""
     min_imitation_coef: float = 0.0
     """The imitation weight's floor, reached at the last planned step (not used by "constant")."""
+    imitation_source: str = "teacher"
+    """Who labels the imitation term's states (IMITATION_SOURCES): "teacher", the caller's teacher
+    (`train(..., teacher=...)`); "init", the run's starting actor, frozen (the `init` checkpoint's, kept in the run's
+    checkpoint as its anchor): the term then holds the actor near the policy it started from while RL moves it, with
+    no teacher in the loop (a behaviour-regularised fine-tune, as the reference-policy penalty of a PPO fine-tune;
+    here on the mean action, as the teacher's term, so the log std stays free)."""
     critic_warmup_steps: int = 0
     """Env steps at the start of a run (global steps, so a resumed run keeps them) whose updates train the critic
     alone: the actor's weights and log std are held as loaded while a new critic learns its values. For a fine-tune
@@ -139,6 +148,7 @@ _CONFIG_CHECKS: tuple[tuple[tuple[str, ...], Callable[[Any], bool], str], ...] =
      lambda v: _number(v) and 0 <= v < math.inf,
      "a finite number >= 0"),
     (("lr_schedule", "clip_schedule", "imitation_schedule"), lambda v: v in SCHEDULES, f"one of {SCHEDULES}"),
+    (("imitation_source",), lambda v: v in IMITATION_SOURCES, f"one of {IMITATION_SOURCES}"),
     (("target_kl",), lambda v: v is None or (_number(v) and v > 0), "None or a number > 0"),
     (("hidden_sizes",), lambda v: isinstance(v, tuple) and all(_whole(n) and n >= 1 for n in v),
      "a tuple of whole numbers >= 1"),

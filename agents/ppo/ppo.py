@@ -29,6 +29,7 @@ last value).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import math
@@ -44,7 +45,15 @@ from gymnasium.vector import VectorEnv
 from torch import nn
 
 from auv_mj.agents.checkpoint import config_to_dict, load_optimizer
-from auv_mj.agents.ppo.checkpoint import CHECKPOINT_NAME, load_actor, load_model, read_ppo, save_ppo
+from auv_mj.agents.ppo.checkpoint import (
+    CHECKPOINT_NAME,
+    frozen,
+    load_actor,
+    load_anchor,
+    load_model,
+    read_ppo,
+    save_ppo,
+)
 from auv_mj.agents.ppo.config import PPOConfig, imitation_weight, schedule_at
 from auv_mj.agents.ppo.logs import LOG_FIELDS, RETURN_WINDOW, RunLogs, episode_summary, progress_text
 from auv_mj.agents.ppo.model import ActorCritic, build_model
@@ -297,7 +306,9 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
     the teacher's actions (N, act_dim) at the env's current states, labels every rollout step, and with
     config.imitation_coef > 0 the update adds the decaying imitation term (`imitation_weight`, `ppo_loss`).
     With `init_critic`, `init`'s critic comes too where the whole of it fits (a PPO run's own checkpoint,
-    continued on a new mixture: `load_actor`).
+    continued on a new mixture: `load_actor`). With config.imitation_source "init" no teacher is given: a frozen
+    copy of `init`'s actor labels the rollouts (its anchor, kept in the run's checkpoint for a resume), and the
+    imitation term holds the actor near where it started.
     """
     if not isinstance(total_steps, int) or isinstance(total_steps, bool) or total_steps < 1:
         raise ValueError(f"total_steps must be a whole number >= 1, got {total_steps!r}")
@@ -359,10 +370,20 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
                     raise ValueError(f"checkpoint {init} is for spaces {init_meta['spec']}, this env has {spec}")
                 load_actor(model, init_tensors, Path(init), critic=init_critic)
             optimizer = make_optimizer(model, config)
-        if config.imitation_coef > 0 and teacher is None:
-            raise ValueError("PPOConfig.imitation_coef > 0 needs a teacher (train(..., teacher=...))")
+        anchor = None
+        if config.imitation_coef > 0 and config.imitation_source == "init":
+            if teacher is not None:
+                raise ValueError("PPOConfig.imitation_source 'init' labels with the run's starting actor: give no "
+                                 "teacher, or imitation_source 'teacher'")
+            if not resume and init is None:
+                raise ValueError("PPOConfig.imitation_source 'init' needs init, the checkpoint whose actor anchors "
+                                 "the run (train(..., init=...), --init)")
+            anchor = load_anchor(ckpt_path, tensors, model) if resume else frozen(copy.deepcopy(model))
+        elif config.imitation_coef > 0 and teacher is None:
+            raise ValueError("PPOConfig.imitation_coef > 0 needs a teacher (train(..., teacher=...)), or "
+                             "imitation_source 'init'")
         collector = Collector(vec_env, model, spec, config, generator, step_speed,
-                              teacher if config.imitation_coef > 0 else None)
+                              teacher if config.imitation_coef > 0 and anchor is None else None, anchor)
         return _train_loop(collector, optimizer, config, run_dir, counters, total_steps, resume, progress,
                            tensorboard)
     finally:
@@ -430,7 +451,8 @@ def _train_loop(collector: Collector, optimizer: torch.optim.Optimizer, config: 
             bar.set_postfix_str(progress_text(recent, counters["episodes"], lr, sps))
             if counters["iteration"] % config.checkpoint_every == 0 or counters["iteration"] == iterations:
                 counters["wall_time"] = wall_before + time.perf_counter() - started
-                save_ppo(run_dir / CHECKPOINT_NAME, model, optimizer, generator, config, spec, counters)
+                save_ppo(run_dir / CHECKPOINT_NAME, model, optimizer, generator, config, spec, counters,
+                         collector.anchor)
     finally:
         bar.close()
         logs.close()

@@ -48,7 +48,8 @@ class Rollout:
     privileged: torch.Tensor | None = None
     """The critic's privileged inputs (T, N, P) beside each observation (None: it has none)."""
     labels: torch.Tensor | None = None
-    """A teacher's actions (T, N, act_dim) at each observation, in the networks' normalised space (None: no teacher)."""
+    """A teacher's actions (T, N, act_dim) at each observation, in the networks' normalised space, or the frozen
+    anchor's mean actions clipped to it (`Collector`'s `anchor`); None: no labels."""
 
 
 class Episode(NamedTuple):
@@ -110,13 +111,19 @@ class Collector:
     An env with `cells` (a list of names or tuples of names) and `cell_of_row` (row -> index into it), as
     `auv_mj.tasks.mixture.PlanningMixtureVectorEnv`, has its finished episodes counted per cell; any other env is
     one cell, "all". `step_speed(next_obs, info)`, if given, is each row's speed over the step just taken.
+    Labels for an imitation term come from `teacher` (at the env's states) or `anchor` (a frozen actor that reads
+    the rollout's observations with a memory of its own: PPOConfig.imitation_source "init"), not both.
     """
 
     def __init__(self, env: VectorEnv, model: ActorCritic, spec: Mapping[str, Any], config: PPOConfig,
                  generator: torch.Generator,
                  step_speed: Callable[[Any, Mapping[str, Any]], np.ndarray] | None = None,
-                 teacher: Callable[[], np.ndarray] | None = None):
+                 teacher: Callable[[], np.ndarray] | None = None, anchor: ActorCritic | None = None):
+        if teacher is not None and anchor is not None:
+            raise ValueError("Collector: labels come from a teacher or an anchor, not both")
         self.env, self.model, self.spec, self.config, self.generator = env, model, spec, config, generator
+        self.anchor = anchor
+        """A frozen actor whose mean actions on the rollout's observations are its labels; None: none."""
         self.teacher = teacher
         """The teacher's actions (N, act_dim) in the env's action space at the env's current states, recorded in
         the rollout as labels (`Rollout.labels`); None: no labels."""
@@ -133,6 +140,7 @@ class Collector:
         self.obs: np.ndarray | None = None
         self.privileged = np.zeros((self.num_envs, model.privileged_dim), np.float32)
         self.state = model.initial_state(self.num_envs)
+        self.anchor_state = anchor.initial_state(self.num_envs, actor_only=True) if anchor is not None else None
         self.starts = np.ones(self.num_envs, bool)
         self.pending_reset = np.zeros(self.num_envs, bool)
         """NEXT_STEP: envs whose last step ended an episode; their next step is a reset, not a transition."""
@@ -148,6 +156,8 @@ class Collector:
         self.obs = flatten_obs(obs, self.spec)
         self.privileged = privileged_inputs(info, self.num_envs, self.model.privileged_dim)
         self.state = self.model.initial_state(self.num_envs)
+        if self.anchor is not None:
+            self.anchor_state = self.anchor.initial_state(self.num_envs, actor_only=True)
         self.starts[:] = True
         self.pending_reset[:] = False
         self.episode_returns[:] = 0.0
@@ -224,6 +234,9 @@ class Collector:
             self.obs, self.privileged = flatten_obs(next_obs, self.spec), next_priv
         _, last_value, _ = model(self._tensor(self.obs)[None], self._tensor(self.starts)[None], self.state,
                                  self._tensor(self.privileged)[None])
+        if self.anchor is not None:  # the anchor reads what the actor read, its memory zeroed at the same starts
+            anchor_mean, self.anchor_state = self.anchor.act(obs_buf, starts, self.anchor_state)
+            labels = anchor_mean.clamp(-1.0, 1.0)
         following = torch.cat([values[1:], last_value], dim=0)
         if self.mode == AutoresetMode.SAME_STEP:
             next_values = torch.where(truncs.bool() & ~terms.bool(), next_values, following)

@@ -26,7 +26,7 @@ from auv_mj.agents.offpolicy.learners import agent_classes
 from auv_mj.agents.offpolicy.td3 import TD3Config
 from auv_mj.agents.offpolicy.train import AGENTS, CHECKPOINT_NAME, WINDOW, errors_text, train
 from auv_mj.agents.ppo import PPOConfig
-from auv_mj.agents.ppo.config import SCHEDULES
+from auv_mj.agents.ppo.config import IMITATION_SOURCES, SCHEDULES
 from auv_mj.agents.ppo.planner import (
     LEARNED_CONFIG,
     LEARNED_MIXTURE,
@@ -294,8 +294,10 @@ def add_ppo_options(parser: argparse.ArgumentParser) -> None:
             group.add_argument(flag, choices=("gru", "lstm", "none"), help=help_text + " (none: no memory)")
         elif field.name == "target_kl":
             group.add_argument(flag, type=float, help=help_text)
-        elif field.name in ("lr_schedule", "clip_schedule"):
+        elif field.name in ("lr_schedule", "clip_schedule", "imitation_schedule"):
             group.add_argument(flag, choices=SCHEDULES, help=help_text)
+        elif field.name == "imitation_source":
+            group.add_argument(flag, choices=IMITATION_SOURCES, help=help_text)
         elif isinstance(default, bool):
             group.add_argument(flag, type=_boolean, help=help_text)
         else:

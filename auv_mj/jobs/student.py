@@ -89,10 +89,11 @@ def continue_planner(run_dir: str | Path, config: PPOConfig, mixture: MixtureCon
                      threads: int | None = None, init: str | Path | None = None,
                      mover_reach: float | None = None) -> dict[str, Any]:
     """`auv-mj train ppo --task planning-mix`: `train_planner` (a new run from `init`, or the run in `run_dir`
-    resumed), with the privileged teacher labelling the rollouts where config.imitation_coef > 0 (the imitation term
-    of issue 51, item 5, on a continued run): every state, or with `mover_reach` [m] only the states with a mover
-    within that of the vehicle (`BatchTeacher`: imitation weighted against RL state by state). The teacher's options
-    are kept in the run directory (TEACHER_NAME) and read back on resume."""
+    resumed), with the privileged teacher labelling the rollouts where config.imitation_coef > 0 and its
+    imitation_source is "teacher" (the imitation term of issue 51, item 5, on a continued run; with "init" the
+    run's frozen start labels them, `auv_mj.agents.ppo.train`): every state, or with `mover_reach` [m] only the
+    states with a mover within that of the vehicle (`BatchTeacher`: imitation weighted against RL state by state).
+    The teacher's options are kept in the run directory (TEACHER_NAME) and read back on resume."""
     path = Path(run_dir) / TEACHER_NAME
     if resume and path.is_file():
         saved = json.loads(path.read_text())
@@ -100,10 +101,10 @@ def continue_planner(run_dir: str | Path, config: PPOConfig, mixture: MixtureCon
             raise ValueError(f"{path}: the run's teacher has mover_reach {saved.get('mover_reach')!r}, not "
                              f"{mover_reach!r}")
         mover_reach = saved.get("mover_reach")
-    teaches = config.imitation_coef > 0
+    teaches = config.imitation_coef > 0 and config.imitation_source == "teacher"
     if mover_reach is not None and not teaches:
-        raise ValueError(f"mover_reach {mover_reach!r} needs an imitation term: give the PPO config an "
-                         "imitation_coef > 0 (--ppo-imitation-coef)")
+        raise ValueError(f"mover_reach {mover_reach!r} needs the teacher's imitation term: give the PPO config an "
+                         "imitation_coef > 0 (--ppo-imitation-coef) and imitation_source 'teacher'")
     teacher_of = None
     if teaches:
         mover_reach = checked_reach(mover_reach)  # before the run starts

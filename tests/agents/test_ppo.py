@@ -7,6 +7,7 @@ is 0 (`best_feedforward_return`); a policy with memory can earn 1.
 
 from __future__ import annotations
 
+import copy
 import csv
 import dataclasses
 from types import SimpleNamespace
@@ -41,6 +42,8 @@ from auv_mj.agents.ppo import (
     train,
     update,
 )
+from auv_mj.agents.ppo.checkpoint import frozen, load_model
+from auv_mj.agents.ppo.export import export
 
 DELAY = 8
 """Blank steps between the cue and the step that is rewarded."""
@@ -579,7 +582,7 @@ def test_goal_dict_env_trains_and_its_policy_reads_observation_and_desired_goal_
 
 @pytest.mark.parametrize(("field", "value"), [
     ("num_steps", 0), ("gamma", 1.5), ("clip_coef", -0.1), ("recurrent", "rnn"), ("hidden_sizes", (0,)),
-    ("ent_coef", float("nan")), ("target_kl", 0.0), ("norm_adv", 1), ("seed", -1)])
+    ("ent_coef", float("nan")), ("target_kl", 0.0), ("norm_adv", 1), ("seed", -1), ("imitation_source", "self")])
 def test_config_rejects_bad_values_naming_the_field(field, value):
     with pytest.raises(ValueError, match=f"PPOConfig.{field}"):
         PPOConfig(**{field: value})
@@ -788,6 +791,77 @@ def test_a_critic_warmup_holds_the_actor_as_loaded_while_the_new_critic_learns_t
         PPOConfig(recurrent="gru", critic_warmup_steps=10)
     with pytest.raises(ValueError, match="PPOConfig.critic_warmup_steps"):
         PPOConfig(critic_warmup_steps=-1)
+
+
+def _actor_means(checkpoint, cues=(-1.0, 1.0)) -> torch.Tensor:
+    """The mean actions (DELAY + 1, len(cues), 1) of a checkpoint's actor over whole cue episodes."""
+    (tensors, meta), config = read_ppo(checkpoint)
+    model = load_model(checkpoint, tensors, meta["spec"], config)
+    obs = torch.zeros(DELAY + 1, len(cues), 1)
+    obs[0, :, 0] = torch.tensor(cues)
+    starts = torch.zeros(DELAY + 1, len(cues))
+    starts[0] = 1.0
+    with torch.no_grad():
+        return model.act(obs, starts, model.initial_state(len(cues), actor_only=True))[0]
+
+
+def test_an_anchors_labels_are_the_frozen_actors_own_step_by_step_means_with_its_memory_across_rollouts():
+    config = dataclasses.replace(TOY_CONFIG, num_steps=7, init_log_std=-20.0)  # std 2e-9: an action is its mean
+    env = CueEnv(4)
+    spec = env_spec(env.single_observation_space, env.single_action_space)
+    model = build_model(spec, config)
+    collector = Collector(env, model, spec, config, torch.Generator().manual_seed(0),
+                          anchor=frozen(copy.deepcopy(model)))
+    collector.reset([0, 1, 2, 3])
+    rollouts = [collector.rollout(config.num_steps) for _ in range(3)]
+    # 21 steps: episodes of DELAY + 1 steps (and a reset step) run across the rollouts, and so does the memory
+    assert rollouts[1].starts[0].sum() == 0 and rollouts[1].starts[1:].sum() > 0
+    for rollout in rollouts:
+        assert rollout.labels is not None
+        torch.testing.assert_close(rollout.labels, rollout.actions.clamp(-1.0, 1.0), rtol=0, atol=1e-6)
+    with pytest.raises(ValueError, match="a teacher or an anchor, not both"):
+        Collector(env, model, spec, config, torch.Generator(), teacher=lambda: np.zeros((4, 1)), anchor=model)
+
+
+def test_an_imitation_term_from_init_holds_the_actor_near_its_frozen_start_and_resumes_exactly(tmp_path):
+    config = dataclasses.replace(TOY_CONFIG, num_steps=10, num_minibatches=2, checkpoint_every=1,
+                                 separate_critic=True)
+    source = train(CueEnv(4), config, tmp_path / "source", total_steps=80, progress=False).checkpoint
+    free = dataclasses.replace(config, learning_rate=2e-2, update_epochs=8)
+    anchored = dataclasses.replace(free, imitation_coef=50.0, imitation_schedule="constant", imitation_source="init")
+    steps = 4 * 10 * 6
+    runs = {name: train(CueEnv(4), cfg, tmp_path / name, total_steps=steps, progress=False, init=source).checkpoint
+            for name, cfg in (("free", free), ("anchored", anchored))}
+    start = _actor_means(source)
+    moved = {name: float((_actor_means(path) - start).abs().max()) for name, path in runs.items()}
+    assert moved["anchored"] < 0.2 * moved["free"], moved
+    (tensors, _), _ = read_ppo(runs["anchored"])
+    source_tensors = read_ppo(source)[0].tensors
+    actor = [k[len("model."):] for k in source_tensors if k.startswith("model.")
+             and not k.startswith(("model.critic", "model.privileged_norm"))]
+    assert {"actor_head.weight", "core.weight_hh", "log_std", "obs_norm.mean"} <= set(actor)
+    for key in actor:  # the anchor is the start, frozen: its normaliser too
+        torch.testing.assert_close(tensors["anchor." + key], source_tensors["model." + key], rtol=0, atol=0,
+                                   msg=key)
+    assert not any(k.startswith("anchor.") for k in read_ppo(runs["free"])[0].tensors)
+    rows = _log_rows(tmp_path / "anchored")
+    assert all(float(r["imitation_loss"]) >= 0 for r in rows) and float(rows[-1]["imitation_coef"]) == 50.0
+    # a resumed run (the anchor read back from the checkpoint) equals the uninterrupted one
+    cut = train(CueEnv(4), anchored, tmp_path / "cut", total_steps=4 * 10 * 2, progress=False, init=source)
+    resumed = train(CueEnv(4), None, tmp_path / "cut", total_steps=steps, resume=True, progress=False)
+    assert cut.iterations == 2
+    whole = read_ppo(runs["anchored"])[0].tensors
+    again = read_ppo(resumed.checkpoint)[0].tensors
+    assert sorted(whole) == sorted(again)
+    for name in whole:
+        torch.testing.assert_close(whole[name], again[name], rtol=0, atol=0, msg=name)
+    shipped = export(resumed.checkpoint, tmp_path / "shipped.pt")
+    assert not any(k.startswith("anchor.") for k in read_ppo(shipped)[0].tensors)
+    with pytest.raises(ValueError, match="imitation_source 'init' needs init"):
+        train(CueEnv(4), anchored, tmp_path / "no_init", total_steps=40, progress=False)
+    with pytest.raises(ValueError, match="give no teacher"):
+        train(CueEnv(4), anchored, tmp_path / "teacher", total_steps=40, progress=False, init=source,
+              teacher=lambda: np.zeros((4, 1)))
 
 
 class CellCueEnv(CueEnv):
