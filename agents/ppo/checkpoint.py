@@ -58,16 +58,14 @@ def load_anchor(path: str | Path, tensors: Mapping[str, torch.Tensor], model: Ac
     if not any(k.startswith(ANCHOR_PREFIX + ".") for k in tensors):
         raise ValueError(f"checkpoint {path} holds no anchor: it was not trained with PPOConfig.imitation_source "
                          "'init'")
-    anchor = copy.deepcopy(model)
+    anchor = frozen_copy(model)
     load_module(anchor, tensors, ANCHOR_PREFIX, Path(path))
-    return frozen(anchor)
+    return anchor
 
 
-def frozen(model: ActorCritic) -> ActorCritic:
-    """`model` in eval mode with no parameter asking for a gradient (an anchor: it labels, it never learns)."""
-    for parameter in model.parameters():
-        parameter.requires_grad_(False)
-    return model.eval()
+def frozen_copy(model: ActorCritic) -> ActorCritic:
+    """A copy of `model` in eval mode that asks for no gradient (an anchor: it labels, it never learns)."""
+    return copy.deepcopy(model).requires_grad_(False).eval()
 
 
 def read_ppo(path: str | Path) -> tuple[Checkpoint, PPOConfig]:

@@ -29,7 +29,6 @@ last value).
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import json
 import math
@@ -47,7 +46,7 @@ from torch import nn
 from auv_mj.agents.checkpoint import config_to_dict, load_optimizer
 from auv_mj.agents.ppo.checkpoint import (
     CHECKPOINT_NAME,
-    frozen,
+    frozen_copy,
     load_actor,
     load_anchor,
     load_model,
@@ -378,7 +377,7 @@ def train(env: VectorEnv | Callable[[], VectorEnv], config: PPOConfig | None, ru
             if not resume and init is None:
                 raise ValueError("PPOConfig.imitation_source 'init' needs init, the checkpoint whose actor anchors "
                                  "the run (train(..., init=...), --init)")
-            anchor = load_anchor(ckpt_path, tensors, model) if resume else frozen(copy.deepcopy(model))
+            anchor = load_anchor(ckpt_path, tensors, model) if resume else frozen_copy(model)
         elif config.imitation_coef > 0 and teacher is None:
             raise ValueError("PPOConfig.imitation_coef > 0 needs a teacher (train(..., teacher=...)), or "
                              "imitation_source 'init'")

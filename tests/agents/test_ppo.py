@@ -7,7 +7,6 @@ is 0 (`best_feedforward_return`); a policy with memory can earn 1.
 
 from __future__ import annotations
 
-import copy
 import csv
 import dataclasses
 from types import SimpleNamespace
@@ -42,7 +41,7 @@ from auv_mj.agents.ppo import (
     train,
     update,
 )
-from auv_mj.agents.ppo.checkpoint import frozen, load_model
+from auv_mj.agents.ppo.checkpoint import frozen_copy, load_model
 from auv_mj.agents.ppo.export import export
 
 DELAY = 8
@@ -811,7 +810,7 @@ def test_an_anchors_labels_are_the_frozen_actors_own_step_by_step_means_with_its
     spec = env_spec(env.single_observation_space, env.single_action_space)
     model = build_model(spec, config)
     collector = Collector(env, model, spec, config, torch.Generator().manual_seed(0),
-                          anchor=frozen(copy.deepcopy(model)))
+                          anchor=frozen_copy(model))
     collector.reset([0, 1, 2, 3])
     rollouts = [collector.rollout(config.num_steps) for _ in range(3)]
     # 21 steps: episodes of DELAY + 1 steps (and a reset step) run across the rollouts, and so does the memory
