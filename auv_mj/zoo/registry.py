@@ -199,9 +199,11 @@ register("planner-memory", PolicySpec(
     lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=MEMORY_PLANNER, tasks="planning",
     protection=False, accepts_path=True, role="comparison"))
 LEARNED_PLANNER = "planner_learned.pt"
-"""The shipped checkpoint of `planner-learned`: a GRU student of the privileged geodesic teacher (DAgger on the
-training mixture), fine-tuned with PPO under a decaying imitation term, then two more PPO stages with the tunnels
-oversampled (`auv-mj train ppo --init`), chosen on validation seeds (docs/runs/planner-learned/)."""
+"""The shipped checkpoint of `planner-learned`: a GRU student that reads its own sonar map (observation="planner-map"),
+taught by `map-replan` flying beside it (DAgger on the training mixture, then a final fit of 128 epochs over DAgger's
+data), then a PPO stage with the tunnels oversampled, held near the student by an imitation term on its own frozen
+actions (`auv-mj train ppo --init --ppo-imitation-source init`), chosen on validation seeds
+(docs/runs/planner-learned/)."""
 LEARNED_PLANNER_3D = "planner_learned_3d.pt"
 """The shipped checkpoint of `planner-learned` on the 6-DOF tasks: a GRU student of the 3-D geodesic teacher by DAgger
 on the 6-DOF mixture and a final fit of 128 epochs over DAgger's data, reading the fan held over pings
@@ -210,9 +212,9 @@ the same recipe on the plain fan, on the sonar map, DAgger alone, its PPO fine-t
 (docs/runs/planner-learned-3d/)."""
 register("planner-learned", PolicySpec(
     "the learned planner of the well-posed problem (geodesic reward, rate action, planner observation): a GRU "
-    "student of the privileged geodesic teacher (DAgger on random obstacles, moving obstacles and tunnels, both tiers "
-    "and waters), fine-tuned with PPO on the geodesic reward in three stages; the sonars, its pose, the route target "
-    "and its last action in, (speed, heading rate) out; no search, no line of sight, no protection domain, no residual "
+    "student of map-replan (DAgger on random obstacles, moving obstacles and tunnels, both tiers and waters), "
+    "fine-tuned with PPO on the geodesic reward; the sonars and its own sonar map, its pose, the route target and its "
+    "last action in, (speed, heading rate) out; no search, no line of sight, no protection domain, no residual "
     "(auv3d: its own student of the 3-D teacher on goal3d and tunnel3d, the fan held over pings, altimeter and "
     "target in, (speed, heading, depth) out, on splane-ocean)",
     lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=LEARNED_PLANNER,

@@ -19,7 +19,8 @@ def scenarios(lines: list[str], figures: Path) -> None:
               "One episode per scenario (start, goal and obstacles from the table; obstacle shapes ours). "
               "`two-layer` = HER-DDPG planner on the DDPG executor (Sec. 4.3); `planner` = HER-DDPG on the "
               "S-plane executor; `splane` = line-of-sight guidance on S-plane (no avoidance); `planner-learned` = "
-              "ours, the student of the privileged teacher (not the paper's), on the same executor.", "",
+              "ours, a student taught by `map-replan` on its own sonar map, then PPO (not the paper's), on the same "
+              "executor.", "",
               "| scenario | paper | policy | outcome | min clearance [m] | path length [m] | time [s] |",
               "| --- | --- | --- | --- | --- | --- | --- |"]
     for label, table, task, kwargs in SCENARIOS:
