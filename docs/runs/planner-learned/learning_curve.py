@@ -69,7 +69,6 @@ def shipped_points() -> list[dict[str, float | str]]:
     points.append({"phase": "map-fit", "env_steps": points[-1]["env_steps"],
                    "wall_s": round(points[-1]["wall_s"] + fit_wall, 1), "hard_success": fit["mean"],
                    **{c: fit[c] for c in HARD_CELLS}})
-    points.append({**points[-1], "phase": "map-ppo"})  # the stage starts where the fit ended
     return points + validation_points(HERE / "fit128_ppo_anchor_validation.csv", "map-ppo", points[-1]["env_steps"],
                                       points[-1]["wall_s"])
 
