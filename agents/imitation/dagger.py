@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -88,6 +89,10 @@ class DaggerConfig:
     """Passes of one more fit over the whole aggregate after the last round (0: none): the student of the last
     round's fit is the one DAgger's rollouts needed, not a fitted one (the 3-D student's imitation loss was still
     falling at 4 epochs a round)."""
+    final_lr_fraction: float = 1.0
+    """The final fit's step size at its last minibatch, as a fraction of learning_rate, reached by a cosine from
+    learning_rate (Loshchilov & Hutter 2017, without restarts; 1: constant, the fits before it had). A step size
+    that falls lets the fit settle where a constant one keeps stepping across the minimum's floor."""
     batch_sequences: int = 16
     """Whole vehicles' sequences in one minibatch of the fit."""
     learning_rate: float = 1e-3
@@ -121,6 +126,8 @@ class DaggerConfig:
                 raise ValueError(f"DaggerConfig.{name} must be a whole number >= 1, got {value!r}")
         if not isinstance(self.final_epochs, int) or isinstance(self.final_epochs, bool) or self.final_epochs < 0:
             raise ValueError(f"DaggerConfig.final_epochs must be a whole number >= 0, got {self.final_epochs!r}")
+        if not 0.0 <= float(self.final_lr_fraction) <= 1.0:
+            raise ValueError(f"DaggerConfig.final_lr_fraction must be in [0, 1], got {self.final_lr_fraction!r}")
         for name in ("beta0", "beta_decay"):
             value = getattr(self, name)
             if not 0.0 <= float(value) <= 1.0:
@@ -242,20 +249,32 @@ def imitation_loss(model: ActorCritic, data: Sequences, columns: np.ndarray | sl
 
 
 def fit(model: ActorCritic, optimizer: torch.optim.Optimizer, data: Sequences, config: DaggerConfig,
-        generator: torch.Generator) -> tuple[float, float]:
+        generator: torch.Generator, lr_fraction: float = 1.0) -> tuple[float, float]:
     """Behaviour cloning of the teacher's labels on the dataset (`imitation_loss`, minibatches of whole vehicles'
-    sequences); the loss over all of it (before, after)."""
+    sequences); the loss over all of it (before, after). `lr_fraction` < 1: the step size falls by a cosine from
+    config.learning_rate to that fraction of it at the last minibatch (DaggerConfig.final_lr_fraction), and is
+    config.learning_rate again after the fit (the next round's fit, or a resumed run's, starts from it)."""
     columns = data.obs.shape[1]
+    per_epoch = -(-columns // config.batch_sequences)
+    total = max(config.epochs * per_epoch - 1, 1)
     with torch.no_grad():
         before = float(imitation_loss(model, data))
+    step = 0
     for _ in range(config.epochs):
         order = torch.randperm(columns, generator=generator).numpy()
         for at in range(0, columns, config.batch_sequences):
+            if lr_fraction < 1.0:
+                scale = lr_fraction + (1.0 - lr_fraction) * 0.5 * (1.0 + math.cos(math.pi * step / total))
+                for group in optimizer.param_groups:
+                    group["lr"] = config.learning_rate * scale
             loss = imitation_loss(model, data, np.sort(order[at:at + config.batch_sequences]))
             optimizer.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(model.parameters(), config.max_grad_norm)
             optimizer.step()
+            step += 1
+    for group in optimizer.param_groups:
+        group["lr"] = config.learning_rate
     with torch.no_grad():
         after = float(imitation_loss(model, data))
     return before, after
@@ -348,14 +367,16 @@ def episodes_validator(env_fn: Callable[[int], VectorEnv]) -> Validator:
 def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: DaggerConfig | None = None, *,
                  resume: bool = False, eval_env_fn: Callable[[int], VectorEnv] | None = None,
                  validate: Validator | None = None, progress: bool = True,
-                 rounds: int | None = None, final_epochs: int | None = None) -> DaggerResult:
+                 rounds: int | None = None, final_epochs: int | None = None,
+                 final_lr_fraction: float | None = None) -> DaggerResult:
     """Runs DAgger (module docstring) on the batched `env` with `teacher` labelling its current states, until
     config.rounds rounds are done, checkpointing after each; `resume=True` continues the run in `run_dir` (its
     config; `config` must be None or the same; `rounds` more than it had extends it to that many rounds, the rest of
     its config kept; `final_epochs` likewise sets the final fit's, which runs after the last round where it has not
-    yet). After each round, and after the final fit, the student is validated (when config.validation_episodes > 0) by
-    `validate`, or on `eval_env_fn(n)`'s batch (`episodes_validator`); the final fit's row in dagger.csv has the
-    round number config.rounds and beta nan."""
+    yet, and again, from the fitted student, where it has: a further fit; `final_lr_fraction` sets that fit's
+    DaggerConfig.final_lr_fraction). After each round, and after the final fit, the student is validated (when
+    config.validation_episodes > 0) by `validate`, or on `eval_env_fn(n)`'s batch (`episodes_validator`); the final
+    fit's row in dagger.csv has the round number config.rounds and beta nan."""
     if validate is None and eval_env_fn is not None:
         validate = episodes_validator(eval_env_fn)
     run_dir = Path(run_dir)
@@ -377,6 +398,8 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
             config = dataclasses.replace(saved, rounds=rounds)
         if final_epochs is not None:
             config = dataclasses.replace(config, final_epochs=final_epochs)
+        if final_lr_fraction is not None:
+            config = dataclasses.replace(config, final_lr_fraction=final_lr_fraction)
     config = config or DaggerConfig()
     torch.set_num_threads(config.torch_threads)
     model = build_model(spec, config.student_config())
@@ -387,7 +410,7 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
         load_optimizer(optimizer, tensors, "optimizer", run_dir / CHECKPOINT_NAME)
         counters = checkpoint.metadata["counters"]
         rounds_done, round_sizes = int(counters["rounds"]), [int(s) for s in counters["round_sizes"]]
-        final_done = int(counters.get("final_fit_after", -1)) == rounds_done
+        final_done = int(counters.get("final_fit_after", -1)) == rounds_done and final_epochs is None
         if "data.obs" in tensors:
             data = Sequences(*(tensors[f"data.{f.name}"].numpy() for f in dataclasses.fields(Sequences)))
     log_path = run_dir / LOG_NAME
@@ -440,7 +463,8 @@ def train_dagger(env: VectorEnv, teacher: Teacher, run_dir: str | Path, config: 
     if config.final_epochs and data is not None and not final_done:
         started = time.perf_counter()
         generator = torch.Generator().manual_seed(config.seed * 1_000_003 + config.rounds)
-        losses = fit(model, optimizer, data, dataclasses.replace(config, epochs=config.final_epochs), generator)
+        losses = fit(model, optimizer, data, dataclasses.replace(config, epochs=config.final_epochs), generator,
+                     config.final_lr_fraction)
         finish(config.rounds, float("nan"), float("nan"), losses, started, final_fit=True)
     elif data is None or rounds_done >= config.rounds and not rows:
         _save(run_dir, model, optimizer, data, config, spec, max(rounds_done, 0), round_sizes, final_fit=final_done)

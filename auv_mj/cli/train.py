@@ -199,7 +199,11 @@ def add_dagger_options(parser: argparse.ArgumentParser) -> None:
                                type=int if f.type == "int" else float,
                                help=f"DaggerConfig.{f.name}" + {
                                    "rounds": " (with --resume: the rounds to go on to)",
-                                   "final_epochs": " (with --resume: a final fit of a finished run)"}.get(f.name, ""))
+                                   "final_epochs": " (with --resume: a final fit of a finished run, or a further "
+                                                   "one where it had one)",
+                                   "final_lr_fraction": " (a cosine to it from the learning rate over the final "
+                                                        "fit; with --resume: that of the fit it starts)"
+                                   }.get(f.name, ""))
     group.add_argument("--teacher-horizon", type=float, metavar="M",
                        help=f"--task {MIXTURE_TASK_3D}: the teacher knows a tube's plug only once within M metres of "
                             "it (default: it knows the whole tube)")
@@ -234,6 +238,7 @@ def _run_dagger(args: argparse.Namespace) -> int:
                                rounds=args.dagger_rounds if args.resume else None,
                                teacher_horizon=args.teacher_horizon,
                                final_epochs=args.dagger_final_epochs if args.resume else None,
+                               final_lr_fraction=args.dagger_final_lr_fraction if args.resume else None,
                                cell_weights=args.cell_weights, finetune_options=finetune or None,
                                teacher=args.dagger_teacher)
     except (ValueError, TypeError, FileNotFoundError, FileExistsError) as exc:

@@ -340,14 +340,16 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
                   ppo_config: PPOConfig | None = None, resume: bool = False, threads: int | None = None,
                   progress: bool = True, imitation_coef: float | None = None,
                   rounds: int | None = None, teacher_horizon: float | None = None,
-                  final_epochs: int | None = None, cell_weights: Sequence[str] | None = None,
+                  final_epochs: int | None = None, final_lr_fraction: float | None = None,
+                  cell_weights: Sequence[str] | None = None,
                   finetune_options: Mapping[str, Any] | None = None, teacher: str | None = None) -> dict[str, Any]:
     """DAgger in `run_dir` (module docstring), then `finetune_steps` env steps of PPO in run_dir/ppo (0: none);
     `resume` continues both where they stopped. `task` is a planning task (`num_envs` vehicles, `task_kwargs` laid
     over STUDENT_TASK_KWARGS), MIXTURE_TASK (`student_mixture(num_envs)`: num_envs vehicles a cell before the
     weights) or MIXTURE_TASK_3D (`mixture_3d_env(num_envs)`); a mixture takes no task_kwargs but {"observation": ...}
     (the planar one's: one of PLANNER_OBSERVATIONS; the 6-DOF one's: `auv3d.OBSERVATIONS`). `rounds`: on resume,
-    DAgger goes on to that many rounds (its config's otherwise), and `final_epochs` sets its final fit's epochs.
+    DAgger goes on to that many rounds (its config's otherwise), `final_epochs` sets its final fit's epochs (a further
+    fit where one was done) and `final_lr_fraction` that fit's step-size schedule (`train_dagger`).
     The fine-tune's config is `ppo_config`, else
     `finetune_config` of the run's DaggerConfig (the saved one on resume) with `imitation_coef` where given and the
     PPOConfig fields of `finetune_options` laid over it (`checked_finetune_options`: an ablation of the pipeline such
@@ -454,7 +456,8 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
         again = resume and (run_dir / CHECKPOINT_NAME).is_file()
         result = train_dagger(env, labels, run_dir, None if again else dagger, resume=again, progress=progress,
                               rounds=rounds if again else None, validate=validate,
-                              final_epochs=final_epochs if again else None)
+                              final_epochs=final_epochs if again else None,
+                              final_lr_fraction=final_lr_fraction if again else None)
         dagger = result.config
         out: dict[str, Any] = {"student": str(result.student), "dagger_rounds": result.rounds,
                                "dataset_steps": result.dataset_steps,

@@ -165,6 +165,22 @@ def test_the_dataset_grows_each_round_and_resume_gives_the_uninterrupted_run(tmp
     assert any(not torch.equal(student_before[k], student_after[k]) for k in student_before)
     saved = read_checkpoint(tmp_path / "b" / CHECKPOINT_NAME, "dagger")
     assert saved.metadata["counters"]["final_fit_after"] == 3 and saved.metadata["config"]["final_epochs"] == 5
+    # final_epochs given again on a fitted run: a further fit from the fitted student, on the same data, its step
+    # size annealed where final_lr_fraction says so
+    env = AUVVectorEnv("obstacles", num_envs=2, task_kwargs=HARD, threads=1)
+    further = train_dagger(env, BatchTeacher(env).actions, tmp_path / "b", resume=True, progress=False,
+                           final_epochs=4, final_lr_fraction=0.0)
+    env.close()
+    assert [row["round"] for row in further.log] == [3] and further.dataset_steps == fitted.dataset_steps
+    assert further.log[0]["loss_before"] == pytest.approx(fitted.log[0]["loss_after"], rel=1e-5)
+    assert further.log[0]["loss_after"] < further.log[0]["loss_before"]
+    assert further.config == dataclasses.replace(fitted.config, final_epochs=4, final_lr_fraction=0.0)
+    saved = read_checkpoint(tmp_path / "b" / CHECKPOINT_NAME, "dagger")
+    assert saved.metadata["counters"]["final_fit_after"] == 3 and saved.metadata["config"]["final_lr_fraction"] == 0
+    with open(tmp_path / "b" / "dagger.csv") as f:
+        assert [row["round"] for row in csv.DictReader(f)][-2:] == ["3", "3"]
+    with pytest.raises(ValueError, match="final_lr_fraction"):
+        DaggerConfig(final_lr_fraction=1.5)
 
 
 def test_behaviour_cloning_drives_the_loss_down_on_a_toy_problem():
@@ -188,6 +204,37 @@ def test_behaviour_cloning_drives_the_loss_down_on_a_toy_problem():
     assert after < 0.2 * before
     with torch.no_grad():
         assert float(imitation_loss(model, data)) == pytest.approx(after)
+
+
+def test_the_final_fits_step_size_falls_by_a_cosine_to_its_fraction_and_returns_after():
+    """DaggerConfig.final_lr_fraction: the step size of each minibatch is lr * (f + (1 - f) (1 + cos(pi t / T)) / 2),
+    t = 0 .. T over the fit's minibatches (Loshchilov & Hutter 2017), and the optimizer's own again after the fit."""
+    rng = np.random.default_rng(1)
+    T, N = 4, 10
+    obs = rng.normal(size=(T, N, 3)).astype(np.float32)
+    starts = np.zeros((T, N), np.float32)
+    starts[0] = 1
+    data = Sequences(obs, starts, np.ones((T, N), np.float32), np.zeros((T, N, 2), np.float32),
+                     np.zeros((T, N), np.float32))
+    config = dataclasses.replace(TINY, epochs=3, batch_sequences=4, learning_rate=2e-3)  # 3 minibatches an epoch
+    spec = {"kind": "box", "obs_shape": [3], "obs_dim": 3, "act_dim": 2, "act_shape": [2],
+            "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0]}
+    model = build_model(spec, config.student_config())
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate)
+    seen: list[float] = []
+    step = optimizer.step
+    def recording_step(*args, **kwargs):
+        seen.append(optimizer.param_groups[0]["lr"])
+        return step(*args, **kwargs)
+    optimizer.step = recording_step
+    fit(model, optimizer, data, config, torch.Generator().manual_seed(0), lr_fraction=0.25)
+    expected = [2e-3 * (0.25 + 0.75 * (1 + np.cos(np.pi * t / 8)) / 2) for t in range(9)]
+    assert seen == pytest.approx(expected, rel=1e-12)
+    assert seen[0] == pytest.approx(2e-3) and seen[-1] == pytest.approx(5e-4)
+    assert optimizer.param_groups[0]["lr"] == 2e-3
+    seen.clear()
+    fit(model, optimizer, data, config, torch.Generator().manual_seed(0))  # the default: constant
+    assert seen == [2e-3] * 9
 
 
 def _labelled_batch(config: PPOConfig, steps: int, labels: torch.Tensor):
