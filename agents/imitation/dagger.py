@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -56,7 +55,7 @@ from auv_mj.agents.checkpoint import (
 )
 from auv_mj.agents.ppo import ActorCritic, PPOConfig, build_model, save_ppo
 from auv_mj.agents.ppo import train as ppo_train
-from auv_mj.agents.ppo.config import RECURRENT_KINDS
+from auv_mj.agents.ppo.config import RECURRENT_KINDS, scheduled
 from auv_mj.agents.ppo.spaces import autoreset_mode, env_spec, student_inputs, student_view
 from auv_mj.seeds import VALIDATION, train_seed
 
@@ -255,8 +254,7 @@ def fit(model: ActorCritic, optimizer: torch.optim.Optimizer, data: Sequences, c
     config.learning_rate to that fraction of it at the last minibatch (DaggerConfig.final_lr_fraction), and is
     config.learning_rate again after the fit (the next round's fit, or a resumed run's, starts from it)."""
     columns = data.obs.shape[1]
-    per_epoch = -(-columns // config.batch_sequences)
-    total = max(config.epochs * per_epoch - 1, 1)
+    last = max(config.epochs * -(-columns // config.batch_sequences) - 1, 1)  # the last minibatch's index
     with torch.no_grad():
         before = float(imitation_loss(model, data))
     step = 0
@@ -264,9 +262,9 @@ def fit(model: ActorCritic, optimizer: torch.optim.Optimizer, data: Sequences, c
         order = torch.randperm(columns, generator=generator).numpy()
         for at in range(0, columns, config.batch_sequences):
             if lr_fraction < 1.0:
-                scale = lr_fraction + (1.0 - lr_fraction) * 0.5 * (1.0 + math.cos(math.pi * step / total))
                 for group in optimizer.param_groups:
-                    group["lr"] = config.learning_rate * scale
+                    group["lr"] = scheduled("cosine", config.learning_rate, config.learning_rate * lr_fraction,
+                                            step / last)
             loss = imitation_loss(model, data, np.sort(order[at:at + config.batch_sequences]))
             optimizer.zero_grad()
             loss.backward()
