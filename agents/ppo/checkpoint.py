@@ -16,6 +16,7 @@ import torch
 
 from auv_mj.agents.checkpoint import (
     Checkpoint,
+    config_from_dict,
     config_to_dict,
     load_module,
     module_tensors,
@@ -25,7 +26,7 @@ from auv_mj.agents.checkpoint import (
     saved_config,
 )
 from auv_mj.agents.ppo.config import PPOConfig
-from auv_mj.agents.ppo.model import ActorCritic
+from auv_mj.agents.ppo.model import ActorCritic, ActorEnsemble
 
 ANCHOR_PREFIX = "anchor"
 """The tensors' prefix of a run's frozen anchor in its checkpoint (`save_ppo`, `load_anchor`)."""
@@ -76,11 +77,41 @@ def read_ppo(path: str | Path) -> tuple[Checkpoint, PPOConfig]:
 
 
 def load_model(path: str | Path, tensors: Mapping[str, torch.Tensor], spec: Mapping[str, Any],
-               config: PPOConfig) -> ActorCritic:
-    """The actor-critic of a checkpoint's tensors; ValueError naming the file if they do not fit its config."""
+               config: PPOConfig) -> ActorCritic | ActorEnsemble:
+    """The actor-critic of a checkpoint's tensors, or where its spec lists MEMBERS_KEY the ensemble of its members
+    (`ActorEnsemble`, each member's tensors under "member{k}." and its config and spec in the list); ValueError
+    naming the file if they do not fit."""
+    if spec.get(MEMBERS_KEY) is not None:
+        return _load_ensemble(Path(path), tensors, spec[MEMBERS_KEY]).to(config.device)
     model = ActorCritic(int(spec["obs_dim"]), int(spec["act_dim"]), config, int(spec.get("privileged_dim", 0)))
     load_module(model, tensors, "model", Path(path))
     return model.to(config.device)
+
+
+MEMBERS_KEY = "members"
+"""The spec entry of an ensemble checkpoint (`auv_mj.agents.ppo.export.export_ensemble`): one {"config", "spec",
+"source"} a member, in order; the member's tensors are saved under member_prefix(k)."""
+
+
+def member_prefix(k: int) -> str:
+    """The tensors' prefix of an ensemble checkpoint's k-th member."""
+    return f"member{k}"
+
+
+def _load_ensemble(path: Path, tensors: Mapping[str, torch.Tensor], members: Any) -> ActorEnsemble:
+    if not isinstance(members, list) or not members:
+        raise ValueError(f"checkpoint {path}: its spec's {MEMBERS_KEY!r} is not a list of members")
+    models = []
+    for k, member in enumerate(members):
+        spec = member.get("spec") if isinstance(member, Mapping) else None
+        if not (isinstance(spec, Mapping) and isinstance(spec.get("obs_dim"), int)
+                and isinstance(spec.get("act_dim"), int)):
+            raise ValueError(f"checkpoint {path}: member {k} has no valid 'spec' (obs_dim, act_dim)")
+        config = config_from_dict(member.get("config"), f"checkpoint {path}: member {k}'s config", PPOConfig)
+        model = ActorCritic(spec["obs_dim"], spec["act_dim"], config, int(spec.get("privileged_dim", 0)))
+        load_module(model, tensors, member_prefix(k), path)
+        models.append(model)
+    return ActorEnsemble(models)
 
 
 def load_actor(model: ActorCritic, tensors: Mapping[str, torch.Tensor], path: Path, critic: bool = False) -> None:

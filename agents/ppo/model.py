@@ -188,3 +188,39 @@ def build_model(spec: Mapping[str, Any], config: PPOConfig) -> ActorCritic:
         torch.manual_seed(config.seed)
         model = ActorCritic(int(spec["obs_dim"]), int(spec["act_dim"]), config, int(spec.get("privileged_dim", 0)))
     return model.to(config.device)
+
+
+class ActorEnsemble(nn.Module):
+    """K trained actors as one deployable actor: the mean of their action means, each clipped to [-1, 1] first
+    (every member's action as `PPOPolicy` would send it on its own), so that one member's saturated output weighs
+    no more than a full turn. Averaging students trained on other seeds or fits damps each one's own errors
+    (bagging, Breiman 1996); docs/runs/planner-learned measures what it gives a closed loop.
+
+    Each member keeps its own memory: the ensemble's state is the members' actor states side by side. It has no
+    critic and takes no privileged input; `log_std` is the members' mean (for `PPOPolicy(stochastic=True)`).
+    Members are read from and written to one checkpoint (`auv_mj.agents.ppo.checkpoint.load_model`,
+    `auv_mj.agents.ppo.export.export_ensemble`)."""
+
+    def __init__(self, members: Sequence[ActorCritic]):
+        super().__init__()
+        if not members:
+            raise ValueError("an ensemble needs at least one member")
+        self.members = nn.ModuleList(members)
+        self.obs_dim, self.act_dim = members[0].obs_dim, members[0].act_dim
+        self.member_state_sizes = [int(m.actor_state_size) for m in members]
+        self.actor_state_size = self.state_size = sum(self.member_state_sizes)
+        self.register_buffer("log_std", torch.stack([m.log_std.detach() for m in members]).mean(dim=0))
+
+    def initial_state(self, batch: int, actor_only: bool = True) -> torch.Tensor:
+        """The zero memory of `batch` envs: every member's actor state, (batch, sum of their sizes)."""
+        return torch.cat([m.initial_state(batch, actor_only=True) for m in self.members], dim=1)
+
+    def act(self, obs: torch.Tensor, starts: torch.Tensor, state: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(the members' mean of clipped action means (T, B, act_dim), their final memories (B, actor_state_size))
+        of sequences obs (T, B, obs_dim), as `ActorCritic.act`."""
+        means, states = [], []
+        for member, part in zip(self.members, state.split(self.member_state_sizes, dim=-1), strict=True):
+            mean, new = member.act(obs, starts, part)
+            means.append(mean.clamp(-1.0, 1.0))
+            states.append(new)
+        return torch.stack(means).mean(dim=0), torch.cat(states, dim=-1)

@@ -41,7 +41,7 @@ from auv_mj.agents.ppo import (
     train,
     update,
 )
-from auv_mj.agents.ppo.checkpoint import frozen_copy, load_model
+from auv_mj.agents.ppo.checkpoint import frozen_copy, load_model, save_ppo
 from auv_mj.agents.ppo.export import export
 
 DELAY = 8
@@ -943,3 +943,67 @@ def test_the_progress_bar_shows_no_nan_before_an_episode_ends(tmp_path, capsys):
     assert progress_text([], 0, 3e-4, 10.0) == "no episode ended yet, episodes 0, lr 0.0003, 10 steps/s"
     ended = [Episode(1.0, 9, 0, 1.0, np.nan, 1.0), Episode(2.0, 9, 0, 0.0, np.nan, 1.0)]
     assert progress_text(ended, 2, 3e-4, 10.0).startswith("ret 1.5, succ 0.50 (last 2), episodes 2")
+
+
+ENSEMBLE_SPEC = {"kind": "box", "obs_shape": [3], "obs_dim": 3, "act_dim": 2, "act_shape": [2],
+                 "action_low": [-1.0, -1.0], "action_high": [1.0, 1.0], "task_options": {"observation": "planner-map"}}
+
+
+def _member(tmp_path, name: str, seed: int, spec=ENSEMBLE_SPEC, gain: float = 1.0, **config):
+    """A PPO checkpoint of a fresh network (seed `seed`), its actor head's weights times `gain`."""
+    cfg = dataclasses.replace(TOY_CONFIG, seed=seed, **config)
+    model = build_model(spec, cfg)
+    with torch.no_grad():
+        model.actor_head.weight.mul_(gain)
+    path = tmp_path / f"{name}.pt"
+    save_ppo(path, model, None, None, cfg, spec, {})
+    return path
+
+
+def test_an_ensemble_checkpoint_acts_as_the_mean_of_its_members_clipped_actions_each_with_its_own_memory(tmp_path):
+    from auv_mj.agents.ppo.export import export_ensemble
+
+    plain = _member(tmp_path, "plain", 1)
+    loud = _member(tmp_path, "loud", 2, gain=2000.0)  # saturates: its actions must be clipped before the mean
+    privileged = _member(tmp_path, "privileged", 3, {**ENSEMBLE_SPEC, "privileged_dim": 2}, separate_critic=True,
+                         privileged_critic=True)
+    target = export_ensemble([plain, loud, privileged], tmp_path / "ensemble.pt")
+    ensemble = PPOPolicy.load(target)
+    members = [PPOPolicy.load(p) for p in (plain, loud, privileged)]
+    assert ensemble.spec["task_options"] == ENSEMBLE_SPEC["task_options"]
+    assert [m["source"] for m in ensemble.spec["members"]] == [str(plain), str(loud), str(privileged)]
+    rng = np.random.default_rng(0)
+    sequence = rng.normal(size=(6, 4, 3))
+    for _ in range(2):  # a second episode after reset() starts from zero memory again
+        ensemble.reset()
+        for m in members:
+            m.reset()
+        saturated = 0
+        for obs in sequence:
+            own = np.stack([np.clip(m(obs), -1.0, 1.0) for m in members])
+            saturated += int(np.sum(np.abs(own[1]) == 1.0))
+            np.testing.assert_allclose(ensemble(obs), own.mean(axis=0), rtol=0, atol=1e-15)
+        assert saturated > 0
+    # memory matters: the same observation after another history gives another action
+    ensemble.reset()
+    first = ensemble(sequence[0])
+    assert not np.allclose(ensemble(sequence[0]), first)
+    # an ensemble's checkpoint shipped again is the same policy
+    again = PPOPolicy.load(export(target, tmp_path / "again.pt"))
+    ensemble.reset()
+    np.testing.assert_array_equal(again(sequence[0]), ensemble(sequence[0]))
+
+
+def test_an_ensemble_refuses_members_that_read_another_input_and_an_ensemble_as_a_member(tmp_path):
+    from auv_mj.agents.ppo.export import export_ensemble
+
+    plain = _member(tmp_path, "plain", 1)
+    other = _member(tmp_path, "other", 2, {**ENSEMBLE_SPEC, "task_options": {"observation": "planner"}})
+    with pytest.raises(ValueError, match=r"other\.pt: its task_options .* differs"):
+        export_ensemble([plain, other], tmp_path / "bad.pt")
+    assert not (tmp_path / "bad.pt").exists()
+    pair = export_ensemble([plain, _member(tmp_path, "second", 2)], tmp_path / "pair.pt")
+    with pytest.raises(ValueError, match=r"pair\.pt is an ensemble already"):
+        export_ensemble([plain, pair], tmp_path / "nested.pt")
+    with pytest.raises(ValueError, match="at least two"):
+        export_ensemble([plain], tmp_path / "one.pt")
