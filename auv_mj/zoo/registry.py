@@ -205,18 +205,19 @@ data), then a PPO stage with the tunnels oversampled, held near the student by a
 actions (`auv-mj train ppo --init --ppo-imitation-source init`), chosen on validation seeds
 (docs/runs/planner-learned/)."""
 LEARNED_PLANNER_3D = "planner_learned_3d.pt"
-"""The shipped checkpoint of `planner-learned` on the 6-DOF tasks: a GRU student of the 3-D geodesic teacher by DAgger
-on the 6-DOF mixture and a final fit of 128 epochs over DAgger's data, reading the fan held over pings
-(observation="fan-held"), on the re-tuned S-plane; the best of three training seeds on validation seeds, chosen over
-the same recipe on the plain fan, on the sonar map, DAgger alone, its PPO fine-tunes and its ablations
+"""The shipped checkpoint of `planner-learned` on the 6-DOF tasks: an ensemble (`auv_mj.agents.ppo.model.ActorEnsemble`,
+the mean of the members' actions) of three GRU students of the 3-D geodesic teacher, the recipe's training seeds 0, 1
+and 2, each by DAgger on the 6-DOF mixture and a final fit of 128 epochs over DAgger's data, reading the fan held over
+pings (observation="fan-held"), on the re-tuned S-plane; chosen on validation seeds over its best single seed, the
+same recipe on the plain fan, on the sonar map, DAgger alone, its PPO fine-tunes and its ablations
 (docs/runs/planner-learned-3d/)."""
 register("planner-learned", PolicySpec(
     "the learned planner of the well-posed problem (geodesic reward, rate action, planner observation): a GRU "
     "student of map-replan (DAgger on random obstacles, moving obstacles and tunnels, both tiers and waters), "
     "fine-tuned with PPO on the geodesic reward; the sonars and its own sonar map, its pose, the route target and its "
     "last action in, (speed, heading rate) out; no search, no line of sight, no protection domain, no residual "
-    "(auv3d: its own student of the 3-D teacher on goal3d and tunnel3d, the fan held over pings, altimeter and "
-    "target in, (speed, heading, depth) out, on splane-ocean)",
+    "(auv3d: the ensemble of three students of the 3-D teacher on goal3d and tunnel3d, the fan held over pings, "
+    "altimeter and target in, (speed, heading, depth) out, on splane-ocean)",
     lambda d: recurrent_policy(d.checkpoint, d.env), family="learned", checkpoint=LEARNED_PLANNER,
     checkpoint_on={"goal3d": LEARNED_PLANNER_3D, "tunnel3d": LEARNED_PLANNER_3D}, tasks="planning",
     protection=False, accepts_path=True, domains=BOTH))
