@@ -36,7 +36,7 @@ CHECKPOINT_NAME = "checkpoint.pt"
 rollouts)."""
 
 
-def save_ppo(path: str | Path, model: ActorCritic, optimizer: torch.optim.Optimizer | None,
+def save_ppo(path: str | Path, model: ActorCritic | ActorEnsemble, optimizer: torch.optim.Optimizer | None,
              generator: torch.Generator | None, config: PPOConfig, spec: Mapping[str, Any],
              counters: Mapping[str, Any], anchor: ActorCritic | None = None) -> None:
     """Atomically writes a checkpoint of kind "ppo": the model (normaliser included), Adam's moments and the
@@ -78,40 +78,34 @@ def read_ppo(path: str | Path) -> tuple[Checkpoint, PPOConfig]:
 
 def load_model(path: str | Path, tensors: Mapping[str, torch.Tensor], spec: Mapping[str, Any],
                config: PPOConfig) -> ActorCritic | ActorEnsemble:
-    """The actor-critic of a checkpoint's tensors, or where its spec lists MEMBERS_KEY the ensemble of its members
-    (`ActorEnsemble`, each member's tensors under "member{k}." and its config and spec in the list); ValueError
+    """The network of a checkpoint's tensors (under "model."): its actor-critic, or where its spec lists MEMBERS_KEY
+    the ensemble of its members (`ActorEnsemble`, each built from its own config and spec in that list); ValueError
     naming the file if they do not fit."""
-    if spec.get(MEMBERS_KEY) is not None:
-        return _load_ensemble(Path(path), tensors, spec[MEMBERS_KEY]).to(config.device)
-    model = ActorCritic(int(spec["obs_dim"]), int(spec["act_dim"]), config, int(spec.get("privileged_dim", 0)))
+    model = _network(Path(path), spec, config)
     load_module(model, tensors, "model", Path(path))
     return model.to(config.device)
 
 
 MEMBERS_KEY = "members"
 """The spec entry of an ensemble checkpoint (`auv_mj.agents.ppo.export.export_ensemble`): one {"config", "spec",
-"source"} a member, in order; the member's tensors are saved under member_prefix(k)."""
+"source"} a member, in order."""
 
 
-def member_prefix(k: int) -> str:
-    """The tensors' prefix of an ensemble checkpoint's k-th member."""
-    return f"member{k}"
-
-
-def _load_ensemble(path: Path, tensors: Mapping[str, torch.Tensor], members: Any) -> ActorEnsemble:
+def _network(path: Path, spec: Mapping[str, Any], config: PPOConfig) -> ActorCritic | ActorEnsemble:
+    members = spec.get(MEMBERS_KEY)
+    if members is None:
+        return ActorCritic(int(spec["obs_dim"]), int(spec["act_dim"]), config, int(spec.get("privileged_dim", 0)))
     if not isinstance(members, list) or not members:
         raise ValueError(f"checkpoint {path}: its spec's {MEMBERS_KEY!r} is not a list of members")
-    models = []
+    networks = []
     for k, member in enumerate(members):
-        spec = member.get("spec") if isinstance(member, Mapping) else None
-        if not (isinstance(spec, Mapping) and isinstance(spec.get("obs_dim"), int)
-                and isinstance(spec.get("act_dim"), int)):
-            raise ValueError(f"checkpoint {path}: member {k} has no valid 'spec' (obs_dim, act_dim)")
-        config = config_from_dict(member.get("config"), f"checkpoint {path}: member {k}'s config", PPOConfig)
-        model = ActorCritic(spec["obs_dim"], spec["act_dim"], config, int(spec.get("privileged_dim", 0)))
-        load_module(model, tensors, member_prefix(k), path)
-        models.append(model)
-    return ActorEnsemble(models)
+        own = member.get("spec") if isinstance(member, Mapping) else None
+        if not (isinstance(own, Mapping) and isinstance(own.get("obs_dim"), int) and isinstance(own.get("act_dim"), int)
+                and own.get(MEMBERS_KEY) is None):
+            raise ValueError(f"checkpoint {path}: member {k} has no valid 'spec' (obs_dim, act_dim, no members)")
+        own_config = config_from_dict(member.get("config"), f"checkpoint {path}: member {k}'s config", PPOConfig)
+        networks.append(ActorCritic(own["obs_dim"], own["act_dim"], own_config, int(own.get("privileged_dim", 0))))
+    return ActorEnsemble(networks)
 
 
 def load_actor(model: ActorCritic, tensors: Mapping[str, torch.Tensor], path: Path, critic: bool = False) -> None:

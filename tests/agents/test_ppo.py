@@ -1007,3 +1007,8 @@ def test_an_ensemble_refuses_members_that_read_another_input_and_an_ensemble_as_
         export_ensemble([plain, pair], tmp_path / "nested.pt")
     with pytest.raises(ValueError, match="at least two"):
         export_ensemble([plain], tmp_path / "one.pt")
+    (tensors, meta), config = read_ppo(pair)
+    broken = {**meta["spec"], "members": [{"config": meta["spec"]["members"][0]["config"], "spec": {}}]}
+    save_ppo(tmp_path / "broken.pt", PPOPolicy.load(plain).model, None, None, config, broken, {})
+    with pytest.raises(ValueError, match=r"broken\.pt: member 0 has no valid 'spec'"):
+        PPOPolicy.load(tmp_path / "broken.pt")

@@ -11,50 +11,37 @@ closed loop is what this measures, before anything is exported.
 
 2d: the planar hard cells (`auv_mj.agents.ppo.planner.validate`, seeds 27000-), with the task options the first
 member keeps; 3d: the 6-DOF hard cells (`auv_mj.jobs.student.mixture_3d_validator`, seeds 28000-). Every member
-must keep the same task options. Prints and writes the rates as JSON.
+must share its input and action space (`auv_mj.agents.ppo.export.ensemble` checks). Prints and writes the rates as
+JSON.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from auv_mj.agents.checkpoint import read_checkpoint
 from auv_mj.agents.imitation import DaggerConfig
-from auv_mj.agents.ppo import load_model, read_ppo
-from auv_mj.agents.ppo.model import ActorEnsemble
+from auv_mj.agents.ppo.export import ensemble
 from auv_mj.agents.ppo.planner import validate
 from auv_mj.agents.ppo.policy import PPOPolicy
 from auv_mj.jobs.student import MIXTURE_3D_OPTIONS, mixture_3d_validator
 
 
-def _options(path: str) -> dict:
-    return read_checkpoint(path, "ppo").metadata["spec"].get("task_options", {})
-
-
 def main(domain: str, episodes: int, threads: int, out: str, paths: list[str]) -> dict:
-    options = [_options(p) for p in paths]
-    if any(o != options[0] for o in options):
-        raise ValueError(f"the members keep different task options: {options}")
     if domain not in ("2d", "3d"):
         raise ValueError(f"domain {domain!r}: give 2d or 3d")
-    models, specs = [], []
-    for p in paths:
-        (tensors, meta), saved = read_ppo(p)
-        models.append(load_model(p, tensors, meta["spec"], dataclasses.replace(saved, device="cpu")))
-        specs.append(meta["spec"])
-    ensemble = ActorEnsemble(models)
+    model, spec, _ = ensemble(paths)
+    options = spec.get("task_options", {})
     if domain == "2d":
-        rates = validate(PPOPolicy(ensemble, specs[0]), episodes, threads=threads, task_kwargs=options[0])
+        rates = validate(PPOPolicy(model, spec), episodes, threads=threads, task_kwargs=options)
     else:
-        validator = mixture_3d_validator(threads, {**MIXTURE_3D_OPTIONS, **options[0]})
-        rates = {k: v for k, v in validator(ensemble.float().eval(), DaggerConfig(validation_episodes=episodes)).items()
+        validator = mixture_3d_validator(threads, {**MIXTURE_3D_OPTIONS, **options})
+        rates = {k: v for k, v in validator(model.eval(), DaggerConfig(validation_episodes=episodes)).items()
                  if k.startswith("cell:")}
-    result = {"members": paths, "task_options": options[0], "episodes_per_cell": episodes,
+    result = {"members": paths, "task_options": options, "episodes_per_cell": episodes,
               "mean": float(np.mean(list(rates.values()))), **rates}
     print(json.dumps(result))
     Path(out).write_text(json.dumps(result, indent=2) + "\n")
