@@ -188,7 +188,8 @@ def add_dagger_options(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group(f"dagger (--task obstacles | moving_obstacles | tunnel | goal, --task-kwargs "
                                       "over the student's problem, hard tier, action rate, reward geodesic, "
                                       f"observation planner; or --task {MIXTURE_TASK}, the whole training mixture "
-                                      "with the hard cells oversampled; --steps: PPO fine-tune steps after DAgger, "
+                                      "with the hard cells oversampled, --task-kwargs setting only its observation "
+                                      "and action; --steps: PPO fine-tune steps after DAgger, "
                                       "default 0)")
     group.add_argument("--num-envs", type=positive_int, default=16,
                        help=f"vehicles of the batch (default 16); with --task {MIXTURE_TASK}, vehicles a cell before "

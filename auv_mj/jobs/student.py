@@ -56,7 +56,7 @@ from auv_mj.planners.teacher import BatchTeacher, InTaskActions, checked_reach
 from auv_mj.planners.teacher3d import BatchTeacher3D
 from auv_mj.tasks import auv3d
 from auv_mj.tasks.mixture import MIXTURE_TASKS_3D, PlanningMixtureVectorEnv, cell_counts, mixture_cells, parse_weights
-from auv_mj.tasks.planning_step import PLANNER_OBSERVATIONS
+from auv_mj.tasks.planning_step import ACTIONS, PLANNER_OBSERVATIONS
 from auv_mj.tasks.vector import AUVVectorEnv
 from auv_mj.tasks.vector3d import AUV3DVectorEnv
 
@@ -120,22 +120,30 @@ def continue_planner(run_dir: str | Path, config: PPOConfig, mixture: MixtureCon
                          teacher_of=teacher_of)
 
 
-def mixture_observation(task: str, task_kwargs: Mapping[str, Any] | None) -> str | None:
-    """The observation a training mixture's `task_kwargs` name (None where they name none): the one task option a
-    mixture takes, one of PLANNER_OBSERVATIONS (MIXTURE_TASK) or `auv3d.OBSERVATIONS` (MIXTURE_TASK_3D), as `auv-mj
-    train dagger` and `auv-mj train ppo` take it. ValueError naming the options otherwise."""
+def mixture_options(task: str, task_kwargs: Mapping[str, Any] | None) -> dict[str, str]:
+    """The task options a training mixture's `task_kwargs` may set ({} where they set none), checked: the observation
+    (one of PLANNER_OBSERVATIONS on MIXTURE_TASK, of `auv3d.OBSERVATIONS` on MIXTURE_TASK_3D) and, on the planar
+    mixture, the action map (one of `planning_step.ACTIONS`: "rate", the student's, or "paper", whose heading offset
+    lets a teacher's label carry how much to turn). The mixture sets every other option itself; ValueError naming
+    the options otherwise. What `auv-mj train dagger` and `auv-mj train ppo` take."""
     given = dict(task_kwargs or {})
-    if not given:
-        return None
-    choices = auv3d.OBSERVATIONS if task == MIXTURE_TASK_3D else PLANNER_OBSERVATIONS
+    choices = {"observation": auv3d.OBSERVATIONS} if task == MIXTURE_TASK_3D else \
+        {"observation": PLANNER_OBSERVATIONS, "action": ACTIONS}
     own = MIXTURE_3D_OPTIONS if task == MIXTURE_TASK_3D else student_mixture().task_kwargs()
-    if set(given) != {"observation"}:
-        raise ValueError(f"task {task}: the mixture sets the task options itself ({own}); task_kwargs takes only an "
-                         f"observation (one of {choices}), got {given}")
-    if given["observation"] not in choices:
-        raise ValueError(f"task {task}: task_kwargs observation must be one of {choices}, got "
-                         f"{given['observation']!r}")
-    return given["observation"]
+    if not set(given) <= set(choices):
+        raise ValueError(f"task {task}: the mixture sets the task options itself ({own}); task_kwargs takes only "
+                         f"{' and '.join(f'an {name} (one of {values})' for name, values in choices.items())}, got "
+                         f"{given}")
+    for name, value in given.items():
+        if value not in choices[name]:
+            raise ValueError(f"task {task}: task_kwargs {name} must be one of {choices[name]}, got {value!r}")
+    return given
+
+
+def mixture_observation(task: str, task_kwargs: Mapping[str, Any] | None) -> str | None:
+    """The observation a training mixture's `task_kwargs` name (None where they name none), checked as
+    `mixture_options` checks them all."""
+    return mixture_options(task, task_kwargs).get("observation")
 
 
 def mixture_3d_options(observation: str | None = None) -> dict[str, str]:
@@ -273,14 +281,17 @@ def train_ppo_3d(run_dir: str | Path, total_steps: int, config: PPOConfig | None
 
 
 def student_mixture(envs_per_cell: int = LEARNED_MIXTURE.envs_per_cell,
-                    cell_weights: Sequence[str] | None = None, observation: str | None = None) -> MixtureConfig:
+                    cell_weights: Sequence[str] | None = None, observation: str | None = None,
+                    action: str | None = None) -> MixtureConfig:
     """The student's mixture: `LEARNED_MIXTURE` (the geodesic reward, action="rate", observation="planner", the hard
     cells and tunnels oversampled, validation on 50 episodes a hard cell) with `envs_per_cell` before the weights
-    (`cell_weights`, "NAME=WEIGHT" entries, in place of LEARNED_MIXTURE's where given) and `observation` in place of
-    "planner" where given ("planner-map": the vehicle's own sonar map beside it)."""
+    (`cell_weights`, "NAME=WEIGHT" entries, in place of LEARNED_MIXTURE's where given), `observation` in place of
+    "planner" where given ("planner-map": the vehicle's own sonar map beside it) and `action` in place of "rate"
+    where given ("paper")."""
     weights = LEARNED_MIXTURE.cell_weights if cell_weights is None else tuple(cell_weights)
     return dataclasses.replace(LEARNED_MIXTURE, envs_per_cell=envs_per_cell, cell_weights=weights,
-                               observation=observation or LEARNED_MIXTURE.observation)
+                               observation=observation or LEARNED_MIXTURE.observation,
+                               action=action or LEARNED_MIXTURE.action)
 
 
 def mixture_validator(mixture: MixtureConfig, spec: Mapping[str, Any], threads: int | None = None) -> Validator:
@@ -398,9 +409,10 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             options_path.write_text(json.dumps({**saved, "finetune_options": finetune_options}, indent=2))
     else:
         own = {MIXTURE_TASK: student_mixture().task_kwargs(), MIXTURE_TASK_3D: MIXTURE_3D_OPTIONS}
-        observation = None
+        observation = action = None
         if task in own:
-            observation = mixture_observation(task, task_kwargs)
+            chosen = mixture_options(task, task_kwargs)
+            observation, action = chosen.get("observation"), chosen.get("action")
             task_kwargs = None
             if task == MIXTURE_TASK_3D:
                 own[task] = mixture_3d_options(observation)
@@ -408,7 +420,7 @@ def train_student(run_dir: str | Path, task: str = "obstacles", task_kwargs: Map
             raise ValueError(f"cell_weights: the mixtures' option ({MIXTURE_TASK}, {MIXTURE_TASK_3D}), got "
                              f"{list(cell_weights)} for task {task}")
         if task == MIXTURE_TASK:
-            mixture = student_mixture(num_envs, cell_weights, observation)
+            mixture = student_mixture(num_envs, cell_weights, observation, action)
         elif task == MIXTURE_TASK_3D:
             weights = MIXTURE_3D_WEIGHTS if cell_weights is None else parse_weights(cell_weights)
             cell_counts(num_envs, mixture_cells(MIXTURE_TASKS_3D), weights)  # refused before the run is written

@@ -677,3 +677,20 @@ def test_a_mixture_takes_an_observation_alone_and_names_what_it_refuses():
         mixture_observation("planning-mix", {"observation": "fan-held"})  # the 6-DOF one's, not the planar one's
     with pytest.raises(ValueError, match="takes only an observation .*'tier': 'hard'"):
         mixture_observation("planning-mix-3d", {"observation": "fan-held", "tier": "hard"})
+
+
+def test_the_planar_mixture_takes_an_action_map_and_the_6dof_one_does_not():
+    """`mixture_options`: the planar mixture's action map ("paper": a heading offset, whose labels carry how much to
+    turn) reaches the student's mixture; the 6-DOF mixture keeps its own action, and a map that is none is named."""
+    from auv_mj.jobs.student import mixture_options, student_mixture
+
+    chosen = mixture_options("planning-mix", {"observation": "planner-map", "action": "paper"})
+    assert chosen == {"observation": "planner-map", "action": "paper"}
+    options = student_mixture(4, None, chosen["observation"], chosen["action"]).task_kwargs()
+    assert options["action"] == "paper" and options["observation"] == "planner-map"
+    assert student_mixture().task_kwargs()["action"] == "rate"
+    assert mixture_options("planning-mix", None) == {}
+    with pytest.raises(ValueError, match="task_kwargs action must be one of .*got 'turn'"):
+        mixture_options("planning-mix", {"action": "turn"})
+    with pytest.raises(ValueError, match="takes only an observation .*got {'action': 'paper'}"):
+        mixture_options("planning-mix-3d", {"action": "paper"})
