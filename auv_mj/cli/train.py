@@ -51,7 +51,7 @@ from auv_mj.jobs.student import (
     MIXTURE_TASK_3D,
     TEACHERS,
     continue_planner,
-    mixture_observation,
+    mixture_options,
     scratch_3d_config,
     train_ppo_3d,
     train_student,
@@ -385,7 +385,7 @@ def _run_ppo_3d(args: argparse.Namespace) -> int:
     if planar:
         raise ValueError(f"--task {MIXTURE_TASK_3D} takes its own problem and batch (--preset does not apply either); "
                          "drop " + ", ".join(f"--{name.replace('_', '-')}" for name in planar))
-    observation = mixture_observation(MIXTURE_TASK_3D, task_kwargs(args))
+    observation = mixture_options(MIXTURE_TASK_3D, task_kwargs(args)).get("observation")
     run_dir = args.run_dir or Path("runs") / MIXTURE_TASK_3D / f"ppo-seed{args.seed or 0}"
     config = None if args.resume else scratch_3d_config(**_ppo_overrides(args))
     result = train_ppo_3d(run_dir, args.steps, config, args.envs_per_cell or 4,

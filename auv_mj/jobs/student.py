@@ -125,7 +125,8 @@ def mixture_options(task: str, task_kwargs: Mapping[str, Any] | None) -> dict[st
     (one of PLANNER_OBSERVATIONS on MIXTURE_TASK, of `auv3d.OBSERVATIONS` on MIXTURE_TASK_3D) and, on the planar
     mixture, the action map (one of `planning_step.ACTIONS`: "rate", the student's, or "paper", whose heading offset
     lets a teacher's label carry how much to turn). The mixture sets every other option itself; ValueError naming
-    the options otherwise. What `auv-mj train dagger` and `auv-mj train ppo` take."""
+    the options otherwise. What `auv-mj train dagger` takes on either mixture, and `auv-mj train ppo` on the 6-DOF
+    one."""
     given = dict(task_kwargs or {})
     choices = {"observation": auv3d.OBSERVATIONS} if task == MIXTURE_TASK_3D else \
         {"observation": PLANNER_OBSERVATIONS, "action": ACTIONS}
@@ -138,12 +139,6 @@ def mixture_options(task: str, task_kwargs: Mapping[str, Any] | None) -> dict[st
         if value not in choices[name]:
             raise ValueError(f"task {task}: task_kwargs {name} must be one of {choices[name]}, got {value!r}")
     return given
-
-
-def mixture_observation(task: str, task_kwargs: Mapping[str, Any] | None) -> str | None:
-    """The observation a training mixture's `task_kwargs` name (None where they name none), checked as
-    `mixture_options` checks them all."""
-    return mixture_options(task, task_kwargs).get("observation")
 
 
 def mixture_3d_options(observation: str | None = None) -> dict[str, str]:

@@ -667,16 +667,16 @@ def test_auv_mj_train_ppo_continues_a_planner_under_the_teacher_near_movers_and_
 
 
 def test_a_mixture_takes_an_observation_alone_and_names_what_it_refuses():
-    """`mixture_observation`, the one reading of a mixture's task options for `train dagger` and `train ppo`."""
-    from auv_mj.jobs.student import mixture_observation
+    """`mixture_options`, the one reading of a mixture's task options for `train dagger` and `train ppo`."""
+    from auv_mj.jobs.student import mixture_options
 
-    assert mixture_observation("planning-mix", None) is None and mixture_observation("planning-mix-3d", {}) is None
-    assert mixture_observation("planning-mix", {"observation": "planner-map"}) == "planner-map"
-    assert mixture_observation("planning-mix-3d", {"observation": "fan-held"}) == "fan-held"
+    assert mixture_options("planning-mix", None) == {} and mixture_options("planning-mix-3d", {}) == {}
+    assert mixture_options("planning-mix", {"observation": "planner-map"}) == {"observation": "planner-map"}
+    assert mixture_options("planning-mix-3d", {"observation": "fan-held"}) == {"observation": "fan-held"}
     with pytest.raises(ValueError, match="observation must be one of .*got 'fan-held'"):
-        mixture_observation("planning-mix", {"observation": "fan-held"})  # the 6-DOF one's, not the planar one's
+        mixture_options("planning-mix", {"observation": "fan-held"})  # the 6-DOF one's, not the planar one's
     with pytest.raises(ValueError, match="takes only an observation .*'tier': 'hard'"):
-        mixture_observation("planning-mix-3d", {"observation": "fan-held", "tier": "hard"})
+        mixture_options("planning-mix-3d", {"observation": "fan-held", "tier": "hard"})
 
 
 def test_the_planar_mixture_takes_an_action_map_and_the_6dof_one_does_not():
@@ -689,7 +689,6 @@ def test_the_planar_mixture_takes_an_action_map_and_the_6dof_one_does_not():
     options = student_mixture(4, None, chosen["observation"], chosen["action"]).task_kwargs()
     assert options["action"] == "paper" and options["observation"] == "planner-map"
     assert student_mixture().task_kwargs()["action"] == "rate"
-    assert mixture_options("planning-mix", None) == {}
     with pytest.raises(ValueError, match="task_kwargs action must be one of .*got 'turn'"):
         mixture_options("planning-mix", {"action": "turn"})
     with pytest.raises(ValueError, match="takes only an observation .*got {'action': 'paper'}"):

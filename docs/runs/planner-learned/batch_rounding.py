@@ -63,6 +63,7 @@ def main(path: str, episodes: int = 50, water: str = "ocean", task: str = "tunne
                   f"actions first part at step {first} by {gap:.1e}")
     print(f"{parted_episodes} of {episodes} episodes' actions differ somewhere between the two runs")
 
+
 if __name__ == "__main__":
     args = sys.argv[1:]
     main(args[0], *(int(a) for a in args[1:2]), *args[2:4])
